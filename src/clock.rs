@@ -1,0 +1,139 @@
+//! Simulation time as an integer number of nanoseconds.
+//!
+//! Every scheduling decision in the engine is made on integers, so that a run is bit-identical
+//! whatever the platform, the thread count or the order in which floating-point sums are formed.
+//! Floating-point seconds appear only where a physical model needs them ([`Nanos::as_secs_f64`]).
+//!
+//! ```
+//! use flyarena::clock::{Nanos, Rate};
+//! let physics = Rate::from_hz(1000).unwrap();
+//! let vicon = Rate::from_hz(200).unwrap();
+//! assert_eq!(vicon.period(), Nanos::from_millis(5));
+//! assert_eq!(vicon.ticks_of(physics), Some(5)); // a Vicon frame every 5 physics steps
+//! assert_eq!(Rate::from_hz(300).unwrap().ticks_of(physics), None); // 300 Hz does not divide 1 kHz
+//! ```
+
+use serde::Serialize;
+use std::fmt;
+use std::ops::{Add, AddAssign, Sub};
+
+/// A point in simulated time, or a duration, in integer nanoseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+pub struct Nanos(pub i64);
+
+impl Nanos {
+    pub const ZERO: Nanos = Nanos(0);
+    pub const fn from_millis(ms: i64) -> Self {
+        Nanos(ms * 1_000_000)
+    }
+    pub const fn from_micros(us: i64) -> Self {
+        Nanos(us * 1_000)
+    }
+    /// Rounds seconds to the nearest nanosecond (used only at the YAML edge).
+    pub fn from_secs_f64(s: f64) -> Self {
+        Nanos((s * 1e9).round() as i64)
+    }
+    pub fn as_secs_f64(self) -> f64 {
+        self.0 as f64 * 1e-9
+    }
+    pub const fn as_nanos(self) -> i64 {
+        self.0
+    }
+}
+
+impl Add for Nanos {
+    type Output = Nanos;
+    fn add(self, o: Nanos) -> Nanos {
+        Nanos(self.0 + o.0)
+    }
+}
+impl AddAssign for Nanos {
+    fn add_assign(&mut self, o: Nanos) {
+        self.0 += o.0;
+    }
+}
+impl Sub for Nanos {
+    type Output = Nanos;
+    fn sub(self, o: Nanos) -> Nanos {
+        Nanos(self.0 - o.0)
+    }
+}
+impl fmt::Display for Nanos {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:.3} s", self.as_secs_f64())
+    }
+}
+
+/// A periodic rate in whole hertz. Only rates whose period is a whole number of nanoseconds exist.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rate {
+    hz: u32,
+}
+
+impl Rate {
+    /// `None` unless `hz` is positive and divides 1e9 (a whole-nanosecond period).
+    pub fn from_hz(hz: u32) -> Option<Self> {
+        (hz > 0 && 1_000_000_000 % hz == 0).then_some(Rate { hz })
+    }
+    pub fn hz(self) -> u32 {
+        self.hz
+    }
+    pub fn period(self) -> Nanos {
+        Nanos(1_000_000_000 / self.hz as i64)
+    }
+    /// How many periods of `base` make one period of `self`, if `self` divides `base` exactly.
+    pub fn ticks_of(self, base: Rate) -> Option<u64> {
+        (base.hz % self.hz == 0).then(|| (base.hz / self.hz) as u64)
+    }
+}
+
+/// The engine's clock: a tick counter at the physics rate. Time is derived, never accumulated.
+#[derive(Clone, Copy, Debug)]
+pub struct Clock {
+    tick: u64,
+    period: Nanos,
+}
+
+impl Clock {
+    pub fn new(rate: Rate) -> Self {
+        Clock { tick: 0, period: rate.period() }
+    }
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+    pub fn now(&self) -> Nanos {
+        Nanos(self.tick as i64 * self.period.0)
+    }
+    pub fn period(&self) -> Nanos {
+        self.period
+    }
+    pub fn advance(&mut self) {
+        self.tick += 1;
+    }
+    /// True on ticks where a component running every `every` ticks fires.
+    pub fn fires(&self, every: u64) -> bool {
+        self.tick % every == 0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_is_derived_from_ticks_without_drift() {
+        let mut c = Clock::new(Rate::from_hz(1000).unwrap());
+        for _ in 0..3_600_000 {
+            c.advance();
+        }
+        assert_eq!(c.now(), Nanos(3_600_000_000_000)); // exactly one hour
+    }
+
+    #[test]
+    fn rates_must_have_whole_nanosecond_periods() {
+        assert!(Rate::from_hz(0).is_none());
+        assert!(Rate::from_hz(3).is_none());
+        assert_eq!(Rate::from_hz(50).unwrap().period(), Nanos::from_millis(20));
+        assert_eq!(Rate::from_hz(50).unwrap().ticks_of(Rate::from_hz(1000).unwrap()), Some(20));
+    }
+}

@@ -1,0 +1,5 @@
+pub mod clock;
+pub mod frames;
+pub mod mocap;
+pub mod rng;
+pub mod vehicle;

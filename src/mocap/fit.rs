@@ -1,0 +1,107 @@
+//! Rigid-body fit of marker positions (Kabsch / Horn, least squares).
+//!
+//! Given template points m_i (frame `A`) and observed points y_i (frame `B`), find the rotation R
+//! and translation t minimising Σ‖R·m_i + t − y_i‖². With centroids m̄, ȳ and the cross-covariance
+//! H = Σ (m_i − m̄)(y_i − ȳ)ᵀ = U·S·Vᵀ, the optimum is R = V·diag(1, 1, det(V·Uᵀ))·Uᵀ and
+//! t = ȳ − R·m̄ (the sign fix makes R a proper rotation even for nearly planar sets).
+//!
+//! The Vicon system runs this on the visible markers of each vehicle; flyarena also runs it on the
+//! template against the displaced markers *in body coordinates* to get the true mocap offset.
+
+use crate::frames::{Frame, Rot, Vec3};
+use nalgebra::{Matrix3, Vector3};
+
+/// Result of a rigid fit: `y ≈ rotation·m + translation`.
+#[derive(Clone, Copy, Debug)]
+pub struct RigidFit<A: Frame, B: Frame> {
+    pub rotation: Rot<A, B>,
+    pub translation: Vec3<B>,
+    /// Root-mean-square residual of the fit (m).
+    pub rms_residual: f64,
+}
+
+/// Minimum spread for a fit: the second singular value of the centred template must exceed this
+/// (m²); below it the points are (nearly) collinear and the rotation about their line is unknown.
+const MIN_SPREAD_M2: f64 = 1e-8;
+
+/// Fits `template[i]` onto `observed[i]` for the indices where `visible[i]`. `None` when fewer than
+/// three points are visible or they are collinear.
+pub fn rigid_fit<A: Frame, B: Frame>(
+    template: &[Vec3<A>],
+    observed: &[Vec3<B>],
+    visible: &[bool],
+) -> Option<RigidFit<A, B>> {
+    let n = visible.iter().zip(template).filter(|(v, _)| **v).count();
+    if n < 3 || template.len() != observed.len() || template.len() != visible.len() {
+        return None;
+    }
+    let mut cm = Vector3::zeros();
+    let mut cy = Vector3::zeros();
+    for i in (0..template.len()).filter(|&i| visible[i]) {
+        cm += template[i].raw();
+        cy += observed[i].raw();
+    }
+    cm /= n as f64;
+    cy /= n as f64;
+    let mut h = Matrix3::zeros();
+    let mut spread = Matrix3::zeros();
+    for i in (0..template.len()).filter(|&i| visible[i]) {
+        let a = template[i].raw() - cm;
+        let b = observed[i].raw() - cy;
+        h += a * b.transpose();
+        spread += a * a.transpose();
+    }
+    let mut sv = spread.symmetric_eigenvalues().as_slice().to_vec();
+    sv.sort_by(f64::total_cmp);
+    if sv[1] < MIN_SPREAD_M2 {
+        return None;
+    }
+    let svd = h.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let v = v_t.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let t = cy - r * cm;
+    let mut ss = 0.0;
+    for i in (0..template.len()).filter(|&i| visible[i]) {
+        ss += (r * template[i].raw() + t - observed[i].raw()).norm_squared();
+    }
+    Some(RigidFit {
+        rotation: Rot::from_matrix(&r),
+        translation: Vec3::from_raw(t),
+        rms_residual: (ss / n as f64).sqrt(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frames::{Body, Euler, Nav};
+
+    #[test]
+    fn recovers_a_known_pose_exactly() {
+        let m = [
+            Vec3::<Body>::new(0.2, 0.0, -0.03),
+            Vec3::new(0.0, 0.17, -0.03),
+            Vec3::new(-0.13, 0.0, -0.03),
+            Vec3::new(0.0, -0.1, -0.05),
+        ];
+        let r: Rot<Body, Nav> = Rot::from_euler(Euler::new(0.3, -0.2, 2.5));
+        let t = Vec3::<Nav>::new(1.0, -2.0, -1.5);
+        let y: Vec<_> = m.iter().map(|p| r.apply(*p) + t).collect();
+        let fit = rigid_fit(&m, &y, &[true; 4]).unwrap();
+        assert!((fit.rotation.inverse() * r).angle() < 1e-12);
+        assert!((fit.translation - t).norm() < 1e-12);
+        // any single marker may be lost
+        let fit3 = rigid_fit(&m, &y, &[true, false, true, true]).unwrap();
+        assert!((fit3.rotation.inverse() * r).angle() < 1e-12);
+        assert!(rigid_fit(&m, &y, &[true, false, false, true]).is_none());
+    }
+
+    #[test]
+    fn collinear_markers_are_rejected() {
+        let m = [Vec3::<Body>::new(0.0, 0.0, 0.0), Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.3, 0.0, 0.0)];
+        let y: Vec<Vec3<Nav>> = m.iter().map(|p| p.assume_same_as()).collect();
+        assert!(rigid_fit(&m, &y, &[true; 3]).is_none());
+    }
+}

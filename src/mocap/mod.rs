@@ -1,0 +1,159 @@
+//! The Vicon system: markers, camera errors, noise, occlusions and the rigid-body fit.
+//!
+//! At each frame (200 Hz) the actual marker positions are
+//!
+//! ```text
+//! y_i = R_w·(p + R·b_i) + t_w + n_i,     n_i ~ N(0, σ²·I)  (m, MocapNav)
+//! ```
+//!
+//! with the true pose (R = C_b^n, p), the mounted markers b_i (body frame), the camera-system
+//! error (R_w, t_w: Nav → MocapNav, identity when the cameras are calibrated) and per-marker noise.
+//! The pose is the [rigid fit](fit::rigid_fit) of the *template* onto the visible y_i, so
+//! displaced markers produce the attitude offset by themselves, as in the arena. With fewer than
+//! three visible markers the vehicle is lost for that frame and no packet is sent.
+
+pub mod fit;
+pub mod markers;
+
+pub use fit::{RigidFit, rigid_fit};
+pub use markers::{MarkerSet, TrueOffset, builtin_pattern, patterns_confusable};
+
+use crate::clock::Nanos;
+use crate::frames::{Body, MocapBody, MocapNav, Nav, Rot, Vec3};
+use crate::rng::Stream;
+use crate::vehicle::State;
+
+/// A time window during which one marker is invisible to all cameras.
+#[derive(Clone, Copy, Debug)]
+pub struct Occlusion {
+    pub marker: usize,
+    pub from: Nanos,
+    pub to: Nanos,
+}
+
+/// The camera system's calibration error: the mocap world is Nav rotated and shifted.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraError {
+    pub rotation: Rot<Nav, MocapNav>,
+    pub translation: Vec3<MocapNav>,
+}
+
+impl CameraError {
+    pub fn none() -> Self {
+        CameraError { rotation: Rot::identity(), translation: Vec3::zeros() }
+    }
+    /// Maps a true position into mocap-world coordinates.
+    pub fn to_mocap(&self, p: Vec3<Nav>) -> Vec3<MocapNav> {
+        self.rotation.apply(p) + self.translation
+    }
+    /// Maps a mocap-world position back into the true frame.
+    pub fn to_nav(&self, p: Vec3<MocapNav>) -> Vec3<Nav> {
+        self.rotation.inverse().apply(p - self.translation)
+    }
+}
+
+/// One pose as the Vicon system sends it.
+#[derive(Clone, Copy, Debug)]
+pub struct MocapFrame {
+    /// Frame number, +1 per camera frame (also when the vehicle was not seen).
+    pub seq: u32,
+    /// When the cameras exposed this frame.
+    pub t_capture: Nanos,
+    pub pos: Vec3<MocapNav>,
+    pub att: Rot<MocapBody, MocapNav>,
+    pub visible_markers: u8,
+}
+
+#[derive(Clone, Debug)]
+pub struct Mocap {
+    markers: MarkerSet,
+    occlusions: Vec<Occlusion>,
+    camera: CameraError,
+    noise_m: f64,
+    rng: Stream,
+    seq: u32,
+    // scratch buffers, allocated once
+    observed: Vec<Vec3<MocapNav>>,
+    visible: Vec<bool>,
+}
+
+impl Mocap {
+    pub fn new(markers: MarkerSet, occlusions: Vec<Occlusion>, camera: CameraError, noise_m: f64, rng: Stream) -> Self {
+        let n = markers.template.len();
+        Mocap { markers, occlusions, camera, noise_m, rng, seq: 0, observed: vec![Vec3::zeros(); n], visible: vec![true; n] }
+    }
+
+    pub fn markers(&self) -> &MarkerSet {
+        &self.markers
+    }
+
+    pub fn camera(&self) -> &CameraError {
+        &self.camera
+    }
+
+    /// Marker positions as the cameras saw them in the last frame (MocapNav), with visibility.
+    pub fn last_observation(&self) -> (&[Vec3<MocapNav>], &[bool]) {
+        (&self.observed, &self.visible)
+    }
+
+    /// Captures one frame of the true state at time `t`. `None` when the vehicle is lost
+    /// (fewer than three visible markers); the sequence number advances either way.
+    pub fn capture(&mut self, t: Nanos, truth: &State) -> Option<MocapFrame> {
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        for (i, b) in self.markers.mounted.iter().enumerate() {
+            let world: Vec3<Nav> = truth.pos + truth.att.apply(*b);
+            let mut y = self.camera.to_mocap(world);
+            if self.noise_m > 0.0 {
+                let s = self.noise_m;
+                y += Vec3::new(s * self.rng.normal(), s * self.rng.normal(), s * self.rng.normal());
+            }
+            self.observed[i] = y;
+            self.visible[i] = !self.occlusions.iter().any(|o| o.marker == i && t >= o.from && t < o.to);
+        }
+        let fit = rigid_fit(&self.markers.template, &self.observed, &self.visible)?;
+        Some(MocapFrame {
+            seq,
+            t_capture: t,
+            pos: fit.translation,
+            att: fit.rotation,
+            visible_markers: self.visible.iter().filter(|v| **v).count() as u8,
+        })
+    }
+}
+
+/// Shorthand used by tests: the ideal measured attitude R_w·R·R_off.
+pub fn ideal_measured_attitude(
+    camera: &CameraError,
+    truth: Rot<Body, Nav>,
+    offset: Rot<MocapBody, Body>,
+) -> Rot<MocapBody, MocapNav> {
+    camera.rotation * truth * offset
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frames::Euler;
+    use crate::rng::Component;
+
+    #[test]
+    fn noiseless_capture_equals_truth_composed_with_offset() {
+        let ms = MarkerSet::displaced(builtin_pattern(2).to_vec(), Euler::from_degrees(2.0, -1.0, 4.0), &[Vec3::zeros(); 4]);
+        let off = ms.true_offset().unwrap();
+        let cam = CameraError { rotation: Rot::from_euler(Euler::from_degrees(0.5, 0.0, 1.0)), translation: Vec3::new(0.01, 0.0, 0.0) };
+        let mut m = Mocap::new(ms, vec![], cam, 0.0, Stream::new(1, Component::MocapNoise, 0));
+        let truth = State {
+            pos: Vec3::new(1.0, 2.0, -1.0),
+            vel: Vec3::zeros(),
+            att: Rot::from_euler(Euler::new(0.1, 0.05, 1.0)),
+            omega: Vec3::zeros(),
+            rotor_speed: [0.0; 4],
+        };
+        let f = m.capture(Nanos(0), &truth).unwrap();
+        let ideal = ideal_measured_attitude(&cam, truth.att, off.rotation);
+        assert!((f.att.inverse() * ideal).angle() < 1e-12);
+        let p_ideal = cam.to_mocap(truth.pos + truth.att.apply(off.translation));
+        assert!((f.pos - p_ideal).norm() < 1e-12);
+    }
+}

@@ -1,0 +1,275 @@
+//! Rigid-body dynamics of the X3D, integrated with classical RK4 at the physics rate (1 kHz).
+//!
+//! State (SI units): position p and velocity v in [`Nav`] (NED, m and m/s), attitude q as the unit
+//! quaternion of C_b^n (`Rot<Body, Nav>`), body rates ω in [`Body`] (rad/s), rotor speeds Ω_i (rad/s).
+//!
+//! ```text
+//! ṗ = v
+//! v̇ = g·e_D + (C_b^n·F_b + F_ext)/m,       F_b = (−m·k_x·u, −m·k_y·v_b, −Σ k_f·Ω_i²)
+//! q̇ = ½·q ⊗ (0, ω)
+//! ω̇ = J⁻¹·(τ_rotors + τ_ext − ω × J·ω)
+//! Ω̇_i = (Ω_cmd,i − Ω_i)/τ_m,               Ω_cmd,i clipped to [0, Ω_max]
+//! ```
+//!
+//! with the rotor torques of the "+" layout (see [`super::rate_loop`]), the rotor-drag
+//! coefficients k_x, k_y (1/s, zero by default) acting on the body velocity (u, v_b), and a
+//! constant disturbance (F_ext in Nav, τ_ext in Body). The quaternion is renormalised after each
+//! step.
+//!
+//! Ground contact: the floor is the plane D = 0. While the vehicle is on it (it has not lifted
+//! off, or it came down), it is held there level at its heading, at rest: a rigid floor with full
+//! friction. It lifts off as soon as the thrust exceeds its weight.
+
+use super::params::{GRAVITY, VehicleParams};
+use crate::frames::{Body, Nav, Rot, Vec3};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct State {
+    pub pos: Vec3<Nav>,
+    pub vel: Vec3<Nav>,
+    pub att: Rot<Body, Nav>,
+    pub omega: Vec3<Body>,
+    pub rotor_speed: [f64; 4],
+}
+
+/// Constant external disturbance: a force in the nav frame (wind, a tether, N) and a torque in the
+/// body frame (a bent rotor, N·m).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Disturbance {
+    pub force_nav_n: [f64; 3],
+    pub torque_body_nm: [f64; 3],
+}
+
+#[derive(Clone, Debug)]
+pub struct X3d {
+    p: VehicleParams,
+    disturbance: Disturbance,
+    state: State,
+    on_ground: bool,
+    /// Acceleration in Nav at the start of the last step (for the accelerometer).
+    accel_nav: Vector3<f64>,
+}
+
+/// The derivative of the state, in raw coordinates (same frames as [`State`]).
+#[derive(Clone, Copy)]
+struct Deriv {
+    dp: Vector3<f64>,
+    dv: Vector3<f64>,
+    dq: Quaternion<f64>,
+    dw: Vector3<f64>,
+    drotor: [f64; 4],
+}
+
+#[derive(Clone, Copy)]
+struct Raw {
+    p: Vector3<f64>,
+    v: Vector3<f64>,
+    q: Quaternion<f64>,
+    w: Vector3<f64>,
+    rotor: [f64; 4],
+}
+
+impl Raw {
+    fn plus(&self, d: &Deriv, h: f64) -> Raw {
+        Raw {
+            p: self.p + d.dp * h,
+            v: self.v + d.dv * h,
+            q: self.q + d.dq * h,
+            w: self.w + d.dw * h,
+            rotor: [0, 1, 2, 3].map(|i| self.rotor[i] + d.drotor[i] * h),
+        }
+    }
+}
+
+impl X3d {
+    /// A vehicle at rest on the floor at `home` (D = 0), heading `yaw` (rad).
+    pub fn on_floor(p: VehicleParams, disturbance: Disturbance, home: Vec3<Nav>, yaw: f64) -> Self {
+        let att = Rot::from_euler(crate::frames::Euler::new(0.0, 0.0, yaw));
+        let state = State { pos: Vec3::new(home.x(), home.y(), 0.0), vel: Vec3::zeros(), att, omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
+        X3d { p, disturbance, state, on_ground: true, accel_nav: Vector3::zeros() }
+    }
+
+    /// A vehicle in free flight at a given state (for tests and benchmarks).
+    pub fn in_flight(p: VehicleParams, disturbance: Disturbance, state: State) -> Self {
+        X3d { p, disturbance, state, on_ground: false, accel_nav: Vector3::zeros() }
+    }
+
+    pub fn params(&self) -> &VehicleParams {
+        &self.p
+    }
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+    pub fn on_ground(&self) -> bool {
+        self.on_ground
+    }
+
+    /// Rotor speed that makes each rotor carry a quarter of the weight (rad/s).
+    pub fn hover_rotor_speed(&self) -> f64 {
+        (self.p.hover_thrust() / (4.0 * self.p.k_thrust)).sqrt()
+    }
+
+    /// Collective thrust of the rotors now (N).
+    pub fn thrust(&self) -> f64 {
+        self.state.rotor_speed.iter().map(|w| self.p.k_thrust * w * w).sum()
+    }
+
+    /// Specific force in the body frame (what an ideal accelerometer reads), m/s².
+    pub fn specific_force(&self) -> Vec3<Body> {
+        let a = if self.on_ground { Vector3::zeros() } else { self.accel_nav };
+        let f_nav = Vec3::<Nav>::from_raw(a - Vector3::new(0.0, 0.0, GRAVITY));
+        self.state.att.inverse().apply(f_nav)
+    }
+
+    fn deriv(&self, s: &Raw, rotor_cmd: &[f64; 4]) -> Deriv {
+        let p = &self.p;
+        let q = UnitQuaternion::new_unchecked(s.q);
+        let f = s.rotor.map(|w| p.k_thrust * w * w);
+        let [ff, fr, fb, fl] = f;
+        let v_body = q.inverse_transform_vector(&s.v);
+        let force_body = Vector3::new(
+            -p.mass_kg * p.rotor_drag_per_s[0] * v_body.x,
+            -p.mass_kg * p.rotor_drag_per_s[1] * v_body.y,
+            -(ff + fr + fb + fl),
+        );
+        let dist = &self.disturbance;
+        let dv = Vector3::new(0.0, 0.0, GRAVITY)
+            + (q.transform_vector(&force_body) + Vector3::from(dist.force_nav_n)) / p.mass_kg;
+        let l = p.arm_m;
+        let tau = Vector3::new(
+            l * (fl - fr) + dist.torque_body_nm[0],
+            l * (ff - fb) + dist.torque_body_nm[1],
+            p.k_torque_m * (ff + fb - fr - fl) + dist.torque_body_nm[2],
+        );
+        let j = Vector3::from(p.inertia_kg_m2);
+        let jw = j.component_mul(&s.w);
+        let dw = (tau - s.w.cross(&jw)).component_div(&j);
+        let dq = s.q * Quaternion::new(0.0, s.w.x, s.w.y, s.w.z) * 0.5;
+        let drotor = [0, 1, 2, 3].map(|i| (rotor_cmd[i].clamp(0.0, p.rotor_speed_max) - s.rotor[i]) / p.motor_tau_s);
+        Deriv { dp: s.v, dv, dq, dw, drotor }
+    }
+
+    /// Advances the state by `dt` seconds with rotor speed commands held constant.
+    pub fn step(&mut self, rotor_cmd: &[f64; 4], dt: f64) {
+        let s0 = Raw {
+            p: *self.state.pos.raw(),
+            v: *self.state.vel.raw(),
+            q: *self.state.att.quaternion().quaternion(),
+            w: *self.state.omega.raw(),
+            rotor: self.state.rotor_speed,
+        };
+        let k1 = self.deriv(&s0, rotor_cmd);
+        self.accel_nav = k1.dv;
+        let k2 = self.deriv(&s0.plus(&k1, dt / 2.0), rotor_cmd);
+        let k3 = self.deriv(&s0.plus(&k2, dt / 2.0), rotor_cmd);
+        let k4 = self.deriv(&s0.plus(&k3, dt), rotor_cmd);
+        let h = dt / 6.0;
+        let comb = |a: Vector3<f64>, b, c, d| a + (b + c) * 2.0 + d;
+        let p = s0.p + comb(k1.dp, k2.dp, k3.dp, k4.dp) * h;
+        let v = s0.v + comb(k1.dv, k2.dv, k3.dv, k4.dv) * h;
+        let w = s0.w + comb(k1.dw, k2.dw, k3.dw, k4.dw) * h;
+        let q = s0.q + (k1.dq + (k2.dq + k3.dq) * 2.0 + k4.dq) * h;
+        let rotor = [0, 1, 2, 3].map(|i| {
+            (s0.rotor[i] + (k1.drotor[i] + 2.0 * (k2.drotor[i] + k3.drotor[i]) + k4.drotor[i]) * h).max(0.0)
+        });
+        let q = UnitQuaternion::new_normalize(q);
+        self.state = State {
+            pos: Vec3::from_raw(p),
+            vel: Vec3::from_raw(v),
+            att: Rot::from_quaternion(q),
+            omega: Vec3::from_raw(w),
+            rotor_speed: rotor,
+        };
+        self.on_ground = self.state.pos.z() >= 0.0;
+        if self.on_ground {
+            let yaw = self.state.att.euler().yaw;
+            self.state.pos = Vec3::new(p.x, p.y, 0.0);
+            self.state.vel = Vec3::zeros();
+            self.state.omega = Vec3::zeros();
+            self.state.att = Rot::from_euler(crate::frames::Euler::new(0.0, 0.0, yaw));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frames::Euler;
+
+    fn hovering() -> X3d {
+        let p = VehicleParams::x3d();
+        let s = State {
+            pos: Vec3::new(0.0, 0.0, -1.0),
+            vel: Vec3::zeros(),
+            att: Rot::identity(),
+            omega: Vec3::zeros(),
+            rotor_speed: [0.0; 4],
+        };
+        let mut x = X3d::in_flight(p, Disturbance::default(), s);
+        let w = x.hover_rotor_speed();
+        x.state.rotor_speed = [w; 4];
+        x
+    }
+
+    #[test]
+    fn hover_rotor_speed_holds_altitude_and_thrust_equals_weight() {
+        let mut x = hovering();
+        let w = x.hover_rotor_speed();
+        assert!((x.thrust() - 0.68 * 9.81).abs() < 1e-9);
+        for _ in 0..2000 {
+            x.step(&[w; 4], 1e-3);
+        }
+        assert!(x.state().pos.z() + 1.0 < 1e-9 && x.state().pos.z() + 1.0 > -1e-9);
+        let f = x.specific_force();
+        assert!((f.z() + 9.81).abs() < 1e-9, "hover specific force {f:?}");
+    }
+
+    #[test]
+    fn free_fall_matches_closed_form() {
+        let mut x = hovering();
+        for _ in 0..300 {
+            x.step(&[0.0; 4], 1e-3);
+        }
+        // Rotors spin down with τ_m: Ω(t) = Ω₀e^{−t/τ}, thrust ∝ e^{−2t/τ}; after they stop the fall
+        // is pure gravity. ∫∫ of the thrust deficit has a closed form:
+        // z(t) = −1 + g t²/2 − (g τ²/4)·(2t/τ − 1 + e^{−2t/τ})
+        let (g, tau, t) = (9.81_f64, 0.0125_f64, 0.3_f64);
+        let expected = -1.0 + g * t * t / 2.0 - g * tau * tau / 4.0 * (2.0 * t / tau - 1.0 + (-2.0 * t / tau).exp());
+        assert!((x.state().pos.z() - expected).abs() < 1e-8, "{} vs {}", x.state().pos.z(), expected);
+    }
+
+    #[test]
+    fn torque_free_spin_conserves_angular_momentum_magnitude() {
+        let mut x = hovering();
+        x.state.omega = Vec3::new(1.0, -2.0, 3.0);
+        let w = x.hover_rotor_speed();
+        let l0 = {
+            let o = x.state().omega;
+            Vector3::new(0.007 * o.x(), 0.007 * o.y(), 0.012 * o.z()).norm()
+        };
+        for _ in 0..1000 {
+            x.step(&[w; 4], 1e-3);
+        }
+        let o = x.state().omega;
+        let l1 = Vector3::new(0.007 * o.x(), 0.007 * o.y(), 0.012 * o.z()).norm();
+        assert!((l1 - l0).abs() / l0 < 1e-9);
+        let _ = Euler::ZERO;
+    }
+
+    #[test]
+    fn stays_on_floor_until_thrust_exceeds_weight() {
+        let p = VehicleParams::x3d();
+        let mut x = X3d::on_floor(p, Disturbance::default(), Vec3::zeros(), 0.3);
+        let w = x.hover_rotor_speed();
+        for _ in 0..200 {
+            x.step(&[0.99 * w; 4], 1e-3);
+        }
+        assert!(x.on_ground() && x.state().pos.z() == 0.0);
+        assert!((x.specific_force().z() + 9.81).abs() < 1e-12);
+        for _ in 0..200 {
+            x.step(&[1.05 * w; 4], 1e-3);
+        }
+        assert!(!x.on_ground() && x.state().pos.z() < 0.0);
+    }
+}
