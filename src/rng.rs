@@ -24,7 +24,6 @@ pub enum Component {
     LinkLoss = 2,
     LinkJitter = 3,
     ImuNoise = 4,
-    RadioLoss = 5,
 }
 
 fn splitmix64(x: &mut u64) -> u64 {

@@ -1,0 +1,162 @@
+//! The cascaded flight controller of the paper, equations (1)–(5).
+//!
+//! Inputs: the reference (guidance), the measured position and velocity in the mocap's NED frame,
+//! and the attitude estimate `Rot<Body, MocapNav>` *after* removing the estimated marker offset —
+//! so the offset enters C_n^b, X₁, T_w⁻¹ and F_T,com through one place, the attitude estimate.
+//!
+//! ```text
+//! (1)  ΔX^b = C_n^b·(X_com − X_meas)
+//! (2)  [u̇ v̇ ẇ]_com = a_ff^b + K_V·(K_X·ΔX^b + v_ff^b − [u v w])        (feed-forward added)
+//!      φ_com = arcsin(X₁),  X₁ = v̇_com/(g·cos θ_m) clamped to [−1, 1]
+//!      θ_com = arcsin(X₂),  X₂ = u̇_com/(−g)        clamped to [−1, 1]
+//!      |φ_com| ≤ φ_c,max,   |θ_com| ≤ θ_c,max
+//! (3)  [p q r]_com = T_w⁻¹(φ_m, θ_m)·[K_φ(φ_com − φ_m), K_θ(θ_com − θ_m), K_ψ·wrap(ψ_com − ψ_m) + ψ̇_ff]
+//! (4)  T_w⁻¹ = [[1, 0, −sin θ], [0, cos φ, cos θ·sin φ], [0, −sin φ, cos θ·cos φ]]
+//! (5)  F_T,com = m·(ẇ_com − g·cos φ_m·cos θ_m),  thrust T = −F_T,com clipped to [0, F_T,max]
+//! ```
+//!
+//! The paper's approximations (the ≈ forms, without the p, q, r coupling terms) are used, as the
+//! paper does. [u v w] = C_n^b·Ẋ_meas. The yaw-calibration flight (6) replaces the lateral loop by
+//! φ_com = 0 ([`LateralMode::RollZero`]).
+
+use crate::frames::{Body, Euler, MocapNav, Rot, Vec3, wrap_pi};
+use crate::vehicle::params::GRAVITY;
+use nalgebra::{Matrix3, Vector3};
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Gains {
+    /// K_X: position → velocity (1/s), per body axis.
+    pub k_x: [f64; 3],
+    /// K_V: velocity → acceleration (1/s), per body axis.
+    pub k_v: [f64; 3],
+    /// K_φ, K_θ, K_ψ: angle → Euler-rate (1/s).
+    pub k_att: [f64; 3],
+    /// φ_c,max, θ_c,max (rad).
+    pub max_tilt: [f64; 2],
+    /// F_T,max (N).
+    pub thrust_max_n: f64,
+    /// The vehicle mass the controller assumes (kg).
+    pub mass_kg: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LateralMode {
+    /// Normal closed-loop position control on all axes.
+    Closed,
+    /// Equation (6): φ_com = 0, the lateral axis open loop (yaw-offset flight).
+    RollZero,
+}
+
+/// What guidance asks for, in the mocap's NED frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reference {
+    pub pos: Vec3<MocapNav>,
+    pub vel: Vec3<MocapNav>,
+    pub acc: Vec3<MocapNav>,
+    pub yaw: f64,
+    pub yaw_rate: f64,
+    pub lateral: LateralMode,
+    /// Motors off (on the floor before take-off and after landing).
+    pub motors_off: bool,
+}
+
+/// The controller's output and the intermediate quantities worth logging.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControlOutput {
+    /// p_com, q_com, r_com (rad/s).
+    pub rates: Vec3<Body>,
+    /// Collective thrust magnitude −F_T,com (N).
+    pub thrust_n: f64,
+    /// φ_com, θ_com, ψ_com.
+    pub angles_com: Euler,
+    /// [u̇ v̇ ẇ]_com (m/s²).
+    pub accel_com: Vec3<Body>,
+}
+
+/// T_w⁻¹ of (4): maps Euler-angle rates to body rates.
+pub fn t_w_inv(roll: f64, pitch: f64) -> Matrix3<f64> {
+    let (sf, cf) = roll.sin_cos();
+    let (st, ct) = pitch.sin_cos();
+    Matrix3::new(1.0, 0.0, -st, 0.0, cf, ct * sf, 0.0, -sf, ct * cf)
+}
+
+/// One evaluation of (1)–(5).
+pub fn control(g: &Gains, r: &Reference, pos: Vec3<MocapNav>, vel: Vec3<MocapNav>, att: Rot<Body, MocapNav>) -> ControlOutput {
+    let e = att.euler();
+    let c_n_b = att.inverse();
+    let dx_b = c_n_b.apply(r.pos - pos); // (1)
+    let v_b = c_n_b.apply(vel);
+    let vff_b = c_n_b.apply(r.vel);
+    let aff_b = c_n_b.apply(r.acc);
+    let acc = aff_b + (dx_b.component_mul(&g.k_x) + vff_b - v_b).component_mul(&g.k_v); // (2)
+    let x1 = (acc.y() / (GRAVITY * e.pitch.cos())).clamp(-1.0, 1.0);
+    let x2 = (acc.x() / -GRAVITY).clamp(-1.0, 1.0);
+    let mut roll_com = x1.asin().clamp(-g.max_tilt[0], g.max_tilt[0]);
+    if r.lateral == LateralMode::RollZero {
+        roll_com = 0.0; // (6)
+    }
+    let pitch_com = x2.asin().clamp(-g.max_tilt[1], g.max_tilt[1]);
+    let euler_rates = Vector3::new(
+        g.k_att[0] * (roll_com - e.roll),
+        g.k_att[1] * (pitch_com - e.pitch),
+        g.k_att[2] * wrap_pi(r.yaw - e.yaw) + r.yaw_rate,
+    );
+    let pqr = t_w_inv(e.roll, e.pitch) * euler_rates; // (3), (4)
+    let f_t = g.mass_kg * (acc.z() - GRAVITY * e.roll.cos() * e.pitch.cos()); // (5)
+    let thrust = if r.motors_off { 0.0 } else { (-f_t).clamp(0.0, g.thrust_max_n) };
+    ControlOutput {
+        rates: if r.motors_off { Vec3::zeros() } else { Vec3::from_raw(pqr) },
+        thrust_n: thrust,
+        angles_com: Euler::new(roll_com, pitch_com, r.yaw),
+        accel_com: acc,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gains() -> Gains {
+        Gains { k_x: [1.0; 3], k_v: [2.0, 2.0, 3.0], k_att: [6.0, 6.0, 3.0], max_tilt: [0.35, 0.35], thrust_max_n: 24.0, mass_kg: 0.68 }
+    }
+
+    fn hold(p: Vec3<MocapNav>) -> Reference {
+        Reference { pos: p, vel: Vec3::zeros(), acc: Vec3::zeros(), yaw: 0.0, yaw_rate: 0.0, lateral: LateralMode::Closed, motors_off: false }
+    }
+
+    #[test]
+    fn level_hover_on_the_spot_commands_weight_and_no_rates() {
+        let p = Vec3::new(1.0, 2.0, -1.0);
+        let out = control(&gains(), &hold(p), p, Vec3::zeros(), Rot::identity());
+        assert!((out.thrust_n - 0.68 * 9.81).abs() < 1e-12);
+        assert_eq!(out.rates, Vec3::zeros());
+    }
+
+    #[test]
+    fn t_w_inv_inverts_the_euler_rate_map() {
+        // Independent derivation: ω = ṙoll·x̂ + Rx(φ)ᵀ·(ṗitch·ŷ + Ry(θ)ᵀ·ẏaw·ẑ) for ZYX Euler angles.
+        let (phi, theta) = (0.4_f64, -0.3_f64);
+        let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), phi);
+        let ry = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), theta);
+        let rates = Vector3::new(0.3, -0.7, 1.1);
+        let omega = Vector3::x() * rates.x + rx.inverse() * (Vector3::y() * rates.y + ry.inverse() * (Vector3::z() * rates.z));
+        assert!((t_w_inv(phi, theta) * rates - omega).norm() < 1e-14);
+    }
+
+    #[test]
+    fn a_vehicle_east_of_its_reference_rolls_left() {
+        let r = hold(Vec3::zeros());
+        let out = control(&gains(), &r, Vec3::new(0.0, 0.1, 0.0), Vec3::zeros(), Rot::identity());
+        // v̇_com = K_V·K_X·(−0.1) = −0.2 m/s²  →  φ_com = asin(−0.2/g)
+        assert!((out.angles_com.roll - (-0.2f64 / 9.81).asin()).abs() < 1e-12);
+        assert!(out.rates.x() < 0.0);
+    }
+
+    #[test]
+    fn angle_commands_saturate() {
+        let out = control(&gains(), &hold(Vec3::zeros()), Vec3::new(-50.0, 50.0, 0.0), Vec3::zeros(), Rot::identity());
+        // far South-East of the reference: full nose-down (forward) and full left roll
+        assert!((out.angles_com.roll + 0.35).abs() < 1e-12 && (out.angles_com.pitch + 0.35).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,259 @@
+//! Guidance: the flight plan as a timeline of phases, and the reference it produces.
+//!
+//! Each phase has a fixed duration known when it starts, so the whole plan is a pure function of
+//! time (no feedback from the vehicle), and the engine can tell which phase it is in from the tick.
+//! Motion profiles are trapezoidal in velocity (position, velocity and acceleration feed-forward
+//! continuous in position and velocity); yaw moves at constant rate with its rate as feed-forward.
+//! Positions are relative to the vehicle's home on the floor (NED, so altitude h is D = −h).
+
+use crate::clock::Nanos;
+use crate::control::{LateralMode, Reference};
+use crate::frames::{MocapNav, Vec3};
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Phase {
+    /// Climb from the floor to `altitude_m`.
+    Takeoff { altitude_m: f64, duration_s: f64 },
+    /// Hold the current point.
+    Hover { duration_s: f64 },
+    /// Hover `settle_s`, then average the measured roll and pitch for `average_s` (Sec. IV.A).
+    CalibrateRollPitch { settle_s: f64, average_s: f64 },
+    /// Turn to ψ_com = 0 and hover `settle_s`, then fly `distance_m` North with φ_com = 0 (6),
+    /// trapezoidal speed `speed_m_s`, acceleration `accel_m_s2`; fit the track (8)–(9).
+    CalibrateYaw { settle_s: f64, distance_m: f64, speed_m_s: f64, accel_m_s2: f64 },
+    /// Hover `settle_s`, then turn on the spot by `angle_rad` in `duration_s`.
+    YawSpin { settle_s: f64, angle_rad: f64, duration_s: f64 },
+    /// Fly in a straight line to `pos_m` (relative to home) and hold `hold_s`.
+    Waypoint { pos_m: [f64; 3], speed_m_s: f64, accel_m_s2: f64, hold_s: f64 },
+    /// Descend to the floor in `duration_s`, then motors off.
+    Land { duration_s: f64 },
+}
+
+/// Distance, speed and acceleration of a trapezoidal (or triangular) profile at time t.
+pub fn trapezoid(dist: f64, vmax: f64, amax: f64, t: f64) -> (f64, f64, f64) {
+    if dist <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let t_acc = (vmax / amax).min((dist / amax).sqrt());
+    let v_peak = amax * t_acc;
+    let d_acc = 0.5 * amax * t_acc * t_acc;
+    let t_cruise = (dist - 2.0 * d_acc) / v_peak;
+    let total = 2.0 * t_acc + t_cruise;
+    if t <= 0.0 {
+        (0.0, 0.0, 0.0)
+    } else if t < t_acc {
+        (0.5 * amax * t * t, amax * t, amax)
+    } else if t < t_acc + t_cruise {
+        (d_acc + v_peak * (t - t_acc), v_peak, 0.0)
+    } else if t < total {
+        let r = total - t;
+        (dist - 0.5 * amax * r * r, amax * r, -amax)
+    } else {
+        (dist, 0.0, 0.0)
+    }
+}
+
+/// Duration of [`trapezoid`] (s).
+pub fn trapezoid_duration(dist: f64, vmax: f64, amax: f64) -> f64 {
+    if dist <= 0.0 {
+        return 0.0;
+    }
+    let t_acc = (vmax / amax).min((dist / amax).sqrt());
+    let v_peak = amax * t_acc;
+    2.0 * t_acc + (dist - amax * t_acc * t_acc) / v_peak
+}
+
+const TAKEOFF_ACCEL: f64 = 0.5;
+const LAND_OVERSHOOT_M: f64 = 0.1;
+
+impl Phase {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Phase::Takeoff { .. } => "takeoff",
+            Phase::Hover { .. } => "hover",
+            Phase::CalibrateRollPitch { .. } => "calibrate_roll_pitch",
+            Phase::CalibrateYaw { .. } => "calibrate_yaw",
+            Phase::YawSpin { .. } => "yaw_spin",
+            Phase::Waypoint { .. } => "waypoint",
+            Phase::Land { .. } => "land",
+        }
+    }
+}
+
+/// A phase placed on the timeline, with the reference point and heading it starts from.
+#[derive(Clone, Debug)]
+pub struct Scheduled {
+    pub phase: Phase,
+    pub start: Nanos,
+    pub end: Nanos,
+    pub from: Vec3<MocapNav>,
+    pub from_yaw: f64,
+    /// Where the reference ends (position and heading).
+    pub to: Vec3<MocapNav>,
+    pub to_yaw: f64,
+}
+
+/// What part of a phase the vehicle is in: used by the station to run the calibrations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Window {
+    None,
+    /// Average roll and pitch (calibrate_roll_pitch after settling).
+    HoverAverage,
+    /// The straight flight of (6) (calibrate_yaw after settling).
+    YawFlight,
+    /// Turning on the spot (yaw_spin after settling).
+    Spin,
+}
+
+#[derive(Clone, Debug)]
+pub struct Plan {
+    pub phases: Vec<Scheduled>,
+    home: Vec3<MocapNav>,
+}
+
+impl Plan {
+    /// Lays the phases out in time, starting on the floor at `home` with heading `yaw0`.
+    pub fn schedule(phases: &[Phase], home: Vec3<MocapNav>, yaw0: f64) -> Plan {
+        let mut out = Vec::with_capacity(phases.len());
+        let (mut t, mut pos, mut yaw) = (0.0f64, home, yaw0);
+        for ph in phases {
+            let (to, to_yaw, dur) = match *ph {
+                Phase::Takeoff { altitude_m, duration_s } => (Vec3::new(pos.x(), pos.y(), home.z() - altitude_m), yaw, duration_s),
+                Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
+                    (pos + Vec3::new(distance_m, 0.0, 0.0), 0.0, settle_s + trapezoid_duration(distance_m, speed_m_s, accel_m_s2))
+                }
+                Phase::YawSpin { settle_s, angle_rad, duration_s } => (pos, yaw + angle_rad, settle_s + duration_s),
+                Phase::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s } => {
+                    let to = home + Vec3::from_array(pos_m);
+                    (to, yaw, trapezoid_duration((to - pos).norm(), speed_m_s, accel_m_s2) + hold_s)
+                }
+                Phase::Land { duration_s } => (Vec3::new(pos.x(), pos.y(), home.z()), yaw, duration_s),
+                Phase::Hover { duration_s } => (pos, yaw, duration_s),
+                Phase::CalibrateRollPitch { settle_s, average_s } => (pos, yaw, settle_s + average_s),
+            };
+            let start = Nanos::from_secs_f64(t);
+            t += dur;
+            out.push(Scheduled { phase: ph.clone(), start, end: Nanos::from_secs_f64(t), from: pos, from_yaw: yaw, to, to_yaw });
+            pos = to;
+            yaw = to_yaw;
+        }
+        Plan { phases: out, home }
+    }
+
+    pub fn end(&self) -> Nanos {
+        self.phases.last().map_or(Nanos::ZERO, |p| p.end)
+    }
+
+    /// Index of the phase active at `t` (`None` before the first or after the last).
+    pub fn phase_at(&self, t: Nanos) -> Option<usize> {
+        self.phases.iter().position(|p| t >= p.start && t < p.end)
+    }
+
+    /// The reference at time `t`, and the calibration window it is in.
+    pub fn reference(&self, t: Nanos) -> (Reference, Window) {
+        let hold = |p: Vec3<MocapNav>, yaw: f64, motors_off: bool| Reference {
+            pos: p,
+            vel: Vec3::zeros(),
+            acc: Vec3::zeros(),
+            yaw,
+            yaw_rate: 0.0,
+            lateral: LateralMode::Closed,
+            motors_off,
+        };
+        let Some(i) = self.phase_at(t) else {
+            return match self.phases.last() {
+                Some(last) if t >= last.end => {
+                    let landed = matches!(last.phase, Phase::Land { .. });
+                    (hold(last.to, last.to_yaw, landed), Window::None)
+                }
+                _ => (hold(self.home, self.phases.first().map_or(0.0, |p| p.from_yaw), true), Window::None),
+            };
+        };
+        let s = &self.phases[i];
+        let tau = (t - s.start).as_secs_f64();
+        let along = |d: f64, v: f64, a: f64, dir: Vec3<MocapNav>| (s.from + dir * d, dir * v, dir * a);
+        match s.phase {
+            Phase::Takeoff { duration_s, .. } | Phase::Land { duration_s } if duration_s > 0.0 => {
+                // vertical move from `from` to `to`; landing aims LAND_OVERSHOOT_M below the floor
+                // so that the vehicle settles on it rather than hovering just above
+                let landing = matches!(s.phase, Phase::Land { .. });
+                let dist = (s.to.z() - s.from.z()).abs() + if landing { LAND_OVERSHOOT_M } else { 0.0 };
+                let dir = Vec3::new(0.0, 0.0, if landing { 1.0 } else { -1.0 });
+                // the speed that completes the profile in duration_s with TAKEOFF_ACCEL ramps
+                let vmax = speed_for_duration(dist, TAKEOFF_ACCEL, duration_s);
+                let (d, v, a) = trapezoid(dist, vmax, TAKEOFF_ACCEL, tau);
+                let (p, v, a) = along(d, v, a, dir);
+                (Reference { pos: p, vel: v, acc: a, ..hold(p, s.from_yaw, false) }, Window::None)
+            }
+            Phase::CalibrateRollPitch { settle_s, .. } => {
+                (hold(s.from, s.from_yaw, false), if tau >= settle_s { Window::HoverAverage } else { Window::None })
+            }
+            Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
+                if tau < settle_s {
+                    (hold(s.from, 0.0, false), Window::None)
+                } else {
+                    let (d, v, a) = trapezoid(distance_m, speed_m_s, accel_m_s2, tau - settle_s);
+                    let (p, v, a) = along(d, v, a, Vec3::new(1.0, 0.0, 0.0));
+                    (Reference { pos: p, vel: v, acc: a, lateral: LateralMode::RollZero, ..hold(p, 0.0, false) }, Window::YawFlight)
+                }
+            }
+            Phase::YawSpin { settle_s, angle_rad, duration_s } => {
+                if tau < settle_s {
+                    (hold(s.from, s.from_yaw, false), Window::None)
+                } else {
+                    let rate = angle_rad / duration_s;
+                    let yaw = s.from_yaw + rate * (tau - settle_s);
+                    (Reference { yaw_rate: rate, ..hold(s.from, yaw, false) }, Window::Spin)
+                }
+            }
+            Phase::Waypoint { speed_m_s, accel_m_s2, .. } => {
+                let delta = s.to - s.from;
+                let dist = delta.norm();
+                if dist == 0.0 {
+                    return (hold(s.to, s.from_yaw, false), Window::None);
+                }
+                let (d, v, a) = trapezoid(dist, speed_m_s, accel_m_s2, tau);
+                let (p, v, a) = along(d, v, a, delta * (1.0 / dist));
+                (Reference { pos: p, vel: v, acc: a, ..hold(p, s.from_yaw, false) }, Window::None)
+            }
+            Phase::Hover { .. } | Phase::Takeoff { .. } | Phase::Land { .. } => (hold(s.to, s.to_yaw, false), Window::None),
+        }
+    }
+}
+
+/// Cruise speed that makes a trapezoid of acceleration `a` cover `dist` in `duration` (s).
+/// T = d/v + v/a  ⇒  v = (a·T − √(a²T² − 4ad))/2; if the duration is too short for that
+/// acceleration, the triangular profile's peak speed √(a·d) is used and the phase ends early.
+fn speed_for_duration(dist: f64, a: f64, duration: f64) -> f64 {
+    let disc = a * a * duration * duration - 4.0 * a * dist;
+    if disc <= 0.0 { (a * dist).sqrt() } else { (a * duration - disc.sqrt()) / 2.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn trapezoid_covers_the_distance_in_its_duration() {
+        for &(d, v, a) in &[(6.0, 0.75, 0.5), (0.2, 1.0, 0.5), (10.0, 2.0, 1.0)] {
+            let t_end = trapezoid_duration(d, v, a);
+            let (s, vv, _) = trapezoid(d, v, a, t_end);
+            assert!((s - d).abs() < 1e-12 && vv == 0.0);
+            // integrating the velocity gives the distance
+            let n = 100_000;
+            let dt = t_end / n as f64;
+            let integral: f64 = (0..n).map(|k| trapezoid(d, v, a, (k as f64 + 0.5) * dt).1 * dt).sum();
+            assert!((integral - d).abs() < 1e-6, "{integral} vs {d}");
+        }
+    }
+
+    #[test]
+    fn takeoff_reaches_altitude_in_its_duration() {
+        let plan = Plan::schedule(&[Phase::Takeoff { altitude_m: 1.0, duration_s: 4.0 }, Phase::Hover { duration_s: 1.0 }], Vec3::zeros(), 0.0);
+        let (r, _) = plan.reference(Nanos::from_secs_f64(3.999_999));
+        assert!((r.pos.z() + 1.0).abs() < 1e-6, "{:?}", r.pos);
+        let (r, _) = plan.reference(Nanos::from_secs_f64(4.5));
+        assert_eq!(r.pos, Vec3::new(0.0, 0.0, -1.0));
+    }
+}

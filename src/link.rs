@@ -1,0 +1,205 @@
+//! The UDP link from the Vicon host to the control computers.
+//!
+//! Every packet carries the Vicon frame number as its sequence number. A packet is lost with the
+//! probability of the loss model, otherwise it arrives after `latency + U(0, jitter)`, so jitter
+//! can reorder packets; the receiver discards any packet older than the newest it has delivered
+//! (UDP has no retransmission). Loss models:
+//!
+//! * Bernoulli: each packet lost independently with probability p.
+//! * Gilbert–Elliott: a two-state Markov chain, Good → Bad with p_gb and Bad → Good with p_bg per
+//!   packet, losing packets with probability `loss_good` / `loss_bad` in each state. Mean loss
+//!   = (p_bg·loss_good + p_gb·loss_bad)/(p_gb + p_bg); mean burst length in Bad = 1/p_bg.
+//!
+//! The receiver monitors the link from the sequence numbers alone, as in the arena: packets
+//! received, frames missing (lost on the link or never sent because the vehicle was not seen), the
+//! longest run of missing frames and the longest time between two deliveries.
+
+use crate::clock::Nanos;
+use crate::rng::Stream;
+use std::collections::VecDeque;
+
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LossModel {
+    Bernoulli { p: f64 },
+    GilbertElliott { p_good_to_bad: f64, p_bad_to_good: f64, loss_good: f64, loss_bad: f64 },
+}
+
+impl LossModel {
+    pub const NONE: LossModel = LossModel::Bernoulli { p: 0.0 };
+    /// Long-run fraction of packets lost.
+    pub fn mean_loss(&self) -> f64 {
+        match *self {
+            LossModel::Bernoulli { p } => p,
+            LossModel::GilbertElliott { p_good_to_bad: gb, p_bad_to_good: bg, loss_good, loss_bad } => {
+                if gb + bg == 0.0 { loss_good } else { (bg * loss_good + gb * loss_bad) / (gb + bg) }
+            }
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct LinkParams {
+    pub latency: Nanos,
+    pub jitter: Nanos,
+    pub loss: LossModel,
+}
+
+/// What the receiver knows about the link (from sequence numbers and arrival times).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct LinkStats {
+    pub sent: u64,
+    pub lost_on_link: u64,
+    pub received: u64,
+    /// Arrived after a newer packet and were discarded.
+    pub stale: u64,
+    /// Frames never delivered, seen as gaps in the sequence numbers.
+    pub missing_frames: u64,
+    pub longest_missing_run: u64,
+    pub longest_gap_ns: i64,
+}
+
+#[derive(Clone, Debug)]
+pub struct Link<T> {
+    params: LinkParams,
+    loss_rng: Stream,
+    jitter_rng: Stream,
+    bad_state: bool,
+    in_flight: VecDeque<(Nanos, u32, T)>,
+    last_seq: Option<u32>,
+    last_arrival: Option<Nanos>,
+    stats: LinkStats,
+}
+
+impl<T: Copy> Link<T> {
+    pub fn new(params: LinkParams, loss_rng: Stream, jitter_rng: Stream) -> Self {
+        Link {
+            params,
+            loss_rng,
+            jitter_rng,
+            bad_state: false,
+            in_flight: VecDeque::with_capacity(64),
+            last_seq: None,
+            last_arrival: None,
+            stats: LinkStats::default(),
+        }
+    }
+
+    pub fn stats(&self) -> &LinkStats {
+        &self.stats
+    }
+
+    fn lost(&mut self) -> bool {
+        match self.params.loss {
+            LossModel::Bernoulli { p } => p > 0.0 && self.loss_rng.bernoulli(p),
+            LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => {
+                let switch = if self.bad_state { p_bad_to_good } else { p_good_to_bad };
+                if self.loss_rng.bernoulli(switch) {
+                    self.bad_state = !self.bad_state;
+                }
+                let p = if self.bad_state { loss_bad } else { loss_good };
+                self.loss_rng.bernoulli(p)
+            }
+        }
+    }
+
+    /// Hands a packet to the network at time `now`.
+    pub fn send(&mut self, now: Nanos, seq: u32, payload: T) {
+        self.stats.sent += 1;
+        if self.lost() {
+            self.stats.lost_on_link += 1;
+            return;
+        }
+        let jitter = if self.params.jitter.0 > 0 {
+            Nanos((self.jitter_rng.uniform() * self.params.jitter.0 as f64) as i64)
+        } else {
+            Nanos::ZERO
+        };
+        let arrival = now + self.params.latency + jitter;
+        // keep the queue sorted by arrival time (ties keep send order)
+        let idx = self.in_flight.partition_point(|(a, _, _)| *a <= arrival);
+        self.in_flight.insert(idx, (arrival, seq, payload));
+    }
+
+    /// Delivers the next packet that has arrived by `now`, in arrival order, skipping stale ones.
+    pub fn receive(&mut self, now: Nanos) -> Option<T> {
+        while let Some(&(arrival, seq, payload)) = self.in_flight.front() {
+            if arrival > now {
+                return None;
+            }
+            self.in_flight.pop_front();
+            if let Some(last) = self.last_seq {
+                if seq <= last {
+                    self.stats.stale += 1;
+                    continue;
+                }
+                let missing = (seq - last - 1) as u64;
+                self.stats.missing_frames += missing;
+                self.stats.longest_missing_run = self.stats.longest_missing_run.max(missing);
+            }
+            if let Some(prev) = self.last_arrival {
+                self.stats.longest_gap_ns = self.stats.longest_gap_ns.max((now - prev).0);
+            }
+            self.last_seq = Some(seq);
+            self.last_arrival = Some(now);
+            self.stats.received += 1;
+            return Some(payload);
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Component;
+
+    fn link(loss: LossModel, jitter_ms: i64) -> Link<u32> {
+        let p = LinkParams { latency: Nanos::from_millis(20), jitter: Nanos::from_millis(jitter_ms), loss };
+        Link::new(p, Stream::new(3, Component::LinkLoss, 0), Stream::new(3, Component::LinkJitter, 0))
+    }
+
+    #[test]
+    fn lossless_link_delays_by_latency() {
+        let mut l = link(LossModel::NONE, 0);
+        l.send(Nanos(0), 0, 7);
+        assert_eq!(l.receive(Nanos::from_millis(19)), None);
+        assert_eq!(l.receive(Nanos::from_millis(20)), Some(7));
+    }
+
+    #[test]
+    fn gilbert_elliott_mean_loss_and_bursts() {
+        // 10 % mean loss in bursts of mean length 5 frames
+        let ge = LossModel::GilbertElliott { p_good_to_bad: 0.2 / 9.0, p_bad_to_good: 0.2, loss_good: 0.0, loss_bad: 1.0 };
+        assert!((ge.mean_loss() - 0.1).abs() < 1e-12);
+        let mut l = link(ge, 0);
+        let n = 200_000u32;
+        for s in 0..n {
+            l.send(Nanos::from_millis(5 * s as i64), s, s);
+            while l.receive(Nanos::from_millis(5 * s as i64)).is_some() {}
+        }
+        while l.receive(Nanos(i64::MAX)).is_some() {}
+        let st = *l.stats();
+        let loss = st.lost_on_link as f64 / n as f64;
+        assert!((loss - 0.1).abs() < 0.01, "loss {loss}");
+        assert_eq!(st.received + st.lost_on_link, n as u64);
+        // every loss shows up as a gap in the sequence, except losses after the last delivery
+        assert!(st.missing_frames <= st.lost_on_link && st.missing_frames + 200 > st.lost_on_link);
+        assert!(st.longest_missing_run >= 20, "bursty loss makes long runs: {}", st.longest_missing_run);
+    }
+
+    #[test]
+    fn jitter_reorders_and_stale_packets_are_dropped() {
+        let mut l = link(LossModel::NONE, 30);
+        for s in 0..1000u32 {
+            l.send(Nanos::from_millis(5 * s as i64), s, s);
+        }
+        let mut last = None;
+        while let Some(s) = l.receive(Nanos(i64::MAX)) {
+            assert!(last.is_none_or(|p| s > p));
+            last = Some(s);
+        }
+        assert!(l.stats().stale > 0);
+        assert_eq!(l.stats().stale + l.stats().received, 1000);
+    }
+}
