@@ -9,3 +9,4 @@ pub mod estimate;
 pub mod guidance;
 pub mod link;
 pub mod radio;
+pub mod scenario;

@@ -1,0 +1,169 @@
+//! Scenario errors: file, line, column, field path, what is allowed.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// Where in a scenario file something is.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Span {
+    pub line: u32,
+    pub column: u32,
+}
+
+/// A scenario that cannot be run, with everything needed to fix it.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("cannot read {file}: {source}")]
+    Io { file: PathBuf, source: std::io::Error },
+    #[error("{}", render(file, span, path, message, snippet))]
+    Invalid { file: PathBuf, span: Option<Span>, path: String, message: String, snippet: String },
+}
+
+fn render(file: &std::path::Path, span: &Option<Span>, path: &str, message: &str, snippet: &str) -> String {
+    let loc = match span {
+        Some(s) => format!("{}:{}:{}", file.display(), s.line, s.column),
+        None => file.display().to_string(),
+    };
+    let field = if path.is_empty() { String::new() } else { format!(" field `{path}`:") };
+    let mut out = format!("{loc}:{field} {message}");
+    if !snippet.is_empty() {
+        out.push('\n');
+        out.push_str(snippet);
+    }
+    out
+}
+
+impl ScenarioError {
+    /// The message without the source snippet (for one-line summaries and snapshots).
+    pub fn headline(&self) -> String {
+        match self {
+            ScenarioError::Io { .. } => self.to_string(),
+            ScenarioError::Invalid { file, span, path, message, .. } => render(file, span, path, message, ""),
+        }
+    }
+}
+
+/// The dotted path (`vehicles[1].markers.rotation_deg`) of the YAML node at `line`:`column` of a
+/// block-style document, reconstructed from indentation. Flow collections report the key that
+/// holds them.
+pub fn yaml_path_at(src: &str, line: u32, column: u32) -> String {
+    // stack of (indent, segment); list items push "[i]" segments at the indent of their dash
+    let mut stack: Vec<(usize, String)> = Vec::new();
+    let mut counters: Vec<(usize, usize)> = Vec::new(); // (indent of '-', items seen)
+    for (i, raw) in src.lines().enumerate() {
+        let lineno = i as u32 + 1;
+        if lineno > line {
+            break;
+        }
+        let text = raw.split(" #").next().unwrap_or("");
+        if text.trim().is_empty() || text.trim_start().starts_with('#') {
+            continue;
+        }
+        let mut indent = text.len() - text.trim_start().len();
+        let mut rest = text.trim_start();
+        while let Some(after) = rest.strip_prefix("- ").or_else(|| (rest == "-").then_some("")) {
+            stack.retain(|(ind, seg)| *ind < indent || (*ind == indent && !seg.starts_with('[')));
+            counters.retain(|(ind, _)| *ind <= indent);
+            let idx = match counters.last_mut() {
+                Some((ind, n)) if *ind == indent => {
+                    *n += 1;
+                    *n - 1
+                }
+                _ => {
+                    counters.push((indent, 1));
+                    0
+                }
+            };
+            stack.push((indent, format!("[{idx}]")));
+            indent += rest.len() - after.len();
+            rest = after;
+            if lineno == line && (column as usize) <= indent {
+                return join(&stack);
+            }
+        }
+        if let Some((key, _)) = rest.split_once(':') {
+            let key = key.trim().trim_matches('"').trim_matches('\'');
+            stack.retain(|(ind, _)| *ind < indent);
+            counters.retain(|(ind, _)| *ind < indent);
+            stack.push((indent, key.to_string()));
+        }
+    }
+    join(&stack)
+}
+
+fn join(stack: &[(usize, String)]) -> String {
+    let mut s = String::new();
+    for (_, seg) in stack {
+        if !seg.starts_with('[') && !s.is_empty() {
+            s.push('.');
+        }
+        s.push_str(seg);
+    }
+    s
+}
+
+/// Levenshtein distance, for "did you mean" suggestions.
+pub fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            cur[j + 1] = (prev[j] + usize::from(ca != *cb)).min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+/// Appends "did you mean `x`?" to serde's unknown-field/variant messages when a close name exists.
+pub fn with_suggestion(message: &str) -> String {
+    let Some(rest) = message.split("unknown field `").nth(1).or_else(|| message.split("unknown variant `").nth(1)) else {
+        return message.to_string();
+    };
+    let Some((bad, tail)) = rest.split_once('`') else { return message.to_string() };
+    let candidates = tail.split("expected one of").nth(1).or_else(|| tail.split("expected").nth(1)).unwrap_or("");
+    let best = candidates
+        .split(|c: char| c == ',' || c.is_whitespace() || c == '`')
+        .filter(|c| !c.is_empty() && *c != "or")
+        .map(|c| (edit_distance(bad, c), c))
+        .min();
+    match best {
+        Some((d, c)) if d <= 2.max(bad.len() / 3) => format!("{message}; did you mean `{c}`?"),
+        _ => message.to_string(),
+    }
+}
+
+impl fmt::Display for Span {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.line, self.column)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn path_of_a_nested_list_item_field() {
+        let y = "name: x\nvehicles:\n  - name: a\n    model:\n      mass_kg: 1\n  - name: b\n    model:\n      mass_kg: -2\nplan: []\n";
+        assert_eq!(yaml_path_at(y, 8, 16), "vehicles[1].model.mass_kg");
+        assert_eq!(yaml_path_at(y, 5, 16), "vehicles[0].model.mass_kg");
+        assert_eq!(yaml_path_at(y, 1, 7), "name");
+    }
+
+    #[test]
+    fn path_inside_plan_items() {
+        let y = "plan:\n  - takeoff: { altitude_m: 1 }\n  - hover:\n      duration_s: -1\n";
+        assert_eq!(yaml_path_at(y, 4, 19), "plan[1].hover.duration_s");
+        assert_eq!(yaml_path_at(y, 2, 3), "plan[0]");
+        assert_eq!(yaml_path_at("plan:\n- hover: {}\n- land: {}\nnext: 1\n", 3, 1), "plan[1]");
+    }
+
+    #[test]
+    fn suggestions_for_typos() {
+        let m = "unknown field `latncy_ms`, expected one of `loss`, `latency_ms`";
+        assert!(with_suggestion(m).ends_with("did you mean `latency_ms`?"));
+        assert_eq!(with_suggestion("unknown field `zzz`, expected `loss`"), "unknown field `zzz`, expected `loss`");
+    }
+}

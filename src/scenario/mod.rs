@@ -1,0 +1,614 @@
+//! Scenarios: YAML in, validated configuration out.
+//!
+//! Every field is documented in the README's scenario reference; units are in the field names
+//! (`_m`, `_mm`, `_deg`, `_s`, `_ms`, `_hz`). Degrees exist only here: [`Scenario`] fields stay as
+//! written, and the engine converts them to radians once when it builds the arena.
+//! Unknown fields, duplicate keys, wrong types and out-of-range values are rejected with the file,
+//! line, column, field path and allowed range ([`ScenarioError`]).
+
+pub mod error;
+pub mod ranges;
+
+pub use error::{ScenarioError, Span};
+
+use crate::calibrate::Compensation;
+use crate::clock::Rate;
+use crate::frames::{Euler, MocapBody, Vec3};
+use crate::guidance::Phase;
+use crate::mocap::markers::{BUILTIN_PATTERNS, builtin_pattern, patterns_confusable};
+use crate::vehicle::VehicleParams;
+use serde::Deserialize;
+use serde_saphyr::Spanned;
+use std::path::Path;
+
+/// The physics and onboard-loop rate (Hz). Every other rate must divide it.
+pub const PHYSICS_HZ: u32 = 1000;
+
+fn d_seed() -> u64 {
+    1
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default = "d_seed")]
+    pub seed: u64,
+    /// Run time (s); default: the end of the plan plus 1 s.
+    #[serde(default, with = "ranges::duration_s::opt")]
+    pub duration_s: Option<f64>,
+    #[serde(default)]
+    pub mocap: MocapCfg,
+    #[serde(default)]
+    pub link: LinkCfg,
+    #[serde(default)]
+    pub radio: RadioCfg,
+    #[serde(default)]
+    pub controller: ControllerCfg,
+    #[serde(default)]
+    pub calibration: CalibrationCfg,
+    pub vehicles: Spanned<Vec<Spanned<VehicleCfg>>>,
+    pub plan: Spanned<Vec<PhaseCfg>>,
+    #[serde(default)]
+    pub requirements: RequirementsCfg,
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MocapCfg {
+    pub rate_hz: Spanned<u32>,
+    #[serde(with = "ranges::latency_ms")]
+    pub latency_ms: f64,
+    #[serde(with = "ranges::noise_mm")]
+    pub noise_mm: f64,
+    pub camera_error: CameraErrorCfg,
+}
+impl Default for MocapCfg {
+    fn default() -> Self {
+        MocapCfg { rate_hz: spanned(200), latency_ms: 10.0, noise_mm: 0.1, camera_error: CameraErrorCfg::default() }
+    }
+}
+
+#[derive(Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraErrorCfg {
+    #[serde(with = "ranges::small_angle_deg::arr3")]
+    pub rotation_deg: [f64; 3],
+    #[serde(with = "ranges::offset_mm::arr3")]
+    pub translation_mm: [f64; 3],
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LinkCfg {
+    #[serde(with = "ranges::latency_ms")]
+    pub latency_ms: f64,
+    #[serde(with = "ranges::latency_ms")]
+    pub jitter_ms: f64,
+    pub loss: LossCfg,
+}
+impl Default for LinkCfg {
+    fn default() -> Self {
+        LinkCfg { latency_ms: 0.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli { p: 0.0 } }
+    }
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum LossCfg {
+    Bernoulli {
+        #[serde(with = "ranges::probability")]
+        p: f64,
+    },
+    GilbertElliott {
+        #[serde(with = "ranges::probability")]
+        p_good_to_bad: f64,
+        #[serde(with = "ranges::probability")]
+        p_bad_to_good: f64,
+        #[serde(default, with = "ranges::probability")]
+        loss_good: f64,
+        #[serde(default = "one", with = "ranges::probability")]
+        loss_bad: f64,
+    },
+}
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RadioCfg {
+    pub rate_hz: Spanned<u32>,
+    pub channels: Spanned<u32>,
+    #[serde(with = "ranges::latency_ms")]
+    pub latency_ms: f64,
+    #[serde(with = "ranges::rate_scale_deg_s")]
+    pub rate_scale_deg_s: f64,
+    /// Thrust at count 255 (N); default: the vehicle's maximum thrust.
+    #[serde(with = "ranges::thrust_n::opt")]
+    pub thrust_max_n: Option<f64>,
+}
+impl Default for RadioCfg {
+    fn default() -> Self {
+        RadioCfg { rate_hz: spanned(50), channels: spanned(8), latency_ms: 10.0, rate_scale_deg_s: 1.5, thrust_max_n: None }
+    }
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ControllerCfg {
+    #[serde(with = "ranges::gain_per_s::arr3")]
+    pub k_x: [f64; 3],
+    #[serde(with = "ranges::gain_per_s::arr3")]
+    pub k_v: [f64; 3],
+    #[serde(with = "ranges::gain_per_s::arr3")]
+    pub k_att: [f64; 3],
+    #[serde(with = "ranges::tilt_deg")]
+    pub max_tilt_deg: f64,
+    #[serde(with = "ranges::cutoff_hz")]
+    pub velocity_cutoff_hz: f64,
+    pub compensation: Compensation,
+}
+impl Default for ControllerCfg {
+    fn default() -> Self {
+        ControllerCfg {
+            k_x: [1.0, 1.0, 1.0],
+            k_v: [2.0, 2.0, 3.0],
+            k_att: [6.0, 6.0, 3.0],
+            max_tilt_deg: 20.0,
+            velocity_cutoff_hz: 15.0,
+            compensation: Compensation::Rotation,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CalibrationCfg {
+    /// Use the estimates in the controller as soon as they are available.
+    pub apply: bool,
+    #[serde(with = "ranges::tol_deg")]
+    pub validity_max_mean_yaw_deg: f64,
+    #[serde(with = "ranges::tol_deg")]
+    pub validity_max_mean_roll_deg: f64,
+    #[serde(with = "ranges::spread_m")]
+    pub rls_min_spread_m: f64,
+}
+impl Default for CalibrationCfg {
+    fn default() -> Self {
+        CalibrationCfg { apply: true, validity_max_mean_yaw_deg: 1.0, validity_max_mean_roll_deg: 1.0, rls_min_spread_m: 0.2 }
+    }
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleCfg {
+    pub name: String,
+    /// Home on the floor, North and East (m).
+    #[serde(default, with = "ranges::position_m::arr2")]
+    pub home_m: [f64; 2],
+    #[serde(default, with = "ranges::yaw_angle_deg")]
+    pub yaw0_deg: f64,
+    #[serde(default)]
+    pub model: ModelCfg,
+    #[serde(default)]
+    pub markers: MarkersCfg,
+    #[serde(default)]
+    pub imu: ImuCfg,
+    #[serde(default)]
+    pub disturbance: DisturbanceCfg,
+}
+
+#[derive(Debug, Deserialize, serde::Serialize, Clone, Copy, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Preset {
+    #[default]
+    X3d,
+}
+
+#[derive(Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModelCfg {
+    pub preset: Preset,
+    #[serde(with = "ranges::mass_kg::opt")]
+    pub mass_kg: Option<f64>,
+    pub inertia_kg_m2: Option<Spanned<[f64; 3]>>,
+    #[serde(with = "ranges::arm_m::opt")]
+    pub arm_m: Option<f64>,
+    #[serde(with = "ranges::positive_coeff::opt")]
+    pub k_thrust: Option<f64>,
+    #[serde(with = "ranges::positive_coeff::opt")]
+    pub k_torque_m: Option<f64>,
+    #[serde(with = "ranges::time_constant_s::opt")]
+    pub motor_tau_s: Option<f64>,
+    #[serde(with = "ranges::positive_coeff::opt")]
+    pub rotor_speed_max_rad_s: Option<f64>,
+    pub rotor_drag_per_s: Option<Spanned<[f64; 2]>>,
+    pub rate_loop_gain_per_s: Option<Spanned<[f64; 3]>>,
+}
+
+#[derive(Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MarkersCfg {
+    /// Built-in pattern number (default: the vehicle's index).
+    pub pattern: Option<Spanned<u32>>,
+    /// Explicit template (m, body FRD), instead of a built-in pattern.
+    pub template_m: Option<Spanned<Vec<[f64; 3]>>>,
+    /// Whole-frame rotation of the mounted markers about the body origin (deg: roll, pitch, yaw).
+    #[serde(with = "ranges::small_angle_deg::arr3")]
+    pub rotation_deg: [f64; 3],
+    /// Displacement of each marker (mm, body frame), one entry per marker.
+    pub displacement_mm: Option<Spanned<Vec<[f64; 3]>>>,
+    pub occlusions: Vec<Spanned<OcclusionCfg>>,
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OcclusionCfg {
+    pub marker: u32,
+    #[serde(with = "ranges::time_s")]
+    pub from_s: f64,
+    #[serde(with = "ranges::time_s")]
+    pub to_s: f64,
+}
+
+#[derive(Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImuCfg {
+    #[serde(with = "ranges::gyro_noise_deg_s")]
+    pub gyro_noise_deg_s: f64,
+    #[serde(with = "ranges::accel_noise")]
+    pub accel_noise_m_s2: f64,
+    #[serde(with = "ranges::gyro_bias_deg_s::arr3")]
+    pub gyro_bias_deg_s: [f64; 3],
+    #[serde(with = "ranges::accel_m_s2_signed::arr3")]
+    pub accel_bias_m_s2: [f64; 3],
+}
+
+#[derive(Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DisturbanceCfg {
+    /// Constant force in the true NED frame (N), e.g. a steady wind.
+    #[serde(with = "ranges::force_n::arr3")]
+    pub force_n: [f64; 3],
+    /// Constant torque in the body frame (N·m), e.g. a bent rotor.
+    #[serde(with = "ranges::torque_nm::arr3")]
+    pub torque_nm: [f64; 3],
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum PhaseCfg {
+    Takeoff {
+        #[serde(with = "ranges::altitude_m")]
+        altitude_m: f64,
+        #[serde(with = "ranges::duration_s")]
+        duration_s: f64,
+    },
+    Hover {
+        #[serde(with = "ranges::duration_s")]
+        duration_s: f64,
+    },
+    CalibrateRollPitch {
+        #[serde(default = "three", with = "ranges::settle_s")]
+        settle_s: f64,
+        #[serde(with = "ranges::duration_s")]
+        average_s: f64,
+    },
+    CalibrateYaw {
+        #[serde(default = "two", with = "ranges::settle_s")]
+        settle_s: f64,
+        #[serde(with = "ranges::distance_m")]
+        distance_m: f64,
+        #[serde(with = "ranges::speed_m_s")]
+        speed_m_s: f64,
+        #[serde(default = "half", with = "ranges::accel_m_s2")]
+        accel_m_s2: f64,
+    },
+    YawSpin {
+        #[serde(default = "three", with = "ranges::settle_s")]
+        settle_s: f64,
+        #[serde(with = "ranges::spin_deg")]
+        angle_deg: f64,
+        #[serde(with = "ranges::duration_s")]
+        duration_s: f64,
+    },
+    Waypoint {
+        #[serde(with = "ranges::position_m::arr3")]
+        pos_m: [f64; 3],
+        #[serde(with = "ranges::speed_m_s")]
+        speed_m_s: f64,
+        #[serde(default = "half", with = "ranges::accel_m_s2")]
+        accel_m_s2: f64,
+        #[serde(default, with = "ranges::settle_s")]
+        hold_s: f64,
+    },
+    Land {
+        #[serde(with = "ranges::duration_s")]
+        duration_s: f64,
+    },
+}
+fn two() -> f64 {
+    2.0
+}
+fn three() -> f64 {
+    3.0
+}
+fn half() -> f64 {
+    0.5
+}
+
+impl PhaseCfg {
+    pub fn to_phase(&self) -> Phase {
+        match *self {
+            PhaseCfg::Takeoff { altitude_m, duration_s } => Phase::Takeoff { altitude_m, duration_s },
+            PhaseCfg::Hover { duration_s } => Phase::Hover { duration_s },
+            PhaseCfg::CalibrateRollPitch { settle_s, average_s } => Phase::CalibrateRollPitch { settle_s, average_s },
+            PhaseCfg::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
+                Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 }
+            }
+            PhaseCfg::YawSpin { settle_s, angle_deg, duration_s } => {
+                Phase::YawSpin { settle_s, angle_rad: angle_deg.to_radians(), duration_s }
+            }
+            PhaseCfg::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s } => Phase::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s },
+            PhaseCfg::Land { duration_s } => Phase::Land { duration_s },
+        }
+    }
+}
+
+#[derive(Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RequirementsCfg {
+    /// R1: offsets recovered.
+    pub offsets: Option<OffsetsReq>,
+    /// R2: hover drift reduced during the yaw spin.
+    pub hover_drift: Option<HoverDriftReq>,
+    /// R3: least squares = recursive least squares.
+    pub ls_equals_rls: Option<LsRlsReq>,
+    /// R4: the validity check (7) gives the expected verdict.
+    pub validity: Option<ValidityReq>,
+}
+
+#[derive(Debug, Deserialize, serde::Serialize, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct OffsetsReq {
+    #[serde(with = "ranges::tol_deg")]
+    pub roll_pitch_tol_deg: f64,
+    #[serde(with = "ranges::tol_deg::opt")]
+    pub yaw_tol_deg: Option<f64>,
+}
+impl Default for OffsetsReq {
+    fn default() -> Self {
+        OffsetsReq { roll_pitch_tol_deg: 0.1, yaw_tol_deg: Some(0.5) }
+    }
+}
+
+#[derive(Debug, Deserialize, serde::Serialize, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct HoverDriftReq {
+    #[serde(with = "ranges::ratio")]
+    pub max_ratio: f64,
+    #[serde(with = "ranges::tol_m")]
+    pub max_m: f64,
+}
+impl Default for HoverDriftReq {
+    fn default() -> Self {
+        HoverDriftReq { max_ratio: 0.10, max_m: 0.03 }
+    }
+}
+
+#[derive(Debug, Deserialize, serde::Serialize, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct LsRlsReq {
+    #[serde(with = "ranges::tol_rad")]
+    pub yaw_tol_rad: f64,
+    #[serde(with = "ranges::tol_m")]
+    pub x_e0_tol_m: f64,
+}
+impl Default for LsRlsReq {
+    fn default() -> Self {
+        LsRlsReq { yaw_tol_rad: 1e-9, x_e0_tol_m: 1e-9 }
+    }
+}
+
+#[derive(Debug, Deserialize, serde::Serialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    Accept,
+    Reject,
+}
+
+#[derive(Debug, Deserialize, serde::Serialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct ValidityReq {
+    pub expect: Verdict,
+}
+
+fn spanned<T>(value: T) -> Spanned<T> {
+    Spanned { value, referenced: serde_saphyr::Location::UNKNOWN, defined: serde_saphyr::Location::UNKNOWN }
+}
+
+impl Scenario {
+    /// Reads, parses and validates a scenario file.
+    pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
+        let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;
+        Scenario::parse(&src, path)
+    }
+
+    /// Parses and validates YAML text; `file` is only used in messages.
+    pub fn parse(src: &str, file: &Path) -> Result<Scenario, ScenarioError> {
+        let s: Scenario = serde_saphyr::from_str(src).map_err(|e| {
+            let loc = e.location();
+            let span = loc.filter(|l| l.line() > 0).map(|l| Span { line: l.line() as u32, column: l.column() as u32 });
+            let path = span.as_ref().map(|s| error::yaml_path_at(src, s.line, s.column)).unwrap_or_default();
+            let full = e.to_string();
+            // serde-saphyr renders "error: line L column C: MESSAGE\n --> snippet"; keep both parts
+            let (head, snippet) = full.split_once('\n').unwrap_or((&full, ""));
+            let message = head.split_once(": ").map(|x| x.1).unwrap_or(head);
+            let message = message.split_once(": ").filter(|(a, _)| a.starts_with("column") || a.contains(" column ")).map_or(message, |x| x.1);
+            ScenarioError::Invalid {
+                file: file.to_path_buf(),
+                span,
+                path,
+                message: error::with_suggestion(message),
+                snippet: snippet.to_string(),
+            }
+        })?;
+        s.validate(src, file)?;
+        Ok(s)
+    }
+
+    fn invalid(src: &str, file: &Path, loc: serde_saphyr::Location, message: String) -> ScenarioError {
+        let span = (loc.line() > 0).then(|| Span { line: loc.line() as u32, column: loc.column() as u32 });
+        let path = span.as_ref().map(|s| error::yaml_path_at(src, s.line, s.column)).unwrap_or_default();
+        ScenarioError::Invalid { file: file.to_path_buf(), span, path, message, snippet: String::new() }
+    }
+
+    /// Checks that involve more than one value (ranges of single values are checked while parsing).
+    fn validate(&self, src: &str, file: &Path) -> Result<(), ScenarioError> {
+        let err = |loc: serde_saphyr::Location, msg: String| Err(Self::invalid(src, file, loc, msg));
+        let physics = Rate::from_hz(PHYSICS_HZ).expect("1 kHz");
+        for (what, r) in [("mocap rate", &self.mocap.rate_hz), ("radio rate", &self.radio.rate_hz)] {
+            if Rate::from_hz(r.value).and_then(|x| x.ticks_of(physics)).is_none() {
+                return err(r.referenced, format!("{what} {} Hz must divide the {PHYSICS_HZ} Hz physics clock (e.g. 50, 100, 200, 250, 500, 1000)", r.value));
+            }
+        }
+        if !(4..=crate::radio::MAX_CHANNELS as u32).contains(&self.radio.channels.value) {
+            return err(self.radio.channels.referenced, format!("{} channels is outside the allowed range [4, {}] (p, q, r and thrust need 4)", self.radio.channels.value, crate::radio::MAX_CHANNELS));
+        }
+        let vehicles = &self.vehicles.value;
+        if vehicles.is_empty() || vehicles.len() > 16 {
+            return err(self.vehicles.referenced, format!("{} vehicles is outside the allowed range [1, 16]", vehicles.len()));
+        }
+        if self.plan.value.is_empty() {
+            return err(self.plan.referenced, "the plan is empty: give at least one phase (e.g. `- takeoff: {altitude_m: 1, duration_s: 3}`)".into());
+        }
+        let mut templates: Vec<(usize, Vec<Vec3<MocapBody>>)> = Vec::new();
+        for (i, v) in vehicles.iter().enumerate() {
+            if vehicles[..i].iter().any(|o| o.value.name == v.value.name) {
+                return err(v.referenced, format!("vehicle name `{}` is used twice; names must be unique", v.value.name));
+            }
+            let t = self.template(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
+            if let Some((j, _)) = templates.iter().find(|(_, o)| patterns_confusable(o, &t, 0.005)) {
+                return err(v.referenced, format!("vehicle `{}` has the same marker pattern as vehicle `{}` (pairwise distances within 5 mm): the mocap could not tell them apart; give each a different `markers.pattern` (0–{}) or `template_m`", v.value.name, vehicles[*j].value.name, BUILTIN_PATTERNS - 1));
+            }
+            templates.push((i, t.clone()));
+            let m = &v.value.markers;
+            if let Some(d) = &m.displacement_mm
+                && d.value.len() != t.len()
+            {
+                return err(d.referenced, format!("{} displacements for {} markers: give one [x, y, z] (mm) per marker", d.value.len(), t.len()));
+            }
+            if let Some(d) = &m.displacement_mm {
+                for x in d.value.iter().flatten() {
+                    ranges::check(*x, -200.0, 200.0, false, "mm").map_err(|e| Self::invalid(src, file, d.referenced, e))?;
+                }
+            }
+            for o in &m.occlusions {
+                if o.value.marker as usize >= t.len() {
+                    return err(o.referenced, format!("marker {} does not exist: markers are numbered 0–{}", o.value.marker, t.len() - 1));
+                }
+                if o.value.to_s <= o.value.from_s {
+                    return err(o.referenced, format!("occlusion ends ({} s) before it starts ({} s)", o.value.to_s, o.value.from_s));
+                }
+            }
+            let p = self.vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
+            let t_max = self.radio.thrust_max_n.unwrap_or(p.thrust_max()).min(p.thrust_max());
+            if t_max <= p.hover_thrust() * 1.1 {
+                return err(v.referenced, format!("vehicle `{}`: maximum thrust {:.2} N is not above its hover thrust m·g = {:.2} N with a 10 % margin; it cannot fly (raise rotor_speed_max_rad_s, k_thrust or radio.thrust_max_n, or lower mass_kg)", v.value.name, t_max, p.hover_thrust()));
+            }
+        }
+        Ok(())
+    }
+
+    /// The marker template of vehicle `i`.
+    pub fn template(&self, i: usize) -> Result<Vec<Vec3<MocapBody>>, (serde_saphyr::Location, String)> {
+        let m = &self.vehicles.value[i].value.markers;
+        let t: Vec<Vec3<MocapBody>> = match (&m.template_m, &m.pattern) {
+            (Some(_), Some(p)) => return Err((p.referenced, "give either `pattern` or `template_m`, not both".into())),
+            (Some(t), None) => {
+                if !(3..=8).contains(&t.value.len()) {
+                    return Err((t.referenced, format!("{} markers is outside the allowed range [3, 8]", t.value.len())));
+                }
+                for x in t.value.iter().flatten() {
+                    ranges::check(*x, -1.0, 1.0, false, "m").map_err(|e| (t.referenced, e))?;
+                }
+                t.value.iter().map(|a| Vec3::from_array(*a)).collect()
+            }
+            (None, Some(p)) => {
+                if p.value as usize >= BUILTIN_PATTERNS {
+                    return Err((p.referenced, format!("pattern {} is outside the allowed range [0, {}]", p.value, BUILTIN_PATTERNS - 1)));
+                }
+                builtin_pattern(p.value as usize).to_vec()
+            }
+            (None, None) => builtin_pattern(i % BUILTIN_PATTERNS).to_vec(),
+        };
+        let loc = m.template_m.as_ref().map_or(self.vehicles.value[i].referenced, |t| t.referenced);
+        let ms = crate::mocap::MarkerSet::displaced(t.clone(), Euler::ZERO, &vec![Vec3::zeros(); t.len()]);
+        if ms.true_offset().is_none() {
+            return Err((loc, "the marker template is degenerate (collinear or coincident markers): the mocap cannot determine an attitude from it".into()));
+        }
+        for a in 0..t.len() {
+            for b in a + 1..t.len() {
+                if (t[a] - t[b]).norm() < 0.01 {
+                    return Err((loc, format!("markers {a} and {b} are {:.1} mm apart; cameras need at least 10 mm to separate them", (t[a] - t[b]).norm() * 1e3)));
+                }
+            }
+        }
+        Ok(t)
+    }
+
+    /// The physical parameters of vehicle `i` (preset with overrides).
+    pub fn vehicle_params(&self, i: usize) -> Result<VehicleParams, (serde_saphyr::Location, String)> {
+        let m = &self.vehicles.value[i].value.model;
+        let mut p = match m.preset {
+            Preset::X3d => VehicleParams::x3d(),
+        };
+        if let Some(x) = m.mass_kg {
+            p.mass_kg = x;
+        }
+        if let Some(x) = &m.inertia_kg_m2 {
+            for v in x.value {
+                ranges::check(v, 0.0, 10.0, true, "kg·m²").map_err(|e| (x.referenced, e))?;
+            }
+            p.inertia_kg_m2 = x.value;
+        }
+        if let Some(x) = m.arm_m {
+            p.arm_m = x;
+        }
+        if let Some(x) = m.k_thrust {
+            p.k_thrust = x;
+        }
+        if let Some(x) = m.k_torque_m {
+            p.k_torque_m = x;
+        }
+        if let Some(x) = m.motor_tau_s {
+            p.motor_tau_s = x;
+        }
+        if let Some(x) = m.rotor_speed_max_rad_s {
+            p.rotor_speed_max = x;
+        }
+        if let Some(x) = &m.rotor_drag_per_s {
+            for v in x.value {
+                ranges::check(v, 0.0, 10.0, false, "1/s").map_err(|e| (x.referenced, e))?;
+            }
+            p.rotor_drag_per_s = x.value;
+        }
+        if let Some(x) = &m.rate_loop_gain_per_s {
+            for v in x.value {
+                ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e))?;
+            }
+            p.rate_loop_gain_per_s = x.value;
+        }
+        Ok(p)
+    }
+
+    /// The run time: `duration_s`, or the plan's end plus 1 s.
+    pub fn run_time_s(&self) -> f64 {
+        let plan: Vec<Phase> = self.plan.value.iter().map(PhaseCfg::to_phase).collect();
+        let end = crate::guidance::Plan::schedule(&plan, Vec3::zeros(), 0.0).end();
+        self.duration_s.unwrap_or(end.as_secs_f64() + 1.0)
+    }
+}

@@ -1,0 +1,115 @@
+//! Range-checked numbers for the YAML edge. A value outside its range fails *during*
+//! deserialisation, so the YAML parser reports the exact line and column of the offending value.
+//! Every range here is the documented range of its field (README, "Scenario reference").
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer, de::Error};
+
+fn fmt_bound(x: f64) -> String {
+    if x.is_infinite() { if x > 0.0 { "∞".into() } else { "−∞".into() } } else { format!("{x}") }
+}
+
+/// Checks `lo ≤ v ≤ hi` (or `lo < v` when `open_lo`), NaN and infinities rejected.
+pub fn check(v: f64, lo: f64, hi: f64, open_lo: bool, unit: &str) -> Result<f64, String> {
+    let ok = v.is_finite() && (if open_lo { v > lo } else { v >= lo }) && v <= hi;
+    if ok {
+        Ok(v)
+    } else {
+        let l = if open_lo { "(" } else { "[" };
+        Err(format!("{v} {unit} is outside the allowed range {l}{}, {}]", fmt_bound(lo), fmt_bound(hi)).replace("  ", " "))
+    }
+}
+
+macro_rules! ranged {
+    ($($name:ident: $lo:expr, $hi:expr, $open:expr, $unit:expr;)*) => {
+        $(
+            pub mod $name {
+                use super::*;
+                pub const LO: f64 = $lo;
+                pub const HI: f64 = $hi;
+                pub const OPEN_LO: bool = $open;
+                pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+                    v.serialize(s)
+                }
+                pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+                    check(f64::deserialize(d)?, $lo, $hi, $open, $unit).map_err(D::Error::custom)
+                }
+                pub mod opt {
+                    use super::*;
+                    pub fn serialize<S: Serializer>(v: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+                        v.serialize(s)
+                    }
+                    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+                        Option::<f64>::deserialize(d)?
+                            .map(|v| check(v, $lo, $hi, $open, $unit))
+                            .transpose()
+                            .map_err(D::Error::custom)
+                    }
+                }
+                pub mod arr2 {
+                    use super::*;
+                    pub fn serialize<S: Serializer>(v: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
+                        v.serialize(s)
+                    }
+                    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+                        let a = <[f64; 2]>::deserialize(d)?;
+                        for v in a { check(v, $lo, $hi, $open, $unit).map_err(D::Error::custom)?; }
+                        Ok(a)
+                    }
+                }
+                pub mod arr3 {
+                    use super::*;
+                    pub fn serialize<S: Serializer>(v: &[f64; 3], s: S) -> Result<S::Ok, S::Error> {
+                        v.serialize(s)
+                    }
+                    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+                        let a = <[f64; 3]>::deserialize(d)?;
+                        for v in a { check(v, $lo, $hi, $open, $unit).map_err(D::Error::custom)?; }
+                        Ok(a)
+                    }
+                }
+            }
+        )*
+    };
+}
+
+const INF: f64 = f64::INFINITY;
+
+ranged! {
+    probability: 0.0, 1.0, false, "";
+    latency_ms: 0.0, 1000.0, false, "ms";
+    noise_mm: 0.0, 20.0, false, "mm";
+    small_angle_deg: -30.0, 30.0, false, "°";
+    yaw_angle_deg: -180.0, 180.0, false, "°";
+    offset_mm: -1000.0, 1000.0, false, "mm";
+    position_m: -100.0, 100.0, false, "m";
+    mass_kg: 0.0, 100.0, true, "kg";
+    inertia: 0.0, 10.0, true, "kg·m²";
+    arm_m: 0.0, 2.0, true, "m";
+    positive_coeff: 0.0, INF, true, "";
+    nonneg_coeff: 0.0, 100.0, false, "";
+    time_constant_s: 0.0, 1.0, true, "s";
+    gain_per_s: 0.0, 1000.0, true, "1/s";
+    tilt_deg: 0.0, 60.0, true, "°";
+    cutoff_hz: 0.0, 500.0, true, "Hz";
+    rate_scale_deg_s: 0.0, 20.0, true, "°/s per count";
+    thrust_n: 0.0, 10000.0, true, "N";
+    duration_s: 0.0, 3600.0, true, "s";
+    settle_s: 0.0, 3600.0, false, "s";
+    altitude_m: 0.0, 10.0, true, "m";
+    distance_m: 0.0, 100.0, true, "m";
+    speed_m_s: 0.0, 10.0, true, "m/s";
+    accel_m_s2: 0.0, 20.0, true, "m/s²";
+    spin_deg: -3600.0, 3600.0, false, "°";
+    time_s: 0.0, 3600.0, false, "s";
+    tol_deg: 0.0, 90.0, true, "°";
+    tol_m: 0.0, 100.0, true, "m";
+    tol_rad: 0.0, 1.0, true, "rad";
+    ratio: 0.0, 1.0, true, "";
+    force_n: -100.0, 100.0, false, "N";
+    torque_nm: -10.0, 10.0, false, "N·m";
+    gyro_noise_deg_s: 0.0, 100.0, false, "°/s";
+    gyro_bias_deg_s: -100.0, 100.0, false, "°/s";
+    accel_m_s2_signed: -50.0, 50.0, false, "m/s²";
+    accel_noise: 0.0, 50.0, false, "m/s²";
+    spread_m: 0.0, 100.0, true, "m";
+}
