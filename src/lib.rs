@@ -10,3 +10,6 @@ pub mod guidance;
 pub mod link;
 pub mod radio;
 pub mod scenario;
+pub mod engine;
+pub mod requirements;
+pub mod cli;

@@ -1,0 +1,191 @@
+//! The command line: `flyarena run SCENARIO.yaml`, `flyarena check SCENARIO.yaml`.
+//!
+//! Exit codes: 0 every requirement passed · 1 a requirement failed · 2 bad input (unreadable or
+//! invalid scenario, bad arguments, an output that cannot be written).
+
+use crate::engine::{RunOptions, run};
+use crate::requirements::{self, Report};
+use crate::scenario::Scenario;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+pub const USAGE: &str = "\
+flyarena — quadrotor flight under motion capture with misaligned frames
+
+USAGE:
+    flyarena run SCENARIO.yaml [--out DIR] [--json PATH] [--seed N] [--quiet]
+    flyarena check SCENARIO.yaml...
+
+COMMANDS:
+    run     simulate the scenario, print the requirements table, write the JSON summary
+    check   validate scenarios without running them
+
+OPTIONS:
+    --out DIR     output folder (default: out)
+    --json PATH   summary path (default: DIR/<scenario name>.json)
+    --seed N      override the scenario's seed
+    --quiet       print only the verdict line
+
+EXIT CODES: 0 pass · 1 a requirement failed · 2 bad input";
+
+/// Exit codes.
+pub const PASS: i32 = 0;
+pub const FAIL: i32 = 1;
+pub const BAD_INPUT: i32 = 2;
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so the
+/// path holds either its previous content or the complete new one, never half a file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)?;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+struct RunArgs {
+    scenario: PathBuf,
+    out: PathBuf,
+    json: Option<PathBuf>,
+    seed: Option<u64>,
+    quiet: bool,
+}
+
+fn parse_run(args: &[String]) -> Result<RunArgs, String> {
+    let mut it = args.iter();
+    let mut a = RunArgs { scenario: PathBuf::new(), out: PathBuf::from("out"), json: None, seed: None, quiet: false };
+    let mut scenario = None;
+    while let Some(x) = it.next() {
+        let mut value = |flag: &str| it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
+        match x.as_str() {
+            "--out" => a.out = PathBuf::from(value("--out")?),
+            "--json" => a.json = Some(PathBuf::from(value("--json")?)),
+            "--seed" => {
+                let v = value("--seed")?;
+                a.seed = Some(v.parse().map_err(|_| format!("--seed takes a whole number from 0 to {}, not `{v}`", u64::MAX))?);
+            }
+            "--quiet" | "-q" => a.quiet = true,
+            s if s.starts_with('-') => return Err(format!("unknown option `{s}`")),
+            s if scenario.is_none() => scenario = Some(PathBuf::from(s)),
+            s => return Err(format!("one scenario per run; unexpected `{s}`")),
+        }
+    }
+    a.scenario = scenario.ok_or("which scenario? `flyarena run scenarios/<x>.yaml`")?;
+    Ok(a)
+}
+
+/// Runs a scenario (and its uncompensated counterpart when R2 asks for it) and evaluates it.
+pub fn run_scenario(s: &Scenario) -> (crate::engine::RunOutput, Option<crate::engine::RunOutput>, Report) {
+    let main = run(s, RunOptions::default());
+    let unc = requirements::needs_uncompensated(&s.requirements)
+        .then(|| run(s, RunOptions { trace: false, apply_calibration: Some(false) }));
+    let report = requirements::evaluate(&s.requirements, &main, unc.as_ref());
+    (main, unc, report)
+}
+
+/// The JSON summary of a run.
+pub fn summary(s: &Scenario, main: &crate::engine::RunOutput, unc: Option<&crate::engine::RunOutput>, report: &Report) -> serde_json::Value {
+    serde_json::json!({
+        "scenario": s.name,
+        "seed": s.seed,
+        "duration_s": main.duration.as_secs_f64(),
+        "passed": report.passed(),
+        "requirements": report.rows,
+        "vehicles": main.vehicles.iter().enumerate()
+            .map(|(i, v)| requirements::vehicle_summary(v, unc.and_then(|u| u.vehicles.get(i))))
+            .collect::<Vec<_>>(),
+    })
+}
+
+fn cmd_run(args: &[String]) -> i32 {
+    let a = match parse_run(args) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("error: {e}\n\n{USAGE}");
+            return BAD_INPUT;
+        }
+    };
+    let mut s = match Scenario::load(&a.scenario) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return BAD_INPUT;
+        }
+    };
+    if let Some(seed) = a.seed {
+        s.seed = seed;
+    }
+    let started = std::time::Instant::now();
+    let (main, unc, report) = run_scenario(&s);
+    let elapsed = started.elapsed();
+    let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name)));
+    let json = serde_json::to_vec_pretty(&summary(&s, &main, unc.as_ref(), &report)).expect("summary serialises");
+    if let Err(e) = write_atomic(&json_path, &json) {
+        eprintln!("error: cannot write {}: {e}", json_path.display());
+        return BAD_INPUT;
+    }
+    let verdict = if report.passed() { "PASS" } else { "FAIL" };
+    if !a.quiet {
+        println!("{} (seed {}): {:.1} s simulated in {:.2} s wall\n", s.name, s.seed, main.duration.as_secs_f64(), elapsed.as_secs_f64());
+        if report.rows.is_empty() {
+            println!("(the scenario declares no requirements)\n");
+        } else {
+            print!("{}", report.table());
+            println!();
+        }
+        println!("summary: {}", json_path.display());
+    }
+    println!("{verdict}: {} of {} requirement checks passed", report.rows.iter().filter(|r| r.pass).count(), report.rows.len());
+    if report.passed() { PASS } else { FAIL }
+}
+
+fn cmd_check(args: &[String]) -> i32 {
+    if args.is_empty() {
+        eprintln!("error: which scenario? `flyarena check scenarios/<x>.yaml`\n\n{USAGE}");
+        return BAD_INPUT;
+    }
+    let mut code = PASS;
+    for p in args {
+        match Scenario::load(Path::new(p)) {
+            Ok(s) => println!("{p}: ok ({} vehicle(s), {} phase(s), {:.1} s)", s.vehicles.value.len(), s.plan.value.len(), s.run_time_s()),
+            Err(e) => {
+                eprintln!("error: {e}");
+                code = BAD_INPUT;
+            }
+        }
+    }
+    code
+}
+
+/// Entry point; returns the process exit code.
+pub fn main_with_args(args: &[String]) -> i32 {
+    match args.first().map(String::as_str) {
+        Some("run") => cmd_run(&args[1..]),
+        Some("check") => cmd_check(&args[1..]),
+        Some("-h" | "--help" | "help") => {
+            println!("{USAGE}");
+            PASS
+        }
+        Some("-V" | "--version") => {
+            println!("flyarena {}", env!("CARGO_PKG_VERSION"));
+            PASS
+        }
+        Some(other) => {
+            eprintln!("error: unknown command `{other}`\n\n{USAGE}");
+            BAD_INPUT
+        }
+        None => {
+            eprintln!("{USAGE}");
+            BAD_INPUT
+        }
+    }
+}

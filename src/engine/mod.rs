@@ -1,0 +1,356 @@
+//! The engine: one integer clock at the physics rate (1 kHz) drives every component at its own
+//! rate, for every vehicle of the fleet.
+//!
+//! Per physics tick k (t = k·1 ms), for each vehicle in fleet order:
+//! 1. every 5th tick (200 Hz): the Vicon system captures the true state; the frame is handed to the
+//!    link `mocap.latency` later (processing), and arrives after the link's own latency/jitter, or never;
+//! 2. every packet that has arrived by t goes to the vehicle's [`Station`] (estimation, guidance,
+//!    calibration, control), in arrival order;
+//! 3. every 20th tick (50 Hz): the PPM radio samples the station's latest command;
+//! 4. the vehicle's receiver holds the last decoded frame; the IMU is sampled; the onboard rate
+//!    loop computes rotor commands; the rigid body is integrated over 1 ms (RK4).
+//!
+//! Random draws come from one stream per component and vehicle ([`crate::rng`]), so a run is a
+//! pure function of the scenario and its seed: bit-identical trajectories whatever the thread
+//! count (the engine is single-threaded per run; fleets and sweeps never share a stream).
+
+pub mod station;
+
+pub use station::{CalibrationReport, CalibrationSettings, RlsSample, Station};
+
+use crate::clock::{Clock, Nanos, Rate};
+use crate::control::Gains;
+use crate::frames::{Euler, MocapNav, Nav, Rot, Vec3};
+use crate::guidance::{Phase, Plan, Window};
+use crate::link::{Link, LinkParams, LinkStats, LossModel};
+use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, Occlusion, TrueOffset};
+use crate::radio::{PpmFrame, Radio, RadioParams};
+use crate::rng::{Component, Stream};
+use crate::scenario::{LossCfg, PHYSICS_HZ, Scenario};
+use crate::vehicle::{Disturbance, Imu, ImuParams, RateLoop, VehicleParams, X3d};
+
+/// Options that are not part of the scenario.
+#[derive(Clone, Copy, Debug)]
+pub struct RunOptions {
+    /// Keep a trajectory sample per Vicon frame (needed for recording and determinism checks).
+    pub trace: bool,
+    /// Override `calibration.apply` (the engine runs the scenario uncompensated for R2).
+    pub apply_calibration: Option<bool>,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions { trace: true, apply_calibration: None }
+    }
+}
+
+/// One trajectory sample (taken at each Vicon tick).
+#[derive(Clone, Copy, Debug)]
+pub struct TraceSample {
+    pub t: Nanos,
+    pub pos: Vec3<Nav>,
+    pub vel: Vec3<Nav>,
+    pub att_true: Euler,
+    /// Raw mocap attitude of the last received packet.
+    pub att_measured: Option<Euler>,
+    /// Attitude the controller used (offset removed).
+    pub att_compensated: Option<Euler>,
+    pub reference: Vec3<MocapNav>,
+    pub reference_yaw: f64,
+    /// Last PPM frame sent.
+    pub ppm: Option<PpmFrame>,
+    pub thrust_n: f64,
+    pub link: LinkStats,
+    pub phase: Option<usize>,
+}
+
+/// Everything a run produced for one vehicle.
+#[derive(Clone, Debug)]
+pub struct VehicleRun {
+    pub name: String,
+    pub params: VehicleParams,
+    pub truth: TrueOffset,
+    pub markers: MarkerSet,
+    pub camera: CameraError,
+    pub calibration: CalibrationReport,
+    pub link: LinkStats,
+    /// Max horizontal distance from the commanded point while spinning on the spot (m).
+    pub spin_max_deviation_m: Option<f64>,
+    /// Mean commanded (decoded) thrust while hovering in calibrate_roll_pitch (N).
+    pub hover_thrust_mean_n: Option<f64>,
+    pub trace: Vec<TraceSample>,
+    pub rls_trace: Vec<RlsSample>,
+    pub phases: Vec<(Nanos, &'static str)>,
+    pub final_pos: Vec3<Nav>,
+    pub any_nan: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct RunOutput {
+    pub scenario: String,
+    pub seed: u64,
+    pub duration: Nanos,
+    pub vehicles: Vec<VehicleRun>,
+}
+
+struct Vehicle {
+    name: String,
+    x3d: X3d,
+    rate_loop: RateLoop,
+    imu: Imu,
+    mocap: Mocap,
+    mocap_latency: Nanos,
+    link: Link<MocapFrame>,
+    radio: Radio,
+    station: Station,
+    truth: TrueOffset,
+    last_frame: Option<MocapFrame>,
+    spin_max: Option<f64>,
+    thrust_sum: f64,
+    thrust_n: u64,
+    trace: Vec<TraceSample>,
+    any_nan: bool,
+}
+
+/// A built arena, ready to run.
+pub struct Arena {
+    clock: Clock,
+    end_tick: u64,
+    mocap_every: u64,
+    radio_every: u64,
+    dt: f64,
+    trace: bool,
+    vehicles: Vec<Vehicle>,
+    name: String,
+    seed: u64,
+}
+
+fn rate(hz: u32) -> Rate {
+    Rate::from_hz(hz).expect("validated by the scenario")
+}
+
+impl Arena {
+    /// Builds the arena of a validated scenario.
+    pub fn new(s: &Scenario, opts: RunOptions) -> Arena {
+        let physics = rate(PHYSICS_HZ);
+        let mocap_every = rate(s.mocap.rate_hz.value).ticks_of(physics).expect("validated");
+        let radio_every = rate(s.radio.rate_hz.value).ticks_of(physics).expect("validated");
+        let ms = |x: f64| Nanos::from_secs_f64(x * 1e-3);
+        let cam = &s.mocap.camera_error;
+        let camera = CameraError {
+            rotation: Rot::from_euler(Euler::from_degrees(cam.rotation_deg[0], cam.rotation_deg[1], cam.rotation_deg[2])),
+            translation: Vec3::from_array(cam.translation_mm.map(|x| x * 1e-3)),
+        };
+        let loss = match s.link.loss {
+            LossCfg::Bernoulli { p } => LossModel::Bernoulli { p },
+            LossCfg::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => {
+                LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad }
+            }
+        };
+        let link = LinkParams { latency: ms(s.link.latency_ms), jitter: ms(s.link.jitter_ms), loss };
+        let phases: Vec<Phase> = s.plan.value.iter().map(|p| p.to_phase()).collect();
+        let c = &s.controller;
+        let cal = &s.calibration;
+        let vehicles = s
+            .vehicles
+            .value
+            .iter()
+            .enumerate()
+            .map(|(i, vs)| {
+                let v = &vs.value;
+                let params = s.vehicle_params(i).expect("validated");
+                let template = s.template(i).expect("validated");
+                let n = template.len();
+                let disp: Vec<Vec3<_>> = match &v.markers.displacement_mm {
+                    Some(d) => d.value.iter().map(|a| Vec3::from_array(a.map(|x| x * 1e-3))).collect(),
+                    None => vec![Vec3::zeros(); n],
+                };
+                let r = v.markers.rotation_deg;
+                let markers = MarkerSet::displaced(template, Euler::from_degrees(r[0], r[1], r[2]), &disp);
+                let truth = markers.true_offset().expect("validated");
+                let occlusions = v
+                    .markers
+                    .occlusions
+                    .iter()
+                    .map(|o| Occlusion { marker: o.value.marker as usize, from: Nanos::from_secs_f64(o.value.from_s), to: Nanos::from_secs_f64(o.value.to_s) })
+                    .collect();
+                let mocap = Mocap::new(markers, occlusions, camera, s.mocap.noise_mm * 1e-3, Stream::new(s.seed, Component::MocapNoise, i));
+                let thrust_max = s.radio.thrust_max_n.unwrap_or(params.thrust_max());
+                let radio = Radio::new(RadioParams {
+                    channels: s.radio.channels.value as usize,
+                    latency: ms(s.radio.latency_ms),
+                    rate_scale_rad_s: s.radio.rate_scale_deg_s.to_radians(),
+                    thrust_max_n: thrust_max,
+                });
+                let gains = Gains {
+                    k_x: c.k_x,
+                    k_v: c.k_v,
+                    k_att: c.k_att,
+                    max_tilt: [c.max_tilt_deg.to_radians(); 2],
+                    thrust_max_n: thrust_max,
+                    mass_kg: params.mass_kg,
+                };
+                let home = Vec3::<MocapNav>::new(v.home_m[0], v.home_m[1], 0.0);
+                let yaw0 = v.yaw0_deg.to_radians();
+                let plan = Plan::schedule(&phases, home, yaw0);
+                let settings = CalibrationSettings {
+                    apply: opts.apply_calibration.unwrap_or(cal.apply),
+                    compensation: c.compensation,
+                    eps_yaw: cal.validity_max_mean_yaw_deg.to_radians(),
+                    eps_roll: cal.validity_max_mean_roll_deg.to_radians(),
+                    rls_min_spread_m: cal.rls_min_spread_m,
+                };
+                let station = Station::new(plan, gains, settings, c.velocity_cutoff_hz, opts.trace);
+                let imu = ImuParams {
+                    gyro_noise_rad_s: v.imu.gyro_noise_deg_s.to_radians(),
+                    accel_noise_m_s2: v.imu.accel_noise_m_s2,
+                    gyro_bias_rad_s: v.imu.gyro_bias_deg_s.map(f64::to_radians),
+                    accel_bias_m_s2: v.imu.accel_bias_m_s2,
+                };
+                let dist = Disturbance { force_nav_n: v.disturbance.force_n, torque_body_nm: v.disturbance.torque_nm };
+                let home_nav = camera.to_nav(home);
+                Vehicle {
+                    name: v.name.clone(),
+                    x3d: X3d::on_floor(params.clone(), dist, home_nav, yaw0),
+                    rate_loop: RateLoop::new(&params),
+                    imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
+                    mocap,
+                    mocap_latency: ms(s.mocap.latency_ms),
+                    link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)),
+                    radio,
+                    station,
+                    truth,
+                    last_frame: None,
+                    spin_max: None,
+                    thrust_sum: 0.0,
+                    thrust_n: 0,
+                    trace: Vec::new(),
+                    any_nan: false,
+                }
+            })
+            .collect();
+        let end = Nanos::from_secs_f64(s.run_time_s());
+        Arena {
+            clock: Clock::new(physics),
+            end_tick: (end.0 / physics.period().0) as u64,
+            mocap_every,
+            radio_every,
+            dt: physics.period().as_secs_f64(),
+            trace: opts.trace,
+            vehicles,
+            name: s.name.clone(),
+            seed: s.seed,
+        }
+    }
+
+    pub fn now(&self) -> Nanos {
+        self.clock.now()
+    }
+
+    pub fn done(&self) -> bool {
+        self.clock.tick() >= self.end_tick
+    }
+
+    /// Advances every vehicle by one physics tick.
+    pub fn step(&mut self) {
+        let t = self.clock.now();
+        let mocap_tick = self.clock.fires(self.mocap_every);
+        let radio_tick = self.clock.fires(self.radio_every);
+        for v in &mut self.vehicles {
+            v.step(t, mocap_tick, radio_tick, self.dt, self.trace);
+        }
+        self.clock.advance();
+    }
+
+    /// Runs to the end and collects the results.
+    pub fn run(mut self) -> RunOutput {
+        while !self.done() {
+            self.step();
+        }
+        self.finish()
+    }
+
+    pub fn finish(self) -> RunOutput {
+        let duration = self.clock.now();
+        let vehicles = self
+            .vehicles
+            .into_iter()
+            .map(|mut v| {
+                let calibration = v.station.finish();
+                let phases = v.station.plan().phases.iter().map(|p| (p.start, p.phase.name())).collect();
+                VehicleRun {
+                    name: v.name,
+                    params: v.x3d.params().clone(),
+                    truth: v.truth,
+                    markers: v.mocap.markers().clone(),
+                    camera: *v.mocap.camera(),
+                    calibration,
+                    link: *v.link.stats(),
+                    spin_max_deviation_m: v.spin_max,
+                    hover_thrust_mean_n: (v.thrust_n > 0).then(|| v.thrust_sum / v.thrust_n as f64),
+                    rls_trace: v.station.rls_trace().to_vec(),
+                    trace: v.trace,
+                    phases,
+                    final_pos: v.x3d.state().pos,
+                    any_nan: v.any_nan,
+                }
+            })
+            .collect();
+        RunOutput { scenario: self.name, seed: self.seed, duration, vehicles }
+    }
+}
+
+impl Vehicle {
+    fn step(&mut self, t: Nanos, mocap_tick: bool, radio_tick: bool, dt: f64, trace: bool) {
+        if mocap_tick && let Some(f) = self.mocap.capture(t, self.x3d.state()) {
+            self.link.send(t + self.mocap_latency, f.seq, f);
+        }
+        while let Some(f) = self.link.receive(t) {
+            self.station.on_pose(t, &f);
+            self.last_frame = Some(f);
+        }
+        if radio_tick {
+            let cmd = *self.station.command();
+            self.radio.transmit(t, cmd.rates, cmd.thrust_n);
+        }
+        let held = self.radio.receiver(t);
+        let (reference, window) = self.station.plan().reference(t);
+        if window == Window::HoverAverage {
+            self.thrust_sum += held.thrust_n;
+            self.thrust_n += 1;
+        }
+        if window == Window::Spin {
+            let dev = (self.x3d.state().pos - self.mocap.camera().to_nav(reference.pos)).horizontal_norm();
+            self.spin_max = Some(self.spin_max.map_or(dev, |m: f64| m.max(dev)));
+        }
+        let s = *self.x3d.state();
+        let imu = self.imu.sample(s.omega, self.x3d.specific_force());
+        let rotor_cmd = self.rate_loop.rotor_speed_commands(&held, imu.gyro);
+        self.x3d.step(&rotor_cmd, dt);
+        let s = self.x3d.state();
+        if !(s.pos.is_finite() && s.vel.is_finite() && s.omega.is_finite()) {
+            self.any_nan = true;
+        }
+        if trace && mocap_tick {
+            self.trace.push(TraceSample {
+                t,
+                pos: s.pos,
+                vel: s.vel,
+                att_true: s.att.euler(),
+                att_measured: self.last_frame.map(|f| f.att.euler()),
+                att_compensated: self.station.attitude().map(|a| a.euler()),
+                reference: reference.pos,
+                reference_yaw: reference.yaw,
+                ppm: self.radio.last_sent().copied(),
+                thrust_n: held.thrust_n,
+                link: *self.link.stats(),
+                phase: self.station.plan().phase_at(t),
+            });
+        }
+    }
+}
+
+/// Convenience: build and run.
+pub fn run(s: &Scenario, opts: RunOptions) -> RunOutput {
+    Arena::new(s, opts).run()
+}

@@ -1,0 +1,180 @@
+//! The ground station of one vehicle: what runs on the arena's control computers each time a
+//! Vicon packet arrives — velocity estimation, guidance, the paper's calibration, and the
+//! controller of (1)–(5) fed with the offset-compensated attitude.
+
+use crate::calibrate::{Compensation, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
+use crate::clock::Nanos;
+use crate::control::{ControlOutput, Gains, Reference, control};
+use crate::estimate::VelocityEstimator;
+use crate::frames::{Body, Euler, MocapNav, Rot, Vec3};
+use crate::guidance::{Plan, Window};
+use crate::mocap::MocapFrame;
+
+/// Calibration settings of the station.
+#[derive(Clone, Debug)]
+pub struct CalibrationSettings {
+    pub apply: bool,
+    pub compensation: Compensation,
+    pub eps_yaw: f64,
+    pub eps_roll: f64,
+    pub rls_min_spread_m: f64,
+}
+
+/// What the calibration found (angles in radians).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct CalibrationReport {
+    /// (φ̄_m, θ̄_m) and the number of samples averaged.
+    pub roll_pitch: Option<(f64, f64, u64)>,
+    pub yaw_ls: Option<LineFit>,
+    pub yaw_rls: Option<LineFit>,
+    /// The yaw offset estimate: ψ̂_off = ψ̂_off,before + ψ̄_m − course, with the course from the
+    /// batch fit (9). The paper assumes the held yaw ψ̄_m is 0; here the PPM yaw-rate quantization
+    /// lets it sit anywhere in a ±0.5 count/K_ψ deadband (±0.25° by default), so it is added back.
+    pub yaw_offset: Option<f64>,
+    pub validity: Option<Validity>,
+    /// The offset the controller used at the end of the run.
+    pub applied: Euler,
+}
+
+/// One RLS estimate as it converged (for recording).
+#[derive(Clone, Copy, Debug)]
+pub struct RlsSample {
+    pub t: Nanos,
+    pub psi_offset: f64,
+}
+
+#[derive(Clone, Debug)]
+pub struct Station {
+    plan: Plan,
+    gains: Gains,
+    settings: CalibrationSettings,
+    estimator: VelocityEstimator,
+    offset: OffsetEstimate,
+    hover: HoverAverager,
+    north: Vec<f64>,
+    east: Vec<f64>,
+    rls: Rls,
+    validity: ValidityCheck,
+    window: Window,
+    report: CalibrationReport,
+    command: ControlOutput,
+    reference: Reference,
+    attitude: Option<Rot<Body, MocapNav>>,
+    rls_trace: Option<Vec<RlsSample>>,
+}
+
+impl Station {
+    pub fn new(plan: Plan, gains: Gains, settings: CalibrationSettings, velocity_cutoff_hz: f64, record_rls: bool) -> Self {
+        let (reference, _) = plan.reference(Nanos::ZERO);
+        let rls = Rls::new(settings.rls_min_spread_m);
+        Station {
+            plan,
+            gains,
+            settings,
+            estimator: VelocityEstimator::new(velocity_cutoff_hz),
+            offset: OffsetEstimate::default(),
+            hover: HoverAverager::default(),
+            north: Vec::new(),
+            east: Vec::new(),
+            rls,
+            validity: ValidityCheck::default(),
+            window: Window::None,
+            report: CalibrationReport::default(),
+            command: ControlOutput { rates: Vec3::zeros(), thrust_n: 0.0, angles_com: Euler::ZERO, accel_com: Vec3::zeros() },
+            reference,
+            attitude: None,
+            rls_trace: record_rls.then(Vec::new),
+        }
+    }
+
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+    /// The latest command (held until the next packet).
+    pub fn command(&self) -> &ControlOutput {
+        &self.command
+    }
+    pub fn reference(&self) -> &Reference {
+        &self.reference
+    }
+    pub fn offset(&self) -> &OffsetEstimate {
+        &self.offset
+    }
+    /// The attitude the controller last used (compensated).
+    pub fn attitude(&self) -> Option<Rot<Body, MocapNav>> {
+        self.attitude
+    }
+    pub fn rls_trace(&self) -> &[RlsSample] {
+        self.rls_trace.as_deref().unwrap_or(&[])
+    }
+
+    /// Handles one Vicon packet received at `now`.
+    pub fn on_pose(&mut self, now: Nanos, f: &MocapFrame) {
+        let vel = self.estimator.update(f.t_capture, f.pos);
+        let (reference, window) = self.plan.reference(now);
+        if window != self.window {
+            self.close_window();
+            self.window = window;
+        }
+        match window {
+            Window::HoverAverage => self.hover.add(f.att.euler()),
+            Window::YawFlight => {
+                let comp = self.offset.compensate(f.att, self.settings.compensation);
+                self.validity.add(comp.euler());
+                self.north.push(f.pos.x());
+                self.east.push(f.pos.y());
+                self.rls.update(f.pos.x(), f.pos.y());
+                if let (Some(tr), Some(est)) = (&mut self.rls_trace, self.rls.estimate()) {
+                    tr.push(RlsSample { t: now, psi_offset: est.psi_offset });
+                }
+            }
+            Window::None | Window::Spin => {}
+        }
+        let att = self.offset.compensate(f.att, self.settings.compensation);
+        self.attitude = Some(att);
+        self.reference = reference;
+        self.command = control(&self.gains, &reference, f.pos, vel, att);
+    }
+
+    /// Ends a calibration window: computes its result and, if enabled, applies it.
+    fn close_window(&mut self) {
+        match self.window {
+            Window::HoverAverage => {
+                if let Some((roll, pitch)) = self.hover.mean() {
+                    self.report.roll_pitch = Some((roll, pitch, self.hover.samples()));
+                    if self.settings.apply {
+                        let yaw = self.offset.euler.yaw;
+                        self.offset = OffsetEstimate::from_euler(Euler::new(roll, pitch, yaw));
+                    }
+                }
+                self.hover = HoverAverager::default();
+            }
+            Window::YawFlight => {
+                let validity = self.validity.verdict(self.settings.eps_yaw, self.settings.eps_roll);
+                let ls = batch_ls(&self.north, &self.east);
+                self.report.yaw_ls = ls;
+                self.report.yaw_rls = self.rls.estimate();
+                self.report.validity = Some(validity);
+                let e = self.offset.euler;
+                let yaw_offset = ls.map(|ls| crate::frames::wrap_pi(e.yaw + validity.mean_yaw + ls.psi_offset));
+                self.report.yaw_offset = yaw_offset;
+                if let (true, true, Some(y)) = (self.settings.apply, validity.accepted, yaw_offset) {
+                    self.offset = OffsetEstimate::from_euler(Euler::new(e.roll, e.pitch, y));
+                }
+                self.north.clear();
+                self.east.clear();
+                self.rls = Rls::new(self.settings.rls_min_spread_m);
+                self.validity = ValidityCheck::default();
+            }
+            Window::None | Window::Spin => {}
+        }
+    }
+
+    /// Closes any open calibration window and returns the report.
+    pub fn finish(&mut self) -> CalibrationReport {
+        self.close_window();
+        self.window = Window::None;
+        self.report.applied = self.offset.euler;
+        self.report.clone()
+    }
+}

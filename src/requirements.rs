@@ -1,0 +1,175 @@
+//! Requirements R1–R4, evaluated per vehicle against the tolerances a scenario declares.
+//!
+//! * **R1 offsets recovered**: |estimate − truth| ≤ tolerance for roll, pitch (hover averaging) and
+//!   yaw (straight flight), the truth being the Euler angles of R_off, the rigid fit of the template
+//!   onto the mounted markers.
+//! * **R2 hover drift reduced**: while yawing on the spot, the maximum horizontal distance from the
+//!   commanded point with compensation is ≤ `max_m`, and ≤ `max_ratio` × the same run without
+//!   compensation. When the uncompensated run itself stays within `max_m` there is no drift to
+//!   reduce and the ratio is reported as not applicable (the absolute bound still applies).
+//! * **R3 least squares = recursive least squares**: |ψ̂_LS − ψ̂_RLS| and |X̂_E0,LS − X̂_E0,RLS|.
+//! * **R4 validity check**: equation (7) gives the verdict the scenario expects.
+
+use crate::engine::{RunOutput, VehicleRun};
+use crate::scenario::{RequirementsCfg, Verdict};
+use std::fmt::Write as _;
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Row {
+    pub vehicle: String,
+    pub id: &'static str,
+    pub what: String,
+    pub measured: String,
+    pub limit: String,
+    pub pass: bool,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Report {
+    pub rows: Vec<Row>,
+}
+
+impl Report {
+    pub fn passed(&self) -> bool {
+        self.rows.iter().all(|r| r.pass)
+    }
+
+    /// The human table.
+    pub fn table(&self) -> String {
+        let headers = ["vehicle", "req", "what", "measured", "limit", "result"];
+        let cells: Vec<[String; 6]> = self
+            .rows
+            .iter()
+            .map(|r| [r.vehicle.clone(), r.id.into(), r.what.clone(), r.measured.clone(), r.limit.clone(), if r.pass { "pass".into() } else { "FAIL".into() }])
+            .collect();
+        let mut w = headers.map(|h| h.chars().count());
+        for c in &cells {
+            for i in 0..6 {
+                w[i] = w[i].max(c[i].chars().count());
+            }
+        }
+        let line = |c: &[String]| {
+            let mut s = String::new();
+            for i in 0..6 {
+                let pad = w[i] - c[i].chars().count();
+                let _ = write!(s, "{}{}  ", c[i], " ".repeat(pad));
+            }
+            s.trim_end().to_string() + "\n"
+        };
+        let mut out = line(&headers.map(String::from));
+        out += &line(&w.map(|n| "-".repeat(n)));
+        for c in &cells {
+            out += &line(c);
+        }
+        out
+    }
+}
+
+fn deg(x: f64) -> String {
+    format!("{:.4}°", x.to_degrees())
+}
+
+/// Evaluates the declared requirements. `uncompensated` is the same scenario run with
+/// `calibration.apply = false` (needed for R2 only).
+pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&RunOutput>) -> Report {
+    let mut rows = Vec::new();
+    for (i, v) in run.vehicles.iter().enumerate() {
+        let row = |id: &'static str, what: String, measured: String, limit: String, pass: bool| Row { vehicle: v.name.clone(), id, what, measured, limit, pass };
+        if let Some(r) = &req.offsets {
+            let tol = r.roll_pitch_tol_deg.to_radians();
+            match v.calibration.roll_pitch {
+                Some((roll, pitch, _)) => {
+                    for (name, est, truth) in [("roll", roll, v.truth.euler.roll), ("pitch", pitch, v.truth.euler.pitch)] {
+                        let err = (est - truth).abs();
+                        rows.push(row("R1", format!("{name} offset |est − truth| (est {}, truth {})", deg(est), deg(truth)), deg(err), format!("≤ {}", deg(tol)), err <= tol));
+                    }
+                }
+                None => rows.push(row("R1", "roll/pitch offsets".into(), "not calibrated (no calibrate_roll_pitch phase)".into(), format!("≤ {}", deg(tol)), false)),
+            }
+            // the yaw row exists when the plan flies the yaw calibration (6)
+            let flies_yaw = v.phases.iter().any(|(_, name)| *name == "calibrate_yaw");
+            if let Some(yt) = r.yaw_tol_deg.filter(|_| flies_yaw) {
+                let tol = yt.to_radians();
+                match v.calibration.yaw_offset {
+                    Some(est) => {
+                        let err = crate::frames::wrap_pi(est - v.truth.euler.yaw).abs();
+                        rows.push(row("R1", format!("yaw offset |est − truth| (est {}, truth {})", deg(est), deg(v.truth.euler.yaw)), deg(err), format!("≤ {}", deg(tol)), err <= tol));
+                    }
+                    None => rows.push(row("R1", "yaw offset".into(), "no estimate (flight too short to fit)".into(), format!("≤ {}", deg(tol)), false)),
+                }
+            }
+        }
+        if let Some(r) = &req.hover_drift {
+            let comp = v.spin_max_deviation_m;
+            let unc = uncompensated.and_then(|u| u.vehicles.get(i)).and_then(|u| u.spin_max_deviation_m);
+            match (comp, unc) {
+                (Some(c), Some(u)) => {
+                    rows.push(row("R2", "max drift while yawing, compensated".into(), format!("{:.4} m", c), format!("≤ {:.4} m", r.max_m), c <= r.max_m));
+                    if u > r.max_m {
+                        let ratio = c / u;
+                        rows.push(row("R2", format!("drift compensated / uncompensated ({:.4} m)", u), format!("{:.2} %", 100.0 * ratio), format!("≤ {:.0} %", 100.0 * r.max_ratio), ratio <= r.max_ratio));
+                    } else {
+                        rows.push(row("R2", "drift compensated / uncompensated".into(), format!("n/a: uncompensated {:.4} m is already within the bound", u), format!("≤ {:.0} %", 100.0 * r.max_ratio), true));
+                    }
+                }
+                _ => rows.push(row("R2", "max drift while yawing".into(), "no yaw_spin phase".into(), format!("≤ {:.4} m", r.max_m), false)),
+            }
+        }
+        if let Some(r) = &req.ls_equals_rls {
+            match (&v.calibration.yaw_ls, &v.calibration.yaw_rls) {
+                (Some(ls), Some(rls)) => {
+                    let dpsi = (ls.psi_offset - rls.psi_offset).abs();
+                    let dx = (ls.x_e0 - rls.x_e0).abs();
+                    rows.push(row("R3", format!("|ψ_LS − ψ_RLS| over {} samples", ls.n), format!("{dpsi:.1e} rad"), format!("≤ {:.0e} rad", r.yaw_tol_rad), dpsi <= r.yaw_tol_rad));
+                    rows.push(row("R3", "|X_E0,LS − X_E0,RLS|".into(), format!("{dx:.1e} m"), format!("≤ {:.0e} m", r.x_e0_tol_m), dx <= r.x_e0_tol_m));
+                }
+                _ => rows.push(row("R3", "LS = RLS".into(), "no yaw fit (no calibrate_yaw phase, or too short)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad), false)),
+            }
+        }
+        if let Some(r) = &req.validity {
+            let want = r.expect == Verdict::Accept;
+            match &v.calibration.validity {
+                Some(val) => rows.push(row(
+                    "R4",
+                    format!("validity (7): mean ψ {}, mean φ {}", deg(val.mean_yaw), deg(val.mean_roll)),
+                    (if val.accepted { "accepted" } else { "rejected" }).into(),
+                    (if want { "accept" } else { "reject" }).into(),
+                    val.accepted == want,
+                )),
+                None => rows.push(row("R4", "validity (7)".into(), "no yaw flight".into(), (if want { "accept" } else { "reject" }).into(), false)),
+            }
+        }
+        if v.any_nan {
+            rows.push(row("sim", "state stays finite".into(), "NaN or infinity in the state".into(), "finite".into(), false));
+        }
+    }
+    Report { rows }
+}
+
+/// Does the scenario need the uncompensated counterpart run?
+pub fn needs_uncompensated(req: &RequirementsCfg) -> bool {
+    req.hover_drift.is_some()
+}
+
+/// Machine-readable summary of one vehicle (angles in degrees for humans, as the YAML).
+pub fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> serde_json::Value {
+    let c = &v.calibration;
+    serde_json::json!({
+        "name": v.name,
+        "true_offset_deg": v.truth.euler.to_degrees(),
+        "true_offset_misfit_mm": v.truth.rms_misfit_m * 1e3,
+        "roll_pitch_estimate_deg": c.roll_pitch.map(|(r, p, _)| [r.to_degrees(), p.to_degrees()]),
+        "roll_pitch_samples": c.roll_pitch.map(|x| x.2),
+        "yaw_offset_estimate_deg": c.yaw_offset.map(f64::to_degrees),
+        "yaw_ls": c.yaw_ls.map(|f| serde_json::json!({"psi_offset_deg": f.psi_offset.to_degrees(), "x_e0_m": f.x_e0, "n": f.n})),
+        "yaw_rls": c.yaw_rls.map(|f| serde_json::json!({"psi_offset_deg": f.psi_offset.to_degrees(), "x_e0_m": f.x_e0, "n": f.n})),
+        "validity": c.validity.map(|x| serde_json::json!({"mean_yaw_deg": x.mean_yaw.to_degrees(), "mean_roll_deg": x.mean_roll.to_degrees(), "accepted": x.accepted})),
+        "applied_offset_deg": c.applied.to_degrees(),
+        "spin_max_deviation_m": v.spin_max_deviation_m,
+        "spin_max_deviation_uncompensated_m": unc.and_then(|u| u.spin_max_deviation_m),
+        "hover_thrust_mean_n": v.hover_thrust_mean_n,
+        "hover_thrust_expected_n": v.params.hover_thrust(),
+        "link": v.link,
+        "final_position_m": v.final_pos,
+    })
+}
