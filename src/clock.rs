@@ -10,7 +10,7 @@
 //! let vicon = Rate::from_hz(200).unwrap();
 //! assert_eq!(vicon.period(), Nanos::from_millis(5));
 //! assert_eq!(vicon.ticks_of(physics), Some(5)); // a Vicon frame every 5 physics steps
-//! assert_eq!(Rate::from_hz(300).unwrap().ticks_of(physics), None); // 300 Hz does not divide 1 kHz
+//! assert_eq!(Rate::from_hz(400).unwrap().ticks_of(physics), None); // 400 Hz does not divide 1 kHz
 //! ```
 
 use serde::Serialize;

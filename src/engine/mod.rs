@@ -142,7 +142,7 @@ impl Arena {
             translation: Vec3::from_array(cam.translation_mm.map(|x| x * 1e-3)),
         };
         let loss = match s.link.loss {
-            LossCfg::Bernoulli { p } => LossModel::Bernoulli { p },
+            LossCfg::Bernoulli(p) => LossModel::Bernoulli { p },
             LossCfg::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => {
                 LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad }
             }

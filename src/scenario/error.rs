@@ -81,6 +81,42 @@ pub fn yaml_path_at(src: &str, line: u32, column: u32) -> String {
                 return join(&stack);
             }
         }
+        if lineno == line {
+            // inside a flow mapping on this line: follow `{ key: ...` up to the column
+            let start = text.len() - rest.len();
+            let upto: String = text.chars().take((column as usize).saturating_sub(1)).skip(start).collect();
+            let mut flow: Vec<String> = Vec::new();
+            let mut token = String::new();
+            let mut last_key: Option<String> = None;
+            for ch in upto.chars() {
+                match ch {
+                    '{' => {
+                        if let Some(k) = last_key.take() {
+                            flow.push(k);
+                        }
+                        token.clear();
+                    }
+                    '}' => {
+                        flow.pop();
+                        token.clear();
+                    }
+                    ':' => last_key = Some(token.trim().to_string()),
+                    ',' => {
+                        token.clear();
+                        last_key = None;
+                    }
+                    c => token.push(c),
+                }
+            }
+            if !flow.is_empty() || last_key.is_some() {
+                let mut segs = flow;
+                segs.extend(last_key);
+                stack.retain(|(ind, _)| *ind < indent);
+                let base = join(&stack);
+                let tail = segs.join(".");
+                return if base.is_empty() { tail } else { format!("{base}.{tail}") };
+            }
+        }
         if let Some((key, _)) = rest.split_once(':') {
             let key = key.trim().trim_matches('"').trim_matches('\'');
             stack.retain(|(ind, _)| *ind < indent);
@@ -157,6 +193,8 @@ mod tests {
         let y = "plan:\n  - takeoff: { altitude_m: 1 }\n  - hover:\n      duration_s: -1\n";
         assert_eq!(yaml_path_at(y, 4, 19), "plan[1].hover.duration_s");
         assert_eq!(yaml_path_at(y, 2, 3), "plan[0]");
+        assert_eq!(yaml_path_at(y, 2, 30), "plan[0].takeoff.altitude_m");
+        assert_eq!(yaml_path_at("seed: 1\nlink: { loss: { bernoulli: 1.5 } }\n", 2, 28), "link.loss.bernoulli");
         assert_eq!(yaml_path_at("plan:\n- hover: {}\n- land: {}\nnext: 1\n", 3, 1), "plan[1]");
     }
 

@@ -91,17 +91,15 @@ pub struct LinkCfg {
 }
 impl Default for LinkCfg {
     fn default() -> Self {
-        LinkCfg { latency_ms: 0.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli { p: 0.0 } }
+        LinkCfg { latency_ms: 0.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli(0.0) }
     }
 }
 
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum LossCfg {
-    Bernoulli {
-        #[serde(with = "ranges::probability")]
-        p: f64,
-    },
+    /// `bernoulli: 0.1`: each packet lost with this probability.
+    Bernoulli(#[serde(with = "ranges::probability")] f64),
     GilbertElliott {
         #[serde(with = "ranges::probability")]
         p_good_to_bad: f64,
@@ -452,7 +450,7 @@ impl Scenario {
                 file: file.to_path_buf(),
                 span,
                 path,
-                message: error::with_suggestion(message),
+                message: error::with_suggestion(message.split(", set DuplicateKeyPolicy").next().unwrap_or(message)),
                 snippet: snippet.to_string(),
             }
         })?;

@@ -1,0 +1,87 @@
+//! The command line as a user runs it: exit codes, outputs, and the errors for bad scenarios.
+
+use std::path::Path;
+use std::process::Command;
+
+fn flyarena(args: &[&str], dir: &Path) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("flyarena-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn run_passes_prints_the_table_and_writes_the_summary() {
+    let d = tmp("run");
+    let scen = super::root().join("scenarios/fig6-roll-pitch-offsets.yaml");
+    let (code, out, err) = flyarena(&["run", scen.to_str().unwrap(), "--out", "o"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("R2") && out.contains("PASS"), "{out}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("o/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
+    assert_eq!(json["passed"], true);
+    assert!(json["vehicles"][0]["spin_max_deviation_uncompensated_m"].as_f64().unwrap() > 0.3);
+    // no temporary files left behind
+    assert_eq!(std::fs::read_dir(d.join("o")).unwrap().count(), 1);
+}
+
+#[test]
+fn a_failed_requirement_exits_1() {
+    let d = tmp("fail");
+    let y = std::fs::read_to_string(super::root().join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap();
+    std::fs::write(d.join("s.yaml"), y.replace("roll_pitch_tol_deg: 0.1", "roll_pitch_tol_deg: 0.00001")).unwrap();
+    let (code, out, _) = flyarena(&["run", "s.yaml"], &d);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("FAIL"));
+}
+
+/// Bad scenarios: exit 2 with file:line:column, field path and what is allowed. The exact
+/// messages are pinned (insta) so that a regression in their quality is seen in review.
+#[test]
+fn bad_scenarios_exit_2_with_located_messages() {
+    let good = std::fs::read_to_string(super::root().join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap();
+    let cases: Vec<(&str, String)> = vec![
+        ("unknown-field", good.replace("rotation_deg: [3, 3, 0]", "rotaton_deg: [3, 3, 0]")),
+        ("out-of-range", good.replace("seed: 6", "seed: 6\nlink: { loss: { bernoulli: 1.5 } }")),
+        ("negative-duration", good.replace("duration_s: 20", "duration_s: -20")),
+        ("rate-not-dividing", good.replace("seed: 6", "seed: 6\nmocap: { rate_hz: 300 }")),
+        ("wrong-type", good.replace("altitude_m: 1.0", "altitude_m: high")),
+        ("duplicate-key", good.replace("seed: 6", "seed: 6\nseed: 7")),
+        ("collinear-markers", good.replace("      rotation_deg: [3, 3, 0]", "      template_m: [[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0]]")),
+        ("heavy-vehicle", good.replace("    markers:", "    model: { mass_kg: 3 }\n    markers:")),
+        ("duplicate-pattern", good.replace("  - name: x3d\n", "  - name: a\n    markers: { pattern: 2 }\n  - name: x3d\n    home_m: [2, 0]\n    markers: { pattern: 2 }\n  - name: c\n").replace("    markers:\n      rotation_deg: [3, 3, 0]\n", "")),
+        ("not-yaml", "name: [unclosed\n".into()),
+    ];
+    let d = tmp("bad");
+    let mut report = String::new();
+    for (name, yaml) in cases {
+        let file = format!("{name}.yaml");
+        std::fs::write(d.join(&file), yaml).unwrap();
+        let (code, out, err) = flyarena(&["check", &file], &d);
+        assert_eq!(code, 2, "{name}: {out}{err}");
+        let first = err.lines().next().unwrap_or("").to_string();
+        assert!(first.starts_with(&format!("error: {file}")), "{name}: {err}");
+        assert!(!err.contains("panicked"), "{name}: {err}");
+        report.push_str(&format!("{first}\n"));
+        let (code, _, _) = flyarena(&["run", &file], &d);
+        assert_eq!(code, 2, "{name}: run must refuse it too");
+    }
+    insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_snapshot!("bad-scenario-messages", report);
+    });
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let d = tmp("usage");
+    assert_eq!(flyarena(&[], &d).0, 2);
+    assert_eq!(flyarena(&["fly"], &d).0, 2);
+    assert_eq!(flyarena(&["run"], &d).0, 2);
+    assert_eq!(flyarena(&["run", "missing.yaml"], &d).0, 2);
+    assert_eq!(flyarena(&["run", "x.yaml", "--seed", "minus"], &d).0, 2);
+    assert_eq!(flyarena(&["--help"], &d).0, 0);
+}

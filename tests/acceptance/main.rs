@@ -1,0 +1,20 @@
+//! flyarena acceptance suite: one test binary (every file directly in tests/ would link the whole
+//! dependency tree again).
+
+mod cli;
+mod determinism;
+mod physics;
+mod props;
+mod scenarios;
+
+use flyarena::scenario::Scenario;
+use std::path::{Path, PathBuf};
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Parses an inline scenario (tests build variants without touching scenarios/).
+pub fn inline(yaml: &str) -> Scenario {
+    Scenario::parse(yaml, Path::new("inline.yaml")).unwrap_or_else(|e| panic!("{e}"))
+}

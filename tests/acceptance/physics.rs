@@ -1,0 +1,94 @@
+//! Closed-loop checks against expectations derived by hand, independent of the code.
+
+use super::inline;
+use flyarena::engine::{RunOptions, run};
+use flyarena::vehicle::params::GRAVITY;
+
+const HOVER: &str = r#"
+name: hover
+seed: 3
+vehicles:
+  - name: x3d
+    markers: { rotation_deg: [ROLL, 0, 0] }
+calibration: { apply: APPLY }
+controller: { k_x: [KX, KX, 1], k_v: [KV, KV, 3] }
+plan:
+  - takeoff: { altitude_m: 1.0, duration_s: 3 }
+  - calibrate_roll_pitch: { settle_s: 8, average_s: 6 }
+"#;
+
+fn hover(roll_deg: f64, apply: bool, kx: f64, kv: f64) -> flyarena::engine::RunOutput {
+    let y = HOVER.replace("ROLL", &roll_deg.to_string()).replace("APPLY", &apply.to_string()).replace("KX", &kx.to_string()).replace("KV", &kv.to_string());
+    run(&inline(&y), RunOptions::default())
+}
+
+/// In a steady hover the vertical acceleration averages zero, so the thrust the radio delivers
+/// averages m·g (0.68 kg · 9.81 m/s² = 6.671 N), whatever the 0.094 N thrust quantization.
+#[test]
+fn hover_thrust_equals_weight() {
+    let out = hover(0.0, true, 1.0, 2.0);
+    let v = &out.vehicles[0];
+    let mg = 0.68 * GRAVITY;
+    let t = v.hover_thrust_mean_n.unwrap();
+    assert!((t - mg).abs() / mg < 0.005, "mean hover thrust {t} N vs m·g {mg} N");
+}
+
+/// An uncompensated roll offset δ makes the attitude loop hold the *measured* roll at φ_com, so the
+/// true roll is φ_com − δ; the vehicle is at rest only where φ_com = δ, i.e. v̇_com = g·sin δ, i.e.
+/// a lateral position error Δy = g·sin δ/(K_V·K_X) ≈ g·δ/(K_V·K_X), in the body y direction (East
+/// at heading 0): the vehicle sits West of its reference by that distance.
+#[test]
+fn roll_offset_gives_the_steady_error_g_delta_over_kv_kx() {
+    for &(delta_deg, kx, kv) in &[(3.0, 1.0, 2.0), (2.0, 1.5, 2.5)] {
+        let out = hover(delta_deg, false, kx, kv);
+        let tr = &out.vehicles[0].trace;
+        let tail = &tr[tr.len() - 800..]; // the last 4 s of the hover
+        let dy: f64 = tail.iter().map(|s| s.reference.y() - s.pos.y()).sum::<f64>() / tail.len() as f64;
+        let dx: f64 = tail.iter().map(|s| s.reference.x() - s.pos.x()).sum::<f64>() / tail.len() as f64;
+        let expected = GRAVITY * f64::to_radians(delta_deg) / (kv * kx);
+        assert!((dy - expected).abs() / expected < 0.05, "δ={delta_deg}°: Δy {dy} m vs g·δ/(K_V·K_X) = {expected} m");
+        assert!(dx.abs() < 0.05 * expected, "no error along x: {dx}");
+    }
+}
+
+/// Hover averaging (Sec. IV.A) of the same vehicle recovers the 3° offset: 6 s at 200 Hz.
+#[test]
+fn hover_average_recovers_the_roll_offset() {
+    let out = hover(3.0, true, 1.0, 2.0);
+    let (roll, pitch, n) = out.vehicles[0].calibration.roll_pitch.unwrap();
+    assert!(n >= 1190, "{n} samples averaged");
+    assert!((roll.to_degrees() - 3.0).abs() < 0.02, "roll estimate {}°", roll.to_degrees());
+    assert!(pitch.to_degrees().abs() < 0.02, "pitch estimate {}°", pitch.to_degrees());
+}
+
+/// Yaw observability (README): with the attitude loop closed on the mocap, the thrust axis is
+/// tilted in the mocap frame, and a marker rotation about the body z axis leaves that axis
+/// unchanged, so the straight flight (6) goes along *measured* North to first order and the fit
+/// (8)–(9) sees only a small part of a yaw offset. Pinned here so that a change in this physics is
+/// noticed: with 4° of marker yaw the estimate stays below half of it, and with none it is ~0.
+#[test]
+fn straight_flight_is_nearly_blind_to_a_marker_yaw_offset() {
+    let y = r#"
+name: yaw-blind
+seed: SEED
+vehicles:
+  - name: x3d
+    home_m: [-3, 0]
+    markers: { rotation_deg: [0, 0, YAW] }
+plan:
+  - takeoff: { altitude_m: 1.0, duration_s: 3 }
+  - calibrate_roll_pitch: { settle_s: 6, average_s: 5 }
+  - calibrate_yaw: { settle_s: 3, distance_m: 6, speed_m_s: 0.75 }
+"#;
+    for seed in 1..=3 {
+        let est = |yaw: f64| {
+            let s = inline(&y.replace("SEED", &seed.to_string()).replace("YAW", &yaw.to_string()));
+            run(&s, RunOptions { trace: false, apply_calibration: None }).vehicles[0].calibration.yaw_offset.unwrap().to_degrees()
+        };
+        let with = est(4.0);
+        let without = est(0.0);
+        eprintln!("seed {seed}: estimate {with:.3}° with 4° of marker yaw, {without:.3}° with none");
+        // same seed, same noise: the difference is the method's response to the offset
+        assert!((with - without).abs() < 2.0, "seed {seed}: responds to {:.2}° of the 4°", with - without);
+    }
+}

@@ -1,0 +1,84 @@
+//! Property tests: RLS = batch LS, the rigid fit recovers any pose, no NaN or panic for scenarios
+//! inside the documented ranges.
+
+use flyarena::calibrate::{Rls, batch_ls};
+use flyarena::engine::{RunOptions, run};
+use flyarena::frames::{Body, Euler, Nav, Rot, Vec3};
+use flyarena::mocap::{builtin_pattern, rigid_fit};
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// RLS initialised from the information matrix reproduces (9) to rounding on random lines.
+    #[test]
+    fn rls_equals_batch_ls(slope in -1.0f64..1.0, x_e0 in -5.0f64..5.0, start in -5.0f64..5.0,
+                           step in 0.001f64..0.02, n in 50usize..3000, noise in 0.0f64..0.01, seed in 0u64..1000) {
+        let mut r = flyarena::rng::Stream::new(seed, flyarena::rng::Component::MocapNoise, 0);
+        let north: Vec<f64> = (0..n).map(|k| start + k as f64 * step + noise * r.normal()).collect();
+        let east: Vec<f64> = north.iter().map(|x| x_e0 + slope * x + noise * r.normal()).collect();
+        let ls = batch_ls(&north, &east).unwrap();
+        let mut rls = Rls::new(0.2);
+        for (x, y) in north.iter().zip(&east) { rls.update(*x, *y); }
+        if let Some(est) = rls.estimate() {
+            prop_assert!((est.psi_offset - ls.psi_offset).abs() <= 1e-9, "{} vs {}", est.psi_offset, ls.psi_offset);
+            prop_assert!((est.x_e0 - ls.x_e0).abs() <= 1e-9, "{} vs {}", est.x_e0, ls.x_e0);
+        } else {
+            // the recursion starts once X_N has spread 0.2 m; shorter tracks give no estimate
+            prop_assert!(north.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - north.iter().cloned().fold(f64::INFINITY, f64::min) < 0.2);
+        }
+    }
+
+    /// The rigid-body fit recovers any pose from noiseless markers, with any one marker lost.
+    #[test]
+    fn rigid_fit_recovers_any_pose(r in -3.1f64..3.1, p in -1.5f64..1.5, y in -3.1f64..3.1,
+                                   tx in -10.0f64..10.0, ty in -10.0f64..10.0, tz in -10.0f64..10.0,
+                                   pattern in 0usize..8, lost in 0usize..5) {
+        let m: Vec<Vec3<Body>> = builtin_pattern(pattern).iter().map(|v| v.assume_same_as()).collect();
+        let rot: Rot<Body, Nav> = Rot::from_euler(Euler::new(r, p, y));
+        let t = Vec3::<Nav>::new(tx, ty, tz);
+        let obs: Vec<Vec3<Nav>> = m.iter().map(|v| rot.apply(*v) + t).collect();
+        let mut vis = [true; 4];
+        if lost < 4 { vis[lost] = false; }
+        let fit = rigid_fit(&m, &obs, &vis).unwrap();
+        prop_assert!((fit.rotation.inverse() * rot).angle() < 1e-9);
+        prop_assert!((fit.translation - t).norm() < 1e-9);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(12))]
+
+    /// Any scenario inside the documented ranges runs without NaN or panic (short flights).
+    #[test]
+    fn no_nan_or_panic_inside_documented_ranges(
+        seed in 0u64..u64::MAX, noise in 0.0f64..20.0, lat in 0.0f64..100.0, jit in 0.0f64..50.0,
+        loss in 0.0f64..0.5, rot in prop::array::uniform3(-30.0f64..30.0), mass in 0.3f64..1.5,
+        alt in 0.2f64..3.0, spin in -720.0f64..720.0, rate in prop::sample::select(vec![50u32, 100, 200, 250, 500]),
+        euler_comp in any::<bool>(), gyro_noise in 0.0f64..5.0, wind in prop::array::uniform3(-1.0f64..1.0)) {
+        let y = format!(r#"
+name: fuzz
+seed: {seed}
+mocap: {{ rate_hz: {rate}, latency_ms: {lat}, noise_mm: {noise} }}
+link: {{ latency_ms: {lat}, jitter_ms: {jit}, loss: {{ bernoulli: {loss} }} }}
+controller: {{ compensation: {comp} }}
+vehicles:
+  - name: v
+    model: {{ mass_kg: {mass} }}
+    markers: {{ rotation_deg: [{r0}, {r1}, {r2}] }}
+    imu: {{ gyro_noise_deg_s: {gyro_noise} }}
+    disturbance: {{ force_n: [{w0}, {w1}, {w2}] }}
+plan:
+  - takeoff: {{ altitude_m: {alt}, duration_s: 2 }}
+  - calibrate_roll_pitch: {{ settle_s: 1, average_s: 1 }}
+  - yaw_spin: {{ settle_s: 0.5, angle_deg: {spin}, duration_s: 2 }}
+  - calibrate_yaw: {{ settle_s: 0.5, distance_m: 1, speed_m_s: 0.5 }}
+  - land: {{ duration_s: 1 }}
+"#, comp = if euler_comp { "euler" } else { "rotation" }, r0 = rot[0], r1 = rot[1], r2 = rot[2], w0 = wind[0], w1 = wind[1], w2 = wind[2]);
+        let s = super::inline(&y);
+        let out = run(&s, RunOptions { trace: true, apply_calibration: None });
+        let v = &out.vehicles[0];
+        prop_assert!(!v.any_nan);
+        prop_assert!(v.trace.iter().all(|t| t.pos.is_finite() && t.thrust_n.is_finite()));
+    }
+}
