@@ -74,9 +74,9 @@ impl Default for MocapCfg {
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CameraErrorCfg {
-    #[serde(with = "ranges::small_angle_deg::arr3")]
+    #[serde(with = "ranges::small_angle_deg::arr")]
     pub rotation_deg: [f64; 3],
-    #[serde(with = "ranges::offset_mm::arr3")]
+    #[serde(with = "ranges::offset_mm::arr")]
     pub translation_mm: [f64; 3],
 }
 
@@ -137,11 +137,11 @@ impl Default for RadioCfg {
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ControllerCfg {
-    #[serde(with = "ranges::gain_per_s::arr3")]
+    #[serde(with = "ranges::gain_per_s::arr")]
     pub k_x: [f64; 3],
-    #[serde(with = "ranges::gain_per_s::arr3")]
+    #[serde(with = "ranges::gain_per_s::arr")]
     pub k_v: [f64; 3],
-    #[serde(with = "ranges::gain_per_s::arr3")]
+    #[serde(with = "ranges::gain_per_s::arr")]
     pub k_att: [f64; 3],
     #[serde(with = "ranges::tilt_deg")]
     pub max_tilt_deg: f64,
@@ -185,7 +185,7 @@ impl Default for CalibrationCfg {
 pub struct VehicleCfg {
     pub name: String,
     /// Home on the floor, North and East (m).
-    #[serde(default, with = "ranges::position_m::arr2")]
+    #[serde(default, with = "ranges::position_m::arr")]
     pub home_m: [f64; 2],
     #[serde(default, with = "ranges::yaw_angle_deg")]
     pub yaw0_deg: f64,
@@ -235,7 +235,7 @@ pub struct MarkersCfg {
     /// Explicit template (m, body FRD), instead of a built-in pattern.
     pub template_m: Option<Spanned<Vec<[f64; 3]>>>,
     /// Whole-frame rotation of the mounted markers about the body origin (deg: roll, pitch, yaw).
-    #[serde(with = "ranges::small_angle_deg::arr3")]
+    #[serde(with = "ranges::small_angle_deg::arr")]
     pub rotation_deg: [f64; 3],
     /// Displacement of each marker (mm, body frame), one entry per marker.
     pub displacement_mm: Option<Spanned<Vec<[f64; 3]>>>,
@@ -259,9 +259,9 @@ pub struct ImuCfg {
     pub gyro_noise_deg_s: f64,
     #[serde(with = "ranges::accel_noise")]
     pub accel_noise_m_s2: f64,
-    #[serde(with = "ranges::gyro_bias_deg_s::arr3")]
+    #[serde(with = "ranges::gyro_bias_deg_s::arr")]
     pub gyro_bias_deg_s: [f64; 3],
-    #[serde(with = "ranges::accel_m_s2_signed::arr3")]
+    #[serde(with = "ranges::accel_m_s2_signed::arr")]
     pub accel_bias_m_s2: [f64; 3],
 }
 
@@ -269,10 +269,10 @@ pub struct ImuCfg {
 #[serde(deny_unknown_fields, default)]
 pub struct DisturbanceCfg {
     /// Constant force in the true NED frame (N), e.g. a steady wind.
-    #[serde(with = "ranges::force_n::arr3")]
+    #[serde(with = "ranges::force_n::arr")]
     pub force_n: [f64; 3],
     /// Constant torque in the body frame (N·m), e.g. a bent rotor.
-    #[serde(with = "ranges::torque_nm::arr3")]
+    #[serde(with = "ranges::torque_nm::arr")]
     pub torque_nm: [f64; 3],
 }
 
@@ -314,7 +314,7 @@ pub enum PhaseCfg {
         duration_s: f64,
     },
     Waypoint {
-        #[serde(with = "ranges::position_m::arr3")]
+        #[serde(with = "ranges::position_m::arr")]
         pos_m: [f64; 3],
         #[serde(with = "ranges::speed_m_s")]
         speed_m_s: f64,

@@ -45,24 +45,20 @@ macro_rules! ranged {
                             .map_err(D::Error::custom)
                     }
                 }
-                pub mod arr2 {
+                /// Fixed-size arrays (`[f64; 2]`, `[f64; 3]`): every element in range.
+                pub mod arr {
                     use super::*;
-                    pub fn serialize<S: Serializer>(v: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
+                    pub fn serialize<S: Serializer, const N: usize>(v: &[f64; N], s: S) -> Result<S::Ok, S::Error>
+                    where
+                        [f64; N]: Serialize,
+                    {
                         v.serialize(s)
                     }
-                    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
-                        let a = <[f64; 2]>::deserialize(d)?;
-                        for v in a { check(v, $lo, $hi, $open, $unit).map_err(D::Error::custom)?; }
-                        Ok(a)
-                    }
-                }
-                pub mod arr3 {
-                    use super::*;
-                    pub fn serialize<S: Serializer>(v: &[f64; 3], s: S) -> Result<S::Ok, S::Error> {
-                        v.serialize(s)
-                    }
-                    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
-                        let a = <[f64; 3]>::deserialize(d)?;
+                    pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error>
+                    where
+                        [f64; N]: Deserialize<'de>,
+                    {
+                        let a = <[f64; N]>::deserialize(d)?;
                         for v in a { check(v, $lo, $hi, $open, $unit).map_err(D::Error::custom)?; }
                         Ok(a)
                     }
