@@ -281,6 +281,18 @@ impl<A: Frame, B: Frame> Rot<A, B> {
     }
 }
 
+/// Rotations of a frame relative to itself at another time (attitude increments).
+impl<F: Frame> Rot<F, F> {
+    /// exp(θ): the rotation by |θ| about θ/|θ| (θ in rad).
+    pub fn from_rotation_vector(theta: Vec3<F>) -> Self {
+        Self::from_quaternion(UnitQuaternion::from_scaled_axis(theta.v))
+    }
+    /// log(R): axis times angle (rad), angle in [0, π].
+    pub fn rotation_vector(&self) -> Vec3<F> {
+        Vec3::from_raw(self.q.scaled_axis())
+    }
+}
+
 /// Composition: `Rot<B, C> * Rot<A, B> = Rot<A, C>`.
 impl<A: Frame, B: Frame, C: Frame> Mul<Rot<A, B>> for Rot<B, C> {
     type Output = Rot<A, C>;

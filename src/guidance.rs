@@ -24,6 +24,12 @@ pub enum Phase {
     CalibrateYaw { settle_s: f64, distance_m: f64, speed_m_s: f64, accel_m_s2: f64 },
     /// Hover `settle_s`, then turn on the spot by `angle_rad` in `duration_s`.
     YawSpin { settle_s: f64, angle_rad: f64, duration_s: f64 },
+    /// Hover `settle_s`, then fly `turns` horizontal circles of radius `radius_m` and period
+    /// `period_s` about the current point (spiralling out during the first turn and back in
+    /// during the last), at constant heading. The centripetal acceleration R·(2π/P)² tilts the
+    /// vehicle by atan(R·(2π/P)²/g), and the tilt turns with the circle, so the body rotates
+    /// about x and y at ≈ tilt·2π/P: the excitation the gyro alignment needs ([`crate::calibrate::gyro`]).
+    CalibrateGyro { settle_s: f64, radius_m: f64, period_s: f64, turns: f64 },
     /// Fly in a straight line to `pos_m` (relative to home) and hold `hold_s`.
     Waypoint { pos_m: [f64; 3], speed_m_s: f64, accel_m_s2: f64, hold_s: f64 },
     /// Descend to the floor in `duration_s`, then motors off.
@@ -75,6 +81,7 @@ impl Phase {
             Phase::CalibrateRollPitch { .. } => "calibrate_roll_pitch",
             Phase::CalibrateYaw { .. } => "calibrate_yaw",
             Phase::YawSpin { .. } => "yaw_spin",
+            Phase::CalibrateGyro { .. } => "calibrate_gyro",
             Phase::Waypoint { .. } => "waypoint",
             Phase::Land { .. } => "land",
         }
@@ -104,6 +111,8 @@ pub enum Window {
     YawFlight,
     /// Turning on the spot (yaw_spin after settling).
     Spin,
+    /// Circling on the spot for the gyro alignment (calibrate_gyro after settling).
+    GyroExcite,
 }
 
 #[derive(Clone, Debug)]
@@ -131,6 +140,7 @@ impl Plan {
                 Phase::Land { duration_s } => (Vec3::new(pos.x(), pos.y(), home.z()), yaw, duration_s),
                 Phase::Hover { duration_s } => (pos, yaw, duration_s),
                 Phase::CalibrateRollPitch { settle_s, average_s } => (pos, yaw, settle_s + average_s),
+                Phase::CalibrateGyro { settle_s, period_s, turns, .. } => (pos, yaw, settle_s + period_s * turns),
             };
             let start = Nanos::from_secs_f64(t);
             t += dur;
@@ -207,6 +217,14 @@ impl Plan {
                     (Reference { yaw_rate: rate, ..hold(s.from, yaw, false) }, Window::Spin)
                 }
             }
+            Phase::CalibrateGyro { settle_s, radius_m, period_s, turns } => {
+                if tau < settle_s {
+                    return (hold(s.from, s.from_yaw, false), Window::None);
+                }
+                let (p, v, a) = circle(radius_m, period_s, turns, tau - settle_s);
+                let r = Reference { pos: s.from + p, vel: v, acc: a, ..hold(s.from, s.from_yaw, false) };
+                (r, Window::GyroExcite)
+            }
             Phase::Waypoint { speed_m_s, accel_m_s2, .. } => {
                 let delta = s.to - s.from;
                 let dist = delta.norm();
@@ -220,6 +238,35 @@ impl Plan {
             Phase::Hover { .. } | Phase::Takeoff { .. } | Phase::Land { .. } => (hold(s.to, s.to_yaw, false), Window::None),
         }
     }
+}
+
+/// Offset, velocity and acceleration of the calibrate_gyro circle at time τ into it:
+/// p = R·e(τ)·u(τ) with u = (cos ωτ, sin ωτ, 0), ω = 2π/P, and the envelope e = s(τ/P)·s((T−τ)/P),
+/// s(x) = 6x⁵ − 15x⁴ + 10x³ on [0, 1] (smootherstep: s', s'' vanish at 0 and 1), T = turns·P, so
+/// position, velocity and acceleration are continuous everywhere. v = R(e'u + eωu⊥), a = R(e''u + 2e'ωu⊥ − eω²u), u⊥ = (−sin ωτ, cos ωτ, 0).
+fn circle(radius: f64, period: f64, turns: f64, tau: f64) -> (Vec3<MocapNav>, Vec3<MocapNav>, Vec3<MocapNav>) {
+    let total = period * turns;
+    let smooth = |x: f64| {
+        let x = x.clamp(0.0, 1.0);
+        let inside = x > 0.0 && x < 1.0;
+        let (x2, x3) = (x * x, x * x * x);
+        let d1 = if inside { 30.0 * x2 * x2 - 60.0 * x3 + 30.0 * x2 } else { 0.0 };
+        let d2 = if inside { 120.0 * x3 - 180.0 * x2 + 60.0 * x } else { 0.0 };
+        (6.0 * x3 * x2 - 15.0 * x2 * x2 + 10.0 * x3, d1, d2)
+    };
+    let (f, f1, f2) = smooth(tau / period);
+    let (g, g1, g2) = smooth((total - tau) / period);
+    let (f1, f2) = (f1 / period, f2 / (period * period));
+    let (g1, g2) = (-g1 / period, g2 / (period * period));
+    let (e, e1, e2) = (f * g, f1 * g + f * g1, f2 * g + 2.0 * f1 * g1 + f * g2);
+    let w = 2.0 * std::f64::consts::PI / period;
+    let (sn, cs) = (w * tau).sin_cos();
+    let u = Vec3::new(cs, sn, 0.0);
+    let up = Vec3::new(-sn, cs, 0.0);
+    let p = u * (radius * e);
+    let v = (u * e1 + up * (e * w)) * radius;
+    let a = (u * (e2 - e * w * w) + up * (2.0 * e1 * w)) * radius;
+    (p, v, a)
 }
 
 /// Cruise speed that makes a trapezoid of acceleration `a` cover `dist` in `duration` (s).
@@ -246,6 +293,29 @@ mod tests {
             let integral: f64 = (0..n).map(|k| trapezoid(d, v, a, (k as f64 + 0.5) * dt).1 * dt).sum();
             assert!((integral - d).abs() < 1e-6, "{integral} vs {d}");
         }
+    }
+
+    /// The circle's velocity and acceleration are the derivatives of its position (central
+    /// differences), and it starts and ends at the centre at rest.
+    #[test]
+    fn gyro_circle_feed_forward_is_consistent() {
+        let (r, p, turns) = (0.25, 2.0, 3.0);
+        let h = 1e-5;
+        for k in 1..600 {
+            let t = k as f64 * 0.01;
+            let (x0, v0, a0) = circle(r, p, turns, t);
+            let (xm, vm, _) = circle(r, p, turns, t - h);
+            let (xp, vp, _) = circle(r, p, turns, t + h);
+            assert!(((xp - xm) * (0.5 / h) - v0).norm() < 1e-6, "v at {t}");
+            assert!(((vp - vm) * (0.5 / h) - a0).norm() < 1e-4, "a at {t}");
+            assert!(x0.norm() <= r + 1e-12);
+        }
+        for t in [0.0, p * turns] {
+            let (x, v, a) = circle(r, p, turns, t);
+            assert!(x.norm() < 1e-12 && v.norm() < 1e-12 && a.norm() < 1e-9, "{t}");
+        }
+        // full radius in the middle turn
+        assert!((circle(r, p, turns, 3.0).0.norm() - r).abs() < 1e-12);
     }
 
     #[test]

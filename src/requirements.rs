@@ -86,24 +86,34 @@ pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&R
                 }
                 None => rows.push(row("R1", "roll/pitch offsets".into(), "not calibrated (no calibrate_roll_pitch phase)".into(), format!("≤ {}", deg(tol)), false)),
             }
-            // the yaw row exists when the plan flies the yaw calibration (6); `yaw_tol_deg: null`
-            // shows the estimate without asserting it (see README: yaw observability)
-            let flies_yaw = v.phases.iter().any(|(_, name)| *name == "calibrate_yaw");
-            if flies_yaw {
+            // a yaw row exists for each yaw method the plan flies
+            let flies = |phase: &str| v.phases.iter().any(|(_, name)| *name == phase);
+            let truth = v.truth.euler.yaw;
+            if flies("calibrate_yaw") {
                 let est = v.calibration.yaw_offset;
-                let truth = v.truth.euler.yaw;
                 let what = match est {
-                    Some(e) => format!("yaw offset |est − truth| (est {}, truth {})", deg(e), deg(truth)),
-                    None => "yaw offset".into(),
+                    Some(e) => format!("yaw offset, straight flight (8)–(9) (est {}, truth {})", deg(e), deg(truth)),
+                    None => "yaw offset, straight flight (8)–(9)".into(),
                 };
                 let err = est.map(|e| crate::frames::wrap_pi(e - truth).abs());
                 let measured = err.map_or("no estimate (flight too short to fit)".into(), deg);
-                match r.yaw_tol_deg {
+                match r.yaw_straight_flight_tol_deg {
                     Some(t) => {
                         let tol = t.to_radians();
                         rows.push(row("R1", what, measured, format!("≤ {}", deg(tol)), err.is_some_and(|e| e <= tol)));
                     }
-                    None => rows.push(row("R1", what, measured, "not asserted (yaw_tol_deg: null)".into(), true)),
+                    None => rows.push(row("R1", what, measured, "not asserted: unobservable (README)".into(), true)),
+                }
+            }
+            if flies("calibrate_gyro") {
+                let tol = r.yaw_tol_deg.to_radians();
+                match &v.calibration.gyro {
+                    Some(g) => {
+                        let err = crate::frames::wrap_pi(g.euler.yaw - truth).abs();
+                        let what = format!("yaw offset, gyro telemetry (est {} ± {} 1σ, truth {})", deg(g.euler.yaw), deg(g.sigma[2]), deg(truth));
+                        rows.push(row("R1", what, deg(err), format!("≤ {}", deg(tol)), err <= tol));
+                    }
+                    None => rows.push(row("R1", "yaw offset, gyro telemetry".into(), "no estimate (rotation about two axes needed)".into(), format!("≤ {}", deg(tol)), false)),
                 }
             }
         }
@@ -172,12 +182,20 @@ pub fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> serde_json::
         "yaw_ls": c.yaw_ls.map(|f| serde_json::json!({"psi_offset_deg": f.psi_offset.to_degrees(), "x_e0_m": f.x_e0, "n": f.n})),
         "yaw_rls": c.yaw_rls.map(|f| serde_json::json!({"psi_offset_deg": f.psi_offset.to_degrees(), "x_e0_m": f.x_e0, "n": f.n})),
         "validity": c.validity.map(|x| serde_json::json!({"mean_yaw_deg": x.mean_yaw.to_degrees(), "mean_roll_deg": x.mean_roll.to_degrees(), "accepted": x.accepted})),
+        "gyro_alignment": c.gyro.map(|g| serde_json::json!({
+            "offset_deg": g.euler.to_degrees(),
+            "sigma_deg": g.sigma.map(f64::to_degrees),
+            "gyro_bias_deg_s": g.gyro_bias.map(f64::to_degrees),
+            "rms_residual_deg": g.rms_residual.to_degrees(),
+            "windows": g.windows,
+        })),
         "applied_offset_deg": c.applied.to_degrees(),
         "spin_max_deviation_m": v.spin_max_deviation_m,
         "spin_max_deviation_uncompensated_m": unc.and_then(|u| u.spin_max_deviation_m),
         "hover_thrust_mean_n": v.hover_thrust_mean_n,
         "hover_thrust_expected_n": v.params.hover_thrust(),
         "link": v.link,
+        "telemetry_link": v.telemetry,
         "final_position_m": v.final_pos,
     })
 }

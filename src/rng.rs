@@ -24,6 +24,8 @@ pub enum Component {
     LinkLoss = 2,
     LinkJitter = 3,
     ImuNoise = 4,
+    TelemetryLoss = 5,
+    TelemetryJitter = 6,
 }
 
 fn splitmix64(x: &mut u64) -> u64 {

@@ -5,10 +5,11 @@
 //! 1. every 5th tick (200 Hz): the Vicon system captures the true state; the frame is handed to the
 //!    link `mocap.latency` later (processing), and arrives after the link's own latency/jitter, or never;
 //! 2. every packet that has arrived by t goes to the vehicle's [`Station`] (estimation, guidance,
-//!    calibration, control), in arrival order;
+//!    calibration, control), in arrival order, then every telemetry frame that has arrived;
 //! 3. every 20th tick (50 Hz): the PPM radio samples the station's latest command;
 //! 4. the vehicle's receiver holds the last decoded frame; the IMU is sampled; the onboard rate
-//!    loop computes rotor commands; the rigid body is integrated over 1 ms (RK4).
+//!    loop computes rotor commands; every 10th tick (100 Hz) the mean gyro reading goes back over
+//!    the telemetry link; the rigid body is integrated over 1 ms (RK4).
 //!
 //! Random draws come from one stream per component and vehicle ([`crate::rng`]), so a run is a
 //! pure function of the scenario and its seed: bit-identical trajectories whatever the thread
@@ -22,12 +23,12 @@ use crate::clock::{Clock, Nanos, Rate};
 use crate::control::Gains;
 use crate::frames::{Euler, MocapNav, Nav, Rot, Vec3};
 use crate::guidance::{Phase, Plan, Window};
-use crate::link::{Link, LinkParams, LinkStats, LossModel};
+use crate::link::{Link, LinkParams, LinkStats};
 use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, Occlusion, TrueOffset};
 use crate::radio::{PpmFrame, Radio, RadioParams};
 use crate::rng::{Component, Stream};
-use crate::scenario::{LossCfg, PHYSICS_HZ, Scenario};
-use crate::vehicle::{Disturbance, Imu, ImuParams, RateLoop, VehicleParams, X3d};
+use crate::scenario::{PHYSICS_HZ, Scenario};
+use crate::vehicle::{Disturbance, Downlink, Imu, ImuParams, RateLoop, TelemetryFrame, VehicleParams, X3d};
 
 /// Options that are not part of the scenario.
 #[derive(Clone, Copy, Debug)]
@@ -74,6 +75,8 @@ pub struct VehicleRun {
     pub camera: CameraError,
     pub calibration: CalibrationReport,
     pub link: LinkStats,
+    /// The body-rate telemetry link (vehicle → station).
+    pub telemetry: LinkStats,
     /// Max horizontal distance from the commanded point while spinning on the spot (m).
     pub spin_max_deviation_m: Option<f64>,
     /// Mean commanded (decoded) thrust while hovering in calibrate_roll_pitch (N).
@@ -101,6 +104,8 @@ struct Vehicle {
     mocap: Mocap,
     mocap_latency: Nanos,
     link: Link<MocapFrame>,
+    downlink: Downlink,
+    telemetry: Link<TelemetryFrame>,
     radio: Radio,
     station: Station,
     truth: TrueOffset,
@@ -118,7 +123,7 @@ pub struct Arena {
     end_tick: u64,
     mocap_every: u64,
     radio_every: u64,
-    dt: f64,
+    dt: Nanos,
     trace: bool,
     vehicles: Vec<Vehicle>,
     name: String,
@@ -141,13 +146,10 @@ impl Arena {
             rotation: Rot::from_euler(Euler::from_degrees(cam.rotation_deg[0], cam.rotation_deg[1], cam.rotation_deg[2])),
             translation: Vec3::from_array(cam.translation_mm.map(|x| x * 1e-3)),
         };
-        let loss = match s.link.loss {
-            LossCfg::Bernoulli(p) => LossModel::Bernoulli { p },
-            LossCfg::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => {
-                LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad }
-            }
-        };
-        let link = LinkParams { latency: ms(s.link.latency_ms), jitter: ms(s.link.jitter_ms), loss };
+        let link = LinkParams { latency: ms(s.link.latency_ms), jitter: ms(s.link.jitter_ms), loss: s.link.loss.model() };
+        let tm = &s.telemetry;
+        let telemetry = LinkParams { latency: ms(tm.latency_ms), jitter: ms(tm.jitter_ms), loss: tm.loss.model() };
+        let telemetry_every = rate(tm.rate_hz.value).ticks_of(physics).expect("validated") as u32;
         let phases: Vec<Phase> = s.plan.value.iter().map(|p| p.to_phase()).collect();
         let c = &s.controller;
         let cal = &s.calibration;
@@ -199,6 +201,8 @@ impl Arena {
                     eps_yaw: cal.validity_max_mean_yaw_deg.to_radians(),
                     eps_roll: cal.validity_max_mean_roll_deg.to_radians(),
                     rls_min_spread_m: cal.rls_min_spread_m,
+                    mocap_period: rate(s.mocap.rate_hz.value).period(),
+                    telemetry_period: rate(tm.rate_hz.value).period(),
                 };
                 let station = Station::new(plan, gains, settings, c.velocity_cutoff_hz, opts.trace);
                 let imu = ImuParams {
@@ -217,6 +221,8 @@ impl Arena {
                     mocap,
                     mocap_latency: ms(s.mocap.latency_ms),
                     link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)),
+                    downlink: Downlink::new(telemetry_every),
+                    telemetry: Link::new(telemetry, Stream::new(s.seed, Component::TelemetryLoss, i), Stream::new(s.seed, Component::TelemetryJitter, i)),
                     radio,
                     station,
                     truth,
@@ -235,7 +241,7 @@ impl Arena {
             end_tick: (end.0 / physics.period().0) as u64,
             mocap_every,
             radio_every,
-            dt: physics.period().as_secs_f64(),
+            dt: physics.period(),
             trace: opts.trace,
             vehicles,
             name: s.name.clone(),
@@ -286,6 +292,7 @@ impl Arena {
                     camera: *v.mocap.camera(),
                     calibration,
                     link: *v.link.stats(),
+                    telemetry: *v.telemetry.stats(),
                     spin_max_deviation_m: v.spin_max,
                     hover_thrust_mean_n: (v.thrust_n > 0).then(|| v.thrust_sum / v.thrust_n as f64),
                     rls_trace: v.station.rls_trace().to_vec(),
@@ -301,13 +308,16 @@ impl Arena {
 }
 
 impl Vehicle {
-    fn step(&mut self, t: Nanos, mocap_tick: bool, radio_tick: bool, dt: f64, trace: bool) {
+    fn step(&mut self, t: Nanos, mocap_tick: bool, radio_tick: bool, dt: Nanos, trace: bool) {
         if mocap_tick && let Some(f) = self.mocap.capture(t, self.x3d.state()) {
             self.link.send(t + self.mocap_latency, f.seq, f);
         }
         while let Some(f) = self.link.receive(t) {
             self.station.on_pose(t, &f);
             self.last_frame = Some(f);
+        }
+        while let Some(f) = self.telemetry.receive(t) {
+            self.station.on_telemetry(&f);
         }
         if radio_tick {
             let cmd = *self.station.command();
@@ -326,7 +336,10 @@ impl Vehicle {
         let s = *self.x3d.state();
         let imu = self.imu.sample(s.omega, self.x3d.specific_force());
         let rotor_cmd = self.rate_loop.rotor_speed_commands(&held, imu.gyro);
-        self.x3d.step(&rotor_cmd, dt);
+        if let Some(f) = self.downlink.sample(t, imu.gyro) {
+            self.telemetry.send(t, f.seq, f);
+        }
+        self.x3d.step(&rotor_cmd, dt.as_secs_f64());
         let s = self.x3d.state();
         if !(s.pos.is_finite() && s.vel.is_finite() && s.omega.is_finite()) {
             self.any_nan = true;

@@ -2,13 +2,18 @@
 //! Vicon packet arrives — velocity estimation, guidance, the paper's calibration, and the
 //! controller of (1)–(5) fed with the offset-compensated attitude.
 
-use crate::calibrate::{Compensation, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
+use crate::calibrate::{Compensation, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
 use crate::clock::Nanos;
 use crate::control::{ControlOutput, Gains, Reference, control};
 use crate::estimate::VelocityEstimator;
 use crate::frames::{Body, Euler, MocapNav, Rot, Vec3};
 use crate::guidance::{Plan, Window};
 use crate::mocap::MocapFrame;
+use crate::vehicle::TelemetryFrame;
+
+/// Shortest window of the gyro alignment (attitude increments over ≥ 40 ms: long enough that
+/// the mocap noise is small against the rotation, short enough that composition stays exact).
+const GYRO_WINDOW_MIN: Nanos = Nanos(40_000_000);
 
 /// Calibration settings of the station.
 #[derive(Clone, Debug)]
@@ -18,6 +23,8 @@ pub struct CalibrationSettings {
     pub eps_yaw: f64,
     pub eps_roll: f64,
     pub rls_min_spread_m: f64,
+    pub mocap_period: Nanos,
+    pub telemetry_period: Nanos,
 }
 
 /// What the calibration found (angles in radians).
@@ -32,6 +39,8 @@ pub struct CalibrationReport {
     /// lets it sit anywhere in a ±0.5 count/K_ψ deadband (±0.25° by default), so it is added back.
     pub yaw_offset: Option<f64>,
     pub validity: Option<Validity>,
+    /// The full mocap-to-body rotation from gyro telemetry, at the end of calibrate_gyro.
+    pub gyro: Option<GyroFit>,
     /// The offset the controller used at the end of the run.
     pub applied: Euler,
 }
@@ -55,6 +64,7 @@ pub struct Station {
     east: Vec<f64>,
     rls: Rls,
     validity: ValidityCheck,
+    gyro: GyroAlignment,
     window: Window,
     report: CalibrationReport,
     command: ControlOutput,
@@ -67,6 +77,7 @@ impl Station {
     pub fn new(plan: Plan, gains: Gains, settings: CalibrationSettings, velocity_cutoff_hz: f64, record_rls: bool) -> Self {
         let (reference, _) = plan.reference(Nanos::ZERO);
         let rls = Rls::new(settings.rls_min_spread_m);
+        let gyro = GyroAlignment::new(settings.mocap_period, settings.telemetry_period, GYRO_WINDOW_MIN);
         Station {
             plan,
             gains,
@@ -78,6 +89,7 @@ impl Station {
             east: Vec::new(),
             rls,
             validity: ValidityCheck::default(),
+            gyro,
             window: Window::None,
             report: CalibrationReport::default(),
             command: ControlOutput { rates: Vec3::zeros(), thrust_n: 0.0, angles_com: Euler::ZERO, accel_com: Vec3::zeros() },
@@ -108,9 +120,15 @@ impl Station {
         self.rls_trace.as_deref().unwrap_or(&[])
     }
 
+    /// Handles one body-rate telemetry frame.
+    pub fn on_telemetry(&mut self, f: &TelemetryFrame) {
+        self.gyro.add_telemetry(f);
+    }
+
     /// Handles one Vicon packet received at `now`.
     pub fn on_pose(&mut self, now: Nanos, f: &MocapFrame) {
         let vel = self.estimator.update(f.t_capture, f.pos);
+        self.gyro.add_mocap(f.t_capture, f.att);
         let (reference, window) = self.plan.reference(now);
         if window != self.window {
             self.close_window();
@@ -128,7 +146,7 @@ impl Station {
                     tr.push(RlsSample { t: now, psi_offset: est.psi_offset });
                 }
             }
-            Window::None | Window::Spin => {}
+            Window::None | Window::Spin | Window::GyroExcite => {}
         }
         let att = self.offset.compensate(f.att, self.settings.compensation);
         self.attitude = Some(att);
@@ -165,6 +183,16 @@ impl Station {
                 self.east.clear();
                 self.rls = Rls::new(self.settings.rls_min_spread_m);
                 self.validity = ValidityCheck::default();
+            }
+            Window::GyroExcite => {
+                // the fit uses every window since take-off (hover, flights, spins), not only the
+                // circle; the gyro gives the absolute rotation, so only its yaw replaces the
+                // current estimate (roll and pitch stay the paper's hover averages)
+                self.report.gyro = self.gyro.estimate();
+                if let (true, Some(g)) = (self.settings.apply, self.report.gyro) {
+                    let e = self.offset.euler;
+                    self.offset = OffsetEstimate::from_euler(Euler::new(e.roll, e.pitch, g.euler.yaw));
+                }
             }
             Window::None | Window::Spin => {}
         }

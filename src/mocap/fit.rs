@@ -56,11 +56,7 @@ pub fn rigid_fit<A: Frame, B: Frame>(
     if sv[1] < MIN_SPREAD_M2 {
         return None;
     }
-    let svd = h.svd(true, true);
-    let (u, v_t) = (svd.u?, svd.v_t?);
-    let v = v_t.transpose();
-    let d = (v * u.transpose()).determinant().signum();
-    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let r = kabsch(&h)?;
     let t = cy - r * cm;
     let mut ss = 0.0;
     for i in (0..template.len()).filter(|&i| visible[i]) {
@@ -71,6 +67,17 @@ pub fn rigid_fit<A: Frame, B: Frame>(
         translation: Vec3::from_raw(t),
         rms_residual: (ss / n as f64).sqrt(),
     })
+}
+
+/// The rotation R maximising tr(R·H) for the cross-covariance H = Σ a_i·b_iᵀ, i.e. minimising
+/// Σ‖R·a_i − b_i‖² over proper rotations (Kabsch; Wahba's problem for weighted vectors):
+/// H = U·S·Vᵀ, R = V·diag(1, 1, det(V·Uᵀ))·Uᵀ. `None` if the SVD does not converge.
+pub fn kabsch(h: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let svd = h.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let v = v_t.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    Some(v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose())
 }
 
 #[cfg(test)]

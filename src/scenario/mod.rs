@@ -46,6 +46,8 @@ pub struct Scenario {
     #[serde(default)]
     pub radio: RadioCfg,
     #[serde(default)]
+    pub telemetry: TelemetryCfg,
+    #[serde(default)]
     pub controller: ControllerCfg,
     #[serde(default)]
     pub calibration: CalibrationCfg,
@@ -95,6 +97,23 @@ impl Default for LinkCfg {
     }
 }
 
+/// The vehicle → station body-rate telemetry (the XBee radio).
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TelemetryCfg {
+    pub rate_hz: Spanned<u32>,
+    #[serde(with = "ranges::latency_ms")]
+    pub latency_ms: f64,
+    #[serde(with = "ranges::latency_ms")]
+    pub jitter_ms: f64,
+    pub loss: LossCfg,
+}
+impl Default for TelemetryCfg {
+    fn default() -> Self {
+        TelemetryCfg { rate_hz: spanned(100), latency_ms: 10.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli(0.0) }
+    }
+}
+
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum LossCfg {
@@ -113,6 +132,18 @@ pub enum LossCfg {
 }
 fn one() -> f64 {
     1.0
+}
+
+impl LossCfg {
+    pub fn model(&self) -> crate::link::LossModel {
+        use crate::link::LossModel;
+        match *self {
+            LossCfg::Bernoulli(p) => LossModel::Bernoulli { p },
+            LossCfg::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => {
+                LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad }
+            }
+        }
+    }
 }
 
 #[derive(Debug, Deserialize, serde::Serialize)]
@@ -313,6 +344,16 @@ pub enum PhaseCfg {
         #[serde(with = "ranges::duration_s")]
         duration_s: f64,
     },
+    CalibrateGyro {
+        #[serde(default = "two", with = "ranges::settle_s")]
+        settle_s: f64,
+        #[serde(default = "quarter", with = "ranges::radius_m")]
+        radius_m: f64,
+        #[serde(default = "two", with = "ranges::period_s")]
+        period_s: f64,
+        #[serde(default = "three", with = "ranges::turns")]
+        turns: f64,
+    },
     Waypoint {
         #[serde(with = "ranges::position_m::arr")]
         pos_m: [f64; 3],
@@ -337,6 +378,9 @@ fn three() -> f64 {
 fn half() -> f64 {
     0.5
 }
+fn quarter() -> f64 {
+    0.25
+}
 
 impl PhaseCfg {
     pub fn to_phase(&self) -> Phase {
@@ -350,6 +394,7 @@ impl PhaseCfg {
             PhaseCfg::YawSpin { settle_s, angle_deg, duration_s } => {
                 Phase::YawSpin { settle_s, angle_rad: angle_deg.to_radians(), duration_s }
             }
+            PhaseCfg::CalibrateGyro { settle_s, radius_m, period_s, turns } => Phase::CalibrateGyro { settle_s, radius_m, period_s, turns },
             PhaseCfg::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s } => Phase::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s },
             PhaseCfg::Land { duration_s } => Phase::Land { duration_s },
         }
@@ -372,14 +417,20 @@ pub struct RequirementsCfg {
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct OffsetsReq {
+    /// Roll and pitch from the hover average.
     #[serde(with = "ranges::tol_deg")]
     pub roll_pitch_tol_deg: f64,
+    /// Yaw from the gyro alignment (checked when the plan flies calibrate_gyro).
+    #[serde(with = "ranges::tol_deg")]
+    pub yaw_tol_deg: f64,
+    /// Yaw from the paper's straight flight (8)–(9) (checked when the plan flies calibrate_yaw);
+    /// `null` (default) shows it without asserting it: README, "Findings".
     #[serde(with = "ranges::tol_deg::opt")]
-    pub yaw_tol_deg: Option<f64>,
+    pub yaw_straight_flight_tol_deg: Option<f64>,
 }
 impl Default for OffsetsReq {
     fn default() -> Self {
-        OffsetsReq { roll_pitch_tol_deg: 0.1, yaw_tol_deg: Some(0.5) }
+        OffsetsReq { roll_pitch_tol_deg: 0.1, yaw_tol_deg: 0.5, yaw_straight_flight_tol_deg: None }
     }
 }
 
@@ -468,7 +519,7 @@ impl Scenario {
     fn validate(&self, src: &str, file: &Path) -> Result<(), ScenarioError> {
         let err = |loc: serde_saphyr::Location, msg: String| Err(Self::invalid(src, file, loc, msg));
         let physics = Rate::from_hz(PHYSICS_HZ).expect("1 kHz");
-        for (what, r) in [("mocap rate", &self.mocap.rate_hz), ("radio rate", &self.radio.rate_hz)] {
+        for (what, r) in [("mocap rate", &self.mocap.rate_hz), ("radio rate", &self.radio.rate_hz), ("telemetry rate", &self.telemetry.rate_hz)] {
             if Rate::from_hz(r.value).and_then(|x| x.ticks_of(physics)).is_none() {
                 return err(r.referenced, format!("{what} {} Hz must divide the {PHYSICS_HZ} Hz physics clock (e.g. 50, 100, 200, 250, 500, 1000)", r.value));
             }

@@ -108,4 +108,7 @@ ranged! {
     accel_m_s2_signed: -50.0, 50.0, false, "m/s²";
     accel_noise: 0.0, 50.0, false, "m/s²";
     spread_m: 0.0, 100.0, true, "m";
+    radius_m: 0.0, 5.0, true, "m";
+    period_s: 0.5, 60.0, false, "s";
+    turns: 1.0, 100.0, false, "turns";
 }

@@ -4,14 +4,17 @@
 //! 1. [`X3d::imu`] samples the gyro and accelerometer from the current state;
 //! 2. the onboard [`RateLoop`] turns the last radio command (body rates and collective thrust)
 //!    and the gyro sample into rotor-speed commands;
-//! 3. [`X3d::step`] integrates the dynamics over one tick (RK4, see [`dynamics`]).
+//! 3. [`X3d::step`] integrates the dynamics over one tick (RK4, see [`dynamics`]);
+//! 4. the [`Downlink`] averages the gyro and sends body-rate telemetry back (XBee).
 
 pub mod dynamics;
 pub mod imu;
 pub mod params;
 pub mod rate_loop;
+pub mod telemetry;
 
 pub use dynamics::{Disturbance, State, X3d};
 pub use imu::{Imu, ImuParams, ImuSample};
 pub use params::{RotorLayout, VehicleParams};
 pub use rate_loop::{RateCommand, RateLoop};
+pub use telemetry::{Downlink, TelemetryFrame};

@@ -1,6 +1,6 @@
 //! The paper's offset calibration (Sec. IV): hover averaging for roll and pitch, the straight
 //! flight (6) with its validity check (7) and the least-squares fit (8)–(9) for yaw, batch and
-//! recursive.
+//! recursive; and, beyond the paper, the full 3-axis offset from body-rate telemetry ([`gyro`]).
 //!
 //! Sign convention: an offset is what the *measured* angle exceeds the true one by
 //! (φ_m = φ + φ_off). The estimate is a rotation `Rot<MocapBody, Body>` (R_off); the attitude the
@@ -10,6 +10,10 @@
 //! Yaw: while the yaw loop holds the measured heading at ψ_com = 0, the true heading is −ψ_off,
 //! so the track satisfies X_E = tan(−ψ_off)·X_N + X_E,0. Equation (9) gives the *course*
 //! tan⁻¹(S_xy/S_xx) of that track; in this convention ψ̂_off = −tan⁻¹(S_xy/S_xx).
+
+pub mod gyro;
+
+pub use gyro::{GyroAlignment, GyroFit};
 
 use crate::frames::{Body, Euler, MocapBody, MocapNav, Rot, wrap_pi};
 use nalgebra::{Matrix2, Vector2};
