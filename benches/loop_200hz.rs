@@ -1,8 +1,12 @@
-//! `loop_200hz`: one 5 ms Vicon period of the closed loop for one vehicle (mocap fit, link,
-//! estimation, control, radio, five 1 kHz physics and rate-loop steps), recording off.
-//! `scenario`: the Fig. 6 scenario end to end (both the compensated and the uncompensated run).
+//! Speed of the closed loop (recording off unless named):
+//! * `loop_200hz/one_vicon_period`: one 5 ms Vicon period for one vehicle (mocap fit, link,
+//!   estimation, control, radio, five 1 kHz physics and rate-loop steps);
+//! * `fleet/N`: one Vicon period for a fleet of N = 1, 4, 16 vehicles (should grow linearly);
+//! * `scenario/fig6`: the Fig. 6 scenario end to end (the compensated and the uncompensated run);
+//! * `scenario/fig6_recorded`: the same plus the `.rrd` recording (encoding into memory), to
+//!   show what recording costs.
 
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use flyarena::engine::{Arena, RunOptions};
 use flyarena::scenario::Scenario;
 use std::path::Path;
@@ -11,32 +15,69 @@ fn fig6() -> Scenario {
     Scenario::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap()
 }
 
+const NO_TRACE: RunOptions = RunOptions { trace: false, apply_calibration: None };
+
+/// Steps an arena in flight, five ticks (one Vicon period) per iteration.
+fn bench_periods(b: &mut criterion::Bencher, s: &Scenario) {
+    let mut arena = Arena::new(s, NO_TRACE);
+    // fly into the hover first so that the benchmark measures flight, not the floor
+    for _ in 0..6000 {
+        arena.step();
+    }
+    b.iter(|| {
+        for _ in 0..5 {
+            arena.step();
+        }
+        if arena.done() {
+            arena = Arena::new(s, NO_TRACE);
+        }
+    })
+}
+
 fn loop_200hz(c: &mut Criterion) {
     let s = fig6();
     let mut g = c.benchmark_group("loop_200hz");
     g.throughput(Throughput::Elements(1));
-    g.bench_function("one_vicon_period", |b| {
-        let mut arena = Arena::new(&s, RunOptions { trace: false, apply_calibration: None });
-        // fly into the hover first so that the benchmark measures flight, not the floor
-        for _ in 0..6000 {
-            arena.step();
-        }
-        b.iter(|| {
-            for _ in 0..5 {
-                arena.step();
-            }
-            if arena.done() {
-                arena = Arena::new(&s, RunOptions { trace: false, apply_calibration: None });
-            }
-        })
-    });
+    g.bench_function("one_vicon_period", |b| bench_periods(b, &s));
+    g.finish();
+}
+
+fn fleet(c: &mut Criterion) {
+    let mut g = c.benchmark_group("fleet");
+    for n in [1usize, 4, 16] {
+        let vehicles: String = (0..n).map(|i| format!("  - {{ name: v{i}, home_m: [{}, {}], markers: {{ pattern: {}, rotation_deg: [2, -1, 0] }} }}\n", (i % 4) as f64 * 2.0 - 3.0, (i / 4) as f64 * 2.0 - 3.0, i % 8)).collect();
+        // patterns repeat beyond 8 vehicles; give the others explicit, distinct templates
+        let vehicles = if n > 8 {
+            (0..n)
+                .map(|i| {
+                    let k = 0.10 + 0.008 * i as f64;
+                    format!("  - {{ name: v{i}, home_m: [{}, {}], markers: {{ template_m: [[{k}, 0, -0.03], [0, 0.12, -0.03], [-0.13, 0, -0.03], [0, -0.09, -0.05]], rotation_deg: [2, -1, 0] }} }}\n", (i % 4) as f64 * 2.0 - 3.0, (i / 4) as f64 * 2.0 - 3.0)
+                })
+                .collect()
+        } else {
+            vehicles
+        };
+        let y = format!("name: fleet{n}\nvehicles:\n{vehicles}plan:\n  - takeoff: {{ altitude_m: 1, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 3, average_s: 20 }}\n");
+        let s = Scenario::parse(&y, Path::new("fleet.yaml")).unwrap_or_else(|e| panic!("{e}"));
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &s, |b, s| bench_periods(b, s));
+    }
     g.finish();
 }
 
 fn scenario(c: &mut Criterion) {
     let s = fig6();
-    c.bench_function("scenario/fig6", |b| b.iter(|| flyarena::cli::run_scenario(&s)));
+    let mut g = c.benchmark_group("scenario");
+    g.sample_size(20);
+    g.bench_function("fig6", |b| b.iter(|| flyarena::cli::run_scenario(&s, false)));
+    g.bench_function("fig6_recorded", |b| {
+        b.iter(|| {
+            let (main, unc, report) = flyarena::cli::run_scenario(&s, true);
+            flyarena::record::encode(&main, unc.as_ref(), &report, flyarena::record::RecordOptions::default()).unwrap().len()
+        })
+    });
+    g.finish();
 }
 
-criterion_group!(benches, loop_200hz, scenario);
+criterion_group!(benches, loop_200hz, fleet, scenario);
 criterion_main!(benches);

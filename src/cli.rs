@@ -13,16 +13,21 @@ pub const USAGE: &str = "\
 flyarena — quadrotor flight under motion capture with misaligned frames
 
 USAGE:
-    flyarena run SCENARIO.yaml [--out DIR] [--json PATH] [--seed N] [--quiet]
+    flyarena run SCENARIO.yaml [--out DIR] [--json PATH] [--rrd PATH | --no-rrd] [--rrd-every N]
+                               [--seed N] [--quiet]
     flyarena check SCENARIO.yaml...
 
 COMMANDS:
-    run     simulate the scenario, print the requirements table, write the JSON summary
+    run     simulate the scenario, print the requirements table, write the JSON summary and
+            the Rerun recording (open it with `rerun out/<scenario>.rrd`)
     check   validate scenarios without running them
 
 OPTIONS:
     --out DIR     output folder (default: out)
     --json PATH   summary path (default: DIR/<scenario name>.json)
+    --rrd PATH    Rerun recording path (default: DIR/<scenario name>.rrd)
+    --no-rrd      do not record
+    --rrd-every N record every N-th Vicon frame (default 4: 50 Hz at 200 Hz)
     --seed N      override the scenario's seed
     --quiet       print only the verdict line
 
@@ -56,19 +61,28 @@ struct RunArgs {
     scenario: PathBuf,
     out: PathBuf,
     json: Option<PathBuf>,
+    rrd: Option<PathBuf>,
+    no_rrd: bool,
+    rrd_every: usize,
     seed: Option<u64>,
     quiet: bool,
 }
 
 fn parse_run(args: &[String]) -> Result<RunArgs, String> {
     let mut it = args.iter();
-    let mut a = RunArgs { scenario: PathBuf::new(), out: PathBuf::from("out"), json: None, seed: None, quiet: false };
+    let mut a = RunArgs { scenario: PathBuf::new(), out: PathBuf::from("out"), json: None, rrd: None, no_rrd: false, rrd_every: 4, seed: None, quiet: false };
     let mut scenario = None;
     while let Some(x) = it.next() {
         let mut value = |flag: &str| it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
         match x.as_str() {
             "--out" => a.out = PathBuf::from(value("--out")?),
             "--json" => a.json = Some(PathBuf::from(value("--json")?)),
+            "--rrd" => a.rrd = Some(PathBuf::from(value("--rrd")?)),
+            "--no-rrd" => a.no_rrd = true,
+            "--rrd-every" => {
+                let v = value("--rrd-every")?;
+                a.rrd_every = v.parse().ok().filter(|n| (1..=1000).contains(n)).ok_or_else(|| format!("--rrd-every takes a whole number from 1 to 1000, not `{v}`"))?;
+            }
             "--seed" => {
                 let v = value("--seed")?;
                 a.seed = Some(v.parse().map_err(|_| format!("--seed takes a whole number from 0 to {}, not `{v}`", u64::MAX))?);
@@ -80,14 +94,21 @@ fn parse_run(args: &[String]) -> Result<RunArgs, String> {
         }
     }
     a.scenario = scenario.ok_or("which scenario? `flyarena run scenarios/<x>.yaml`")?;
+    if a.no_rrd && a.rrd.is_some() {
+        return Err("--rrd and --no-rrd contradict each other".into());
+    }
+    if a.rrd.is_some() && !cfg!(feature = "record") {
+        return Err("--rrd: this flyarena was built without the `record` feature".into());
+    }
     Ok(a)
 }
 
 /// Runs a scenario (and its uncompensated counterpart when R2 asks for it) and evaluates it.
-pub fn run_scenario(s: &Scenario) -> (crate::engine::RunOutput, Option<crate::engine::RunOutput>, Report) {
+/// `trace_uncompensated` keeps the counterpart's trajectory (for the recording).
+pub fn run_scenario(s: &Scenario, trace_uncompensated: bool) -> (crate::engine::RunOutput, Option<crate::engine::RunOutput>, Report) {
     let main = run(s, RunOptions::default());
     let unc = requirements::needs_uncompensated(&s.requirements)
-        .then(|| run(s, RunOptions { trace: false, apply_calibration: Some(false) }));
+        .then(|| run(s, RunOptions { trace: trace_uncompensated, apply_calibration: Some(false) }));
     let report = requirements::evaluate(&s.requirements, &main, unc.as_ref());
     (main, unc, report)
 }
@@ -124,14 +145,31 @@ fn cmd_run(args: &[String]) -> i32 {
     if let Some(seed) = a.seed {
         s.seed = seed;
     }
+    let record = cfg!(feature = "record") && !a.no_rrd;
     let started = std::time::Instant::now();
-    let (main, unc, report) = run_scenario(&s);
+    let (main, unc, report) = run_scenario(&s, record);
     let elapsed = started.elapsed();
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name)));
     let json = serde_json::to_vec_pretty(&summary(&s, &main, unc.as_ref(), &report)).expect("summary serialises");
     if let Err(e) = write_atomic(&json_path, &json) {
         eprintln!("error: cannot write {}: {e}", json_path.display());
         return BAD_INPUT;
+    }
+    let rrd_path = record.then(|| a.rrd.unwrap_or_else(|| a.out.join(format!("{}.rrd", s.name))));
+    #[cfg(feature = "record")]
+    if let Some(path) = &rrd_path {
+        let opts = crate::record::RecordOptions { every: a.rrd_every };
+        let bytes = match crate::record::encode(&main, unc.as_ref(), &report, opts) {
+            Ok(b) => b,
+            Err(e) => {
+                eprintln!("error: cannot record the run: {e}");
+                return BAD_INPUT;
+            }
+        };
+        if let Err(e) = write_atomic(path, &bytes) {
+            eprintln!("error: cannot write {}: {e}", path.display());
+            return BAD_INPUT;
+        }
     }
     let verdict = if report.passed() { "PASS" } else { "FAIL" };
     if !a.quiet {
@@ -143,6 +181,9 @@ fn cmd_run(args: &[String]) -> i32 {
             println!();
         }
         println!("summary: {}", json_path.display());
+        if let Some(p) = &rrd_path {
+            println!("recording: {} (open with `rerun {}`)", p.display(), p.display());
+        }
     }
     println!("{verdict}: {} of {} requirement checks passed", report.rows.iter().filter(|r| r.pass).count(), report.rows.len());
     if report.passed() { PASS } else { FAIL }

@@ -12,4 +12,6 @@ pub mod radio;
 pub mod scenario;
 pub mod engine;
 pub mod requirements;
+#[cfg(feature = "record")]
+pub mod record;
 pub mod cli;

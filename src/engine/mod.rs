@@ -21,7 +21,7 @@ pub use station::{CalibrationReport, CalibrationSettings, RlsSample, Station};
 
 use crate::clock::{Clock, Nanos, Rate};
 use crate::control::Gains;
-use crate::frames::{Euler, MocapNav, Nav, Rot, Vec3};
+use crate::frames::{Body, Euler, MocapBody, MocapNav, Nav, Rot, Vec3};
 use crate::guidance::{Phase, Plan, Window};
 use crate::link::{Link, LinkParams, LinkStats};
 use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, Occlusion, TrueOffset};
@@ -52,10 +52,15 @@ pub struct TraceSample {
     pub pos: Vec3<Nav>,
     pub vel: Vec3<Nav>,
     pub att_true: Euler,
-    /// Raw mocap attitude of the last received packet.
-    pub att_measured: Option<Euler>,
+    /// Raw mocap pose of the last received packet.
+    pub pos_measured: Option<Vec3<MocapNav>>,
+    pub att_measured: Option<Rot<MocapBody, MocapNav>>,
+    /// True attitude (body → true NED).
+    pub att_true_rot: Rot<Body, Nav>,
     /// Attitude the controller used (offset removed).
     pub att_compensated: Option<Euler>,
+    /// True body rates (rad/s).
+    pub omega: Vec3<Body>,
     pub reference: Vec3<MocapNav>,
     pub reference_yaw: f64,
     /// Last PPM frame sent.
@@ -350,7 +355,10 @@ impl Vehicle {
                 pos: s.pos,
                 vel: s.vel,
                 att_true: s.att.euler(),
-                att_measured: self.last_frame.map(|f| f.att.euler()),
+                att_true_rot: s.att,
+                omega: s.omega,
+                pos_measured: self.last_frame.map(|f| f.pos),
+                att_measured: self.last_frame.map(|f| f.att),
                 att_compensated: self.station.attitude().map(|a| a.euler()),
                 reference: reference.pos,
                 reference_yaw: reference.yaw,

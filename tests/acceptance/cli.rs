@@ -25,8 +25,33 @@ fn run_passes_prints_the_table_and_writes_the_summary() {
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("o/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
     assert_eq!(json["passed"], true);
     assert!(json["vehicles"][0]["spin_max_deviation_uncompensated_m"].as_f64().unwrap() > 0.3);
-    // no temporary files left behind
-    assert_eq!(std::fs::read_dir(d.join("o")).unwrap().count(), 1);
+    // the recording is there and decodes; no temporary files left behind
+    let mut names: Vec<String> = std::fs::read_dir(d.join("o")).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    assert_eq!(names, ["fig6-roll-pitch-offsets.json", "fig6-roll-pitch-offsets.rrd"]);
+    #[cfg(feature = "record")]
+    {
+        let rec = flyarena::record::decode(&std::fs::read(d.join("o/fig6-roll-pitch-offsets.rrd")).unwrap()).unwrap();
+        assert!(!rec.scalars("/plots/x3d/attitude/roll/measured").is_empty());
+    }
+}
+
+#[test]
+fn rrd_path_and_no_rrd() {
+    let d = tmp("rrd");
+    let scen = super::root().join("scenarios/fig7-no-offsets.yaml");
+    let (code, out, err) = flyarena(&["run", scen.to_str().unwrap(), "--out", "o", "--no-rrd", "-q"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(!d.join("o/fig7-no-offsets.rrd").exists());
+    let (code, out, err) = flyarena(&["run", scen.to_str().unwrap(), "--out", "o", "--rrd", "r/x.rrd", "--rrd-every", "1", "-q"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(d.join("r/x.rrd").metadata().unwrap().len() > 10_000);
+    let (code, _, err) = flyarena(&["run", scen.to_str().unwrap(), "--rrd", "a.rrd", "--no-rrd"], &d);
+    assert_eq!(code, 2);
+    assert!(err.contains("contradict"), "{err}");
+    let (code, _, err) = flyarena(&["run", scen.to_str().unwrap(), "--rrd-every", "0"], &d);
+    assert_eq!(code, 2);
+    assert!(err.contains("--rrd-every takes a whole number from 1 to 1000"), "{err}");
 }
 
 #[test]

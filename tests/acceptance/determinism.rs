@@ -12,7 +12,8 @@ fn bits(out: &RunOutput) -> Vec<u64> {
                 b.push(x.to_bits());
             }
             if let Some(m) = s.att_measured {
-                b.extend([m.roll.to_bits(), m.pitch.to_bits(), m.yaw.to_bits()]);
+                let q = m.quaternion();
+                b.extend([q.i.to_bits(), q.j.to_bits(), q.k.to_bits(), q.w.to_bits()]);
             }
             if let Some(p) = s.ppm {
                 b.extend(p.channels.iter().map(|c| *c as u64));

@@ -5,6 +5,8 @@ mod cli;
 mod determinism;
 mod physics;
 mod props;
+#[cfg(feature = "record")]
+mod record;
 mod scenarios;
 
 use flyarena::scenario::Scenario;
