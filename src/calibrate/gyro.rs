@@ -199,7 +199,8 @@ impl GyroAlignment {
         let (mm, mb) = (self.sum_m / n, self.sum_b / n);
         let h = self.sum_mb - n * mm * mb.transpose();
         let s_m = self.sum_mm - n * mm * mm.transpose();
-        let mut ev = s_m.symmetric_eigenvalues().as_slice().to_vec();
+        let e = s_m.symmetric_eigenvalues();
+        let mut ev = [e[0], e[1], e[2]];
         ev.sort_by(f64::total_cmp);
         if ev[1] <= 1e-12 * ev[2].max(1e-300) {
             return None;

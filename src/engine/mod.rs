@@ -329,7 +329,7 @@ impl Vehicle {
             self.radio.transmit(t, cmd.rates, cmd.thrust_n);
         }
         let held = self.radio.receiver(t);
-        let (reference, window) = self.station.plan().reference(t);
+        let (reference, window) = self.station.guidance(t);
         if window == Window::HoverAverage {
             self.thrust_sum += held.thrust_n;
             self.thrust_n += 1;

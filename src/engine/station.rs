@@ -71,11 +71,22 @@ pub struct Station {
     reference: Reference,
     attitude: Option<Rot<Body, MocapNav>>,
     rls_trace: Option<Vec<RlsSample>>,
+    /// The guidance of the current tick (the engine and the station both need it).
+    guidance: (Nanos, Reference, Window),
 }
 
 impl Station {
     pub fn new(plan: Plan, gains: Gains, settings: CalibrationSettings, velocity_cutoff_hz: f64, record_rls: bool) -> Self {
-        let (reference, _) = plan.reference(Nanos::ZERO);
+        let (reference, window0) = plan.reference(Nanos::ZERO);
+        // the straight-flight samples are kept for the batch fit: reserve them once, so the loop
+        // does not allocate while flying
+        let yaw_samples: usize = plan
+            .phases
+            .iter()
+            .filter(|p| p.phase.name() == "calibrate_yaw")
+            .map(|p| ((p.end - p.start).0 / settings.mocap_period.0.max(1)) as usize + 2)
+            .max()
+            .unwrap_or(0);
         let rls = Rls::new(settings.rls_min_spread_m);
         let gyro = GyroAlignment::new(settings.mocap_period, settings.telemetry_period, GYRO_WINDOW_MIN);
         Station {
@@ -85,8 +96,8 @@ impl Station {
             estimator: VelocityEstimator::new(velocity_cutoff_hz),
             offset: OffsetEstimate::default(),
             hover: HoverAverager::default(),
-            north: Vec::new(),
-            east: Vec::new(),
+            north: Vec::with_capacity(yaw_samples),
+            east: Vec::with_capacity(yaw_samples),
             rls,
             validity: ValidityCheck::default(),
             gyro,
@@ -96,6 +107,7 @@ impl Station {
             reference,
             attitude: None,
             rls_trace: record_rls.then(Vec::new),
+            guidance: (Nanos::ZERO, reference, window0),
         }
     }
 
@@ -120,6 +132,15 @@ impl Station {
         self.rls_trace.as_deref().unwrap_or(&[])
     }
 
+    /// The reference and calibration window at `now` (evaluated once per tick).
+    pub fn guidance(&mut self, now: Nanos) -> (Reference, Window) {
+        if self.guidance.0 != now {
+            let (r, w) = self.plan.reference(now);
+            self.guidance = (now, r, w);
+        }
+        (self.guidance.1, self.guidance.2)
+    }
+
     /// Handles one body-rate telemetry frame.
     pub fn on_telemetry(&mut self, f: &TelemetryFrame) {
         self.gyro.add_telemetry(f);
@@ -129,7 +150,7 @@ impl Station {
     pub fn on_pose(&mut self, now: Nanos, f: &MocapFrame) {
         let vel = self.estimator.update(f.t_capture, f.pos);
         self.gyro.add_mocap(f.t_capture, f.att);
-        let (reference, window) = self.plan.reference(now);
+        let (reference, window) = self.guidance(now);
         if window != self.window {
             self.close_window();
             self.window = window;

@@ -51,9 +51,16 @@ pub fn rigid_fit<A: Frame, B: Frame>(
         h += a * b.transpose();
         spread += a * a.transpose();
     }
-    let mut sv = spread.symmetric_eigenvalues().as_slice().to_vec();
-    sv.sort_by(f64::total_cmp);
-    if sv[1] < MIN_SPREAD_M2 {
+    // collinear ⇔ the spread's second eigenvalue λ₂ vanishes. Without an eigen-decomposition
+    // (this runs 200 times a second per vehicle): with λ₁ ≥ λ₂ ≥ λ₃ ≥ 0, the sum of the principal
+    // 2×2 minors c₂ = λ₁λ₂ + λ₁λ₃ + λ₂λ₃ lies in [λ₁λ₂, 3λ₁λ₂] and λ₁ ∈ [tr/3, tr], so
+    // c₂/tr ∈ [λ₂/3, 3λ₂]: the test c₂/tr < MIN_SPREAD_M2 is λ₂'s within a factor of 3.
+    let c2 = spread[(0, 0)] * spread[(1, 1)] - spread[(0, 1)] * spread[(1, 0)] + spread[(0, 0)] * spread[(2, 2)]
+        - spread[(0, 2)] * spread[(2, 0)]
+        + spread[(1, 1)] * spread[(2, 2)]
+        - spread[(1, 2)] * spread[(2, 1)];
+    let tr = spread.trace();
+    if !(tr > 0.0 && c2 / tr >= MIN_SPREAD_M2) {
         return None;
     }
     let r = kabsch(&h)?;

@@ -1,6 +1,7 @@
 //! flyarena acceptance suite: one test binary (every file directly in tests/ would link the whole
 //! dependency tree again).
 
+mod alloc;
 mod cli;
 mod determinism;
 mod physics;
@@ -10,6 +11,9 @@ mod record;
 mod scenarios;
 
 use flyarena::scenario::Scenario;
+
+#[global_allocator]
+static ALLOCATOR: alloc::Counting = alloc::Counting;
 use std::path::{Path, PathBuf};
 
 pub fn root() -> PathBuf {
