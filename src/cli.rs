@@ -16,11 +16,16 @@ USAGE:
     flyarena run SCENARIO.yaml [--out DIR] [--json PATH] [--rrd PATH | --no-rrd] [--rrd-every N]
                                [--seed N] [--quiet]
     flyarena check SCENARIO.yaml...
+    flyarena sweep SCENARIO.yaml [--runs N] [--shard K/N] [--out DIR] [--quiet]
+    flyarena merge SHARD.json... [--out DIR]
 
 COMMANDS:
     run     simulate the scenario, print the requirements table, write the JSON summary and
             the Rerun recording (open it with `rerun out/<scenario>.rrd`)
     check   validate scenarios without running them
+    sweep   run the scenario's `sweep:` variations in parallel: per-run metrics (CSV, JSON) and a
+            summary per grid point (mean, p95, p99, pass rates); --shard K/N runs one slice
+    merge   combine shard outputs into the summary one unsharded sweep would give
 
 OPTIONS:
     --out DIR     output folder (default: out)
@@ -207,11 +212,161 @@ fn cmd_check(args: &[String]) -> i32 {
     code
 }
 
+fn sweep_files(out: &Path, name: &str) -> (PathBuf, PathBuf) {
+    (out.join(format!("{name}.sweep.json")), out.join(format!("{name}.sweep.csv")))
+}
+
+/// Writes a whole sweep's outputs and prints its summary; returns the exit code.
+fn finish_sweep(o: &crate::sweep::SweepOutput, out_dir: &Path, quiet: bool) -> i32 {
+    let summary = crate::sweep::summary(o);
+    let (json_path, csv_path) = sweep_files(out_dir, &o.scenario);
+    let json = serde_json::to_vec_pretty(&serde_json::json!({ "summary": summary, "output": o })).expect("serialises");
+    for (path, bytes) in [(&json_path, json), (&csv_path, crate::sweep::csv(o).into_bytes())] {
+        if let Err(e) = write_atomic(path, &bytes) {
+            eprintln!("error: cannot write {}: {e}", path.display());
+            return BAD_INPUT;
+        }
+    }
+    let failed = o.rows.iter().filter(|r| !r.passed).count();
+    if !quiet {
+        println!("{}: {} runs, {} rows\n", o.scenario, o.runs, o.rows.len());
+        for g in summary["groups"].as_array().into_iter().flatten() {
+            let m = |k: &str, q: &str| g["metrics"][k][q].as_f64().map_or("-".into(), |x| format!("{x:.4}"));
+            println!(
+                "grid point {}: {}\n  pass rate {:.1} % ({}), roll err p95/p99 {}°/{}°, yaw (gyro) err p99 {}°, spin drift p99 {} m",
+                g["grid_point"],
+                g["grid"],
+                100.0 * g["pass_rate_all"].as_f64().unwrap_or(0.0),
+                g["pass_rate"],
+                m("roll_err_deg", "p95"),
+                m("roll_err_deg", "p99"),
+                m("yaw_gyro_err_deg", "p99"),
+                m("spin_dev_m", "p99"),
+            );
+        }
+        println!("\nrows: {}\nsummary: {}", csv_path.display(), json_path.display());
+    }
+    println!("{}: {} of {} rows passed every requirement", if failed == 0 { "PASS" } else { "FAIL" }, o.rows.len() - failed, o.rows.len());
+    if failed == 0 { PASS } else { FAIL }
+}
+
+fn cmd_sweep(args: &[String]) -> i32 {
+    let mut it = args.iter();
+    let (mut file, mut runs, mut shard, mut out, mut quiet) = (None, None, None, PathBuf::from("out"), false);
+    let bad = |m: String| {
+        eprintln!("error: {m}\n\n{USAGE}");
+        BAD_INPUT
+    };
+    while let Some(x) = it.next() {
+        match x.as_str() {
+            "--runs" => match it.next().and_then(|v| v.parse::<u64>().ok()).filter(|n| (1..=10_000_000).contains(n)) {
+                Some(n) => runs = Some(n),
+                None => return bad("--runs takes a whole number from 1 to 10000000".into()),
+            },
+            "--shard" => {
+                let v = it.next().cloned().unwrap_or_default();
+                match v.split_once('/').and_then(|(k, n)| Some((k.parse::<u64>().ok()?, n.parse::<u64>().ok()?))) {
+                    Some((k, n)) if n >= 1 && (1..=n).contains(&k) => shard = Some((k - 1, n)),
+                    _ => return bad(format!("--shard takes K/N with 1 ≤ K ≤ N (e.g. 2/8), not `{v}`")),
+                }
+            }
+            "--out" => match it.next() {
+                Some(d) => out = PathBuf::from(d),
+                None => return bad("--out needs a value".into()),
+            },
+            "--quiet" | "-q" => quiet = true,
+            s if s.starts_with('-') => return bad(format!("unknown option `{s}`")),
+            s if file.is_none() => file = Some(PathBuf::from(s)),
+            s => return bad(format!("one scenario per sweep; unexpected `{s}`")),
+        }
+    }
+    let Some(file) = file else { return bad("which scenario? `flyarena sweep scenarios/<x>.yaml`".into()) };
+    let sweep = match crate::sweep::Sweep::load(&file) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return BAD_INPUT;
+        }
+    };
+    let runs = runs.unwrap_or(sweep.default_runs());
+    let mine = (0..runs).filter(|i| shard.is_none_or(|(k, n)| i % n == k)).count() as u64;
+    use std::io::IsTerminal;
+    let bar = if !quiet && std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(mine);
+        b.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  {elapsed} elapsed, ETA {eta}").expect("template"));
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let result = sweep.run(runs, shard, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let o = match result {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return BAD_INPUT;
+        }
+    };
+    match shard {
+        None => finish_sweep(&o, &out, quiet),
+        Some((k, n)) => {
+            let path = out.join(format!("{}.sweep.shard-{}-of-{n}.json", o.scenario, k + 1));
+            if let Err(e) = write_atomic(&path, &serde_json::to_vec(&o).expect("serialises")) {
+                eprintln!("error: cannot write {}: {e}", path.display());
+                return BAD_INPUT;
+            }
+            println!("shard {}/{n}: {} runs → {} (combine with `flyarena merge`)", k + 1, mine, path.display());
+            PASS
+        }
+    }
+}
+
+fn cmd_merge(args: &[String]) -> i32 {
+    let mut it = args.iter();
+    let (mut files, mut out) = (Vec::new(), PathBuf::from("out"));
+    while let Some(x) = it.next() {
+        match x.as_str() {
+            "--out" => match it.next() {
+                Some(d) => out = PathBuf::from(d),
+                None => {
+                    eprintln!("error: --out needs a value");
+                    return BAD_INPUT;
+                }
+            },
+            s if s.starts_with('-') => {
+                eprintln!("error: unknown option `{s}`\n\n{USAGE}");
+                return BAD_INPUT;
+            }
+            s => files.push(PathBuf::from(s)),
+        }
+    }
+    let mut parts = Vec::new();
+    for f in &files {
+        let part = std::fs::read(f).map_err(|e| e.to_string()).and_then(|b| serde_json::from_slice::<crate::sweep::SweepOutput>(&b).map_err(|e| format!("not a shard file: {e}")));
+        match part {
+            Ok(p) => parts.push(p),
+            Err(e) => {
+                eprintln!("error: {}: {e}", f.display());
+                return BAD_INPUT;
+            }
+        }
+    }
+    match crate::sweep::merge(parts) {
+        Ok(o) => finish_sweep(&o, &out, false),
+        Err(e) => {
+            eprintln!("error: {e}");
+            BAD_INPUT
+        }
+    }
+}
+
 /// Entry point; returns the process exit code.
 pub fn main_with_args(args: &[String]) -> i32 {
     match args.first().map(String::as_str) {
         Some("run") => cmd_run(&args[1..]),
         Some("check") => cmd_check(&args[1..]),
+        Some("sweep") => cmd_sweep(&args[1..]),
+        Some("merge") => cmd_merge(&args[1..]),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             PASS

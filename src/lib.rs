@@ -14,4 +14,5 @@ pub mod engine;
 pub mod requirements;
 #[cfg(feature = "record")]
 pub mod record;
+pub mod sweep;
 pub mod cli;

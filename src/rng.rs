@@ -26,6 +26,8 @@ pub enum Component {
     ImuNoise = 4,
     TelemetryLoss = 5,
     TelemetryJitter = 6,
+    /// Per-run draws of a sweep (varied parameters and the run's seed); "vehicle" = run index.
+    Sweep = 7,
 }
 
 fn splitmix64(x: &mut u64) -> u64 {

@@ -55,6 +55,64 @@ pub struct Scenario {
     pub plan: Spanned<Vec<PhaseCfg>>,
     #[serde(default)]
     pub requirements: RequirementsCfg,
+    /// Parameter variations for `flyarena sweep` (ignored by `run`).
+    #[serde(default)]
+    pub sweep: Option<SweepCfg>,
+}
+
+/// `sweep:` — how `flyarena sweep` varies this scenario.
+#[derive(Debug, Deserialize, serde::Serialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SweepCfg {
+    /// Runs (default 100; `--runs` overrides). With grids, runs cycle through the grid points.
+    #[serde(default = "d_runs")]
+    pub runs: u32,
+    /// Seed of the sweep: run i draws its parameters and its scenario seed from (seed, i).
+    #[serde(default = "d_seed")]
+    pub seed: u64,
+    pub vary: Vec<VaryCfg>,
+}
+fn d_runs() -> u32 {
+    100
+}
+
+/// One varied field: `field` is a path into the scenario (`mocap.noise_mm`,
+/// `vehicles[0].markers.rotation_deg[1]`, `plan[1].calibrate_roll_pitch.average_s`), and exactly
+/// one of `uniform: [lo, hi]`, `normal: [mean, sd]`, `grid: [v1, v2, ...]` (grids multiply).
+#[derive(Debug, Deserialize, serde::Serialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct VaryCfg {
+    pub field: String,
+    #[serde(default)]
+    pub uniform: Option<[f64; 2]>,
+    #[serde(default)]
+    pub normal: Option<[f64; 2]>,
+    #[serde(default)]
+    pub grid: Option<Vec<f64>>,
+}
+
+/// A checked [`VaryCfg`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Variation {
+    Uniform(f64, f64),
+    Normal(f64, f64),
+    Grid(Vec<f64>),
+}
+
+impl VaryCfg {
+    pub fn variation(&self) -> Result<Variation, String> {
+        let finite = |xs: &[f64]| xs.iter().all(|x| x.is_finite());
+        match (&self.uniform, &self.normal, &self.grid) {
+            (Some([lo, hi]), None, None) if finite(&[*lo, *hi]) && lo <= hi => Ok(Variation::Uniform(*lo, *hi)),
+            (None, Some([m, sd]), None) if finite(&[*m, *sd]) && *sd >= 0.0 => Ok(Variation::Normal(*m, *sd)),
+            (None, None, Some(g)) if !g.is_empty() && finite(g) => Ok(Variation::Grid(g.clone())),
+            (None, None, None) => Err(format!("`{}`: give one of `uniform: [lo, hi]`, `normal: [mean, sd]` or `grid: [values]`", self.field)),
+            (Some(_), None, None) => Err(format!("`{}`: uniform needs finite lo ≤ hi", self.field)),
+            (None, Some(_), None) => Err(format!("`{}`: normal needs a finite mean and sd ≥ 0", self.field)),
+            (None, None, Some(_)) => Err(format!("`{}`: grid needs at least one finite value", self.field)),
+            _ => Err(format!("`{}`: give only one of uniform, normal, grid", self.field)),
+        }
+    }
 }
 
 #[derive(Debug, Deserialize, serde::Serialize)]

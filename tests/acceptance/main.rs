@@ -9,6 +9,7 @@ mod props;
 #[cfg(feature = "record")]
 mod record;
 mod scenarios;
+mod sweep;
 
 use flyarena::scenario::Scenario;
 

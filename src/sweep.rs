@@ -1,0 +1,395 @@
+//! Monte Carlo sweeps: many runs of one scenario with declared parameter variations, in
+//! parallel, with per-run metrics and a summary; shardable over machines.
+//!
+//! Run i of a sweep (i = 0..N) is a pure function of (scenario text, sweep seed, i):
+//! * its grid point is i mod G (mixed radix over the `grid` variations in declaration order, the
+//!   first varying fastest), G = the product of the grid sizes;
+//! * its `uniform`/`normal` values and its scenario seed are drawn from the stream
+//!   `Stream::new(sweep seed, Component::Sweep, i)`, in declaration order, seed last.
+//!
+//! So results do not depend on the thread count or on how runs are split into shards: rows are
+//! computed independently and ordered by i. `--shard K/N` runs the i with i mod N = K − 1 and
+//! writes its rows; `flyarena merge` puts shards back together and computes the same summary,
+//! byte for byte, as one unsharded sweep.
+//!
+//! The variations are applied to the YAML tree, which is then parsed and validated like any
+//! scenario, so a variation that leaves the allowed range is reported like a bad scenario.
+
+use crate::cli::run_scenario;
+use crate::rng::{Component, Stream};
+use crate::scenario::{Scenario, ScenarioError, SweepCfg, Variation};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Metric names, in column order. Angles in degrees, distances in metres; NaN when a run has no
+/// value for it (e.g. no yaw flight).
+pub const METRICS: [&str; 7] = ["roll_err_deg", "pitch_err_deg", "yaw_gyro_err_deg", "yaw_ls_err_deg", "spin_dev_m", "spin_ratio", "ls_rls_dpsi_rad"];
+/// Requirement pass flags per row.
+pub const REQUIREMENTS: [&str; 4] = ["R1", "R2", "R3", "R4"];
+
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    #[error("{0}")]
+    Scenario(#[from] ScenarioError),
+    #[error("{file}: sweep: {message}")]
+    Spec { file: String, message: String },
+    #[error("run {run}: {message}")]
+    Run { run: u64, message: String },
+    #[error("merge: {0}")]
+    Merge(String),
+}
+
+/// One vehicle of one run.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SweepRow {
+    pub run: u64,
+    pub seed: u64,
+    pub grid_point: u64,
+    pub vehicle: String,
+    /// The varied values, in declaration order.
+    pub params: Vec<f64>,
+    /// [`METRICS`], in order (`null` in JSON for NaN).
+    pub metrics: Vec<Option<f64>>,
+    /// [`REQUIREMENTS`] pass flags (`None` when the scenario does not declare it).
+    pub requirements: Vec<Option<bool>>,
+    pub passed: bool,
+}
+
+/// What a (partial) sweep produced: the rows of the runs it ran.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SweepOutput {
+    pub scenario: String,
+    pub sweep_seed: u64,
+    pub runs: u64,
+    pub fields: Vec<String>,
+    /// Which of `fields` are grids (the rest are random draws).
+    pub grid: Vec<bool>,
+    /// `[K, N]` for a shard, `None` for a whole sweep.
+    pub shard: Option<[u64; 2]>,
+    pub rows: Vec<SweepRow>,
+}
+
+/// The plan of a sweep: the YAML tree and the checked variations.
+pub struct Sweep {
+    name: String,
+    tree: serde_json::Value,
+    cfg: SweepCfg,
+    variations: Vec<Variation>,
+    file: String,
+}
+
+impl Sweep {
+    /// Reads a scenario with a `sweep:` section.
+    pub fn load(path: &Path) -> Result<Sweep, SweepError> {
+        let scenario = Scenario::load(path)?;
+        let file = path.display().to_string();
+        let spec = |message: String| SweepError::Spec { file: file.clone(), message };
+        let cfg = scenario.sweep.clone().ok_or_else(|| spec("the scenario has no `sweep:` section (see README, Sweeps)".into()))?;
+        if cfg.vary.is_empty() {
+            return Err(spec("`vary` is empty: name at least one field to vary".into()));
+        }
+        let variations = cfg.vary.iter().map(|v| v.variation().map_err(&spec)).collect::<Result<Vec<_>, _>>()?;
+        let src = std::fs::read_to_string(path).map_err(|e| spec(e.to_string()))?;
+        let tree: serde_json::Value = serde_saphyr::from_str(&src).map_err(|e| spec(e.to_string()))?;
+        let sweep = Sweep { name: scenario.name.clone(), tree, cfg, variations, file: file.clone() };
+        // every field must exist before anything runs
+        for (k, v) in sweep.cfg.vary.iter().enumerate() {
+            let mut t = sweep.tree.clone();
+            set_path(&mut t, &v.field, 0.0).map_err(|m| spec(format!("vary[{k}]: {m}")))?;
+        }
+        Ok(sweep)
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    pub fn default_runs(&self) -> u64 {
+        self.cfg.runs as u64
+    }
+
+    /// The varied values and the scenario seed of run i.
+    pub fn draw(&self, i: u64) -> (Vec<f64>, u64, u64) {
+        let mut rng = Stream::new(self.cfg.seed, Component::Sweep, i as usize);
+        let mut radix = i;
+        let mut grid_point = 0;
+        let mut stride = 1;
+        let params = self
+            .variations
+            .iter()
+            .map(|v| match v {
+                Variation::Uniform(lo, hi) => lo + (hi - lo) * rng.uniform(),
+                Variation::Normal(m, sd) => m + sd * rng.normal(),
+                Variation::Grid(g) => {
+                    let k = radix % g.len() as u64;
+                    radix /= g.len() as u64;
+                    grid_point += k * stride;
+                    stride *= g.len() as u64;
+                    g[k as usize]
+                }
+            })
+            .collect();
+        let seed = rng.next_u64();
+        (params, seed, grid_point)
+    }
+
+    /// The scenario of run i.
+    pub fn scenario(&self, i: u64) -> Result<(Scenario, Vec<f64>, u64), SweepError> {
+        let (params, seed, grid_point) = self.draw(i);
+        let mut t = self.tree.clone();
+        for (v, x) in self.cfg.vary.iter().zip(&params) {
+            set_path(&mut t, &v.field, *x).map_err(|message| SweepError::Run { run: i, message })?;
+        }
+        t["seed"] = serde_json::json!(seed);
+        // YAML is a superset of JSON: the varied tree goes through the same parser and checks
+        let text = serde_json::to_string(&t).expect("a JSON tree serialises");
+        let s = Scenario::parse(&text, Path::new(&format!("{} (run {i})", self.file))).map_err(|e| SweepError::Run { run: i, message: e.to_string() })?;
+        Ok((s, params, grid_point))
+    }
+
+    /// Runs the runs `i` with `i % shard.1 == shard.0` (all when `None`), in parallel.
+    pub fn run(&self, runs: u64, shard: Option<(u64, u64)>, progress: &(dyn Fn() + Sync)) -> Result<SweepOutput, SweepError> {
+        let mine: Vec<u64> = (0..runs).filter(|i| shard.is_none_or(|(k, n)| i % n == k)).collect();
+        let rows: Vec<Vec<SweepRow>> = mine
+            .par_iter()
+            .map(|&i| {
+                let r = self.one(i);
+                progress();
+                r
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(SweepOutput {
+            scenario: self.name.clone(),
+            sweep_seed: self.cfg.seed,
+            runs,
+            fields: self.cfg.vary.iter().map(|v| v.field.clone()).collect(),
+            grid: self.variations.iter().map(|v| matches!(v, Variation::Grid(_))).collect(),
+            shard: shard.map(|(k, n)| [k + 1, n]),
+            rows: rows.into_iter().flatten().collect(),
+        })
+    }
+
+    fn one(&self, i: u64) -> Result<Vec<SweepRow>, SweepError> {
+        let (s, params, grid_point) = self.scenario(i)?;
+        let (main, unc, report) = run_scenario(&s, false);
+        Ok(main
+            .vehicles
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                let u = unc.as_ref().and_then(|u| u.vehicles.get(k));
+                let c = &v.calibration;
+                let t = v.truth.euler;
+                let deg = |x: f64| x.abs().to_degrees();
+                let metrics = [
+                    c.roll_pitch.map(|(r, _, _)| deg(r - t.roll)),
+                    c.roll_pitch.map(|(_, p, _)| deg(p - t.pitch)),
+                    c.gyro.map(|g| deg(crate::frames::wrap_pi(g.euler.yaw - t.yaw))),
+                    c.yaw_offset.map(|y| deg(crate::frames::wrap_pi(y - t.yaw))),
+                    v.spin_max_deviation_m,
+                    v.spin_max_deviation_m.zip(u.and_then(|u| u.spin_max_deviation_m)).map(|(a, b)| a / b),
+                    c.yaw_ls.zip(c.yaw_rls).map(|(a, b)| (a.psi_offset - b.psi_offset).abs()),
+                ];
+                let rows: Vec<_> = report.rows.iter().filter(|r| r.vehicle == v.name).collect();
+                let requirements = REQUIREMENTS.map(|id| {
+                    let mine: Vec<_> = rows.iter().filter(|r| r.id == id).collect();
+                    (!mine.is_empty()).then(|| mine.iter().all(|r| r.pass))
+                });
+                SweepRow {
+                    run: i,
+                    seed: s.seed,
+                    grid_point,
+                    vehicle: v.name.clone(),
+                    params: params.clone(),
+                    metrics: metrics.to_vec(),
+                    requirements: requirements.to_vec(),
+                    passed: rows.iter().all(|r| r.pass),
+                }
+            })
+            .collect())
+    }
+}
+
+/// Sets the number at `path` (`a.b[2].c`) in a YAML/JSON tree; the containers must exist, a
+/// missing last key of a mapping is added.
+pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), String> {
+    let mut cur = tree;
+    let mut parts: Vec<(String, Option<usize>)> = Vec::new();
+    for seg in path.split('.') {
+        let (key, rest) = seg.split_once('[').map_or((seg, ""), |(k, r)| (k, r));
+        if !key.is_empty() {
+            parts.push((key.to_string(), None));
+        }
+        for idx in rest.split('[').filter(|s| !s.is_empty()) {
+            let n = idx.trim_end_matches(']').parse::<usize>().map_err(|_| format!("`{path}`: `[{idx}` is not an index"))?;
+            parts.push((String::new(), Some(n)));
+        }
+    }
+    let last = parts.len().checked_sub(1).ok_or_else(|| "empty field path".to_string())?;
+    for (k, (key, idx)) in parts.iter().enumerate() {
+        let end = k == last;
+        cur = match idx {
+            Some(n) => {
+                let len = cur.as_array().map(Vec::len).ok_or_else(|| format!("`{path}`: not a list before [{n}]"))?;
+                if *n >= len {
+                    return Err(format!("`{path}`: index {n} is outside the list (length {len})"));
+                }
+                &mut cur[*n]
+            }
+            None => {
+                let obj = cur.as_object_mut().ok_or_else(|| format!("`{path}`: `{key}` is not inside a mapping"))?;
+                if !obj.contains_key(key.as_str()) {
+                    if !end {
+                        return Err(format!("`{path}`: `{key}` is not set in the scenario; write it out to vary inside it"));
+                    }
+                    obj.insert(key.clone(), serde_json::Value::Null);
+                }
+                obj.get_mut(key.as_str()).expect("present")
+            }
+        };
+        if end {
+            *cur = serde_json::json!(x);
+        }
+    }
+    Ok(())
+}
+
+/// Merges shard outputs into the output of the whole sweep.
+pub fn merge(parts: Vec<SweepOutput>) -> Result<SweepOutput, SweepError> {
+    let first = parts.first().ok_or_else(|| SweepError::Merge("no shard files given".into()))?;
+    let (scenario, seed, runs, fields, grid) = (first.scenario.clone(), first.sweep_seed, first.runs, first.fields.clone(), first.grid.clone());
+    for p in &parts {
+        if (p.scenario.as_str(), p.sweep_seed, p.runs, &p.fields) != (scenario.as_str(), seed, runs, &fields) {
+            return Err(SweepError::Merge(format!("shard {:?} of `{}` (seed {}, {} runs) does not belong with `{scenario}` (seed {seed}, {runs} runs)", p.shard, p.scenario, p.sweep_seed, p.runs)));
+        }
+    }
+    let mut rows: Vec<SweepRow> = parts.into_iter().flat_map(|p| p.rows).collect();
+    rows.sort_by(|a, b| (a.run, &a.vehicle).cmp(&(b.run, &b.vehicle)));
+    let mut seen = std::collections::BTreeSet::new();
+    for r in &rows {
+        if !seen.insert((r.run, r.vehicle.clone())) {
+            return Err(SweepError::Merge(format!("run {} ({}) appears in two shards", r.run, r.vehicle)));
+        }
+    }
+    let missing: Vec<u64> = (0..runs).filter(|i| !rows.iter().any(|r| r.run == *i)).take(5).collect();
+    if !missing.is_empty() {
+        return Err(SweepError::Merge(format!("runs missing, e.g. {missing:?}: a shard is absent")));
+    }
+    Ok(SweepOutput { scenario, sweep_seed: seed, runs, fields, grid, shard: None, rows })
+}
+
+/// Statistics of one metric over a group of rows (finite values only).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Stats {
+    pub n: usize,
+    pub mean: f64,
+    pub p50: f64,
+    pub p95: f64,
+    pub p99: f64,
+    pub max: f64,
+}
+
+fn stats(mut xs: Vec<f64>) -> Option<Stats> {
+    xs.retain(|x| x.is_finite());
+    if xs.is_empty() {
+        return None;
+    }
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    // nearest rank: the smallest value with at least p·n values at or below it
+    let q = |p: f64| xs[((p * n as f64).ceil() as usize).clamp(1, n) - 1];
+    Some(Stats { n, mean: xs.iter().sum::<f64>() / n as f64, p50: q(0.5), p95: q(0.95), p99: q(0.99), max: xs[n - 1] })
+}
+
+/// The summary of a sweep, per grid point: the grid values, metric statistics, pass rates.
+pub fn summary(out: &SweepOutput) -> serde_json::Value {
+    let points: std::collections::BTreeSet<u64> = out.rows.iter().map(|r| r.grid_point).collect();
+    let groups: Vec<serde_json::Value> = points
+        .iter()
+        .map(|&g| {
+            let rows: Vec<&SweepRow> = out.rows.iter().filter(|r| r.grid_point == g).collect();
+            let metrics: serde_json::Map<String, serde_json::Value> = METRICS
+                .iter()
+                .enumerate()
+                .filter_map(|(k, m)| stats(rows.iter().filter_map(|r| r.metrics[k]).collect()).map(|s| (m.to_string(), serde_json::to_value(s).expect("stats serialise"))))
+                .collect();
+            let pass_rate: serde_json::Map<String, serde_json::Value> = REQUIREMENTS
+                .iter()
+                .enumerate()
+                .filter_map(|(k, id)| {
+                    let flags: Vec<bool> = rows.iter().filter_map(|r| r.requirements[k]).collect();
+                    (!flags.is_empty()).then(|| (id.to_string(), serde_json::json!(flags.iter().filter(|f| **f).count() as f64 / flags.len() as f64)))
+                })
+                .collect();
+            let grid: serde_json::Map<String, serde_json::Value> = rows
+                .first()
+                .map(|r| out.fields.iter().zip(&r.params).zip(&out.grid).filter(|(_, g)| **g).map(|((f, p), _)| (f.clone(), serde_json::json!(p))).collect())
+                .unwrap_or_default();
+            serde_json::json!({
+                "grid_point": g,
+                "grid": grid,
+                "rows": rows.len(),
+                "pass_rate_all": rows.iter().filter(|r| r.passed).count() as f64 / rows.len().max(1) as f64,
+                "pass_rate": pass_rate,
+                "metrics": metrics,
+            })
+        })
+        .collect();
+    serde_json::json!({ "scenario": out.scenario, "sweep_seed": out.sweep_seed, "runs": out.runs, "fields": out.fields, "groups": groups })
+}
+
+/// One CSV line per row: run, seed, grid_point, vehicle, the varied fields, the metrics, the
+/// requirement flags, passed. Numbers with Rust's shortest round-trip formatting.
+pub fn csv(out: &SweepOutput) -> String {
+    let mut s = String::from("run,seed,grid_point,vehicle");
+    for f in &out.fields {
+        s += &format!(",{f}");
+    }
+    for m in METRICS {
+        s += &format!(",{m}");
+    }
+    for r in REQUIREMENTS {
+        s += &format!(",{r}");
+    }
+    s += ",passed\n";
+    for r in &out.rows {
+        s += &format!("{},{},{},{}", r.run, r.seed, r.grid_point, r.vehicle);
+        for p in &r.params {
+            s += &format!(",{p}");
+        }
+        for m in &r.metrics {
+            s += &m.map_or(",".into(), |x| format!(",{x}"));
+        }
+        for q in &r.requirements {
+            s += &q.map_or(",".into(), |x| format!(",{x}"));
+        }
+        s += &format!(",{}\n", r.passed);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_path_reaches_nested_fields() {
+        let mut t = serde_json::json!({"a": {"b": [1.0, {"c": 2.0}]}, "v": [{"m": {"r": [0.0, 0.0, 0.0]}}]});
+        set_path(&mut t, "a.b[1].c", 5.0).unwrap();
+        set_path(&mut t, "v[0].m.r[2]", -3.0).unwrap();
+        set_path(&mut t, "a.new", 1.5).unwrap();
+        assert_eq!(t["a"]["b"][1]["c"], 5.0);
+        assert_eq!(t["v"][0]["m"]["r"][2], -3.0);
+        assert_eq!(t["a"]["new"], 1.5);
+        assert!(set_path(&mut t, "v[3].m", 1.0).unwrap_err().contains("outside the list"));
+        assert!(set_path(&mut t, "x.y", 1.0).unwrap_err().contains("not set"));
+    }
+
+    #[test]
+    fn nearest_rank_percentiles() {
+        let s = stats((1..=100).map(|x| x as f64).collect()).unwrap();
+        assert_eq!((s.p50, s.p95, s.p99, s.max, s.n), (50.0, 95.0, 99.0, 100.0, 100));
+        assert_eq!(s.mean, 50.5);
+        assert!(stats(vec![f64::NAN]).is_none());
+    }
+}

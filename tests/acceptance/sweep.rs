@@ -1,0 +1,90 @@
+//! Sweeps: independent of thread count and sharding, bit for bit; bad specs rejected clearly.
+
+use super::root;
+use flyarena::sweep::{Sweep, merge};
+use std::process::Command;
+
+fn scenario() -> std::path::PathBuf {
+    root().join("scenarios/sweep-hover-duration.yaml")
+}
+
+fn flyarena(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+#[test]
+fn results_do_not_depend_on_threads_or_shards() {
+    let s = Sweep::load(&scenario()).unwrap();
+    let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+    let one = pool(1).install(|| s.run(16, None, &|| {})).unwrap();
+    let three = pool(3).install(|| s.run(16, None, &|| {})).unwrap();
+    assert_eq!(one, three);
+    let shards: Vec<_> = (0..3).map(|k| s.run(16, Some((k, 3)), &|| {}).unwrap()).collect();
+    assert_eq!(merge(shards).unwrap(), one);
+    // every run has its own seed and its own draws
+    let seeds: std::collections::BTreeSet<u64> = one.rows.iter().map(|r| r.seed).collect();
+    assert_eq!(seeds.len(), 16);
+}
+
+/// Through the CLI: 3 shards merged give the same files, byte for byte, as one unsharded sweep.
+#[test]
+fn merged_shards_equal_the_unsharded_sweep_byte_for_byte() {
+    let d = std::env::temp_dir().join(format!("flyarena-sweep-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    let (whole, parts, merged) = (d.join("whole"), d.join("parts"), d.join("merged"));
+    let sc = scenario();
+    let sc = sc.to_str().unwrap();
+    let (code, out, err) = flyarena(&["sweep", sc, "--runs", "12", "--out", whole.to_str().unwrap(), "-q"]);
+    assert!(code == 0 || code == 1, "{out}{err}");
+    for k in 1..=3 {
+        let (code, out, err) = flyarena(&["sweep", sc, "--runs", "12", "--shard", &format!("{k}/3"), "--out", parts.to_str().unwrap()]);
+        assert_eq!(code, 0, "{out}{err}");
+    }
+    let shard_files: Vec<String> = (1..=3).map(|k| parts.join(format!("sweep-hover-duration.sweep.shard-{k}-of-3.json")).to_str().unwrap().to_string()).collect();
+    let mut args = vec!["merge"];
+    args.extend(shard_files.iter().map(String::as_str));
+    args.extend(["--out", merged.to_str().unwrap()]);
+    let (code, out, err) = flyarena(&args);
+    assert!(code == 0 || code == 1, "{out}{err}");
+    for f in ["sweep-hover-duration.sweep.json", "sweep-hover-duration.sweep.csv"] {
+        assert_eq!(std::fs::read(whole.join(f)).unwrap(), std::fs::read(merged.join(f)).unwrap(), "{f} differs");
+    }
+    // a missing shard is an error, not a silently smaller summary
+    let (code, _, err) = flyarena(&["merge", &shard_files[0], &shard_files[2], "--out", merged.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    assert!(err.contains("runs missing"), "{err}");
+}
+
+/// The averaging error of the hover calibration shrinks with the hover's length (noise averages
+/// as 1/√T): the 95th percentile at 4 s is below the one at 0.5 s.
+#[test]
+fn longer_hovers_calibrate_better() {
+    let s = Sweep::load(&scenario()).unwrap();
+    let out = s.run(40, None, &|| {}).unwrap();
+    let summary = flyarena::sweep::summary(&out);
+    let p95 = |g: usize| summary["groups"][g]["metrics"]["roll_err_deg"]["p95"].as_f64().unwrap();
+    assert_eq!(summary["groups"][0]["grid"]["plan[1].calibrate_roll_pitch.average_s"], 0.5);
+    assert_eq!(summary["groups"][3]["grid"]["plan[1].calibrate_roll_pitch.average_s"], 4.0);
+    assert!(p95(3) < p95(0), "p95 at 4 s {} vs at 0.5 s {}", p95(3), p95(0));
+}
+
+#[test]
+fn bad_sweeps_are_rejected_before_running() {
+    let d = std::env::temp_dir().join(format!("flyarena-badsweep-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let good = std::fs::read_to_string(scenario()).unwrap();
+    let cases = [
+        (good.replace("field: \"mocap.noise_mm\"", "field: \"mocap.nosie.mm\""), "`nosie` is not set"),
+        (good.replace("uniform: [0.1, 1.0]", "uniform: [0.1, 1.0], grid: [1]"), "only one of uniform, normal, grid"),
+        (good.replace("uniform: [0.1, 1.0]", "uniform: [30, 40]"), "outside the allowed range [0, 20]"),
+        (good.replace("\nsweep:", "\nsweeps:"), "unknown field"),
+    ];
+    for (k, (yaml, want)) in cases.iter().enumerate() {
+        let f = d.join(format!("bad{k}.yaml"));
+        std::fs::write(&f, yaml).unwrap();
+        let (code, out, err) = flyarena(&["sweep", f.to_str().unwrap(), "--runs", "2", "--out", d.to_str().unwrap()]);
+        assert_eq!(code, 2, "case {k}: {out}{err}");
+        assert!(err.contains(want), "case {k}: {err}");
+    }
+}
