@@ -185,6 +185,18 @@ fn cmd_run(args: &[String]) -> i32 {
             print!("{}", report.table());
             println!();
         }
+        for v in main.vehicles.iter().filter(|v| v.failsafe.episodes > 0) {
+            let f = &v.failsafe;
+            println!(
+                "{}: mocap-outage failsafe entered {} time(s), first at {:.2} s, {:.2} s in total (longest {:.2} s){}",
+                v.name,
+                f.episodes,
+                f.first_at_s.unwrap_or(0.0),
+                f.total_s,
+                f.longest_s,
+                if f.active_at_end { ", still active at the end" } else { ", recovered" }
+            );
+        }
         println!("summary: {}", json_path.display());
         if let Some(p) = &rrd_path {
             println!("recording: {} (open with `rerun {}`)", p.display(), p.display());

@@ -113,9 +113,38 @@ pub fn control(g: &Gains, r: &Reference, pos: Vec3<MocapNav>, vel: Vec3<MocapNav
     }
 }
 
+/// The failsafe law, used when the mocap has been silent for longer than the timeout: level
+/// attitude (φ_com = θ_com = 0, the last yaw held) through the attitude loop of (3)–(4) on the
+/// dead-reckoned attitude, and a thrust of `fraction`·m·g/(cos φ·cos θ), whose vertical part is
+/// `fraction`·m·g: the vehicle sinks with (1 − fraction)·g (0.29 m/s² for 0.97). `motors_off`
+/// cuts the thrust (after landing).
+pub fn failsafe(g: &Gains, att: Rot<Body, MocapNav>, yaw_hold: f64, fraction: f64, motors_off: bool) -> ControlOutput {
+    let e = att.euler();
+    let euler_rates = Vector3::new(g.k_att[0] * -e.roll, g.k_att[1] * -e.pitch, g.k_att[2] * wrap_pi(yaw_hold - e.yaw));
+    let tilt = (e.roll.cos() * e.pitch.cos()).max(0.5);
+    let thrust = if motors_off { 0.0 } else { (fraction * g.mass_kg * GRAVITY / tilt).clamp(0.0, g.thrust_max_n) };
+    ControlOutput {
+        rates: if motors_off { Vec3::zeros() } else { Vec3::from_raw(t_w_inv(e.roll, e.pitch) * euler_rates) },
+        thrust_n: thrust,
+        angles_com: Euler::new(0.0, 0.0, yaw_hold),
+        accel_com: Vec3::new(0.0, 0.0, (1.0 - fraction) * GRAVITY),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn failsafe_levels_and_sinks_slowly() {
+        let g = gains();
+        // rolled right 10°: roll rate command to the left, thrust holds 97 % of the weight vertically
+        let att: Rot<Body, MocapNav> = Rot::from_euler(Euler::from_degrees(10.0, 0.0, 30.0));
+        let out = failsafe(&g, att, 30f64.to_radians(), 0.97, false);
+        assert!(out.rates.x() < 0.0 && out.rates.z().abs() < 1e-12);
+        assert!((out.thrust_n * 10f64.to_radians().cos() - 0.97 * 0.68 * GRAVITY).abs() < 1e-12);
+        assert_eq!(failsafe(&g, att, 0.0, 0.97, true).thrust_n, 0.0);
+    }
 
     fn gains() -> Gains {
         Gains { k_x: [1.0; 3], k_v: [2.0, 2.0, 3.0], k_att: [6.0, 6.0, 3.0], max_tilt: [0.35, 0.35], thrust_max_n: 24.0, mass_kg: 0.68 }

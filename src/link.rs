@@ -69,6 +69,8 @@ pub struct Link<T> {
     last_seq: Option<u32>,
     last_arrival: Option<Nanos>,
     stats: LinkStats,
+    /// Total outages [from, to) (to = None: until the end); packets sent then are lost.
+    outages: Vec<(Nanos, Option<Nanos>)>,
 }
 
 impl<T: Copy> Link<T> {
@@ -82,7 +84,14 @@ impl<T: Copy> Link<T> {
             last_seq: None,
             last_arrival: None,
             stats: LinkStats::default(),
+            outages: Vec::new(),
         }
+    }
+
+    /// Adds total outages: every packet sent in [from, to) is lost (`to = None`: never ends).
+    pub fn with_outages(mut self, outages: Vec<(Nanos, Option<Nanos>)>) -> Self {
+        self.outages = outages;
+        self
     }
 
     pub fn stats(&self) -> &LinkStats {
@@ -106,7 +115,9 @@ impl<T: Copy> Link<T> {
     /// Hands a packet to the network at time `now`.
     pub fn send(&mut self, now: Nanos, seq: u32, payload: T) {
         self.stats.sent += 1;
-        if self.lost() {
+        let out = self.outages.iter().any(|(from, to)| now >= *from && to.is_none_or(|t| now < t));
+        // the loss model draws even during an outage, so an outage does not shift later draws
+        if self.lost() || out {
             self.stats.lost_on_link += 1;
             return;
         }

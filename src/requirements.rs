@@ -195,6 +195,7 @@ pub fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> serde_json::
         "hover_thrust_mean_n": v.hover_thrust_mean_n,
         "hover_thrust_expected_n": v.params.hover_thrust(),
         "link": v.link,
+        "failsafe": v.failsafe,
         "telemetry_link": v.telemetry,
         "final_position_m": v.final_pos,
     })

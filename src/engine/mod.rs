@@ -17,7 +17,7 @@
 
 pub mod station;
 
-pub use station::{CalibrationReport, CalibrationSettings, RlsSample, Station};
+pub use station::{CalibrationReport, CalibrationSettings, FailsafeReport, FailsafeSettings, RlsSample, Station};
 
 use crate::clock::{Clock, Nanos, Rate};
 use crate::control::Gains;
@@ -82,6 +82,8 @@ pub struct VehicleRun {
     pub link: LinkStats,
     /// The body-rate telemetry link (vehicle → station).
     pub telemetry: LinkStats,
+    /// The mocap-outage failsafe.
+    pub failsafe: FailsafeReport,
     /// Max horizontal distance from the commanded point while spinning on the spot (m).
     pub spin_max_deviation_m: Option<f64>,
     /// Mean commanded (decoded) thrust while hovering in calibrate_roll_pitch (N).
@@ -152,6 +154,8 @@ impl Arena {
             translation: Vec3::from_array(cam.translation_mm.map(|x| x * 1e-3)),
         };
         let link = LinkParams { latency: ms(s.link.latency_ms), jitter: ms(s.link.jitter_ms), loss: s.link.loss.model() };
+        let outages: Vec<(Nanos, Option<Nanos>)> =
+            s.link.outages.iter().map(|o| (Nanos::from_secs_f64(o.value.from_s), o.value.to_s.map(Nanos::from_secs_f64))).collect();
         let tm = &s.telemetry;
         let telemetry = LinkParams { latency: ms(tm.latency_ms), jitter: ms(tm.jitter_ms), loss: tm.loss.model() };
         let telemetry_every = rate(tm.rate_hz.value).ticks_of(physics).expect("validated") as u32;
@@ -209,7 +213,12 @@ impl Arena {
                     mocap_period: rate(s.mocap.rate_hz.value).period(),
                     telemetry_period: rate(tm.rate_hz.value).period(),
                 };
-                let station = Station::new(plan, gains, settings, c.velocity_cutoff_hz, opts.trace);
+                let fs = FailsafeSettings {
+                    timeout: ms(c.failsafe_timeout_ms),
+                    thrust_fraction: c.failsafe_thrust_fraction,
+                    motors_off_after: Nanos::from_secs_f64(c.failsafe_motors_off_s),
+                };
+                let station = Station::new(plan, gains, settings, fs, c.velocity_cutoff_hz, opts.trace);
                 let imu = ImuParams {
                     gyro_noise_rad_s: v.imu.gyro_noise_deg_s.to_radians(),
                     accel_noise_m_s2: v.imu.accel_noise_m_s2,
@@ -225,7 +234,7 @@ impl Arena {
                     imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
                     mocap,
                     mocap_latency: ms(s.mocap.latency_ms),
-                    link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)),
+                    link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)).with_outages(outages.clone()),
                     downlink: Downlink::new(telemetry_every),
                     telemetry: Link::new(telemetry, Stream::new(s.seed, Component::TelemetryLoss, i), Stream::new(s.seed, Component::TelemetryJitter, i)),
                     radio,
@@ -298,6 +307,7 @@ impl Arena {
                     calibration,
                     link: *v.link.stats(),
                     telemetry: *v.telemetry.stats(),
+                    failsafe: v.station.failsafe_report(),
                     spin_max_deviation_m: v.spin_max,
                     hover_thrust_mean_n: (v.thrust_n > 0).then(|| v.thrust_sum / v.thrust_n as f64),
                     rls_trace: v.station.rls_trace().to_vec(),
@@ -324,6 +334,7 @@ impl Vehicle {
         while let Some(f) = self.telemetry.receive(t) {
             self.station.on_telemetry(&f);
         }
+        self.station.tick(t);
         if radio_tick {
             let cmd = *self.station.command();
             self.radio.transmit(t, cmd.rates, cmd.thrust_n);

@@ -4,7 +4,7 @@
 
 use crate::calibrate::{Compensation, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
 use crate::clock::Nanos;
-use crate::control::{ControlOutput, Gains, Reference, control};
+use crate::control::{ControlOutput, Gains, Reference, control, failsafe};
 use crate::estimate::VelocityEstimator;
 use crate::frames::{Body, Euler, MocapNav, Rot, Vec3};
 use crate::guidance::{Plan, Window};
@@ -25,6 +25,28 @@ pub struct CalibrationSettings {
     pub rls_min_spread_m: f64,
     pub mocap_period: Nanos,
     pub telemetry_period: Nanos,
+}
+
+/// When the mocap falls silent: after `timeout` without a pose the station commands the
+/// failsafe ([`failsafe`]) on the attitude dead-reckoned from the telemetry gyro; after
+/// `motors_off_after` in failsafe it cuts the motors; the first pose that arrives ends it.
+#[derive(Clone, Copy, Debug)]
+pub struct FailsafeSettings {
+    pub timeout: Nanos,
+    pub thrust_fraction: f64,
+    pub motors_off_after: Nanos,
+}
+
+/// What the failsafe did during a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct FailsafeReport {
+    pub episodes: u32,
+    /// Time spent in failsafe (s), and the longest episode (s).
+    pub total_s: f64,
+    pub longest_s: f64,
+    /// When the first episode began (s), and whether the run ended in failsafe.
+    pub first_at_s: Option<f64>,
+    pub active_at_end: bool,
 }
 
 /// What the calibration found (angles in radians).
@@ -73,10 +95,16 @@ pub struct Station {
     rls_trace: Option<Vec<RlsSample>>,
     /// The guidance of the current tick (the engine and the station both need it).
     guidance: (Nanos, Reference, Window),
+    fs: FailsafeSettings,
+    last_pose_at: Option<Nanos>,
+    /// Attitude for the failsafe: the last compensated mocap attitude, then gyro-propagated.
+    dead_reckoned: Option<Rot<Body, MocapNav>>,
+    failsafe_since: Option<Nanos>,
+    failsafe_report: FailsafeReport,
 }
 
 impl Station {
-    pub fn new(plan: Plan, gains: Gains, settings: CalibrationSettings, velocity_cutoff_hz: f64, record_rls: bool) -> Self {
+    pub fn new(plan: Plan, gains: Gains, settings: CalibrationSettings, fs: FailsafeSettings, velocity_cutoff_hz: f64, record_rls: bool) -> Self {
         let (reference, window0) = plan.reference(Nanos::ZERO);
         // the straight-flight samples are kept for the batch fit: reserve them once, so the loop
         // does not allocate while flying
@@ -108,6 +136,11 @@ impl Station {
             attitude: None,
             rls_trace: record_rls.then(Vec::new),
             guidance: (Nanos::ZERO, reference, window0),
+            fs,
+            last_pose_at: None,
+            dead_reckoned: None,
+            failsafe_since: None,
+            failsafe_report: FailsafeReport::default(),
         }
     }
 
@@ -144,12 +177,53 @@ impl Station {
     /// Handles one body-rate telemetry frame.
     pub fn on_telemetry(&mut self, f: &TelemetryFrame) {
         self.gyro.add_telemetry(f);
+        if self.failsafe_since.is_some()
+            && let Some(a) = self.dead_reckoned
+        {
+            self.dead_reckoned = Some(a * Rot::from_rotation_vector(f.gyro_mean * (f.t1 - f.t0).as_secs_f64()));
+        }
+    }
+
+    /// Once per tick: enters (or continues) the failsafe when the mocap has been silent too long.
+    pub fn tick(&mut self, now: Nanos) {
+        let Some(last) = self.last_pose_at else { return };
+        if now - last <= self.fs.timeout {
+            return;
+        }
+        let since = *self.failsafe_since.get_or_insert_with(|| {
+            self.failsafe_report.episodes += 1;
+            self.failsafe_report.first_at_s.get_or_insert(now.as_secs_f64());
+            now
+        });
+        if let Some(att) = self.dead_reckoned {
+            let yaw_hold = self.reference.yaw;
+            self.command = failsafe(&self.gains, att, yaw_hold, self.fs.thrust_fraction, now - since >= self.fs.motors_off_after);
+        }
+    }
+
+    /// Whether the failsafe is active.
+    pub fn in_failsafe(&self) -> bool {
+        self.failsafe_since.is_some()
+    }
+
+    fn end_failsafe(&mut self, now: Nanos) {
+        if let Some(since) = self.failsafe_since.take() {
+            let d = (now - since).as_secs_f64();
+            self.failsafe_report.total_s += d;
+            self.failsafe_report.longest_s = self.failsafe_report.longest_s.max(d);
+        }
+    }
+
+    pub fn failsafe_report(&self) -> FailsafeReport {
+        self.failsafe_report
     }
 
     /// Handles one Vicon packet received at `now`.
     pub fn on_pose(&mut self, now: Nanos, f: &MocapFrame) {
         let vel = self.estimator.update(f.t_capture, f.pos);
         self.gyro.add_mocap(f.t_capture, f.att);
+        self.last_pose_at = Some(now);
+        self.end_failsafe(now);
         let (reference, window) = self.guidance(now);
         if window != self.window {
             self.close_window();
@@ -171,6 +245,7 @@ impl Station {
         }
         let att = self.offset.compensate(f.att, self.settings.compensation);
         self.attitude = Some(att);
+        self.dead_reckoned = Some(att);
         self.reference = reference;
         self.command = control(&self.gains, &reference, f.pos, vel, att);
     }
@@ -221,6 +296,13 @@ impl Station {
 
     /// Closes any open calibration window and returns the report.
     pub fn finish(&mut self) -> CalibrationReport {
+        if let Some(since) = self.failsafe_since {
+            self.failsafe_report.active_at_end = true;
+            let now = self.guidance.0;
+            let d = (now - since).as_secs_f64();
+            self.failsafe_report.total_s += d;
+            self.failsafe_report.longest_s = self.failsafe_report.longest_s.max(d);
+        }
         self.close_window();
         self.window = Window::None;
         self.report.applied = self.offset.euler;

@@ -148,11 +148,22 @@ pub struct LinkCfg {
     #[serde(with = "ranges::latency_ms")]
     pub jitter_ms: f64,
     pub loss: LossCfg,
+    /// Total outages: no mocap packet gets through in [from_s, to_s) (`to_s` omitted: never again).
+    pub outages: Vec<Spanned<OutageCfg>>,
 }
 impl Default for LinkCfg {
     fn default() -> Self {
-        LinkCfg { latency_ms: 0.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli(0.0) }
+        LinkCfg { latency_ms: 0.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli(0.0), outages: Vec::new() }
     }
+}
+
+#[derive(Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutageCfg {
+    #[serde(with = "ranges::time_s")]
+    pub from_s: f64,
+    #[serde(default, with = "ranges::time_s::opt")]
+    pub to_s: Option<f64>,
 }
 
 /// The vehicle → station body-rate telemetry (the XBee radio).
@@ -237,6 +248,15 @@ pub struct ControllerCfg {
     #[serde(with = "ranges::cutoff_hz")]
     pub velocity_cutoff_hz: f64,
     pub compensation: Compensation,
+    /// No mocap pose for this long → failsafe (level, slow descent).
+    #[serde(with = "ranges::timeout_ms")]
+    pub failsafe_timeout_ms: f64,
+    /// Failsafe thrust as a fraction of the weight (sink rate (1 − f)·g).
+    #[serde(with = "ranges::thrust_fraction")]
+    pub failsafe_thrust_fraction: f64,
+    /// Motors off this long after entering the failsafe (it has landed by then).
+    #[serde(with = "ranges::duration_s")]
+    pub failsafe_motors_off_s: f64,
 }
 impl Default for ControllerCfg {
     fn default() -> Self {
@@ -247,6 +267,9 @@ impl Default for ControllerCfg {
             max_tilt_deg: 20.0,
             velocity_cutoff_hz: 15.0,
             compensation: Compensation::Rotation,
+            failsafe_timeout_ms: 100.0,
+            failsafe_thrust_fraction: 0.97,
+            failsafe_motors_off_s: 6.0,
         }
     }
 }
@@ -584,6 +607,11 @@ impl Scenario {
         }
         if !(4..=crate::radio::MAX_CHANNELS as u32).contains(&self.radio.channels.value) {
             return err(self.radio.channels.referenced, format!("{} channels is outside the allowed range [4, {}] (p, q, r and thrust need 4)", self.radio.channels.value, crate::radio::MAX_CHANNELS));
+        }
+        for o in &self.link.outages {
+            if o.value.to_s.is_some_and(|t| t <= o.value.from_s) {
+                return err(o.referenced, format!("outage ends ({} s) before it starts ({} s)", o.value.to_s.unwrap_or(0.0), o.value.from_s));
+            }
         }
         let vehicles = &self.vehicles.value;
         if vehicles.is_empty() || vehicles.len() > 16 {

@@ -111,4 +111,6 @@ ranged! {
     radius_m: 0.0, 5.0, true, "m";
     period_s: 0.5, 60.0, false, "s";
     turns: 1.0, 100.0, false, "turns";
+    timeout_ms: 1.0, 10000.0, false, "ms";
+    thrust_fraction: 0.5, 1.0, false, "";
 }

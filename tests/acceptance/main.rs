@@ -4,6 +4,7 @@
 mod alloc;
 mod cli;
 mod determinism;
+mod faults;
 mod physics;
 mod props;
 #[cfg(feature = "record")]

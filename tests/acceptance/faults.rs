@@ -1,0 +1,92 @@
+//! Faults in flight: total loss of mocap packets (50 ms, 500 ms, permanent) and the loss of all
+//! but two markers. Expectations from the failsafe's design: no episode below the 100 ms
+//! timeout; one episode that ends when packets return; a permanent loss ends on the floor with
+//! the motors off; nothing ever becomes NaN.
+
+use super::inline;
+use flyarena::engine::{RunOptions, run};
+
+const FLIGHT: &str = r#"
+name: outage
+seed: 4
+link: { outages: [ OUTAGE ] }
+vehicles:
+  - name: x3d
+    home_m: [0, 0]
+    markers: { rotation_deg: [3, 3, 0] OCCLUSIONS }
+plan:
+  - takeoff: { altitude_m: 1.0, duration_s: 3 }
+  - calibrate_roll_pitch: { settle_s: 3, average_s: 3 }
+  - hover: { duration_s: 12 }
+  - land: { duration_s: 3 }
+"#;
+
+fn fly(outage: &str, occlusions: &str) -> flyarena::engine::VehicleRun {
+    let y = FLIGHT.replace("OUTAGE", outage).replace("OCCLUSIONS", occlusions);
+    let out = run(&inline(&y), RunOptions::default());
+    let v = out.vehicles.into_iter().next().unwrap();
+    assert!(!v.any_nan);
+    v
+}
+
+/// Max horizontal distance from the reference between `from` and `to` (s).
+fn max_dev(v: &flyarena::engine::VehicleRun, from: f64, to: f64) -> f64 {
+    v.trace
+        .iter()
+        .filter(|s| (from..to).contains(&s.t.as_secs_f64()))
+        .map(|s| (s.pos - s.reference.assume_same_as()).horizontal_norm())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn an_outage_shorter_than_the_timeout_changes_little() {
+    let v = fly("{ from_s: 10, to_s: 10.05 }", "");
+    let calm = fly("{ from_s: 100 }", "");
+    assert_eq!(v.failsafe.episodes, 0);
+    assert!(v.link.longest_gap_ns >= 50_000_000);
+    // the station holds its last command for 60 ms: the track moves by millimetres
+    let diff = v.trace.iter().zip(&calm.trace).map(|(a, b)| (a.pos - b.pos).norm()).fold(0.0, f64::max);
+    assert!(diff < 0.005, "{diff} m");
+}
+
+#[test]
+fn a_500_ms_outage_enters_the_failsafe_and_recovers() {
+    // at 14 s the calibration transient (applied at 9 s) is over: steady hover
+    let v = fly("{ from_s: 14, to_s: 14.5 }", "");
+    let f = v.failsafe;
+    assert_eq!(f.episodes, 1);
+    assert!(!f.active_at_end);
+    // the last packet through was sent at 13.995 s (captured 13.985 s + 10 ms Vicon latency; the
+    // link adds none here), so the 100 ms timeout expires at the tick after 14.095 s
+    assert!((f.first_at_s.unwrap() - 14.096).abs() < 1e-9, "{f:?}");
+    // and the first packet sent after the outage (14.5 s) ends it: 0.404 s of failsafe
+    assert!((f.total_s - 0.404).abs() < 1e-9, "{f:?}");
+    // 0.4 s of level flight on the gyro from a steady hover loses little: it sinks
+    // (1 − 0.97)·g·t²/2 ≈ 2.4 cm and barely moves sideways
+    assert!(max_dev(&v, 14.0, 16.0) < 0.03, "{}", max_dev(&v, 14.0, 16.0));
+    let sink = v.trace.iter().filter(|s| (14.0..15.0).contains(&s.t.as_secs_f64())).map(|s| s.pos.z() - s.reference.z()).fold(0.0, f64::max);
+    assert!(sink > 0.01 && sink < 0.05, "sank {sink} m");
+    // and it is back on its reference before landing
+    assert!(max_dev(&v, 17.0, 20.0) < 0.01, "{}", max_dev(&v, 17.0, 20.0));
+}
+
+#[test]
+fn a_permanent_outage_lands_and_stops_the_motors() {
+    let v = fly("{ from_s: 10 }", "");
+    assert_eq!(v.failsafe.episodes, 1);
+    assert!(v.failsafe.active_at_end);
+    assert!(v.final_pos.z().abs() < 0.01, "on the floor: {:?}", v.final_pos);
+    let last = v.trace.last().unwrap();
+    assert_eq!(last.thrust_n, 0.0, "motors off");
+    // level flight on the gyro alone for ~3 s: it lands near where it was
+    assert!(v.final_pos.horizontal_norm() < 1.0, "{:?}", v.final_pos);
+}
+
+#[test]
+fn losing_two_of_four_markers_is_an_outage_too() {
+    let occl = ", occlusions: [ { marker: 0, from_s: 10, to_s: 10.5 }, { marker: 2, from_s: 10, to_s: 10.5 } ]";
+    let v = fly("{ from_s: 100 }", occl);
+    assert_eq!(v.failsafe.episodes, 1);
+    assert!(!v.failsafe.active_at_end);
+    assert!(v.link.missing_frames >= 95, "{} frames missing", v.link.missing_frames);
+}
