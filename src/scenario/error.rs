@@ -117,7 +117,8 @@ pub fn yaml_path_at(src: &str, line: u32, column: u32) -> String {
                 return if base.is_empty() { tail } else { format!("{base}.{tail}") };
             }
         }
-        if let Some((key, _)) = rest.split_once(':') {
+        // a flow collection (`{ a: 1 }`, `[1, 2]`) opens no block key
+        if let Some((key, _)) = rest.split_once(':').filter(|_| !rest.starts_with(['{', '['])) {
             let key = key.trim().trim_matches('"').trim_matches('\'');
             stack.retain(|(ind, _)| *ind < indent);
             counters.retain(|(ind, _)| *ind < indent);
@@ -196,6 +197,15 @@ mod tests {
         assert_eq!(yaml_path_at(y, 2, 30), "plan[0].takeoff.altitude_m");
         assert_eq!(yaml_path_at("seed: 1\nlink: { loss: { bernoulli: 1.5 } }\n", 2, 28), "link.loss.bernoulli");
         assert_eq!(yaml_path_at("plan:\n- hover: {}\n- land: {}\nnext: 1\n", 3, 1), "plan[1]");
+    }
+
+    /// Regression: an error pointing at the `{` of a list item written as a flow mapping
+    /// reported the path `vehicles[1].{ name`.
+    #[test]
+    fn path_of_a_flow_mapping_list_item() {
+        let y = "name: f\nvehicles:\n  - { name: v0, home_m: [0, 0] }\n  - { name: v1, home_m: [1, 0] }\n";
+        assert_eq!(yaml_path_at(y, 4, 5), "vehicles[1]");
+        assert_eq!(yaml_path_at(y, 4, 15), "vehicles[1].name");
     }
 
     #[test]

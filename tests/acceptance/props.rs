@@ -82,3 +82,100 @@ plan:
         prop_assert!(v.trace.iter().all(|t| t.pos.is_finite() && t.thrust_n.is_finite()));
     }
 }
+
+/// Fuzzing the scenario parser inside `cargo test` (cargo-fuzz needs a nightly toolchain, which
+/// this project's machines do not have): random edits of real scenarios — characters deleted,
+/// inserted (including multi-byte, control and YAML-special ones) or replaced, lines duplicated
+/// or cut — must give a scenario or a located error, never a panic, and an accepted scenario
+/// must pass validation again.
+mod parser_fuzz {
+    use flyarena::scenario::Scenario;
+    use proptest::prelude::*;
+    use std::path::Path;
+
+    fn corpus() -> Vec<String> {
+        let dir = super::super::root().join("scenarios");
+        let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| std::fs::read_to_string(e.unwrap().path()).unwrap()).collect();
+        v.sort();
+        v
+    }
+
+    #[derive(Debug, Clone)]
+    enum Edit {
+        Delete(usize, usize),
+        Insert(usize, String),
+        Replace(usize, char),
+        DuplicateLine(usize),
+        Truncate(usize),
+    }
+
+    fn edit() -> impl Strategy<Value = Edit> {
+        let special = prop::sample::select(vec!["{", "}", "[", "]", ":", "- ", "\n", "\t", "#", "&a", "*a", "!!str", "'", "\"", "é", "\u{0}", "1e999", "-", ".nan", "~", "<<: *a", "?"]);
+        prop_oneof![
+            (any::<usize>(), 1usize..20).prop_map(|(a, n)| Edit::Delete(a, n)),
+            (any::<usize>(), special).prop_map(|(a, s)| Edit::Insert(a, s.to_string())),
+            (any::<usize>(), any::<char>()).prop_map(|(a, c)| Edit::Replace(a, c)),
+            any::<usize>().prop_map(Edit::DuplicateLine),
+            any::<usize>().prop_map(Edit::Truncate),
+        ]
+    }
+
+    fn apply(src: &str, e: &Edit) -> String {
+        let chars: Vec<char> = src.chars().collect();
+        let at = |a: usize| if chars.is_empty() { 0 } else { a % chars.len() };
+        match e {
+            Edit::Delete(a, n) => {
+                let a = at(*a);
+                chars[..a].iter().chain(chars[(a + n).min(chars.len())..].iter()).collect()
+            }
+            Edit::Insert(a, s) => {
+                let a = at(*a);
+                chars[..a].iter().collect::<String>() + s + &chars[a..].iter().collect::<String>()
+            }
+            Edit::Replace(a, c) => {
+                let mut v = chars.clone();
+                if !v.is_empty() {
+                    let a = at(*a);
+                    v[a] = *c;
+                }
+                v.into_iter().collect()
+            }
+            Edit::DuplicateLine(a) => {
+                let lines: Vec<&str> = src.lines().collect();
+                let k = a % lines.len().max(1);
+                let mut out: Vec<&str> = lines.clone();
+                if let Some(l) = lines.get(k) {
+                    out.insert(k, l);
+                }
+                out.join("\n")
+            }
+            Edit::Truncate(a) => chars[..at(*a)].iter().collect(),
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+        #[test]
+        fn parser_never_panics(which in any::<usize>(), edits in prop::collection::vec(edit(), 1..4)) {
+            let corpus = corpus();
+            let mut src = corpus[which % corpus.len()].clone();
+            for e in &edits {
+                src = apply(&src, e);
+            }
+            match Scenario::parse(&src, Path::new("fuzz.yaml")) {
+                Ok(s) => {
+                    // what is accepted stays valid: every vehicle has parameters and a template
+                    for i in 0..s.vehicles.value.len() {
+                        prop_assert!(s.vehicle_params(i).is_ok() && s.template(i).is_ok());
+                    }
+                    prop_assert!(s.run_time_s().is_finite() && s.run_time_s() > 0.0);
+                }
+                Err(e) => {
+                    let msg = e.to_string();
+                    prop_assert!(msg.starts_with("fuzz.yaml"), "{msg}");
+                    prop_assert!(msg.len() > 15);
+                }
+            }
+        }
+    }
+}
