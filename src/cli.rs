@@ -310,7 +310,44 @@ fn cmd_sweep(args: &[String]) -> i32 {
     } else {
         indicatif::ProgressBar::hidden()
     };
-    let result = sweep.run(runs, shard, &|| bar.inc(1));
+    // the journal: one line per finished run, so a killed sweep restarted with the same
+    // arguments redoes nothing it finished; removed once the outputs are written
+    let journal_path = match shard {
+        None => out.join(format!("{}.sweep.journal.jsonl", sweep.name())),
+        Some((k, n)) => out.join(format!("{}.sweep.shard-{}-of-{n}.journal.jsonl", sweep.name(), k + 1)),
+    };
+    let header = sweep.journal_header(runs, shard);
+    let done = crate::sweep::read_journal(&journal_path, &header);
+    let done_mine = done.keys().filter(|i| **i < runs && shard.is_none_or(|(k, n)| *i % n == k)).count() as u64;
+    if done_mine > 0 && !quiet {
+        eprintln!("resuming: {done_mine} of {mine} runs already done ({})", journal_path.display());
+    }
+    let journal = (|| -> std::io::Result<std::fs::File> {
+        std::fs::create_dir_all(&out)?;
+        let mut f = std::fs::OpenOptions::new().create(true).append(true).open(&journal_path)?;
+        if done.is_empty() {
+            // a new journal (or one of another sweep): start it over
+            f = std::fs::File::create(&journal_path)?;
+            writeln!(f, "{}", serde_json::to_string(&header).expect("serialises"))?;
+        }
+        Ok(f)
+    })();
+    let journal = match journal {
+        Ok(f) => std::sync::Mutex::new(f),
+        Err(e) => {
+            eprintln!("error: cannot write the sweep journal {}: {e}", journal_path.display());
+            return BAD_INPUT;
+        }
+    };
+    bar.inc(done_mine);
+    let result = sweep.run_resumable(runs, shard, &done, &|_, rows| {
+        let line = serde_json::to_string(rows).expect("serialises") + "\n";
+        if let Ok(mut f) = journal.lock() {
+            // one write per line; a line cut by a kill is skipped on resume
+            let _ = f.write_all(line.as_bytes()).and_then(|_| f.flush());
+        }
+        bar.inc(1);
+    });
     bar.finish_and_clear();
     let o = match result {
         Ok(o) => o,
@@ -319,7 +356,7 @@ fn cmd_sweep(args: &[String]) -> i32 {
             return BAD_INPUT;
         }
     };
-    match shard {
+    let code = match shard {
         None => finish_sweep(&o, &out, quiet),
         Some((k, n)) => {
             let path = out.join(format!("{}.sweep.shard-{}-of-{n}.json", o.scenario, k + 1));
@@ -330,7 +367,11 @@ fn cmd_sweep(args: &[String]) -> i32 {
             println!("shard {}/{n}: {} runs → {} (combine with `flyarena merge`)", k + 1, mine, path.display());
             PASS
         }
+    };
+    if code != BAD_INPUT {
+        let _ = std::fs::remove_file(&journal_path);
     }
+    code
 }
 
 fn cmd_merge(args: &[String]) -> i32 {

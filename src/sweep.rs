@@ -73,6 +73,8 @@ pub struct SweepOutput {
 /// The plan of a sweep: the YAML tree and the checked variations.
 pub struct Sweep {
     name: String,
+    /// FNV-1a of the scenario text: a journal of another text is not resumed.
+    text_hash: u64,
     tree: serde_json::Value,
     cfg: SweepCfg,
     variations: Vec<Variation>,
@@ -92,7 +94,8 @@ impl Sweep {
         let variations = cfg.vary.iter().map(|v| v.variation().map_err(&spec)).collect::<Result<Vec<_>, _>>()?;
         let src = std::fs::read_to_string(path).map_err(|e| spec(e.to_string()))?;
         let tree: serde_json::Value = serde_saphyr::from_str(&src).map_err(|e| spec(e.to_string()))?;
-        let sweep = Sweep { name: scenario.name.clone(), tree, cfg, variations, file: file.clone() };
+        let text_hash = src.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3));
+        let sweep = Sweep { name: scenario.name.clone(), text_hash, tree, cfg, variations, file: file.clone() };
         // every field must exist before anything runs
         for (k, v) in sweep.cfg.vary.iter().enumerate() {
             let mut t = sweep.tree.clone();
@@ -149,13 +152,28 @@ impl Sweep {
 
     /// Runs the runs `i` with `i % shard.1 == shard.0` (all when `None`), in parallel.
     pub fn run(&self, runs: u64, shard: Option<(u64, u64)>, progress: &(dyn Fn() + Sync)) -> Result<SweepOutput, SweepError> {
+        self.run_resumable(runs, shard, &std::collections::BTreeMap::new(), &|_, _| progress())
+    }
+
+    /// As [`Self::run`], reusing the rows of the runs in `done`, and calling `finished` with
+    /// the rows of every run it completes (for a journal).
+    pub fn run_resumable(
+        &self,
+        runs: u64,
+        shard: Option<(u64, u64)>,
+        done: &std::collections::BTreeMap<u64, Vec<SweepRow>>,
+        finished: &(dyn Fn(u64, &[SweepRow]) + Sync),
+    ) -> Result<SweepOutput, SweepError> {
         let mine: Vec<u64> = (0..runs).filter(|i| shard.is_none_or(|(k, n)| i % n == k)).collect();
         let rows: Vec<Vec<SweepRow>> = mine
             .par_iter()
-            .map(|&i| {
-                let r = self.one(i);
-                progress();
-                r
+            .map(|&i| match done.get(&i) {
+                Some(r) => Ok::<_, SweepError>(r.clone()),
+                None => {
+                    let r = self.one(i)?;
+                    finished(i, &r);
+                    Ok(r)
+                }
             })
             .collect::<Result<_, _>>()?;
         Ok(SweepOutput {
@@ -208,6 +226,41 @@ impl Sweep {
             })
             .collect())
     }
+}
+
+/// The first line of a sweep journal: which sweep the lines after it belong to.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct JournalHeader {
+    pub scenario: String,
+    pub text_hash: u64,
+    pub sweep_seed: u64,
+    pub runs: u64,
+    pub shard: Option<[u64; 2]>,
+}
+
+impl Sweep {
+    pub fn journal_header(&self, runs: u64, shard: Option<(u64, u64)>) -> JournalHeader {
+        JournalHeader { scenario: self.name.clone(), text_hash: self.text_hash, sweep_seed: self.cfg.seed, runs, shard: shard.map(|(k, n)| [k + 1, n]) }
+    }
+}
+
+/// Reads a journal: the rows of every completed run, if the header matches. Lines that do not
+/// parse (a line cut by a kill) are skipped; a journal of another sweep gives nothing.
+pub fn read_journal(path: &Path, header: &JournalHeader) -> std::collections::BTreeMap<u64, Vec<SweepRow>> {
+    let mut done = std::collections::BTreeMap::new();
+    let Ok(text) = std::fs::read_to_string(path) else { return done };
+    let mut lines = text.lines();
+    if lines.next().and_then(|l| serde_json::from_str::<JournalHeader>(l).ok()).as_ref() != Some(header) {
+        return done;
+    }
+    for line in lines {
+        if let Ok(rows) = serde_json::from_str::<Vec<SweepRow>>(line)
+            && let Some(first) = rows.first()
+        {
+            done.insert(first.run, rows);
+        }
+    }
+    done
 }
 
 /// Sets the number at `path` (`a.b[2].c`) in a YAML/JSON tree; the containers must exist, a

@@ -88,3 +88,40 @@ fn bad_sweeps_are_rejected_before_running() {
         assert!(err.contains(want), "case {k}: {err}");
     }
 }
+
+/// A sweep killed part way leaves its journal; the same command again reuses every finished run
+/// (a run whose journal row was tampered with keeps the tampered value: it was not redone),
+/// skips a line cut by the kill, computes the rest, and removes the journal at the end.
+#[test]
+fn an_interrupted_sweep_resumes_without_redoing_finished_runs() {
+    let d = std::env::temp_dir().join(format!("flyarena-resume-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let s = Sweep::load(&scenario()).unwrap();
+    let fresh = s.run(12, None, &|| {}).unwrap();
+    let journal = d.join("sweep-hover-duration.sweep.journal.jsonl");
+    let mut text = serde_json::to_string(&s.journal_header(12, None)).unwrap() + "\n";
+    for run in 0..6u64 {
+        let mut rows: Vec<_> = fresh.rows.iter().filter(|r| r.run == run).cloned().collect();
+        if run == 3 {
+            rows[0].metrics[0] = Some(123.0);
+        }
+        text += &(serde_json::to_string(&rows).unwrap() + "\n");
+    }
+    text += "[{\"run\":7,\"se"; // cut by the kill
+    std::fs::write(&journal, text).unwrap();
+    let (code, out, err) = flyarena(&["sweep", scenario().to_str().unwrap(), "--runs", "12", "--out", d.to_str().unwrap()]);
+    assert!(code == 0 || code == 1, "{out}{err}");
+    assert!(err.contains("resuming: 6 of 12 runs already done"), "{err}");
+    let csv = std::fs::read_to_string(d.join("sweep-hover-duration.sweep.csv")).unwrap();
+    let want = flyarena::sweep::csv(&fresh);
+    for (k, (got, exp)) in csv.lines().zip(want.lines()).enumerate() {
+        if k == 4 {
+            assert!(got.contains(",123,"), "run 3 was redone: {got}");
+        } else {
+            assert_eq!(got, exp, "line {k}");
+        }
+    }
+    assert_eq!(csv.lines().count(), want.lines().count());
+    assert!(!journal.exists(), "the journal is removed once the outputs are written");
+}
