@@ -66,7 +66,9 @@ impl Report {
 }
 
 fn deg(x: f64) -> String {
-    format!("{:.4}°", x.to_degrees())
+    // no "-0.0000°" for a rounding-level negative value
+    let d = x.to_degrees();
+    format!("{:.4}°", if d.abs() < 5e-5 { 0.0 } else { d })
 }
 
 /// Evaluates the declared requirements. `uncompensated` is the same scenario run with

@@ -79,7 +79,40 @@ pub fn rigid_fit<A: Frame, B: Frame>(
 /// The rotation R maximising tr(R·H) for the cross-covariance H = Σ a_i·b_iᵀ, i.e. minimising
 /// Σ‖R·a_i − b_i‖² over proper rotations (Kabsch; Wahba's problem for weighted vectors):
 /// H = U·S·Vᵀ, R = V·diag(1, 1, det(V·Uᵀ))·Uᵀ. `None` if the SVD does not converge.
+///
+/// Fast path: when det(H) is clearly positive, R is the orthogonal polar factor of Hᵀ
+/// (Hᵀ = V·S·Uᵀ = (V·Uᵀ)·(U·S·Uᵀ)), found by Higham's scaled Newton iteration
+/// X ← ½(γ·X + γ⁻¹·X⁻ᵀ), γ = (‖X⁻¹‖_F/‖X‖_F)^½, which converges quadratically; it is checked for
+/// orthogonality. Rank-deficient or reflected H (three markers, coplanar sets, degenerate data)
+/// take the SVD.
 pub fn kabsch(h: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    if let Some(r) = polar_rotation(&h.transpose()) {
+        return Some(r);
+    }
+    kabsch_svd(h)
+}
+
+fn polar_rotation(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let scale = m.norm();
+    if !(scale > 0.0 && scale.is_finite()) || m.determinant() <= 1e-9 * scale * scale * scale {
+        return None;
+    }
+    let mut x = m / scale;
+    for _ in 0..40 {
+        let inv = x.try_inverse()?;
+        let g = (inv.norm() / x.norm()).sqrt();
+        let next = (x * g + inv.transpose() / g) * 0.5;
+        let step = (next - x).norm();
+        x = next;
+        if step < 1e-15 {
+            break;
+        }
+    }
+    ((x.transpose() * x - Matrix3::identity()).norm() < 1e-12).then_some(x)
+}
+
+/// Kabsch by the SVD (any H).
+pub fn kabsch_svd(h: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     let svd = h.svd(true, true);
     let (u, v_t) = (svd.u?, svd.v_t?);
     let v = v_t.transpose();
@@ -110,6 +143,26 @@ mod tests {
         let fit3 = rigid_fit(&m, &y, &[true, false, true, true]).unwrap();
         assert!((fit3.rotation.inverse() * r).angle() < 1e-12);
         assert!(rigid_fit(&m, &y, &[true, false, false, true]).is_none());
+    }
+
+    /// The Newton polar path and the SVD agree on random cross-covariances, near-coplanar ones
+    /// included; a rank-2 H (three markers) goes to the SVD and still gives a rotation.
+    #[test]
+    fn polar_path_equals_the_svd() {
+        let mut r = crate::rng::Stream::new(5, crate::rng::Component::MocapNoise, 0);
+        for k in 0..2000 {
+            let flat = [1.0, 1.0, if k % 2 == 0 { 1e-3 } else { 1.0 }];
+            let a = Matrix3::from_fn(|_, j| r.normal() * flat[j]);
+            let rot = Rot::<Body, Nav>::from_euler(Euler::new(r.normal(), r.normal(), 3.0 * r.normal())).matrix();
+            let h = a * a.transpose() * rot.transpose() + Matrix3::from_fn(|_, _| 1e-4 * r.normal());
+            let (fast, svd) = (kabsch(&h).unwrap(), kabsch_svd(&h).unwrap());
+            assert!((fast - svd).norm() < 1e-9, "case {k}: {}", (fast - svd).norm());
+        }
+        let m = [Vector3::new(0.1, 0.0, 0.0), Vector3::new(0.0, 0.1, 0.0), Vector3::new(-0.1, -0.1, 0.0)];
+        let h: Matrix3<f64> = m.iter().map(|a| a * a.transpose()).sum();
+        assert!(polar_rotation(&h.transpose()).is_none());
+        let r = kabsch(&h).unwrap();
+        assert!((r.transpose() * r - Matrix3::identity()).norm() < 1e-12 && (r.determinant() - 1.0).abs() < 1e-12);
     }
 
     #[test]
