@@ -97,8 +97,9 @@ pub struct Station {
     guidance: (Nanos, Reference, Window),
     fs: FailsafeSettings,
     last_pose_at: Option<Nanos>,
-    /// Attitude for the failsafe: the last compensated mocap attitude, then gyro-propagated.
-    dead_reckoned: Option<Rot<Body, MocapNav>>,
+    /// Attitude for the failsafe: the last compensated mocap attitude, propagated with every
+    /// telemetry frame since its capture; and the time it refers to.
+    dead_reckoned: Option<(Rot<Body, MocapNav>, Nanos)>,
     failsafe_since: Option<Nanos>,
     failsafe_report: FailsafeReport,
 }
@@ -177,10 +178,10 @@ impl Station {
     /// Handles one body-rate telemetry frame.
     pub fn on_telemetry(&mut self, f: &TelemetryFrame) {
         self.gyro.add_telemetry(f);
-        if self.failsafe_since.is_some()
-            && let Some(a) = self.dead_reckoned
+        if let Some((a, t)) = self.dead_reckoned
+            && f.t0 >= t
         {
-            self.dead_reckoned = Some(a * Rot::from_rotation_vector(f.gyro_mean * (f.t1 - f.t0).as_secs_f64()));
+            self.dead_reckoned = Some((a * Rot::from_rotation_vector(f.gyro_mean * (f.t1 - f.t0).as_secs_f64()), f.t1));
         }
     }
 
@@ -195,7 +196,7 @@ impl Station {
             self.failsafe_report.first_at_s.get_or_insert(now.as_secs_f64());
             now
         });
-        if let Some(att) = self.dead_reckoned {
+        if let Some((att, _)) = self.dead_reckoned {
             let yaw_hold = self.reference.yaw;
             self.command = failsafe(&self.gains, att, yaw_hold, self.fs.thrust_fraction, now - since >= self.fs.motors_off_after);
         }
@@ -245,7 +246,7 @@ impl Station {
         }
         let att = self.offset.compensate(f.att, self.settings.compensation);
         self.attitude = Some(att);
-        self.dead_reckoned = Some(att);
+        self.dead_reckoned = Some((att, f.t_capture));
         self.reference = reference;
         self.command = control(&self.gains, &reference, f.pos, vel, att);
     }
@@ -281,8 +282,8 @@ impl Station {
                 self.validity = ValidityCheck::default();
             }
             Window::GyroExcite => {
-                // the fit uses every window since take-off (hover, flights, spins), not only the
-                // circle; the gyro gives the absolute rotation, so only its yaw replaces the
+                // the fit uses every window since the start (the floor, where nothing turns,
+                // helps to pin the gyro bias; hover, flights, spins), not only the circle; the gyro gives the absolute rotation, so only its yaw replaces the
                 // current estimate (roll and pitch stay the paper's hover averages)
                 self.report.gyro = self.gyro.estimate();
                 if let (true, Some(g)) = (self.settings.apply, self.report.gyro) {
@@ -296,12 +297,9 @@ impl Station {
 
     /// Closes any open calibration window and returns the report.
     pub fn finish(&mut self) -> CalibrationReport {
-        if let Some(since) = self.failsafe_since {
+        if self.failsafe_since.is_some() {
             self.failsafe_report.active_at_end = true;
-            let now = self.guidance.0;
-            let d = (now - since).as_secs_f64();
-            self.failsafe_report.total_s += d;
-            self.failsafe_report.longest_s = self.failsafe_report.longest_s.max(d);
+            self.end_failsafe(self.guidance.0);
         }
         self.close_window();
         self.window = Window::None;
