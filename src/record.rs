@@ -28,7 +28,7 @@
 //! | `plots/<v>/position/{deviation_m,uncompensated_deviation_m}` | horizontal distance from the reference |
 //! | `plots/<v>/ppm/{p,q,r,thrust}` | the channels as sent, 0..255 |
 //! | `plots/<v>/link/{missing_frames,longest_gap_ms}`, `plots/<v>/telemetry/missing_frames` | link monitoring |
-//! | `plots/<v>/calibration/yaw_rls_deg`, `yaw_ls_deg`, `yaw_gyro_deg`, `yaw_truth_deg` | yaw estimates as they converge |
+//! | `plots/<v>/calibration/{roll,pitch}_hover_deg`, `{roll,pitch,yaw}_truth_deg`, `yaw_rls_deg`, `yaw_ls_deg`, `yaw_gyro_deg` | the running hover average, the RLS yaw sample by sample, the batch LS and gyro results, and the truth |
 //! | `events` | phase changes, calibration results, link gaps, requirement results (TextLog) |
 
 use crate::clock::Nanos;
@@ -143,10 +143,10 @@ pub fn encode(main: &RunOutput, uncompensated: Option<&RunOutput>, report: &Repo
         // no RecordingInfo: its default start time is the wall clock, which would make identical
         // runs differ; the name alone is sent below
         .send_properties(false)
-        .with_blueprint(blueprint(&main.vehicles.iter().map(|v| v.name.as_str()).collect::<Vec<_>>()))
         .memory()
         .map_err(err)?;
     rec.set_log_time_enabled(false);
+    send_blueprint(&rec, &main.vehicles.iter().map(|v| v.name.as_str()).collect::<Vec<_>>(), main.duration)?;
     rec.send_recording_name(format!("{} (seed {})", main.scenario, main.seed)).map_err(err)?;
     let r = Rec { rec: &rec };
     rec.log_static("world", &rerun::ViewCoordinates::FRD()).map_err(err)?;
@@ -170,14 +170,46 @@ pub fn encode(main: &RunOutput, uncompensated: Option<&RunOutput>, report: &Repo
     Ok(bytes)
 }
 
-/// The layout: 3D (flight, arena, per-vehicle close-up) and events on the left, plots on the
-/// right. (Plots open on ±30 s around the time cursor, the viewer's default; the Rust blueprint
-/// API of 0.36 cannot set a plot's range. Double-click a plot to see the whole run.)
-fn blueprint(vehicles: &[&str]) -> Blueprint {
+/// Sends the layout. The Rust blueprint API of 0.36 has no setter for a plot's time range, and
+/// the viewer's default shows ±30 s around the time cursor; so the blueprint is rendered into
+/// messages here, and each plot gets a `TimeAxis` property (the whole run) in the same
+/// blueprint store, before the activation command.
+fn send_blueprint(rec: &rerun::RecordingStream, vehicles: &[&str], end: Nanos) -> Result<(), RecordError> {
+    use rerun::blueprint::components::TimeRange;
+    use rerun::external::re_log_types::LogMsg;
+    let mut plot_paths = Vec::new();
+    let bp = blueprint(vehicles, &mut plot_paths);
+    let (tmp, tmp_storage) = rerun::RecordingStreamBuilder::new("flyarena").memory().map_err(err)?;
+    bp.send(&tmp, rerun::blueprint::BlueprintActivation::default()).map_err(err)?;
+    tmp.flush_blocking().map_err(err)?;
+    let mut msgs = tmp_storage.take();
+    let at = msgs.iter().position(|m| matches!(m, LogMsg::BlueprintActivationCommand(_))).ok_or_else(|| err("blueprint without activation"))?;
+    let LogMsg::BlueprintActivationCommand(cmd) = msgs.remove(at) else { unreachable!("matched above") };
+    msgs.retain(|m| *m.store_id() == cmd.blueprint_id);
+    let (extra, extra_storage) = rerun::RecordingStreamBuilder::new("flyarena").recording_id(cmd.blueprint_id.recording_id().clone()).blueprint().memory().map_err(err)?;
+    extra.set_time_sequence("blueprint", 0);
+    use rerun::datatypes::TimeRangeBoundary::Absolute;
+    let whole = TimeRange(rerun::datatypes::TimeRange { start: Absolute(0.into()), end: Absolute(end.0.into()) });
+    for path in &plot_paths {
+        let axis = rerun::external::re_sdk_types::blueprint::archetypes::TimeAxis::new().with_view_range(whole.clone());
+        extra.log(format!("{path}/TimeAxis"), &axis).map_err(err)?;
+    }
+    extra.flush_blocking().map_err(err)?;
+    msgs.extend(extra_storage.take().into_iter().filter(|m| matches!(m, LogMsg::ArrowMsg(..))));
+    rec.send_blueprint(msgs, cmd);
+    Ok(())
+}
+
+/// The layout: 3D (flight, arena, per-vehicle close-up) and events on the left, plots on the right.
+fn blueprint(vehicles: &[&str], plot_paths: &mut Vec<String>) -> Blueprint {
     use rerun::blueprint::{BlueprintPanel, ContainerLike, SelectionPanel, TimePanel};
-    let plots = |name: &str, what: &[&str]| {
+    let mut plots = |name: &str, what: &[&str]| {
         let queries: Vec<String> = vehicles.iter().flat_map(|v| what.iter().map(move |w| format!("+ /plots/{v}/{w}/**"))).collect();
-        ContainerLike::from(TimeSeriesView::new(name).with_origin("/plots").with_contents(queries))
+        let view = ContainerLike::from(TimeSeriesView::new(name).with_origin("/plots").with_contents(queries));
+        if let ContainerLike::View(v) = &view {
+            plot_paths.push(v.blueprint_path().to_string());
+        }
+        view
     };
     // the close-up sits in the true body frame: the mocap's axes and template show the offset
     let closeups: Vec<ContainerLike> = vehicles
@@ -208,7 +240,7 @@ fn blueprint(vehicles: &[&str]) -> Blueprint {
             plots("roll and pitch (°): true · measured (mocap) · compensated", &["attitude/roll", "attitude/pitch"]),
             plots("horizontal distance from the reference (m): compensated · uncompensated", &["position"]),
             Tabs::new([
-                plots("calibration: yaw estimates (°)", &["calibration"]),
+                plots("calibration estimates as they converge, and the truth (°)", &["calibration"]),
                 plots("yaw (°)", &["attitude/yaw"]),
                 plots("PPM commands as sent (0..255)", &["ppm"]),
                 plots("link: missing frames, longest gap (ms)", &["link"]),
@@ -318,6 +350,14 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
     }
     let end = v.trace.last().map_or(Nanos::ZERO, |s| s.t);
     let whole = Columns::of([Nanos::ZERO, end].into_iter());
+    if !v.hover_trace.is_empty() {
+        // the hover average converging onto the roll and pitch offsets
+        let hc = Columns::of(v.hover_trace.iter().map(|s| s.t));
+        r.series(&format!("plots/{n}/calibration/roll_hover_deg"), &format!("{n} roll hover average"), [230, 120, 60], &hc, v.hover_trace.iter().map(|s| s.roll.to_degrees()).collect())?;
+        r.series(&format!("plots/{n}/calibration/pitch_hover_deg"), &format!("{n} pitch hover average"), [150, 80, 40], &hc, v.hover_trace.iter().map(|s| s.pitch.to_degrees()).collect())?;
+        r.series(&format!("plots/{n}/calibration/roll_truth_deg"), &format!("{n} roll truth"), [60, 170, 90], &whole, vec![v.truth.euler.roll.to_degrees(); 2])?;
+        r.series(&format!("plots/{n}/calibration/pitch_truth_deg"), &format!("{n} pitch truth"), [40, 110, 60], &whole, vec![v.truth.euler.pitch.to_degrees(); 2])?;
+    }
     r.series(&format!("plots/{n}/calibration/yaw_truth_deg"), &format!("{n} yaw truth"), TRUE_COLOR, &whole, vec![v.truth.euler.yaw.to_degrees(); 2])?;
     if let Some(g) = cal.gyro {
         let at = phase_end(v, "calibrate_gyro").unwrap_or(end);

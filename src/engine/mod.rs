@@ -17,7 +17,7 @@
 
 pub mod station;
 
-pub use station::{CalibrationReport, CalibrationSettings, FailsafeReport, FailsafeSettings, RlsSample, Station};
+pub use station::{CalibrationReport, CalibrationSettings, FailsafeReport, FailsafeSettings, HoverSample, RlsSample, Station};
 
 use crate::clock::{Clock, Nanos, Rate};
 use crate::control::Gains;
@@ -90,6 +90,8 @@ pub struct VehicleRun {
     pub hover_thrust_mean_n: Option<f64>,
     pub trace: Vec<TraceSample>,
     pub rls_trace: Vec<RlsSample>,
+    /// The running hover average (recording only).
+    pub hover_trace: Vec<HoverSample>,
     pub phases: Vec<(Nanos, &'static str)>,
     pub final_pos: Vec3<Nav>,
     pub any_nan: bool,
@@ -311,6 +313,7 @@ impl Arena {
                     spin_max_deviation_m: v.spin_max,
                     hover_thrust_mean_n: (v.thrust_n > 0).then(|| v.thrust_sum / v.thrust_n as f64),
                     rls_trace: v.station.rls_trace().to_vec(),
+                    hover_trace: v.station.hover_trace().to_vec(),
                     trace: v.trace,
                     phases,
                     final_pos: v.x3d.state().pos,

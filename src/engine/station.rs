@@ -67,6 +67,14 @@ pub struct CalibrationReport {
     pub applied: Euler,
 }
 
+/// The running hover average as it converged (for recording), rad.
+#[derive(Clone, Copy, Debug)]
+pub struct HoverSample {
+    pub t: Nanos,
+    pub roll: f64,
+    pub pitch: f64,
+}
+
 /// One RLS estimate as it converged (for recording).
 #[derive(Clone, Copy, Debug)]
 pub struct RlsSample {
@@ -93,6 +101,7 @@ pub struct Station {
     reference: Reference,
     attitude: Option<Rot<Body, MocapNav>>,
     rls_trace: Option<Vec<RlsSample>>,
+    hover_trace: Option<Vec<HoverSample>>,
     /// The guidance of the current tick (the engine and the station both need it).
     guidance: (Nanos, Reference, Window),
     fs: FailsafeSettings,
@@ -136,6 +145,7 @@ impl Station {
             reference,
             attitude: None,
             rls_trace: record_rls.then(Vec::new),
+            hover_trace: record_rls.then(Vec::new),
             guidance: (Nanos::ZERO, reference, window0),
             fs,
             last_pose_at: None,
@@ -164,6 +174,9 @@ impl Station {
     }
     pub fn rls_trace(&self) -> &[RlsSample] {
         self.rls_trace.as_deref().unwrap_or(&[])
+    }
+    pub fn hover_trace(&self) -> &[HoverSample] {
+        self.hover_trace.as_deref().unwrap_or(&[])
     }
 
     /// The reference and calibration window at `now` (evaluated once per tick).
@@ -231,7 +244,12 @@ impl Station {
             self.window = window;
         }
         match window {
-            Window::HoverAverage => self.hover.add(f.att.euler()),
+            Window::HoverAverage => {
+                self.hover.add(f.att.euler());
+                if let (Some(tr), Some((roll, pitch))) = (&mut self.hover_trace, self.hover.mean()) {
+                    tr.push(HoverSample { t: now, roll, pitch });
+                }
+            }
             Window::YawFlight => {
                 let comp = self.offset.compensate(f.att, self.settings.compensation);
                 self.validity.add(comp.euler());

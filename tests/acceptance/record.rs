@@ -44,6 +44,10 @@ fn recording_holds_the_engine_values() {
     let thrust: Vec<(i64, f64)> = v.trace.iter().step_by(4).filter_map(|s| s.ppm.map(|p| (s.t.0, p.channels[3] as f64))).collect();
     assert!(thrust.len() > 1000);
     assert_eq!(rec.scalars("/plots/x3d/ppm/thrust"), thrust);
+    // the running hover average ends on the report's estimate
+    let hover = rec.scalars("/plots/x3d/calibration/roll_hover_deg");
+    assert_eq!(hover.len() as u64, v.calibration.roll_pitch.unwrap().2);
+    assert_eq!(hover.last().unwrap().1, v.calibration.roll_pitch.unwrap().0.to_degrees());
     // the uncompensated counterpart circles: its recorded deviation peaks near the R2 figure
     let unc_dev = rec.scalars("/plots/x3d/position/uncompensated_deviation_m");
     let peak = unc_dev.iter().map(|x| x.1).fold(0.0, f64::max);
