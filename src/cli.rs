@@ -14,7 +14,7 @@ flyarena — quadrotor flight under motion capture with misaligned frames
 
 USAGE:
     flyarena run SCENARIO.yaml [--out DIR] [--json PATH] [--rrd PATH | --no-rrd] [--rrd-every N]
-                               [--seed N] [--quiet]
+                               [--log PATH.csv] [--seed N] [--quiet]
     flyarena check SCENARIO.yaml...
     flyarena sweep SCENARIO.yaml [--runs N] [--shard K/N] [--out DIR] [--quiet]
     flyarena merge SHARD.json... [--out DIR]
@@ -33,6 +33,8 @@ OPTIONS:
     --rrd PATH    Rerun recording path (default: DIR/<scenario name>.rrd)
     --no-rrd      do not record
     --rrd-every N record every N-th Vicon frame (default 4: 50 Hz at 200 Hz)
+    --log PATH    write the flight log (CSV: mocap, IMU, commands; README, Flight logs);
+                  with several vehicles, one file each, named PATH-<vehicle>.csv
     --seed N      override the scenario's seed
     --quiet       print only the verdict line
 
@@ -69,13 +71,14 @@ struct RunArgs {
     rrd: Option<PathBuf>,
     no_rrd: bool,
     rrd_every: usize,
+    log: Option<PathBuf>,
     seed: Option<u64>,
     quiet: bool,
 }
 
 fn parse_run(args: &[String]) -> Result<RunArgs, String> {
     let mut it = args.iter();
-    let mut a = RunArgs { scenario: PathBuf::new(), out: PathBuf::from("out"), json: None, rrd: None, no_rrd: false, rrd_every: 4, seed: None, quiet: false };
+    let mut a = RunArgs { scenario: PathBuf::new(), out: PathBuf::from("out"), json: None, rrd: None, no_rrd: false, rrd_every: 4, log: None, seed: None, quiet: false };
     let mut scenario = None;
     while let Some(x) = it.next() {
         let mut value = |flag: &str| it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
@@ -84,6 +87,7 @@ fn parse_run(args: &[String]) -> Result<RunArgs, String> {
             "--json" => a.json = Some(PathBuf::from(value("--json")?)),
             "--rrd" => a.rrd = Some(PathBuf::from(value("--rrd")?)),
             "--no-rrd" => a.no_rrd = true,
+            "--log" => a.log = Some(PathBuf::from(value("--log")?)),
             "--rrd-every" => {
                 let v = value("--rrd-every")?;
                 a.rrd_every = v.parse().ok().filter(|n| (1..=1000).contains(n)).ok_or_else(|| format!("--rrd-every takes a whole number from 1 to 1000, not `{v}`"))?;
@@ -160,6 +164,23 @@ fn cmd_run(args: &[String]) -> i32 {
         eprintln!("error: cannot write {}: {e}", json_path.display());
         return BAD_INPUT;
     }
+    let mut log_paths = Vec::new();
+    if let Some(base) = &a.log {
+        let period = 1.0 / s.mocap.rate_hz.value as f64;
+        for v in &main.vehicles {
+            let path = if main.vehicles.len() == 1 {
+                base.clone()
+            } else {
+                let stem = base.file_stem().map(|x| x.to_string_lossy().into_owned()).unwrap_or_default();
+                base.with_file_name(format!("{stem}-{}.csv", v.name))
+            };
+            if let Err(e) = write_atomic(&path, crate::log::write_csv(v, period).as_bytes()) {
+                eprintln!("error: cannot write {}: {e}", path.display());
+                return BAD_INPUT;
+            }
+            log_paths.push(path);
+        }
+    }
     let rrd_path = record.then(|| a.rrd.unwrap_or_else(|| a.out.join(format!("{}.rrd", s.name))));
     #[cfg(feature = "record")]
     if let Some(path) = &rrd_path {
@@ -198,6 +219,9 @@ fn cmd_run(args: &[String]) -> i32 {
             );
         }
         println!("summary: {}", json_path.display());
+        for p in &log_paths {
+            println!("flight log: {}", p.display());
+        }
         if let Some(p) = &rrd_path {
             println!("recording: {} (open with `rerun {}`)", p.display(), p.display());
         }

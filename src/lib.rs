@@ -76,6 +76,7 @@ pub mod radio;
 pub mod scenario;
 pub mod engine;
 pub mod requirements;
+pub mod log;
 #[cfg(feature = "record")]
 pub mod record;
 pub mod sweep;

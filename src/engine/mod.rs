@@ -28,7 +28,7 @@ use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, Occlusion, TrueOff
 use crate::radio::{PpmFrame, Radio, RadioParams};
 use crate::rng::{Component, Stream};
 use crate::scenario::{PHYSICS_HZ, Scenario};
-use crate::vehicle::{Disturbance, Downlink, Imu, ImuParams, RateLoop, TelemetryFrame, VehicleParams, X3d};
+use crate::vehicle::{Disturbance, Downlink, Imu, ImuParams, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
 
 /// Options that are not part of the scenario.
 #[derive(Clone, Copy, Debug)]
@@ -61,6 +61,10 @@ pub struct TraceSample {
     pub att_compensated: Option<Euler>,
     /// True body rates (rad/s).
     pub omega: Vec3<Body>,
+    /// The Vicon frame captured at this tick (before the link), if the vehicle was seen.
+    pub captured: Option<MocapFrame>,
+    /// The IMU sample of this tick (gyro, specific force; body frame).
+    pub imu: ImuSample,
     pub reference: Vec3<MocapNav>,
     pub reference_yaw: f64,
     /// Last PPM frame sent.
@@ -327,8 +331,10 @@ impl Arena {
 
 impl Vehicle {
     fn step(&mut self, t: Nanos, mocap_tick: bool, radio_tick: bool, dt: Nanos, trace: bool) {
+        let mut captured = None;
         if mocap_tick && let Some(f) = self.mocap.capture(t, self.x3d.state()) {
             self.link.send(t + self.mocap_latency, f.seq, f);
+            captured = Some(f);
         }
         while let Some(f) = self.link.receive(t) {
             self.station.on_pose(t, &f);
@@ -371,6 +377,8 @@ impl Vehicle {
                 att_true: s.att.euler(),
                 att_true_rot: s.att,
                 omega: s.omega,
+                captured,
+                imu,
                 pos_measured: self.last_frame.map(|f| f.pos),
                 att_measured: self.last_frame.map(|f| f.att),
                 att_compensated: self.station.attitude().map(|a| a.euler()),

@@ -5,6 +5,7 @@ mod alloc;
 mod cli;
 mod determinism;
 mod faults;
+mod log;
 mod physics;
 mod props;
 #[cfg(feature = "record")]

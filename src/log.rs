@@ -1,0 +1,211 @@
+//! Flight logs: what a real arena records, as CSV — written by `flyarena run --log`, read back
+//! with every defect of a real file either rejected with its line and column or repaired and
+//! reported.
+//!
+//! Format (one header line, then one row per Vicon frame; SI units; frames in the names):
+//!
+//! | column | unit | meaning |
+//! |---|---|---|
+//! | `t_s` | s | capture time of the Vicon frame (arena clock) |
+//! | `seq` | | Vicon frame number |
+//! | `mocap_valid` | 0/1 | 1 if the vehicle was seen (≥ 3 markers); else the pose columns are empty |
+//! | `pos_n_m`, `pos_e_m`, `pos_d_m` | m | mocap position, mocap world NED |
+//! | `q_w`, `q_x`, `q_y`, `q_z` | | mocap attitude: unit quaternion of `Rot<MocapBody, MocapNav>` (scalar first, Hamilton) |
+//! | `gyro_x_rad_s` … `gyro_z_rad_s` | rad/s | IMU angular rate, body FRD |
+//! | `acc_x_m_s2` … `acc_z_m_s2` | m/s² | IMU specific force, body FRD (−g on z at rest) |
+//! | `cmd_p`, `cmd_q`, `cmd_r`, `cmd_thrust` | counts 0..255 | the last PPM frame sent (empty before the first) |
+//!
+//! Reading ([`read_csv`]): missing or misnamed columns, cells that are not numbers, NaN or
+//! infinity, timestamps that go backwards, and empty files are errors naming line and column.
+//! Repairs, each reported in [`FlightLog::repairs`]: a last line cut short (no newline, too few
+//! cells) is dropped; a row repeating the previous timestamp exactly is dropped; a gap longer
+//! than 3 × the median sampling interval splits the log into segments.
+
+use crate::engine::VehicleRun;
+use std::fmt::Write as _;
+
+/// The columns, in order.
+pub const COLUMNS: [&str; 20] = [
+    "t_s", "seq", "mocap_valid", "pos_n_m", "pos_e_m", "pos_d_m", "q_w", "q_x", "q_y", "q_z", "gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s", "acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2",
+    "cmd_p", "cmd_q", "cmd_r", "cmd_thrust",
+];
+
+/// Writes the log of one vehicle (the run must have been made with `trace: true`).
+pub fn write_csv(v: &VehicleRun, mocap_period_s: f64) -> String {
+    let mut s = COLUMNS.join(",");
+    s.push('\n');
+    for r in &v.trace {
+        let t = r.t.as_secs_f64();
+        let seq = r.captured.map_or((t / mocap_period_s).round() as u64, |f| f.seq as u64);
+        let _ = write!(s, "{t},{seq}");
+        match r.captured {
+            Some(f) => {
+                let q = f.att.quaternion();
+                let _ = write!(s, ",1,{},{},{},{},{},{},{}", f.pos.x(), f.pos.y(), f.pos.z(), q.w, q.i, q.j, q.k);
+            }
+            None => s.push_str(",0,,,,,,,"),
+        }
+        let (g, a) = (r.imu.gyro, r.imu.specific_force);
+        let _ = write!(s, ",{},{},{},{},{},{}", g.x(), g.y(), g.z(), a.x(), a.y(), a.z());
+        match r.ppm {
+            Some(p) => {
+                let _ = write!(s, ",{},{},{},{}", p.channels[0], p.channels[1], p.channels[2], p.channels[3]);
+            }
+            None => s.push_str(",,,,"),
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// A log read back: one `Vec<Option<f64>>` per column (`None` = empty cell), in [`COLUMNS`] order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlightLog {
+    pub columns: Vec<Vec<Option<f64>>>,
+    /// Row ranges [start, end) of the segments between gaps.
+    pub segments: Vec<(usize, usize)>,
+    /// What was repaired, one sentence each, with line numbers.
+    pub repairs: Vec<String>,
+}
+
+impl FlightLog {
+    pub fn rows(&self) -> usize {
+        self.columns.first().map_or(0, Vec::len)
+    }
+    pub fn column(&self, name: &str) -> Option<&[Option<f64>]> {
+        COLUMNS.iter().position(|c| *c == name).map(|i| self.columns[i].as_slice())
+    }
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum LogError {
+    #[error("{file}: the log is empty: it needs the header line `{}` and at least two rows", COLUMNS.join(","))]
+    Empty { file: String },
+    #[error("{file}:1: {message}")]
+    Header { file: String, message: String },
+    #[error("{file}:{line}: column `{column}`: {message}")]
+    Cell { file: String, line: usize, column: String, message: String },
+    #[error("{file}:{line}: {message}")]
+    Row { file: String, line: usize, message: String },
+}
+
+fn closest<'a>(bad: &str, candidates: &[&'a str]) -> Option<&'a str> {
+    // edit distance ≤ 3: a typo, not another column
+    let dist = |a: &str, b: &str| {
+        let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+        let mut prev: Vec<usize> = (0..=b.len()).collect();
+        for i in 1..=a.len() {
+            let mut cur = vec![i; b.len() + 1];
+            for j in 1..=b.len() {
+                cur[j] = (prev[j] + 1).min(cur[j - 1] + 1).min(prev[j - 1] + usize::from(a[i - 1] != b[j - 1]));
+            }
+            prev = cur;
+        }
+        prev[b.len()]
+    };
+    candidates.iter().map(|c| (dist(bad, c), *c)).filter(|(d, _)| *d <= 3).min().map(|x| x.1)
+}
+
+/// Reads a log written by [`write_csv`] (columns may come in any order; extra columns are
+/// ignored). `file` is used in messages.
+pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
+    let f = || file.to_string();
+    let mut lines: Vec<&str> = text.split('\n').collect();
+    // a file that ends with a newline has an empty last piece
+    let ends_cleanly = text.ends_with('\n');
+    if ends_cleanly {
+        lines.pop();
+    }
+    let lines: Vec<&str> = lines.into_iter().map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
+    let Some(header) = lines.first().filter(|h| !h.trim().is_empty()) else { return Err(LogError::Empty { file: f() }) };
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let mut index = [0usize; COLUMNS.len()];
+    for (k, col) in COLUMNS.iter().enumerate() {
+        match names.iter().position(|n| n == col) {
+            Some(i) => index[k] = i,
+            None => {
+                let unknown: Vec<&str> = names.iter().copied().filter(|n| !COLUMNS.contains(n)).collect();
+                let hint = closest(col, &unknown).map_or(String::new(), |u| format!(" (is `{u}` meant to be `{col}`?)"));
+                return Err(LogError::Header { file: f(), message: format!("column `{col}` is missing{hint}; the log needs {}", COLUMNS.join(",")) });
+            }
+        }
+    }
+    let mut columns: Vec<Vec<Option<f64>>> = vec![Vec::new(); COLUMNS.len()];
+    let mut repairs = Vec::new();
+    let mut last_t: Option<f64> = None;
+    for (i, line) in lines.iter().enumerate().skip(1) {
+        let lineno = i + 1;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').collect();
+        let last_line = i == lines.len() - 1;
+        if cells.len() < names.len() {
+            if last_line && !ends_cleanly {
+                repairs.push(format!("line {lineno}: the last line is cut short ({} of {} cells, no newline) and was dropped", cells.len(), names.len()));
+                break;
+            }
+            return Err(LogError::Row { file: f(), line: lineno, message: format!("{} cells for {} columns", cells.len(), names.len()) });
+        }
+        let mut row = [None; COLUMNS.len()];
+        for (k, col) in COLUMNS.iter().enumerate() {
+            let cell = cells[index[k]].trim();
+            if cell.is_empty() {
+                continue;
+            }
+            let cell_err = |message: String| LogError::Cell { file: f(), line: lineno, column: col.to_string(), message };
+            let x: f64 = cell.parse().map_err(|_| cell_err(format!("`{cell}` is not a number")))?;
+            if !x.is_finite() {
+                return Err(cell_err(format!("`{cell}` is not a finite number")));
+            }
+            row[k] = Some(x);
+        }
+        let pose_cells = row[3..10].iter().filter(|x| x.is_some()).count();
+        match row[2] {
+            Some(v) if v == 1.0 && pose_cells != 7 => {
+                return Err(LogError::Row { file: f(), line: lineno, message: format!("mocap_valid is 1 but {} of the 7 pose cells are empty", 7 - pose_cells) });
+            }
+            Some(v) if v != 0.0 && v != 1.0 => {
+                return Err(LogError::Cell { file: f(), line: lineno, column: "mocap_valid".into(), message: format!("{v} is neither 0 nor 1") });
+            }
+            _ => {}
+        }
+        let Some(t) = row[0] else {
+            return Err(LogError::Cell { file: f(), line: lineno, column: "t_s".into(), message: "every row needs a time".into() });
+        };
+        match last_t {
+            Some(p) if t < p => {
+                return Err(LogError::Row { file: f(), line: lineno, message: format!("time goes backwards ({t} s after {p} s); sort the log or fix its clock") });
+            }
+            Some(p) if t == p => {
+                repairs.push(format!("line {lineno}: repeats the time {t} s of the previous row and was dropped"));
+                continue;
+            }
+            _ => {}
+        }
+        last_t = Some(t);
+        for (c, x) in columns.iter_mut().zip(row) {
+            c.push(x);
+        }
+    }
+    let n = columns[0].len();
+    if n < 2 {
+        return Err(LogError::Empty { file: f() });
+    }
+    // gaps: longer than 3 × the median interval
+    let t: Vec<f64> = columns[0].iter().map(|x| x.unwrap_or(f64::NAN)).collect();
+    let mut dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    dt.sort_by(f64::total_cmp);
+    let median = dt[dt.len() / 2];
+    let mut segments = Vec::new();
+    let mut start = 0;
+    for k in 1..n {
+        if t[k] - t[k - 1] > 3.0 * median {
+            repairs.push(format!("a gap of {:.3} s after t = {} s (median interval {:.4} s): the log is split into segments there", t[k] - t[k - 1], t[k - 1], median));
+            segments.push((start, k));
+            start = k;
+        }
+    }
+    segments.push((start, n));
+    Ok(FlightLog { columns, segments, repairs })
+}
