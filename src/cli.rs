@@ -38,12 +38,31 @@ OPTIONS:
     --seed N      override the scenario's seed
     --quiet       print only the verdict line
 
-EXIT CODES: 0 pass · 1 a requirement failed · 2 bad input";
+EXIT CODES: 0 pass · 1 a requirement failed · 2 bad input · 130 interrupted";
 
 /// Exit codes.
 pub const PASS: i32 = 0;
 pub const FAIL: i32 = 1;
 pub const BAD_INPUT: i32 = 2;
+/// Interrupted by SIGINT or SIGTERM (128 + 2, the shell's convention).
+pub const INTERRUPTED: i32 = 130;
+
+/// Temporary files being written right now: an interrupt removes them, so a killed run leaves
+/// each output either as it was or complete (the rename is atomic), and no debris.
+static IN_FLIGHT: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Installs the SIGINT/SIGTERM handler (once per process; later calls are no-ops).
+pub fn install_interrupt_handler() {
+    let _ = ctrlc::set_handler(|| {
+        if let Ok(files) = IN_FLIGHT.lock() {
+            for f in files.iter() {
+                let _ = std::fs::remove_file(f);
+            }
+        }
+        eprintln!("interrupted: finished outputs are complete, unfinished ones untouched (a sweep resumes from its journal)");
+        std::process::exit(INTERRUPTED);
+    });
+}
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so the
 /// path holds either its previous content or the complete new one, never half a file.
@@ -52,6 +71,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    if let Ok(mut f) = IN_FLIGHT.lock() {
+        f.push(tmp.clone());
+    }
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
@@ -60,6 +82,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
+    }
+    if let Ok(mut f) = IN_FLIGHT.lock() {
+        f.retain(|p| *p != tmp);
     }
     result
 }
@@ -439,6 +464,7 @@ fn cmd_merge(args: &[String]) -> i32 {
 
 /// Entry point; returns the process exit code.
 pub fn main_with_args(args: &[String]) -> i32 {
+    install_interrupt_handler();
     match args.first().map(String::as_str) {
         Some("run") => cmd_run(&args[1..]),
         Some("check") => cmd_check(&args[1..]),

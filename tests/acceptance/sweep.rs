@@ -125,3 +125,34 @@ fn an_interrupted_sweep_resumes_without_redoing_finished_runs() {
     assert_eq!(csv.lines().count(), want.lines().count());
     assert!(!journal.exists(), "the journal is removed once the outputs are written");
 }
+
+/// SIGINT in the middle of a sweep: exit 130, no temporary files, no half-written outputs, the
+/// journal kept; the same command then resumes and finishes.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_sweep_exits_130_and_resumes() {
+    let d = std::env::temp_dir().join(format!("flyarena-sigint-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    let sc = scenario();
+    let args = ["sweep", sc.to_str().unwrap(), "--runs", "300", "--out", d.to_str().unwrap(), "-q"];
+    let mut child = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    // wait until some runs are journalled, then interrupt
+    let journal = d.join("sweep-hover-duration.sweep.journal.jsonl");
+    let started = std::time::Instant::now();
+    while std::fs::read_to_string(&journal).map_or(0, |t| t.lines().count()) < 5 {
+        assert!(started.elapsed().as_secs() < 60, "no progress");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    let names: Vec<String> = std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert_eq!(names, ["sweep-hover-duration.sweep.journal.jsonl"], "only the journal remains");
+    // complete lines only: a line cut by the exit would be skipped on resume
+    let done = std::fs::read_to_string(&journal).unwrap().matches('\n').count() - 1;
+    assert!(done < 300, "the sweep finished before the signal: {done}");
+    let (code, out, err) = flyarena(&args[..args.len() - 1]);
+    assert!(code == 0 || code == 1, "{out}{err}");
+    assert!(err.contains(&format!("resuming: {done} of 300 runs already done")), "{err}");
+    assert!(d.join("sweep-hover-duration.sweep.csv").exists() && !journal.exists());
+}
