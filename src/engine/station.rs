@@ -211,7 +211,9 @@ impl Station {
         });
         if let Some((att, _)) = self.dead_reckoned {
             let yaw_hold = self.reference.yaw;
-            self.command = failsafe(&self.gains, att, yaw_hold, self.fs.thrust_fraction, now - since >= self.fs.motors_off_after);
+            // motors that were off (on the floor before take-off or after landing) stay off
+            let off = self.reference.motors_off || now - since >= self.fs.motors_off_after;
+            self.command = failsafe(&self.gains, att, yaw_hold, self.fs.thrust_fraction, off);
         }
     }
 

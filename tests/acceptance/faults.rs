@@ -90,3 +90,13 @@ fn losing_two_of_four_markers_is_an_outage_too() {
     assert!(!v.failsafe.active_at_end);
     assert!(v.link.missing_frames >= 95, "{} frames missing", v.link.missing_frames);
 }
+
+/// Regression: packets lost after landing must not spin the motors up again.
+#[test]
+fn an_outage_after_landing_keeps_the_motors_off() {
+    // the plan ends at 24 s (3 + 3 + 3 + 12 + 3), the run at 25 s
+    let v = fly("{ from_s: 24.2 }", "");
+    assert_eq!(v.failsafe.episodes, 1);
+    assert!(v.trace.iter().filter(|s| s.t.as_secs_f64() > 24.1).all(|s| s.thrust_n == 0.0));
+    assert!(v.final_pos.z().abs() < 1e-9);
+}
