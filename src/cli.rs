@@ -89,6 +89,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     result
 }
 
+/// [`write_atomic`], with the error reported to the user as bad output (exit code 2).
+fn write_output(path: &Path, bytes: &[u8]) -> Result<(), i32> {
+    write_atomic(path, bytes).map_err(|e| {
+        eprintln!("error: cannot write {}: {e}", path.display());
+        BAD_INPUT
+    })
+}
+
 struct RunArgs {
     scenario: PathBuf,
     out: PathBuf,
@@ -185,9 +193,8 @@ fn cmd_run(args: &[String]) -> i32 {
     let elapsed = started.elapsed();
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name)));
     let json = serde_json::to_vec_pretty(&summary(&s, &main, unc.as_ref(), &report)).expect("summary serialises");
-    if let Err(e) = write_atomic(&json_path, &json) {
-        eprintln!("error: cannot write {}: {e}", json_path.display());
-        return BAD_INPUT;
+    if let Err(code) = write_output(&json_path, &json) {
+        return code;
     }
     let mut log_paths = Vec::new();
     if let Some(base) = &a.log {
@@ -199,9 +206,8 @@ fn cmd_run(args: &[String]) -> i32 {
                 let stem = base.file_stem().map(|x| x.to_string_lossy().into_owned()).unwrap_or_default();
                 base.with_file_name(format!("{stem}-{}.csv", v.name))
             };
-            if let Err(e) = write_atomic(&path, crate::log::write_csv(v, period).as_bytes()) {
-                eprintln!("error: cannot write {}: {e}", path.display());
-                return BAD_INPUT;
+            if let Err(code) = write_output(&path, crate::log::write_csv(v, period).as_bytes()) {
+                return code;
             }
             log_paths.push(path);
         }
@@ -217,9 +223,8 @@ fn cmd_run(args: &[String]) -> i32 {
                 return BAD_INPUT;
             }
         };
-        if let Err(e) = write_atomic(path, &bytes) {
-            eprintln!("error: cannot write {}: {e}", path.display());
-            return BAD_INPUT;
+        if let Err(code) = write_output(path, &bytes) {
+            return code;
         }
     }
     let verdict = if report.passed() { "PASS" } else { "FAIL" };
@@ -283,9 +288,8 @@ fn finish_sweep(o: &crate::sweep::SweepOutput, out_dir: &Path, quiet: bool) -> i
     let (json_path, csv_path) = sweep_files(out_dir, &o.scenario);
     let json = serde_json::to_vec_pretty(&serde_json::json!({ "summary": summary, "output": o })).expect("serialises");
     for (path, bytes) in [(&json_path, json), (&csv_path, crate::sweep::csv(o).into_bytes())] {
-        if let Err(e) = write_atomic(path, &bytes) {
-            eprintln!("error: cannot write {}: {e}", path.display());
-            return BAD_INPUT;
+        if let Err(code) = write_output(path, &bytes) {
+            return code;
         }
     }
     let failed = o.rows.iter().filter(|r| !r.passed).count();
@@ -350,7 +354,7 @@ fn cmd_sweep(args: &[String]) -> i32 {
         }
     };
     let runs = runs.unwrap_or(sweep.default_runs());
-    let mine = (0..runs).filter(|i| shard.is_none_or(|(k, n)| i % n == k)).count() as u64;
+    let mine = crate::sweep::shard_runs(runs, shard).count() as u64;
     use std::io::IsTerminal;
     let bar = if !quiet && std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(mine);
@@ -367,7 +371,7 @@ fn cmd_sweep(args: &[String]) -> i32 {
     };
     let header = sweep.journal_header(runs, shard);
     let done = crate::sweep::read_journal(&journal_path, &header);
-    let done_mine = done.keys().filter(|i| **i < runs && shard.is_none_or(|(k, n)| *i % n == k)).count() as u64;
+    let done_mine = crate::sweep::shard_runs(runs, shard).filter(|i| done.contains_key(i)).count() as u64;
     if done_mine > 0 && !quiet {
         eprintln!("resuming: {done_mine} of {mine} runs already done ({})", journal_path.display());
     }
@@ -409,9 +413,8 @@ fn cmd_sweep(args: &[String]) -> i32 {
         None => finish_sweep(&o, &out, quiet),
         Some((k, n)) => {
             let path = out.join(format!("{}.sweep.shard-{}-of-{n}.json", o.scenario, k + 1));
-            if let Err(e) = write_atomic(&path, &serde_json::to_vec(&o).expect("serialises")) {
-                eprintln!("error: cannot write {}: {e}", path.display());
-                return BAD_INPUT;
+            if let Err(code) = write_output(&path, &serde_json::to_vec(&o).expect("serialises")) {
+                return code;
             }
             println!("shard {}/{n}: {} runs → {} (combine with `flyarena merge`)", k + 1, mine, path.display());
             PASS

@@ -91,19 +91,7 @@ pub enum LogError {
 
 fn closest<'a>(bad: &str, candidates: &[&'a str]) -> Option<&'a str> {
     // edit distance ≤ 3: a typo, not another column
-    let dist = |a: &str, b: &str| {
-        let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
-        let mut prev: Vec<usize> = (0..=b.len()).collect();
-        for i in 1..=a.len() {
-            let mut cur = vec![i; b.len() + 1];
-            for j in 1..=b.len() {
-                cur[j] = (prev[j] + 1).min(cur[j - 1] + 1).min(prev[j - 1] + usize::from(a[i - 1] != b[j - 1]));
-            }
-            prev = cur;
-        }
-        prev[b.len()]
-    };
-    candidates.iter().map(|c| (dist(bad, c), *c)).filter(|(d, _)| *d <= 3).min().map(|x| x.1)
+    candidates.iter().map(|c| (crate::scenario::error::edit_distance(bad, c), *c)).filter(|(d, _)| *d <= 3).min().map(|x| x.1)
 }
 
 /// Reads a log written by [`write_csv`] (columns may come in any order; extra columns are

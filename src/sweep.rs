@@ -84,7 +84,8 @@ pub struct Sweep {
 impl Sweep {
     /// Reads a scenario with a `sweep:` section.
     pub fn load(path: &Path) -> Result<Sweep, SweepError> {
-        let scenario = Scenario::load(path)?;
+        let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;
+        let scenario = Scenario::parse(&src, path)?;
         let file = path.display().to_string();
         let spec = |message: String| SweepError::Spec { file: file.clone(), message };
         let cfg = scenario.sweep.clone().ok_or_else(|| spec("the scenario has no `sweep:` section (see README, Sweeps)".into()))?;
@@ -92,7 +93,6 @@ impl Sweep {
             return Err(spec("`vary` is empty: name at least one field to vary".into()));
         }
         let variations = cfg.vary.iter().map(|v| v.variation().map_err(&spec)).collect::<Result<Vec<_>, _>>()?;
-        let src = std::fs::read_to_string(path).map_err(|e| spec(e.to_string()))?;
         let tree: serde_json::Value = serde_saphyr::from_str(&src).map_err(|e| spec(e.to_string()))?;
         let text_hash = src.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3));
         let sweep = Sweep { name: scenario.name.clone(), text_hash, tree, cfg, variations, file: file.clone() };
@@ -164,7 +164,7 @@ impl Sweep {
         done: &std::collections::BTreeMap<u64, Vec<SweepRow>>,
         finished: &(dyn Fn(u64, &[SweepRow]) + Sync),
     ) -> Result<SweepOutput, SweepError> {
-        let mine: Vec<u64> = (0..runs).filter(|i| shard.is_none_or(|(k, n)| i % n == k)).collect();
+        let mine: Vec<u64> = shard_runs(runs, shard).collect();
         let rows: Vec<Vec<SweepRow>> = mine
             .par_iter()
             .map(|&i| match done.get(&i) {
@@ -226,6 +226,11 @@ impl Sweep {
             })
             .collect())
     }
+}
+
+/// The run indices of a shard (0-based `(k, n)`: the runs with i mod n = k), or all runs.
+pub fn shard_runs(runs: u64, shard: Option<(u64, u64)>) -> impl Iterator<Item = u64> {
+    (0..runs).filter(move |i| shard.is_none_or(|(k, n)| i % n == k))
 }
 
 /// The first line of a sweep journal: which sweep the lines after it belong to.

@@ -121,7 +121,7 @@ impl Station {
         let yaw_samples: usize = plan
             .phases
             .iter()
-            .filter(|p| p.phase.name() == "calibrate_yaw")
+            .filter(|p| matches!(p.phase, crate::guidance::Phase::CalibrateYaw { .. }))
             .map(|p| ((p.end - p.start).0 / settings.mocap_period.0.max(1)) as usize + 2)
             .max()
             .unwrap_or(0);
