@@ -47,8 +47,6 @@ pub struct X3d {
     disturbance: Disturbance,
     state: State,
     on_ground: bool,
-    /// Acceleration in Nav at the start of the last step (for the accelerometer).
-    accel_nav: Vector3<f64>,
 }
 
 /// The derivative of the state, in raw coordinates (same frames as [`State`]).
@@ -87,12 +85,12 @@ impl X3d {
     pub fn on_floor(p: VehicleParams, disturbance: Disturbance, home: Vec3<Nav>, yaw: f64) -> Self {
         let att = Rot::from_euler(crate::frames::Euler::new(0.0, 0.0, yaw));
         let state = State { pos: Vec3::new(home.x(), home.y(), 0.0), vel: Vec3::zeros(), att, omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
-        X3d { p, disturbance, state, on_ground: true, accel_nav: Vector3::zeros() }
+        X3d { p, disturbance, state, on_ground: true }
     }
 
     /// A vehicle in free flight at a given state (for tests and benchmarks).
     pub fn in_flight(p: VehicleParams, disturbance: Disturbance, state: State) -> Self {
-        X3d { p, disturbance, state, on_ground: false, accel_nav: Vector3::zeros() }
+        X3d { p, disturbance, state, on_ground: false }
     }
 
     pub fn params(&self) -> &VehicleParams {
@@ -116,10 +114,24 @@ impl X3d {
     }
 
     /// Specific force in the body frame (what an ideal accelerometer reads), m/s².
+    ///
+    /// f = (F_rotors + F_drag)/m + C_n^b·F_ext/m, all evaluated at the current state (so the
+    /// attitude that rotates it and the forces belong to the same instant). On the floor the
+    /// reaction cancels gravity: f = C_n^b·(0, 0, −g).
     pub fn specific_force(&self) -> Vec3<Body> {
-        let a = if self.on_ground { Vector3::zeros() } else { self.accel_nav };
-        let f_nav = Vec3::<Nav>::from_raw(a - Vector3::new(0.0, 0.0, GRAVITY));
-        self.state.att.inverse().apply(f_nav)
+        let s = &self.state;
+        if self.on_ground {
+            return s.att.inverse().apply(Vec3::<Nav>::new(0.0, 0.0, -GRAVITY));
+        }
+        let p = &self.p;
+        let v_body = s.att.inverse().apply(s.vel);
+        let thrust: f64 = s.rotor_speed.iter().map(|w| p.k_thrust * w * w).sum();
+        let dist = s.att.inverse().apply(Vec3::<Nav>::from_array(self.disturbance.force_nav_n));
+        Vec3::new(
+            -p.rotor_drag_per_s[0] * v_body.x() + dist.x() / p.mass_kg,
+            -p.rotor_drag_per_s[1] * v_body.y() + dist.y() / p.mass_kg,
+            -thrust / p.mass_kg + dist.z() / p.mass_kg,
+        )
     }
 
     fn deriv(&self, s: &Raw, rotor_cmd: &[f64; 4]) -> Deriv {
@@ -160,7 +172,6 @@ impl X3d {
             rotor: self.state.rotor_speed,
         };
         let k1 = self.deriv(&s0, rotor_cmd);
-        self.accel_nav = k1.dv;
         let k2 = self.deriv(&s0.plus(&k1, dt / 2.0), rotor_cmd);
         let k3 = self.deriv(&s0.plus(&k2, dt / 2.0), rotor_cmd);
         let k4 = self.deriv(&s0.plus(&k3, dt), rotor_cmd);
@@ -223,6 +234,40 @@ mod tests {
         assert!(x.state().pos.z() + 1.0 < 1e-9 && x.state().pos.z() + 1.0 > -1e-9);
         let f = x.specific_force();
         assert!((f.z() + 9.81).abs() < 1e-9, "hover specific force {f:?}");
+    }
+
+    /// Regression: the accelerometer took the acceleration from the start of the 1 ms step and
+    /// the attitude from its end, a 1 ms skew that `identify` found as a spurious rotor drag
+    /// (k ≈ −0.005 1/s). Now the specific force must equal the velocity's rate of change,
+    /// rotated by the attitude of the same instant: C_b^n·f + g·e_D = dv/dt (central difference).
+    #[test]
+    fn specific_force_matches_the_acceleration_at_the_same_instant() {
+        let mut x = hovering();
+        let w = x.hover_rotor_speed();
+        // roll and pitch hard: left/right and front/back rotors unequal
+        let cmd = [w * 1.02, w * 0.97, w * 0.99, w * 1.03];
+        let dt = 1e-3;
+        let mut prev = x.state().vel;
+        let mut worst: f64 = 0.0;
+        for k in 0..400 {
+            x.step(&cmd, dt);
+            let f = x.specific_force();
+            let (v_now, att) = (x.state().vel, x.state().att);
+            let mut next = x.clone();
+            next.step(&cmd, dt);
+            if k > 10 {
+                let dv = (next.state().vel - prev) * (0.5 / dt);
+                let model = att.apply(f) + Vec3::<Nav>::new(0.0, 0.0, GRAVITY);
+                worst = worst.max((dv - model).norm());
+            }
+            prev = v_now;
+        }
+        assert!(x.state().omega.norm() > 1.0, "the test must rotate the body: {:?}", x.state().omega);
+        // central-difference truncation is O(dt²); the old 1 ms skew gave ≈ |ω|·dt·g > 1e-2
+        assert!(worst < 1e-4, "specific force and acceleration disagree by {worst} m/s²");
+        // no drag, no disturbance: the rotors push along body z only
+        let f = x.specific_force();
+        assert!(f.x() == 0.0 && f.y() == 0.0 && (f.z() + x.thrust() / 0.68).abs() < 1e-12, "{f:?}");
     }
 
     #[test]
