@@ -14,10 +14,12 @@ flyarena — quadrotor flight under motion capture with misaligned frames
 
 USAGE:
     flyarena run SCENARIO.yaml [--out DIR] [--json PATH] [--rrd PATH | --no-rrd] [--rrd-every N]
-                               [--log PATH.csv] [--seed N] [--quiet]
+                               [--log PATH.csv] [--effects FRAGMENT.yaml] [--seed N] [--quiet]
     flyarena check SCENARIO.yaml...
     flyarena sweep SCENARIO.yaml [--runs N] [--shard K/N] [--out DIR] [--quiet]
     flyarena merge SHARD.json... [--out DIR]
+    flyarena identify SCENARIO.yaml [--vehicle NAME] [--seed N] [--out DIR] [--json PATH] [--fragment PATH]
+    flyarena identify LOG.csv (--scenario SCENARIO.yaml | --mapping MAPPING.yaml) [...]
 
 COMMANDS:
     run     simulate the scenario, print the requirements table, write the JSON summary and
@@ -26,6 +28,9 @@ COMMANDS:
     sweep   run the scenario's `sweep:` variations in parallel: per-run metrics (CSV, JSON) and a
             summary per grid point (mean, p95, p99, pass rates); --shard K/N runs one slice
     merge   combine shard outputs into the summary one unsharded sweep would give
+    identify  find what the model lacks: residuals of the nominal model against a flight (run
+            from a scenario, or a log), the effects that explain them (prewhitened forward
+            selection, held-out errors, 95 % intervals), and a scenario fragment with them
 
 OPTIONS:
     --out DIR     output folder (default: out)
@@ -35,6 +40,9 @@ OPTIONS:
     --rrd-every N record every N-th Vicon frame (default 4: 50 Hz at 200 Hz)
     --log PATH    write the flight log (CSV: mocap, IMU, commands; README, Flight logs);
                   with several vehicles, one file each, named PATH-<vehicle>.csv
+    --effects F   apply an `identify` fragment (scenario fields by path) before validating
+    --mapping M   identify: read another tool's CSV log through a column mapping
+    --scenario S  identify: the scenario that wrote a flyarena log
     --seed N      override the scenario's seed
     --quiet       print only the verdict line
 
@@ -105,13 +113,14 @@ struct RunArgs {
     no_rrd: bool,
     rrd_every: usize,
     log: Option<PathBuf>,
+    effects: Option<PathBuf>,
     seed: Option<u64>,
     quiet: bool,
 }
 
 fn parse_run(args: &[String]) -> Result<RunArgs, String> {
     let mut it = args.iter();
-    let mut a = RunArgs { scenario: PathBuf::new(), out: PathBuf::from("out"), json: None, rrd: None, no_rrd: false, rrd_every: 4, log: None, seed: None, quiet: false };
+    let mut a = RunArgs { scenario: PathBuf::new(), out: PathBuf::from("out"), json: None, rrd: None, no_rrd: false, rrd_every: 4, log: None, effects: None, seed: None, quiet: false };
     let mut scenario = None;
     while let Some(x) = it.next() {
         let mut value = |flag: &str| it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
@@ -121,6 +130,7 @@ fn parse_run(args: &[String]) -> Result<RunArgs, String> {
             "--rrd" => a.rrd = Some(PathBuf::from(value("--rrd")?)),
             "--no-rrd" => a.no_rrd = true,
             "--log" => a.log = Some(PathBuf::from(value("--log")?)),
+            "--effects" => a.effects = Some(PathBuf::from(value("--effects")?)),
             "--rrd-every" => {
                 let v = value("--rrd-every")?;
                 a.rrd_every = v.parse().ok().filter(|n| (1..=1000).contains(n)).ok_or_else(|| format!("--rrd-every takes a whole number from 1 to 1000, not `{v}`"))?;
@@ -177,7 +187,11 @@ fn cmd_run(args: &[String]) -> i32 {
             return BAD_INPUT;
         }
     };
-    let mut s = match Scenario::load(&a.scenario) {
+    let loaded = match &a.effects {
+        Some(f) => crate::identify::feedback::load_with_effects(&a.scenario, f),
+        None => Scenario::load(&a.scenario).map_err(|e| e.to_string()),
+    };
+    let mut s = match loaded {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");
@@ -230,7 +244,9 @@ fn cmd_run(args: &[String]) -> i32 {
     let verdict = if report.passed() { "PASS" } else { "FAIL" };
     if !a.quiet {
         println!("{} (seed {}): {:.1} s simulated in {:.2} s wall\n", s.name, s.seed, main.duration.as_secs_f64(), elapsed.as_secs_f64());
-        if report.rows.is_empty() {
+        if report.rows.is_empty() && s.requirements.identify.is_some() {
+            println!("(R5 is checked by `flyarena identify {}`)\n", a.scenario.display());
+        } else if report.rows.is_empty() {
             println!("(the scenario declares no requirements)\n");
         } else {
             print!("{}", report.table());
@@ -466,6 +482,98 @@ fn cmd_merge(args: &[String]) -> i32 {
 }
 
 /// Entry point; returns the process exit code.
+struct IdentifyArgs {
+    input: PathBuf,
+    scenario: Option<PathBuf>,
+    mapping: Option<PathBuf>,
+    vehicle: Option<String>,
+    out: PathBuf,
+    json: Option<PathBuf>,
+    fragment: Option<PathBuf>,
+    seed: Option<u64>,
+    quiet: bool,
+}
+
+fn parse_identify(args: &[String]) -> Result<IdentifyArgs, String> {
+    let mut it = args.iter();
+    let mut a = IdentifyArgs { input: PathBuf::new(), scenario: None, mapping: None, vehicle: None, out: PathBuf::from("out"), json: None, fragment: None, seed: None, quiet: false };
+    let mut input = None;
+    while let Some(x) = it.next() {
+        let mut value = |flag: &str| it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
+        match x.as_str() {
+            "--scenario" => a.scenario = Some(PathBuf::from(value("--scenario")?)),
+            "--mapping" => a.mapping = Some(PathBuf::from(value("--mapping")?)),
+            "--vehicle" => a.vehicle = Some(value("--vehicle")?),
+            "--out" => a.out = PathBuf::from(value("--out")?),
+            "--json" => a.json = Some(PathBuf::from(value("--json")?)),
+            "--fragment" => a.fragment = Some(PathBuf::from(value("--fragment")?)),
+            "--seed" => {
+                let v = value("--seed")?;
+                a.seed = Some(v.parse().map_err(|_| format!("--seed takes a whole number from 0 to {}, not `{v}`", u64::MAX))?);
+            }
+            "--quiet" | "-q" => a.quiet = true,
+            s if s.starts_with('-') => return Err(format!("unknown option `{s}`")),
+            s if input.is_none() => input = Some(PathBuf::from(s)),
+            s => return Err(format!("one input per run; unexpected `{s}`")),
+        }
+    }
+    a.input = input.ok_or("what to identify? `flyarena identify scenarios/<x>.yaml`, or a log with --scenario or --mapping")?;
+    let is_yaml = a.input.extension().is_some_and(|e| e == "yaml" || e == "yml");
+    match (is_yaml, &a.scenario, &a.mapping) {
+        (true, None, None) => {}
+        (true, _, _) => return Err("a scenario input is run and identified by itself: --scenario and --mapping are for logs".into()),
+        (false, Some(_), Some(_)) => return Err("--scenario (a flyarena log) and --mapping (another tool's log) exclude each other".into()),
+        (false, None, None) => return Err(format!("{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's)", a.input.display())),
+        _ => {}
+    }
+    Ok(a)
+}
+
+fn cmd_identify(args: &[String]) -> i32 {
+    let a = match parse_identify(args) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("error: {e}\n\n{USAGE}");
+            return BAD_INPUT;
+        }
+    };
+    match crate::identify::cli::run(&a.input, a.scenario.as_deref(), a.mapping.as_deref(), a.vehicle.as_deref(), a.seed) {
+        Ok(done) => {
+            let stem = a.input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
+            let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
+            let json = serde_json::to_vec_pretty(&done.json).expect("report serialises");
+            if let Err(code) = write_output(&json_path, &json) {
+                return code;
+            }
+            let frag_path = a.fragment.unwrap_or_else(|| a.out.join(format!("{stem}.effects.yaml")));
+            if let Err(code) = write_output(&frag_path, done.fragment.as_bytes()) {
+                return code;
+            }
+            if !a.quiet {
+                print!("{}", done.text);
+                println!("\nreport: {}\nscenario fragment: {} (`flyarena run SCENARIO --effects {}`)", json_path.display(), frag_path.display(), frag_path.display());
+            }
+            match &done.requirements {
+                Some(req) => {
+                    if !a.quiet {
+                        println!();
+                        print!("{}", req.table());
+                        println!();
+                    }
+                    let verdict = if req.passed() { "PASS" } else { "FAIL" };
+                    println!("{verdict}: {} of {} requirement checks passed", req.rows.iter().filter(|r| r.pass).count(), req.rows.len());
+                    if req.passed() { PASS } else { FAIL }
+                }
+                None => PASS,
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            BAD_INPUT
+        }
+    }
+}
+
 pub fn main_with_args(args: &[String]) -> i32 {
     install_interrupt_handler();
     match args.first().map(String::as_str) {
@@ -473,6 +581,7 @@ pub fn main_with_args(args: &[String]) -> i32 {
         Some("check") => cmd_check(&args[1..]),
         Some("sweep") => cmd_sweep(&args[1..]),
         Some("merge") => cmd_merge(&args[1..]),
+        Some("identify") => cmd_identify(&args[1..]),
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             PASS

@@ -77,6 +77,7 @@ pub mod scenario;
 pub mod engine;
 pub mod requirements;
 pub mod log;
+pub mod identify;
 #[cfg(feature = "record")]
 pub mod record;
 pub mod sweep;

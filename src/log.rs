@@ -34,11 +34,13 @@ pub const COLUMNS: [&str; 20] = [
 pub fn write_csv(v: &VehicleRun, mocap_period_s: f64) -> String {
     let mut s = COLUMNS.join(",");
     s.push('\n');
-    for r in &v.trace {
+    for (k, r) in v.trace.iter().enumerate() {
         let t = r.t.as_secs_f64();
-        let seq = r.captured.map_or((t / mocap_period_s).round() as u64, |f| f.seq as u64);
+        // an undeclared mocap delay: the logging host stamps each pose that much late
+        let captured = k.checked_sub(v.log_delay_frames).and_then(|j| v.trace[j].captured);
+        let seq = captured.map_or((t / mocap_period_s).round() as u64, |f| f.seq as u64);
         let _ = write!(s, "{t},{seq}");
-        match r.captured {
+        match captured {
             Some(f) => {
                 let q = f.att.quaternion();
                 let _ = write!(s, ",1,{},{},{},{},{},{},{}", f.pos.x(), f.pos.y(), f.pos.z(), q.w, q.i, q.j, q.k);

@@ -97,6 +97,8 @@ pub struct VehicleRun {
     /// The running hover average (recording only).
     pub hover_trace: Vec<HoverSample>,
     pub phases: Vec<(Nanos, &'static str)>,
+    /// Undeclared mocap delay in frames: the flight log stamps poses this many frames late.
+    pub log_delay_frames: usize,
     pub final_pos: Vec3<Nav>,
     pub any_nan: bool,
 }
@@ -116,6 +118,7 @@ struct Vehicle {
     imu: Imu,
     mocap: Mocap,
     mocap_latency: Nanos,
+    log_delay_frames: usize,
     link: Link<MocapFrame>,
     downlink: Downlink,
     telemetry: Link<TelemetryFrame>,
@@ -231,15 +234,21 @@ impl Arena {
                     gyro_bias_rad_s: v.imu.gyro_bias_deg_s.map(f64::to_radians),
                     accel_bias_m_s2: v.imu.accel_bias_m_s2,
                 };
+                // the truth: the declared parameters with the undeclared effects added
+                let u = &v.undeclared;
+                let mut true_params = params.clone();
+                true_params.k_thrust *= u.thrust_scale;
+                true_params.rotor_drag_per_s = [params.rotor_drag_per_s[0] + u.rotor_drag_per_s[0], params.rotor_drag_per_s[1] + u.rotor_drag_per_s[1]];
                 let dist = Disturbance { force_nav_n: v.disturbance.force_n, torque_body_nm: v.disturbance.torque_nm };
                 let home_nav = camera.to_nav(home);
                 Vehicle {
                     name: v.name.clone(),
-                    x3d: X3d::on_floor(params.clone(), dist, home_nav, yaw0),
+                    x3d: X3d::on_floor(true_params, dist, home_nav, yaw0),
                     rate_loop: RateLoop::new(&params),
                     imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
                     mocap,
-                    mocap_latency: ms(s.mocap.latency_ms),
+                    mocap_latency: ms(s.mocap.latency_ms + u.mocap_delay_ms),
+                    log_delay_frames: (u.mocap_delay_ms * s.mocap.rate_hz.value as f64 / 1000.0).round() as usize,
                     link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)).with_outages(outages.clone()),
                     downlink: Downlink::new(telemetry_every),
                     telemetry: Link::new(telemetry, Stream::new(s.seed, Component::TelemetryLoss, i), Stream::new(s.seed, Component::TelemetryJitter, i)),
@@ -320,6 +329,7 @@ impl Arena {
                     hover_trace: v.station.hover_trace().to_vec(),
                     trace: v.trace,
                     phases,
+                    log_delay_frames: v.log_delay_frames,
                     final_pos: v.x3d.state().pos,
                     any_nan: v.any_nan,
                 }

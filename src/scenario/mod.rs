@@ -309,6 +309,34 @@ pub struct VehicleCfg {
     pub imu: ImuCfg,
     #[serde(default)]
     pub disturbance: DisturbanceCfg,
+    /// The truth differs from the declared model here (for `identify` to find).
+    #[serde(default)]
+    pub undeclared: UndeclaredCfg,
+}
+
+/// Effects in the simulated truth that the declared model (what the station, the onboard rate
+/// loop and `identify`'s nominal model use) does not contain. Marker offsets, the camera error,
+/// the disturbance and IMU biases are undeclared by nature; these are the rest.
+#[derive(Debug, Deserialize, serde::Serialize, Clone, Copy)]
+#[serde(deny_unknown_fields, default)]
+pub struct UndeclaredCfg {
+    /// True thrust = scale × the thrust the rate loop commands (a wrong k_f, worn propellers).
+    #[serde(with = "ranges::thrust_scale")]
+    pub thrust_scale: f64,
+    /// Rotor drag on top of `model.rotor_drag_per_s` (1/s).
+    #[serde(with = "ranges::drag_per_s::arr")]
+    pub rotor_drag_per_s: [f64; 2],
+    /// Mocap latency beyond the declared `mocap.latency_ms`: the station gets each pose this much
+    /// later, and the flight log stamps it this much late against the IMU (multiple of the
+    /// mocap period, ms).
+    #[serde(with = "ranges::delay_ms")]
+    pub mocap_delay_ms: f64,
+}
+
+impl Default for UndeclaredCfg {
+    fn default() -> Self {
+        UndeclaredCfg { thrust_scale: 1.0, rotor_drag_per_s: [0.0; 2], mocap_delay_ms: 0.0 }
+    }
 }
 
 #[derive(Debug, Deserialize, serde::Serialize, Clone, Copy, PartialEq, Eq, Default)]
@@ -316,6 +344,7 @@ pub struct VehicleCfg {
 pub enum Preset {
     #[default]
     X3d,
+    Crazyflie21,
 }
 
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
@@ -493,6 +522,29 @@ pub struct RequirementsCfg {
     pub ls_equals_rls: Option<LsRlsReq>,
     /// R4: the validity check (7) gives the expected verdict.
     pub validity: Option<ValidityReq>,
+    /// R5: `flyarena identify` finds the hidden effects (checked by `identify`, not by `run`).
+    pub identify: Option<IdentifyReq>,
+}
+
+/// R5: what `flyarena identify` must find in this scenario's flight.
+#[derive(Debug, Deserialize, serde::Serialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct IdentifyReq {
+    /// The hidden effects, in the order they must be found; empty: nothing may be found.
+    pub expect: Vec<Spanned<ExpectedEffect>>,
+    /// Each expected effect must cut the held-out RMSE of its best channel by this fraction.
+    #[serde(default = "half", with = "ranges::ratio")]
+    pub min_heldout_cut: f64,
+}
+
+#[derive(Debug, Deserialize, serde::Serialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct ExpectedEffect {
+    pub effect: crate::identify::Effect,
+    /// The true parameter values, in the units `identify` reports them in.
+    pub values: Vec<f64>,
+    /// |estimate − value| ≤ tolerance, per parameter.
+    pub tolerance: Vec<f64>,
 }
 
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
@@ -613,6 +665,18 @@ impl Scenario {
                 return err(o.referenced, format!("outage ends ({} s) before it starts ({} s)", o.value.to_s.unwrap_or(0.0), o.value.from_s));
             }
         }
+        if let Some(r) = &self.requirements.identify {
+            for e in &r.expect {
+                let n = e.value.effect.n_params();
+                if e.value.values.len() != n || e.value.tolerance.len() != n {
+                    let names: Vec<&str> = e.value.effect.params().iter().map(|p| p.0).collect();
+                    return err(e.referenced, format!("{} has {n} parameters ({}): give {n} values and {n} tolerances", e.value.effect.key(), names.join(", ")));
+                }
+                if let Some(t) = e.value.tolerance.iter().find(|t| !(**t > 0.0 && t.is_finite())) {
+                    return err(e.referenced, format!("tolerance {t} must be positive"));
+                }
+            }
+        }
         let vehicles = &self.vehicles.value;
         if vehicles.is_empty() || vehicles.len() > 16 {
             return err(self.vehicles.referenced, format!("{} vehicles is outside the allowed range [1, 16]", vehicles.len()));
@@ -648,6 +712,12 @@ impl Scenario {
                 if o.value.to_s <= o.value.from_s {
                     return err(o.referenced, format!("occlusion ends ({} s) before it starts ({} s)", o.value.to_s, o.value.from_s));
                 }
+            }
+            let u = &v.value.undeclared;
+            let period_ms = 1000.0 / self.mocap.rate_hz.value as f64;
+            let frames = u.mocap_delay_ms / period_ms;
+            if (frames - frames.round()).abs() > 1e-9 {
+                return err(v.referenced, format!("vehicle `{}`: undeclared.mocap_delay_ms {} is not a multiple of the mocap period {period_ms} ms", v.value.name, u.mocap_delay_ms));
             }
             let p = self.vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
             let t_max = self.radio.thrust_max_n.unwrap_or(p.thrust_max()).min(p.thrust_max());
@@ -700,6 +770,7 @@ impl Scenario {
         let m = &self.vehicles.value[i].value.model;
         let mut p = match m.preset {
             Preset::X3d => VehicleParams::x3d(),
+            Preset::Crazyflie21 => VehicleParams::crazyflie21(),
         };
         if let Some(x) = m.mass_kg {
             p.mass_kg = x;

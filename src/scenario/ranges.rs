@@ -113,4 +113,7 @@ ranged! {
     turns: 1.0, 100.0, false, "turns";
     timeout_ms: 1.0, 10000.0, false, "ms";
     thrust_fraction: 0.5, 1.0, false, "";
+    thrust_scale: 0.5, 1.5, false, "";
+    drag_per_s: 0.0, 10.0, false, "1/s";
+    delay_ms: 0.0, 200.0, false, "ms";
 }

@@ -43,6 +43,43 @@ pub struct VehicleParams {
 
 pub const GRAVITY: f64 = 9.81;
 
+/// Rotor radius of the Crazyflie 2.1's 46 mm stock propellers (m).
+pub const CRAZYFLIE21_ROTOR_RADIUS_M: f64 = 0.0235;
+
+/// Thrust of one Crazyflie motor from its PWM command u ∈ [0, 65535] and the battery voltage V:
+///
+/// ```text
+/// T_4(u, V) = a·(u/65535)² + b·(u/65535)·V + c     (grams-force, all four motors at u)
+/// T_motor   = max(0, T_4)/4 · g/1000                (N), and 0 at u = 0
+/// ```
+///
+/// fitted by least squares to the thrust stand `crazyflie-thrust-stand/cf2.1-stock-prop.csv`
+/// (2,573 rows, PWM 0–65,500, 2.96–3.90 V, tare −1.17 g removed; RMS residual 1.67 g, which
+/// includes the transients between steps). The test `crazyflie21_thrust_map_is_the_stand_fit`
+/// refits it from the data.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct PwmThrustMap {
+    pub a_g: f64,
+    pub b_g_per_v: f64,
+    pub c_g: f64,
+    /// The voltage the thrust–voltage effect is referred to (V).
+    pub vbat_ref_v: f64,
+}
+
+impl PwmThrustMap {
+    pub fn crazyflie21() -> Self {
+        PwmThrustMap { a_g: 35.407_020_21, b_g_per_v: 5.922_264_62, c_g: -0.075_526_67, vbat_ref_v: 3.7 }
+    }
+    /// Thrust of one motor (N).
+    pub fn thrust_n(&self, pwm: f64, vbat_v: f64) -> f64 {
+        if pwm <= 0.0 {
+            return 0.0;
+        }
+        let u = pwm / 65535.0;
+        (self.a_g * u * u + self.b_g_per_v * u * vbat_v + self.c_g).max(0.0) / 4.0 * GRAVITY / 1000.0
+    }
+}
+
 impl VehicleParams {
     pub fn x3d() -> Self {
         VehicleParams {
@@ -53,6 +90,25 @@ impl VehicleParams {
             k_torque_m: 0.016,
             motor_tau_s: 0.0125,
             rotor_speed_max: 838.0,
+            rotor_drag_per_s: [0.0, 0.0],
+            layout: RotorLayout::Plus,
+            rate_loop_gain_per_s: [25.0, 25.0, 10.0],
+        }
+    }
+    /// The Bitcraze Crazyflie 2.1 (NanoBench's vehicle): 34 g with markers, inertia
+    /// diag(1.66, 1.66, 2.93)·10⁻⁵ kg·m² (Förster 2015), arm 46 mm, rotor speed limit 2500 rad/s
+    /// and k_f = 2.245·10⁻⁸ N/(rad/s)² so that full throttle gives the stand's 57 g at 3.7 V
+    /// ([`PwmThrustMap::crazyflie21`]), k_m = 0.006 m, motor time constant 20 ms. flyarena
+    /// flies it in the "+" layout; the real one flies "×", which changes only the mixer.
+    pub fn crazyflie21() -> Self {
+        VehicleParams {
+            mass_kg: 0.034,
+            inertia_kg_m2: [1.66e-5, 1.66e-5, 2.93e-5],
+            arm_m: 0.046,
+            k_thrust: 2.245e-8,
+            k_torque_m: 0.006,
+            motor_tau_s: 0.02,
+            rotor_speed_max: 2500.0,
             rotor_drag_per_s: [0.0, 0.0],
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],

@@ -1,0 +1,414 @@
+//! Residual channels of the nominal model and the regressors of the candidate effects.
+//!
+//! ## Derivative filter
+//! Everything compared is first smoothed by the same zero-phase Gaussian kernel
+//! (σ = `smoothing_s`, truncated at 3σ, −3 dB at 0.1325/σ: 6.6 Hz for the default 20 ms), then
+//! differentiated by central differences of the smoothed samples (velocity (p₊ − p₋)/2Δt,
+//! acceleration (p₊ − 2p + p₋)/Δt², response 1 − (ωΔt)²/12: −0.8 % at 5 Hz and 100 Hz sampling).
+//! Mocap rates come from the relative rotation of neighbouring poses, ω_k = Log(q_{k−1}⁻¹q_{k+1})/2Δt
+//! (body frame), smoothed by the same kernel; the IMU is smoothed by the same kernel, so both
+//! sides of every residual see the same filter. Samples closer than 3σ + 1 to a segment edge, a
+//! missing pose, or the ground are left out. The smoothed channels are then decimated to one
+//! sample per 2σ (40 ms by default): the kernel is the anti-alias filter, and what remains of
+//! the residual's colour is left to the AR prewhitening of [`super::select`].
+//!
+//! ## Channels (body FRD; nav NED, g·e_D = (0, 0, g))
+//! - `accel_kin` (m/s²): a_imu − f̂, f̂ = Rᵀ(p̈ − g·e_D): the accelerometer against the specific
+//!   force the mocap trajectory implies (no force model involved).
+//! - `gyro` (rad/s): ω_imu − ω̂, ω̂ from the mocap attitude.
+//! - `force` (m/s², only with a thrust model): a_imu − f_m, f_m = (−k_x·v_x, −k_y·v_y, −T/m) with
+//!   the declared drag k and the thrust T the commands imply: the accelerometer against the force model.
+//!
+//! ## Effects (linearised at the current corrections; regressor blocks per channel)
+//! | effect | parameters | regressor |
+//! |---|---|---|
+//! | body offset R_off = exp([δ]×) | δ (rad) | accel_kin: e_j × f̂; gyro: e_j × ω̂ |
+//! | mocap world tilt R_w = exp([τ]×) | τ_x, τ_y (rad) | accel_kin: Rᵀ(g·e_D × e_j) |
+//! | mocap delay τ_d | τ_d (s) | accel_kin: df̂/dt; gyro: dω̂/dt |
+//! | accelerometer bias | b_a (m/s²) | accel_kin and force: e_j |
+//! | gyro bias | b_g (rad/s) | gyro: e_j |
+//! | rotor drag | k_x, k_y (1/s) | force: −v_x e_x, −v_y e_y (body velocity) |
+//! | constant force (wind, CG) | F (N, nav) | force: Rᵀe_j/m |
+//! | thrust scale | s − 1 | force: −T/m·e_z |
+//! | thrust vs battery | c (1/V) | force: −T/m·(V − V_ref)·e_z |
+//! | ground effect | c_g | force: −T/m·(r/4h)²·e_z (Cheeseman–Bennett, h ≥ r) |
+
+use super::series::{Corrected, Corrections, Series, correct};
+use nalgebra::{UnitQuaternion, Vector3};
+
+/// The residual channels: three axes each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Channel {
+    AccelKin,
+    Gyro,
+    Force,
+}
+
+impl Channel {
+    pub const ALL: [Channel; 3] = [Channel::AccelKin, Channel::Gyro, Channel::Force];
+    pub fn name(self) -> &'static str {
+        match self {
+            Channel::AccelKin => "accel_kin",
+            Channel::Gyro => "gyro",
+            Channel::Force => "force",
+        }
+    }
+    pub fn unit(self) -> &'static str {
+        match self {
+            Channel::Gyro => "rad/s",
+            _ => "m/s²",
+        }
+    }
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// The candidate effects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    BodyOffset,
+    WorldTilt,
+    MocapDelay,
+    AccelBias,
+    GyroBias,
+    RotorDrag,
+    ConstantForce,
+    ThrustScale,
+    ThrustVoltage,
+    GroundEffect,
+}
+
+impl Effect {
+    pub const ALL: [Effect; 10] = [
+        Effect::BodyOffset,
+        Effect::WorldTilt,
+        Effect::MocapDelay,
+        Effect::AccelBias,
+        Effect::GyroBias,
+        Effect::RotorDrag,
+        Effect::ConstantForce,
+        Effect::ThrustScale,
+        Effect::ThrustVoltage,
+        Effect::GroundEffect,
+    ];
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::BodyOffset => "body offset (mocap → body rotation)",
+            Effect::WorldTilt => "mocap world tilt",
+            Effect::MocapDelay => "mocap delay vs IMU",
+            Effect::AccelBias => "accelerometer bias",
+            Effect::GyroBias => "gyro bias",
+            Effect::RotorDrag => "rotor drag",
+            Effect::ConstantForce => "constant force (wind, tether)",
+            Effect::ThrustScale => "thrust scale",
+            Effect::ThrustVoltage => "thrust vs battery voltage",
+            Effect::GroundEffect => "ground effect",
+        }
+    }
+    pub fn key(self) -> &'static str {
+        match self {
+            Effect::BodyOffset => "body_offset",
+            Effect::WorldTilt => "world_tilt",
+            Effect::MocapDelay => "mocap_delay",
+            Effect::AccelBias => "accel_bias",
+            Effect::GyroBias => "gyro_bias",
+            Effect::RotorDrag => "rotor_drag",
+            Effect::ConstantForce => "constant_force",
+            Effect::ThrustScale => "thrust_scale",
+            Effect::ThrustVoltage => "thrust_voltage",
+            Effect::GroundEffect => "ground_effect",
+        }
+    }
+    /// Parameter names and the factor from the internal SI/radian value to the reported unit.
+    pub fn params(self) -> &'static [(&'static str, &'static str, f64)] {
+        const DEG: f64 = 180.0 / std::f64::consts::PI;
+        match self {
+            Effect::BodyOffset => &[("roll", "deg", DEG), ("pitch", "deg", DEG), ("yaw", "deg", DEG)],
+            Effect::WorldTilt => &[("roll", "deg", DEG), ("pitch", "deg", DEG)],
+            Effect::MocapDelay => &[("delay", "ms", 1e3)],
+            Effect::AccelBias => &[("x", "m/s²", 1.0), ("y", "m/s²", 1.0), ("z", "m/s²", 1.0)],
+            Effect::GyroBias => &[("x", "deg/s", DEG), ("y", "deg/s", DEG), ("z", "deg/s", DEG)],
+            Effect::RotorDrag => &[("k_x", "1/s", 1.0), ("k_y", "1/s", 1.0)],
+            Effect::ConstantForce => &[("north", "N", 1.0), ("east", "N", 1.0), ("down", "N", 1.0)],
+            Effect::ThrustScale => &[("scale − 1", "", 1.0)],
+            Effect::ThrustVoltage => &[("per volt", "1/V", 1.0)],
+            Effect::GroundEffect => &[("c_g", "", 1.0)],
+        }
+    }
+    pub fn n_params(self) -> usize {
+        self.params().len()
+    }
+    pub fn channels(self) -> &'static [Channel] {
+        match self {
+            Effect::BodyOffset | Effect::MocapDelay => &[Channel::AccelKin, Channel::Gyro],
+            Effect::WorldTilt => &[Channel::AccelKin],
+            Effect::AccelBias => &[Channel::AccelKin, Channel::Force],
+            Effect::GyroBias => &[Channel::Gyro],
+            _ => &[Channel::Force],
+        }
+    }
+    /// Applied exactly through [`Corrections`] (re-linearised after each fit), not additively.
+    pub fn is_correction(self) -> bool {
+        matches!(self, Effect::BodyOffset | Effect::WorldTilt | Effect::MocapDelay)
+    }
+}
+
+/// Where an effect's columns sit in the full design.
+pub fn column_offsets() -> [usize; Effect::ALL.len() + 1] {
+    let mut o = [0; Effect::ALL.len() + 1];
+    for (i, e) in Effect::ALL.iter().enumerate() {
+        o[i + 1] = o[i] + e.n_params();
+    }
+    o
+}
+pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1;
+
+/// The built problem at one set of corrections: per channel and axis the measured signal, the
+/// nominal prediction, and every candidate column; `ok` marks usable samples.
+pub struct Design {
+    pub n: usize,
+    /// Sample times (s), after decimation.
+    pub t: Vec<f64>,
+    pub ok: Vec<bool>,
+    /// [channel][axis] → samples
+    pub measured: [[Vec<f64>; 3]; 3],
+    pub predicted: [[Vec<f64>; 3]; 3],
+    /// [channel][axis] → (column, samples) for the columns that touch it
+    pub columns: [[Vec<(usize, Vec<f64>)>; 3]; 3],
+    pub has_force: bool,
+    pub has_vbat: bool,
+    /// Fraction of the samples at which the yaw differs from its median by more than 30°.
+    pub yaw_spread_rad: f64,
+}
+
+impl Design {
+    pub fn residual(&self, c: usize, a: usize) -> Vec<f64> {
+        self.measured[c][a].iter().zip(&self.predicted[c][a]).map(|(m, p)| m - p).collect()
+    }
+}
+
+fn gaussian_kernel(sigma_samples: f64) -> Vec<f64> {
+    let h = (3.0 * sigma_samples).ceil().max(1.0) as isize;
+    let mut k: Vec<f64> = (-h..=h).map(|j| (-(j as f64).powi(2) / (2.0 * sigma_samples * sigma_samples)).exp()).collect();
+    let s: f64 = k.iter().sum();
+    k.iter_mut().for_each(|x| *x /= s);
+    k
+}
+
+/// Zero-phase smoothing inside [a, b); samples nearer than the half-width to an edge stay raw
+/// (they are masked out anyway).
+fn smooth_into(x: &[f64], segs: &[(usize, usize)], kernel: &[f64], out: &mut [f64]) {
+    let h = kernel.len() / 2;
+    out.copy_from_slice(x);
+    for &(a, b) in segs {
+        if b - a <= 2 * h {
+            continue;
+        }
+        for i in a + h..b - h {
+            let mut s = 0.0;
+            for (j, w) in kernel.iter().enumerate() {
+                s += w * x[i + j - h];
+            }
+            out[i] = s;
+        }
+    }
+}
+
+fn smooth_vec3(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64]) -> Vec<Vector3<f64>> {
+    let n = x.len();
+    let mut out = vec![Vector3::zeros(); n];
+    let mut col = vec![0.0; n];
+    let mut sm = vec![0.0; n];
+    for a in 0..3 {
+        for i in 0..n {
+            col[i] = x[i][a];
+        }
+        smooth_into(&col, segs, kernel, &mut sm);
+        for i in 0..n {
+            out[i][a] = sm[i];
+        }
+    }
+    out
+}
+
+/// Options of the residual construction.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct DesignOptions {
+    /// σ of the Gaussian smoothing (s).
+    pub smoothing_s: f64,
+    /// Samples below this height above the ground (m) are left out.
+    pub min_height_m: f64,
+}
+
+impl Default for DesignOptions {
+    fn default() -> Self {
+        DesignOptions { smoothing_s: 0.02, min_height_m: 0.08 }
+    }
+}
+
+pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
+    let n = s.len();
+    let dt = s.dt();
+    let kernel = gaussian_kernel(opt.smoothing_s / dt);
+    let h = kernel.len() / 2;
+    let Corrected { pos_nav, att_body, ok: pose_ok } = correct(s, corr);
+    let segs = &s.segments;
+    let g = s.model.gravity_m_s2;
+    let g_nav = Vector3::new(0.0, 0.0, g);
+
+    // mask: inside a segment by more than the filter reach, every pose in reach valid
+    let mut ok = vec![false; n];
+    for &(a, b) in segs {
+        let reach = h + 2;
+        if b - a <= 2 * reach {
+            continue;
+        }
+        // running count of bad poses
+        for i in a + reach..b - reach {
+            ok[i] = (i - reach..=i + reach).all(|k| pose_ok[k]);
+        }
+    }
+    // ground: the floor height is the lowest point (largest NED z) of the first half second
+    let first = segs.first().map_or(0, |s| s.0);
+    let settle = ((0.5 / dt) as usize).max(1);
+    let floor_z = pos_nav[first..(first + settle).min(n)].iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+    let height: Vec<f64> = pos_nav.iter().map(|p| floor_z - p.z).collect();
+    for i in 0..n {
+        if height[i] < opt.min_height_m {
+            ok[i] = false;
+        }
+        if let Some(t) = &s.thrust_n
+            && t[i] < 0.25 * s.model.mass_kg * g
+        {
+            ok[i] = false;
+        }
+    }
+
+    let pos_s = smooth_vec3(&pos_nav, segs, &kernel);
+    let gyro_s = smooth_vec3(&s.gyro_body, segs, &kernel);
+    let accel_s = smooth_vec3(&s.accel_body, segs, &kernel);
+    // mocap body rates from neighbouring poses
+    let mut omega_raw = vec![Vector3::zeros(); n];
+    for &(a, b) in segs {
+        for i in a + 1..b.saturating_sub(1) {
+            let rel = att_body[i - 1].inverse() * att_body[i + 1];
+            omega_raw[i] = rel.scaled_axis() / (s.t_s[i + 1] - s.t_s[i - 1]);
+        }
+    }
+    let omega_s = smooth_vec3(&omega_raw, segs, &kernel);
+    let mut vel_nav = vec![Vector3::zeros(); n];
+    let mut acc_nav = vec![Vector3::zeros(); n];
+    for &(a, b) in segs {
+        for i in a + 1..b.saturating_sub(1) {
+            let (t0, t1, t2) = (s.t_s[i - 1], s.t_s[i], s.t_s[i + 1]);
+            vel_nav[i] = (pos_s[i + 1] - pos_s[i - 1]) / (t2 - t0);
+            let d1 = (pos_s[i + 1] - pos_s[i]) / (t2 - t1);
+            let d0 = (pos_s[i] - pos_s[i - 1]) / (t1 - t0);
+            acc_nav[i] = (d1 - d0) * (2.0 / (t2 - t0));
+        }
+    }
+    let rot_t: Vec<nalgebra::Matrix3<f64>> = att_body.iter().map(|q: &UnitQuaternion<f64>| q.to_rotation_matrix().matrix().transpose()).collect();
+    let f_hat: Vec<Vector3<f64>> = (0..n).map(|i| rot_t[i] * (acc_nav[i] - g_nav)).collect();
+    let v_body: Vec<Vector3<f64>> = (0..n).map(|i| rot_t[i] * vel_nav[i]).collect();
+    let deriv = |x: &[Vector3<f64>]| -> Vec<Vector3<f64>> {
+        let mut d = vec![Vector3::zeros(); n];
+        for &(a, b) in segs {
+            for i in a + 1..b.saturating_sub(1) {
+                d[i] = (x[i + 1] - x[i - 1]) / (s.t_s[i + 1] - s.t_s[i - 1]);
+            }
+        }
+        d
+    };
+    let f_dot = deriv(&f_hat);
+    let omega_dot = deriv(&omega_s);
+    let thrust_s = s.thrust_n.as_ref().map(|t| {
+        let mut o = vec![0.0; n];
+        smooth_into(t, segs, &kernel, &mut o);
+        o
+    });
+
+    let m = &s.model;
+    let offs = column_offsets();
+    let col = |e: Effect, j: usize| offs[e as usize] + j;
+    let empty3 = || [Vec::new(), Vec::new(), Vec::new()];
+    let mut measured = [empty3(), empty3(), empty3()];
+    let mut predicted = [empty3(), empty3(), empty3()];
+    let mut columns: [[Vec<(usize, Vec<f64>)>; 3]; 3] = Default::default();
+    let unit = |j: usize| Vector3::from_fn(|r, _| if r == j { 1.0 } else { 0.0 });
+    for a in 0..3 {
+        // accel_kin
+        let c = Channel::AccelKin.index();
+        measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
+        predicted[c][a] = f_hat.iter().map(|v| v[a]).collect();
+        for j in 0..3 {
+            columns[c][a].push((col(Effect::BodyOffset, j), f_hat.iter().map(|f| unit(j).cross(f)[a]).collect()));
+        }
+        for j in 0..2 {
+            columns[c][a].push((col(Effect::WorldTilt, j), rot_t.iter().map(|r| (r * g_nav.cross(&unit(j)))[a]).collect()));
+        }
+        columns[c][a].push((col(Effect::MocapDelay, 0), f_dot.iter().map(|v| v[a]).collect()));
+        columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+        // gyro
+        let c = Channel::Gyro.index();
+        measured[c][a] = gyro_s.iter().map(|v| v[a]).collect();
+        predicted[c][a] = omega_s.iter().map(|v| v[a]).collect();
+        for j in 0..3 {
+            columns[c][a].push((col(Effect::BodyOffset, j), omega_s.iter().map(|w| unit(j).cross(w)[a]).collect()));
+        }
+        columns[c][a].push((col(Effect::MocapDelay, 0), omega_dot.iter().map(|v| v[a]).collect()));
+        columns[c][a].push((col(Effect::GyroBias, a), vec![1.0; n]));
+    }
+    let has_force = thrust_s.is_some();
+    let has_vbat = s.vbat_v.is_some();
+    if let Some(thrust) = &thrust_s {
+        let c = Channel::Force.index();
+        let spec: Vec<f64> = thrust.iter().map(|t| t / m.mass_kg).collect();
+        for a in 0..3 {
+            measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
+            predicted[c][a] = (0..n)
+                .map(|i| match a {
+                    2 => -spec[i],
+                    _ => -m.rotor_drag_per_s[a] * v_body[i][a],
+                })
+                .collect();
+            columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+            for j in 0..3 {
+                columns[c][a].push((col(Effect::ConstantForce, j), rot_t.iter().map(|r| (r * unit(j))[a] / m.mass_kg).collect()));
+            }
+            if a < 2 {
+                columns[c][a].push((col(Effect::RotorDrag, a), v_body.iter().map(|v| -v[a]).collect()));
+            } else {
+                columns[c][a].push((col(Effect::ThrustScale, 0), spec.iter().map(|x| -x).collect()));
+                if let Some(vb) = &s.vbat_v {
+                    columns[c][a].push((col(Effect::ThrustVoltage, 0), (0..n).map(|i| -spec[i] * (vb[i] - m.vbat_ref_v)).collect()));
+                }
+                let r = m.rotor_radius_m;
+                columns[c][a].push((col(Effect::GroundEffect, 0), (0..n).map(|i| -spec[i] * (r / (4.0 * height[i].max(r))).powi(2)).collect()));
+            }
+        }
+    }
+    // yaw spread (for the identifiability note)
+    let yaws: Vec<f64> = (0..n).filter(|&i| ok[i]).map(|i| att_body[i].euler_angles().2).collect();
+    let yaw_spread_rad = if yaws.is_empty() {
+        0.0
+    } else {
+        let (sx, sy) = yaws.iter().fold((0.0, 0.0), |(x, y), a| (x + a.cos(), y + a.sin()));
+        let r = (sx * sx + sy * sy).sqrt() / yaws.len() as f64;
+        // circular standard deviation
+        (-2.0 * r.max(1e-12).ln()).sqrt()
+    };
+    // decimate to one sample per 2σ: the smoothing is the anti-alias filter, and neighbouring
+    // samples of a smoothed signal carry little new information but a lot of correlation
+    let stride = ((2.0 * opt.smoothing_s / dt).round() as usize).max(1);
+    let keep: Vec<usize> = (0..n).step_by(stride).collect();
+    let pick = |v: &Vec<f64>| -> Vec<f64> { if v.is_empty() { Vec::new() } else { keep.iter().map(|&i| v[i]).collect() } };
+    let ok: Vec<bool> = keep.iter().map(|&i| ok[i]).collect();
+    let t: Vec<f64> = keep.iter().map(|&i| s.t_s[i]).collect();
+    let measured = measured.map(|c| c.map(|a| pick(&a)));
+    let predicted = predicted.map(|c| c.map(|a| pick(&a)));
+    let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));
+    Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad }
+}

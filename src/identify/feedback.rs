@@ -1,0 +1,187 @@
+//! Feeding identified effects back into the simulation.
+//!
+//! A *fragment* is a small YAML file that sets scenario fields by path (the same paths as
+//! `sweep.vary.field`):
+//!
+//! ```yaml
+//! effects:
+//!   vehicles[0].markers.rotation_deg: [1.02, -0.49, 3.98]
+//!   vehicles[0].undeclared.rotor_drag_per_s: [0.31, 0.29]
+//! ```
+//!
+//! `flyarena run SCENARIO --effects FRAGMENT` applies it before the scenario is validated, so
+//! every value meets the same range checks as a hand-written one. For flyarena's own runs,
+//! `identify` simulates the *nominal* scenario (the undeclared effects removed) and the nominal
+//! scenario plus the fragment with the data's seed, and reports how far each closed-loop
+//! trajectory is from the data.
+
+use super::design::Effect;
+use super::select::Report;
+use super::series::Series;
+use crate::scenario::Scenario;
+use serde_json::{Value, json};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Fragment {
+    effects: BTreeMap<String, Value>,
+}
+
+/// Sets `path` (`a.b[2].c`) in a tree, creating missing mappings on the way.
+pub fn set_value(tree: &mut Value, path: &str, v: Value) -> Result<(), String> {
+    let mut cur = tree;
+    let segs: Vec<&str> = path.split('.').collect();
+    for (k, seg) in segs.iter().enumerate() {
+        let (key, idx) = match seg.split_once('[') {
+            Some((key, rest)) => (key, Some(rest.trim_end_matches(']').parse::<usize>().map_err(|_| format!("`{path}`: `{seg}` has a bad index"))?)),
+            None => (*seg, None),
+        };
+        let end = k == segs.len() - 1;
+        if !cur.is_object() {
+            if cur.is_null() {
+                *cur = json!({});
+            } else {
+                return Err(format!("`{path}`: `{key}` is not inside a mapping"));
+            }
+        }
+        let obj = cur.as_object_mut().expect("a mapping");
+        let entry = obj.entry(key.to_string()).or_insert(if idx.is_some() { json!([]) } else { Value::Null });
+        cur = match idx {
+            Some(n) => {
+                let arr = entry.as_array_mut().ok_or_else(|| format!("`{path}`: `{key}` is not a list"))?;
+                if n >= arr.len() {
+                    return Err(format!("`{path}`: index {n} is outside the list (length {})", arr.len()));
+                }
+                &mut arr[n]
+            }
+            None => entry,
+        };
+        if end {
+            *cur = v;
+            return Ok(());
+        }
+    }
+    Ok(())
+}
+
+fn remove(tree: &mut Value, path: &[&str]) {
+    let mut cur = tree;
+    for (k, key) in path.iter().enumerate() {
+        if k == path.len() - 1 {
+            if let Some(o) = cur.as_object_mut() {
+                o.remove(*key);
+            }
+            return;
+        }
+        match cur.get_mut(*key) {
+            Some(c) => cur = c,
+            None => return,
+        }
+    }
+}
+
+/// The scenario as the declared model sees it: marker offsets, camera error, disturbance, IMU
+/// biases and `undeclared` of vehicle `i` removed.
+pub fn nominal_tree(tree: &Value, i: usize) -> Value {
+    let mut t = tree.clone();
+    remove(&mut t, &["mocap", "camera_error"]);
+    if let Some(v) = t.get_mut("vehicles").and_then(|v| v.get_mut(i)) {
+        for path in [&["markers", "rotation_deg"][..], &["markers", "displacement_mm"], &["disturbance"], &["undeclared"], &["imu", "gyro_bias_deg_s"], &["imu", "accel_bias_m_s2"]] {
+            remove(v, path);
+        }
+    }
+    t
+}
+
+fn r3(x: f64) -> f64 {
+    (x * 1e4).round() / 1e4
+}
+
+/// The fragment of a report for vehicle `i`; effects flyarena does not simulate are listed as
+/// comments.
+pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32) -> String {
+    let mut lines = vec![
+        format!("# flyarena identify: the effects found in {}", r.source),
+        "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string(),
+    ];
+    let mut set = Vec::new();
+    for f in &r.effects {
+        let v: Vec<f64> = f.params.iter().map(|p| r3(p.value)).collect();
+        let vi = format!("vehicles[{i}]");
+        match f.effect {
+            Effect::BodyOffset => set.push((format!("{vi}.markers.rotation_deg"), json!(v))),
+            Effect::WorldTilt => set.push(("mocap.camera_error.rotation_deg".into(), json!([v[0], v[1], 0.0]))),
+            Effect::MocapDelay => {
+                let period = 1000.0 / mocap_rate_hz as f64;
+                let frames = (v[0] / period).round().max(0.0);
+                if (frames * period - v[0]).abs() > 1e-6 {
+                    lines.push(format!("# mocap delay {} ms rounded to {} whole frames of {period} ms", v[0], frames));
+                }
+                set.push((format!("{vi}.undeclared.mocap_delay_ms"), json!(frames * period)));
+            }
+            Effect::AccelBias => set.push((format!("{vi}.imu.accel_bias_m_s2"), json!(v))),
+            Effect::GyroBias => set.push((format!("{vi}.imu.gyro_bias_deg_s"), json!(v))),
+            Effect::RotorDrag => set.push((format!("{vi}.undeclared.rotor_drag_per_s"), json!(v.iter().map(|x| x.max(0.0)).collect::<Vec<_>>()))),
+            Effect::ConstantForce => set.push((format!("{vi}.disturbance.force_n"), json!(v))),
+            Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(r3(1.0 + f.params[0].value)))),
+            Effect::ThrustVoltage | Effect::GroundEffect => {
+                lines.push(format!("# not simulated by flyarena, reported only: {} = {:?}", f.effect.key(), v));
+            }
+        }
+    }
+    lines.push(if set.is_empty() { "effects: {}".into() } else { "effects:".into() });
+    for (k, v) in set {
+        lines.push(format!("  {k}: {v}"));
+    }
+    lines.join("\n") + "\n"
+}
+
+/// Reads a scenario and applies a fragment to it.
+pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, String> {
+    let src = std::fs::read_to_string(scenario).map_err(|e| format!("{}: {e}", scenario.display()))?;
+    let fsrc = std::fs::read_to_string(fragment).map_err(|e| format!("{}: {e}", fragment.display()))?;
+    let frag: Fragment = serde_saphyr::from_str(&fsrc).map_err(|e| format!("{}: {e}", fragment.display()))?;
+    let mut tree: Value = serde_saphyr::from_str(&src).map_err(|e| format!("{}: {e}", scenario.display()))?;
+    for (path, v) in frag.effects {
+        set_value(&mut tree, &path, v).map_err(|e| format!("{}: {e}", fragment.display()))?;
+    }
+    let text = serde_json::to_string(&tree).expect("a JSON tree serialises");
+    Scenario::parse(&text, Path::new(&format!("{} + {}", scenario.display(), fragment.display()))).map_err(|e| e.to_string())
+}
+
+/// Closed-loop distance between two flights of the same plan: RMS of the mocap position
+/// difference (m) and of the attitude difference angle (deg), over the rows both saw.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct TrajectoryError {
+    pub position_rmse_m: f64,
+    pub attitude_rmse_deg: f64,
+    pub samples: usize,
+}
+
+pub fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
+    let n = data.len().min(sim.len());
+    let (mut sp, mut sa, mut k) = (0.0, 0.0, 0usize);
+    for i in 0..n {
+        if data.mocap_ok[i] && sim.mocap_ok[i] {
+            sp += (data.pos_mocap_nav[i] - sim.pos_mocap_nav[i]).norm_squared();
+            sa += data.att_mocap[i].angle_to(&sim.att_mocap[i]).powi(2);
+            k += 1;
+        }
+    }
+    let kf = k.max(1) as f64;
+    TrajectoryError { position_rmse_m: (sp / kf).sqrt(), attitude_rmse_deg: (sa / kf).sqrt().to_degrees(), samples: k }
+}
+
+/// The scenario with its undeclared effects removed, and with the fragment applied to that.
+pub fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str, name: &str) -> Result<(Scenario, Scenario), String> {
+    let nominal = nominal_tree(scenario_src, i);
+    let frag: Fragment = serde_saphyr::from_str(fragment_text).map_err(|e| format!("fragment: {e}"))?;
+    let mut fed = nominal.clone();
+    for (path, v) in frag.effects {
+        set_value(&mut fed, &path, v)?;
+    }
+    let parse = |t: &Value, what: &str| Scenario::parse(&serde_json::to_string(t).expect("JSON"), Path::new(&format!("{name} ({what})"))).map_err(|e| e.to_string());
+    Ok((parse(&nominal, "nominal")?, parse(&fed, "with the identified effects")?))
+}

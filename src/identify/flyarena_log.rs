@@ -1,0 +1,90 @@
+//! flyarena's own flight logs ([`crate::log`]) as identification data, with the declared model
+//! of the scenario that produced them.
+//!
+//! The thrust the declared model expects at the vehicle is reconstructed from the logged PPM
+//! thrust count: T_cmd = count·T_max/255, delayed by the declared radio latency and passed
+//! through the declared first-order motor lag τ_m (T follows Ω², whose small-signal lag is τ_m).
+
+use super::series::{NominalModel, Series};
+use crate::log::FlightLog;
+use crate::scenario::Scenario;
+use crate::vehicle::params::GRAVITY;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+/// Rotor radius of the X3D preset's 8-inch propellers (m).
+pub const X3D_ROTOR_RADIUS_M: f64 = 0.1;
+
+pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Result<Series, String> {
+    let p = s.vehicle_params(vehicle).map_err(|(_, m)| m)?;
+    let col = |name: &str| log.column(name).ok_or_else(|| format!("the log has no column `{name}`"));
+    let n = log.rows();
+    let t: Vec<f64> = col("t_s")?.iter().map(|x| x.unwrap_or(f64::NAN)).collect();
+    let valid = col("mocap_valid")?;
+    let get = |name: &str| -> Result<Vec<f64>, String> { Ok(col(name)?.iter().map(|x| x.unwrap_or(f64::NAN)).collect()) };
+    let (pn, pe, pd) = (get("pos_n_m")?, get("pos_e_m")?, get("pos_d_m")?);
+    let (qw, qx, qy, qz) = (get("q_w")?, get("q_x")?, get("q_y")?, get("q_z")?);
+    let g: Vec<Vec<f64>> = ["gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s"].iter().map(|c| get(c)).collect::<Result<_, _>>()?;
+    let a: Vec<Vec<f64>> = ["acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"].iter().map(|c| get(c)).collect::<Result<_, _>>()?;
+    let thrust_count = col("cmd_thrust")?;
+    let mut pos = Vec::with_capacity(n);
+    let mut att = Vec::with_capacity(n);
+    let mut ok = Vec::with_capacity(n);
+    let mut last = (Vector3::zeros(), UnitQuaternion::identity());
+    for i in 0..n {
+        let seen = valid[i] == Some(1.0);
+        if seen {
+            last = (Vector3::new(pn[i], pe[i], pd[i]), UnitQuaternion::from_quaternion(Quaternion::new(qw[i], qx[i], qy[i], qz[i])));
+        }
+        pos.push(last.0);
+        att.push(last.1);
+        ok.push(seen);
+    }
+    let dt = {
+        let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(0.005)
+    };
+    let t_max = s.radio.thrust_max_n.unwrap_or(p.thrust_max());
+    let shift = (s.radio.latency_ms * 1e-3 / dt).round() as usize;
+    let alpha = (-dt / p.motor_tau_s).exp();
+    let mut thrust = Vec::with_capacity(n);
+    let mut lagged = 0.0;
+    for i in 0..n {
+        let cmd = i.checked_sub(shift).and_then(|j| thrust_count[j]).unwrap_or(0.0) * t_max / 255.0;
+        lagged = alpha * lagged + (1.0 - alpha) * cmd;
+        thrust.push(lagged);
+    }
+    let v = &s.vehicles.value[vehicle].value;
+    Ok(Series {
+        source: source.to_string(),
+        t_s: t,
+        pos_mocap_nav: pos,
+        att_mocap: att,
+        mocap_ok: ok,
+        gyro_body: (0..n).map(|i| Vector3::new(g[0][i], g[1][i], g[2][i])).collect(),
+        accel_body: (0..n).map(|i| Vector3::new(a[0][i], a[1][i], a[2][i])).collect(),
+        thrust_n: Some(thrust),
+        vbat_v: None,
+        segments: log.segments.clone(),
+        model: NominalModel {
+            vehicle: format!("{} ({:?} preset)", v.name, v.model.preset).to_lowercase(),
+            mass_kg: p.mass_kg,
+            rotor_drag_per_s: p.rotor_drag_per_s,
+            rotor_radius_m: X3D_ROTOR_RADIUS_M,
+            vbat_ref_v: 0.0,
+            gravity_m_s2: GRAVITY,
+        },
+        repairs: log.repairs.clone(),
+    })
+}
+
+/// Runs a scenario and returns its flight log for vehicle `vehicle` as identification data,
+/// through the same CSV text a `run --log` writes (so the two routes cannot drift apart).
+pub fn run_and_log(s: &Scenario, vehicle: usize, source: &str) -> Result<(crate::engine::RunOutput, Series), String> {
+    let out = crate::engine::run(s, crate::engine::RunOptions { trace: true, apply_calibration: None });
+    let v = out.vehicles.get(vehicle).ok_or_else(|| format!("vehicle {vehicle} does not exist"))?;
+    let text = crate::log::write_csv(v, 1.0 / s.mocap.rate_hz.value as f64);
+    let log = crate::log::read_csv(&text, source).map_err(|e| e.to_string())?;
+    let series = series(&log, s, vehicle, source)?;
+    Ok((out, series))
+}

@@ -1,0 +1,278 @@
+//! Column mappings: how to read another tool's flight log as identification data.
+//!
+//! A mapping is a small YAML file naming which column holds which quantity, in which unit and
+//! frame. The reader converts everything to flyarena's conventions: SI units, radians, a z-down
+//! world and an FRD body. A z-up world or an FLU body is turned by π about its x axis
+//! (x kept, y and z negated): ENU becomes East-South-Down, which is as good as NED here because
+//! nothing in `identify` depends on where North is.
+//!
+//! ```yaml
+//! vehicle: crazyflie21            # preset: mass, rotor radius, thrust map of the motor commands
+//! time: { column: t, unit: s }    # s | ms | us | ns
+//! position: { columns: [px, py, pz], unit: m }            # m | mm
+//! attitude: { columns: [qx, qy, qz, qw], order: xyzw }    # quaternion body → world; xyzw | wxyz
+//! world: z_up                     # z_up | z_down
+//! body: flu                       # flu | frd
+//! gyro: { columns: [gx, gy, gz], unit: rad/s }           # rad/s | deg/s
+//! accel: { columns: [ax, ay, az], unit: g }              # g | m/s2
+//! motors: { columns: [m1, m2, m3, m4] }                  # optional: PWM 0..65535 → thrust map
+//! battery: { column: vbat }                              # optional, volts
+//! mass_kg: 0.034                                          # optional: overrides the preset
+//! ```
+//!
+//! Rows whose pose cells are empty or NaN count as frames in which the vehicle was not seen;
+//! any other empty or non-numeric cell is an error naming its line and column. Timestamps must
+//! increase; a repeated timestamp is dropped and a gap longer than 3 × the median interval
+//! splits the log into segments, both reported.
+
+use super::series::{NominalModel, Series};
+use crate::vehicle::params::{CRAZYFLIE21_ROTOR_RADIUS_M, GRAVITY, PwmThrustMap, VehicleParams};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use std::path::Path;
+
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mapping {
+    pub vehicle: VehiclePreset,
+    pub time: Column,
+    pub position: Columns3,
+    pub attitude: AttitudeCols,
+    pub world: WorldUp,
+    pub body: BodyAxes,
+    pub gyro: Columns3,
+    pub accel: Columns3,
+    #[serde(default)]
+    pub motors: Option<Motors>,
+    #[serde(default)]
+    pub battery: Option<Column>,
+    #[serde(default)]
+    pub mass_kg: Option<f64>,
+}
+
+#[derive(Debug, serde::Deserialize, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+pub enum VehiclePreset {
+    Crazyflie21,
+    X3d,
+}
+
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Column {
+    pub column: String,
+    #[serde(default)]
+    pub unit: Option<String>,
+}
+
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Columns3 {
+    pub columns: [String; 3],
+    pub unit: String,
+}
+
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttitudeCols {
+    pub columns: [String; 4],
+    pub order: QuatOrder,
+}
+
+#[derive(Debug, serde::Deserialize, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+pub enum QuatOrder {
+    Xyzw,
+    Wxyz,
+}
+
+#[derive(Debug, serde::Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "snake_case")]
+pub enum WorldUp {
+    ZUp,
+    ZDown,
+}
+
+#[derive(Debug, serde::Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "snake_case")]
+pub enum BodyAxes {
+    Flu,
+    Frd,
+}
+
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Motors {
+    pub columns: Vec<String>,
+}
+
+fn unit_factor(what: &str, unit: &str, allowed: &[(&str, f64)]) -> Result<f64, String> {
+    allowed.iter().find(|(u, _)| *u == unit).map(|x| x.1).ok_or_else(|| {
+        format!("{what}: unit `{unit}` is not one of {}", allowed.iter().map(|(u, _)| format!("`{u}`")).collect::<Vec<_>>().join(", "))
+    })
+}
+
+impl Mapping {
+    pub fn load(path: &Path) -> Result<Mapping, String> {
+        let src = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        Self::parse(&src, path)
+    }
+    pub fn parse(src: &str, path: &Path) -> Result<Mapping, String> {
+        let m: Mapping = serde_saphyr::from_str(src).map_err(|e| format!("{}: {}", path.display(), crate::scenario::error::with_suggestion(&e.to_string())))?;
+        if let Some(mass) = m.mass_kg
+            && !(mass > 0.0 && mass < 100.0)
+        {
+            return Err(format!("{}: mass_kg {mass} is outside the allowed range (0, 100) kg", path.display()));
+        }
+        if let Some(mo) = &m.motors
+            && mo.columns.is_empty()
+        {
+            return Err(format!("{}: motors.columns is empty; give one column per motor", path.display()));
+        }
+        Ok(m)
+    }
+
+    /// Reads a CSV log through the mapping.
+    pub fn read(&self, path: &Path) -> Result<Series, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        self.read_str(&text, &path.display().to_string())
+    }
+
+    pub fn read_str(&self, text: &str, file: &str) -> Result<Series, String> {
+        let time_f = unit_factor("time", self.time.unit.as_deref().unwrap_or("s"), &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)])?;
+        let pos_f = unit_factor("position", &self.position.unit, &[("m", 1.0), ("mm", 1e-3)])?;
+        let gyro_f = unit_factor("gyro", &self.gyro.unit, &[("rad/s", 1.0), ("deg/s", std::f64::consts::PI / 180.0)])?;
+        let acc_f = unit_factor("accel", &self.accel.unit, &[("m/s2", 1.0), ("m/s²", 1.0), ("g", GRAVITY)])?;
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().ok_or_else(|| format!("{file}: the log is empty"))?.split(',').map(str::trim).collect();
+        let find = |name: &str| -> Result<usize, String> {
+            header.iter().position(|h| *h == name).ok_or_else(|| {
+                let close = header.iter().map(|h| (crate::scenario::error::edit_distance(name, h), *h)).filter(|(d, _)| *d <= 3).min().map(|x| x.1);
+                format!("{file}:1: the mapping names column `{name}`, which the header does not have{}", close.map_or(String::new(), |c| format!(" (is it `{c}`?)")))
+            })
+        };
+        let ti = find(&self.time.column)?;
+        let pi: Vec<usize> = self.position.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
+        let qi: Vec<usize> = self.attitude.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
+        let gi: Vec<usize> = self.gyro.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
+        let ai: Vec<usize> = self.accel.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
+        let mi: Vec<usize> = self.motors.as_ref().map_or(Ok(Vec::new()), |m| m.columns.iter().map(|c| find(c)).collect())?;
+        let bi = self.battery.as_ref().map(|b| find(&b.column)).transpose()?;
+        let flip = |v: Vector3<f64>| Vector3::new(v.x, -v.y, -v.z);
+        let q_flip = UnitQuaternion::from_quaternion(Quaternion::new(0.0, 1.0, 0.0, 0.0));
+        let (params, map) = match self.vehicle {
+            VehiclePreset::Crazyflie21 => (VehicleParams::crazyflie21(), Some(PwmThrustMap::crazyflie21())),
+            VehiclePreset::X3d => (VehicleParams::x3d(), None),
+        };
+        if !mi.is_empty() && map.is_none() {
+            return Err(format!("{file}: the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`"));
+        }
+        let mut s = Series {
+            source: file.to_string(),
+            t_s: Vec::new(),
+            pos_mocap_nav: Vec::new(),
+            att_mocap: Vec::new(),
+            mocap_ok: Vec::new(),
+            gyro_body: Vec::new(),
+            accel_body: Vec::new(),
+            thrust_n: (!mi.is_empty()).then(Vec::new),
+            vbat_v: bi.map(|_| Vec::new()),
+            segments: Vec::new(),
+            model: NominalModel {
+                vehicle: format!("{:?} preset", self.vehicle).to_lowercase(),
+                mass_kg: self.mass_kg.unwrap_or(params.mass_kg),
+                rotor_drag_per_s: params.rotor_drag_per_s,
+                rotor_radius_m: match self.vehicle {
+                    VehiclePreset::Crazyflie21 => CRAZYFLIE21_ROTOR_RADIUS_M,
+                    VehiclePreset::X3d => super::flyarena_log::X3D_ROTOR_RADIUS_M,
+                },
+                vbat_ref_v: map.map_or(0.0, |m| m.vbat_ref_v),
+                gravity_m_s2: GRAVITY,
+            },
+            repairs: Vec::new(),
+        };
+        let mut last_pose = (Vector3::zeros(), UnitQuaternion::identity());
+        for (k, line) in lines.enumerate() {
+            let lineno = k + 2;
+            if line.trim().is_empty() {
+                continue;
+            }
+            let cells: Vec<&str> = line.split(',').collect();
+            if cells.len() < header.len() {
+                return Err(format!("{file}:{lineno}: {} cells for {} columns", cells.len(), header.len()));
+            }
+            let num = |i: usize| -> Option<f64> { cells[i].trim().parse::<f64>().ok().filter(|x| x.is_finite()) };
+            let need = |i: usize| -> Result<f64, String> {
+                num(i).ok_or_else(|| format!("{file}:{lineno}: column `{}`: `{}` is not a finite number", header[i], cells[i].trim()))
+            };
+            let t = need(ti)? * time_f;
+            if let Some(&prev) = s.t_s.last() {
+                if t < prev {
+                    return Err(format!("{file}:{lineno}: time goes backwards ({t} s after {prev} s)"));
+                }
+                if t == prev {
+                    s.repairs.push(format!("line {lineno}: repeats the time of the previous row and was dropped"));
+                    continue;
+                }
+            }
+            let pose: Option<Vec<f64>> = pi.iter().chain(&qi).map(|&i| num(i)).collect();
+            let seen = pose.is_some();
+            if let Some(p) = pose {
+                let pos = Vector3::new(p[0], p[1], p[2]) * pos_f;
+                let (w, x, y, z) = match self.attitude.order {
+                    QuatOrder::Xyzw => (p[6], p[3], p[4], p[5]),
+                    QuatOrder::Wxyz => (p[3], p[4], p[5], p[6]),
+                };
+                let norm = (w * w + x * x + y * y + z * z).sqrt();
+                if (norm - 1.0).abs() > 0.01 {
+                    return Err(format!("{file}:{lineno}: the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`"));
+                }
+                let mut q = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
+                let mut pos = pos;
+                if self.world == WorldUp::ZUp {
+                    pos = flip(pos);
+                    q = q_flip * q;
+                }
+                if self.body == BodyAxes::Flu {
+                    q *= q_flip;
+                }
+                last_pose = (pos, q);
+            }
+            let body = |v: Vector3<f64>| if self.body == BodyAxes::Flu { flip(v) } else { v };
+            let gyro = body(Vector3::new(need(gi[0])?, need(gi[1])?, need(gi[2])?) * gyro_f);
+            let acc = body(Vector3::new(need(ai[0])?, need(ai[1])?, need(ai[2])?) * acc_f);
+            let vbat = bi.map(&need).transpose()?;
+            if let (Some(th), Some(map)) = (s.thrust_n.as_mut(), map) {
+                let v = vbat.unwrap_or(map.vbat_ref_v);
+                let mut total = 0.0;
+                for &i in &mi {
+                    total += map.thrust_n(need(i)?, v);
+                }
+                // the map is per motor for four motors
+                th.push(total * 4.0 / mi.len() as f64);
+            }
+            if let (Some(vb), Some(v)) = (s.vbat_v.as_mut(), vbat) {
+                vb.push(v);
+            }
+            s.t_s.push(t);
+            s.pos_mocap_nav.push(last_pose.0);
+            s.att_mocap.push(last_pose.1);
+            s.mocap_ok.push(seen);
+            s.gyro_body.push(gyro);
+            s.accel_body.push(acc);
+        }
+        if s.t_s.len() < 2 {
+            return Err(format!("{file}: fewer than two rows"));
+        }
+        let dt = s.dt();
+        let mut start = 0;
+        for k in 1..s.t_s.len() {
+            if s.t_s[k] - s.t_s[k - 1] > 3.0 * dt {
+                s.repairs.push(format!("a gap of {:.3} s after t = {} s splits the log", s.t_s[k] - s.t_s[k - 1], s.t_s[k - 1]));
+                s.segments.push((start, k));
+                start = k;
+            }
+        }
+        s.segments.push((start, s.t_s.len()));
+        Ok(s)
+    }
+}

@@ -1,0 +1,89 @@
+//! The human table of an identification [`Report`].
+
+use super::select::Report;
+use std::fmt::Write as _;
+
+fn sig(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let mag = x.abs().log10().floor() as i32;
+    let decimals = (2 - mag).clamp(0, 9) as usize;
+    format!("{x:.decimals$}")
+}
+
+fn pct(x: Option<f64>) -> String {
+    x.map_or("—".into(), |v| format!("{v:.1}%"))
+}
+
+pub fn render(r: &Report) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "identify: {}", r.source);
+    let _ = writeln!(
+        s,
+        "  {} samples ({} training, {} held out in every {}th {} s block); nominal model: {}, m = {} kg",
+        r.samples, r.train_samples, r.heldout_samples, r.options.holdout_every, r.options.block_s, r.model.vehicle, r.model.mass_kg
+    );
+    for rep in &r.repairs {
+        let _ = writeln!(s, "  repaired: {rep}");
+    }
+    if r.steps.is_empty() {
+        let _ = writeln!(s, "\n  no effect passes the tests: the nominal model explains the data");
+    }
+    for (k, st) in r.steps.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "\n  step {}: + {}   ΔBIC {:.0}, F-test p {:.1e}, held-out error −{:.1} %",
+            k + 1,
+            st.added.name(),
+            st.delta_bic,
+            st.p_value,
+            100.0 * st.heldout_gain
+        );
+        for (e, rho) in &st.not_identifiable_from {
+            let _ = writeln!(s, "          not identifiable from {} by this data (canonical correlation {rho:.4})", e.name());
+        }
+        let runners: Vec<String> = st
+            .candidates
+            .iter()
+            .filter(|c| c.effect != st.added)
+            .map(|c| format!("{} {:.0}{}", c.effect.key(), c.delta_bic, if c.passed { "" } else { "✗" }))
+            .collect();
+        let _ = writeln!(s, "          other candidates (ΔBIC, ✗ = fails a test): {}", runners.join(", "));
+    }
+    if !r.effects.is_empty() {
+        let _ = writeln!(s, "\n  effects found (95 % intervals, prewhitened):");
+        for f in &r.effects {
+            let ps: Vec<String> = f.params.iter().map(|p| format!("{} {} ± {} {}", p.name, sig(p.value), sig(p.ci95), p.unit).trim_end().to_string()).collect();
+            let _ = writeln!(s, "    {:<34} {}", f.name, ps.join(", "));
+        }
+    }
+    let _ = writeln!(s, "\n  held-out error, nominal → with the effects:");
+    let _ = writeln!(s, "    {:<11} {:>4} {:>12} {:>12} {:>8} {:>10} {:>10}", "channel", "axis", "RMSE before", "RMSE after", "unit", "fit before", "fit after");
+    for e in &r.errors {
+        let _ = writeln!(
+            s,
+            "    {:<11} {:>4} {:>12} {:>12} {:>8} {:>10} {:>10}",
+            e.channel.name(),
+            e.axis,
+            sig(e.rmse_before),
+            sig(e.rmse_after),
+            e.unit,
+            pct(e.fit_before_pct),
+            pct(e.fit_after_pct)
+        );
+    }
+    let _ = writeln!(s, "\n  final residual whiteness (Ljung–Box, 20 lags, after AR(p) prewhitening):");
+    let cells: Vec<String> = r
+        .whiteness
+        .iter()
+        .map(|w| format!("{}.{} p={} (AR{}, raw {:.0}% of lags outside 99%)", w.channel.name(), w.axis, sig(w.ljung_box.p_value), w.ar_order, 100.0 * w.raw_outside_99))
+        .collect();
+    for c in cells {
+        let _ = writeln!(s, "    {c}");
+    }
+    for n in &r.notes {
+        let _ = writeln!(s, "\n  note: {n}");
+    }
+    s
+}

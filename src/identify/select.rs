@@ -1,0 +1,646 @@
+//! Grouped forward selection of effects, with prewhitened tests and held-out errors.
+//!
+//! Per step, with the selected set S fitted (and its rotations and delay folded into the exact
+//! [`Corrections`], re-linearised `refine_iterations` times):
+//! 1. an AR(p) model per channel axis (order by BIC, p ≤ `max_ar_order`) is fitted to the
+//!    training residual of S; residuals and all regressors are prewhitened with it;
+//! 2. each candidate C ∉ S is fitted together with S on the training part. It *passes* when
+//!    - the prewhitened F-test of C's block has p < α / (number of candidates) (Bonferroni),
+//!    - ΔBIC = n·ln(RSS_{S+C}/RSS_S) + k_C·ln n < 0, and
+//!    - the held-out error on C's channels falls by at least `min_heldout_gain`;
+//! 3. of the passing candidates the one with the lowest ΔBIC joins S; a passing candidate whose
+//!    regressors are nearly collinear with the winner's (canonical correlation > 0.99, S
+//!    projected out) is reported as *not identifiable* from it by this data.
+//!
+//! The held-out part is every `holdout_every`-th block of `block_s` seconds. Errors are weighted
+//! per channel axis by the nominal model's held-out residual energy, so m/s² and rad/s mix fairly.
+//! 95 % intervals are ±1.96·σ from the prewhitened normal equations (GLS with AR errors).
+
+use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build, column_offsets};
+use super::series::{Corrections, NominalModel, Series};
+use super::stats::{Ar, LjungBox, Z_975, Z_995, autocorrelation, f_sf, inverse_spd, ljung_box, solve_spd};
+use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Options {
+    pub design: DesignOptions,
+    /// Family-wise level of the F-test (Bonferroni over the candidates of a step).
+    pub alpha: f64,
+    /// A candidate must cut the held-out error on its channels by this fraction.
+    pub min_heldout_gain: f64,
+    pub max_ar_order: usize,
+    pub block_s: f64,
+    pub holdout_every: usize,
+    pub max_steps: usize,
+    pub refine_iterations: usize,
+    /// The candidates to consider (default: all that the data has columns for).
+    pub candidates: Vec<Effect>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            design: DesignOptions::default(),
+            alpha: 0.01,
+            min_heldout_gain: 0.10,
+            max_ar_order: 12,
+            block_s: 2.0,
+            holdout_every: 3,
+            max_steps: 8,
+            refine_iterations: 3,
+            candidates: Effect::ALL.to_vec(),
+        }
+    }
+}
+
+/// One parameter, in the reported unit.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Param {
+    pub name: String,
+    pub value: f64,
+    /// Half-width of the 95 % interval.
+    pub ci95: f64,
+    pub unit: String,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Candidate {
+    pub effect: Effect,
+    pub delta_bic: f64,
+    pub f: f64,
+    pub p_value: f64,
+    /// Relative drop of the held-out error on the candidate's channels.
+    pub heldout_gain: f64,
+    /// Largest |correlation| of a prewhitened regressor column with the prewhitened residual.
+    pub max_corr: f64,
+    pub passed: bool,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Step {
+    pub added: Effect,
+    pub delta_bic: f64,
+    pub p_value: f64,
+    pub heldout_gain: f64,
+    pub candidates: Vec<Candidate>,
+    /// Effects that the data cannot tell apart from the one added, with their canonical correlation.
+    pub not_identifiable_from: Vec<(Effect, f64)>,
+    /// The parameters right after this step.
+    pub params: Vec<Param>,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Found {
+    pub effect: Effect,
+    pub name: String,
+    pub params: Vec<Param>,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AxisError {
+    pub channel: Channel,
+    pub axis: char,
+    pub unit: String,
+    pub samples: usize,
+    pub rmse_before: f64,
+    pub rmse_after: f64,
+    /// NRMSE fit, 100·(1 − ‖y − ŷ‖/‖y − ȳ‖) (%); None when the measured signal is constant
+    /// (an ideal accelerometer's x axis without drag reads exactly zero).
+    pub fit_before_pct: Option<f64>,
+    pub fit_after_pct: Option<f64>,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Whiteness {
+    pub channel: Channel,
+    pub axis: char,
+    /// Fraction of the lags 1..=50 of the raw residual outside the 99 % bounds ±2.58/√n.
+    pub raw_outside_99: f64,
+    pub ar_order: usize,
+    /// Ljung–Box on the residual prewhitened by its AR(p), 20 lags.
+    pub ljung_box: LjungBox,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Report {
+    pub source: String,
+    pub samples: usize,
+    pub train_samples: usize,
+    pub heldout_samples: usize,
+    pub model: NominalModel,
+    pub options: Options,
+    pub steps: Vec<Step>,
+    /// The scoreboard of the last round, in which no candidate passed.
+    pub final_candidates: Vec<Candidate>,
+    pub effects: Vec<Found>,
+    pub errors: Vec<AxisError>,
+    pub whiteness: Vec<Whiteness>,
+    /// Yaw spread of the flight (circular standard deviation, deg): world tilt and body offset
+    /// differ only when the vehicle yaws.
+    pub yaw_spread_deg: f64,
+    pub notes: Vec<String>,
+    pub repairs: Vec<String>,
+    #[serde(skip)]
+    pub corrections: Corrections,
+    /// The final linear parameters (internal units), by column.
+    #[serde(skip)]
+    pub theta: Vec<f64>,
+}
+
+impl Report {
+    pub fn effect(&self, e: Effect) -> Option<&Found> {
+        self.effects.iter().find(|f| f.effect == e)
+    }
+    /// A parameter value in its reported unit.
+    pub fn param(&self, e: Effect, name: &str) -> Option<f64> {
+        self.effect(e)?.params.iter().find(|p| p.name == name).map(|p| p.value)
+    }
+    /// Held-out error on all channels after/before (weighted as in the selection).
+    pub fn heldout_ratio(&self, channels: &[Channel]) -> f64 {
+        let (mut a, mut b) = (0.0, 0.0);
+        for e in self.errors.iter().filter(|e| channels.contains(&e.channel)) {
+            if e.rmse_before > 0.0 {
+                a += (e.rmse_after / e.rmse_before).powi(2);
+                b += 1.0;
+            }
+        }
+        if b > 0.0 { (a / b).sqrt() } else { 1.0 }
+    }
+}
+
+const AXES: [char; 3] = ['x', 'y', 'z'];
+
+/// Normal equations of one channel axis: whitened training part and raw held-out part.
+#[derive(Clone)]
+struct Gram {
+    cols: Vec<usize>,
+    g_w: DMatrix<f64>,
+    b_w: DVector<f64>,
+    yy_w: f64,
+    n_w: usize,
+    g_t: DMatrix<f64>,
+    b_t: DVector<f64>,
+    yy_t: f64,
+    n_t: usize,
+}
+
+fn masks(s: &Series, d: &Design, o: &Options) -> (Vec<bool>, Vec<bool>) {
+    let t0 = s.t_s.first().copied().unwrap_or(0.0);
+    let tt = &d.t;
+    let mut train = vec![false; d.n];
+    let mut test = vec![false; d.n];
+    for i in 0..d.n {
+        if !d.ok[i] {
+            continue;
+        }
+        let block = ((tt[i] - t0) / o.block_s).floor() as usize;
+        if block % o.holdout_every == o.holdout_every - 1 {
+            test[i] = true;
+        } else {
+            train[i] = true;
+        }
+    }
+    (train, test)
+}
+
+/// Channel axes that have data.
+fn active(d: &Design) -> Vec<(usize, usize)> {
+    let mut v = Vec::new();
+    for c in Channel::ALL {
+        for a in 0..3 {
+            if !d.measured[c.index()][a].is_empty() {
+                v.push((c.index(), a));
+            }
+        }
+    }
+    v
+}
+
+fn residual_of(d: &Design, c: usize, a: usize, theta: &[f64]) -> Vec<f64> {
+    let mut r = d.residual(c, a);
+    for (j, col) in &d.columns[c][a] {
+        if theta[*j] != 0.0 {
+            for (ri, x) in r.iter_mut().zip(col) {
+                *ri -= theta[*j] * x;
+            }
+        }
+    }
+    r
+}
+
+fn grams(d: &Design, train: &[bool], test: &[bool], ars: &[Ar]) -> Vec<Gram> {
+    let mut out = Vec::new();
+    let mut wy = Vec::new();
+    let mut wc: Vec<Vec<f64>> = Vec::new();
+    for (k, (c, a)) in active(d).into_iter().enumerate() {
+        let y = d.residual(c, a);
+        let cols: Vec<usize> = d.columns[c][a].iter().map(|x| x.0).collect();
+        let m = cols.len();
+        ars[k].whiten(&y, train, &mut wy);
+        wc.resize(m, Vec::new());
+        for (q, (_, col)) in d.columns[c][a].iter().enumerate() {
+            ars[k].whiten(col, train, &mut wc[q]);
+        }
+        let mut g = Gram {
+            cols: cols.clone(),
+            g_w: DMatrix::zeros(m, m),
+            b_w: DVector::zeros(m),
+            yy_w: 0.0,
+            n_w: 0,
+            g_t: DMatrix::zeros(m, m),
+            b_t: DVector::zeros(m),
+            yy_t: 0.0,
+            n_t: 0,
+        };
+        for i in 0..d.n {
+            if wy[i].is_finite() && (0..m).all(|q| wc[q][i].is_finite()) {
+                g.yy_w += wy[i] * wy[i];
+                g.n_w += 1;
+                for p in 0..m {
+                    g.b_w[p] += wc[p][i] * wy[i];
+                    for q in 0..=p {
+                        g.g_w[(p, q)] += wc[p][i] * wc[q][i];
+                    }
+                }
+            }
+            if test[i] {
+                let cv = |q: usize| d.columns[c][a][q].1[i];
+                g.yy_t += y[i] * y[i];
+                g.n_t += 1;
+                for p in 0..m {
+                    g.b_t[p] += cv(p) * y[i];
+                    for q in 0..=p {
+                        g.g_t[(p, q)] += cv(p) * cv(q);
+                    }
+                }
+            }
+        }
+        for p in 0..m {
+            for q in 0..p {
+                g.g_w[(q, p)] = g.g_w[(p, q)];
+                g.g_t[(q, p)] = g.g_t[(p, q)];
+            }
+        }
+        out.push(g);
+    }
+    out
+}
+
+/// The whitened normal equations of a set of columns, summed over channel axes.
+fn system(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>, f64, usize) {
+    let k = set.len();
+    let mut g = DMatrix::zeros(k, k);
+    let mut b = DVector::zeros(k);
+    let (mut yy, mut n) = (0.0, 0);
+    for gr in gs {
+        yy += gr.yy_w;
+        n += gr.n_w;
+        let pos: Vec<Option<usize>> = set.iter().map(|j| gr.cols.iter().position(|c| c == j)).collect();
+        for (p, ip) in pos.iter().enumerate() {
+            let Some(ip) = ip else { continue };
+            b[p] += gr.b_w[*ip];
+            for (q, iq) in pos.iter().enumerate() {
+                if let Some(iq) = iq {
+                    g[(p, q)] += gr.g_w[(*ip, *iq)];
+                }
+            }
+        }
+    }
+    (g, b, yy, n)
+}
+
+struct Fit {
+    set: Vec<usize>,
+    theta: Vec<f64>, // full length N_COLUMNS
+    rss: f64,
+    n: usize,
+    cov: DMatrix<f64>,
+}
+
+fn fit(gs: &[Gram], set: &[usize]) -> Fit {
+    let (g, b, yy, n) = system(gs, set);
+    let x = solve_spd(&g, &b).unwrap_or_else(|| DVector::zeros(set.len()));
+    let rss = (yy - x.dot(&b)).max(1e-300);
+    let s2 = rss / (n.saturating_sub(set.len()).max(1)) as f64;
+    let cov = inverse_spd(&g) * s2;
+    let mut theta = vec![0.0; N_COLUMNS];
+    for (p, j) in set.iter().enumerate() {
+        theta[*j] = x[p];
+    }
+    Fit { set: set.to_vec(), theta, rss, n, cov }
+}
+
+/// Held-out residual energy per channel axis for parameters θ.
+fn heldout_rss(gs: &[Gram], theta: &[f64]) -> Vec<f64> {
+    gs.iter()
+        .map(|g| {
+            let th = DVector::from_iterator(g.cols.len(), g.cols.iter().map(|j| theta[*j]));
+            (g.yy_t - 2.0 * th.dot(&g.b_t) + (th.transpose() * &g.g_t * &th)[(0, 0)]).max(0.0)
+        })
+        .collect()
+}
+
+fn cols_of(e: Effect) -> std::ops::Range<usize> {
+    let o = column_offsets();
+    o[e as usize]..o[e as usize + 1]
+}
+
+fn set_of(effects: &[Effect]) -> Vec<usize> {
+    effects.iter().flat_map(|e| cols_of(*e)).collect()
+}
+
+/// Largest canonical correlation between the column blocks A and B with S projected out.
+fn canonical_corr(gs: &[Gram], s: &[usize], a: &[usize], b: &[usize]) -> f64 {
+    let all: Vec<usize> = s.iter().chain(a).chain(b).copied().collect();
+    let (g, _, _, _) = system(gs, &all);
+    let (ns, na, nb) = (s.len(), a.len(), b.len());
+    let block = |r0: usize, nr: usize, c0: usize, nc: usize| g.view((r0, c0), (nr, nc)).into_owned();
+    let cond = |r0: usize, nr: usize, c0: usize, nc: usize| {
+        let m = block(r0, nr, c0, nc);
+        if ns == 0 {
+            return m;
+        }
+        let gss_inv = inverse_spd(&block(0, ns, 0, ns));
+        m - block(r0, nr, 0, ns) * gss_inv * block(0, ns, c0, nc)
+    };
+    let gaa = cond(ns, na, ns, na);
+    let gbb = cond(ns + na, nb, ns + na, nb);
+    let gab = cond(ns, na, ns + na, nb);
+    let (Some(ca), Some(cb)) = (gaa.clone().cholesky(), gbb.clone().cholesky()) else { return 1.0 };
+    // ρ² = eig(La⁻¹ Gab Gbb⁻¹ Gba La⁻ᵀ)
+    let la_inv = ca.l().try_inverse().unwrap_or_else(|| DMatrix::zeros(na, na));
+    let m = &la_inv * &gab * cb.inverse() * gab.transpose() * la_inv.transpose();
+    let ev = nalgebra::SymmetricEigen::new((&m + m.transpose()) * 0.5).eigenvalues;
+    ev.iter().copied().fold(0.0, f64::max).clamp(0.0, 1.0).sqrt()
+}
+
+/// The AR models of the current residual (one per active channel axis).
+fn ar_models(d: &Design, train: &[bool], theta: &[f64], max_order: usize) -> Vec<Ar> {
+    active(d).into_iter().map(|(c, a)| Ar::fit(&residual_of(d, c, a, theta), train, max_order)).collect()
+}
+
+/// Folds the linear increments of the correction effects into the corrections; zeroes them.
+fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
+    for e in selected {
+        let r = cols_of(*e);
+        match e {
+            Effect::BodyOffset => {
+                let d = Vector3::new(theta[r.start], theta[r.start + 1], theta[r.start + 2]);
+                corr.body_offset = UnitQuaternion::from_scaled_axis(d) * corr.body_offset;
+            }
+            Effect::WorldTilt => {
+                let d = Vector3::new(theta[r.start], theta[r.start + 1], 0.0);
+                corr.world_tilt *= UnitQuaternion::from_scaled_axis(d);
+            }
+            Effect::MocapDelay => corr.mocap_delay_s += theta[r.start],
+            _ => continue,
+        }
+        for j in r {
+            theta[j] = 0.0;
+        }
+    }
+}
+
+struct State {
+    design: Design,
+    train: Vec<bool>,
+    test: Vec<bool>,
+    grams: Vec<Gram>,
+    fit: Fit,
+}
+
+/// Fits S at the current corrections, folds the exact effects, re-linearises; returns the
+/// final state with AR models fitted to the residual of S.
+fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], iterations: usize) -> State {
+    let set = set_of(selected);
+    let mut theta = vec![0.0; N_COLUMNS];
+    let mut last = None;
+    for it in 0..=iterations {
+        let design = build(s, corr, &o.design);
+        let (train, test) = masks(s, &design, o);
+        // AR of the nominal residual first, then of the residual of S
+        let ars0 = ar_models(&design, &train, &theta, o.max_ar_order);
+        let g0 = grams(&design, &train, &test, &ars0);
+        let f0 = fit(&g0, &set);
+        let ars = ar_models(&design, &train, &f0.theta, o.max_ar_order);
+        let grams = grams(&design, &train, &test, &ars);
+        let mut f = fit(&grams, &set);
+
+        let has_corrections = selected.iter().any(|e| e.is_correction());
+        if it == iterations || !has_corrections {
+            last = Some(State { design, train, test, grams, fit: f });
+            break;
+        }
+        fold(corr, &mut f.theta, selected);
+        theta = f.theta;
+    }
+    last.expect("at least one iteration")
+}
+
+fn available(d: &Design, e: Effect) -> bool {
+    match e {
+        Effect::ThrustVoltage => d.has_force && d.has_vbat,
+        _ => e.channels().iter().all(|c| *c != Channel::Force || d.has_force),
+    }
+}
+
+fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: &Corrections) -> Vec<Param> {
+    let r = cols_of(e);
+    let sd = |j: usize| set.iter().position(|c| *c == j).map_or(0.0, |p| cov[(p, p)].max(0.0).sqrt());
+    let value = |k: usize| -> f64 {
+        match e {
+            Effect::BodyOffset => {
+                let (r, p, y) = corr.body_offset.euler_angles();
+                [r, p, y][k]
+            }
+            Effect::WorldTilt => {
+                let (r, p, _) = corr.world_tilt.euler_angles();
+                [r, p][k]
+            }
+            Effect::MocapDelay => corr.mocap_delay_s,
+            _ => theta[r.start + k],
+        }
+    };
+    e.params()
+        .iter()
+        .enumerate()
+        .map(|(k, (name, unit, f))| Param { name: name.to_string(), value: value(k) * f, ci95: Z_975 * sd(r.start + k) * f, unit: unit.to_string() })
+        .collect()
+}
+
+/// Runs the method on one flight.
+pub fn identify(s: &Series, o: &Options) -> Report {
+    let mut corr = Corrections::default();
+    let mut selected: Vec<Effect> = Vec::new();
+    let mut steps = Vec::new();
+    let mut notes = Vec::new();
+    let mut final_candidates = Vec::new();
+    // the nominal model's held-out residual energy, for the weights and the "before" errors
+    let nominal = refine(s, o, &mut corr, &[], 0);
+    let w0: Vec<f64> = heldout_rss(&nominal.grams, &vec![0.0; N_COLUMNS]).iter().map(|x| 1.0 / x.max(1e-300)).collect();
+    let act = active(&nominal.design);
+    let mut state = nominal;
+    let mut state_corr = corr;
+    loop {
+        if steps.len() >= o.max_steps {
+            notes.push(format!("stopped after {} steps (max_steps)", o.max_steps));
+            break;
+        }
+        let pool: Vec<Effect> = o.candidates.iter().copied().filter(|e| !selected.contains(e) && available(&state.design, *e)).collect();
+        if pool.is_empty() {
+            break;
+        }
+        // the noise model for the tests comes from the residual of the largest model (S and
+        // every candidate): an AR fitted to a residual that still holds an effect would model
+        // the effect as noise and whiten it away
+        let mut full: Vec<Effect> = selected.clone();
+        full.extend(&pool);
+        let grams_test = {
+            let white: Vec<Ar> = active(&state.design).iter().map(|_| Ar::white(1.0)).collect();
+            let g_ols = grams(&state.design, &state.train, &state.test, &white);
+            let f_ols = fit(&g_ols, &set_of(&full));
+            let ars = ar_models(&state.design, &state.train, &f_ols.theta, o.max_ar_order);
+            grams(&state.design, &state.train, &state.test, &ars)
+        };
+        let base = &fit(&grams_test, &state.fit.set);
+        let rss_base_t = heldout_rss(&grams_test, &base.theta);
+        let m = pool.len() as f64;
+        let mut cands = Vec::new();
+        for &e in &pool {
+            let mut set = base.set.clone();
+            set.extend(cols_of(e));
+            let f1 = fit(&grams_test, &set);
+            let k = e.n_params() as f64;
+            let n = f1.n as f64;
+            let delta_bic = n * (f1.rss / base.rss).ln() + k * n.ln();
+            let f = ((base.rss - f1.rss) / k) / (f1.rss / (n - set.len() as f64));
+            let p_value = f_sf(f, k, n - set.len() as f64);
+            let rss1_t = heldout_rss(&grams_test, &f1.theta);
+            let (mut e0, mut e1) = (0.0, 0.0);
+            for (q, (c, _)) in act.iter().enumerate() {
+                if e.channels().iter().any(|ch| ch.index() == *c) {
+                    e0 += w0[q] * rss_base_t[q];
+                    e1 += w0[q] * rss1_t[q];
+                }
+            }
+            let heldout_gain = if e0 > 0.0 { 1.0 - (e1 / e0).sqrt() } else { 0.0 };
+            // correlation of the residual of S with each whitened column of C
+            let mut max_corr: f64 = 0.0;
+            let (g, b, yy, _) = system(&grams_test, &set);
+            let nb = base.set.len();
+            let th_s = DVector::from_iterator(nb, base.set.iter().map(|j| base.theta[*j]));
+            let rr = (yy - 2.0 * th_s.dot(&b.rows(0, nb)) + (th_s.transpose() * g.view((0, 0), (nb, nb)) * &th_s)[(0, 0)]).max(1e-300);
+            for q in nb..set.len() {
+                let xr = b[q] - (g.view((q, 0), (1, nb)) * &th_s)[(0, 0)];
+                max_corr = max_corr.max((xr / (g[(q, q)] * rr).sqrt()).abs());
+            }
+            let passed = p_value < o.alpha / m && delta_bic < 0.0 && heldout_gain >= o.min_heldout_gain;
+            cands.push(Candidate { effect: e, delta_bic, f, p_value, heldout_gain, max_corr, passed });
+        }
+        let Some(best) = cands.iter().filter(|c| c.passed).min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic)).cloned() else {
+            final_candidates = cands;
+            break;
+        };
+        let mut unident = Vec::new();
+        for c in cands.iter().filter(|c| c.effect != best.effect && c.passed) {
+            let rho = canonical_corr(&grams_test, &base.set, &set_of(&[best.effect]), &set_of(&[c.effect]));
+            if rho > 0.99 {
+                unident.push((c.effect, rho));
+            }
+        }
+        selected.push(best.effect);
+        let mut c2 = state_corr;
+        state = refine(s, o, &mut c2, &selected, o.refine_iterations);
+        state_corr = c2;
+        let params = selected.iter().flat_map(|e| params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &state_corr)).collect();
+        steps.push(Step {
+            added: best.effect,
+            delta_bic: best.delta_bic,
+            p_value: best.p_value,
+            heldout_gain: best.heldout_gain,
+            candidates: cands,
+            not_identifiable_from: unident,
+            params,
+        });
+    }
+    // identifiability of the two frame effects, whatever was selected
+    let yaw_spread_deg = state.design.yaw_spread_rad.to_degrees();
+    let flagged = |a: Effect, b: Effect| steps.iter().any(|st: &Step| (st.added == a && st.not_identifiable_from.iter().any(|x| x.0 == b)) || (st.added == b && st.not_identifiable_from.iter().any(|x| x.0 == a)));
+    if (selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt)) && !flagged(Effect::BodyOffset, Effect::WorldTilt) {
+        let rho = canonical_corr(&state.grams, &[], &set_of(&[Effect::WorldTilt]), &set_of(&[Effect::BodyOffset]));
+        if rho > 0.99 {
+            notes.push(format!(
+                "mocap world tilt and body offset roll/pitch are not identifiable apart in this flight (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): they differ only through yaw changes, body rates and accelerations other than gravity"
+            ));
+        }
+    }
+    for st in &steps {
+        for (e, rho) in &st.not_identifiable_from {
+            notes.push(format!(
+                "{} was chosen over {} by ΔBIC, but this flight cannot tell them apart (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): not identifiable; fly yaw turns, circles and accelerations to separate them",
+                st.added.key(),
+                e.key()
+            ));
+        }
+    }
+
+    // errors before (nominal, no corrections) → after, on the held-out part
+    let nominal_design = build(s, &Corrections::default(), &o.design);
+    let d = &state.design;
+    let mut errors = Vec::new();
+    let mut whiteness = Vec::new();
+    for (c, a) in active(d) {
+        let before = nominal_design.residual(c, a);
+        let after = residual_of(d, c, a, &state.fit.theta);
+        let y = &d.measured[c][a];
+        let idx: Vec<usize> = (0..d.n).filter(|&i| state.test[i] && nominal_design.ok[i]).collect();
+        let nt = idx.len().max(1) as f64;
+        let mean = idx.iter().map(|&i| y[i]).sum::<f64>() / nt;
+        let norm_y = idx.iter().map(|&i| (y[i] - mean).powi(2)).sum::<f64>().sqrt();
+        let norm_b = idx.iter().map(|&i| before[i].powi(2)).sum::<f64>();
+        let norm_a = idx.iter().map(|&i| after[i].powi(2)).sum::<f64>();
+        let ch = Channel::ALL[c];
+        errors.push(AxisError {
+            channel: ch,
+            axis: AXES[a],
+            unit: ch.unit().into(),
+            samples: idx.len(),
+            rmse_before: (norm_b / nt).sqrt(),
+            rmse_after: (norm_a / nt).sqrt(),
+            fit_before_pct: (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - norm_b.sqrt() / norm_y)),
+            fit_after_pct: (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - norm_a.sqrt() / norm_y)),
+        });
+        // whiteness of the final residual on the usable samples
+        let ok: Vec<bool> = d.ok.clone();
+        let raw: Vec<f64> = (0..d.n).map(|i| if ok[i] { after[i] } else { f64::NAN }).collect();
+        let (r, n) = autocorrelation(&raw, 50);
+        let bound = Z_995 / (n.max(1) as f64).sqrt();
+        let outside = r.iter().filter(|x| x.abs() > bound).count() as f64 / r.len() as f64;
+        let ar = Ar::fit(&after, &ok, o.max_ar_order);
+        let mut w = Vec::new();
+        ar.whiten(&after, &ok, &mut w);
+        whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: ljung_box(&w, 20, ar.order()) });
+    }
+    let effects = selected
+        .iter()
+        .map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &state_corr) })
+        .collect();
+    Report {
+        source: s.source.clone(),
+        samples: s.len(),
+        train_samples: state.train.iter().filter(|x| **x).count(),
+        heldout_samples: state.test.iter().filter(|x| **x).count(),
+        model: s.model.clone(),
+        options: o.clone(),
+        steps,
+        final_candidates,
+        effects,
+        errors,
+        whiteness,
+        yaw_spread_deg,
+        notes,
+        repairs: s.repairs.clone(),
+        corrections: state_corr,
+        theta: state.fit.theta.clone(),
+    }
+}

@@ -1,0 +1,151 @@
+//! The data `identify` works on, in flyarena's frames whatever the source: one sample per mocap
+//! frame, times in seconds, the mocap pose in the mocap world (NED, z down), the IMU in the body
+//! frame (FRD), and the collective thrust the declared model expects from the logged commands.
+
+use nalgebra::{UnitQuaternion, Vector3};
+
+/// What the nominal (declared) model knows about the vehicle.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct NominalModel {
+    pub vehicle: String,
+    pub mass_kg: f64,
+    /// Declared rotor drag, specific force −k·v along body x and y (1/s).
+    pub rotor_drag_per_s: [f64; 2],
+    /// Rotor radius (m), for the ground-effect regressor.
+    pub rotor_radius_m: f64,
+    /// Reference battery voltage for the thrust–voltage regressor (V).
+    pub vbat_ref_v: f64,
+    pub gravity_m_s2: f64,
+}
+
+/// One flight, resampled to nothing: samples as logged, each with a validity flag.
+#[derive(Clone, Debug)]
+pub struct Series {
+    pub source: String,
+    pub t_s: Vec<f64>,
+    /// Mocap position in the mocap world, NED (m).
+    pub pos_mocap_nav: Vec<Vector3<f64>>,
+    /// Mocap attitude: mocap body → mocap world (scalar-first unit quaternion).
+    pub att_mocap: Vec<UnitQuaternion<f64>>,
+    /// The pose of this row is real (the vehicle was seen); otherwise it is a copy of the last.
+    pub mocap_ok: Vec<bool>,
+    /// IMU angular rate, body FRD (rad/s).
+    pub gyro_body: Vec<Vector3<f64>>,
+    /// IMU specific force, body FRD (m/s²).
+    pub accel_body: Vec<Vector3<f64>>,
+    /// Collective thrust the declared model predicts from the logged commands (N), if known.
+    pub thrust_n: Option<Vec<f64>>,
+    /// Battery voltage (V), if logged.
+    pub vbat_v: Option<Vec<f64>>,
+    /// Row ranges [start, end) between gaps.
+    pub segments: Vec<(usize, usize)>,
+    pub model: NominalModel,
+    /// What the readers repaired.
+    pub repairs: Vec<String>,
+}
+
+impl Series {
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+    /// Median sampling interval (s).
+    pub fn dt(&self) -> f64 {
+        let mut d: Vec<f64> = self.t_s.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(0.01)
+    }
+    /// Keeps the rows in [from, to) (for cut-outs and benchmarks).
+    pub fn slice(&self, from: usize, to: usize) -> Series {
+        let cut = |s: &(usize, usize)| (s.0.max(from).min(to) - from, s.1.min(to).max(from) - from);
+        Series {
+            source: self.source.clone(),
+            t_s: self.t_s[from..to].to_vec(),
+            pos_mocap_nav: self.pos_mocap_nav[from..to].to_vec(),
+            att_mocap: self.att_mocap[from..to].to_vec(),
+            mocap_ok: self.mocap_ok[from..to].to_vec(),
+            gyro_body: self.gyro_body[from..to].to_vec(),
+            accel_body: self.accel_body[from..to].to_vec(),
+            thrust_n: self.thrust_n.as_ref().map(|v| v[from..to].to_vec()),
+            vbat_v: self.vbat_v.as_ref().map(|v| v[from..to].to_vec()),
+            segments: self.segments.iter().map(cut).filter(|s| s.1 > s.0).collect(),
+            model: self.model.clone(),
+            repairs: self.repairs.clone(),
+        }
+    }
+}
+
+/// Exact (not linearised) corrections of the mocap stream, as the nonlinear effects define them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Corrections {
+    /// Body offset R_off: v_body = R_off·v_mocap_body (the paper's marker offset).
+    pub body_offset: UnitQuaternion<f64>,
+    /// Mocap world tilt R_w: p_mocap = R_w·p_nav (camera calibration error).
+    pub world_tilt: UnitQuaternion<f64>,
+    /// The mocap stream is late by this much against the IMU (s): the pose stamped t was taken at t − τ.
+    pub mocap_delay_s: f64,
+}
+
+impl Default for Corrections {
+    fn default() -> Self {
+        Corrections { body_offset: UnitQuaternion::identity(), world_tilt: UnitQuaternion::identity(), mocap_delay_s: 0.0 }
+    }
+}
+
+/// The mocap stream with the corrections applied: true-body attitude (body → nav) and nav
+/// position, sampled at the IMU times. `ok` is false where the delay reaches outside a segment
+/// or a pose was missing.
+pub struct Corrected {
+    pub pos_nav: Vec<Vector3<f64>>,
+    pub att_body: Vec<UnitQuaternion<f64>>,
+    pub ok: Vec<bool>,
+}
+
+pub fn correct(s: &Series, c: &Corrections) -> Corrected {
+    let n = s.len();
+    let dt = s.dt();
+    let shift = c.mocap_delay_s / dt;
+    let mut pos_nav = Vec::with_capacity(n);
+    let mut att_body = Vec::with_capacity(n);
+    let mut ok = vec![false; n];
+    let w_inv = c.world_tilt.inverse();
+    let off_inv = c.body_offset.inverse();
+    for &(a, b) in &s.segments {
+        for i in a..b {
+            // the pose taken at t_i carries the stamp t_i + τ: read the stream there
+            let x = i as f64 + shift;
+            let k0 = x.floor();
+            let frac = x - k0;
+            let k0 = k0 as isize;
+            let (p, q, good) = if k0 >= a as isize && (k0 as usize) < b && (frac == 0.0 || ((k0 + 1) as usize) < b) {
+                let k0 = k0 as usize;
+                let k1 = if frac == 0.0 { k0 } else { k0 + 1 };
+                let p = s.pos_mocap_nav[k0] * (1.0 - frac) + s.pos_mocap_nav[k1] * frac;
+                let q = s.att_mocap[k0].nlerp(&s.att_mocap[k1], frac);
+                (p, q, s.mocap_ok[k0] && s.mocap_ok[k1])
+            } else {
+                (s.pos_mocap_nav[i], s.att_mocap[i], false)
+            };
+            pos_nav.push(w_inv * p);
+            att_body.push(w_inv * q * off_inv);
+            ok[i] = good;
+        }
+    }
+    // rows outside every segment (none from the readers) keep their raw values, invalid
+    if pos_nav.len() != n {
+        let mut p2 = s.pos_mocap_nav.clone();
+        let mut q2 = s.att_mocap.clone();
+        let mut k = 0;
+        for &(a, b) in &s.segments {
+            for i in a..b {
+                p2[i] = pos_nav[k];
+                q2[i] = att_body[k];
+                k += 1;
+            }
+        }
+        return Corrected { pos_nav: p2, att_body: q2, ok };
+    }
+    Corrected { pos_nav, att_body, ok }
+}
