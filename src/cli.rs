@@ -20,6 +20,7 @@ USAGE:
     flyarena merge SHARD.json... [--out DIR]
     flyarena identify SCENARIO.yaml [--vehicle NAME] [--seed N] [--out DIR] [--json PATH] [--fragment PATH]
     flyarena identify LOG.csv (--scenario SCENARIO.yaml | --mapping MAPPING.yaml) [...]
+    flyarena identify LOG.csv LOG.csv... --mapping MAPPING.yaml [--with EFFECT,...]   (cross-validation)
 
 COMMANDS:
     run     simulate the scenario, print the requirements table, write the JSON summary and
@@ -43,6 +44,8 @@ OPTIONS:
     --effects F   apply an `identify` fragment (scenario fields by path) before validating
     --mapping M   identify: read another tool's CSV log through a column mapping
     --scenario S  identify: the scenario that wrote a flyarena log
+    --smoothing-ms X  identify: σ of the Gaussian smoothing before differentiating (default 20)
+    --with E,...  identify: fit these effects without testing them (e.g. body_offset), select the rest
     --seed N      override the scenario's seed
     --quiet       print only the verdict line
 
@@ -483,7 +486,8 @@ fn cmd_merge(args: &[String]) -> i32 {
 
 /// Entry point; returns the process exit code.
 struct IdentifyArgs {
-    input: PathBuf,
+    inputs: Vec<PathBuf>,
+    forced: Vec<crate::identify::Effect>,
     scenario: Option<PathBuf>,
     mapping: Option<PathBuf>,
     vehicle: Option<String>,
@@ -491,39 +495,53 @@ struct IdentifyArgs {
     json: Option<PathBuf>,
     fragment: Option<PathBuf>,
     seed: Option<u64>,
+    smoothing_ms: Option<f64>,
     quiet: bool,
 }
 
 fn parse_identify(args: &[String]) -> Result<IdentifyArgs, String> {
     let mut it = args.iter();
-    let mut a = IdentifyArgs { input: PathBuf::new(), scenario: None, mapping: None, vehicle: None, out: PathBuf::from("out"), json: None, fragment: None, seed: None, quiet: false };
-    let mut input = None;
+    let mut a = IdentifyArgs { inputs: Vec::new(), forced: Vec::new(), scenario: None, mapping: None, vehicle: None, out: PathBuf::from("out"), json: None, fragment: None, seed: None, smoothing_ms: None, quiet: false };
     while let Some(x) = it.next() {
         let mut value = |flag: &str| it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
         match x.as_str() {
+            "--with" => {
+                for name in value("--with")?.split(',') {
+                    let e = crate::identify::Effect::ALL.iter().find(|e| e.key() == name.trim()).ok_or_else(|| {
+                        format!("--with: `{name}` is not an effect; the effects are {}", crate::identify::Effect::ALL.iter().map(|e| e.key()).collect::<Vec<_>>().join(", "))
+                    })?;
+                    a.forced.push(*e);
+                }
+            }
             "--scenario" => a.scenario = Some(PathBuf::from(value("--scenario")?)),
             "--mapping" => a.mapping = Some(PathBuf::from(value("--mapping")?)),
             "--vehicle" => a.vehicle = Some(value("--vehicle")?),
             "--out" => a.out = PathBuf::from(value("--out")?),
             "--json" => a.json = Some(PathBuf::from(value("--json")?)),
             "--fragment" => a.fragment = Some(PathBuf::from(value("--fragment")?)),
+            "--smoothing-ms" => {
+                let v = value("--smoothing-ms")?;
+                a.smoothing_ms = Some(v.parse().ok().filter(|x: &f64| (2.0..=500.0).contains(x)).ok_or_else(|| format!("--smoothing-ms takes a number of milliseconds from 2 to 500, not `{v}`"))?);
+            }
             "--seed" => {
                 let v = value("--seed")?;
                 a.seed = Some(v.parse().map_err(|_| format!("--seed takes a whole number from 0 to {}, not `{v}`", u64::MAX))?);
             }
             "--quiet" | "-q" => a.quiet = true,
             s if s.starts_with('-') => return Err(format!("unknown option `{s}`")),
-            s if input.is_none() => input = Some(PathBuf::from(s)),
-            s => return Err(format!("one input per run; unexpected `{s}`")),
+            s => a.inputs.push(PathBuf::from(s)),
         }
     }
-    a.input = input.ok_or("what to identify? `flyarena identify scenarios/<x>.yaml`, or a log with --scenario or --mapping")?;
-    let is_yaml = a.input.extension().is_some_and(|e| e == "yaml" || e == "yml");
+    let first = a.inputs.first().ok_or("what to identify? `flyarena identify scenarios/<x>.yaml`, or a log with --scenario or --mapping")?;
+    let is_yaml = first.extension().is_some_and(|e| e == "yaml" || e == "yml");
+    if a.inputs.len() > 1 && a.mapping.is_none() {
+        return Err("several inputs (cross-validation) need --mapping: they are logs of other tools".into());
+    }
     match (is_yaml, &a.scenario, &a.mapping) {
         (true, None, None) => {}
         (true, _, _) => return Err("a scenario input is run and identified by itself: --scenario and --mapping are for logs".into()),
         (false, Some(_), Some(_)) => return Err("--scenario (a flyarena log) and --mapping (another tool's log) exclude each other".into()),
-        (false, None, None) => return Err(format!("{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's)", a.input.display())),
+        (false, None, None) => return Err(format!("{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's)", first.display())),
         _ => {}
     }
     Ok(a)
@@ -537,9 +555,34 @@ fn cmd_identify(args: &[String]) -> i32 {
             return BAD_INPUT;
         }
     };
-    match crate::identify::cli::run(&a.input, a.scenario.as_deref(), a.mapping.as_deref(), a.vehicle.as_deref(), a.seed) {
+    if a.inputs.len() > 1 {
+        let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
+        let mut opts = crate::identify::Options { forced: a.forced.clone(), ..Default::default() };
+        if let Some(sm) = a.smoothing_ms {
+            opts.design.smoothing_s = sm * 1e-3;
+        }
+        return match crate::identify::cli::run_many(&inputs, a.mapping.as_deref().expect("checked"), &opts) {
+            Ok(m) => {
+                let json_path = a.json.unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
+                if let Err(code) = write_output(&json_path, &serde_json::to_vec_pretty(&m.json).expect("serialises")) {
+                    return code;
+                }
+                if !a.quiet {
+                    print!("{}", m.text);
+                }
+                println!("\nreport: {}", json_path.display());
+                PASS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                BAD_INPUT
+            }
+        };
+    }
+    let input = &a.inputs[0];
+    match crate::identify::cli::run(input, a.scenario.as_deref(), a.mapping.as_deref(), a.vehicle.as_deref(), a.seed, a.smoothing_ms, &a.forced) {
         Ok(done) => {
-            let stem = a.input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
+            let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
             let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
             let json = serde_json::to_vec_pretty(&done.json).expect("report serialises");
             if let Err(code) = write_output(&json_path, &json) {

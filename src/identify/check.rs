@@ -7,12 +7,7 @@ use crate::scenario::IdentifyReq;
 
 /// 1 − ‖after‖/‖before‖ over the three axes of a channel, held out.
 pub fn heldout_cut(r: &Report, c: Channel) -> Option<f64> {
-    let (mut b, mut a) = (0.0, 0.0);
-    for e in r.errors.iter().filter(|e| e.channel == c) {
-        b += e.rmse_before.powi(2);
-        a += e.rmse_after.powi(2);
-    }
-    (b > 0.0).then(|| 1.0 - (a / b).sqrt())
+    super::select::channel_cut(&r.errors, c)
 }
 
 /// The best held-out cut among the channels an effect lives in.

@@ -26,10 +26,16 @@ fn vehicle_index(s: &Scenario, name: Option<&str>) -> Result<usize, String> {
 }
 
 /// Identifies from a scenario (run here), a flyarena log with its scenario, or a mapped log.
-pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicle: Option<&str>, seed: Option<u64>) -> Result<Done, String> {
-    let opts = Options::default();
+pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicle: Option<&str>, seed: Option<u64>, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<Done, String> {
+    let mut opts = Options { forced: forced.to_vec(), ..Options::default() };
+    if let Some(sm) = smoothing_ms {
+        opts.design.smoothing_s = sm * 1e-3;
+    }
     if let Some(m) = mapping {
         let map = super::mapping::Mapping::load(m)?;
+        if let (Some(sm), None) = (map.smoothing_ms, smoothing_ms) {
+            opts.design.smoothing_s = sm * 1e-3;
+        }
         let series = map.read(input)?;
         let report = identify(&series, &opts);
         let text = report::render(&report);
@@ -70,4 +76,78 @@ pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicl
     let requirements = s.requirements.identify.as_ref().map(|req| super::check::check(&report, req, &s.vehicles.value[i].value.name));
     let json = json!({ "report": report, "closed_loop": { "nominal": before, "with_effects": after }, "requirements": requirements });
     Ok(Done { report, requirements, text, json, fragment: frag, closed_loop: Some((before, after)) })
+}
+
+/// Several logs through one mapping: each identified, then every flight's model evaluated on
+/// every other flight (cross-validation), per channel.
+pub struct Many {
+    pub reports: Vec<(String, super::Report)>,
+    /// [fitted on][evaluated on] → cut of the accel_kin and force errors (None: channel missing)
+    pub cross: Vec<Vec<(Option<f64>, Option<f64>)>>,
+    pub text: String,
+    pub json: Value,
+}
+
+pub fn run_many(inputs: &[&Path], mapping: &Path, opts: &Options) -> Result<Many, String> {
+    use super::design::Channel;
+    use super::select::{channel_cut, evaluate};
+    let map = super::mapping::Mapping::load(mapping)?;
+    let mut opts = opts.clone();
+    if let Some(sm) = map.smoothing_ms {
+        opts.design.smoothing_s = sm * 1e-3;
+    }
+    let mut series = Vec::new();
+    for p in inputs {
+        series.push(map.read(p)?);
+    }
+    let reports: Vec<(String, super::Report)> = inputs
+        .iter()
+        .zip(&series)
+        .map(|(p, s)| (p.file_stem().map_or_else(|| p.display().to_string(), |x| x.to_string_lossy().into_owned()), identify(s, &opts)))
+        .collect();
+    let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports
+        .iter()
+        .map(|(_, r)| series.iter().map(|s| { let e = evaluate(s, &opts, r); (channel_cut(&e, Channel::AccelKin), channel_cut(&e, Channel::Force)) }).collect())
+        .collect();
+    let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.0}%", 100.0 * v));
+    let mut text = String::from("per flight (held-out error cut per channel; effects with 95 % intervals):\n");
+    for (name, r) in &reports {
+        let cuts: Vec<String> = Channel::ALL.iter().map(|c| format!("{} {}", c.name(), pct(channel_cut(&r.errors, *c)))).collect();
+        text += &format!("\n  {name}: {}\n", cuts.join(", "));
+        for f in &r.effects {
+            let ps: Vec<String> = f.params.iter().map(|p| format!("{} {:.3} ± {:.3} {}", p.name, p.value, p.ci95, p.unit)).collect();
+            text += &format!("    {:<34} {}\n", f.name, ps.join(", "));
+        }
+        if let Some(g) = &r.ground_check {
+            text += &format!("    ground check (at rest, {} samples): roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°\n", g.samples, g.roll_deg, g.roll_se_deg, g.pitch_deg, g.pitch_se_deg);
+        }
+        for n in &r.notes {
+            text += &format!("    note: {n}\n");
+        }
+    }
+    for (k, title) in [(0, "accel_kin (mocap vs IMU: marker offset, tilt, delay)"), (1, "force (IMU vs force model: thrust, drag, wind)")] {
+        text += &format!("\ncross-validation, {title}: error cut when the model fitted on the row's flight is used on the column's flight\n");
+        let w = reports.iter().map(|(n, _)| n.len().min(12)).max().unwrap_or(8);
+        text += &format!("  {:<w$}", "fitted on \\ on");
+        for (n, _) in &reports {
+            text += &format!(" {:>12}", &n[..n.len().min(12)]);
+        }
+        text.push('\n');
+        for (i, (n, _)) in reports.iter().enumerate() {
+            text += &format!("  {:<w$}", &n[..n.len().min(w)]);
+            for cell in &cross[i] {
+                text += &format!(" {:>12}", pct(if k == 0 { cell.0 } else { cell.1 }));
+            }
+            text.push('\n');
+        }
+    }
+    let json = json!({
+        "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
+        "cross_validation": {
+            "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),
+            "accel_kin_cut": cross.iter().map(|row| row.iter().map(|c| c.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            "force_cut": cross.iter().map(|row| row.iter().map(|c| c.1).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        }
+    });
+    Ok(Many { reports, cross, text, json })
 }

@@ -9,7 +9,7 @@
 //! (body frame), smoothed by the same kernel; the IMU is smoothed by the same kernel, so both
 //! sides of every residual see the same filter. Samples closer than 3σ + 1 to a segment edge, a
 //! missing pose, or the ground are left out. The smoothed channels are then decimated to one
-//! sample per 2σ (40 ms by default): the kernel is the anti-alias filter, and what remains of
+//! sample per σ (20 ms by default): the kernel is the anti-alias filter, and what remains of
 //! the residual's colour is left to the AR prewhitening of [`super::select`].
 //!
 //! ## Channels (body FRD; nav NED, g·e_D = (0, 0, g))
@@ -20,11 +20,14 @@
 //!   the declared drag k and the thrust T the commands imply: the accelerometer against the force model.
 //!
 //! ## Effects (linearised at the current corrections; regressor blocks per channel)
+//! The rotation and delay regressors use the (smoothed) IMU signals: to first order they equal
+//! the mocap ones, and they are far less noisy (noise in a regressor biases least squares
+//! towards zero: with twice-differentiated mocap the delay came out 30 % short).
 //! | effect | parameters | regressor |
 //! |---|---|---|
-//! | body offset R_off = exp([δ]×) | δ (rad) | accel_kin: e_j × f̂; gyro: e_j × ω̂ |
+//! | body offset R_off = exp([δ]×) | δ (rad) | accel_kin: e_j × f_imu; gyro: e_j × ω_imu |
 //! | mocap world tilt R_w = exp([τ]×) | τ_x, τ_y (rad) | accel_kin: Rᵀ(g·e_D × e_j) |
-//! | mocap delay τ_d | τ_d (s) | accel_kin: df̂/dt; gyro: dω̂/dt |
+//! | mocap delay τ_d | τ_d (s) | accel_kin: df_imu/dt; gyro: dω_imu/dt |
 //! | accelerometer bias | b_a (m/s²) | accel_kin and force: e_j |
 //! | gyro bias | b_g (rad/s) | gyro: e_j |
 //! | rotor drag | k_x, k_y (1/s) | force: −v_x e_x, −v_y e_y (body velocity) |
@@ -180,8 +183,42 @@ pub struct Design {
     pub columns: [[Vec<(usize, Vec<f64>)>; 3]; 3],
     pub has_force: bool,
     pub has_vbat: bool,
-    /// Fraction of the samples at which the yaw differs from its median by more than 30°.
+    /// Circular standard deviation of the yaw over the usable samples (rad).
     pub yaw_spread_rad: f64,
+    /// Mocap glitches found (each leaves out the filter's reach around it).
+    pub outliers: usize,
+}
+
+/// Poses this many robust standard deviations off the midpoint of their neighbours are glitches.
+pub const GLITCH_SIGMAS: f64 = 20.0;
+
+/// Rows whose pose jumps away from the midpoint of its neighbours and back.
+pub fn glitches(s: &Series) -> Vec<usize> {
+    let n = s.len();
+    let mut jp = vec![f64::NAN; n];
+    let mut jq = vec![f64::NAN; n];
+    for &(a, b) in &s.segments {
+        for i in a + 1..b.saturating_sub(1) {
+            if s.mocap_ok[i - 1] && s.mocap_ok[i] && s.mocap_ok[i + 1] {
+                let mid = (s.pos_mocap_nav[i - 1] + s.pos_mocap_nav[i + 1]) * 0.5;
+                jp[i] = (s.pos_mocap_nav[i] - mid).norm();
+                jq[i] = s.att_mocap[i].angle_to(&s.att_mocap[i - 1].nlerp(&s.att_mocap[i + 1], 0.5));
+            }
+        }
+    }
+    let limit = |x: &[f64], floor: f64| -> f64 {
+        let mut v: Vec<f64> = x.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.len() < 10 {
+            return f64::INFINITY;
+        }
+        v.sort_by(f64::total_cmp);
+        let med = v[v.len() / 2];
+        let mut dev: Vec<f64> = v.iter().map(|x| (x - med).abs()).collect();
+        dev.sort_by(f64::total_cmp);
+        (med + GLITCH_SIGMAS * 1.4826 * dev[dev.len() / 2]).max(floor)
+    };
+    let (lp, lq) = (limit(&jp, 1e-3), limit(&jq, 0.5f64.to_radians()));
+    (0..n).filter(|&i| jp[i] > lp || jq[i] > lq).collect()
 }
 
 impl Design {
@@ -254,7 +291,20 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
     let dt = s.dt();
     let kernel = gaussian_kernel(opt.smoothing_s / dt);
     let h = kernel.len() / 2;
-    let Corrected { pos_nav, att_body, ok: pose_ok } = correct(s, corr);
+    let Corrected { pos_nav, att_body, ok: mut pose_ok } = correct(s, corr);
+    // mocap glitches (a marker mistaken for another for a frame) become tens of m/s² after two
+    // derivatives; they are found in the raw poses, not in a residual, so that no effect can
+    // be mistaken for one: a pose further from the midpoint of its neighbours than
+    // GLITCH_SIGMAS robust standard deviations (1.4826·MAD) and than 1 mm or 0.5° is dropped
+    let glitches = glitches(s);
+    let shift = (corr.mocap_delay_s / dt).round() as isize;
+    for &g in &glitches {
+        let k = g as isize - shift;
+        if k >= 0 && (k as usize) < n {
+            pose_ok[k as usize] = false;
+        }
+    }
+    let outliers = glitches.len();
     let segs = &s.segments;
     let g = s.model.gravity_m_s2;
     let g_nav = Vector3::new(0.0, 0.0, g);
@@ -322,8 +372,11 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
         }
         d
     };
-    let f_dot = deriv(&f_hat);
-    let omega_dot = deriv(&omega_s);
+    // regressors of the rotations and the delay come from the IMU side: to first order
+    // f_imu − f̂ = δ × f = τ·ḟ with f the IMU's or the mocap's alike, but the IMU is far less noisy
+    // than twice-differentiated mocap, and noise in a regressor biases its parameter towards zero
+    let f_dot = deriv(&accel_s);
+    let omega_dot = deriv(&gyro_s);
     let thrust_s = s.thrust_n.as_ref().map(|t| {
         let mut o = vec![0.0; n];
         smooth_into(t, segs, &kernel, &mut o);
@@ -344,7 +397,7 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
         measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
         predicted[c][a] = f_hat.iter().map(|v| v[a]).collect();
         for j in 0..3 {
-            columns[c][a].push((col(Effect::BodyOffset, j), f_hat.iter().map(|f| unit(j).cross(f)[a]).collect()));
+            columns[c][a].push((col(Effect::BodyOffset, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
         }
         for j in 0..2 {
             columns[c][a].push((col(Effect::WorldTilt, j), rot_t.iter().map(|r| (r * g_nav.cross(&unit(j)))[a]).collect()));
@@ -356,7 +409,7 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
         measured[c][a] = gyro_s.iter().map(|v| v[a]).collect();
         predicted[c][a] = omega_s.iter().map(|v| v[a]).collect();
         for j in 0..3 {
-            columns[c][a].push((col(Effect::BodyOffset, j), omega_s.iter().map(|w| unit(j).cross(w)[a]).collect()));
+            columns[c][a].push((col(Effect::BodyOffset, j), gyro_s.iter().map(|w| unit(j).cross(w)[a]).collect()));
         }
         columns[c][a].push((col(Effect::MocapDelay, 0), omega_dot.iter().map(|v| v[a]).collect()));
         columns[c][a].push((col(Effect::GyroBias, a), vec![1.0; n]));
@@ -400,9 +453,9 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
         // circular standard deviation
         (-2.0 * r.max(1e-12).ln()).sqrt()
     };
-    // decimate to one sample per 2σ: the smoothing is the anti-alias filter, and neighbouring
+    // decimate to one sample per σ: the smoothing is the anti-alias filter, and neighbouring
     // samples of a smoothed signal carry little new information but a lot of correlation
-    let stride = ((2.0 * opt.smoothing_s / dt).round() as usize).max(1);
+    let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
     let keep: Vec<usize> = (0..n).step_by(stride).collect();
     let pick = |v: &Vec<f64>| -> Vec<f64> { if v.is_empty() { Vec::new() } else { keep.iter().map(|&i| v[i]).collect() } };
     let ok: Vec<bool> = keep.iter().map(|&i| ok[i]).collect();
@@ -410,5 +463,5 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
     let measured = measured.map(|c| c.map(|a| pick(&a)));
     let predicted = predicted.map(|c| c.map(|a| pick(&a)));
     let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));
-    Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad }
+    Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad, outliers }
 }

@@ -18,6 +18,7 @@
 //! motors: { columns: [m1, m2, m3, m4] }                  # optional: PWM 0..65535 → thrust map
 //! battery: { column: vbat }                              # optional, volts
 //! mass_kg: 0.034                                          # optional: overrides the preset
+//! smoothing_ms: 50                                        # optional: σ of the smoothing (default 20)
 //! ```
 //!
 //! Rows whose pose cells are empty or NaN count as frames in which the vehicle was not seen;
@@ -47,6 +48,10 @@ pub struct Mapping {
     pub battery: Option<Column>,
     #[serde(default)]
     pub mass_kg: Option<f64>,
+    /// σ of the smoothing kernel for this data (ms; default 20). Small vehicles with close
+    /// markers have noisy mocap attitudes and need more.
+    #[serde(default)]
+    pub smoothing_ms: Option<f64>,
 }
 
 #[derive(Debug, serde::Deserialize, Clone, Copy)]
@@ -122,6 +127,11 @@ impl Mapping {
             && !(mass > 0.0 && mass < 100.0)
         {
             return Err(format!("{}: mass_kg {mass} is outside the allowed range (0, 100) kg", path.display()));
+        }
+        if let Some(sm) = m.smoothing_ms
+            && !(2.0..=500.0).contains(&sm)
+        {
+            return Err(format!("{}: smoothing_ms {sm} is outside the allowed range [2, 500] ms", path.display()));
         }
         if let Some(mo) = &m.motors
             && mo.columns.is_empty()

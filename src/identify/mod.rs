@@ -18,6 +18,7 @@ pub mod design;
 pub mod feedback;
 pub mod mapping;
 pub mod flyarena_log;
+pub mod ground;
 pub mod report;
 pub mod select;
 pub mod series;

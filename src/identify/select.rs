@@ -33,8 +33,13 @@ pub struct Options {
     pub holdout_every: usize,
     pub max_steps: usize,
     pub refine_iterations: usize,
+    /// Bandwidth of the Newey–West covariance (decimated samples).
+    pub hac_lags: usize,
     /// The candidates to consider (default: all that the data has columns for).
     pub candidates: Vec<Effect>,
+    /// Effects fitted from the start, without passing the tests (the hypothesis under study,
+    /// e.g. the body offset of a real flight); the others are selected on top of them.
+    pub forced: Vec<Effect>,
 }
 
 impl Default for Options {
@@ -48,7 +53,9 @@ impl Default for Options {
             holdout_every: 3,
             max_steps: 8,
             refine_iterations: 3,
+            hac_lags: 12,
             candidates: Effect::ALL.to_vec(),
+            forced: Vec::new(),
         }
     }
 }
@@ -138,6 +145,8 @@ pub struct Report {
     /// Yaw spread of the flight (circular standard deviation, deg): world tilt and body offset
     /// differ only when the vehicle yaws.
     pub yaw_spread_deg: f64,
+    /// Roll/pitch misalignment from the vehicle at rest before take-off (independent check).
+    pub ground_check: Option<super::ground::GroundCheck>,
     pub notes: Vec<String>,
     pub repairs: Vec<String>,
     #[serde(skip)]
@@ -169,6 +178,8 @@ impl Report {
 }
 
 const AXES: [char; 3] = ['x', 'y', 'z'];
+/// Fewer usable (decimated) training samples than this and no effect is tried.
+pub const MIN_TRAIN_SAMPLES: usize = 200;
 
 /// Normal equations of one channel axis: whitened training part and raw held-out part.
 #[derive(Clone)]
@@ -182,6 +193,9 @@ struct Gram {
     b_t: DVector<f64>,
     yy_t: f64,
     n_t: usize,
+    /// raw training part (ordinary least squares)
+    g_r: DMatrix<f64>,
+    b_r: DVector<f64>,
 }
 
 fn masks(s: &Series, d: &Design, o: &Options) -> (Vec<bool>, Vec<bool>) {
@@ -251,6 +265,8 @@ fn grams(d: &Design, train: &[bool], test: &[bool], ars: &[Ar]) -> Vec<Gram> {
             b_t: DVector::zeros(m),
             yy_t: 0.0,
             n_t: 0,
+            g_r: DMatrix::zeros(m, m),
+            b_r: DVector::zeros(m),
         };
         for i in 0..d.n {
             if wy[i].is_finite() && (0..m).all(|q| wc[q][i].is_finite()) {
@@ -260,6 +276,15 @@ fn grams(d: &Design, train: &[bool], test: &[bool], ars: &[Ar]) -> Vec<Gram> {
                     g.b_w[p] += wc[p][i] * wy[i];
                     for q in 0..=p {
                         g.g_w[(p, q)] += wc[p][i] * wc[q][i];
+                    }
+                }
+            }
+            if train[i] {
+                let cv = |q: usize| d.columns[c][a][q].1[i];
+                for p in 0..m {
+                    g.b_r[p] += cv(p) * y[i];
+                    for q in 0..=p {
+                        g.g_r[(p, q)] += cv(p) * cv(q);
                     }
                 }
             }
@@ -279,11 +304,32 @@ fn grams(d: &Design, train: &[bool], test: &[bool], ars: &[Ar]) -> Vec<Gram> {
             for q in 0..p {
                 g.g_w[(q, p)] = g.g_w[(p, q)];
                 g.g_t[(q, p)] = g.g_t[(p, q)];
+                g.g_r[(q, p)] = g.g_r[(p, q)];
             }
         }
         out.push(g);
     }
     out
+}
+
+/// The raw (training) normal equations of a set of columns, summed over channel axes.
+fn system_raw(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>) {
+    let k = set.len();
+    let mut g = DMatrix::zeros(k, k);
+    let mut b = DVector::zeros(k);
+    for gr in gs {
+        let pos: Vec<Option<usize>> = set.iter().map(|j| gr.cols.iter().position(|c| c == j)).collect();
+        for (p, ip) in pos.iter().enumerate() {
+            let Some(ip) = ip else { continue };
+            b[p] += gr.b_r[*ip];
+            for (q, iq) in pos.iter().enumerate() {
+                if let Some(iq) = iq {
+                    g[(p, q)] += gr.g_r[(*ip, *iq)];
+                }
+            }
+        }
+    }
+    (g, b)
 }
 
 /// The whitened normal equations of a set of columns, summed over channel axes.
@@ -309,12 +355,27 @@ fn system(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>, f64, usize
     (g, b, yy, n)
 }
 
+/// A fit of a set of columns: the parameters by ordinary least squares (they minimise the
+/// error the report measures), the tests on the prewhitened problem (GLS), and the covariance
+/// (prewhitened until [`refine`] replaces it by the Newey–West one).
 struct Fit {
     set: Vec<usize>,
-    theta: Vec<f64>, // full length N_COLUMNS
+    /// OLS parameters, full length N_COLUMNS.
+    theta: Vec<f64>,
+    /// GLS (prewhitened) parameters, full length.
+    theta_w: Vec<f64>,
+    /// Prewhitened residual sum of squares and sample count (for ΔBIC and the F-test).
     rss: f64,
     n: usize,
     cov: DMatrix<f64>,
+}
+
+fn full(set: &[usize], x: &DVector<f64>) -> Vec<f64> {
+    let mut theta = vec![0.0; N_COLUMNS];
+    for (p, j) in set.iter().enumerate() {
+        theta[*j] = x[p];
+    }
+    theta
 }
 
 fn fit(gs: &[Gram], set: &[usize]) -> Fit {
@@ -323,11 +384,42 @@ fn fit(gs: &[Gram], set: &[usize]) -> Fit {
     let rss = (yy - x.dot(&b)).max(1e-300);
     let s2 = rss / (n.saturating_sub(set.len()).max(1)) as f64;
     let cov = inverse_spd(&g) * s2;
-    let mut theta = vec![0.0; N_COLUMNS];
-    for (p, j) in set.iter().enumerate() {
-        theta[*j] = x[p];
+    let (gr, br) = system_raw(gs, set);
+    let xo = solve_spd(&gr, &br).unwrap_or_else(|| DVector::zeros(set.len()));
+    Fit { set: set.to_vec(), theta: full(set, &xo), theta_w: full(set, &x), rss, n, cov }
+}
+
+/// Newey–West (Bartlett, `lags`) covariance of the OLS parameters: (XᵀX)⁻¹·S·(XᵀX)⁻¹ with
+/// S = Σ_l w_l Σ_t (x_t e_t)(x_{t−l} e_{t−l})ᵀ (+ transpose), w_l = 1 − l/(lags+1), summed over
+/// channel axes (assumed independent of each other).
+fn hac(d: &Design, train: &[bool], gs: &[Gram], set: &[usize], theta: &[f64], lags: usize) -> DMatrix<f64> {
+    let k = set.len();
+    let mut sm = DMatrix::<f64>::zeros(k, k);
+    for (c, a) in active(d) {
+        let e = residual_of(d, c, a, theta);
+        let cols: Vec<Option<&Vec<f64>>> = set.iter().map(|j| d.columns[c][a].iter().find(|x| x.0 == *j).map(|x| &x.1)).collect();
+        if cols.iter().all(Option::is_none) {
+            continue;
+        }
+        let u: Vec<Option<DVector<f64>>> = (0..d.n)
+            .map(|t| train[t].then(|| DVector::from_iterator(k, cols.iter().map(|col| col.map_or(0.0, |v| v[t] * e[t])))))
+            .collect();
+        for l in 0..=lags {
+            let w = 1.0 - l as f64 / (lags as f64 + 1.0);
+            for t in l..d.n {
+                if let (Some(ut), Some(ul)) = (&u[t], &u[t - l]) {
+                    let m = ut * ul.transpose();
+                    if l == 0 {
+                        sm += m;
+                    } else {
+                        sm += (&m + m.transpose()) * w;
+                    }
+                }
+            }
+        }
     }
-    Fit { set: set.to_vec(), theta, rss, n, cov }
+    let ginv = inverse_spd(&system_raw(gs, set).0);
+    &ginv * sm * &ginv
 }
 
 /// Held-out residual energy per channel axis for parameters θ.
@@ -370,8 +462,12 @@ fn canonical_corr(gs: &[Gram], s: &[usize], a: &[usize], b: &[usize]) -> f64 {
     // ρ² = eig(La⁻¹ Gab Gbb⁻¹ Gba La⁻ᵀ)
     let la_inv = ca.l().try_inverse().unwrap_or_else(|| DMatrix::zeros(na, na));
     let m = &la_inv * &gab * cb.inverse() * gab.transpose() * la_inv.transpose();
-    let ev = nalgebra::SymmetricEigen::new((&m + m.transpose()) * 0.5).eigenvalues;
-    ev.iter().copied().fold(0.0, f64::max).clamp(0.0, 1.0).sqrt()
+    let sym = (&m + m.transpose()) * 0.5;
+    if !sym.iter().all(|x| x.is_finite()) {
+        return 1.0;
+    }
+    let Some(eig) = nalgebra::SymmetricEigen::try_new(sym, f64::EPSILON, 500) else { return 1.0 };
+    eig.eigenvalues.iter().copied().fold(0.0, f64::max).clamp(0.0, 1.0).sqrt()
 }
 
 /// The AR models of the current residual (one per active channel axis).
@@ -425,9 +521,9 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         let ars = ar_models(&design, &train, &f0.theta, o.max_ar_order);
         let grams = grams(&design, &train, &test, &ars);
         let mut f = fit(&grams, &set);
-
         let has_corrections = selected.iter().any(|e| e.is_correction());
         if it == iterations || !has_corrections {
+            f.cov = hac(&design, &train, &grams, &set, &f.theta, o.hac_lags);
             last = Some(State { design, train, test, grams, fit: f });
             break;
         }
@@ -479,9 +575,36 @@ pub fn identify(s: &Series, o: &Options) -> Report {
     let nominal = refine(s, o, &mut corr, &[], 0);
     let w0: Vec<f64> = heldout_rss(&nominal.grams, &vec![0.0; N_COLUMNS]).iter().map(|x| 1.0 / x.max(1e-300)).collect();
     let act = active(&nominal.design);
+    let usable = nominal.train.iter().filter(|x| **x).count();
+    let too_few = usable < MIN_TRAIN_SAMPLES;
+    if too_few {
+        notes.push(format!(
+            "only {usable} usable training samples (airborne above {} m, away from gaps and edges; decimated): at least {MIN_TRAIN_SAMPLES} are needed to select effects, so none were tried",
+            o.design.min_height_m
+        ));
+    }
+    if nominal.design.outliers > 0 {
+        notes.push(format!(
+            "{} mocap glitches (a pose more than {} robust σ, and 1 mm or 0.5°, off the midpoint of its neighbours) were left out with ±{} ms around each",
+            nominal.design.outliers,
+            super::design::GLITCH_SIGMAS,
+            (3.0 * o.design.smoothing_s * 1e3).round()
+        ));
+    }
     let mut state = nominal;
     let mut state_corr = corr;
-    loop {
+    if !too_few {
+        for e in &o.forced {
+            if available(&state.design, *e) && !selected.contains(e) {
+                selected.push(*e);
+            }
+        }
+        if !selected.is_empty() {
+            state = refine(s, o, &mut state_corr, &selected, o.refine_iterations);
+            notes.push(format!("fitted without testing (forced): {}", selected.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")));
+        }
+    }
+    while !too_few {
         if steps.len() >= o.max_steps {
             notes.push(format!("stopped after {} steps (max_steps)", o.max_steps));
             break;
@@ -528,7 +651,7 @@ pub fn identify(s: &Series, o: &Options) -> Report {
             let mut max_corr: f64 = 0.0;
             let (g, b, yy, _) = system(&grams_test, &set);
             let nb = base.set.len();
-            let th_s = DVector::from_iterator(nb, base.set.iter().map(|j| base.theta[*j]));
+            let th_s = DVector::from_iterator(nb, base.set.iter().map(|j| base.theta_w[*j]));
             let rr = (yy - 2.0 * th_s.dot(&b.rows(0, nb)) + (th_s.transpose() * g.view((0, 0), (nb, nb)) * &th_s)[(0, 0)]).max(1e-300);
             for q in nb..set.len() {
                 let xr = b[q] - (g.view((q, 0), (1, nb)) * &th_s)[(0, 0)];
@@ -638,9 +761,51 @@ pub fn identify(s: &Series, o: &Options) -> Report {
         errors,
         whiteness,
         yaw_spread_deg,
+        ground_check: super::ground::ground_check(s),
         notes,
         repairs: s.repairs.clone(),
         corrections: state_corr,
         theta: state.fit.theta.clone(),
     }
+}
+
+/// The error of another flight's model on this flight: the nominal model and the nominal model
+/// with `r`'s corrections and parameters, on every usable sample of `s` (nothing is refitted).
+pub fn evaluate(s: &Series, o: &Options, r: &Report) -> Vec<AxisError> {
+    let before = build(s, &Corrections::default(), &o.design);
+    let after = build(s, &r.corrections, &o.design);
+    let mut out = Vec::new();
+    for (c, a) in active(&after) {
+        let rb = before.residual(c, a);
+        let ra = residual_of(&after, c, a, &r.theta);
+        let y = &after.measured[c][a];
+        let idx: Vec<usize> = (0..after.n).filter(|&i| after.ok[i] && before.ok[i]).collect();
+        let nt = idx.len().max(1) as f64;
+        let mean = idx.iter().map(|&i| y[i]).sum::<f64>() / nt;
+        let norm_y = idx.iter().map(|&i| (y[i] - mean).powi(2)).sum::<f64>().sqrt();
+        let nb = idx.iter().map(|&i| rb[i].powi(2)).sum::<f64>();
+        let na = idx.iter().map(|&i| ra[i].powi(2)).sum::<f64>();
+        let ch = Channel::ALL[c];
+        out.push(AxisError {
+            channel: ch,
+            axis: AXES[a],
+            unit: ch.unit().into(),
+            samples: idx.len(),
+            rmse_before: (nb / nt).sqrt(),
+            rmse_after: (na / nt).sqrt(),
+            fit_before_pct: (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - nb.sqrt() / norm_y)),
+            fit_after_pct: (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - na.sqrt() / norm_y)),
+        });
+    }
+    out
+}
+
+/// 1 − ‖after‖/‖before‖ over the axes of one channel.
+pub fn channel_cut(errors: &[AxisError], c: Channel) -> Option<f64> {
+    let (mut b, mut a) = (0.0, 0.0);
+    for e in errors.iter().filter(|e| e.channel == c) {
+        b += e.rmse_before.powi(2);
+        a += e.rmse_after.powi(2);
+    }
+    (b > 0.0).then(|| 1.0 - (a / b).sqrt())
 }

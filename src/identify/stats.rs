@@ -228,7 +228,11 @@ pub fn solve_spd(g: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
             return Some(x);
         }
     }
-    let svd = g.clone().svd(true, true);
+    if !g.iter().chain(b.iter()).all(|v| v.is_finite()) {
+        return None;
+    }
+    // bounded iterations: nalgebra's `svd` loops forever on some inputs
+    let svd = nalgebra::SVD::try_new(g.clone(), true, true, f64::EPSILON, 500)?;
     let x = svd.solve(b, 1e-12 * svd.singular_values.max()).ok()?;
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
@@ -238,7 +242,16 @@ pub fn inverse_spd(g: &DMatrix<f64>) -> DMatrix<f64> {
     if let Some(c) = g.clone().cholesky() {
         return c.inverse();
     }
-    g.clone().pseudo_inverse(1e-12).unwrap_or_else(|_| DMatrix::zeros(g.nrows(), g.ncols()))
+    let zero = || DMatrix::zeros(g.nrows(), g.ncols());
+    if !g.iter().all(|v| v.is_finite()) {
+        return zero();
+    }
+    nalgebra::SVD::try_new(g.clone(), true, true, f64::EPSILON, 500)
+        .and_then(|svd| {
+            let eps = 1e-12 * svd.singular_values.max();
+            svd.pseudo_inverse(eps).ok()
+        })
+        .unwrap_or_else(zero)
 }
 
 /// Sample autocorrelation of x at lags 1..=max_lag over the finite samples (lags across NaN
