@@ -13,6 +13,8 @@ use crate::frames::{MocapNav, Vec3};
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Phase {
+    /// Motors off on the floor (a log's rest before take-off: the accelerometer reads gravity).
+    Idle { duration_s: f64 },
     /// Climb from the floor to `altitude_m`.
     Takeoff { altitude_m: f64, duration_s: f64 },
     /// Hold the current point.
@@ -76,6 +78,7 @@ const LAND_OVERSHOOT_M: f64 = 0.1;
 impl Phase {
     pub fn name(&self) -> &'static str {
         match self {
+            Phase::Idle { .. } => "idle",
             Phase::Takeoff { .. } => "takeoff",
             Phase::Hover { .. } => "hover",
             Phase::CalibrateRollPitch { .. } => "calibrate_roll_pitch",
@@ -138,7 +141,7 @@ impl Plan {
                     (to, yaw, trapezoid_duration((to - pos).norm(), speed_m_s, accel_m_s2) + hold_s)
                 }
                 Phase::Land { duration_s } => (Vec3::new(pos.x(), pos.y(), home.z()), yaw, duration_s),
-                Phase::Hover { duration_s } => (pos, yaw, duration_s),
+                Phase::Hover { duration_s } | Phase::Idle { duration_s } => (pos, yaw, duration_s),
                 Phase::CalibrateRollPitch { settle_s, average_s } => (pos, yaw, settle_s + average_s),
                 Phase::CalibrateGyro { settle_s, period_s, turns, .. } => (pos, yaw, settle_s + period_s * turns),
             };
@@ -235,6 +238,7 @@ impl Plan {
                 let (p, v, a) = along(d, v, a, delta * (1.0 / dist));
                 (Reference { pos: p, vel: v, acc: a, ..hold(p, s.from_yaw, false) }, Window::None)
             }
+            Phase::Idle { .. } => (hold(s.from, s.from_yaw, true), Window::None),
             Phase::Hover { .. } | Phase::Takeoff { .. } | Phase::Land { .. } => (hold(s.to, s.to_yaw, false), Window::None),
         }
     }

@@ -420,6 +420,10 @@ pub struct DisturbanceCfg {
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum PhaseCfg {
+    Idle {
+        #[serde(with = "ranges::duration_s")]
+        duration_s: f64,
+    },
     Takeoff {
         #[serde(with = "ranges::altitude_m")]
         altitude_m: f64,
@@ -497,6 +501,7 @@ impl PhaseCfg {
         match *self {
             PhaseCfg::Takeoff { altitude_m, duration_s } => Phase::Takeoff { altitude_m, duration_s },
             PhaseCfg::Hover { duration_s } => Phase::Hover { duration_s },
+            PhaseCfg::Idle { duration_s } => Phase::Idle { duration_s },
             PhaseCfg::CalibrateRollPitch { settle_s, average_s } => Phase::CalibrateRollPitch { settle_s, average_s },
             PhaseCfg::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
                 Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 }

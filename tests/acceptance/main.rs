@@ -5,6 +5,7 @@ mod alloc;
 mod cli;
 mod determinism;
 mod faults;
+mod identify;
 mod log;
 mod physics;
 mod props;
@@ -26,4 +27,18 @@ pub fn root() -> PathBuf {
 /// Parses an inline scenario (tests build variants without touching scenarios/).
 pub fn inline(yaml: &str) -> Scenario {
     Scenario::parse(yaml, Path::new("inline.yaml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The shared real data (`FLYARENA_DATA`, default ../shared/data). Missing: a test fails under
+/// `CI=true` and is skipped with a printed reason elsewhere.
+pub fn shared_data() -> Option<PathBuf> {
+    let dir = std::env::var_os("FLYARENA_DATA").map(PathBuf::from).unwrap_or_else(|| root().join("../shared/data"));
+    if dir.join("nanobench").is_dir() {
+        return Some(dir);
+    }
+    if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
+        panic!("the real data is missing at {} (set FLYARENA_DATA): CI must have it", dir.display());
+    }
+    eprintln!("skipped: no real data at {} (set FLYARENA_DATA)", dir.display());
+    None
 }
