@@ -79,5 +79,34 @@ fn scenario(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, loop_200hz, fleet, scenario);
+/// A 10-minute flight at 200 Hz (120,000 rows) with rotor drag hidden: circles, straight
+/// flights there and back, and yaw turns, repeated.
+fn ten_minute_log() -> flyarena::identify::Series {
+    let mut plan = String::from("  - idle: { duration_s: 1 }\n  - takeoff: { altitude_m: 1, duration_s: 3 }\n");
+    for _ in 0..19 {
+        plan += "  - calibrate_gyro: { settle_s: 1, radius_m: 0.4, period_s: 2.5, turns: 3 }\n";
+        plan += "  - waypoint: { pos_m: [5, 0, -1], speed_m_s: 1.5, accel_m_s2: 1.5, hold_s: 1 }\n";
+        plan += "  - waypoint: { pos_m: [0, 0, -1], speed_m_s: 1.5, accel_m_s2: 1.5, hold_s: 1 }\n";
+        plan += "  - yaw_spin: { settle_s: 1, angle_deg: 360, duration_s: 8 }\n";
+    }
+    plan += "  - land: { duration_s: 3 }\n";
+    let yaml = format!(
+        "name: ten-minutes\nduration_s: 600\nmocap: {{ noise_mm: 0.1 }}\nvehicles:\n  - name: x3d\n    imu: {{ gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }}\n    undeclared: {{ rotor_drag_per_s: [0.3, 0.3] }}\nplan:\n{plan}"
+    );
+    let s = Scenario::parse(&yaml, std::path::Path::new("bench.yaml")).expect("valid");
+    flyarena::identify::flyarena_log::run_and_log(&s, 0, "ten minutes").expect("runs").1
+}
+
+/// `identify` on a 10-minute 200 Hz log (the whole method: residuals, selection, refits).
+fn identify(c: &mut Criterion) {
+    let series = ten_minute_log();
+    assert_eq!(series.len(), 120_000);
+    let mut g = c.benchmark_group("identify");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(series.len() as u64));
+    g.bench_function("ten_minutes_200hz", |b| b.iter(|| flyarena::identify::identify(&series, &flyarena::identify::Options::default())));
+    g.finish();
+}
+
+criterion_group!(benches, loop_200hz, fleet, scenario, identify);
 criterion_main!(benches);

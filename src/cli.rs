@@ -496,12 +496,14 @@ struct IdentifyArgs {
     fragment: Option<PathBuf>,
     seed: Option<u64>,
     smoothing_ms: Option<f64>,
+    rrd: Option<PathBuf>,
+    no_rrd: bool,
     quiet: bool,
 }
 
 fn parse_identify(args: &[String]) -> Result<IdentifyArgs, String> {
     let mut it = args.iter();
-    let mut a = IdentifyArgs { inputs: Vec::new(), forced: Vec::new(), scenario: None, mapping: None, vehicle: None, out: PathBuf::from("out"), json: None, fragment: None, seed: None, smoothing_ms: None, quiet: false };
+    let mut a = IdentifyArgs { inputs: Vec::new(), forced: Vec::new(), scenario: None, mapping: None, vehicle: None, out: PathBuf::from("out"), json: None, fragment: None, seed: None, smoothing_ms: None, rrd: None, no_rrd: false, quiet: false };
     while let Some(x) = it.next() {
         let mut value = |flag: &str| it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
         match x.as_str() {
@@ -519,6 +521,8 @@ fn parse_identify(args: &[String]) -> Result<IdentifyArgs, String> {
             "--out" => a.out = PathBuf::from(value("--out")?),
             "--json" => a.json = Some(PathBuf::from(value("--json")?)),
             "--fragment" => a.fragment = Some(PathBuf::from(value("--fragment")?)),
+            "--rrd" => a.rrd = Some(PathBuf::from(value("--rrd")?)),
+            "--no-rrd" => a.no_rrd = true,
             "--smoothing-ms" => {
                 let v = value("--smoothing-ms")?;
                 a.smoothing_ms = Some(v.parse().ok().filter(|x: &f64| (2.0..=500.0).contains(x)).ok_or_else(|| format!("--smoothing-ms takes a number of milliseconds from 2 to 500, not `{v}`"))?);
@@ -592,9 +596,27 @@ fn cmd_identify(args: &[String]) -> i32 {
             if let Err(code) = write_output(&frag_path, done.fragment.as_bytes()) {
                 return code;
             }
+            let rrd_path = (cfg!(feature = "record") && !a.no_rrd).then(|| a.rrd.clone().unwrap_or_else(|| a.out.join(format!("{stem}.identify.rrd"))));
+            #[cfg(feature = "record")]
+            if let Some(path) = &rrd_path {
+                match crate::record::encode_identify(&stem, &done.report, &done.residuals) {
+                    Ok(bytes) => {
+                        if let Err(code) = write_output(path, &bytes) {
+                            return code;
+                        }
+                    }
+                    Err(e) => {
+                        eprintln!("error: cannot record the residuals: {e}");
+                        return BAD_INPUT;
+                    }
+                }
+            }
             if !a.quiet {
                 print!("{}", done.text);
                 println!("\nreport: {}\nscenario fragment: {} (`flyarena run SCENARIO --effects {}`)", json_path.display(), frag_path.display(), frag_path.display());
+                if let Some(p) = &rrd_path {
+                    println!("residuals: {} (open with `rerun {}`)", p.display(), p.display());
+                }
             }
             match &done.requirements {
                 Some(req) => {

@@ -146,7 +146,9 @@ pub fn encode(main: &RunOutput, uncompensated: Option<&RunOutput>, report: &Repo
         .memory()
         .map_err(err)?;
     rec.set_log_time_enabled(false);
-    send_blueprint(&rec, &main.vehicles.iter().map(|v| v.name.as_str()).collect::<Vec<_>>(), main.duration)?;
+    let mut plot_paths = Vec::new();
+    let bp = blueprint(&main.vehicles.iter().map(|v| v.name.as_str()).collect::<Vec<_>>(), &mut plot_paths);
+    send_blueprint(&rec, bp, &plot_paths, main.duration)?;
     rec.send_recording_name(format!("{} (seed {})", main.scenario, main.seed)).map_err(err)?;
     let r = Rec { rec: &rec };
     rec.log_static("world", &rerun::ViewCoordinates::FRD()).map_err(err)?;
@@ -174,11 +176,9 @@ pub fn encode(main: &RunOutput, uncompensated: Option<&RunOutput>, report: &Repo
 /// the viewer's default shows ±30 s around the time cursor; so the blueprint is rendered into
 /// messages here, and each plot gets a `TimeAxis` property (the whole run) in the same
 /// blueprint store, before the activation command.
-fn send_blueprint(rec: &rerun::RecordingStream, vehicles: &[&str], end: Nanos) -> Result<(), RecordError> {
+fn send_blueprint(rec: &rerun::RecordingStream, bp: Blueprint, plot_paths: &[String], end: Nanos) -> Result<(), RecordError> {
     use rerun::blueprint::components::TimeRange;
     use rerun::external::re_log_types::LogMsg;
-    let mut plot_paths = Vec::new();
-    let bp = blueprint(vehicles, &mut plot_paths);
     let (tmp, tmp_storage) = rerun::RecordingStreamBuilder::new("flyarena").memory().map_err(err)?;
     bp.send(&tmp, rerun::blueprint::BlueprintActivation::default()).map_err(err)?;
     tmp.flush_blocking().map_err(err)?;
@@ -190,7 +190,7 @@ fn send_blueprint(rec: &rerun::RecordingStream, vehicles: &[&str], end: Nanos) -
     extra.set_time_sequence("blueprint", 0);
     use rerun::datatypes::TimeRangeBoundary::Absolute;
     let whole = TimeRange(rerun::datatypes::TimeRange { start: Absolute(0.into()), end: Absolute(end.0.into()) });
-    for path in &plot_paths {
+    for path in plot_paths {
         let axis = rerun::external::re_sdk_types::blueprint::archetypes::TimeAxis::new().with_view_range(whole.clone());
         extra.log(format!("{path}/TimeAxis"), &axis).map_err(err)?;
     }
@@ -452,4 +452,67 @@ pub fn decode(bytes: &[u8]) -> Result<Decoded, RecordError> {
         }
     }
     Ok(out)
+}
+
+/// Encodes the residuals of an identification into `.rrd` bytes: per channel axis the residual
+/// of the nominal model and of the model with the effects found, on the timeline `sim_time`
+/// (seconds from the log's first sample, also for a real flight's log), and the steps and
+/// effects as text events.
+///
+/// | entity | what |
+/// |---|---|
+/// | `identify/<channel>/<axis>/nominal`, `…/with_effects` | residual (m/s² or rad/s) |
+/// | `events` | one line per step and per effect found |
+pub fn encode_identify(name: &str, report: &crate::identify::Report, residuals: &[crate::identify::select::ResidualSeries]) -> Result<Vec<u8>, RecordError> {
+    use rerun::blueprint::{BlueprintPanel, ContainerLike, SelectionPanel, TimePanel};
+    let (rec, storage) = rerun::RecordingStreamBuilder::new("flyarena").recording_id(format!("flyarena/identify/{name}")).send_properties(false).memory().map_err(err)?;
+    rec.set_log_time_enabled(false);
+    let end = residuals.iter().filter_map(|r| r.t_s.last()).fold(0.0f64, |a, b| a.max(*b));
+    let mut plot_paths = Vec::new();
+    let mut views: Vec<ContainerLike> = Vec::new();
+    for ch in crate::identify::Channel::ALL {
+        if residuals.iter().any(|r| r.channel == ch) {
+            let view = ContainerLike::from(
+                TimeSeriesView::new(format!("{} residual ({}): nominal · with the effects", ch.name(), ch.unit())).with_origin(format!("/identify/{}", ch.name())),
+            );
+            if let ContainerLike::View(v) = &view {
+                plot_paths.push(v.blueprint_path().to_string());
+            }
+            views.push(view);
+        }
+    }
+    let bp = Blueprint::new(Horizontal::new([Vertical::new(views).into(), TextLogView::new("steps and effects").with_origin("/events").into()]).with_column_shares([0.72, 0.28]))
+        .with_time_panel(TimePanel::new().with_timeline("sim_time"))
+        .with_blueprint_panel(BlueprintPanel::new().with_state(rerun::blueprint::components::PanelState::Collapsed))
+        .with_selection_panel(SelectionPanel::new().with_state(rerun::blueprint::components::PanelState::Collapsed));
+    send_blueprint(&rec, bp, &plot_paths, Nanos::from_secs_f64(end))?;
+    rec.send_recording_name(format!("identify: {name}")).map_err(err)?;
+    let r = Rec { rec: &rec };
+    let axis_color = |a: char| match a {
+        'x' => [230, 80, 80],
+        'y' => [80, 190, 90],
+        _ => [80, 130, 240],
+    };
+    let faded = |c: [u8; 3]| c.map(|x| (x as u16 * 2 / 5 + 150) as u8);
+    for rs in residuals {
+        let cols = Columns::of(rs.t_s.iter().map(|t| Nanos::from_secs_f64(*t)));
+        let base = format!("identify/{}/{}", rs.channel.name(), rs.axis);
+        r.series(&format!("{base}/nominal"), &format!("{} nominal", rs.axis), faded(axis_color(rs.axis)), &cols, rs.before.clone())?;
+        r.series(&format!("{base}/with_effects"), &format!("{} with effects", rs.axis), axis_color(rs.axis), &cols, rs.after.clone())?;
+    }
+    let at = Nanos::from_secs_f64(end);
+    for (k, st) in report.steps.iter().enumerate() {
+        r.event(at, "INFO", format!("step {}: + {} (ΔBIC {:.0}, p {:.1e}, held-out −{:.1} %)", k + 1, st.added.name(), st.delta_bic, st.p_value, 100.0 * st.heldout_gain))?;
+    }
+    for f in &report.effects {
+        let ps: Vec<String> = f.params.iter().map(|p| format!("{} {:.4} ± {:.4} {}", p.name, p.value, p.ci95, p.unit)).collect();
+        r.event(at, "INFO", format!("{}: {}", f.name, ps.join(", ")))?;
+    }
+    if report.effects.is_empty() {
+        r.event(at, "INFO", "no effect passes the tests".into())?;
+    }
+    rec.flush_blocking().map_err(err)?;
+    let bytes = storage.drain_as_bytes().map_err(err)?;
+    drop(rec);
+    Ok(bytes)
 }

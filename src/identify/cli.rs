@@ -14,6 +14,8 @@ pub struct Done {
     pub json: Value,
     pub fragment: String,
     pub closed_loop: Option<(TrajectoryError, TrajectoryError)>,
+    /// Residuals before and after, for the recording.
+    pub residuals: Vec<super::select::ResidualSeries>,
 }
 
 fn vehicle_index(s: &Scenario, name: Option<&str>) -> Result<usize, String> {
@@ -41,7 +43,8 @@ pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicl
         let text = report::render(&report);
         let fragment = fragment(&report, 0, 100);
         let json = json!({ "report": report, "closed_loop": null });
-        return Ok(Done { report, requirements: None, text, json, fragment, closed_loop: None });
+        let residuals = super::select::residual_series(&series, &opts, &report);
+        return Ok(Done { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
     }
     let scen_path = scenario.unwrap_or(input);
     let src = std::fs::read_to_string(scen_path).map_err(|e| format!("{}: {e}", scen_path.display()))?;
@@ -75,7 +78,8 @@ pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicl
     );
     let requirements = s.requirements.identify.as_ref().map(|req| super::check::check(&report, req, &s.vehicles.value[i].value.name));
     let json = json!({ "report": report, "closed_loop": { "nominal": before, "with_effects": after }, "requirements": requirements });
-    Ok(Done { report, requirements, text, json, fragment: frag, closed_loop: Some((before, after)) })
+    let residuals = super::select::residual_series(&data, &opts, &report);
+    Ok(Done { report, requirements, text, json, fragment: frag, closed_loop: Some((before, after)), residuals })
 }
 
 /// Several logs through one mapping: each identified, then every flight's model evaluated on

@@ -169,6 +169,9 @@ pub fn column_offsets() -> [usize; Effect::ALL.len() + 1] {
 }
 pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1;
 
+/// One regressor column: its index in the full design and its samples.
+pub type Column = (usize, Vec<f64>);
+
 /// The built problem at one set of corrections: per channel and axis the measured signal, the
 /// nominal prediction, and every candidate column; `ok` marks usable samples.
 pub struct Design {
@@ -180,7 +183,7 @@ pub struct Design {
     pub measured: [[Vec<f64>; 3]; 3],
     pub predicted: [[Vec<f64>; 3]; 3],
     /// [channel][axis] → (column, samples) for the columns that touch it
-    pub columns: [[Vec<(usize, Vec<f64>)>; 3]; 3],
+    pub columns: [[Vec<Column>; 3]; 3],
     pub has_force: bool,
     pub has_vbat: bool,
     /// Circular standard deviation of the yaw over the usable samples (rad).
@@ -389,7 +392,7 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
     let empty3 = || [Vec::new(), Vec::new(), Vec::new()];
     let mut measured = [empty3(), empty3(), empty3()];
     let mut predicted = [empty3(), empty3(), empty3()];
-    let mut columns: [[Vec<(usize, Vec<f64>)>; 3]; 3] = Default::default();
+    let mut columns: [[Vec<Column>; 3]; 3] = Default::default();
     let unit = |j: usize| Vector3::from_fn(|r, _| if r == j { 1.0 } else { 0.0 });
     for a in 0..3 {
         // accel_kin

@@ -604,7 +604,10 @@ pub fn identify(s: &Series, o: &Options) -> Report {
             notes.push(format!("fitted without testing (forced): {}", selected.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")));
         }
     }
-    while !too_few {
+    loop {
+        if too_few {
+            break;
+        }
         if steps.len() >= o.max_steps {
             notes.push(format!("stopped after {} steps (max_steps)", o.max_steps));
             break;
@@ -808,4 +811,36 @@ pub fn channel_cut(errors: &[AxisError], c: Channel) -> Option<f64> {
         a += e.rmse_after.powi(2);
     }
     (b > 0.0).then(|| 1.0 - (a / b).sqrt())
+}
+
+/// The residual of one channel axis over the usable (decimated) samples, before (nominal, no
+/// corrections) and after (the report's effects), for plotting.
+pub struct ResidualSeries {
+    pub channel: Channel,
+    pub axis: char,
+    /// Seconds from the first sample of the log.
+    pub t_s: Vec<f64>,
+    pub before: Vec<f64>,
+    pub after: Vec<f64>,
+}
+
+pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSeries> {
+    let before = build(s, &Corrections::default(), &o.design);
+    let after = build(s, &r.corrections, &o.design);
+    let t0 = s.t_s.first().copied().unwrap_or(0.0);
+    active(&after)
+        .into_iter()
+        .map(|(c, a)| {
+            let rb = before.residual(c, a);
+            let ra = residual_of(&after, c, a, &r.theta);
+            let idx: Vec<usize> = (0..after.n).filter(|&i| after.ok[i] && before.ok[i]).collect();
+            ResidualSeries {
+                channel: Channel::ALL[c],
+                axis: AXES[a],
+                t_s: idx.iter().map(|&i| after.t[i] - t0).collect(),
+                before: idx.iter().map(|&i| rb[i]).collect(),
+                after: idx.iter().map(|&i| ra[i]).collect(),
+            }
+        })
+        .collect()
 }

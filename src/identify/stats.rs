@@ -167,25 +167,30 @@ impl Ar {
             let var = rows.iter().map(|&k| e[k] * e[k]).sum::<f64>() / n.max(1.0);
             return Ar::white(var.sqrt().max(f64::MIN_POSITIVE));
         }
+        // the normal equations of every order are leading blocks of the largest one's
+        let pm = max_order;
+        let mut g_all = DMatrix::<f64>::zeros(pm, pm);
+        let mut b_all = DVector::<f64>::zeros(pm);
+        let mut yy = 0.0;
+        for &k in &rows {
+            yy += e[k] * e[k];
+            for i in 0..pm {
+                let xi = e[k - 1 - i];
+                b_all[i] += xi * e[k];
+                for j in 0..=i {
+                    g_all[(i, j)] += xi * e[k - 1 - j];
+                }
+            }
+        }
+        for i in 0..pm {
+            for j in 0..i {
+                g_all[(j, i)] = g_all[(i, j)];
+            }
+        }
         let mut best: Option<(f64, Ar)> = None;
         for p in 0..=max_order {
-            let mut g = DMatrix::<f64>::zeros(p, p);
-            let mut b = DVector::<f64>::zeros(p);
-            let mut yy = 0.0;
-            for &k in &rows {
-                yy += e[k] * e[k];
-                for i in 0..p {
-                    b[i] += e[k - 1 - i] * e[k];
-                    for j in 0..=i {
-                        g[(i, j)] += e[k - 1 - i] * e[k - 1 - j];
-                    }
-                }
-            }
-            for i in 0..p {
-                for j in 0..i {
-                    g[(j, i)] = g[(i, j)];
-                }
-            }
+            let g = g_all.view((0, 0), (p, p)).into_owned();
+            let b = b_all.rows(0, p).into_owned();
             let a = if p == 0 { DVector::zeros(0) } else { solve_spd(&g, &b).unwrap_or_else(|| DVector::zeros(p)) };
             let rss = (yy - a.dot(&b)).max(yy * 1e-15).max(f64::MIN_POSITIVE);
             let bic = n * (rss / n).ln() + p as f64 * n.ln();

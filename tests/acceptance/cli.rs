@@ -112,3 +112,37 @@ fn usage_errors_exit_2() {
     assert_eq!(flyarena(&["run", "x.yaml", "--seed", "minus"], &d).0, 2);
     assert_eq!(flyarena(&["--help"], &d).0, 0);
 }
+
+#[test]
+fn identify_exit_codes_outputs_and_the_fragment_round_trip() {
+    let d = tmp("identify");
+    let scen = super::root().join("scenarios/identify-wind.yaml");
+    let (code, out, err) = flyarena(&["identify", scen.to_str().unwrap(), "--out", "o"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("constant force") && out.contains("closed loop") && out.contains("R5") && out.contains("PASS"), "{out}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("o/identify-wind.identify.json")).unwrap()).unwrap();
+    assert_eq!(json["report"]["effects"][0]["effect"], "constant_force");
+    let frag = std::fs::read_to_string(d.join("o/identify-wind.effects.yaml")).unwrap();
+    assert!(frag.contains("vehicles[0].disturbance.force_n"), "{frag}");
+    // the fragment is accepted by run and puts the wind into the nominal scenario
+    let none = super::root().join("scenarios/identify-none.yaml");
+    let (code, out, err) = flyarena(&["run", none.to_str().unwrap(), "--effects", "o/identify-wind.effects.yaml", "--no-rrd", "--json", "w.json"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    // a wrong expectation fails R5: exit 1
+    let src = std::fs::read_to_string(&scen).unwrap().replace("values: [0.4, -0.2, 0.0]", "values: [0.5, -0.2, 0.0]");
+    std::fs::write(d.join("wrong.yaml"), src).unwrap();
+    let (code, out, _) = flyarena(&["identify", "wrong.yaml", "--out", "o", "-q"], &d);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("FAIL"), "{out}");
+    // bad input: exit 2 with the reason
+    let (code, _, err) = flyarena(&["identify", "log.csv"], &d);
+    assert_eq!(code, 2);
+    assert!(err.contains("--scenario") && err.contains("--mapping"), "{err}");
+    std::fs::write(d.join("frag.yaml"), "effects:\n  vehicles[0].undeclared.thrust_scale: 3.0\n").unwrap();
+    let (code, _, err) = flyarena(&["run", none.to_str().unwrap(), "--effects", "frag.yaml", "--no-rrd"], &d);
+    assert_eq!(code, 2);
+    assert!(err.contains("thrust_scale") && err.contains("1.5"), "{err}");
+    let (code, _, err) = flyarena(&["identify", "a.csv", "--mapping", "m.yaml", "--with", "magic"], &d);
+    assert_eq!(code, 2);
+    assert!(err.contains("`magic`") && err.contains("body_offset"), "{err}");
+}

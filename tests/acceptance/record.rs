@@ -86,3 +86,25 @@ fn decimation_is_applied() {
     assert_eq!(n(1), frames);
     assert_eq!(n(10), frames.div_ceil(10));
 }
+
+/// The identify recording holds the residuals of the report, bit for bit, before and after.
+#[test]
+fn identify_recording_holds_the_residuals() {
+    use flyarena::identify::{Options, identify, select::residual_series};
+    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/identify-rotor-drag.yaml")).unwrap();
+    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "drag").unwrap();
+    let opts = Options::default();
+    let r = identify(&series, &opts);
+    let res = residual_series(&series, &opts, &r);
+    let rec = decode(&flyarena::record::encode_identify("drag", &r, &res).unwrap()).unwrap();
+    assert_eq!(rec.recording_id.as_deref(), Some("flyarena/identify/drag"));
+    let fx = res.iter().find(|x| x.channel == flyarena::identify::Channel::Force && x.axis == 'x').unwrap();
+    for (which, values) in [("nominal", &fx.before), ("with_effects", &fx.after)] {
+        let got = rec.scalars(&format!("/identify/force/x/{which}"));
+        assert_eq!(got.len(), values.len(), "{which}");
+        assert!(got.iter().zip(values.iter()).all(|(g, v)| g.1.to_bits() == v.to_bits()), "{which}");
+    }
+    // the drag is visible in the nominal force x residual and gone with the effect
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+    assert!(rms(&fx.after) < 0.2 * rms(&fx.before), "{} vs {}", rms(&fx.after), rms(&fx.before));
+}
