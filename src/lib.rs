@@ -9,7 +9,9 @@
 //!   vehicle (X3D rigid body, rotors, IMU) ─► mocap (markers, Kabsch fit, 200 Hz) ─► link (UDP)
 //!   ─► engine::Station: estimate ─► guidance ─► calibrate ─► control (1)–(5) ─► radio (PPM 0..255)
 //!   ─► vehicle's onboard rate loop;  vehicle::telemetry (gyro, XBee) ─► calibrate::gyro
-//! requirements (R1–R4) · record (Rerun .rrd) · sweep (Monte Carlo, shards) · cli
+//! requirements (R1–R5) · record (Rerun .rrd) · sweep (Monte Carlo, shards) · log (flight CSV)
+//! identify: flight log ─► residuals of the declared model ─► the effect it lacks ─► fragment ─► run
+//! cli
 //! ```
 //!
 //! ## Frames first

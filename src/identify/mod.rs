@@ -11,6 +11,29 @@
 //!
 //! The same code runs on flyarena's own runs (where the truth is known and the tests check that
 //! the hidden effect is found) and on real flights (NanoBench, in the README).
+//!
+//! ```
+//! use flyarena::identify::{Effect, Options, flyarena_log::run_and_log, identify};
+//! use flyarena::scenario::Scenario;
+//! // the truth has rotor drag; the declared model (the x3d preset) has none
+//! let yaml = "
+//! name: doc
+//! vehicles:
+//!   - { name: x3d, imu: { accel_noise_m_s2: 0.05 }, undeclared: { rotor_drag_per_s: [0.3, 0.3] } }
+//! plan:
+//!   - takeoff: { altitude_m: 1, duration_s: 3 }
+//!   - waypoint: { pos_m: [4, 0, -1], speed_m_s: 1.5, accel_m_s2: 1.5, hold_s: 1 }
+//!   - waypoint: { pos_m: [0, 3, -1], speed_m_s: 1.5, accel_m_s2: 1.5, hold_s: 1 }
+//!   - waypoint: { pos_m: [0, 0, -1], speed_m_s: 1.5, accel_m_s2: 1.5, hold_s: 1 }
+//!   - land: { duration_s: 3 }
+//! ";
+//! let s = Scenario::parse(yaml, std::path::Path::new("doc.yaml")).unwrap();
+//! let (_, flight) = run_and_log(&s, 0, "doc").unwrap();   // the flight log, as CSV and back
+//! let report = identify(&flight, &Options::default());
+//! assert_eq!(report.effects[0].effect, Effect::RotorDrag);
+//! let k_x = report.param(Effect::RotorDrag, "k_x").unwrap();
+//! assert!((k_x - 0.3).abs() < 0.02, "{k_x}");
+//! ```
 
 pub mod check;
 pub mod cli;
