@@ -101,7 +101,7 @@ mod parser_fuzz {
     }
 
     #[derive(Debug, Clone)]
-    enum Edit {
+    pub(super) enum Edit {
         Delete(usize, usize),
         Insert(usize, String),
         Replace(usize, char),
@@ -109,7 +109,7 @@ mod parser_fuzz {
         Truncate(usize),
     }
 
-    fn edit() -> impl Strategy<Value = Edit> {
+    pub(super) fn edit() -> impl Strategy<Value = Edit> {
         let special = prop::sample::select(vec!["{", "}", "[", "]", ":", "- ", "\n", "\t", "#", "&a", "*a", "!!str", "'", "\"", "é", "\u{0}", "1e999", "-", ".nan", "~", "<<: *a", "?"]);
         prop_oneof![
             (any::<usize>(), 1usize..20).prop_map(|(a, n)| Edit::Delete(a, n)),
@@ -120,7 +120,7 @@ mod parser_fuzz {
         ]
     }
 
-    fn apply(src: &str, e: &Edit) -> String {
+    pub(super) fn apply(src: &str, e: &Edit) -> String {
         let chars: Vec<char> = src.chars().collect();
         let at = |a: usize| if chars.is_empty() { 0 } else { a % chars.len() };
         match e {
@@ -175,6 +175,72 @@ mod parser_fuzz {
                     prop_assert!(msg.starts_with("fuzz.yaml"), "{msg}");
                     prop_assert!(msg.len() > 15);
                 }
+            }
+        }
+    }
+}
+
+/// Other tools' logs and mappings, edited at random: the mapping parser and the mapped log
+/// reader return a located error or data, never panic; whatever they accept, `identify` digests
+/// without panicking and without NaN in its errors.
+mod mapping_fuzz {
+    use super::parser_fuzz::{apply, edit};
+    use flyarena::identify::mapping::Mapping;
+    use flyarena::identify::{Options, identify};
+    use proptest::prelude::*;
+    use std::path::Path;
+
+    fn log() -> String {
+        let mut s = String::from("t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az,m1,m2,m3,m4,vbat\n");
+        for k in 0..400 {
+            let t = k as f64 * 0.01;
+            let (c, sn) = ((t * 2.0).cos(), (t * 2.0).sin());
+            let z = if k < 50 { 0.02 } else { 0.02 + (t - 0.5).min(1.0) };
+            let m = if k < 50 { 0 } else { 47000 };
+            s += &format!("{t},{},{},{z},0.01,-0.02,{},{},0.1,-0.1,0.05,0.01,0.02,1.0,{m},{m},{m},{m},3.9\n", 0.3 * c, 0.3 * sn, (t * 0.1).sin(), (t * 0.1).cos());
+        }
+        s
+    }
+
+    fn mapping_src() -> String {
+        std::fs::read_to_string(super::super::root().join("mappings/nanobench.yaml"))
+            .unwrap()
+            .replace("imu_gyro_", "g")
+            .replace("imu_acc_", "a")
+            .replace("motor_motor_", "")
+            .replace("pwr_pm_vbat", "vbat")
+    }
+
+    /// The unedited corpus is read and identified (so that the fuzzing starts from valid input).
+    #[test]
+    fn corpus_is_valid() {
+        let map = Mapping::parse(&mapping_src(), Path::new("m.yaml")).unwrap();
+        let s = map.read_str(&log(), "corpus.csv").unwrap();
+        assert_eq!(s.len(), 400);
+        assert!(s.thrust_n.as_ref().unwrap()[100] > 0.0);
+        let r = identify(&s, &Options::default());
+        assert!(!r.errors.is_empty());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(150))]
+        #[test]
+        fn mapped_reader_and_identify_never_panic(edits in prop::collection::vec(edit(), 0..4), map_edits in prop::collection::vec(edit(), 0..2)) {
+            let mut m = mapping_src();
+            for e in &map_edits {
+                m = apply(&m, e);
+            }
+            let Ok(map) = Mapping::parse(&m, Path::new("m.yaml")) else { return Ok(()) };
+            let mut text = log();
+            for e in &edits {
+                text = apply(&text, e);
+            }
+            match map.read_str(&text, "fuzz.csv") {
+                Ok(series) => {
+                    let r = identify(&series, &Options::default());
+                    prop_assert!(r.errors.iter().all(|e| !e.rmse_before.is_nan() && !e.rmse_after.is_nan()));
+                }
+                Err(e) => prop_assert!(e.starts_with("fuzz.csv") || e.starts_with("time") || e.starts_with("gyro") || e.starts_with("accel") || e.starts_with("position"), "{e}"),
             }
         }
     }
