@@ -324,11 +324,19 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
             ok[i] = (i - reach..=i + reach).all(|k| pose_ok[k]);
         }
     }
-    // ground: the floor height is the lowest point (largest NED z) of the first half second
-    let first = segs.first().map_or(0, |s| s.0);
-    let settle = ((0.5 / dt) as usize).max(1);
-    let floor_z = pos_nav[first..(first + settle).min(n)].iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
-    let height: Vec<f64> = pos_nav.iter().map(|p| floor_z - p.z).collect();
+    // the floor: the lowest point (largest NED z) while the motors are off; without a thrust
+    // column, the lowest point of the first half second (a log is taken to start at rest). A
+    // log that starts in the air with the motors on has no floor: nothing is masked for height
+    // and the ground-effect regressor is zero.
+    let floor_z = match &s.thrust_n {
+        Some(t) => (0..n).filter(|&i| t[i] == 0.0).map(|i| pos_nav[i].z).reduce(f64::max),
+        None => {
+            let first = segs.first().map_or(0, |s| s.0);
+            let settle = ((0.5 / dt) as usize).max(1);
+            pos_nav[first..(first + settle).min(n)].iter().map(|p| p.z).reduce(f64::max)
+        }
+    };
+    let height: Vec<f64> = pos_nav.iter().map(|p| floor_z.map_or(f64::INFINITY, |f| f - p.z)).collect();
     for i in 0..n {
         if height[i] < opt.min_height_m {
             ok[i] = false;

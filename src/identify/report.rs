@@ -21,7 +21,7 @@ pub fn render(r: &Report) -> String {
     let _ = writeln!(s, "identify: {}", r.source);
     let _ = writeln!(
         s,
-        "  {} samples ({} training, {} held out in every {}th {} s block); nominal model: {}, m = {} kg",
+        "  {} samples; after smoothing and decimation {} for training and {} held out (the last of every {} blocks of {} s); nominal model: {}, m = {} kg",
         r.samples, r.train_samples, r.heldout_samples, r.options.holdout_every, r.options.block_s, r.model.vehicle, r.model.mass_kg
     );
     for rep in &r.repairs {

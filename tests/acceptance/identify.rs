@@ -230,3 +230,19 @@ fn nanobench_flights() {
     assert_eq!(usable, 9);
     assert!(agree >= 7, "in-flight body offset and ground tilt agree within 0.7° on {agree} of 9 flights");
 }
+
+/// Regression: a log cut to start in the air had its floor at the first pose, so every sample
+/// near the flight altitude counted as "on the ground" and was dropped. A log that never rests
+/// has no floor now, and the effect is still found.
+#[test]
+fn a_log_that_starts_in_the_air_is_identified() {
+    let s = Scenario::load(&scenario("rotor-drag")).unwrap();
+    let (_, series) = run_and_log(&s, 0, "drag").unwrap();
+    let start = series.t_s.iter().position(|t| *t > 8.0).unwrap();
+    let end = series.t_s.iter().position(|t| *t > 36.0).unwrap();
+    let airborne = series.slice(start, end);
+    assert!(airborne.thrust_n.as_ref().unwrap().iter().all(|t| *t > 0.0));
+    let r = identify(&airborne, &Options::default());
+    assert_eq!(r.effects.first().map(|e| e.effect), Some(Effect::RotorDrag), "{}", flyarena::identify::report::render(&r));
+    assert!(r.train_samples > 800, "{}", r.train_samples);
+}
