@@ -12,7 +12,7 @@ secs=${1:-300}
 data=${FLYARENA_DATA:-../../shared/data}
 mkdir -p corpus/scenario_parser corpus/log_reader corpus/mapped_log
 cp ../scenarios/*.yaml corpus/scenario_parser/
-( cd .. && cargo run --release --quiet -- run scenarios/fig7-no-offsets.yaml --no-rrd --quiet --out /tmp/flyarena-fuzz --log /tmp/flyarena-fuzz/log.csv >/dev/null || true )
+( cd .. && CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/flyarena-target}" cargo run --release --quiet -- run scenarios/fig7-no-offsets.yaml --no-rrd --quiet --out /tmp/flyarena-fuzz --log /tmp/flyarena-fuzz/log.csv >/dev/null || true )
 head -c 60000 /tmp/flyarena-fuzz/log.csv > corpus/log_reader/fig7.csv
 if [ -d "$data/nanobench/dataset" ]; then
   head -n 400 "$data/nanobench/dataset/B3_figure8_medium_rep2.csv" > corpus/mapped_log/b3-head.csv

@@ -170,17 +170,6 @@ impl Report {
     pub fn param(&self, e: Effect, name: &str) -> Option<f64> {
         self.effect(e)?.params.iter().find(|p| p.name == name).map(|p| p.value)
     }
-    /// Held-out error on all channels after/before (weighted as in the selection).
-    pub fn heldout_ratio(&self, channels: &[Channel]) -> f64 {
-        let (mut a, mut b) = (0.0, 0.0);
-        for e in self.errors.iter().filter(|e| channels.contains(&e.channel)) {
-            if e.rmse_before > 0.0 {
-                a += (e.rmse_after / e.rmse_before).powi(2);
-                b += 1.0;
-            }
-        }
-        if b > 0.0 { (a / b).sqrt() } else { 1.0 }
-    }
 }
 
 const AXES: [char; 3] = ['x', 'y', 'z'];
@@ -724,24 +713,9 @@ pub fn identify(s: &Series, o: &Options) -> Report {
     for (c, a) in active(d) {
         let before = nominal_design.residual(c, a);
         let after = residual_of(d, c, a, &state.fit.theta);
-        let y = &d.measured[c][a];
         let idx: Vec<usize> = (0..d.n).filter(|&i| state.test[i] && nominal_design.ok[i]).collect();
-        let nt = idx.len().max(1) as f64;
-        let mean = idx.iter().map(|&i| y[i]).sum::<f64>() / nt;
-        let norm_y = idx.iter().map(|&i| (y[i] - mean).powi(2)).sum::<f64>().sqrt();
-        let norm_b = idx.iter().map(|&i| before[i].powi(2)).sum::<f64>();
-        let norm_a = idx.iter().map(|&i| after[i].powi(2)).sum::<f64>();
         let ch = Channel::ALL[c];
-        errors.push(AxisError {
-            channel: ch,
-            axis: AXES[a],
-            unit: ch.unit().into(),
-            samples: idx.len(),
-            rmse_before: (norm_b / nt).sqrt(),
-            rmse_after: (norm_a / nt).sqrt(),
-            fit_before_pct: (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - norm_b.sqrt() / norm_y)),
-            fit_after_pct: (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - norm_a.sqrt() / norm_y)),
-        });
+        errors.push(axis_error(ch, a, &d.measured[c][a], &before, &after, &idx));
         // whiteness of the final residual on the usable samples
         let ok: Vec<bool> = d.ok.clone();
         let raw: Vec<f64> = (0..d.n).map(|i| if ok[i] { after[i] } else { f64::NAN }).collect();
@@ -778,6 +752,27 @@ pub fn identify(s: &Series, o: &Options) -> Report {
     }
 }
 
+/// RMSE and NRMSE fit of the residuals `before` and `after` over the samples `idx` of the
+/// measured signal `y`.
+fn axis_error(ch: Channel, a: usize, y: &[f64], before: &[f64], after: &[f64], idx: &[usize]) -> AxisError {
+    let nt = idx.len().max(1) as f64;
+    let mean = idx.iter().map(|&i| y[i]).sum::<f64>() / nt;
+    let norm_y = idx.iter().map(|&i| (y[i] - mean).powi(2)).sum::<f64>().sqrt();
+    let norm_b = idx.iter().map(|&i| before[i].powi(2)).sum::<f64>();
+    let norm_a = idx.iter().map(|&i| after[i].powi(2)).sum::<f64>();
+    let fit = |norm: f64| (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - norm.sqrt() / norm_y));
+    AxisError {
+        channel: ch,
+        axis: AXES[a],
+        unit: ch.unit().into(),
+        samples: idx.len(),
+        rmse_before: (norm_b / nt).sqrt(),
+        rmse_after: (norm_a / nt).sqrt(),
+        fit_before_pct: fit(norm_b),
+        fit_after_pct: fit(norm_a),
+    }
+}
+
 /// The error of another flight's model on this flight: the nominal model and the nominal model
 /// with `r`'s corrections and parameters, on every usable sample of `s` (nothing is refitted).
 pub fn evaluate(s: &Series, o: &Options, r: &Report) -> Vec<AxisError> {
@@ -787,24 +782,8 @@ pub fn evaluate(s: &Series, o: &Options, r: &Report) -> Vec<AxisError> {
     for (c, a) in active(&after) {
         let rb = before.residual(c, a);
         let ra = residual_of(&after, c, a, &r.theta);
-        let y = &after.measured[c][a];
         let idx: Vec<usize> = (0..after.n).filter(|&i| after.ok[i] && before.ok[i]).collect();
-        let nt = idx.len().max(1) as f64;
-        let mean = idx.iter().map(|&i| y[i]).sum::<f64>() / nt;
-        let norm_y = idx.iter().map(|&i| (y[i] - mean).powi(2)).sum::<f64>().sqrt();
-        let nb = idx.iter().map(|&i| rb[i].powi(2)).sum::<f64>();
-        let na = idx.iter().map(|&i| ra[i].powi(2)).sum::<f64>();
-        let ch = Channel::ALL[c];
-        out.push(AxisError {
-            channel: ch,
-            axis: AXES[a],
-            unit: ch.unit().into(),
-            samples: idx.len(),
-            rmse_before: (nb / nt).sqrt(),
-            rmse_after: (na / nt).sqrt(),
-            fit_before_pct: (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - nb.sqrt() / norm_y)),
-            fit_after_pct: (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - na.sqrt() / norm_y)),
-        });
+        out.push(axis_error(Channel::ALL[c], a, &after.measured[c][a], &rb, &ra, &idx));
     }
     out
 }
