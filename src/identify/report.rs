@@ -52,7 +52,7 @@ pub fn render(r: &Report) -> String {
         let _ = writeln!(s, "          other candidates (ΔBIC, ✗ = fails a test): {}", runners.join(", "));
     }
     if !r.effects.is_empty() {
-        let _ = writeln!(s, "\n  effects found (95 % intervals, prewhitened):");
+        let _ = writeln!(s, "\n  effects found (least squares, 95 % Newey–West intervals):");
         for f in &r.effects {
             let ps: Vec<String> = f.params.iter().map(|p| format!("{} {} ± {} {}", p.name, sig(p.value), sig(p.ci95), p.unit).trim_end().to_string()).collect();
             let _ = writeln!(s, "    {:<34} {}", f.name, ps.join(", "));

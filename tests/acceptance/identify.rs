@@ -16,8 +16,15 @@ fn scenario(name: &str) -> PathBuf {
 /// closed loop), and feeding the effects back brings the simulation onto the data.
 #[test]
 fn every_identify_scenario_finds_its_hidden_effect() {
+    let round = |x: f64, k: i32| ((x * 10f64.powi(k)).round() / 10f64.powi(k)) + 0.0;
+    let mut summary = Vec::new();
     for name in ["none", "world-tilt", "rotor-drag", "mocap-delay", "wind", "thrust-scale", "two-effects", "marker-offsets"] {
         let done = identify_cli(&scenario(name), None, None, None, None, None, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+        summary.push(serde_json::json!({
+            "scenario": name,
+            "effects": done.report.effects.iter().map(|f| format!("{}: {}", f.effect.key(), f.params.iter().map(|p| format!("{} {}", p.name, round(p.value, 3))).collect::<Vec<_>>().join(", "))).collect::<Vec<_>>(),
+            "closed_loop_mm": done.closed_loop.map(|(b, a)| [round(b.position_rmse_m * 1e3, 1), round(a.position_rmse_m * 1e3, 1)]),
+        }));
         let req = done.requirements.expect("R5 declared");
         assert!(req.passed(), "{name}:\n{}", req.table());
         let (before, after) = done.closed_loop.expect("a scenario input has a closed loop");
@@ -30,6 +37,10 @@ fn every_identify_scenario_finds_its_hidden_effect() {
             assert!(after.position_rmse_m < 0.1 * before.position_rmse_m, "{name}: fed back {after:?} vs nominal {before:?}");
         }
     }
+    // a reviewed summary (the checks above are the assertions; this pins the numbers' drift)
+    insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
+        insta::assert_json_snapshot!("identify-scenarios", summary);
+    });
 }
 
 /// No false effect: the declared model is the truth, 20 seeds (noise, glitches at touchdown).
