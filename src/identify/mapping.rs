@@ -11,6 +11,7 @@
 //! time: { column: t, unit: s }    # s | ms | us | ns
 //! position: { columns: [px, py, pz], unit: m }            # m | mm
 //! attitude: { columns: [qx, qy, qz, qw], order: xyzw }    # quaternion body → world; xyzw | wxyz
+//!   # or: attitude: { euler: [roll, pitch, yaw], unit: deg }  # Z-Y-X Euler angles; rad | deg
 //! world: z_up                     # z_up | z_down
 //! body: flu                       # flu | frd
 //! gyro: { columns: [gx, gy, gz], unit: rad/s }           # rad/s | deg/s
@@ -76,11 +77,19 @@ pub struct Columns3 {
     pub unit: String,
 }
 
+/// The attitude, body → world in the log's own frames: a quaternion (`columns` and `order`), or
+/// Z-Y-X Euler angles (`euler: [roll, pitch, yaw]` and `unit`: R = R_z(yaw)·R_y(pitch)·R_x(roll)).
 #[derive(Debug, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AttitudeCols {
-    pub columns: [String; 4],
-    pub order: QuatOrder,
+    #[serde(default)]
+    pub columns: Option<[String; 4]>,
+    #[serde(default)]
+    pub order: Option<QuatOrder>,
+    #[serde(default)]
+    pub euler: Option<[String; 3]>,
+    #[serde(default)]
+    pub unit: Option<String>,
 }
 
 #[derive(Debug, serde::Deserialize, Clone, Copy)]
@@ -128,6 +137,16 @@ impl Mapping {
         {
             return Err(format!("{}: mass_kg {mass} is outside the allowed range (0, 100) kg", path.display()));
         }
+        let a = &m.attitude;
+        match (&a.columns, &a.order, &a.euler, &a.unit) {
+            (Some(_), Some(_), None, None) | (None, None, Some(_), Some(_)) => {}
+            _ => {
+                return Err(format!(
+                    "{}: attitude: give either a quaternion `{{columns: [4 names], order: xyzw or wxyz}}` or Z-Y-X Euler angles `{{euler: [roll, pitch, yaw], unit: rad or deg}}`",
+                    path.display()
+                ));
+            }
+        }
         if let Some(sm) = m.smoothing_ms
             && !(2.0..=500.0).contains(&sm)
         {
@@ -162,7 +181,17 @@ impl Mapping {
         };
         let ti = find(&self.time.column)?;
         let pi: Vec<usize> = self.position.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
-        let qi: Vec<usize> = self.attitude.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
+        let att = &self.attitude;
+        let euler_f = match &att.unit {
+            Some(u) => Some(unit_factor("attitude", u, &[("rad", 1.0), ("deg", std::f64::consts::PI / 180.0)])?),
+            None => None,
+        };
+        let att_names: Vec<&String> = match (&att.columns, &att.euler) {
+            (Some(q), _) => q.iter().collect(),
+            (None, Some(e)) => e.iter().collect(),
+            (None, None) => return Err(format!("{file}: the mapping has no attitude columns")),
+        };
+        let qi: Vec<usize> = att_names.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
         let gi: Vec<usize> = self.gyro.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
         let ai: Vec<usize> = self.accel.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
         let mi: Vec<usize> = self.motors.as_ref().map_or(Ok(Vec::new()), |m| m.columns.iter().map(|c| find(c)).collect())?;
@@ -228,15 +257,21 @@ impl Mapping {
             let seen = pose.is_some();
             if let Some(p) = pose {
                 let pos = Vector3::new(p[0], p[1], p[2]) * pos_f;
-                let (w, x, y, z) = match self.attitude.order {
-                    QuatOrder::Xyzw => (p[6], p[3], p[4], p[5]),
-                    QuatOrder::Wxyz => (p[3], p[4], p[5], p[6]),
+                let mut q = match (att.order, euler_f) {
+                    (Some(order), _) => {
+                        let (w, x, y, z) = match order {
+                            QuatOrder::Xyzw => (p[6], p[3], p[4], p[5]),
+                            QuatOrder::Wxyz => (p[3], p[4], p[5], p[6]),
+                        };
+                        let norm = (w * w + x * x + y * y + z * z).sqrt();
+                        if (norm - 1.0).abs() > 0.01 {
+                            return Err(format!("{file}:{lineno}: the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`"));
+                        }
+                        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
+                    }
+                    (None, Some(f)) => UnitQuaternion::from_euler_angles(p[3] * f, p[4] * f, p[5] * f),
+                    (None, None) => unreachable!("checked when the mapping was parsed"),
                 };
-                let norm = (w * w + x * x + y * y + z * z).sqrt();
-                if (norm - 1.0).abs() > 0.01 {
-                    return Err(format!("{file}:{lineno}: the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`"));
-                }
-                let mut q = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
                 let mut pos = pos;
                 if self.world == WorldUp::ZUp {
                     pos = flip(pos);

@@ -148,6 +148,14 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     let u = 30000.0 / 65535.0;
     let t4 = 35.407_020_21 * u * u + 5.922_264_62 * u * 3.7 - 0.075_526_67;
     assert!((s.thrust_n.as_ref().unwrap()[0] - t4 * 9.81e-3).abs() < 1e-12);
+    // the same attitude as Z-Y-X Euler angles in degrees gives the same pose
+    let m3 = Mapping::parse(&mapping_src("z_up", "flu").replace("attitude: { columns: [qw, qx, qy, qz], order: wxyz }", "attitude: { euler: [r, p, yw], unit: deg }"), Path::new("m.yaml")).unwrap();
+    let erow = |t: f64| format!("{t},100,200,1000,0,-10,90,0,0,30,0,0,1,30000,30000,30000,30000,3.7");
+    let ecsv = format!("time_ms,x,y,z,r,p,yw,gx,gy,gz,ax,ay,az,m1,m2,m3,m4,vbat\n{}\n{}\n", erow(0.0), erow(10.0));
+    let se = m3.read_str(&ecsv, "euler.csv").unwrap();
+    assert!(se.att_mocap[0].angle_to(&s.att_mocap[0]) < 1e-12);
+    let e = Mapping::parse(&mapping_src("z_up", "flu").replace("order: wxyz", "order: wxyz, unit: deg"), Path::new("m.yaml")).unwrap_err();
+    assert!(e.contains("either a quaternion") && e.contains("euler"), "{e}");
     // z-down world and FRD body are taken as they are
     let m2 = Mapping::parse(&mapping_src("z_down", "frd"), Path::new("m.yaml")).unwrap();
     let s2 = m2.read_str(&csv, "as-is.csv").unwrap();
