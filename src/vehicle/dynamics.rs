@@ -139,12 +139,15 @@ impl X3d {
         let q = UnitQuaternion::new_unchecked(s.q);
         let f = s.rotor.map(|w| p.k_thrust * w * w);
         let [ff, fr, fb, fl] = f;
-        let v_body = q.inverse_transform_vector(&s.v);
-        let force_body = Vector3::new(
-            -p.mass_kg * p.rotor_drag_per_s[0] * v_body.x,
-            -p.mass_kg * p.rotor_drag_per_s[1] * v_body.y,
-            -(ff + fr + fb + fl),
-        );
+        // rotor drag needs the body velocity; without drag (the presets) skip the rotation
+        let (drag_x, drag_y) = match p.rotor_drag_per_s {
+            [0.0, 0.0] => (0.0, 0.0),
+            [kx, ky] => {
+                let v_body = q.inverse_transform_vector(&s.v);
+                (-p.mass_kg * kx * v_body.x, -p.mass_kg * ky * v_body.y)
+            }
+        };
+        let force_body = Vector3::new(drag_x, drag_y, -(ff + fr + fb + fl));
         let dist = &self.disturbance;
         let dv = Vector3::new(0.0, 0.0, GRAVITY)
             + (q.transform_vector(&force_body) + Vector3::from(dist.force_nav_n)) / p.mass_kg;
