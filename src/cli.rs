@@ -46,7 +46,8 @@ OPTIONS:
     --scenario S  identify: the scenario that wrote a flyarena log
     --smoothing-ms X  identify: σ of the Gaussian smoothing before differentiating (default 20)
     --with E,...  identify: fit these effects without testing them (e.g. body_offset), select the rest
-    --seed N      override the scenario's seed
+    --seed N      override the scenario's seed (identify LOG --scenario: the seed the log was run
+                  with, for the closed-loop comparison)
     --quiet       print only the verdict line
 
 EXIT CODES: 0 pass · 1 a requirement failed · 2 bad input · 130 interrupted";
