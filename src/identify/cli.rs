@@ -131,14 +131,16 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, opts: &Options) -> Result<Many
     }
     for (k, title) in [(0, "accel_kin (mocap vs IMU: marker offset, tilt, delay)"), (1, "force (IMU vs force model: thrust, drag, wind)")] {
         text += &format!("\ncross-validation, {title}: error cut when the model fitted on the row's flight is used on the column's flight\n");
-        let w = reports.iter().map(|(n, _)| n.len().min(12)).max().unwrap_or(8);
+        // flight names cut to 12 characters (not bytes: a name may be any UTF-8)
+        let short = |n: &str| n.chars().take(12).collect::<String>();
+        let w = reports.iter().map(|(n, _)| short(n).chars().count()).max().unwrap_or(8).max(14);
         text += &format!("  {:<w$}", "fitted on \\ on");
         for (n, _) in &reports {
-            text += &format!(" {:>12}", &n[..n.len().min(12)]);
+            text += &format!(" {:>12}", short(n));
         }
         text.push('\n');
         for (i, (n, _)) in reports.iter().enumerate() {
-            text += &format!("  {:<w$}", &n[..n.len().min(w)]);
+            text += &format!("  {:<w$}", short(n));
             for cell in &cross[i] {
                 text += &format!(" {:>12}", pct(if k == 0 { cell.0 } else { cell.1 }));
             }

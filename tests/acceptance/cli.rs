@@ -146,3 +146,26 @@ fn identify_exit_codes_outputs_and_the_fragment_round_trip() {
     assert_eq!(code, 2);
     assert!(err.contains("`magic`") && err.contains("body_offset"), "{err}");
 }
+
+/// Regression: the cross-validation table cut flight names at 12 bytes and panicked inside a
+/// multi-byte character. Two synthetic logs through a mapping, one with such a name.
+#[test]
+fn cross_validation_with_non_ascii_flight_names() {
+    let d = tmp("crossval");
+    let mut csv = String::from("t,px,py,pz,qw,qx,qy,qz,gx,gy,gz,ax,ay,az\n");
+    for k in 0..600 {
+        let t = k as f64 * 0.01;
+        let z = if k < 50 { 0.0 } else { (t - 0.5).min(1.0) };
+        csv += &format!("{t},{},{},{z},1,0,0,0,0,0,0,0,0,1\n", 0.3 * (2.0 * t).cos(), 0.3 * (2.0 * t).sin());
+    }
+    std::fs::write(d.join("aéééééééé.csv"), &csv).unwrap();
+    std::fs::write(d.join("b.csv"), &csv).unwrap();
+    std::fs::write(
+        d.join("m.yaml"),
+        "vehicle: crazyflie21\ntime: { column: t }\nposition: { columns: [px, py, pz], unit: m }\nattitude: { columns: [qw, qx, qy, qz], order: wxyz }\nworld: z_up\nbody: flu\ngyro: { columns: [gx, gy, gz], unit: rad/s }\naccel: { columns: [ax, ay, az], unit: g }\n",
+    )
+    .unwrap();
+    let (code, out, err) = flyarena(&["identify", "aéééééééé.csv", "b.csv", "--mapping", "m.yaml", "--out", "o"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("cross-validation") && out.contains("aéééééééé"), "{out}");
+}
