@@ -562,11 +562,7 @@ fn cmd_identify(args: &[String]) -> i32 {
     };
     if a.inputs.len() > 1 {
         let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
-        let mut opts = crate::identify::Options { forced: a.forced.clone(), ..Default::default() };
-        if let Some(sm) = a.smoothing_ms {
-            opts.design.smoothing_s = sm * 1e-3;
-        }
-        return match crate::identify::cli::run_many(&inputs, a.mapping.as_deref().expect("checked"), &opts) {
+        return match crate::identify::cli::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced) {
             Ok(m) => {
                 let json_path = a.json.unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
                 if let Err(code) = write_output(&json_path, &serde_json::to_vec_pretty(&m.json).expect("serialises")) {

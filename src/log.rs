@@ -182,11 +182,23 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
     if n < 2 {
         return Err(LogError::Empty { file: f() });
     }
-    // gaps: longer than 3 × the median interval
     let t: Vec<f64> = columns[0].iter().map(|x| x.unwrap_or(f64::NAN)).collect();
+    let segments = split_at_gaps(&t, &mut repairs);
+    Ok(FlightLog { columns, segments, repairs })
+}
+
+/// The median interval between increasing timestamps (s); `None` for fewer than two.
+pub fn median_interval(t: &[f64]) -> Option<f64> {
     let mut dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
     dt.sort_by(f64::total_cmp);
-    let median = dt[dt.len() / 2];
+    dt.get(dt.len() / 2).copied()
+}
+
+/// Row ranges [start, end) between gaps longer than 3 × the median interval, each gap reported
+/// in `repairs` (flyarena's logs and mapped logs alike).
+pub fn split_at_gaps(t: &[f64], repairs: &mut Vec<String>) -> Vec<(usize, usize)> {
+    let n = t.len();
+    let Some(median) = median_interval(t) else { return vec![(0, n)] };
     let mut segments = Vec::new();
     let mut start = 0;
     for k in 1..n {
@@ -197,5 +209,5 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
         }
     }
     segments.push((start, n));
-    Ok(FlightLog { columns, segments, repairs })
+    segments
 }

@@ -271,6 +271,14 @@ pub fn read_journal(path: &Path, header: &JournalHeader) -> std::collections::BT
 /// Sets the number at `path` (`a.b[2].c`) in a YAML/JSON tree; the containers must exist, a
 /// missing last key of a mapping is added.
 pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), String> {
+    set_in(tree, path, serde_json::json!(x), false)
+}
+
+/// Sets `v` at `path` (`a.b[2].c`) in a YAML/JSON tree. Lists must exist and be long enough; a
+/// missing last key of a mapping is added, and so are missing mappings on the way when
+/// `create_mappings` holds (an `identify` fragment may set `mocap.camera_error` in a scenario
+/// that has no `mocap`).
+pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, create_mappings: bool) -> Result<(), String> {
     let mut cur = tree;
     let mut parts: Vec<(String, Option<usize>)> = Vec::new();
     for seg in path.split('.') {
@@ -284,6 +292,7 @@ pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), 
         }
     }
     let last = parts.len().checked_sub(1).ok_or_else(|| "empty field path".to_string())?;
+    let mut v = Some(v);
     for (k, (key, idx)) in parts.iter().enumerate() {
         let end = k == last;
         cur = match idx {
@@ -295,9 +304,12 @@ pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), 
                 &mut cur[*n]
             }
             None => {
+                if create_mappings && cur.is_null() {
+                    *cur = serde_json::json!({});
+                }
                 let obj = cur.as_object_mut().ok_or_else(|| format!("`{path}`: `{key}` is not inside a mapping"))?;
                 if !obj.contains_key(key.as_str()) {
-                    if !end {
+                    if !end && !create_mappings {
                         return Err(format!("`{path}`: `{key}` is not set in the scenario; write it out to vary inside it"));
                     }
                     obj.insert(key.clone(), serde_json::Value::Null);
@@ -306,7 +318,7 @@ pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), 
             }
         };
         if end {
-            *cur = serde_json::json!(x);
+            *cur = v.take().expect("set once");
         }
     }
     Ok(())

@@ -28,20 +28,26 @@ fn vehicle_index(s: &Scenario, name: Option<&str>) -> Result<usize, String> {
 }
 
 /// Identifies from a scenario (run here), a flyarena log with its scenario, or a mapped log.
-pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicle: Option<&str>, seed: Option<u64>, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<Done, String> {
+/// The options of a command: the forced effects, and the smoothing from `--smoothing-ms`, else
+/// from the mapping, else the default.
+fn options(forced: &[super::Effect], smoothing_ms: Option<f64>, map: Option<&super::mapping::Mapping>) -> Options {
     let mut opts = Options { forced: forced.to_vec(), ..Options::default() };
-    if let Some(sm) = smoothing_ms {
+    if let Some(sm) = smoothing_ms.or(map.and_then(|m| m.smoothing_ms)) {
         opts.design.smoothing_s = sm * 1e-3;
     }
+    opts
+}
+
+pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicle: Option<&str>, seed: Option<u64>, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<Done, String> {
+    let opts = options(forced, smoothing_ms, None);
     if let Some(m) = mapping {
         let map = super::mapping::Mapping::load(m)?;
-        if let (Some(sm), None) = (map.smoothing_ms, smoothing_ms) {
-            opts.design.smoothing_s = sm * 1e-3;
-        }
+        let opts = options(forced, smoothing_ms, Some(&map));
         let series = map.read(input)?;
         let report = identify(&series, &opts);
         let text = report::render(&report);
-        let fragment = fragment(&report, 0, 100);
+        // the log's own frame rate, for rounding a delay to whole frames
+        let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32);
         let json = json!({ "report": report, "closed_loop": null });
         let residuals = super::select::residual_series(&series, &opts, &report);
         return Ok(Done { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
@@ -92,14 +98,11 @@ pub struct Many {
     pub json: Value,
 }
 
-pub fn run_many(inputs: &[&Path], mapping: &Path, opts: &Options) -> Result<Many, String> {
+pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<Many, String> {
     use super::design::Channel;
     use super::select::{channel_cut, evaluate};
     let map = super::mapping::Mapping::load(mapping)?;
-    let mut opts = opts.clone();
-    if let Some(sm) = map.smoothing_ms {
-        opts.design.smoothing_s = sm * 1e-3;
-    }
+    let opts = options(forced, smoothing_ms, Some(&map));
     let mut series = Vec::new();
     for p in inputs {
         series.push(map.read(p)?);

@@ -19,6 +19,7 @@ use super::design::Effect;
 use super::select::Report;
 use super::series::Series;
 use crate::scenario::Scenario;
+use crate::sweep::set_in;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -27,43 +28,6 @@ use std::path::Path;
 #[serde(deny_unknown_fields)]
 struct Fragment {
     effects: BTreeMap<String, Value>,
-}
-
-/// Sets `path` (`a.b[2].c`) in a tree, creating missing mappings on the way.
-pub fn set_value(tree: &mut Value, path: &str, v: Value) -> Result<(), String> {
-    let mut cur = tree;
-    let segs: Vec<&str> = path.split('.').collect();
-    for (k, seg) in segs.iter().enumerate() {
-        let (key, idx) = match seg.split_once('[') {
-            Some((key, rest)) => (key, Some(rest.trim_end_matches(']').parse::<usize>().map_err(|_| format!("`{path}`: `{seg}` has a bad index"))?)),
-            None => (*seg, None),
-        };
-        let end = k == segs.len() - 1;
-        if !cur.is_object() {
-            if cur.is_null() {
-                *cur = json!({});
-            } else {
-                return Err(format!("`{path}`: `{key}` is not inside a mapping"));
-            }
-        }
-        let obj = cur.as_object_mut().expect("a mapping");
-        let entry = obj.entry(key.to_string()).or_insert(if idx.is_some() { json!([]) } else { Value::Null });
-        cur = match idx {
-            Some(n) => {
-                let arr = entry.as_array_mut().ok_or_else(|| format!("`{path}`: `{key}` is not a list"))?;
-                if n >= arr.len() {
-                    return Err(format!("`{path}`: index {n} is outside the list (length {})", arr.len()));
-                }
-                &mut arr[n]
-            }
-            None => entry,
-        };
-        if end {
-            *cur = v;
-            return Ok(());
-        }
-    }
-    Ok(())
 }
 
 fn remove(tree: &mut Value, path: &[&str]) {
@@ -145,7 +109,7 @@ pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, S
     let frag: Fragment = serde_saphyr::from_str(&fsrc).map_err(|e| format!("{}: {e}", fragment.display()))?;
     let mut tree: Value = serde_saphyr::from_str(&src).map_err(|e| format!("{}: {e}", scenario.display()))?;
     for (path, v) in frag.effects {
-        set_value(&mut tree, &path, v).map_err(|e| format!("{}: {e}", fragment.display()))?;
+        set_in(&mut tree, &path, v, true).map_err(|e| format!("{}: {e}", fragment.display()))?;
     }
     let text = serde_json::to_string(&tree).expect("a JSON tree serialises");
     Scenario::parse(&text, Path::new(&format!("{} + {}", scenario.display(), fragment.display()))).map_err(|e| e.to_string())
@@ -180,7 +144,7 @@ pub fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str,
     let frag: Fragment = serde_saphyr::from_str(fragment_text).map_err(|e| format!("fragment: {e}"))?;
     let mut fed = nominal.clone();
     for (path, v) in frag.effects {
-        set_value(&mut fed, &path, v)?;
+        set_in(&mut fed, &path, v, true)?;
     }
     let parse = |t: &Value, what: &str| Scenario::parse(&serde_json::to_string(t).expect("JSON"), Path::new(&format!("{name} ({what})"))).map_err(|e| e.to_string());
     Ok((parse(&nominal, "nominal")?, parse(&fed, "with the identified effects")?))

@@ -39,11 +39,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
         att.push(last.1);
         ok.push(seen);
     }
-    let dt = {
-        let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-        d.sort_by(f64::total_cmp);
-        d.get(d.len() / 2).copied().unwrap_or(0.005)
-    };
+    let dt = crate::log::median_interval(&t).unwrap_or(0.005);
     let t_max = s.radio.thrust_max_n.unwrap_or(p.thrust_max());
     let shift = (s.radio.latency_ms * 1e-3 / dt).round() as usize;
     let alpha = (-dt / p.motor_tau_s).exp();

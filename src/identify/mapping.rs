@@ -308,16 +308,7 @@ impl Mapping {
         if s.t_s.len() < 2 {
             return Err(format!("{file}: fewer than two rows"));
         }
-        let dt = s.dt();
-        let mut start = 0;
-        for k in 1..s.t_s.len() {
-            if s.t_s[k] - s.t_s[k - 1] > 3.0 * dt {
-                s.repairs.push(format!("a gap of {:.3} s after t = {} s splits the log", s.t_s[k] - s.t_s[k - 1], s.t_s[k - 1]));
-                s.segments.push((start, k));
-                start = k;
-            }
-        }
-        s.segments.push((start, s.t_s.len()));
+        s.segments = crate::log::split_at_gaps(&s.t_s, &mut s.repairs);
         Ok(s)
     }
 }

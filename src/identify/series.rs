@@ -53,9 +53,8 @@ impl Series {
     }
     /// Median sampling interval (s).
     pub fn dt(&self) -> f64 {
-        let mut d: Vec<f64> = self.t_s.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-        d.sort_by(f64::total_cmp);
-        d.get(d.len() / 2).copied().unwrap_or(0.01)
+        // the readers drop repeated timestamps, so every interval is positive
+        crate::log::median_interval(&self.t_s).unwrap_or(0.01)
     }
     /// Keeps the rows in [from, to) (for cut-outs and benchmarks).
     pub fn slice(&self, from: usize, to: usize) -> Series {
