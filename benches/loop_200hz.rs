@@ -12,7 +12,9 @@ use flyarena::scenario::Scenario;
 use std::path::Path;
 
 fn fig6() -> Scenario {
-    Scenario::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap()
+    // the checkout at run time, not the one this binary was built from (a shared target dir)
+    let root = std::env::var_os("CARGO_MANIFEST_DIR").map(std::path::PathBuf::from).unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into());
+    Scenario::load(&root.join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap()
 }
 
 const NO_TRACE: RunOptions = RunOptions { trace: false, apply_calibration: None };

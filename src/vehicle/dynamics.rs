@@ -22,7 +22,7 @@
 
 use super::params::{GRAVITY, VehicleParams};
 use crate::frames::{Body, Nav, Rot, Vec3};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, UnitQuaternion};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct State {
@@ -49,35 +49,41 @@ pub struct X3d {
     on_ground: bool,
 }
 
-/// The derivative of the state, in raw coordinates (same frames as [`State`]).
-#[derive(Clone, Copy)]
-struct Deriv {
-    dp: Vector3<f64>,
-    dv: Vector3<f64>,
-    dq: Quaternion<f64>,
-    dw: Vector3<f64>,
-    drotor: [f64; 4],
-}
+/// The integrator's state vector, flat (so that RK4's stage sums are plain loops the compiler
+/// vectorises): p (Nav, 0..3), v (Nav, 3..6), q as nalgebra's coordinates [x, y, z, w] (6..10),
+/// ω (Body, 10..13), Ω (13..17). The same layout holds a derivative.
+const N: usize = 17;
+const P: usize = 0;
+const V: usize = 3;
+const Q: usize = 6;
+const W: usize = 10;
+const R: usize = 13;
+type Flat = [f64; N];
 
-#[derive(Clone, Copy)]
-struct Raw {
-    p: Vector3<f64>,
-    v: Vector3<f64>,
-    q: Quaternion<f64>,
-    w: Vector3<f64>,
-    rotor: [f64; 4],
-}
-
-impl Raw {
-    fn plus(&self, d: &Deriv, h: f64) -> Raw {
-        Raw {
-            p: self.p + d.dp * h,
-            v: self.v + d.dv * h,
-            q: self.q + d.dq * h,
-            w: self.w + d.dw * h,
-            rotor: [0, 1, 2, 3].map(|i| self.rotor[i] + d.drotor[i] * h),
-        }
+/// y + d·h, element by element.
+#[inline(always)]
+fn plus(y: &Flat, d: &Flat, h: f64) -> Flat {
+    let mut out = [0.0; N];
+    for i in 0..N {
+        out[i] = y[i] + d[i] * h;
     }
+    out
+}
+
+/// a × b, in nalgebra's operation order (so that results match its `cross` bit for bit).
+#[inline(always)]
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+/// Rotates `v` by the unit quaternion with vector part `qv` and scalar part `qw` (nalgebra's
+/// `UnitQuaternion * Vector3`: t = 2·(qv × v), v' = t·qw + qv × t + v).
+#[inline(always)]
+fn rotate(qv: [f64; 3], qw: f64, v: [f64; 3]) -> [f64; 3] {
+    let c = cross(qv, v);
+    let t = [c[0] * 2.0, c[1] * 2.0, c[2] * 2.0];
+    let u = cross(qv, t);
+    [t[0] * qw + u[0] + v[0], t[1] * qw + u[1] + v[1], t[2] * qw + u[2] + v[2]]
 }
 
 impl X3d {
@@ -134,71 +140,89 @@ impl X3d {
         )
     }
 
-    fn deriv(&self, s: &Raw, rotor_cmd: &[f64; 4]) -> Deriv {
+    /// The state's time derivative (the equations at the top of this module). `rotor_cmd` is
+    /// already clipped to [0, Ω_max] (it is constant over the step).
+    #[inline(always)]
+    fn deriv(&self, s: &Flat, rotor_cmd: &[f64; 4]) -> Flat {
         let p = &self.p;
-        let q = UnitQuaternion::new_unchecked(s.q);
-        let f = s.rotor.map(|w| p.k_thrust * w * w);
-        let [ff, fr, fb, fl] = f;
+        let (qv, qw) = ([s[Q], s[Q + 1], s[Q + 2]], s[Q + 3]);
+        let w = [s[W], s[W + 1], s[W + 2]];
+        let rotor = [s[R], s[R + 1], s[R + 2], s[R + 3]];
+        let [ff, fr, fb, fl] = rotor.map(|o| p.k_thrust * o * o);
         // rotor drag needs the body velocity; without drag (the presets) skip the rotation
         let (drag_x, drag_y) = match p.rotor_drag_per_s {
             [0.0, 0.0] => (0.0, 0.0),
             [kx, ky] => {
-                let v_body = q.inverse_transform_vector(&s.v);
-                (-p.mass_kg * kx * v_body.x, -p.mass_kg * ky * v_body.y)
+                let v_body = rotate([-qv[0], -qv[1], -qv[2]], qw, [s[V], s[V + 1], s[V + 2]]);
+                (-p.mass_kg * kx * v_body[0], -p.mass_kg * ky * v_body[1])
             }
         };
-        let force_body = Vector3::new(drag_x, drag_y, -(ff + fr + fb + fl));
+        let force_nav = rotate(qv, qw, [drag_x, drag_y, -(ff + fr + fb + fl)]);
         let dist = &self.disturbance;
-        let dv = Vector3::new(0.0, 0.0, GRAVITY)
-            + (q.transform_vector(&force_body) + Vector3::from(dist.force_nav_n)) / p.mass_kg;
         let l = p.arm_m;
-        let tau = Vector3::new(
+        let tau = [
             l * (fl - fr) + dist.torque_body_nm[0],
             l * (ff - fb) + dist.torque_body_nm[1],
             p.k_torque_m * (ff + fb - fr - fl) + dist.torque_body_nm[2],
-        );
-        let j = Vector3::from(p.inertia_kg_m2);
-        let jw = j.component_mul(&s.w);
-        let dw = (tau - s.w.cross(&jw)).component_div(&j);
-        let dq = s.q * Quaternion::new(0.0, s.w.x, s.w.y, s.w.z) * 0.5;
-        let drotor = [0, 1, 2, 3].map(|i| (rotor_cmd[i].clamp(0.0, p.rotor_speed_max) - s.rotor[i]) / p.motor_tau_s);
-        Deriv { dp: s.v, dv, dq, dw, drotor }
+        ];
+        let j = &p.inertia_kg_m2;
+        let gyro = cross(w, [j[0] * w[0], j[1] * w[1], j[2] * w[2]]);
+        let tau_m = p.motor_tau_s;
+        let mut d = [0.0; N];
+        d[P] = s[V];
+        d[P + 1] = s[V + 1];
+        d[P + 2] = s[V + 2];
+        d[V] = 0.0 + (force_nav[0] + dist.force_nav_n[0]) / p.mass_kg;
+        d[V + 1] = 0.0 + (force_nav[1] + dist.force_nav_n[1]) / p.mass_kg;
+        d[V + 2] = GRAVITY + (force_nav[2] + dist.force_nav_n[2]) / p.mass_kg;
+        // q̇ = ½·q ⊗ (0, ω), nalgebra's product order
+        let [x, y, z] = qv;
+        d[Q] = (qw * w[0] + y * w[2] - z * w[1]) * 0.5;
+        d[Q + 1] = (qw * w[1] - x * w[2] + z * w[0]) * 0.5;
+        d[Q + 2] = (qw * w[2] + x * w[1] - y * w[0]) * 0.5;
+        d[Q + 3] = (-x * w[0] - y * w[1] - z * w[2]) * 0.5;
+        for k in 0..3 {
+            d[W + k] = (tau[k] - gyro[k]) / j[k];
+        }
+        for k in 0..4 {
+            d[R + k] = (rotor_cmd[k] - rotor[k]) / tau_m;
+        }
+        d
     }
 
     /// Advances the state by `dt` seconds with rotor speed commands held constant.
     pub fn step(&mut self, rotor_cmd: &[f64; 4], dt: f64) {
-        let s0 = Raw {
-            p: *self.state.pos.raw(),
-            v: *self.state.vel.raw(),
-            q: *self.state.att.quaternion().quaternion(),
-            w: *self.state.omega.raw(),
-            rotor: self.state.rotor_speed,
-        };
+        let (pos, vel, omega) = (self.state.pos.raw(), self.state.vel.raw(), self.state.omega.raw());
+        let q = self.state.att.quaternion().coords;
+        let o = &self.state.rotor_speed;
+        #[rustfmt::skip]
+        let s0: Flat = [
+            pos.x, pos.y, pos.z, vel.x, vel.y, vel.z, q[0], q[1], q[2], q[3],
+            omega.x, omega.y, omega.z, o[0], o[1], o[2], o[3],
+        ];
+        let max = self.p.rotor_speed_max;
+        let rotor_cmd = &rotor_cmd.map(|c| c.clamp(0.0, max));
         let k1 = self.deriv(&s0, rotor_cmd);
-        let k2 = self.deriv(&s0.plus(&k1, dt / 2.0), rotor_cmd);
-        let k3 = self.deriv(&s0.plus(&k2, dt / 2.0), rotor_cmd);
-        let k4 = self.deriv(&s0.plus(&k3, dt), rotor_cmd);
+        let k2 = self.deriv(&plus(&s0, &k1, dt / 2.0), rotor_cmd);
+        let k3 = self.deriv(&plus(&s0, &k2, dt / 2.0), rotor_cmd);
+        let k4 = self.deriv(&plus(&s0, &k3, dt), rotor_cmd);
         let h = dt / 6.0;
-        let comb = |a: Vector3<f64>, b, c, d| a + (b + c) * 2.0 + d;
-        let p = s0.p + comb(k1.dp, k2.dp, k3.dp, k4.dp) * h;
-        let v = s0.v + comb(k1.dv, k2.dv, k3.dv, k4.dv) * h;
-        let w = s0.w + comb(k1.dw, k2.dw, k3.dw, k4.dw) * h;
-        let q = s0.q + (k1.dq + (k2.dq + k3.dq) * 2.0 + k4.dq) * h;
-        let rotor = [0, 1, 2, 3].map(|i| {
-            (s0.rotor[i] + (k1.drotor[i] + 2.0 * (k2.drotor[i] + k3.drotor[i]) + k4.drotor[i]) * h).max(0.0)
-        });
-        let q = UnitQuaternion::new_normalize(q);
+        let mut y = [0.0; N];
+        for i in 0..N {
+            y[i] = s0[i] + (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * h;
+        }
+        let q = UnitQuaternion::new_normalize(Quaternion::new(y[Q + 3], y[Q], y[Q + 1], y[Q + 2]));
         self.state = State {
-            pos: Vec3::from_raw(p),
-            vel: Vec3::from_raw(v),
+            pos: Vec3::new(y[P], y[P + 1], y[P + 2]),
+            vel: Vec3::new(y[V], y[V + 1], y[V + 2]),
             att: Rot::from_quaternion(q),
-            omega: Vec3::from_raw(w),
-            rotor_speed: rotor,
+            omega: Vec3::new(y[W], y[W + 1], y[W + 2]),
+            rotor_speed: [y[R].max(0.0), y[R + 1].max(0.0), y[R + 2].max(0.0), y[R + 3].max(0.0)],
         };
         self.on_ground = self.state.pos.z() >= 0.0;
         if self.on_ground {
             let yaw = self.state.att.euler().yaw;
-            self.state.pos = Vec3::new(p.x, p.y, 0.0);
+            self.state.pos = Vec3::new(y[P], y[P + 1], 0.0);
             self.state.vel = Vec3::zeros();
             self.state.omega = Vec3::zeros();
             self.state.att = Rot::from_euler(crate::frames::Euler::new(0.0, 0.0, yaw));
@@ -210,6 +234,7 @@ impl X3d {
 mod tests {
     use super::*;
     use crate::frames::Euler;
+    use nalgebra::Vector3;
 
     fn hovering() -> X3d {
         let p = VehicleParams::x3d();

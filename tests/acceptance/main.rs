@@ -20,8 +20,11 @@ use flyarena::scenario::Scenario;
 static ALLOCATOR: alloc::Counting = alloc::Counting;
 use std::path::{Path, PathBuf};
 
+/// The checkout being tested. Read at run time (cargo sets it for `cargo test`): the compile-time
+/// `env!` value goes stale when a shared `CARGO_TARGET_DIR` holds a build from another clone
+/// whose sources are not newer, and the tests then read that other clone's files.
 pub fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    std::env::var_os("CARGO_MANIFEST_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
 }
 
 /// Parses an inline scenario (tests build variants without touching scenarios/).
