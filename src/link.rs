@@ -134,11 +134,9 @@ impl<T: Copy> Link<T> {
 
     /// Delivers the next packet that has arrived by `now`, in arrival order, skipping stale ones.
     pub fn receive(&mut self, now: Nanos) -> Option<T> {
-        while let Some(&(arrival, seq, payload)) = self.in_flight.front() {
-            if arrival > now {
-                return None;
-            }
-            self.in_flight.pop_front();
+        // peek at the arrival time only: the payload is copied out once, when it is delivered
+        while self.in_flight.front().is_some_and(|(arrival, _, _)| *arrival <= now) {
+            let Some((_, seq, payload)) = self.in_flight.pop_front() else { break };
             if let Some(last) = self.last_seq {
                 if seq <= last {
                     self.stats.stale += 1;

@@ -19,7 +19,7 @@ pub mod station;
 
 pub use station::{CalibrationReport, CalibrationSettings, FailsafeReport, FailsafeSettings, HoverSample, RlsSample, Station};
 
-use crate::clock::{Clock, Nanos, Rate};
+use crate::clock::{Clock, Every, Nanos, Rate};
 use crate::control::Gains;
 use crate::frames::{Body, Euler, MocapBody, MocapNav, Nav, Rot, Vec3};
 use crate::guidance::{Phase, Plan, Window};
@@ -137,8 +137,8 @@ struct Vehicle {
 pub struct Arena {
     clock: Clock,
     end_tick: u64,
-    mocap_every: u64,
-    radio_every: u64,
+    mocap_every: Every,
+    radio_every: Every,
     dt: Nanos,
     trace: bool,
     vehicles: Vec<Vehicle>,
@@ -268,8 +268,8 @@ impl Arena {
         Arena {
             clock: Clock::new(physics),
             end_tick: (end.0 / physics.period().0) as u64,
-            mocap_every,
-            radio_every,
+            mocap_every: Every::new(mocap_every),
+            radio_every: Every::new(radio_every),
             dt: physics.period(),
             trace: opts.trace,
             vehicles,
@@ -289,8 +289,8 @@ impl Arena {
     /// Advances every vehicle by one physics tick.
     pub fn step(&mut self) {
         let t = self.clock.now();
-        let mocap_tick = self.clock.fires(self.mocap_every);
-        let radio_tick = self.clock.fires(self.radio_every);
+        let mocap_tick = self.mocap_every.fires();
+        let radio_tick = self.radio_every.fires();
         for v in &mut self.vehicles {
             v.step(t, mocap_tick, radio_tick, self.dt, self.trace);
         }

@@ -130,8 +130,12 @@ impl X3d {
             return s.att.inverse().apply(Vec3::<Nav>::new(0.0, 0.0, -GRAVITY));
         }
         let p = &self.p;
-        let v_body = s.att.inverse().apply(s.vel);
         let thrust: f64 = s.rotor_speed.iter().map(|w| p.k_thrust * w * w).sum();
+        // without drag or disturbance (the presets) the rotations below contribute exact zeros
+        if p.rotor_drag_per_s == [0.0; 2] && self.disturbance.force_nav_n == [0.0; 3] {
+            return Vec3::new(0.0, 0.0, -thrust / p.mass_kg);
+        }
+        let v_body = s.att.inverse().apply(s.vel);
         let dist = s.att.inverse().apply(Vec3::<Nav>::from_array(self.disturbance.force_nav_n));
         Vec3::new(
             -p.rotor_drag_per_s[0] * v_body.x() + dist.x() / p.mass_kg,
