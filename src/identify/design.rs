@@ -205,7 +205,7 @@ pub fn glitches(s: &Series) -> Vec<usize> {
             if s.mocap_ok[i - 1] && s.mocap_ok[i] && s.mocap_ok[i + 1] {
                 let mid = (s.pos_mocap_nav[i - 1] + s.pos_mocap_nav[i + 1]) * 0.5;
                 jp[i] = (s.pos_mocap_nav[i] - mid).norm();
-                jq[i] = s.att_mocap[i].angle_to(&s.att_mocap[i - 1].nlerp(&s.att_mocap[i + 1], 0.5));
+                jq[i] = s.att_mocap[i].angle_to(&super::series::interpolate_attitude(&s.att_mocap[i - 1], &s.att_mocap[i + 1], 0.5));
             }
         }
     }

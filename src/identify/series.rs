@@ -76,6 +76,15 @@ impl Series {
     }
 }
 
+/// The attitude a fraction `t` of the way from `a` to `b` (normalised linear interpolation along
+/// the shorter arc). q and −q are the same attitude and sources flip between them (flyarena's
+/// mocap keeps w ≥ 0, so its sign flips where the rotation angle passes π, e.g. at a heading of
+/// 180°); interpolating across a flip without aligning the signs gives nonsense.
+pub fn interpolate_attitude(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>, t: f64) -> UnitQuaternion<f64> {
+    let b = if a.coords.dot(&b.coords) < 0.0 { UnitQuaternion::new_unchecked(-b.into_inner()) } else { *b };
+    a.nlerp(&b, t)
+}
+
 /// Exact (not linearised) corrections of the mocap stream, as the nonlinear effects define them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Corrections {
@@ -122,7 +131,7 @@ pub fn correct(s: &Series, c: &Corrections) -> Corrected {
                 let k0 = k0 as usize;
                 let k1 = if frac == 0.0 { k0 } else { k0 + 1 };
                 let p = s.pos_mocap_nav[k0] * (1.0 - frac) + s.pos_mocap_nav[k1] * frac;
-                let q = s.att_mocap[k0].nlerp(&s.att_mocap[k1], frac);
+                let q = interpolate_attitude(&s.att_mocap[k0], &s.att_mocap[k1], frac);
                 (p, q, s.mocap_ok[k0] && s.mocap_ok[k1])
             } else {
                 (s.pos_mocap_nav[i], s.att_mocap[i], false)
@@ -147,4 +156,52 @@ pub fn correct(s: &Series, c: &Corrections) -> Corrected {
         return Corrected { pos_nav: p2, att_body: q2, ok };
     }
     Corrected { pos_nav, att_body, ok }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model() -> NominalModel {
+        NominalModel { vehicle: "test".into(), mass_kg: 1.0, rotor_drag_per_s: [0.0; 2], rotor_radius_m: 0.1, vbat_ref_v: 3.7, gravity_m_s2: 9.81 }
+    }
+
+    /// Regression: the glitch detector and the delay correction interpolated attitudes with a
+    /// plain nlerp, so a quaternion sign flip between neighbours (same attitude, q vs −q) read as a
+    /// ~180° jump: every flip became a "mocap glitch" and a delayed pose there was garbage.
+    #[test]
+    fn quaternion_sign_flips_are_not_glitches_and_interpolate_correctly() {
+        let n = 200;
+        // a slow yaw through 180°, each sample with w ≥ 0 as flyarena's mocap gives it: the sign
+        // flips once, where the rotation angle passes π
+        let yaw = |i: usize| 3.0 + 0.002 * i as f64;
+        let att: Vec<UnitQuaternion<f64>> = (0..n)
+            .map(|i| {
+                let q = UnitQuaternion::from_euler_angles(0.01, -0.02, yaw(i));
+                if q.w < 0.0 { UnitQuaternion::new_unchecked(-q.into_inner()) } else { q }
+            })
+            .collect();
+        assert!(att.windows(2).filter(|w| w[0].coords.dot(&w[1].coords) < 0.0).count() == 1, "the test needs one flip");
+        let s = Series {
+            source: "flips".into(),
+            t_s: (0..n).map(|i| i as f64 * 0.005).collect(),
+            pos_mocap_nav: (0..n).map(|i| Vector3::new(0.001 * i as f64, 0.0, -1.0)).collect(),
+            att_mocap: att,
+            mocap_ok: vec![true; n],
+            gyro_body: vec![Vector3::zeros(); n],
+            accel_body: vec![Vector3::new(0.0, 0.0, -9.81); n],
+            thrust_n: None,
+            vbat_v: None,
+            segments: vec![(0, n)],
+            model: model(),
+            repairs: vec![],
+        };
+        assert!(crate::identify::design::glitches(&s).is_empty(), "{:?}", crate::identify::design::glitches(&s));
+        // half a sample of delay: the attitude halfway between neighbours
+        let c = correct(&s, &Corrections { mocap_delay_s: 0.0025, ..Corrections::default() });
+        for i in 10..n - 10 {
+            let expected = UnitQuaternion::from_euler_angles(0.01, -0.02, yaw(i) + 0.001);
+            assert!(c.att_body[i].angle_to(&expected) < 1e-6, "row {i}: {}", c.att_body[i].angle_to(&expected));
+        }
+    }
 }

@@ -15,7 +15,7 @@
 pub mod fit;
 pub mod markers;
 
-pub use fit::{RigidFit, rigid_fit};
+pub use fit::{RigidFit, rigid_fit, rigid_fit_near};
 pub use markers::{MarkerSet, TrueOffset, builtin_pattern, patterns_confusable};
 
 use crate::clock::Nanos;
@@ -72,6 +72,8 @@ pub struct Mocap {
     noise_m: f64,
     rng: Stream,
     seq: u32,
+    /// The last fitted attitude (the next fit's starting point); `None` after a lost frame.
+    last_attitude: Option<Rot<MocapBody, MocapNav>>,
     // scratch buffers, allocated once
     observed: Vec<Vec3<MocapNav>>,
     visible: Vec<bool>,
@@ -80,7 +82,7 @@ pub struct Mocap {
 impl Mocap {
     pub fn new(markers: MarkerSet, occlusions: Vec<Occlusion>, camera: CameraError, noise_m: f64, rng: Stream) -> Self {
         let n = markers.template.len();
-        Mocap { markers, occlusions, camera, noise_m, rng, seq: 0, observed: vec![Vec3::zeros(); n], visible: vec![true; n] }
+        Mocap { markers, occlusions, camera, noise_m, rng, seq: 0, last_attitude: None, observed: vec![Vec3::zeros(); n], visible: vec![true; n] }
     }
 
     pub fn markers(&self) -> &MarkerSet {
@@ -111,7 +113,10 @@ impl Mocap {
             self.observed[i] = y;
             self.visible[i] = !self.occlusions.iter().any(|o| o.marker == i && t >= o.from && t < o.to);
         }
-        let fit = rigid_fit(&self.markers.template, &self.observed, &self.visible)?;
+        // the last frame's attitude starts the fit (Newton, three steps instead of Kabsch's ~8)
+        let fit = rigid_fit_near(&self.markers.template, &self.observed, &self.visible, self.last_attitude.take());
+        let fit = fit?;
+        self.last_attitude = Some(fit.rotation);
         Some(MocapFrame {
             seq,
             t_capture: t,
