@@ -65,6 +65,7 @@
 //! [`rng::Stream`] of its own, so a run is a pure function of its scenario and seed.
 
 pub mod clock;
+pub mod cpu;
 pub mod frames;
 pub mod mocap;
 pub mod rng;

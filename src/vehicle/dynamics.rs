@@ -194,8 +194,13 @@ impl X3d {
         d
     }
 
-    /// Advances the state by `dt` seconds with rotor speed commands held constant.
-    pub fn step(&mut self, rotor_cmd: &[f64; 4], dt: f64) {
+    crate::cpu::avx2_dispatch! {
+        /// Advances the state by `dt` seconds with rotor speed commands held constant.
+        pub fn step => step_avx2, step_any_cpu(&mut self, rotor_cmd: &[f64; 4], dt: f64)
+    }
+
+    #[inline(always)]
+    fn step_any_cpu(&mut self, rotor_cmd: &[f64; 4], dt: f64) {
         let (pos, vel, omega) = (self.state.pos.raw(), self.state.vel.raw(), self.state.omega.raw());
         let q = self.state.att.quaternion().coords;
         let o = &self.state.rotor_speed;
