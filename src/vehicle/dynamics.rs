@@ -76,6 +76,15 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
+/// [`rotate`] of (0, 0, f_z): the same operations without the products by zero (the result
+/// differs from `rotate`'s at most in the sign of an exact zero).
+#[inline(always)]
+fn rotate_body_z(qv: [f64; 3], qw: f64, fz: f64) -> [f64; 3] {
+    let t = [(qv[1] * fz) * 2.0, -(qv[0] * fz) * 2.0];
+    let u = [-(qv[2] * t[1]), qv[2] * t[0], qv[0] * t[1] - qv[1] * t[0]];
+    [t[0] * qw + u[0], t[1] * qw + u[1], u[2] + fz]
+}
+
 /// Rotates `v` by the unit quaternion with vector part `qv` and scalar part `qw` (nalgebra's
 /// `UnitQuaternion * Vector3`: t = 2·(qv × v), v' = t·qw + qv × t + v).
 #[inline(always)]
@@ -153,15 +162,16 @@ impl X3d {
         let w = [s[W], s[W + 1], s[W + 2]];
         let rotor = [s[R], s[R + 1], s[R + 2], s[R + 3]];
         let [ff, fr, fb, fl] = rotor.map(|o| p.k_thrust * o * o);
-        // rotor drag needs the body velocity; without drag (the presets) skip the rotation
-        let (drag_x, drag_y) = match p.rotor_drag_per_s {
-            [0.0, 0.0] => (0.0, 0.0),
+        let thrust_z = -(ff + fr + fb + fl);
+        let force_nav = match p.rotor_drag_per_s {
+            // without rotor drag (the presets) the body force is (0, 0, −T): skip the rotation
+            // of the body velocity, and rotate the force with the zero products left out
+            [0.0, 0.0] => rotate_body_z(qv, qw, thrust_z),
             [kx, ky] => {
                 let v_body = rotate([-qv[0], -qv[1], -qv[2]], qw, [s[V], s[V + 1], s[V + 2]]);
-                (-p.mass_kg * kx * v_body[0], -p.mass_kg * ky * v_body[1])
+                rotate(qv, qw, [-p.mass_kg * kx * v_body[0], -p.mass_kg * ky * v_body[1], thrust_z])
             }
         };
-        let force_nav = rotate(qv, qw, [drag_x, drag_y, -(ff + fr + fb + fl)]);
         let dist = &self.disturbance;
         let l = p.arm_m;
         let tau = [
