@@ -103,9 +103,11 @@ impl Mocap {
     pub fn capture(&mut self, t: Nanos, truth: &State) -> Option<MocapFrame> {
         let seq = self.seq;
         self.seq = self.seq.wrapping_add(1);
+        // y_i = R_w·(p + R·b_i) + t_w = (R_w·p + t_w) + (R_w·R)·b_i: one rotation per marker
+        let origin = self.camera.to_mocap(truth.pos);
+        let body_to_mocap: Rot<Body, MocapNav> = self.camera.rotation * truth.att;
         for (i, b) in self.markers.mounted.iter().enumerate() {
-            let world: Vec3<Nav> = truth.pos + truth.att.apply(*b);
-            let mut y = self.camera.to_mocap(world);
+            let mut y = origin + body_to_mocap.apply(*b);
             if self.noise_m > 0.0 {
                 let s = self.noise_m;
                 y += Vec3::new(s * self.rng.normal(), s * self.rng.normal(), s * self.rng.normal());

@@ -44,9 +44,20 @@ fn an_outage_shorter_than_the_timeout_changes_little() {
     let calm = fly("{ from_s: 100 }", "");
     assert_eq!(v.failsafe.episodes, 0);
     assert!(v.link.longest_gap_ns >= 50_000_000);
-    // the station holds its last command for 60 ms: the track moves by millimetres
-    let diff = v.trace.iter().zip(&calm.trace).map(|(a, b)| (a.pos - b.pos).norm()).fold(0.0, f64::max);
-    assert!(diff < 0.005, "{diff} m");
+    let diff = |from: f64, to: f64| {
+        let both = v.trace.iter().zip(&calm.trace).filter(|(a, _)| (from..to).contains(&a.t.as_secs_f64()));
+        both.map(|(a, b)| (a.pos - b.pos).norm()).fold(0.0, f64::max)
+    };
+    // the station holds its last command for 60 ms: in the two seconds after, the track moves by
+    // millimetres (≤ 1.8 mm over seeds 1–15)
+    let after = diff(10.0, 12.0);
+    assert!(after < 0.005, "{after} m");
+    // later the two flights do not converge back: the 8-bit PPM quantisation makes the closed
+    // loop wander by millimetres, and a perturbation that changes one PPM count decorrelates the
+    // two wanders (a 1 nm shift of home changes no count, and nothing)
+    // (2.3–6.6 mm over seeds 1–15, the largest during the hover before landing)
+    let whole = diff(0.0, 30.0);
+    assert!(whole < 0.010, "{whole} m");
 }
 
 #[test]
@@ -100,3 +111,4 @@ fn an_outage_after_landing_keeps_the_motors_off() {
     assert!(v.trace.iter().filter(|s| s.t.as_secs_f64() > 24.1).all(|s| s.thrust_n == 0.0));
     assert!(v.final_pos.z().abs() < 1e-9);
 }
+
