@@ -76,21 +76,35 @@ pub struct ControlOutput {
 
 /// T_w⁻¹ of (4): maps Euler-angle rates to body rates.
 pub fn t_w_inv(roll: f64, pitch: f64) -> Matrix3<f64> {
-    let (sf, cf) = roll.sin_cos();
-    let (st, ct) = pitch.sin_cos();
+    t_w_inv_sc(roll.sin_cos(), pitch.sin_cos())
+}
+
+/// [`t_w_inv`] from (sin φ, cos φ) and (sin θ, cos θ).
+fn t_w_inv_sc((sf, cf): (f64, f64), (st, ct): (f64, f64)) -> Matrix3<f64> {
     Matrix3::new(1.0, 0.0, -st, 0.0, cf, ct * sf, 0.0, -sf, ct * cf)
+}
+
+/// (sin φ, cos φ) and (sin θ, cos θ) of an attitude, read off C_b^n itself instead of calling the
+/// trigonometric functions on its Euler angles: R₃₁ = −sin θ, R₃₂ = sin φ·cos θ,
+/// R₃₃ = cos φ·cos θ (cos θ ≥ 0 for the Z-Y-X angles, |θ| ≤ π/2). At θ = ±π/2 exactly, φ is
+/// not defined by R and the angles' own sines are used.
+fn roll_pitch_sin_cos<A: crate::frames::Frame, B: crate::frames::Frame>(att: &Rot<A, B>, e: &Euler) -> ((f64, f64), (f64, f64)) {
+    let r = att.matrix();
+    let ct = (r[(2, 1)] * r[(2, 1)] + r[(2, 2)] * r[(2, 2)]).sqrt();
+    if ct > 0.0 { ((r[(2, 1)] / ct, r[(2, 2)] / ct), (-r[(2, 0)], ct)) } else { (e.roll.sin_cos(), e.pitch.sin_cos()) }
 }
 
 /// One evaluation of (1)–(5).
 pub fn control(g: &Gains, r: &Reference, pos: Vec3<MocapNav>, vel: Vec3<MocapNav>, att: Rot<Body, MocapNav>) -> ControlOutput {
     let e = att.euler();
+    let (roll_sc, pitch_sc) = roll_pitch_sin_cos(&att, &e);
     let c_n_b = att.inverse();
     let dx_b = c_n_b.apply(r.pos - pos); // (1)
     let v_b = c_n_b.apply(vel);
     let vff_b = c_n_b.apply(r.vel);
     let aff_b = c_n_b.apply(r.acc);
     let acc = aff_b + (dx_b.component_mul(&g.k_x) + vff_b - v_b).component_mul(&g.k_v); // (2)
-    let x1 = (acc.y() / (GRAVITY * e.pitch.cos())).clamp(-1.0, 1.0);
+    let x1 = (acc.y() / (GRAVITY * pitch_sc.1)).clamp(-1.0, 1.0);
     let x2 = (acc.x() / -GRAVITY).clamp(-1.0, 1.0);
     let mut roll_com = x1.asin().clamp(-g.max_tilt[0], g.max_tilt[0]);
     if r.lateral == LateralMode::RollZero {
@@ -102,8 +116,8 @@ pub fn control(g: &Gains, r: &Reference, pos: Vec3<MocapNav>, vel: Vec3<MocapNav
         g.k_att[1] * (pitch_com - e.pitch),
         g.k_att[2] * wrap_pi(r.yaw - e.yaw) + r.yaw_rate,
     );
-    let pqr = t_w_inv(e.roll, e.pitch) * euler_rates; // (3), (4)
-    let f_t = g.mass_kg * (acc.z() - GRAVITY * e.roll.cos() * e.pitch.cos()); // (5)
+    let pqr = t_w_inv_sc(roll_sc, pitch_sc) * euler_rates; // (3), (4)
+    let f_t = g.mass_kg * (acc.z() - GRAVITY * roll_sc.1 * pitch_sc.1); // (5)
     let thrust = if r.motors_off { 0.0 } else { (-f_t).clamp(0.0, g.thrust_max_n) };
     ControlOutput {
         rates: if r.motors_off { Vec3::zeros() } else { Vec3::from_raw(pqr) },
@@ -160,6 +174,19 @@ mod tests {
         let out = control(&gains(), &hold(p), p, Vec3::zeros(), Rot::identity());
         assert!((out.thrust_n - 0.68 * 9.81).abs() < 1e-12);
         assert_eq!(out.rates, Vec3::zeros());
+    }
+
+    #[test]
+    fn sines_and_cosines_from_the_matrix_equal_the_angles() {
+        for (roll, pitch, yaw) in [(0.3, -0.2, 2.5), (-1.2, 1.4, -3.0), (0.0, 0.0, 0.0), (3.0, -1.5, 1.0)] {
+            let att: Rot<Body, MocapNav> = Rot::from_euler(Euler::new(roll, pitch, yaw));
+            let e = att.euler();
+            let ((sf, cf), (st, ct)) = roll_pitch_sin_cos(&att, &e);
+            let ((sf2, cf2), (st2, ct2)) = (e.roll.sin_cos(), e.pitch.sin_cos());
+            for (a, b) in [(sf, sf2), (cf, cf2), (st, st2), (ct, ct2)] {
+                assert!((a - b).abs() < 1e-14, "({roll}, {pitch}): {a} vs {b}");
+            }
+        }
     }
 
     #[test]
