@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! scenario ─► engine (integer clock, 1 kHz) drives, per vehicle:
-//!   vehicle (X3D rigid body, rotors, IMU) ─► mocap (markers, Kabsch fit, 200 Hz) ─► link (UDP)
+//!   vehicle (X3D rigid body, rotors, IMU) ─► mocap (markers, rigid fit, 200 Hz) ─► link (UDP)
 //!   ─► engine::Station: estimate ─► guidance ─► calibrate ─► control (1)–(5) ─► radio (PPM 0..255)
 //!   ─► vehicle's onboard rate loop;  vehicle::telemetry (gyro, XBee) ─► calibrate::gyro
 //! requirements (R1–R5) · record (Rerun .rrd) · sweep (Monte Carlo, shards) · log (flight CSV)

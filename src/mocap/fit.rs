@@ -122,7 +122,7 @@ pub fn kabsch(h: &Matrix3<f64>) -> Option<Matrix3<f64>> {
 /// quadratic; it stops when |δ| < 1e-9 rad (the next error is ~1e-18). At the optimum A is
 /// symmetric with eigenvalues σ₁ ≥ σ₂ ≥ σ₃ (σ₃ < 0 for a reflected H), and the Hessian
 /// tr(A)·I − S has eigenvalues σᵢ + σⱼ > 0 unless the points are collinear: it is checked positive
-/// definite (Cholesky) at every step, so the iteration cannot settle on a saddle. `None` (the
+/// definite (its leading minors) at every step, so the iteration cannot settle on a saddle. `None` (the
 /// caller falls back to [`kabsch`]) when it is not, or after 8 steps.
 pub fn refine_rotation(h: &Matrix3<f64>, guess: &UnitQuaternion<f64>) -> Option<UnitQuaternion<f64>> {
     let mut q = *guess;

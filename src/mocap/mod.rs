@@ -116,8 +116,7 @@ impl Mocap {
             self.visible[i] = !self.occlusions.iter().any(|o| o.marker == i && t >= o.from && t < o.to);
         }
         // the last frame's attitude starts the fit (Newton, three steps instead of Kabsch's ~8)
-        let fit = rigid_fit_near(&self.markers.template, &self.observed, &self.visible, self.last_attitude.take());
-        let fit = fit?;
+        let fit = rigid_fit_near(&self.markers.template, &self.observed, &self.visible, self.last_attitude.take())?;
         self.last_attitude = Some(fit.rotation);
         Some(MocapFrame {
             seq,
