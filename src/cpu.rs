@@ -10,12 +10,23 @@
 //! came out slower compiled this way (their time is in callees that are not inlined), so they are
 //! not.
 
-/// True when this CPU has AVX2 (std caches the answer after the first query).
+use std::sync::atomic::{AtomicBool, Ordering};
+
+static BASELINE_ONLY: AtomicBool = AtomicBool::new(false);
+
+/// Runs the any-CPU code even where AVX2 is present, from now on, in every thread. The results
+/// are the same bits either way (the acceptance tests check exactly that with this switch).
+pub fn set_baseline_only(on: bool) {
+    BASELINE_ONLY.store(on, Ordering::Relaxed);
+}
+
+/// True when this CPU has AVX2 (std caches the answer after the first query) and
+/// [`set_baseline_only`] is off.
 #[inline(always)]
 pub fn has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        std::is_x86_feature_detected!("avx2")
+        !BASELINE_ONLY.load(Ordering::Relaxed) && std::is_x86_feature_detected!("avx2")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {

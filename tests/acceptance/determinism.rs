@@ -50,6 +50,25 @@ fn runs_on_other_threads_match_the_sequential_run() {
     }
 }
 
+/// The RK4 step runs compiled for AVX2 where the CPU has it (`flyarena::cpu`); the any-CPU build
+/// must give the same bits, with rotor drag (the full rotations) and without (the shortcut).
+#[test]
+fn the_avx2_and_the_any_cpu_step_give_the_same_bits() {
+    if !flyarena::cpu::has_avx2() {
+        eprintln!("this CPU has no AVX2: only the any-CPU build runs here");
+        return;
+    }
+    for name in ["fig6-roll-pitch-offsets.yaml", "identify-rotor-drag.yaml"] {
+        let s = load(name);
+        let avx2 = bits(&run(&s, RunOptions::default()));
+        flyarena::cpu::set_baseline_only(true);
+        let any_cpu = bits(&run(&s, RunOptions::default()));
+        flyarena::cpu::set_baseline_only(false);
+        assert!(avx2.len() > 50_000);
+        assert!(avx2 == any_cpu, "{name}: the two builds of the step differ");
+    }
+}
+
 #[test]
 fn a_different_seed_gives_a_different_trajectory() {
     let mut s = load("fig6-roll-pitch-offsets.yaml");
