@@ -163,6 +163,32 @@ impl Plan {
         self.phases.iter().position(|p| t >= p.start && t < p.end)
     }
 
+    /// A time until which [`Self::reference`]'s window, and in a spin its position, stay what
+    /// they are at `t` (for a caller that needs only those every tick, not the whole reference).
+    /// Within a phase they change only where the settling ends, (t − start) ≥ `settle_s` in
+    /// seconds; the bound stops 1 µs short of that instant, so that no rounding can put it late.
+    pub fn window_until(&self, t: Nanos) -> Nanos {
+        let Some(i) = self.phase_at(t) else {
+            return match self.phases.first() {
+                Some(first) if t < first.start => first.start,
+                _ => Nanos(i64::MAX),
+            };
+        };
+        let s = &self.phases[i];
+        let settle_s = match s.phase {
+            Phase::CalibrateRollPitch { settle_s, .. }
+            | Phase::CalibrateYaw { settle_s, .. }
+            | Phase::YawSpin { settle_s, .. }
+            | Phase::CalibrateGyro { settle_s, .. } => settle_s,
+            _ => return s.end,
+        };
+        if (t - s.start).as_secs_f64() < settle_s {
+            (s.start + Nanos::from_secs_f64(settle_s) - Nanos::from_micros(1)).min(s.end)
+        } else {
+            s.end
+        }
+    }
+
     /// The reference at time `t`, and the calibration window it is in.
     pub fn reference(&self, t: Nanos) -> (Reference, Window) {
         let hold = |p: Vec3<MocapNav>, yaw: f64, motors_off: bool| Reference {
@@ -320,6 +346,49 @@ mod tests {
         }
         // full radius in the middle turn
         assert!((circle(r, p, turns, 3.0).0.norm() - r).abs() < 1e-12);
+    }
+
+    /// Over a plan with every phase, ms by ms: from t to window_until(t) the window (and in a
+    /// spin the position) is the one at t.
+    #[test]
+    fn window_until_never_passes_a_window_change() {
+        let plan = Plan::schedule(
+            &[
+                Phase::Idle { duration_s: 0.5 },
+                Phase::Takeoff { altitude_m: 1.0, duration_s: 2.0 },
+                Phase::CalibrateRollPitch { settle_s: 1.0005, average_s: 1.0 },
+                Phase::CalibrateYaw { settle_s: 0.7, distance_m: 1.0, speed_m_s: 1.0, accel_m_s2: 1.0 },
+                Phase::YawSpin { settle_s: 0.3333, angle_rad: 3.0, duration_s: 1.0 },
+                Phase::CalibrateGyro { settle_s: 0.25, radius_m: 0.2, period_s: 1.0, turns: 1.0 },
+                Phase::Waypoint { pos_m: [1.0, 1.0, -1.0], speed_m_s: 1.0, accel_m_s2: 1.0, hold_s: 0.2 },
+                Phase::Hover { duration_s: 0.1 },
+                Phase::Land { duration_s: 1.0 },
+            ],
+            Vec3::zeros(),
+            0.0,
+        );
+        let end = plan.phases.last().unwrap().end + Nanos::from_millis(500);
+        let (mut t, mut switches) = (Nanos::ZERO, 0);
+        while t < end {
+            let (r0, w0) = plan.reference(t);
+            let until = plan.window_until(t);
+            assert!(until > t || plan.reference(t + Nanos::from_millis(1)).1 != w0, "no progress at {t}");
+            let mut u = t + Nanos::from_millis(1);
+            while u < until.min(end) {
+                let (r, w) = plan.reference(u);
+                assert_eq!(w, w0, "window changed at {u} before {until} (from {t})");
+                if w == Window::Spin {
+                    assert_eq!(r.pos, r0.pos);
+                }
+                u += Nanos::from_millis(1);
+            }
+            if plan.reference(u).1 != w0 {
+                switches += 1;
+            }
+            t = u.max(t + Nanos::from_millis(1));
+        }
+        // None → HoverAverage → None → YawFlight → None → Spin → None → GyroExcite → None
+        assert!(switches >= 8, "{switches} window switches seen");
     }
 
     #[test]

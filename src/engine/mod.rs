@@ -129,8 +129,18 @@ struct Vehicle {
     spin_max: Option<f64>,
     thrust_sum: f64,
     thrust_n: u64,
+    window: WindowCache,
     trace: Vec<TraceSample>,
     any_nan: bool,
+}
+
+/// The plan's window at the last evaluation, the reference position then, and until when both
+/// hold ([`crate::guidance::Plan::window_until`]).
+#[derive(Clone, Copy)]
+struct WindowCache {
+    window: Window,
+    pos: Vec3<MocapNav>,
+    until: Nanos,
 }
 
 /// A built arena, ready to run.
@@ -258,6 +268,7 @@ impl Arena {
                     last_frame: None,
                     spin_max: None,
                     thrust_sum: 0.0,
+                    window: WindowCache { window: Window::None, pos: Vec3::zeros(), until: Nanos::ZERO },
                     thrust_n: 0,
                     trace: Vec::new(),
                     any_nan: false,
@@ -359,13 +370,18 @@ impl Vehicle {
             self.radio.transmit(t, cmd.rates, cmd.thrust_n);
         }
         let held = self.radio.receiver(t);
-        let (reference, window) = self.station.guidance(t);
-        if window == Window::HoverAverage {
+        // the engine's own measurements need the window (and in a spin the reference position)
+        // every tick: evaluate the plan only where they can change
+        if t >= self.window.until {
+            let (r, w) = self.station.guidance(t);
+            self.window = WindowCache { window: w, pos: r.pos, until: self.station.plan().window_until(t) };
+        }
+        if self.window.window == Window::HoverAverage {
             self.thrust_sum += held.thrust_n;
             self.thrust_n += 1;
         }
-        if window == Window::Spin {
-            let dev = (self.x3d.state().pos - self.mocap.camera().to_nav(reference.pos)).horizontal_norm();
+        if self.window.window == Window::Spin {
+            let dev = (self.x3d.state().pos - self.mocap.camera().to_nav(self.window.pos)).horizontal_norm();
             self.spin_max = Some(self.spin_max.map_or(dev, |m: f64| m.max(dev)));
         }
         let s = *self.x3d.state();
@@ -380,6 +396,7 @@ impl Vehicle {
             self.any_nan = true;
         }
         if trace && mocap_tick {
+            let (reference, _) = self.station.guidance(t);
             self.trace.push(TraceSample {
                 t,
                 pos: s.pos,
