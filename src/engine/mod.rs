@@ -318,11 +318,13 @@ impl Arena {
 
     pub fn finish(self) -> RunOutput {
         let duration = self.clock.now();
+        // the clock has advanced past the last tick that ran
+        let last_tick = if self.clock.tick() > 0 { duration - self.clock.period() } else { duration };
         let vehicles = self
             .vehicles
             .into_iter()
             .map(|mut v| {
-                let calibration = v.station.finish();
+                let calibration = v.station.finish(last_tick);
                 let phases = v.station.plan().phases.iter().map(|p| (p.start, p.phase.name())).collect();
                 VehicleRun {
                     name: v.name,

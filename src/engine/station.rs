@@ -315,11 +315,12 @@ impl Station {
         }
     }
 
-    /// Closes any open calibration window and returns the report.
-    pub fn finish(&mut self) -> CalibrationReport {
+    /// Closes any open calibration window and returns the report; `last_tick` is the time of
+    /// the run's last tick (a failsafe still active is counted up to it).
+    pub fn finish(&mut self, last_tick: Nanos) -> CalibrationReport {
         if self.failsafe_since.is_some() {
             self.failsafe_report.active_at_end = true;
-            self.end_failsafe(self.guidance.0);
+            self.end_failsafe(last_tick);
         }
         self.close_window();
         self.window = Window::None;

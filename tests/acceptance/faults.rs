@@ -93,6 +93,22 @@ fn a_permanent_outage_lands_and_stops_the_motors() {
     assert!(v.final_pos.horizontal_norm() < 1.0, "{:?}", v.final_pos);
 }
 
+/// Regression: a failsafe still active at the end was counted up to the last time the station
+/// had evaluated its plan, which was the last tick only while the engine asked every tick; with
+/// the trace off and no poses arriving, that was long before the end.
+#[test]
+fn a_failsafe_active_at_the_end_counts_to_the_last_tick() {
+    for trace in [false, true] {
+        let y = FLIGHT.replace("OUTAGE", "{ from_s: 10 }").replace("OCCLUSIONS", "");
+        let out = run(&inline(&y), RunOptions { trace, apply_calibration: None });
+        let f = out.vehicles[0].failsafe;
+        assert!(f.active_at_end);
+        let last_tick_s = out.duration.as_secs_f64() - 0.001;
+        let first = f.first_at_s.unwrap();
+        assert!((f.total_s - (last_tick_s - first)).abs() < 1e-9, "trace {trace}: {} s counted, {} s expected", f.total_s, last_tick_s - first);
+    }
+}
+
 #[test]
 fn losing_two_of_four_markers_is_an_outage_too() {
     let occl = ", occlusions: [ { marker: 0, from_s: 10, to_s: 10.5 }, { marker: 2, from_s: 10, to_s: 10.5 } ]";
