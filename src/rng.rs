@@ -86,13 +86,18 @@ impl Stream {
     /// and was 6 % of the 200 Hz loop.)
     #[inline]
     pub fn normal(&mut self) -> f64 {
-        let bits = self.next_u64();
-        let i = (bits & 0x7f) as usize;
-        let u = 2.0 * ((bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)) - 1.0;
+        let (i, u) = self.ziggurat_draw();
         if u.abs() < ZIGGURAT_RATIO[i] {
             return u * ZIGGURAT_X[i];
         }
         self.normal_slow(i, u)
+    }
+
+    /// A layer i (the low 7 bits of one draw) and u ∈ [−1, 1) (its high 53 bits).
+    #[inline(always)]
+    fn ziggurat_draw(&mut self) -> (usize, f64) {
+        let bits = self.next_u64();
+        ((bits & 0x7f) as usize, 2.0 * ((bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)) - 1.0)
     }
 
     /// The 3 % of draws outside a layer's rectangle: the base layer's tail, or a wedge (accept x
@@ -109,9 +114,7 @@ impl Stream {
             if f1 + self.uniform() * (f0 - f1) < 1.0 {
                 return x;
             }
-            let bits = self.next_u64();
-            i = (bits & 0x7f) as usize;
-            u = 2.0 * ((bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)) - 1.0;
+            (i, u) = self.ziggurat_draw();
             if u.abs() < ZIGGURAT_RATIO[i] {
                 return u * ZIGGURAT_X[i];
             }

@@ -38,6 +38,22 @@ pub fn ln_gamma(x: f64) -> f64 {
     0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
 }
 
+/// Keeps the modified Lentz algorithm's C and D away from zero.
+const LENTZ_TINY: f64 = 1e-300;
+
+fn lentz_guard(v: f64) -> f64 {
+    if v.abs() < LENTZ_TINY { LENTZ_TINY } else { v }
+}
+
+/// One term (a, b) of a continued fraction … a/(b + …) by the modified Lentz algorithm
+/// (Numerical Recipes §5.2): D ← 1/(b + a·D), C ← b + a/C, both guarded away from zero;
+/// returns Δ = C·D, the factor by which the convergent changes.
+fn lentz_step(c: &mut f64, d: &mut f64, a: f64, b: f64) -> f64 {
+    *d = 1.0 / lentz_guard(a * *d + b);
+    *c = lentz_guard(b + a / *c);
+    *d * *c
+}
+
 /// Regularised incomplete beta I_x(a, b) (continued fraction, Numerical Recipes §6.4).
 pub fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
     if x <= 0.0 {
@@ -48,32 +64,15 @@ pub fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
     }
     let ln_front = ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln();
     let cf = |a: f64, b: f64, x: f64| {
-        let tiny = 1e-300;
         let (qab, qap, qam) = (a + b, a + 1.0, a - 1.0);
         let mut c = 1.0;
-        let mut d = 1.0 - qab * x / qap;
-        if d.abs() < tiny {
-            d = tiny;
-        }
-        d = 1.0 / d;
+        let mut d = 1.0 / lentz_guard(1.0 - qab * x / qap);
         let mut h = d;
         for m in 1..400 {
             let m = m as f64;
             let m2 = 2.0 * m;
-            let aa = m * (b - m) * x / ((qam + m2) * (a + m2));
-            d = 1.0 + aa * d;
-            d = if d.abs() < tiny { tiny } else { d };
-            c = 1.0 + aa / c;
-            c = if c.abs() < tiny { tiny } else { c };
-            d = 1.0 / d;
-            h *= d * c;
-            let aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
-            d = 1.0 + aa * d;
-            d = if d.abs() < tiny { tiny } else { d };
-            c = 1.0 + aa / c;
-            c = if c.abs() < tiny { tiny } else { c };
-            d = 1.0 / d;
-            let del = d * c;
+            h *= lentz_step(&mut c, &mut d, m * (b - m) * x / ((qam + m2) * (a + m2)), 1.0);
+            let del = lentz_step(&mut c, &mut d, -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2)), 1.0);
             h *= del;
             if (del - 1.0).abs() < 1e-15 {
                 break;
@@ -103,20 +102,13 @@ pub fn incomplete_gamma(a: f64, x: f64) -> f64 {
         sum * ln_front.exp()
     } else {
         // continued fraction for Q(a, x) (Lentz)
-        let tiny = 1e-300;
         let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
+        let mut c = 1.0 / LENTZ_TINY;
         let mut d = 1.0 / b;
         let mut h = d;
         for i in 1..1000 {
-            let an = -(i as f64) * (i as f64 - a);
             b += 2.0;
-            d = an * d + b;
-            d = if d.abs() < tiny { tiny } else { d };
-            c = b + an / c;
-            c = if c.abs() < tiny { tiny } else { c };
-            d = 1.0 / d;
-            let del = d * c;
+            let del = lentz_step(&mut c, &mut d, -(i as f64) * (i as f64 - a), b);
             h *= del;
             if (del - 1.0).abs() < 1e-16 {
                 break;

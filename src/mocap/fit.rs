@@ -191,14 +191,17 @@ mod tests {
     use super::*;
     use crate::frames::{Body, Euler, MocapBody, Nav};
 
+    /// An asymmetric four-marker template (body frame, m).
+    const FOUR_MARKERS: [Vec3<Body>; 4] = [
+        Vec3::new(0.2, 0.0, -0.03),
+        Vec3::new(0.0, 0.17, -0.03),
+        Vec3::new(-0.13, 0.0, -0.03),
+        Vec3::new(0.0, -0.1, -0.05),
+    ];
+
     #[test]
     fn recovers_a_known_pose_exactly() {
-        let m = [
-            Vec3::<Body>::new(0.2, 0.0, -0.03),
-            Vec3::new(0.0, 0.17, -0.03),
-            Vec3::new(-0.13, 0.0, -0.03),
-            Vec3::new(0.0, -0.1, -0.05),
-        ];
+        let m = FOUR_MARKERS;
         let r: Rot<Body, Nav> = Rot::from_euler(Euler::new(0.3, -0.2, 2.5));
         let t = Vec3::<Nav>::new(1.0, -2.0, -1.5);
         let y: Vec<_> = m.iter().map(|p| r.apply(*p) + t).collect();
@@ -271,12 +274,7 @@ mod tests {
         }
         assert!(declined < 200, "Newton declined {declined} of 2000 random cases");
         // a guess half a turn away: declined, and the fit still finds the pose
-        let m = [
-            Vec3::<Body>::new(0.2, 0.0, -0.03),
-            Vec3::new(0.0, 0.17, -0.03),
-            Vec3::new(-0.13, 0.0, -0.03),
-            Vec3::new(0.0, -0.1, -0.05),
-        ];
+        let m = FOUR_MARKERS;
         let truth: Rot<Body, Nav> = Rot::from_euler(Euler::new(0.3, -0.2, 2.5));
         let y: Vec<Vec3<Nav>> = m.iter().map(|p| truth.apply(*p)).collect();
         let far = Rot::<Nav, Nav>::from_euler(Euler::new(std::f64::consts::PI, 0.0, 0.0)) * truth;
