@@ -312,6 +312,48 @@ mod tests {
         assert!((incomplete_beta(1.0, 1.0, 0.3) - 0.3).abs() < 1e-14);
     }
 
+    /// The branches the table above does not reach, against closed forms: P(x < a + 1) takes
+    /// the series of the incomplete gamma, x above (a + 1)/(a + b + 2) the symmetric continued
+    /// fraction I_x(a, b) = 1 − I_{1−x}(b, a).
+    #[test]
+    fn chi2_series_and_symmetric_beta_branches_match_closed_forms() {
+        // χ²(10) lower quantiles (tabulated): P(X > 2.558212) = 0.99, P(X > 3.940299) = 0.95;
+        // a = 5, x = 1.28 and 1.97 < a + 1: the series branch
+        assert!((chi2_sf(2.558_212, 10.0) - 0.99).abs() < 1e-6, "{}", chi2_sf(2.558_212, 10.0));
+        assert!((chi2_sf(3.940_299, 10.0) - 0.95).abs() < 1e-6);
+        // χ²(2) is exponential: P(X > q) = e^{−q/2}, in both branches (x = 0.5 < 2, x = 4 > 2)
+        for q in [1.0, 8.0] {
+            assert!((chi2_sf(q, 2.0) - (-q / 2.0f64).exp()).abs() < 1e-13, "{q}");
+        }
+        // I_x(a, n − a + 1) = P(Binomial(n, x) ≥ a): I_0.9(2, 3) = 1 − 0.1⁴ − 4·0.9·0.1³ = 0.9963,
+        // x = 0.9 > 3/7: the symmetric branch; I_0.2(2, 3) = 1 − 0.8⁴ − 4·0.2·0.8³ = 0.1808, direct
+        assert!((incomplete_beta(2.0, 3.0, 0.9) - 0.9963).abs() < 1e-13, "{}", incomplete_beta(2.0, 3.0, 0.9));
+        assert!((incomplete_beta(2.0, 3.0, 0.2) - 0.1808).abs() < 1e-13);
+        // F(2, 2): P(F > f) = 1/(1 + f); f = 0.25 puts x = 2/(2 + 0.5) = 0.8 above (1 + 1)/(1 + 1 + 2) = 0.5
+        for f in [0.25, 4.0] {
+            assert!((f_sf(f, 2.0, 2.0) - 1.0 / (1.0 + f)).abs() < 1e-13, "{f}");
+        }
+    }
+
+    /// Ljung–Box by hand: x = (1, −1, 1, −1, 1, −1) has mean 0, ρ₁ = −5/6, ρ₂ = 4/6, so
+    /// Q(2) = 6·8·((25/36)/5 + (16/36)/4) = 12 and p = P(χ²(2) > 12) = e^{−6}; with one fitted
+    /// parameter the degrees of freedom drop to 1: p = P(χ²(1) > 12) = 5.320055e-4 (tabulated).
+    #[test]
+    fn ljung_box_matches_a_hand_computed_value() {
+        let x = [1.0, -1.0, 1.0, -1.0, 1.0, -1.0];
+        let lb = ljung_box(&x, 2, 0);
+        assert!((lb.q - 12.0).abs() < 1e-12, "{lb:?}");
+        assert_eq!(lb.dof, 2);
+        assert!((lb.p_value - (-6.0f64).exp()).abs() < 1e-14, "{lb:?}");
+        let lb1 = ljung_box(&x, 2, 1);
+        assert_eq!(lb1.dof, 1);
+        assert!((lb1.p_value - 5.320_055e-4).abs() < 1e-9, "{lb1:?}");
+        // NaN holes are skipped, not counted: the same six values with holes give the same Q
+        // only at lag pairs that exist; here a hole at the end changes nothing
+        let with_hole = [1.0, -1.0, 1.0, -1.0, 1.0, -1.0, f64::NAN];
+        assert!((ljung_box(&with_hole, 2, 0).q - 12.0).abs() < 1e-12);
+    }
+
     #[test]
     fn ar_fit_recovers_an_ar2_process_and_whitening_makes_it_white() {
         let mut rng = Stream::new(3, Component::Sweep, 0);
