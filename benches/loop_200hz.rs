@@ -106,7 +106,7 @@ fn identify(c: &mut Criterion) {
     let mut g = c.benchmark_group("identify");
     g.sample_size(10);
     g.throughput(Throughput::Elements(series.len() as u64));
-    g.bench_function("ten_minutes_200hz", |b| b.iter(|| flyarena::identify::identify(&series, &flyarena::identify::Options::default())));
+    g.bench_function("ten_minutes_200hz", |b| b.iter(|| flyarena::identify::identify(&series, &flyarena::identify::Options::default()).expect("clean data")));
     g.finish();
 }
 

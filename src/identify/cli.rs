@@ -44,7 +44,7 @@ pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicl
         let map = super::mapping::Mapping::load(m)?;
         let opts = options(forced, smoothing_ms, Some(&map));
         let series = map.read(input)?;
-        let report = identify(&series, &opts);
+        let report = identify(&series, &opts).map_err(|e| e.to_string())?;
         let text = report::render(&report);
         // the log's own frame rate, for rounding a delay to whole frames
         let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32);
@@ -68,7 +68,7 @@ pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicl
     } else {
         flyarena_log::run_and_log(&s, i, &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicles.value[i].value.name))?.1
     };
-    let report = identify(&data, &opts);
+    let report = identify(&data, &opts).map_err(|e| e.to_string())?;
     let frag = fragment(&report, i, s.mocap.rate_hz.value);
     // closed loop: the nominal scenario and the nominal scenario with the effects, same seed
     let (nominal, fed) = nominal_and_fed_back(&tree, i, &frag, &scen_path.display().to_string())?;
@@ -107,11 +107,25 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     for p in inputs {
         series.push(map.read(p)?);
     }
-    let reports: Vec<(String, super::Report)> = inputs
-        .iter()
-        .zip(&series)
-        .map(|(p, s)| (p.file_stem().map_or_else(|| p.display().to_string(), |x| x.to_string_lossy().into_owned()), identify(s, &opts)))
-        .collect();
+    // a flight the data-quality gate rejects is left out of the table and the cross-validation,
+    // and said so; the others go on
+    let mut reports: Vec<(String, super::Report)> = Vec::new();
+    let mut kept = Vec::new();
+    let mut excluded: Vec<(String, String)> = Vec::new();
+    for (p, s) in inputs.iter().zip(series) {
+        let name = p.file_stem().map_or_else(|| p.display().to_string(), |x| x.to_string_lossy().into_owned());
+        match identify(&s, &opts) {
+            Ok(r) => {
+                reports.push((name, r));
+                kept.push(s);
+            }
+            Err(e) => excluded.push((name, e.to_string())),
+        }
+    }
+    if reports.is_empty() {
+        return Err(excluded.iter().map(|(_, e)| e.as_str()).collect::<Vec<_>>().join("\n"));
+    }
+    let series = kept;
     let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports
         .iter()
         .map(|(_, r)| series.iter().map(|s| { let e = evaluate(s, &opts, r); (channel_cut(&e, Channel::AccelKin), channel_cut(&e, Channel::Force)) }).collect())
@@ -131,6 +145,9 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
         for n in &r.notes {
             text += &format!("    note: {n}\n");
         }
+    }
+    for (name, e) in &excluded {
+        text += &format!("\n  {name}: left out, {e}\n");
     }
     for (k, title) in [(0, "accel_kin (mocap vs IMU: marker offset, tilt, delay)"), (1, "force (IMU vs force model: thrust, drag, wind)")] {
         text += &format!("\ncross-validation, {title}: error cut when the model fitted on the row's flight is used on the column's flight\n");
@@ -152,6 +169,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     }
     let json = json!({
         "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
+        "excluded": excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e})).collect::<Vec<_>>(),
         "cross_validation": {
             "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),
             "accel_kin_cut": cross.iter().map(|row| row.iter().map(|c| c.0).collect::<Vec<_>>()).collect::<Vec<_>>(),

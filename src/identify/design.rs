@@ -230,7 +230,7 @@ impl Design {
     }
 }
 
-fn gaussian_kernel(sigma_samples: f64) -> Vec<f64> {
+pub(crate) fn gaussian_kernel(sigma_samples: f64) -> Vec<f64> {
     let h = (3.0 * sigma_samples).ceil().max(1.0) as isize;
     let mut k: Vec<f64> = (-h..=h).map(|j| (-(j as f64).powi(2) / (2.0 * sigma_samples * sigma_samples)).exp()).collect();
     let s: f64 = k.iter().sum();
@@ -257,7 +257,7 @@ fn smooth_into(x: &[f64], segs: &[(usize, usize)], kernel: &[f64], out: &mut [f6
     }
 }
 
-fn smooth_vec3(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64]) -> Vec<Vector3<f64>> {
+pub(crate) fn smooth_vec3(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64]) -> Vec<Vector3<f64>> {
     let n = x.len();
     let mut out = vec![Vector3::zeros(); n];
     let mut col = vec![0.0; n];
@@ -328,14 +328,7 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
     // column, the lowest point of the first half second (a log is taken to start at rest). A
     // log that starts in the air with the motors on has no floor: nothing is masked for height
     // and the ground-effect regressor is zero.
-    let floor_z = match &s.thrust_n {
-        Some(t) => (0..n).filter(|&i| t[i] == 0.0).map(|i| pos_nav[i].z).reduce(f64::max),
-        None => {
-            let first = segs.first().map_or(0, |s| s.0);
-            let settle = ((0.5 / dt) as usize).max(1);
-            pos_nav[first..(first + settle).min(n)].iter().map(|p| p.z).reduce(f64::max)
-        }
-    };
+    let floor_z = super::series::floor_z(s, &pos_nav);
     let height: Vec<f64> = pos_nav.iter().map(|p| floor_z.map_or(f64::INFINITY, |f| f - p.z)).collect();
     for i in 0..n {
         if height[i] < opt.min_height_m {

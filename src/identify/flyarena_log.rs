@@ -69,6 +69,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
             rotor_radius_m: X3D_ROTOR_RADIUS_M,
             vbat_ref_v: 0.0,
             gravity_m_s2: GRAVITY,
+            imu_range: p.imu_range,
         },
         repairs: log.repairs.clone(),
     })

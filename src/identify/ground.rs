@@ -20,21 +20,26 @@ pub struct GroundCheck {
 }
 
 pub fn ground_check(s: &Series) -> Option<GroundCheck> {
-    let n = s.len();
     let z0 = s.pos_mocap_nav.first()?.z;
     let resting = |i: usize| match &s.thrust_n {
         Some(t) => t[i] == 0.0,
         None => (s.pos_mocap_nav[i].z - z0).abs() < 0.01,
     };
-    let end = (0..n).find(|&i| !resting(i) || !s.mocap_ok[i]).unwrap_or(n);
+    // the rest before take-off, inside the first segment (the data-quality gate may have cut
+    // its start or its end)
+    let (start, seg_end) = *s.segments.first()?;
+    if start > 0 && !resting(start) {
+        return None;
+    }
+    let end = (start..seg_end).find(|&i| !resting(i) || !s.mocap_ok[i]).unwrap_or(seg_end);
     // leave the last 0.2 s before the motors start out (spin-up)
-    let end = end.saturating_sub((0.2 / s.dt()) as usize);
-    if (end as f64) * s.dt() < 0.5 {
+    let end = end.saturating_sub((0.2 / s.dt()) as usize).max(start);
+    if ((end - start) as f64) * s.dt() < 0.5 {
         return None;
     }
     let g = s.model.gravity_m_s2;
-    let mut rp: Vec<(f64, f64)> = Vec::with_capacity(end);
-    for i in 0..end {
+    let mut rp: Vec<(f64, f64)> = Vec::with_capacity(end - start);
+    for i in start..end {
         let f_hat = s.att_mocap[i].inverse_transform_vector(&nalgebra::Vector3::new(0.0, 0.0, -g));
         let f = s.accel_body[i];
         let d = f_hat.cross(&f) / f_hat.norm_squared();

@@ -226,6 +226,7 @@ impl Mapping {
                 },
                 vbat_ref_v: map.map_or(0.0, |m| m.vbat_ref_v),
                 gravity_m_s2: GRAVITY,
+                imu_range: params.imu_range,
             },
             repairs: Vec::new(),
         };

@@ -29,7 +29,7 @@
 //! ";
 //! let s = Scenario::parse(yaml, std::path::Path::new("doc.yaml")).unwrap();
 //! let (_, flight) = run_and_log(&s, 0, "doc").unwrap();   // the flight log, as CSV and back
-//! let report = identify(&flight, &Options::default());
+//! let report = identify(&flight, &Options::default()).unwrap();
 //! assert_eq!(report.effects[0].effect, Effect::RotorDrag);
 //! let k_x = report.param(Effect::RotorDrag, "k_x").unwrap();
 //! assert!((k_x - 0.3).abs() < 0.02, "{k_x}");
@@ -40,6 +40,7 @@ pub mod cli;
 pub mod design;
 pub mod feedback;
 pub mod mapping;
+pub mod quality;
 pub mod flyarena_log;
 pub mod ground;
 pub mod report;
@@ -48,5 +49,5 @@ pub mod series;
 pub mod stats;
 
 pub use design::{Channel, DesignOptions, Effect};
-pub use select::{Options, Report, identify};
+pub use select::{IdentifyError, Options, Report, identify};
 pub use series::{Corrections, NominalModel, Series};

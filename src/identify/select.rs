@@ -30,6 +30,8 @@ use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Options {
     pub design: DesignOptions,
+    /// The data-quality gate run before anything is fitted.
+    pub quality: super::quality::QualityOptions,
     /// Family-wise level of the F-test (Bonferroni over the candidates of a step).
     pub alpha: f64,
     /// A candidate must cut the held-out error on its channels by this fraction.
@@ -52,6 +54,7 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             design: DesignOptions::default(),
+            quality: super::quality::QualityOptions::default(),
             alpha: 0.01,
             min_heldout_gain: 0.10,
             max_ar_order: 12,
@@ -155,6 +158,8 @@ pub struct Report {
     pub ground_check: Option<super::ground::GroundCheck>,
     pub notes: Vec<String>,
     pub repairs: Vec<String>,
+    /// What the data-quality gate cut out before the fit.
+    pub data_quality: super::quality::DataQuality,
     #[serde(skip)]
     pub corrections: Corrections,
     /// The final linear parameters (internal units), by column.
@@ -559,8 +564,53 @@ fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: 
         .collect()
 }
 
-/// Runs the method on one flight.
-pub fn identify(s: &Series, o: &Options) -> Report {
+/// The three gates a candidate must all pass to join the model, among `candidates` candidates:
+/// the prewhitened F-test at the Bonferroni level α/candidates, ΔBIC < 0, and a held-out error
+/// cut of at least `min_heldout_gain`.
+fn passes_gates(p_value: f64, delta_bic: f64, heldout_gain: f64, o: &Options, candidates: usize) -> bool {
+    p_value < o.alpha / candidates as f64 && delta_bic < 0.0 && heldout_gain >= o.min_heldout_gain
+}
+
+/// Runs the method on one flight: the data-quality gate, then the selection.
+///
+/// # Errors
+/// [`IdentifyError::TooLittleClean`] when the gate cut samples that no flight can produce and
+/// too few usable samples remain: no parameter comes out of corrupted data.
+pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
+    let (gated, quality) = super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m);
+    let mut report = select(&gated, o);
+    if report.train_samples < MIN_TRAIN_SAMPLES && quality.corrupted().next().is_some() {
+        return Err(IdentifyError::TooLittleClean { log: s.source.clone(), usable: report.train_samples, needed: MIN_TRAIN_SAMPLES, cuts: quality.describe() });
+    }
+    if !quality.cuts.is_empty() {
+        report.notes.insert(
+            0,
+            format!(
+                "the data-quality gate cut {} of {} rows before the fit (samples no flight can produce, with a {} s margin): {}",
+                quality.rows_cut,
+                quality.rows,
+                o.quality.margin_s,
+                quality.describe().join("; ")
+            ),
+        );
+    }
+    report.data_quality = quality;
+    Ok(report)
+}
+
+/// Why [`identify`] gives no report.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentifyError {
+    /// The data-quality gate cut so much that too little remains to fit anything.
+    #[error(
+        "{log}: only {usable} usable training samples remain after the data-quality gate ({needed} needed), so nothing is identified; what was cut:\n  {}",
+        cuts.join("\n  ")
+    )]
+    TooLittleClean { log: String, usable: usize, needed: usize, cuts: Vec<String> },
+}
+
+/// The selection on a gated flight.
+fn select(s: &Series, o: &Options) -> Report {
     let mut corr = Corrections::default();
     let mut selected: Vec<Effect> = Vec::new();
     let mut steps = Vec::new();
@@ -625,7 +675,6 @@ pub fn identify(s: &Series, o: &Options) -> Report {
         };
         let base = &fit(&grams_test, &state.fit.set);
         let rss_base_t = heldout_rss(&grams_test, &base.theta);
-        let m = pool.len() as f64;
         let mut cands = Vec::new();
         for &e in &pool {
             let mut set = base.set.clone();
@@ -655,7 +704,7 @@ pub fn identify(s: &Series, o: &Options) -> Report {
                 let xr = b[q] - (g.view((q, 0), (1, nb)) * &th_s)[(0, 0)];
                 max_corr = max_corr.max((xr / (g[(q, q)] * rr).sqrt()).abs());
             }
-            let passed = p_value < o.alpha / m && delta_bic < 0.0 && heldout_gain >= o.min_heldout_gain;
+            let passed = passes_gates(p_value, delta_bic, heldout_gain, o, pool.len());
             cands.push(Candidate { effect: e, delta_bic, f, p_value, heldout_gain, max_corr, passed });
         }
         let Some(best) = cands.iter().filter(|c| c.passed).min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic)).cloned() else {
@@ -747,6 +796,7 @@ pub fn identify(s: &Series, o: &Options) -> Report {
         ground_check: super::ground::ground_check(s),
         notes,
         repairs: s.repairs.clone(),
+        data_quality: super::quality::DataQuality::default(),
         corrections: state_corr,
         theta: state.fit.theta.clone(),
     }
@@ -828,4 +878,25 @@ pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSerie
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each gate alone rejects: a candidate that passes the other two fails when one of them
+    /// fails, at its boundary (deleting any one gate makes this test fail).
+    #[test]
+    fn each_selection_gate_alone_decides() {
+        let o = Options::default(); // α = 0.01, min gain 10 %
+        let m = 10; // Bonferroni level 0.001
+        assert!(passes_gates(0.0009, -1.0, 0.10, &o, m));
+        // the F-test alone: p just above α/m (but below α: Bonferroni matters)
+        assert!(!passes_gates(0.0011, -1.0, 0.5, &o, m));
+        assert!(passes_gates(0.0011, -1.0, 0.5, &o, 1));
+        // ΔBIC alone: zero is not a gain
+        assert!(!passes_gates(1e-12, 0.0, 0.5, &o, m));
+        // the held-out cut alone
+        assert!(!passes_gates(1e-12, -100.0, 0.0999, &o, m));
+    }
 }

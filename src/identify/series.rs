@@ -16,6 +16,8 @@ pub struct NominalModel {
     /// Reference battery voltage for the thrust–voltage regressor (V).
     pub vbat_ref_v: f64,
     pub gravity_m_s2: f64,
+    /// Full scale of the vehicle's IMU (from its preset), for the data-quality gate.
+    pub imu_range: crate::vehicle::params::ImuRange,
 }
 
 /// One flight, resampled to nothing: samples as logged, each with a validity flag.
@@ -72,6 +74,22 @@ impl Series {
             segments: self.segments.iter().map(cut).filter(|s| s.1 > s.0).collect(),
             model: self.model.clone(),
             repairs: self.repairs.clone(),
+        }
+    }
+}
+
+/// The floor (NED z of the resting vehicle, m) for positions `pos_nav` of the log's rows: the
+/// lowest point (largest z) while the motors are off; without a thrust column, the lowest point
+/// of the first half second of the first segment (a log is taken to start at rest). None for a
+/// log that starts in the air with the motors on.
+pub fn floor_z(s: &Series, pos_nav: &[Vector3<f64>]) -> Option<f64> {
+    let n = s.len();
+    match &s.thrust_n {
+        Some(t) => (0..n).filter(|&i| t[i] == 0.0).map(|i| pos_nav[i].z).reduce(f64::max),
+        None => {
+            let first = s.segments.first().map_or(0, |s| s.0);
+            let settle = ((0.5 / s.dt()) as usize).max(1);
+            pos_nav[first..(first + settle).min(n)].iter().map(|p| p.z).reduce(f64::max)
         }
     }
 }
@@ -163,7 +181,7 @@ mod tests {
     use super::*;
 
     fn model() -> NominalModel {
-        NominalModel { vehicle: "test".into(), mass_kg: 1.0, rotor_drag_per_s: [0.0; 2], rotor_radius_m: 0.1, vbat_ref_v: 3.7, gravity_m_s2: 9.81 }
+        NominalModel { vehicle: "test".into(), mass_kg: 1.0, rotor_drag_per_s: [0.0; 2], rotor_radius_m: 0.1, vbat_ref_v: 3.7, gravity_m_s2: 9.81, imu_range: crate::vehicle::params::ImuRange::x3d() }
     }
 
     /// Regression: the glitch detector and the delay correction interpolated attitudes with a

@@ -39,6 +39,31 @@ pub struct VehicleParams {
     pub layout: RotorLayout,
     /// Gain of the onboard rate loop per body axis (1/s): τ = J·K_ω·(ω_cmd − ω_gyro).
     pub rate_loop_gain_per_s: [f64; 3],
+    /// Full scale of the onboard IMU: no flight of this vehicle reads beyond it.
+    pub imu_range: ImuRange,
+}
+
+/// Full scale of an IMU, per axis: the largest reading the sensor can give, as configured.
+/// `identify`'s data-quality gate treats a reading at or beyond it as not a measurement.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ImuRange {
+    /// Accelerometer full scale per axis (m/s²).
+    pub accel_m_s2: f64,
+    /// Gyro full scale per axis (rad/s).
+    pub gyro_rad_s: f64,
+}
+
+impl ImuRange {
+    /// The Crazyflie 2.1's BMI088 as its firmware configures it: ±24 g and ±2000 °/s.
+    pub fn crazyflie21() -> Self {
+        ImuRange { accel_m_s2: 24.0 * GRAVITY, gyro_rad_s: 2000f64.to_radians() }
+    }
+    /// The X3D's AutoPilot board: ADXRS610-class gyros (±300 °/s) and a ±6 g accelerometer.
+    /// These are flyarena's preset values (the paper gives none); the X3D's 3.6 thrust-to-weight
+    /// ratio stays well inside them.
+    pub fn x3d() -> Self {
+        ImuRange { accel_m_s2: 6.0 * GRAVITY, gyro_rad_s: 300f64.to_radians() }
+    }
 }
 
 pub const GRAVITY: f64 = 9.81;
@@ -93,6 +118,7 @@ impl VehicleParams {
             rotor_drag_per_s: [0.0, 0.0],
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],
+            imu_range: ImuRange::x3d(),
         }
     }
     /// The Bitcraze Crazyflie 2.1 (NanoBench's vehicle): 34 g with markers, inertia
@@ -112,6 +138,7 @@ impl VehicleParams {
             rotor_drag_per_s: [0.0, 0.0],
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],
+            imu_range: ImuRange::crazyflie21(),
         }
     }
     /// Maximum thrust of one rotor (N).

@@ -156,7 +156,12 @@ fn cross_validation_with_non_ascii_flight_names() {
     for k in 0..600 {
         let t = k as f64 * 0.01;
         let z = if k < 50 { 0.0 } else { (t - 0.5).min(1.0) };
-        csv += &format!("{t},{},{},{z},1,0,0,0,0,0,0,0,0,1\n", 0.3 * (2.0 * t).cos(), 0.3 * (2.0 * t).sin());
+        // level, circling at 0.3 m and 2 rad/s: the accelerometer reads the centripetal
+        // acceleration (1.2 m/s²) and gravity, with a little noise (a reading repeated bit for
+        // bit while the vehicle manoeuvres is a frozen sensor, which identify cuts out)
+        let wob = 1e-4 * ((k * 7919 % 13) as f64 - 6.0);
+        let (ax, ay) = (-1.2 * (2.0 * t).cos() / 9.81 + wob, -1.2 * (2.0 * t).sin() / 9.81 - wob);
+        csv += &format!("{t},{},{},{z},1,0,0,0,{wob},{},{},{ax},{ay},{}\n", 0.3 * (2.0 * t).cos(), 0.3 * (2.0 * t).sin(), -wob, 0.5 * wob, 1.0 + wob);
     }
     std::fs::write(d.join("aéééééééé.csv"), &csv).unwrap();
     std::fs::write(d.join("b.csv"), &csv).unwrap();

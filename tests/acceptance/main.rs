@@ -9,6 +9,7 @@ mod identify;
 mod log;
 mod physics;
 mod props;
+mod quality;
 #[cfg(feature = "record")]
 mod record;
 mod scenarios;

@@ -94,7 +94,7 @@ fn identify_recording_holds_the_residuals() {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/identify-rotor-drag.yaml")).unwrap();
     let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "drag").unwrap();
     let opts = Options::default();
-    let r = identify(&series, &opts);
+    let r = identify(&series, &opts).unwrap();
     let res = residual_series(&series, &opts, &r);
     let rec = decode(&flyarena::record::encode_identify("drag", &r, &res).unwrap()).unwrap();
     assert_eq!(rec.recording_id.as_deref(), Some("flyarena/identify/drag"));
