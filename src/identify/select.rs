@@ -577,8 +577,8 @@ fn passes_gates(p_value: f64, delta_bic: f64, heldout_gain: f64, o: &Options, ca
 /// [`IdentifyError::TooLittleClean`] when the gate cut samples that no flight can produce and
 /// too few usable samples remain: no parameter comes out of corrupted data.
 pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
-    let (gated, quality) = super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m);
-    let mut report = select(&gated, o);
+    let (clean, quality) = super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m);
+    let mut report = select(&clean, o);
     if report.train_samples < MIN_TRAIN_SAMPLES && quality.corrupted().next().is_some() {
         return Err(IdentifyError::TooLittleClean { log: s.source.clone(), usable: report.train_samples, needed: MIN_TRAIN_SAMPLES, cuts: quality.describe() });
     }
@@ -596,6 +596,12 @@ pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
     }
     report.data_quality = quality;
     Ok(report)
+}
+
+/// The log with what the data-quality gate cuts taken out of its segments: every error and
+/// plot is computed on the samples the fit saw, never on corrupted ones.
+fn gated(s: &Series, o: &Options) -> Series {
+    super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m).0
 }
 
 /// Why [`identify`] gives no report.
@@ -826,6 +832,7 @@ fn axis_error(ch: Channel, a: usize, y: &[f64], before: &[f64], after: &[f64], i
 /// The error of another flight's model on this flight: the nominal model and the nominal model
 /// with `r`'s corrections and parameters, on every usable sample of `s` (nothing is refitted).
 pub fn evaluate(s: &Series, o: &Options, r: &Report) -> Vec<AxisError> {
+    let s = &gated(s, o);
     let before = build(s, &Corrections::default(), &o.design);
     let after = build(s, &r.corrections, &o.design);
     let mut out = Vec::new();
@@ -860,6 +867,7 @@ pub struct ResidualSeries {
 }
 
 pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSeries> {
+    let s = &gated(s, o);
     let before = build(s, &Corrections::default(), &o.design);
     let after = build(s, &r.corrections, &o.design);
     let t0 = s.t_s.first().copied().unwrap_or(0.0);

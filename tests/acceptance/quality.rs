@@ -150,6 +150,11 @@ fn a_corrupted_tail_is_cut_and_a_corrupted_log_is_refused() {
     let first = r.data_quality.cuts.iter().map(|c| c.from_s).fold(f64::INFINITY, f64::min);
     assert!((19.7..=20.0).contains(&first), "{:?}", r.data_quality);
     assert!(r.data_quality.cuts.iter().all(|c| !c.at_floor));
+    // the plotted residuals and the cross-validation errors come from the samples the fit saw
+    let plotted = flyarena::identify::select::residual_series(&tail, &Options::default(), &r);
+    assert!(plotted.iter().all(|x| x.t_s.iter().all(|t| *t < first)), "residuals plotted from cut samples");
+    let evaluated = flyarena::identify::select::evaluate(&tail, &Options::default(), &r);
+    assert!(evaluated.iter().filter(|e| e.channel == flyarena::identify::Channel::AccelKin).all(|e| e.rmse_before < 1.0), "{evaluated:?}");
     let clean_part = identify(&clean.slice(0, rows(&clean, 0.0, first).end), &Options::default()).unwrap();
     for p in ["k_x", "k_y"] {
         let (a, b) = (r.param(Effect::RotorDrag, p).unwrap(), clean_part.param(Effect::RotorDrag, p).unwrap());
