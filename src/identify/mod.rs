@@ -47,6 +47,7 @@ pub mod report;
 pub mod select;
 pub mod series;
 pub mod stats;
+pub mod trials;
 
 pub use design::{Channel, DesignOptions, Effect};
 pub use select::{IdentifyError, Options, Report, identify};

@@ -17,7 +17,13 @@
 //! report measures, and they stay consistent under coloured noise. (GLS on the prewhitened
 //! problem was tried first: with a near-unit-root AR it fits the dynamics and misses the level,
 //! and on real flights the held-out errors rose.) Their 95 % intervals are ±1.96·σ from the
-//! Newey–West covariance (Bartlett, `hac_lags`), which allows for the residual's colour.
+//! Newey–West covariance (Bartlett, `hac_lags`) of the scores summed over channel axes per time
+//! sample, which allows for the residual's colour and for channels that share a sensor's noise.
+//!
+//! After the selection, each selected effect is compared with each effect outside the model
+//! with every *other* selected effect projected out; a pair with canonical correlation > 0.99 is
+//! reported not identifiable, the selected one's parameters are marked so, and the other
+//! effects' intervals are widened to cover the swapped model's estimates.
 //!
 //! The held-out part is every `holdout_every`-th block of `block_s` seconds. Errors are weighted
 //! per channel axis by the nominal model's held-out residual energy, so m/s² and rad/s mix fairly.
@@ -74,9 +80,14 @@ impl Default for Options {
 pub struct Param {
     pub name: String,
     pub value: f64,
-    /// Half-width of the 95 % interval.
+    /// Half-width of the 95 % interval. Where the flight cannot tell an effect of the model from
+    /// one outside it, the interval is widened to cover the estimate of the swapped model too.
     pub ci95: f64,
     pub unit: String,
+    /// False when this effect cannot be told apart from one outside the model by this flight
+    /// (see [`Report::not_identifiable`]): the value is one of several explanations, and no
+    /// interval is claimed for it.
+    pub identifiable: bool,
 }
 
 #[derive(Clone, Debug, serde::Serialize)]
@@ -160,6 +171,9 @@ pub struct Report {
     pub repairs: Vec<String>,
     /// What the data-quality gate cut out before the fit.
     pub data_quality: super::quality::DataQuality,
+    /// Pairs of effects this flight cannot tell apart (canonical correlation > 0.99): the first
+    /// was selected, the second would have explained the same residual.
+    pub not_identifiable: Vec<(Effect, Effect, f64)>,
     #[serde(skip)]
     pub corrections: Corrections,
     /// The final linear parameters (internal units), by column.
@@ -390,30 +404,40 @@ fn fit(gs: &[Gram], set: &[usize]) -> Fit {
 }
 
 /// Newey–West (Bartlett, `lags`) covariance of the OLS parameters: (XᵀX)⁻¹·S·(XᵀX)⁻¹ with
-/// S = Σ_l w_l Σ_t (x_t e_t)(x_{t−l} e_{t−l})ᵀ (+ transpose), w_l = 1 − l/(lags+1), summed over
-/// channel axes (assumed independent of each other).
+/// S = Σ_l w_l Σ_t (u_t u_{t−l}ᵀ + u_{t−l} u_tᵀ) (l = 0 counted once), w_l = 1 − l/(lags+1), and
+/// u_t = Σ_{channel axes} x_t·e_t the score of time sample t summed over every channel axis.
+/// Summing per time sample (not per channel axis) lets the channels' noises be correlated:
+/// `accel_kin` and `force` share the accelerometer's noise, and their rows are not independent
+/// information about, say, an accelerometer bias.
 fn hac(d: &Design, train: &[bool], gs: &[Gram], set: &[usize], theta: &[f64], lags: usize) -> DMatrix<f64> {
     let k = set.len();
-    let mut sm = DMatrix::<f64>::zeros(k, k);
+    let mut u: Vec<Option<DVector<f64>>> = (0..d.n).map(|t| train[t].then(|| DVector::zeros(k))).collect();
     for (c, a) in active(d) {
         let e = residual_of(d, c, a, theta);
         let cols: Vec<Option<&Vec<f64>>> = set.iter().map(|j| d.columns[c][a].iter().find(|x| x.0 == *j).map(|x| &x.1)).collect();
         if cols.iter().all(Option::is_none) {
             continue;
         }
-        let u: Vec<Option<DVector<f64>>> = (0..d.n)
-            .map(|t| train[t].then(|| DVector::from_iterator(k, cols.iter().map(|col| col.map_or(0.0, |v| v[t] * e[t])))))
-            .collect();
-        for l in 0..=lags {
-            let w = 1.0 - l as f64 / (lags as f64 + 1.0);
-            for t in l..d.n {
-                if let (Some(ut), Some(ul)) = (&u[t], &u[t - l]) {
-                    let m = ut * ul.transpose();
-                    if l == 0 {
-                        sm += m;
-                    } else {
-                        sm += (&m + m.transpose()) * w;
+        for (t, ut) in u.iter_mut().enumerate() {
+            if let Some(ut) = ut {
+                for (p, col) in cols.iter().enumerate() {
+                    if let Some(v) = col {
+                        ut[p] += v[t] * e[t];
                     }
+                }
+            }
+        }
+    }
+    let mut sm = DMatrix::<f64>::zeros(k, k);
+    for l in 0..=lags {
+        let w = 1.0 - l as f64 / (lags as f64 + 1.0);
+        for t in l..d.n {
+            if let (Some(ut), Some(ul)) = (&u[t], &u[t - l]) {
+                let m = ut * ul.transpose();
+                if l == 0 {
+                    sm += m;
+                } else {
+                    sm += (&m + m.transpose()) * w;
                 }
             }
         }
@@ -560,7 +584,7 @@ fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: 
     e.params()
         .iter()
         .enumerate()
-        .map(|(k, (name, unit, f))| Param { name: name.to_string(), value: value(k) * f, ci95: Z_975 * sd(r.start + k) * f, unit: unit.to_string() })
+        .map(|(k, (name, unit, f))| Param { name: name.to_string(), value: value(k) * f, ci95: Z_975 * sd(r.start + k) * f, unit: unit.to_string(), identifiable: true })
         .collect()
 }
 
@@ -596,6 +620,83 @@ pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
     }
     report.data_quality = quality;
     Ok(report)
+}
+
+/// How strongly one flight excites an effect, decided from the data's information matrix
+/// and the effect's size, not from what `identify` found.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Excitation {
+    /// Noncentrality of the effect's block given every other candidate:
+    /// λ = θᵀ·(G_CC − G_CO·G_OO⁻¹·G_OC)·θ on the prewhitened training problem (G the whitened
+    /// Gram matrix of all candidates, θ the effect's true parameters). The F-test of the block
+    /// has power ≈ 95 % at the Bonferroni level 0.001 from λ ≈ 25 (one parameter) to 35 (three).
+    pub lambda: f64,
+    /// The share of the held-out residual energy on the effect's channels that the effect
+    /// makes, E/(E + N): E = θᵀ·G_t·θ (raw held-out Gram), N the held-out energy of the
+    /// residual of the model with every candidate. The held-out gate needs a 10 % RMSE cut, i.e.
+    /// a share of at least 19 %.
+    pub heldout_share: f64,
+}
+
+impl Excitation {
+    /// Enough for the selection to find the effect: λ ≥ 40 and a held-out share ≥ 0.3 (margins
+    /// over the 95 %-power λ and the 19 % the held-out gate needs).
+    pub fn sufficient(&self) -> bool {
+        self.lambda >= 40.0 && self.heldout_share >= 0.3
+    }
+}
+
+/// The excitation of each effect in `truth` (parameters in the reported units) on flight `s`,
+/// at the nominal corrections (see [`Excitation`]). Effects the data has no columns for get
+/// λ = 0.
+pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<Excitation> {
+    let s = &gated(s, o);
+    let mut corr = Corrections::default();
+    let st = refine(s, o, &mut corr, &[], 0);
+    let all: Vec<Effect> = Effect::ALL.iter().copied().filter(|e| available(&st.design, *e)).collect();
+    let white: Vec<Ar> = active(&st.design).iter().map(|_| Ar::white(1.0)).collect();
+    let g_ols = grams(&st.design, &st.train, &st.test, &white);
+    let f_all = fit(&g_ols, &set_of(&all));
+    let ars = ar_models(&st.design, &st.train, &f_all.theta, o.max_ar_order);
+    let gs = grams(&st.design, &st.train, &st.test, &ars);
+    let rss_full_t = heldout_rss(&gs, &f_all.theta);
+    let act = active(&st.design);
+    truth
+        .iter()
+        .map(|(e, values)| {
+            if !all.contains(e) {
+                return Excitation { lambda: 0.0, heldout_share: 0.0 };
+            }
+            let block = set_of(&[*e]);
+            let others: Vec<usize> = set_of(&all).into_iter().filter(|j| !block.contains(j)).collect();
+            let mut order = block.clone();
+            order.extend(&others);
+            let (g, _, _, _) = system(&gs, &order);
+            let k = block.len();
+            let gcc = g.view((0, 0), (k, k)).into_owned();
+            let gco = g.view((0, k), (k, others.len())).into_owned();
+            let goo = g.view((k, k), (others.len(), others.len())).into_owned();
+            let schur = gcc - &gco * inverse_spd(&goo) * gco.transpose();
+            let theta = DVector::from_iterator(k, values.iter().zip(e.params()).map(|(v, (_, _, f))| v / f));
+            let lambda = (theta.transpose() * schur * &theta)[(0, 0)].max(0.0);
+            // held-out energy of the effect alone, and of the full model's residual, on its channels
+            let mut th = vec![0.0; N_COLUMNS];
+            for (j, v) in block.iter().zip(theta.iter()) {
+                th[*j] = *v;
+            }
+            let (mut energy, mut noise) = (0.0, 0.0);
+            for (q, (c, _)) in act.iter().enumerate() {
+                if e.channels().iter().any(|ch| ch.index() == *c) {
+                    let gr = &gs[q];
+                    let t = DVector::from_iterator(gr.cols.len(), gr.cols.iter().map(|j| th[*j]));
+                    energy += (t.transpose() * &gr.g_t * &t)[(0, 0)];
+                    noise += rss_full_t[q];
+                }
+            }
+            let heldout_share = if energy + noise > 0.0 { energy / (energy + noise) } else { 0.0 };
+            Excitation { lambda, heldout_share }
+        })
+        .collect()
 }
 
 /// The log with what the data-quality gate cuts taken out of its segments: every error and
@@ -741,10 +842,14 @@ fn select(s: &Series, o: &Options) -> Report {
     }
     // identifiability of the two frame effects, whatever was selected
     let yaw_spread_deg = state.design.yaw_spread_rad.to_degrees();
+    let mut not_identifiable: Vec<(Effect, Effect, f64)> = steps.iter().flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho))).collect();
     let flagged = |a: Effect, b: Effect| steps.iter().any(|st: &Step| (st.added == a && st.not_identifiable_from.iter().any(|x| x.0 == b)) || (st.added == b && st.not_identifiable_from.iter().any(|x| x.0 == a)));
     if (selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt)) && !flagged(Effect::BodyOffset, Effect::WorldTilt) {
         let rho = canonical_corr(&state.grams, &[], &set_of(&[Effect::WorldTilt]), &set_of(&[Effect::BodyOffset]));
         if rho > 0.99 {
+            // the one not selected (if both were, the pair is still named)
+            let (a, b) = if selected.contains(&Effect::BodyOffset) { (Effect::BodyOffset, Effect::WorldTilt) } else { (Effect::WorldTilt, Effect::BodyOffset) };
+            not_identifiable.push((a, b, rho));
             notes.push(format!(
                 "mocap world tilt and body offset roll/pitch are not identifiable apart in this flight (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): they differ only through yaw changes, body rates and accelerations other than gravity"
             ));
@@ -782,10 +887,52 @@ fn select(s: &Series, o: &Options) -> Report {
         ar.whiten(&after, &ok, &mut w);
         whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: ljung_box(&w, 20, ar.order()) });
     }
-    let effects = selected
+    let mut effects: Vec<Found> = selected
         .iter()
         .map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &state_corr) })
         .collect();
+    // swaps the final model cannot tell apart: a selected effect E and a candidate C outside the
+    // model whose blocks are collinear once every *other* selected effect is projected out (the
+    // check at each step conditions only on what was selected before, and misses pairs that a
+    // later effect couples, e.g. a constant force and a world tilt through an accelerometer bias
+    // that lives in both channels). E's parameters are then one explanation of several; the
+    // others' intervals are widened to cover the swapped model's estimates.
+    if !too_few {
+        for (k, e) in selected.clone().into_iter().enumerate() {
+            if o.forced.contains(&e) {
+                continue;
+            }
+            let others: Vec<Effect> = selected.iter().copied().filter(|x| *x != e).collect();
+            for c in o.candidates.iter().copied().filter(|c| !selected.contains(c) && available(&state.design, *c)) {
+                let rho = canonical_corr(&state.grams, &set_of(&others), &set_of(&[e]), &set_of(&[c]));
+                if rho <= 0.99 {
+                    continue;
+                }
+                if !not_identifiable.iter().any(|(a, b, _)| (*a == e && *b == c) || (*a == c && *b == e)) {
+                    not_identifiable.push((e, c, rho));
+                    notes.push(format!(
+                        "{} and {} explain this flight's residual alike once the other effects are fitted (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): not identifiable; {}'s parameters are one explanation of two, and the other effects' intervals cover both",
+                        e.key(),
+                        c.key(),
+                        e.key()
+                    ));
+                }
+                for p in &mut effects[k].params {
+                    p.identifiable = false;
+                }
+                let mut alt = others.clone();
+                alt.push(c);
+                let mut alt_corr = Corrections::default();
+                let alt_state = refine(s, o, &mut alt_corr, &alt, o.refine_iterations);
+                for f in effects.iter_mut().filter(|f| f.effect != e) {
+                    let alt_params = params_of(f.effect, &alt_state.fit.theta, &alt_state.fit.cov, &alt_state.fit.set, &alt_corr);
+                    for (p, q) in f.params.iter_mut().zip(alt_params) {
+                        p.ci95 = p.ci95.max((q.value - p.value).abs() + q.ci95);
+                    }
+                }
+            }
+        }
+    }
     Report {
         source: s.source.clone(),
         samples: s.len(),
@@ -803,6 +950,7 @@ fn select(s: &Series, o: &Options) -> Report {
         notes,
         repairs: s.repairs.clone(),
         data_quality: super::quality::DataQuality::default(),
+        not_identifiable,
         corrections: state_corr,
         theta: state.fit.theta.clone(),
     }

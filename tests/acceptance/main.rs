@@ -14,6 +14,7 @@ mod quality;
 mod record;
 mod scenarios;
 mod sweep;
+mod trials;
 
 use flyarena::scenario::Scenario;
 

@@ -1,0 +1,394 @@
+//! Does `identify` hold on flights it was not tuned to? Random hidden-effect mixes on random
+//! plans, both presets, random seeds, each flown by the engine and identified; the outcomes
+//! scored against the truth.
+//!
+//! **The generator.** Trial `i` of master seed `S` is a pure function of (S, i): its own
+//! scenario seed, a preset (`x3d` or `crazyflie21`), a plan and 0–3 hidden effects, drawn from
+//! [`crate::rng::Stream`] (component `Sweep`, index i). Plans are built from a family of pieces
+//! after take-off and a short hover: waypoint tours (2–4 points within ±3 m, 0.8–2 m/s),
+//! figure-8s (eight waypoints on a lemniscate of half-width 1–2 m), circles on the spot
+//! (`calibrate_gyro`, radius 0.2–0.5 m, period 2–3.5 s), yaw turns (90–360°), and hovers with a
+//! short excursion (0.5 m out and back); three to five pieces, then landing.
+//!
+//! **Hidden effects and their ranges** (uniform magnitude, random sign, per axis):
+//!
+//! | effect | scenario field | range |
+//! |---|---|---|
+//! | body offset | `vehicles[0].markers.rotation_deg` | 0.5–3° |
+//! | world tilt | `mocap.camera_error.rotation_deg` (roll, pitch) | 0.3–1.5° |
+//! | mocap delay | `vehicles[0].undeclared.mocap_delay_ms` | 1–4 frames of 5 ms |
+//! | accelerometer bias | `vehicles[0].imu.accel_bias_m_s2` | 0.05–0.3 m/s² |
+//! | gyro bias | `vehicles[0].imu.gyro_bias_deg_s` | 0.3–1.5 °/s |
+//! | rotor drag | `vehicles[0].undeclared.rotor_drag_per_s` | 0.1–0.5 1/s (positive) |
+//! | constant force | `vehicles[0].disturbance.force_n` | 2–10 % of the weight (N, E), 0–3 % (D) |
+//! | thrust scale | `vehicles[0].undeclared.thrust_scale` | 3–15 % off 1 |
+//!
+//! `thrust_voltage` and `ground_effect` are candidates `identify` tests but the engine does not
+//! simulate (no battery model, no ground effect), so they are never hidden; found, they count
+//! as inventions.
+//!
+//! **Scoring.** A hidden effect is *found* when it is selected, *flagged* when the report names
+//! it not identifiable from a selected effect (then neither a miss nor, for the selected
+//! partner, an invention), *missed* otherwise. A selected effect that was not hidden and is not
+//! flagged is an *invention*. Each found parameter is *covered* when its 95 % interval contains
+//! the truth, and *confidently wrong* when the truth lies more than 3 half-widths from the
+//! estimate. Whether a flight excites a hidden effect enough is decided before the outcome, from
+//! the data's information matrix ([`super::select::Excitation`]).
+
+use super::design::Effect;
+use super::flyarena_log::run_and_log;
+use super::select::{Excitation, Options, excitation, identify};
+use crate::rng::{Component, Stream};
+use crate::scenario::Scenario;
+use std::fmt::Write as _;
+
+/// The effects the engine can hide.
+pub const SIMULATED: [Effect; 8] =
+    [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::AccelBias, Effect::GyroBias, Effect::RotorDrag, Effect::ConstantForce, Effect::ThrustScale];
+
+/// One drawn trial.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Trial {
+    pub index: u64,
+    pub seed: u64,
+    pub preset: &'static str,
+    /// The plan pieces, in words.
+    pub plan: Vec<String>,
+    /// Hidden effects with their true parameters in the reported units.
+    pub hidden: Vec<(Effect, Vec<f64>)>,
+    /// The scenario text that is flown (save it and `flyarena identify` it to look closer).
+    pub yaml: String,
+}
+
+struct Draw(Stream);
+
+impl Draw {
+    fn u(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.0.uniform()
+    }
+    fn sign(&mut self) -> f64 {
+        if self.0.uniform() < 0.5 { -1.0 } else { 1.0 }
+    }
+    fn signed(&mut self, lo: f64, hi: f64) -> f64 {
+        self.sign() * self.u(lo, hi)
+    }
+    fn pick(&mut self, n: usize) -> usize {
+        ((self.0.uniform() * n as f64) as usize).min(n - 1)
+    }
+}
+
+fn r(x: f64, digits: i32) -> f64 {
+    let k = 10f64.powi(digits);
+    (x * k).round() / k
+}
+
+/// Draws trial `index` of master seed `seed`.
+pub fn draw(seed: u64, index: u64) -> Trial {
+    let mut d = Draw(Stream::new(seed, Component::Sweep, index as usize));
+    let run_seed = d.0.next_u64() % 1_000_000;
+    let cf = d.0.uniform() < 0.5;
+    let preset = if cf { "crazyflie21" } else { "x3d" };
+    let weight = if cf { 0.034 * 9.81 } else { 0.68 * 9.81 };
+    // hidden effects: 0–3 distinct ones
+    let count = d.pick(4);
+    let mut pool: Vec<Effect> = SIMULATED.to_vec();
+    let mut hidden = Vec::new();
+    for _ in 0..count {
+        let e = pool.remove(d.pick(pool.len()));
+        let v = match e {
+            Effect::BodyOffset => (0..3).map(|_| r(d.signed(0.5, 3.0), 3)).collect(),
+            Effect::WorldTilt => (0..2).map(|_| r(d.signed(0.3, 1.5), 3)).collect(),
+            Effect::MocapDelay => vec![5.0 * (1 + d.pick(4)) as f64],
+            Effect::AccelBias => (0..3).map(|_| r(d.signed(0.05, 0.3), 4)).collect(),
+            Effect::GyroBias => (0..3).map(|_| r(d.signed(0.3, 1.5), 3)).collect(),
+            Effect::RotorDrag => (0..2).map(|_| r(d.u(0.1, 0.5), 3)).collect(),
+            Effect::ConstantForce => vec![r(d.signed(0.02, 0.1) * weight, 4), r(d.signed(0.02, 0.1) * weight, 4), r(d.signed(0.0, 0.03) * weight, 4)],
+            Effect::ThrustScale => vec![r(d.signed(0.03, 0.15), 4)],
+            _ => unreachable!("only simulated effects are hidden"),
+        };
+        hidden.push((e, v));
+    }
+    hidden.sort_by_key(|h| h.0);
+    // the plan
+    let alt = r(d.u(0.8, 1.5), 2);
+    let mut plan = vec!["idle: { duration_s: 1 }".to_string(), format!("takeoff: {{ altitude_m: {alt}, duration_s: 3 }}"), "hover: { duration_s: 2 }".to_string()];
+    let mut words = Vec::new();
+    let pieces = 3 + d.pick(3);
+    let wp = |n: f64, e: f64, speed: f64, hold: f64| format!("waypoint: {{ pos_m: [{}, {}, {}], speed_m_s: {speed}, accel_m_s2: 1.5, hold_s: {hold} }}", r(n, 2), r(e, 2), -alt);
+    for _ in 0..pieces {
+        match d.pick(5) {
+            0 => {
+                let n = 2 + d.pick(3);
+                let speed = r(d.u(0.8, 2.0), 2);
+                for _ in 0..n {
+                    let (pn, pe) = (d.u(-3.0, 3.0), d.u(-3.0, 3.0));
+                    plan.push(wp(pn, pe, speed, 0.5));
+                }
+                plan.push(wp(0.0, 0.0, speed, 0.5));
+                words.push(format!("tour of {n} at {speed} m/s"));
+            }
+            1 => {
+                let a = d.u(1.0, 2.0);
+                let speed = r(d.u(0.8, 1.5), 2);
+                for k in 1..=8 {
+                    let t = k as f64 * std::f64::consts::TAU / 8.0;
+                    plan.push(wp(a * t.sin(), a * t.sin() * t.cos(), speed, 0.0));
+                }
+                words.push(format!("figure-8 of {:.1} m at {speed} m/s", a));
+            }
+            2 => {
+                let (rad, period, turns) = (r(d.u(0.2, 0.5), 2), r(d.u(2.0, 3.5), 2), (2 + d.pick(3)) as f64);
+                plan.push(format!("calibrate_gyro: {{ settle_s: 1, radius_m: {rad}, period_s: {period}, turns: {turns} }}"));
+                words.push(format!("{turns} circles of {rad} m"));
+            }
+            3 => {
+                let angle = r(d.u(90.0, 360.0), 0) * d.sign();
+                let dur = r(angle.abs() / 45.0 + 1.0, 1);
+                plan.push(format!("yaw_spin: {{ settle_s: 1, angle_deg: {angle}, duration_s: {dur} }}"));
+                words.push(format!("yaw turn of {angle}°"));
+            }
+            _ => {
+                let heading = d.u(0.0, std::f64::consts::TAU);
+                plan.push("hover: { duration_s: 2 }".to_string());
+                plan.push(wp(0.5 * heading.cos(), 0.5 * heading.sin(), 0.5, 0.5));
+                plan.push(wp(0.0, 0.0, 0.5, 0.5));
+                words.push("hover and a 0.5 m excursion".to_string());
+            }
+        }
+    }
+    plan.push("land: { duration_s: 3 }".to_string());
+    let mut vehicle = vec![format!("name: v"), format!("model: {{ preset: {preset} }}")];
+    let mut imu = vec!["gyro_noise_deg_s: 0.3".to_string(), "accel_noise_m_s2: 0.05".to_string()];
+    let mut undeclared = Vec::new();
+    let mut camera = String::new();
+    let list = |v: &[f64]| format!("[{}]", v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "));
+    for (e, v) in &hidden {
+        match e {
+            Effect::BodyOffset => vehicle.push(format!("markers: {{ rotation_deg: {} }}", list(v))),
+            Effect::WorldTilt => camera = format!(", camera_error: {{ rotation_deg: [{}, {}, 0] }}", v[0], v[1]),
+            Effect::MocapDelay => undeclared.push(format!("mocap_delay_ms: {}", v[0])),
+            Effect::AccelBias => imu.push(format!("accel_bias_m_s2: {}", list(v))),
+            Effect::GyroBias => imu.push(format!("gyro_bias_deg_s: {}", list(v))),
+            Effect::RotorDrag => undeclared.push(format!("rotor_drag_per_s: {}", list(v))),
+            Effect::ConstantForce => vehicle.push(format!("disturbance: {{ force_n: {} }}", list(v))),
+            Effect::ThrustScale => undeclared.push(format!("thrust_scale: {}", 1.0 + v[0])),
+            _ => {}
+        }
+    }
+    vehicle.push(format!("imu: {{ {} }}", imu.join(", ")));
+    if !undeclared.is_empty() {
+        vehicle.push(format!("undeclared: {{ {} }}", undeclared.join(", ")));
+    }
+    let yaml = format!(
+        "name: trial-{index}\nseed: {run_seed}\nmocap: {{ noise_mm: 0.1{camera} }}\ncalibration: {{ apply: false }}\nvehicles:\n  - {{ {} }}\nplan:\n{}\n",
+        vehicle.join(", "),
+        plan.iter().map(|p| format!("  - {p}")).collect::<Vec<_>>().join("\n")
+    );
+    Trial { index, seed: run_seed, preset, plan: words, hidden, yaml }
+}
+
+/// What happened to one hidden effect.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct HiddenOutcome {
+    pub effect: Effect,
+    pub truth: Vec<f64>,
+    pub excitation: Excitation,
+    pub found: bool,
+    /// Named not identifiable from a selected effect.
+    pub flagged: bool,
+    /// (estimate, 95 % half-width) per parameter, when found.
+    pub estimates: Vec<(f64, f64)>,
+    /// Found, but reported not identifiable from an effect outside the model.
+    pub identifiable: bool,
+}
+
+/// One trial, identified and scored.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Outcome {
+    pub trial: Trial,
+    pub hidden: Vec<HiddenOutcome>,
+    /// Selected effects that were not hidden, and whether each is flagged.
+    pub extra: Vec<(Effect, bool)>,
+    /// Why the trial could not be identified (the flight or the gate failed), if it could not.
+    pub error: Option<String>,
+}
+
+/// Flies and identifies one trial.
+pub fn run(trial: &Trial, o: &Options) -> Outcome {
+    let fail = |e: String| Outcome { trial: trial.clone(), hidden: Vec::new(), extra: Vec::new(), error: Some(e) };
+    let s = match Scenario::parse(&trial.yaml, std::path::Path::new(&format!("trial-{}.yaml", trial.index))) {
+        Ok(s) => s,
+        Err(e) => return fail(e.to_string()),
+    };
+    let series = match run_and_log(&s, 0, &format!("trial {}", trial.index)) {
+        Ok((_, series)) => series,
+        Err(e) => return fail(e),
+    };
+    let report = match identify(&series, o) {
+        Ok(r) => r,
+        Err(e) => return fail(e.to_string()),
+    };
+    let exc = excitation(&series, o, &trial.hidden);
+    let hidden_effects: Vec<Effect> = trial.hidden.iter().map(|h| h.0).collect();
+    let pair = |a: Effect, b: Effect| report.not_identifiable.iter().any(|(x, y, _)| (*x == a && *y == b) || (*x == b && *y == a));
+    let selected: Vec<Effect> = report.effects.iter().map(|f| f.effect).collect();
+    let hidden = trial
+        .hidden
+        .iter()
+        .zip(exc)
+        .map(|((e, truth), excitation)| {
+            let found = report.effect(*e);
+            HiddenOutcome {
+                effect: *e,
+                truth: truth.clone(),
+                excitation,
+                found: found.is_some(),
+                flagged: found.is_none() && selected.iter().any(|s| pair(*s, *e)),
+                estimates: found.map_or_else(Vec::new, |f| f.params.iter().map(|p| (p.value, p.ci95)).collect()),
+                identifiable: found.is_none_or(|f| f.params.iter().all(|p| p.identifiable)),
+            }
+        })
+        .collect();
+    let extra = selected.iter().filter(|e| !hidden_effects.contains(e)).map(|e| (*e, hidden_effects.iter().any(|h| pair(*e, *h)))).collect();
+    Outcome { trial: trial.clone(), hidden, extra, error: None }
+}
+
+/// Flies `count` trials of master seed `seed` on all cores; outcomes in index order, the same
+/// whatever the thread count.
+pub fn run_many(seed: u64, count: u64, o: &Options) -> Vec<Outcome> {
+    use rayon::prelude::*;
+    (0..count).into_par_iter().map(|i| run(&draw(seed, i), o)).collect()
+}
+
+/// Per-effect scores over a set of outcomes.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct EffectScore {
+    pub hidden: usize,
+    /// Hidden where the excitation suffices (decided before the outcome).
+    pub excited: usize,
+    pub found_excited: usize,
+    pub missed_excited: usize,
+    pub flagged: usize,
+    pub found_all: usize,
+    /// Selected without being hidden (and not flagged).
+    pub invented: usize,
+    pub params: usize,
+    /// Parameters of found effects the report calls not identifiable (no interval claimed).
+    pub unidentifiable_params: usize,
+    pub covered: usize,
+    pub confidently_wrong: usize,
+}
+
+impl EffectScore {
+    pub fn recall_excited(&self) -> Option<f64> {
+        let d = self.found_excited + self.missed_excited;
+        (d > 0).then(|| self.found_excited as f64 / d as f64)
+    }
+    pub fn precision(&self) -> Option<f64> {
+        let d = self.found_all + self.invented;
+        (d > 0).then(|| self.found_all as f64 / d as f64)
+    }
+    pub fn coverage(&self) -> Option<f64> {
+        (self.params > 0).then(|| self.covered as f64 / self.params as f64)
+    }
+}
+
+/// The scores per effect (in [`Effect::ALL`] order) and the total.
+pub fn score(outcomes: &[Outcome]) -> (Vec<(Effect, EffectScore)>, EffectScore) {
+    let mut by: Vec<(Effect, EffectScore)> = Effect::ALL.iter().map(|e| (*e, EffectScore::default())).collect();
+    for o in outcomes.iter().filter(|o| o.error.is_none()) {
+        for h in &o.hidden {
+            let sc = &mut by.iter_mut().find(|x| x.0 == h.effect).expect("every effect").1;
+            sc.hidden += 1;
+            if h.flagged {
+                sc.flagged += 1;
+                continue;
+            }
+            if h.found {
+                sc.found_all += 1;
+            }
+            if h.excitation.sufficient() {
+                sc.excited += 1;
+                if h.found {
+                    sc.found_excited += 1;
+                } else {
+                    sc.missed_excited += 1;
+                }
+            }
+            if !h.identifiable {
+                // the report says this flight cannot tell it from another effect: no interval is claimed
+                sc.unidentifiable_params += h.truth.len();
+                continue;
+            }
+            for ((est, hw), t) in h.estimates.iter().zip(&h.truth) {
+                sc.params += 1;
+                let err = (est - t).abs();
+                if err <= *hw {
+                    sc.covered += 1;
+                }
+                if err > 3.0 * hw {
+                    sc.confidently_wrong += 1;
+                }
+            }
+        }
+        for (e, flagged) in &o.extra {
+            if !flagged {
+                by.iter_mut().find(|x| x.0 == *e).expect("every effect").1.invented += 1;
+            }
+        }
+    }
+    let mut total = EffectScore::default();
+    for (_, s) in &by {
+        total.hidden += s.hidden;
+        total.excited += s.excited;
+        total.found_excited += s.found_excited;
+        total.missed_excited += s.missed_excited;
+        total.flagged += s.flagged;
+        total.found_all += s.found_all;
+        total.invented += s.invented;
+        total.params += s.params;
+        total.unidentifiable_params += s.unidentifiable_params;
+        total.covered += s.covered;
+        total.confidently_wrong += s.confidently_wrong;
+    }
+    (by, total)
+}
+
+/// The table of [`score`], as the README shows it.
+pub fn render(outcomes: &[Outcome]) -> String {
+    let (by, total) = score(outcomes);
+    let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.1} %", 100.0 * v));
+    let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
+    let mut s = String::new();
+    let _ = writeln!(s, "{} flights ({} could not be identified), {} hidden effects", outcomes.len(), failed, total.hidden);
+    let _ = writeln!(s, "| effect | hidden | excited | recall (excited) | found (all) | flagged | invented | precision | 95 % coverage | not identifiable | confidently wrong |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    let row = |s: &mut String, name: &str, x: &EffectScore| {
+        let _ = writeln!(
+            s,
+            "| {name} | {} | {} | {} ({}/{}) | {} | {} | {} | {} | {} ({}/{}) | {} | {} |",
+            x.hidden,
+            x.excited,
+            pct(x.recall_excited()),
+            x.found_excited,
+            x.found_excited + x.missed_excited,
+            x.found_all,
+            x.flagged,
+            x.invented,
+            pct(x.precision()),
+            pct(x.coverage()),
+            x.covered,
+            x.params,
+            x.unidentifiable_params,
+            x.confidently_wrong
+        );
+    };
+    for (e, x) in &by {
+        row(&mut s, e.key(), x);
+    }
+    row(&mut s, "**all**", &total);
+    for o in outcomes.iter().filter(|o| o.error.is_some()) {
+        let _ = writeln!(s, "trial {}: {}", o.trial.index, o.error.as_deref().unwrap_or(""));
+    }
+    s
+}
