@@ -248,6 +248,7 @@ impl Arena {
                 let u = &v.undeclared;
                 let mut true_params = params.clone();
                 true_params.k_thrust *= u.thrust_scale;
+                true_params.ground_effect += u.ground_effect;
                 true_params.rotor_drag_per_s = [params.rotor_drag_per_s[0] + u.rotor_drag_per_s[0], params.rotor_drag_per_s[1] + u.rotor_drag_per_s[1]];
                 let dist = Disturbance { force_nav_n: v.disturbance.force_n, torque_body_nm: v.disturbance.torque_nm };
                 let home_nav = camera.to_nav(home);

@@ -90,7 +90,8 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32) -> String {
             Effect::RotorDrag => set.push((format!("{vi}.undeclared.rotor_drag_per_s"), json!(v.iter().map(|x| x.max(0.0)).collect::<Vec<_>>()))),
             Effect::ConstantForce => set.push((format!("{vi}.disturbance.force_n"), json!(v))),
             Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(r3(1.0 + f.params[0].value)))),
-            Effect::ThrustVoltage | Effect::GroundEffect => {
+            Effect::GroundEffect => set.push((format!("{vi}.undeclared.ground_effect"), json!(v[0].max(0.0)))),
+            Effect::ThrustVoltage => {
                 lines.push(format!("# not simulated by flyarena, reported only: {} = {:?}", f.effect.key(), v));
             }
         }

@@ -11,8 +11,7 @@ use crate::scenario::Scenario;
 use crate::vehicle::params::GRAVITY;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
-/// Rotor radius of the X3D preset's 8-inch propellers (m).
-pub const X3D_ROTOR_RADIUS_M: f64 = 0.1;
+pub use crate::vehicle::params::X3D_ROTOR_RADIUS_M;
 
 pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Result<Series, String> {
     let p = s.vehicle_params(vehicle).map_err(|(_, m)| m)?;
@@ -66,7 +65,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
             vehicle: format!("{} ({:?} preset)", v.name, v.model.preset).to_lowercase(),
             mass_kg: p.mass_kg,
             rotor_drag_per_s: p.rotor_drag_per_s,
-            rotor_radius_m: X3D_ROTOR_RADIUS_M,
+            rotor_radius_m: p.rotor_radius_m,
             vbat_ref_v: 0.0,
             gravity_m_s2: GRAVITY,
             imu_range: p.imu_range,

@@ -22,10 +22,12 @@
 //! | rotor drag | `vehicles[0].undeclared.rotor_drag_per_s` | 0.1–0.5 1/s (positive) |
 //! | constant force | `vehicles[0].disturbance.force_n` | 2–10 % of the weight (N, E), 0–3 % (D) |
 //! | thrust scale | `vehicles[0].undeclared.thrust_scale` | 3–15 % off 1 |
+//! | ground effect | `vehicles[0].undeclared.ground_effect` | c_g 0.5–1.5, in half the flights with a low hover |
 //!
-//! `thrust_voltage` and `ground_effect` are candidates `identify` tests but the engine does not
-//! simulate (no battery model, no ground effect), so they are never hidden; found, they count
-//! as inventions.
+//! A quarter of the flights end with a low hover (1.2–3 rotor radii over the floor, at least
+//! 0.1 m, for 4 s).
+//! `thrust_voltage` is a candidate `identify` tests but the engine does not simulate (no battery
+//! model), so it is never hidden; found, it counts as an invention.
 //!
 //! **Scoring.** A hidden effect is *found* when it is selected, *flagged* when the report names
 //! it not identifiable from a selected effect (then neither a miss nor, for the selected
@@ -42,7 +44,8 @@ use crate::rng::{Component, Stream};
 use crate::scenario::Scenario;
 use std::fmt::Write as _;
 
-/// The effects the engine can hide.
+/// The effects drawn as 0–3 of a flight's hidden effects (the ground effect is drawn on its
+/// own, only for flights with a low hover).
 pub const SIMULATED: [Effect; 8] =
     [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::AccelBias, Effect::GyroBias, Effect::RotorDrag, Effect::ConstantForce, Effect::ThrustScale];
 
@@ -156,6 +159,20 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             }
         }
     }
+    // drawn last, so that the draws above are the same with or without it: in a quarter of the
+    // flights a low hover (1.2–3 rotor radii over the floor), and in half of those (when fewer
+    // than three effects are hidden) a ground effect
+    if d.0.uniform() < 0.25 {
+        let r_rotor: f64 = if cf { crate::vehicle::params::CRAZYFLIE21_ROTOR_RADIUS_M } else { crate::vehicle::params::X3D_ROTOR_RADIUS_M };
+        // not below 0.1 m: identify leaves out what is within 8 cm of the floor
+        let low = r((d.u(1.2, 3.0) * r_rotor).max(0.1), 3);
+        plan.push(wp(0.0, 0.0, 0.5, 0.0).replace(&format!("{}]", -alt), &format!("{}]", -low)).replace("hold_s: 0", "hold_s: 4"));
+        plan.push(wp(0.0, 0.0, 0.5, 1.0));
+        words.push(format!("low hover at {low} m"));
+        if hidden.len() < 3 && d.0.uniform() < 0.5 {
+            hidden.push((Effect::GroundEffect, vec![r(d.u(0.5, 1.5), 3)]));
+        }
+    }
     plan.push("land: { duration_s: 3 }".to_string());
     let mut vehicle = vec![format!("name: v"), format!("model: {{ preset: {preset} }}")];
     let mut imu = vec!["gyro_noise_deg_s: 0.3".to_string(), "accel_noise_m_s2: 0.05".to_string()];
@@ -172,6 +189,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             Effect::RotorDrag => undeclared.push(format!("rotor_drag_per_s: {}", list(v))),
             Effect::ConstantForce => vehicle.push(format!("disturbance: {{ force_n: {} }}", list(v))),
             Effect::ThrustScale => undeclared.push(format!("thrust_scale: {}", 1.0 + v[0])),
+            Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
             _ => {}
         }
     }

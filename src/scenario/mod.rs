@@ -331,11 +331,16 @@ pub struct UndeclaredCfg {
     /// mocap period, ms).
     #[serde(with = "ranges::delay_ms")]
     pub mocap_delay_ms: f64,
+    /// Ground effect c_g: the rotors' thrust is T·(1 + c_g·(r/4h)²) at a height h above the
+    /// floor (h ≥ the rotor radius r); c_g = 1 is Cheeseman and Bennett's image-rotor result to
+    /// first order. The declared model has none.
+    #[serde(with = "ranges::ground_effect")]
+    pub ground_effect: f64,
 }
 
 impl Default for UndeclaredCfg {
     fn default() -> Self {
-        UndeclaredCfg { thrust_scale: 1.0, rotor_drag_per_s: [0.0; 2], mocap_delay_ms: 0.0 }
+        UndeclaredCfg { thrust_scale: 1.0, rotor_drag_per_s: [0.0; 2], mocap_delay_ms: 0.0, ground_effect: 0.0 }
     }
 }
 

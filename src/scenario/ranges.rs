@@ -116,4 +116,5 @@ ranged! {
     thrust_scale: 0.5, 1.5, false, "";
     drag_per_s: 0.0, 10.0, false, "1/s";
     delay_ms: 0.0, 200.0, false, "ms";
+    ground_effect: 0.0, 5.0, false, "";
 }

@@ -20,6 +20,10 @@
 //! constant disturbance (F_ext in Nav, τ_ext in Body). The quaternion is renormalised after each
 //! step.
 //!
+//! Ground effect (zero in the presets): near the floor the rotors' thrust grows to
+//! T·(1 + c_g·(r/4h)²), h = −p_D the height above the floor, clamped to h ≥ r (r the rotor
+//! radius); c_g = 1 is the first-order term of Cheeseman and Bennett's T/T_∞ = 1/(1 − (r/4h)²).
+//!
 //! Ground contact: the floor is the plane D = 0. While the vehicle is on it (it has not lifted
 //! off, or it came down), it is held there level at its heading, at rest: a rigid floor with full
 //! friction. It lifts off as soon as the thrust exceeds its weight.
@@ -53,6 +57,17 @@ pub struct X3d {
     on_ground: bool,
     /// (h, e^{−h/(2τ_m)}) for the last step size h: the rotor decay over half a step.
     half_step_decay: (f64, f64),
+}
+
+/// The ground effect's thrust factor 1 + c_g·(r/4h)² at NED height `pos_d` (h = −pos_d ≥ r);
+/// exactly 1 without ground effect.
+#[inline(always)]
+fn ground_gain(p: &VehicleParams, pos_d: f64) -> f64 {
+    if p.ground_effect == 0.0 {
+        return 1.0;
+    }
+    let ratio = p.rotor_radius_m / (4.0 * (-pos_d).max(p.rotor_radius_m));
+    1.0 + p.ground_effect * ratio * ratio
 }
 
 /// The rigid body's state vector, flat (so that RK4's stage sums are plain loops the compiler
@@ -145,7 +160,7 @@ impl X3d {
             return s.att.inverse().apply(Vec3::<Nav>::new(0.0, 0.0, -GRAVITY));
         }
         let p = &self.p;
-        let thrust: f64 = s.rotor_speed.iter().map(|w| p.k_thrust * w * w).sum();
+        let thrust: f64 = s.rotor_speed.iter().map(|w| p.k_thrust * w * w).sum::<f64>() * ground_gain(p, s.pos.z());
         // without drag or disturbance (the presets) the rotations below contribute exact zeros
         if p.rotor_drag_per_s == [0.0; 2] && self.disturbance.force_nav_n == [0.0; 3] {
             return Vec3::new(0.0, 0.0, -thrust / p.mass_kg);
@@ -166,7 +181,9 @@ impl X3d {
         let p = &self.p;
         let (qv, qw) = ([s[Q], s[Q + 1], s[Q + 2]], s[Q + 3]);
         let w = [s[W], s[W + 1], s[W + 2]];
-        let [ff, fr, fb, fl] = rotor.map(|o| p.k_thrust * o * o);
+        // the ground effect scales every rotor's thrust (× 1.0 exactly without it)
+        let gain = ground_gain(p, s[P + 2]);
+        let [ff, fr, fb, fl] = rotor.map(|o| p.k_thrust * o * o * gain);
         let thrust_z = -(ff + fr + fb + fl);
         let force_nav = match p.rotor_drag_per_s {
             // without rotor drag (the presets) the body force is (0, 0, −T): skip the rotation
@@ -286,6 +303,30 @@ mod tests {
         assert!(x.state().pos.z() + 1.0 < 1e-9 && x.state().pos.z() + 1.0 > -1e-9);
         let f = x.specific_force();
         assert!((f.z() + 9.81).abs() < 1e-9, "hover specific force {f:?}");
+    }
+
+    /// Ground effect in closed form: hover rotor speeds at h = 0.2 m with c_g = 1 and r = 0.1 m
+    /// give T·(1 + (0.1/0.8)²) = 1.015625·m·g, so the body accelerates up at 0.015625·g; below
+    /// h = r the factor stays at its h = r value, 1 + (1/4)² = 1.0625; without ground effect
+    /// nothing changes at any height.
+    #[test]
+    fn ground_effect_adds_thrust_as_in_closed_form() {
+        let mut x = hovering();
+        x.p.ground_effect = 1.0;
+        for (h, gain) in [(0.2, 1.015_625), (0.05, 1.0625), (1.0, 1.0 + (0.1f64 / 4.0).powi(2))] {
+            x.state.pos = Vec3::new(0.0, 0.0, -h);
+            let f = x.specific_force();
+            assert!((f.z() + 9.81 * gain).abs() < 1e-12, "h {h}: {f:?}");
+            // the integrated vertical acceleration over 1 ms agrees (the height hardly moves)
+            let mut y = x.clone();
+            let w = y.hover_rotor_speed();
+            y.step(&[w; 4], 1e-3);
+            let a = y.state().vel.z() / 1e-3;
+            assert!((a - 9.81 * (1.0 - gain)).abs() < 1e-6 * 9.81, "h {h}: {a}");
+        }
+        let mut plain = hovering();
+        plain.state.pos = Vec3::new(0.0, 0.0, -0.05);
+        assert_eq!(plain.specific_force().z(), -plain.thrust() / 0.68);
     }
 
     /// Regression: the accelerometer took the acceleration from the start of the 1 ms step and

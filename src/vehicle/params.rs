@@ -41,6 +41,11 @@ pub struct VehicleParams {
     pub rate_loop_gain_per_s: [f64; 3],
     /// Full scale of the onboard IMU: no flight of this vehicle reads beyond it.
     pub imu_range: ImuRange,
+    /// Rotor radius r (m), for the ground effect.
+    pub rotor_radius_m: f64,
+    /// Ground effect c_g (see [`super::dynamics`]): thrust T·(1 + c_g·(r/4h)²) at height h ≥ r.
+    /// Zero in the presets.
+    pub ground_effect: f64,
 }
 
 /// Full scale of an IMU, per axis: the largest reading the sensor can give, as configured.
@@ -67,6 +72,9 @@ impl ImuRange {
 }
 
 pub const GRAVITY: f64 = 9.81;
+
+/// Rotor radius of the X3D preset's 8-inch propellers (m).
+pub const X3D_ROTOR_RADIUS_M: f64 = 0.1;
 
 /// Rotor radius of the Crazyflie 2.1's 46 mm stock propellers (m).
 pub const CRAZYFLIE21_ROTOR_RADIUS_M: f64 = 0.0235;
@@ -119,6 +127,8 @@ impl VehicleParams {
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],
             imu_range: ImuRange::x3d(),
+            rotor_radius_m: X3D_ROTOR_RADIUS_M,
+            ground_effect: 0.0,
         }
     }
     /// The Bitcraze Crazyflie 2.1 (NanoBench's vehicle): 34 g with markers, inertia
@@ -139,6 +149,8 @@ impl VehicleParams {
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],
             imu_range: ImuRange::crazyflie21(),
+            rotor_radius_m: CRAZYFLIE21_ROTOR_RADIUS_M,
+            ground_effect: 0.0,
         }
     }
     /// Maximum thrust of one rotor (N).

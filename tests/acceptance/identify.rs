@@ -18,7 +18,7 @@ fn scenario(name: &str) -> PathBuf {
 fn every_identify_scenario_finds_its_hidden_effect() {
     let round = |x: f64, k: i32| ((x * 10f64.powi(k)).round() / 10f64.powi(k)) + 0.0;
     let mut summary = Vec::new();
-    for name in ["none", "world-tilt", "rotor-drag", "mocap-delay", "wind", "thrust-scale", "two-effects", "marker-offsets", "accel-bias", "gyro-bias"] {
+    for name in ["none", "world-tilt", "rotor-drag", "mocap-delay", "wind", "thrust-scale", "two-effects", "marker-offsets", "accel-bias", "gyro-bias", "ground-effect"] {
         let done = identify_cli(&scenario(name), None, None, None, None, None, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
         summary.push(serde_json::json!({
             "scenario": name,
@@ -60,7 +60,7 @@ fn nothing_hidden_gives_no_effect_over_20_seeds() {
 /// (the scenario files pin seed 5).
 #[test]
 fn hidden_effects_are_found_first_on_other_seeds() {
-    let cases: [(&str, Effect, &[f64], &[f64]); 8] = [
+    let cases: [(&str, Effect, &[f64], &[f64]); 9] = [
         ("world-tilt", Effect::WorldTilt, &[0.8, -0.5], &[0.05, 0.05]),
         ("rotor-drag", Effect::RotorDrag, &[0.35, 0.35], &[0.02, 0.02]),
         ("mocap-delay", Effect::MocapDelay, &[10.0], &[1.0]),
@@ -69,6 +69,7 @@ fn hidden_effects_are_found_first_on_other_seeds() {
         ("marker-offsets", Effect::BodyOffset, &[1.5, -1.0, 3.0], &[0.05, 0.05, 0.1]),
         ("accel-bias", Effect::AccelBias, &[0.15, -0.10, 0.20], &[0.02, 0.02, 0.02]),
         ("gyro-bias", Effect::GyroBias, &[1.0, -0.6, 0.8], &[0.05, 0.05, 0.05]),
+        ("ground-effect", Effect::GroundEffect, &[1.0], &[0.15]),
     ];
     for (name, effect, truth, tol) in cases {
         let mut s = Scenario::load(&scenario(name)).unwrap();
