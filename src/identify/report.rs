@@ -35,7 +35,10 @@ pub fn render(r: &Report) -> String {
             s,
             "\n  step {}: + {}   ΔBIC {:.0}, F-test p {:.1e}, held-out error −{:.1} %",
             k + 1,
-            st.added.name(),
+            match st.together_with {
+                Some(b) => format!("{} together with {}", st.added.name(), b.name()),
+                None => st.added.name().to_string(),
+            },
             st.delta_bic,
             st.p_value,
             100.0 * st.heldout_gain
@@ -46,7 +49,7 @@ pub fn render(r: &Report) -> String {
         let runners: Vec<String> = st
             .candidates
             .iter()
-            .filter(|c| c.effect != st.added)
+            .filter(|c| c.effect != st.added && Some(c.effect) != st.together_with)
             .map(|c| format!("{} {:.0}{}", c.effect.key(), c.delta_bic, if c.passed { "" } else { "✗" }))
             .collect();
         let _ = writeln!(s, "          other candidates (ΔBIC, ✗ = fails a test): {}", runners.join(", "));

@@ -9,7 +9,11 @@
 //!    - the prewhitened F-test of C's block has p < α / (number of candidates) (Bonferroni),
 //!    - ΔBIC = n·ln(RSS_{S+C}/RSS_S) + k_C·ln n < 0 (prewhitened RSS), and
 //!    - the held-out error on C's channels falls by at least `min_heldout_gain`;
-//! 3. of the passing candidates the one with the lowest ΔBIC joins S; a passing candidate whose
+//! 3. candidates that pass the F-test and ΔBIC but fail only the held-out gate are also tried in
+//!    pairs (two effects that explain the residual only together each extrapolate badly alone),
+//!    at a Bonferroni level over the singles and these pairs; a passing pair with a lower ΔBIC
+//!    than every passing single joins as one step;
+//! 4. of the passing candidates the one with the lowest ΔBIC joins S; a passing candidate whose
 //!    regressors are nearly collinear with the winner's (canonical correlation > 0.99, S
 //!    projected out) is reported as *not identifiable* from it by this data.
 //!
@@ -106,6 +110,9 @@ pub struct Candidate {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Step {
     pub added: Effect,
+    /// A second effect added in the same step: the two explain the residual only together
+    /// (each alone is significant but fails the held-out gate); the step's figures are the pair's.
+    pub together_with: Option<Effect>,
     pub delta_bic: f64,
     pub p_value: f64,
     pub heldout_gain: f64,
@@ -782,12 +789,13 @@ fn select(s: &Series, o: &Options) -> Report {
         };
         let base = &fit(&grams_test, &state.fit.set);
         let rss_base_t = heldout_rss(&grams_test, &base.theta);
-        let mut cands = Vec::new();
-        for &e in &pool {
+        // one candidate block (or two together) on top of S: ΔBIC, F-test, held-out gain on the
+        // block's channels, largest correlation with the residual of S
+        let score = |effects: &[Effect], tests: usize| -> Candidate {
             let mut set = base.set.clone();
-            set.extend(cols_of(e));
+            set.extend(set_of(effects));
             let f1 = fit(&grams_test, &set);
-            let k = e.n_params() as f64;
+            let k = effects.iter().map(|e| e.n_params()).sum::<usize>() as f64;
             let n = f1.n as f64;
             let delta_bic = n * (f1.rss / base.rss).ln() + k * n.ln();
             let f = ((base.rss - f1.rss) / k) / (f1.rss / (n - set.len() as f64));
@@ -795,7 +803,7 @@ fn select(s: &Series, o: &Options) -> Report {
             let rss1_t = heldout_rss(&grams_test, &f1.theta);
             let (mut e0, mut e1) = (0.0, 0.0);
             for (q, (c, _)) in act.iter().enumerate() {
-                if e.channels().iter().any(|ch| ch.index() == *c) {
+                if effects.iter().any(|e| e.channels().iter().any(|ch| ch.index() == *c)) {
                     e0 += w0[q] * rss_base_t[q];
                     e1 += w0[q] * rss1_t[q];
                 }
@@ -811,12 +819,35 @@ fn select(s: &Series, o: &Options) -> Report {
                 let xr = b[q] - (g.view((q, 0), (1, nb)) * &th_s)[(0, 0)];
                 max_corr = max_corr.max((xr / (g[(q, q)] * rr).sqrt()).abs());
             }
-            let passed = passes_gates(p_value, delta_bic, heldout_gain, o, pool.len());
-            cands.push(Candidate { effect: e, delta_bic, f, p_value, heldout_gain, max_corr, passed });
+            let passed = passes_gates(p_value, delta_bic, heldout_gain, o, tests);
+            Candidate { effect: effects[0], delta_bic, f, p_value, heldout_gain, max_corr, passed }
+        };
+        let cands: Vec<Candidate> = pool.iter().map(|e| score(&[*e], pool.len())).collect();
+        // two effects that only together explain the residual (a body offset and a world tilt,
+        // each extrapolating badly to the held-out blocks without the other) are each
+        // significant alone but fail the held-out gate: such pairs are tried together, at a
+        // Bonferroni level over the singles and these pairs, and win only with a lower ΔBIC
+        // than every passing single
+        let near: Vec<Effect> = cands.iter().filter(|c| !c.passed && c.p_value < o.alpha / pool.len() as f64 && c.delta_bic < 0.0).map(|c| c.effect).collect();
+        let n_pairs = near.len() * near.len().saturating_sub(1) / 2;
+        let mut pair: Option<(Effect, Candidate)> = None;
+        for (i, a) in near.iter().enumerate() {
+            for b in &near[i + 1..] {
+                let c = score(&[*a, *b], pool.len() + n_pairs);
+                if c.passed && pair.as_ref().is_none_or(|(_, p)| c.delta_bic < p.delta_bic) {
+                    pair = Some((*b, c));
+                }
+            }
         }
-        let Some(best) = cands.iter().filter(|c| c.passed).min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic)).cloned() else {
-            final_candidates = cands;
-            break;
+        let best_single = cands.iter().filter(|c| c.passed).min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic)).cloned();
+        let (best, partner) = match (best_single, pair) {
+            (Some(s1), Some((b, p))) if p.delta_bic < s1.delta_bic => (p, Some(b)),
+            (Some(s1), _) => (s1, None),
+            (None, Some((b, p))) => (p, Some(b)),
+            (None, None) => {
+                final_candidates = cands;
+                break;
+            }
         };
         let mut unident = Vec::new();
         for c in cands.iter().filter(|c| c.effect != best.effect && c.passed) {
@@ -826,12 +857,14 @@ fn select(s: &Series, o: &Options) -> Report {
             }
         }
         selected.push(best.effect);
+        selected.extend(partner);
         let mut c2 = state_corr;
         state = refine(s, o, &mut c2, &selected, o.refine_iterations);
         state_corr = c2;
         let params = selected.iter().flat_map(|e| params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &state_corr)).collect();
         steps.push(Step {
             added: best.effect,
+            together_with: partner,
             delta_bic: best.delta_bic,
             p_value: best.p_value,
             heldout_gain: best.heldout_gain,
