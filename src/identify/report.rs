@@ -57,7 +57,11 @@ pub fn render(r: &Report) -> String {
     if !r.effects.is_empty() {
         let _ = writeln!(s, "\n  effects found (least squares, 95 % Newey–West intervals):");
         for f in &r.effects {
-            let ps: Vec<String> = f.params.iter().map(|p| format!("{} {} ± {} {}", p.name, sig(p.value), sig(p.ci95), p.unit).trim_end().to_string()).collect();
+            let ps: Vec<String> = f
+                .params
+                .iter()
+                .map(|p| if p.identifiable { format!("{} {} ± {} {}", p.name, sig(p.value), sig(p.ci95), p.unit) } else { format!("{} {} {} (not identifiable)", p.name, sig(p.value), p.unit) }.trim_end().to_string())
+                .collect();
             let _ = writeln!(s, "    {:<34} {}", f.name, ps.join(", "));
         }
     }
