@@ -113,3 +113,13 @@ fn two_effects_that_only_explain_the_data_together_join_together() {
         }
     }
 }
+
+/// The same outcomes, to the bit, on one thread and on the default pool: each trial is a pure
+/// function of (seed, index) and the outcomes are collected in index order.
+#[test]
+fn trials_do_not_depend_on_the_thread_count() {
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let serial = one.install(|| run_many(11, 6, &Options::default()));
+    let parallel = run_many(11, 6, &Options::default());
+    assert_eq!(serde_json::to_string(&serial).unwrap(), serde_json::to_string(&parallel).unwrap());
+}
