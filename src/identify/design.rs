@@ -274,6 +274,28 @@ pub(crate) fn smooth_vec3(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &
     out
 }
 
+/// Body rates from neighbouring attitudes (body → nav), ω_k = Log(q_{k−1}⁻¹q_{k+1})/(t_{k+1} − t_{k−1})
+/// in the body frame, inside each segment (zero at its ends).
+pub(crate) fn body_rates(att: &[UnitQuaternion<f64>], t: &[f64], segs: &[(usize, usize)]) -> Vec<Vector3<f64>> {
+    let mut omega = vec![Vector3::zeros(); att.len()];
+    for &(a, b) in segs {
+        for i in a + 1..b.saturating_sub(1) {
+            let rel = att[i - 1].inverse() * att[i + 1];
+            omega[i] = rel.scaled_axis() / (t[i + 1] - t[i - 1]);
+        }
+    }
+    omega
+}
+
+/// The second derivative of p at row i (0 < i < len − 1) by central differences on uneven
+/// steps: ((p₊ − p)/(t₊ − t) − (p − p₋)/(t − t₋))·2/(t₊ − t₋).
+pub(crate) fn second_difference(p: &[Vector3<f64>], t: &[f64], i: usize) -> Vector3<f64> {
+    let (t0, t1, t2) = (t[i - 1], t[i], t[i + 1]);
+    let d1 = (p[i + 1] - p[i]) / (t2 - t1);
+    let d0 = (p[i] - p[i - 1]) / (t1 - t0);
+    (d1 - d0) * (2.0 / (t2 - t0))
+}
+
 /// Options of the residual construction.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct DesignOptions {
@@ -345,23 +367,13 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
     let gyro_s = smooth_vec3(&s.gyro_body, segs, &kernel);
     let accel_s = smooth_vec3(&s.accel_body, segs, &kernel);
     // mocap body rates from neighbouring poses
-    let mut omega_raw = vec![Vector3::zeros(); n];
-    for &(a, b) in segs {
-        for i in a + 1..b.saturating_sub(1) {
-            let rel = att_body[i - 1].inverse() * att_body[i + 1];
-            omega_raw[i] = rel.scaled_axis() / (s.t_s[i + 1] - s.t_s[i - 1]);
-        }
-    }
-    let omega_s = smooth_vec3(&omega_raw, segs, &kernel);
+    let omega_s = smooth_vec3(&body_rates(&att_body, &s.t_s, segs), segs, &kernel);
     let mut vel_nav = vec![Vector3::zeros(); n];
     let mut acc_nav = vec![Vector3::zeros(); n];
     for &(a, b) in segs {
         for i in a + 1..b.saturating_sub(1) {
-            let (t0, t1, t2) = (s.t_s[i - 1], s.t_s[i], s.t_s[i + 1]);
-            vel_nav[i] = (pos_s[i + 1] - pos_s[i - 1]) / (t2 - t0);
-            let d1 = (pos_s[i + 1] - pos_s[i]) / (t2 - t1);
-            let d0 = (pos_s[i] - pos_s[i - 1]) / (t1 - t0);
-            acc_nav[i] = (d1 - d0) * (2.0 / (t2 - t0));
+            vel_nav[i] = (pos_s[i + 1] - pos_s[i - 1]) / (s.t_s[i + 1] - s.t_s[i - 1]);
+            acc_nav[i] = second_difference(&pos_s, &s.t_s, i);
         }
     }
     let rot_t: Vec<nalgebra::Matrix3<f64>> = att_body.iter().map(|q: &UnitQuaternion<f64>| q.to_rotation_matrix().matrix().transpose()).collect();

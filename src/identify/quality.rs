@@ -34,7 +34,7 @@
 //! (a touchdown or a bump), not corruption: it is cut and listed the same way but does not make
 //! the log unusable.
 
-use super::design::{gaussian_kernel, glitches, smooth_vec3};
+use super::design::{body_rates, gaussian_kernel, glitches, second_difference, smooth_vec3};
 use super::series::{Series, floor_z};
 use nalgebra::Vector3;
 
@@ -145,14 +145,14 @@ struct Flag {
 /// segments, and what was cut. `smoothing_s` is the σ of the mocap smoothing (the same as the
 /// design's), `min_height_m` the height under which a flag counts as contact with the floor.
 pub fn gate(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64) -> (Series, DataQuality) {
-    let flags = flag(s, o, smoothing_s, min_height_m);
+    let floor = floor_z(s, &s.pos_mocap_nav);
+    let flags = flag(s, o, smoothing_s, min_height_m, floor);
     let n = s.len();
     let mut quality = DataQuality { cuts: Vec::new(), rows_cut: 0, rows: n };
     if flags.is_empty() {
         return (s.clone(), quality);
     }
     let t0 = s.t_s[0];
-    let floor = floor_z(s, &s.pos_mocap_nav);
     let near_floor = |i: usize| floor.is_some_and(|f| f - s.pos_mocap_nav[i].z < min_height_m);
     let mut cut_row = vec![false; n];
     for ch in [QualityChannel::Accel, QualityChannel::Gyro, QualityChannel::Mocap] {
@@ -238,7 +238,8 @@ fn reason(group: &[&Flag], s: &Series, o: &QualityOptions) -> String {
 }
 
 /// The flagged samples, in row order per channel.
-fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64) -> Vec<Flag> {
+/// `floor` is the log's floor (NED z, m), for telling the air from the ground.
+fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64, floor: Option<f64>) -> Vec<Flag> {
     let n = s.len();
     let mut flags = Vec::new();
     if n < 3 {
@@ -300,22 +301,12 @@ fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64) -> 
         }
     }
     let pos_s = smooth_vec3(&s.pos_mocap_nav, &s.segments, &kernel);
-    let mut omega_raw = vec![Vector3::zeros(); n];
-    for &(a, b) in &s.segments {
-        for i in a + 1..b.saturating_sub(1) {
-            let rel = s.att_mocap[i - 1].inverse() * s.att_mocap[i + 1];
-            omega_raw[i] = rel.scaled_axis() / (s.t_s[i + 1] - s.t_s[i - 1]);
-        }
-    }
-    let omega_s = smooth_vec3(&omega_raw, &s.segments, &kernel);
+    let omega_s = smooth_vec3(&body_rates(&s.att_mocap, &s.t_s, &s.segments), &s.segments, &kernel);
     for i in 0..n {
         if !usable[i] {
             continue;
         }
-        let (t0, t1, t2) = (s.t_s[i - 1], s.t_s[i], s.t_s[i + 1]);
-        let d1 = (pos_s[i + 1] - pos_s[i]) / (t2 - t1);
-        let d0 = (pos_s[i] - pos_s[i - 1]) / (t1 - t0);
-        let acc_nav = (d1 - d0) * (2.0 / (t2 - t0));
+        let acc_nav = second_difference(&pos_s, &s.t_s, i);
         let f_hat = s.att_mocap[i].inverse_transform_vector(&(acc_nav - Vector3::new(0.0, 0.0, g)));
         let da = (s.accel_body[i] - f_hat).norm();
         if da > o.accel_disagree_m_s2 {
@@ -332,7 +323,6 @@ fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64) -> 
     // an airborne IMU always shakes by more than its resolution (rotor vibration, noise): a
     // reading repeated bit for bit in the air is a sensor or logger that hangs. On the floor
     // a noise-free (simulated) IMU may legitimately repeat itself.
-    let floor = floor_z(s, &s.pos_mocap_nav);
     let airborne = |i: usize| floor.is_none_or(|f| f - s.pos_mocap_nav[i].z > min_height_m);
     for (ch, x) in [(QualityChannel::Accel, &s.accel_body), (QualityChannel::Gyro, &s.gyro_body)] {
         for (a, b) in runs(&s.segments, |i| same3(&x[i], &x[i - 1])) {

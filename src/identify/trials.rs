@@ -117,7 +117,8 @@ pub fn draw(seed: u64, index: u64) -> Trial {
     let mut plan = vec!["idle: { duration_s: 1 }".to_string(), format!("takeoff: {{ altitude_m: {alt}, duration_s: 3 }}"), "hover: { duration_s: 2 }".to_string()];
     let mut words = Vec::new();
     let pieces = 3 + d.pick(3);
-    let wp = |n: f64, e: f64, speed: f64, hold: f64| format!("waypoint: {{ pos_m: [{}, {}, {}], speed_m_s: {speed}, accel_m_s2: 1.5, hold_s: {hold} }}", r(n, 2), r(e, 2), -alt);
+    let wp_at = |n: f64, e: f64, height: f64, speed: f64, hold: f64| format!("waypoint: {{ pos_m: [{}, {}, {}], speed_m_s: {speed}, accel_m_s2: 1.5, hold_s: {hold} }}", r(n, 2), r(e, 2), -height);
+    let wp = |n: f64, e: f64, speed: f64, hold: f64| wp_at(n, e, alt, speed, hold);
     for _ in 0..pieces {
         match d.pick(5) {
             0 => {
@@ -166,7 +167,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
         let r_rotor: f64 = if cf { crate::vehicle::params::CRAZYFLIE21_ROTOR_RADIUS_M } else { crate::vehicle::params::X3D_ROTOR_RADIUS_M };
         // not below 0.1 m: identify leaves out what is within 8 cm of the floor
         let low = r((d.u(1.2, 3.0) * r_rotor).max(0.1), 3);
-        plan.push(wp(0.0, 0.0, 0.5, 0.0).replace(&format!("{}]", -alt), &format!("{}]", -low)).replace("hold_s: 0", "hold_s: 4"));
+        plan.push(wp_at(0.0, 0.0, low, 0.5, 4.0));
         plan.push(wp(0.0, 0.0, 0.5, 1.0));
         words.push(format!("low hover at {low} m"));
         if hidden.len() < 3 && d.0.uniform() < 0.5 {
