@@ -166,3 +166,20 @@ impl VehicleParams {
         self.mass_kg * GRAVITY
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The presets' IMU ranges against their sources, in SI: the BMI088 at ±24 g = 235.44 m/s²
+    /// and ±2000 °/s = 34.9066 rad/s (Crazyflie firmware settings), the X3D at ±6 g = 58.86 m/s²
+    /// and ±300 °/s = 5.23599 rad/s (flyarena's values). The data-quality gate cuts at 98 % of
+    /// these, so a wrong range either cuts real flight or lets saturation through.
+    #[test]
+    fn imu_ranges_are_the_sensors_full_scales_in_si() {
+        let cf = VehicleParams::crazyflie21().imu_range;
+        assert!((cf.accel_m_s2 - 235.44).abs() < 1e-9 && (cf.gyro_rad_s - 34.906_585).abs() < 1e-6, "{cf:?}");
+        let x3d = VehicleParams::x3d().imu_range;
+        assert!((x3d.accel_m_s2 - 58.86).abs() < 1e-9 && (x3d.gyro_rad_s - 5.235_988).abs() < 1e-6, "{x3d:?}");
+    }
+}
