@@ -7,6 +7,12 @@
 One row per flight: body offset (deg, 95 %), ground tilt (deg), further effects (a pair the
 flight cannot tell apart is marked), held-out RMSE of accel_kin and force (RMS over the axes,
 nominal -> with the effects).
+
+Then the ground agreement: per flight the ground tilt, the tilt of the fitted accelerometer bias,
+the flight's body offset and the difference (ground - bias tilt - offset) with its 95 % interval;
+and the median |difference| per axis.
+
+Then what is left: per flight, the channel axes whose final residual follows a measured signal.
 """
 import re
 import json, sys, math
@@ -42,3 +48,49 @@ for item in d['reports']:
     fo = (rms(r['errors'], 'force', 'rmse_before'), rms(r['errors'], 'force', 'rmse_after'))
     row = f"| {name} | {b} | {gt} | {', '.join(further)} | {ak[0]:.3f} → {ak[1]:.3f} | {fo[0]:.2f} → {fo[1]:.3f} |"
     print(re.sub(r'(?<![A-Za-z0-9])-(?=\d)', '−', row))
+
+print()
+print("| flight | ground roll / pitch | bias tilt roll / pitch | flight offset roll / pitch | difference roll | difference pitch |")
+print("|---|---|---|---|---|---|")
+diffs = {'roll': [], 'pitch': []}
+for item in d['reports']:
+    r = item['report']; name = names.get(item['flight'], item['flight'])
+    a = r.get('ground_agreement')
+    if not a:
+        continue
+    cell = lambda t: f"{t['difference_deg']:+.2f} ± {t['ci95_deg']:.2f}" + ('' if t['covers'] else ' ✗')
+    for k in diffs:
+        diffs[k].append(abs(a[k]['difference_deg']))
+    row = (f"| {name} | {a['roll']['ground_deg']:.2f} / {a['pitch']['ground_deg']:.2f} | {a['roll']['bias_tilt_deg']:.2f} / {a['pitch']['bias_tilt_deg']:.2f} | "
+           f"{a['roll']['flight_deg']:.2f} / {a['pitch']['flight_deg']:.2f} | {cell(a['roll'])} | {cell(a['pitch'])} |")
+    print(re.sub(r'(?<![A-Za-z0-9])-(?=\d)', '−', row))
+med = lambda v: sorted(v)[len(v) // 2] if len(v) % 2 else 0.5 * (sorted(v)[len(v) // 2 - 1] + sorted(v)[len(v) // 2])
+print(f"\nmedian |difference|: roll {med(diffs['roll']):.2f}°, pitch {med(diffs['pitch']):.2f}° over {len(diffs['roll'])} flights; "
+      f"beyond 1°: {sum(x > 1 for x in diffs['roll'])} roll, {sum(x > 1 for x in diffs['pitch'])} pitch")
+print()
+print("what is left (final residual per channel axis; the measured signals it follows):")
+for item in d['reports']:
+    r = item['report']; name = names.get(item['flight'], item['flight'])
+    for l in r.get('left', []):
+        if l['correlates']:
+            leads = ', '.join(f"{c['signal']} {c['r']:+.2f}" for c in l['correlates'])
+            print(f"  {name}: {l['channel']}.{l['axis']} {l['rmse']:.3f} {l['unit']}: {leads}")
+
+print()
+print("hypothesis: a lever arm between the mocap origin and the IMU (held-out accel_kin cut when it is tried)")
+print("| flight | selected | r x / y / z (mm, ±95 %) | held-out cut of its channel |")
+print("|---|---|---|---|")
+for item in d['reports']:
+    r = item['report']; name = names.get(item['flight'], item['flight'])
+    if not r['effects']:
+        continue
+    eff = {e['effect']: e for e in r['effects']}
+    step = next((s for s in r['steps'] if s['added'] == 'lever_arm' or s.get('together_with') == 'lever_arm'), None)
+    if step:
+        p = eff['lever_arm']['params']
+        rr = ' / '.join(f"{q['value']:.1f}±{q['ci95']:.1f}" for q in p)
+        print(re.sub(r'(?<![A-Za-z0-9])-(?=\d)', '−', f"| {name} | yes | {rr} | {100 * step['heldout_gain']:.0f} % |"))
+    else:
+        c = next(c for c in r['final_candidates'] if c['effect'] == 'lever_arm')
+        why = 'fails ' + ', '.join(k for k, bad in [('F-test', c['p_value'] >= 0.01 / 11), ('ΔBIC', c['delta_bic'] >= 0), ('held-out (< 10 %)', c['heldout_gain'] < 0.1)] if bad)
+        print(re.sub(r'(?<![A-Za-z0-9])-(?=\d)', '−', f"| {name} | no ({why}) | — | {100 * c['heldout_gain']:.0f} % |"))

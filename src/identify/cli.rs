@@ -47,7 +47,8 @@ pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicl
         let report = identify(&series, &opts).map_err(|e| e.to_string())?;
         let text = report::render(&report);
         // the log's own frame rate, for rounding a delay to whole frames
-        let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32);
+        // (and four markers, the common pattern, for a lever arm: the log names no template)
+        let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32, 4);
         let json = json!({ "report": report, "closed_loop": null });
         let residuals = super::select::residual_series(&series, &opts, &report);
         return Ok(Done { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
@@ -69,7 +70,7 @@ pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicl
         flyarena_log::run_and_log(&s, i, &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicles.value[i].value.name))?.1
     };
     let report = identify(&data, &opts).map_err(|e| e.to_string())?;
-    let frag = fragment(&report, i, s.mocap.rate_hz.value);
+    let frag = fragment(&report, i, s.mocap.rate_hz.value, s.template(i).map_or(4, |t| t.len()));
     // closed loop: the nominal scenario and the nominal scenario with the effects, same seed
     let (nominal, fed) = nominal_and_fed_back(&tree, i, &frag, &scen_path.display().to_string())?;
     let before = trajectory_error(&data, &flyarena_log::run_and_log(&nominal, i, "nominal")?.1);
@@ -142,6 +143,20 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
         }
         if let Some(g) = &r.ground_check {
             text += &format!("    ground check (at rest, {} samples): roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°\n", g.samples, g.roll_deg, g.roll_se_deg, g.pitch_deg, g.pitch_se_deg);
+        }
+        if let Some(a) = &r.ground_agreement {
+            text += &format!(
+                "    ground − bias tilt vs flight offset: roll {:+.2} ± {:.2}°, pitch {:+.2} ± {:.2}°{}\n",
+                a.roll.difference_deg,
+                a.roll.ci95_deg,
+                a.pitch.difference_deg,
+                a.pitch.ci95_deg,
+                if a.roll.covers && a.pitch.covers { "" } else { " (disagree)" }
+            );
+        }
+        for l in r.left.iter().filter(|l| !l.correlates.is_empty()) {
+            let leads: Vec<String> = l.correlates.iter().map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
+            text += &format!("    left on {}.{} ({:.3} {}): follows {}\n", l.channel.name(), l.axis, l.rmse, l.unit, leads.join(", "));
         }
         for n in &r.notes {
             text += &format!("    note: {n}\n");

@@ -35,6 +35,15 @@
 //! | thrust scale | s − 1 | force: −T/m·e_z |
 //! | thrust vs battery | c (1/V) | force: −T/m·(V − V_ref)·e_z |
 //! | ground effect | c_g | force: −T/m·(r/4h)²·e_z (Cheeseman–Bennett, h ≥ r) |
+//! | lever arm, mocap origin → IMU | r (m, body) | accel_kin: ω̇_imu × e_j + ω_imu × (ω_imu × e_j) |
+//!
+//! The lever arm: the mocap tracks the marker template's origin, the IMU sits at r from it. A
+//! rigid body's point r has the specific force of the tracked point plus ω̇×r + ω×(ω×r), so the
+//! accelerometer reads that much more than the mocap implies. Only the difference IMU − tracked
+//! point is seen by `accel_kin`; the force channel (IMU against thrust) would see the IMU's
+//! offset from the centre of mass instead, which the library does not model. In flyarena's
+//! simulator the IMU sits at the centre of mass, so uniformly displaced markers d are a lever
+//! arm r = −d.
 
 use super::series::{Corrected, Corrections, Series, correct};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -82,10 +91,11 @@ pub enum Effect {
     ThrustScale,
     ThrustVoltage,
     GroundEffect,
+    LeverArm,
 }
 
 impl Effect {
-    pub const ALL: [Effect; 10] = [
+    pub const ALL: [Effect; 11] = [
         Effect::BodyOffset,
         Effect::WorldTilt,
         Effect::MocapDelay,
@@ -96,6 +106,7 @@ impl Effect {
         Effect::ThrustScale,
         Effect::ThrustVoltage,
         Effect::GroundEffect,
+        Effect::LeverArm,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -109,6 +120,7 @@ impl Effect {
             Effect::ThrustScale => "thrust scale",
             Effect::ThrustVoltage => "thrust vs battery voltage",
             Effect::GroundEffect => "ground effect",
+            Effect::LeverArm => "lever arm, mocap origin → IMU",
         }
     }
     pub fn key(self) -> &'static str {
@@ -123,6 +135,7 @@ impl Effect {
             Effect::ThrustScale => "thrust_scale",
             Effect::ThrustVoltage => "thrust_voltage",
             Effect::GroundEffect => "ground_effect",
+            Effect::LeverArm => "lever_arm",
         }
     }
     /// Parameter names and the factor from the internal SI/radian value to the reported unit.
@@ -139,6 +152,7 @@ impl Effect {
             Effect::ThrustScale => &[("scale − 1", "", 1.0)],
             Effect::ThrustVoltage => &[("per volt", "1/V", 1.0)],
             Effect::GroundEffect => &[("c_g", "", 1.0)],
+            Effect::LeverArm => &[("x", "mm", 1e3), ("y", "mm", 1e3), ("z", "mm", 1e3)],
         }
     }
     pub fn n_params(self) -> usize {
@@ -150,6 +164,7 @@ impl Effect {
             Effect::WorldTilt => &[Channel::AccelKin],
             Effect::AccelBias => &[Channel::AccelKin, Channel::Force],
             Effect::GyroBias => &[Channel::Gyro],
+            Effect::LeverArm => &[Channel::AccelKin],
             _ => &[Channel::Force],
         }
     }
@@ -167,7 +182,7 @@ pub fn column_offsets() -> [usize; Effect::ALL.len() + 1] {
     }
     o
 }
-pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1;
+pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3;
 
 /// One regressor column: its index in the full design and its samples.
 pub type Column = (usize, Vec<f64>);
@@ -190,6 +205,20 @@ pub struct Design {
     pub yaw_spread_rad: f64,
     /// Mocap glitches found (each leaves out the filter's reach around it).
     pub outliers: usize,
+    /// Measured signals a leftover residual may follow (name, samples): the leads of "what is
+    /// left". Time (a drift), speed and body velocity (drag), body rates and their derivative
+    /// (an IMU lever arm), specific force (accelerometer scale and cross-axis), thrust and
+    /// battery (motor-speed effects), height (ground effect).
+    pub signals: Vec<Signal>,
+}
+
+/// A measured signal, decimated like the channels, and the channel axes (channel index, axis)
+/// it is no lead for because it carries their own measurement.
+#[derive(Clone, Debug)]
+pub struct Signal {
+    pub name: &'static str,
+    pub samples: Vec<f64>,
+    pub excludes: Vec<(usize, usize)>,
 }
 
 /// Poses this many robust standard deviations off the midpoint of their neighbours are glitches.
@@ -377,7 +406,14 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
         }
     }
     let rot_t: Vec<nalgebra::Matrix3<f64>> = att_body.iter().map(|q: &UnitQuaternion<f64>| q.to_rotation_matrix().matrix().transpose()).collect();
-    let f_hat: Vec<Vector3<f64>> = (0..n).map(|i| rot_t[i] * (acc_nav[i] - g_nav)).collect();
+    // f̂ = Rᵀ(p̈ − g·e_D), with gravity's part rotated *before* it is smoothed: the IMU is the
+    // smoothed Rᵀ(a − g·e_D), and smoothing after the rotation is not smoothing before it:
+    // K*(Rᵀg) − Rᵀg ≈ (σ²/2)·d²(Rᵀg)/dt², whose x is g·σ²/2·ω̇_y — an apparent lever arm of
+    // g·σ²/2 = 2 mm along z at σ = 20 ms (found as a +2 mm bias in every simulated lever arm).
+    // p̈ is small against g, so its own rotation-smoothing mismatch is left.
+    let grav_body: Vec<Vector3<f64>> = rot_t.iter().map(|r| r * (-g_nav)).collect();
+    let grav_body_s = smooth_vec3(&grav_body, segs, &kernel);
+    let f_hat: Vec<Vector3<f64>> = (0..n).map(|i| rot_t[i] * acc_nav[i] + grav_body_s[i]).collect();
     let v_body: Vec<Vector3<f64>> = (0..n).map(|i| rot_t[i] * vel_nav[i]).collect();
     let deriv = |x: &[Vector3<f64>]| -> Vec<Vector3<f64>> {
         let mut d = vec![Vector3::zeros(); n];
@@ -420,6 +456,11 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
         }
         columns[c][a].push((col(Effect::MocapDelay, 0), f_dot.iter().map(|v| v[a]).collect()));
         columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+        // the IMU at r from the point the mocap tracks (body FRD): it feels the rotation's
+        // acceleration ω̇×r + ω×(ω×r) that the tracked point does not (linear in r)
+        for j in 0..3 {
+            columns[c][a].push((col(Effect::LeverArm, j), (0..n).map(|i| (omega_dot[i].cross(&unit(j)) + gyro_s[i].cross(&gyro_s[i].cross(&unit(j))))[a]).collect()));
+        }
         // gyro
         let c = Channel::Gyro.index();
         measured[c][a] = gyro_s.iter().map(|v| v[a]).collect();
@@ -476,8 +517,40 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
     let pick = |v: &Vec<f64>| -> Vec<f64> { if v.is_empty() { Vec::new() } else { keep.iter().map(|&i| v[i]).collect() } };
     let ok: Vec<bool> = keep.iter().map(|&i| ok[i]).collect();
     let t: Vec<f64> = keep.iter().map(|&i| s.t_s[i]).collect();
+    // a signal that carries a channel's own measurement on an axis is no lead for that axis:
+    // it correlates with the residual through the sensor's noise (and is the residual itself
+    // when the prediction is flat)
+    let ka = Channel::AccelKin.index();
+    let kf = Channel::Force.index();
+    let kg = Channel::Gyro.index();
+    let sig = |name: &'static str, v: Vec<f64>, excludes: Vec<(usize, usize)>| Signal { name, samples: v, excludes };
+    let mut signals: Vec<Signal> = vec![
+        sig("time (s)", s.t_s.clone(), vec![]),
+        sig("speed (m/s)", vel_nav.iter().map(|v| v.norm()).collect(), vec![]),
+        sig("body velocity x (m/s)", v_body.iter().map(|v| v.x).collect(), vec![]),
+        sig("body velocity y (m/s)", v_body.iter().map(|v| v.y).collect(), vec![]),
+        sig("body velocity z (m/s)", v_body.iter().map(|v| v.z).collect(), vec![]),
+        sig("body rate norm (rad/s)", gyro_s.iter().map(|w| w.norm()).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]),
+        sig("body rate x (rad/s)", gyro_s.iter().map(|w| w.x).collect(), vec![(kg, 0)]),
+        sig("body rate y (rad/s)", gyro_s.iter().map(|w| w.y).collect(), vec![(kg, 1)]),
+        sig("body rate z (rad/s)", gyro_s.iter().map(|w| w.z).collect(), vec![(kg, 2)]),
+        sig("angular acceleration x (rad/s²)", omega_dot.iter().map(|w| w.x).collect(), vec![]),
+        sig("angular acceleration y (rad/s²)", omega_dot.iter().map(|w| w.y).collect(), vec![]),
+        sig("angular acceleration z (rad/s²)", omega_dot.iter().map(|w| w.z).collect(), vec![]),
+        sig("specific force x (m/s²)", accel_s.iter().map(|f| f.x).collect(), vec![(ka, 0), (kf, 0)]),
+        sig("specific force y (m/s²)", accel_s.iter().map(|f| f.y).collect(), vec![(ka, 1), (kf, 1)]),
+        sig("specific force z (m/s²)", accel_s.iter().map(|f| f.z).collect(), vec![(ka, 2), (kf, 2)]),
+        sig("height (m)", height.iter().map(|h| if h.is_finite() { *h } else { 0.0 }).collect(), vec![]),
+    ];
+    if let Some(t) = &thrust_s {
+        signals.push(sig("thrust (N)", t.clone(), vec![]));
+    }
+    if let Some(v) = &s.vbat_v {
+        signals.push(sig("battery (V)", v.clone(), vec![]));
+    }
+    let signals = signals.into_iter().map(|x| Signal { samples: pick(&x.samples), ..x }).collect();
     let measured = measured.map(|c| c.map(|a| pick(&a)));
     let predicted = predicted.map(|c| c.map(|a| pick(&a)));
     let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));
-    Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad, outliers }
+    Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad, outliers, signals }
 }

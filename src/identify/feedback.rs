@@ -63,9 +63,9 @@ fn r3(x: f64) -> f64 {
     (x * 1e4).round() / 1e4
 }
 
-/// The fragment of a report for vehicle `i`; effects flyarena does not simulate are listed as
+/// The fragment of a report for vehicle `i` (with `n_markers` markers); effects flyarena does not simulate are listed as
 /// comments.
-pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32) -> String {
+pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> String {
     let mut lines = vec![
         format!("# flyarena identify: the effects found in {}", r.source),
         "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string(),
@@ -91,6 +91,11 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32) -> String {
             Effect::ConstantForce => set.push((format!("{vi}.disturbance.force_n"), json!(v))),
             Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(r3(1.0 + f.params[0].value)))),
             Effect::GroundEffect => set.push((format!("{vi}.undeclared.ground_effect"), json!(v[0].max(0.0)))),
+            Effect::LeverArm => {
+                // markers displaced by d make the mocap track the point d: r = −d for each marker
+                let d: Vec<f64> = v.iter().map(|x| -x).collect();
+                set.push((format!("{vi}.markers.displacement_mm"), json!(vec![d; n_markers])));
+            }
             Effect::ThrustVoltage => {
                 lines.push(format!("# not simulated by flyarena, reported only: {} = {:?}", f.effect.key(), v));
             }

@@ -89,6 +89,35 @@ pub fn render(r: &Report) -> String {
     for c in cells {
         let _ = writeln!(s, "    {c}");
     }
+    if !r.left.is_empty() {
+        let _ = writeln!(s, "\n  what is left (final residual; leads: measured signals it follows, |r| ≥ 0.1 and significant at 1 % over all signals):");
+        for l in &r.left {
+            let leads: Vec<String> = l.correlates.iter().map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
+            let verdict = match (l.structured, leads.is_empty()) {
+                (false, _) => "no structure left (white, follows no measured signal)".to_string(),
+                (true, true) => format!("structured (Ljung–Box p = {}), follows no measured signal", sig(l.ljung_box_p)),
+                (true, false) => format!("structured, follows {}", leads.join(", ")),
+            };
+            let _ = writeln!(s, "    {}.{}: {} {} left; {verdict}", l.channel.name(), l.axis, sig(l.rmse), l.unit);
+        }
+    }
+    if let Some(a) = &r.ground_agreement {
+        let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs body offset):");
+        for (name, t) in [("roll", &a.roll), ("pitch", &a.pitch)] {
+            let _ = writeln!(
+                s,
+                "    {name:<5} ground {:+.2}, bias tilt {:+.2}, corrected {:+.2}; flight {:+.2}{}; difference {:+.2} ± {:.2} {}",
+                t.ground_deg,
+                t.bias_tilt_deg,
+                t.ground_corrected_deg,
+                t.flight_deg,
+                if a.frame_fitted { "" } else { " (no body offset or world tilt selected)" },
+                t.difference_deg,
+                t.ci95_deg,
+                if t.covers { "(agree)" } else { "(DISAGREE)" }
+            );
+        }
+    }
     for n in &r.notes {
         let _ = writeln!(s, "\n  note: {n}");
     }

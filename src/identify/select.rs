@@ -155,6 +155,61 @@ pub struct Whiteness {
     pub ljung_box: LjungBox,
 }
 
+/// A measured signal that the residual left at the end follows.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Correlate {
+    pub signal: String,
+    /// Pearson correlation with the final residual over the usable samples.
+    pub r: f64,
+    /// Bartlett's effective sample size (both series are autocorrelated).
+    pub n_eff: f64,
+}
+
+/// What is left on one channel axis once the effects are fitted: is the residual still
+/// structured, and what does it follow? A lead for the next effect, not a verdict.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Left {
+    pub channel: Channel,
+    pub axis: char,
+    /// Held-out RMSE after the effects.
+    pub rmse: f64,
+    pub unit: String,
+    /// Ljung–Box p-value of the prewhitened final residual (from [`Whiteness`]).
+    pub ljung_box_p: f64,
+    /// The signals the residual follows: |r| ≥ [`LEAD_MIN_CORR`] and r ≠ 0 at the 1 % level
+    /// Bonferroni-corrected over the signals (r·√n_eff against N(0, 1)), strongest first, at
+    /// most [`LEAD_MAX`].
+    pub correlates: Vec<Correlate>,
+    /// The residual is not noise: it follows a measured signal, or fails Ljung–Box at 1 %.
+    pub structured: bool,
+}
+
+/// Weaker correlations than this are not named as leads (significant but explaining < 1 % of
+/// the residual's variance is no lead).
+pub const LEAD_MIN_CORR: f64 = 0.1;
+/// At most this many leads per channel axis.
+pub const LEAD_MAX: usize = 3;
+
+/// The leads of one residual: the measured signals it follows (see [`Left::correlates`]).
+fn leads(d: &Design, c: usize, a: usize, residual: &[f64]) -> Vec<Correlate> {
+    let r: Vec<f64> = (0..d.n).map(|i| if d.ok[i] { residual[i] } else { f64::NAN }).collect();
+    let mut out: Vec<Correlate> = d
+        .signals
+        .iter()
+        .filter(|sg| !sg.excludes.contains(&(c, a)))
+        .filter_map(|sg| {
+            let (name, x) = (sg.name, &sg.samples);
+            let (c, n_eff) = super::stats::correlation(&r, x, 50);
+            // two-sided test of r = 0 (r·√n_eff ~ N(0, 1)), Bonferroni over the signals
+            let p = super::stats::chi2_sf(c * c * n_eff, 1.0);
+            (n_eff > 0.0 && c.abs() >= LEAD_MIN_CORR && p < 0.01 / d.signals.len() as f64).then(|| Correlate { signal: name.to_string(), r: c, n_eff })
+        })
+        .collect();
+    out.sort_by(|a, b| b.r.abs().total_cmp(&a.r.abs()));
+    out.truncate(LEAD_MAX);
+    out
+}
+
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Report {
     pub source: String,
@@ -169,11 +224,15 @@ pub struct Report {
     pub effects: Vec<Found>,
     pub errors: Vec<AxisError>,
     pub whiteness: Vec<Whiteness>,
+    /// Per channel axis: what the effects leave unexplained and what it follows.
+    pub left: Vec<Left>,
     /// Yaw spread of the flight (circular standard deviation, deg): world tilt and body offset
     /// differ only when the vehicle yaws.
     pub yaw_spread_deg: f64,
     /// Roll/pitch misalignment from the vehicle at rest before take-off (independent check).
     pub ground_check: Option<super::ground::GroundCheck>,
+    /// The ground check against the flight's offset plus the tilt of its accelerometer bias.
+    pub ground_agreement: Option<super::ground::GroundAgreement>,
     pub notes: Vec<String>,
     pub repairs: Vec<String>,
     /// What the data-quality gate cut out before the fit.
@@ -571,6 +630,48 @@ fn available(d: &Design, e: Effect) -> bool {
     }
 }
 
+/// The tilt at rest that the fitted model predicts, per axis (roll, pitch), in rad. The frame
+/// part is the body offset δ plus the world tilt τ as the vehicle sees it at its rest yaw ψ,
+/// (τ_x·cos ψ + τ_y·sin ψ, −τ_x·sin ψ + τ_y·cos ψ) (the `accel_kin` column Rᵀ(g·e_D × e_j) at a
+/// level attitude, read by the ground check's δ = f̂ × r/g²); the accelerometer bias adds
+/// (b_y/g, −b_x/g), as [`super::ground`] derives. Returns (frame part, bias, standard deviation
+/// of the whole sum from the fit's covariance: offset and bias trade off in a hover, their sum
+/// does not).
+fn rest_tilt(selected: &[Effect], fit: &Fit, corr: &Corrections, g: f64, yaw: f64) -> ([f64; 2], nalgebra::Vector3<f64>, [f64; 2]) {
+    let has = |e: Effect| selected.contains(&e);
+    let (c, s) = (yaw.cos(), yaw.sin());
+    let mut frame = [0.0, 0.0];
+    if has(Effect::BodyOffset) {
+        let (r, p, _) = corr.body_offset.euler_angles();
+        frame = [r, p];
+    }
+    if has(Effect::WorldTilt) {
+        let (tx, ty, _) = corr.world_tilt.euler_angles();
+        frame[0] += tx * c + ty * s;
+        frame[1] += -tx * s + ty * c;
+    }
+    let b = cols_of(Effect::AccelBias);
+    let bias = if has(Effect::AccelBias) { nalgebra::Vector3::new(fit.theta[b.start], fit.theta[b.start + 1], fit.theta[b.start + 2]) } else { nalgebra::Vector3::zeros() };
+    let o = cols_of(Effect::BodyOffset);
+    let w = cols_of(Effect::WorldTilt);
+    // gradients of the two sums with respect to the columns
+    let grads = [
+        [(o.start, 1.0), (w.start, c), (w.start + 1, s), (b.start + 1, 1.0 / g)],
+        [(o.start + 1, 1.0), (w.start, -s), (w.start + 1, c), (b.start, -1.0 / g)],
+    ];
+    let sd = grads.map(|grad| {
+        let pos: Vec<(usize, f64)> = grad.iter().filter_map(|(j, c)| fit.set.iter().position(|x| x == j).map(|p| (p, *c))).collect();
+        let mut v = 0.0;
+        for (p, cp) in &pos {
+            for (q, cq) in &pos {
+                v += cp * cq * fit.cov[(*p, *q)];
+            }
+        }
+        v.max(0.0).sqrt()
+    });
+    (frame, bias, sd)
+}
+
 fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: &Corrections) -> Vec<Param> {
     let r = cols_of(e);
     let sd = |j: usize| set.iter().position(|c| *c == j).map_or(0.0, |p| cov[(p, p)].max(0.0).sqrt());
@@ -903,6 +1004,7 @@ fn select(s: &Series, o: &Options) -> Report {
     let d = &state.design;
     let mut errors = Vec::new();
     let mut whiteness = Vec::new();
+    let mut left = Vec::new();
     for (c, a) in active(d) {
         let before = nominal_design.residual(c, a);
         let after = residual_of(d, c, a, &state.fit.theta);
@@ -918,7 +1020,11 @@ fn select(s: &Series, o: &Options) -> Report {
         let ar = Ar::fit(&after, &ok, o.max_ar_order);
         let mut w = Vec::new();
         ar.whiten(&after, &ok, &mut w);
-        whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: ljung_box(&w, 20, ar.order()) });
+        let lb = ljung_box(&w, 20, ar.order());
+        let correlates = leads(d, c, a, &after);
+        let err = errors.last().expect("pushed above");
+        left.push(Left { channel: ch, axis: AXES[a], rmse: err.rmse_after, unit: err.unit.clone(), ljung_box_p: lb.p_value, structured: !correlates.is_empty() || lb.p_value < 0.01, correlates });
+        whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: lb });
     }
     let mut effects: Vec<Found> = selected
         .iter()
@@ -930,6 +1036,11 @@ fn select(s: &Series, o: &Options) -> Report {
     // later effect couples, e.g. a constant force and a world tilt through an accelerometer bias
     // that lives in both channels). E's parameters are then one explanation of several; the
     // others' intervals are widened to cover the swapped model's estimates.
+    let g = s.model.gravity_m_s2;
+    let rest_yaw = super::ground::rest_yaw(s).unwrap_or(0.0);
+    let (tilt_offset, tilt_bias, tilt_sd) = rest_tilt(&selected, &state.fit, &state_corr, g, rest_yaw);
+    let tilt_total = [tilt_offset[0] + tilt_bias.y / g, tilt_offset[1] - tilt_bias.x / g];
+    let mut tilt_widen = [0.0f64; 2];
     if !too_few {
         for (k, e) in selected.clone().into_iter().enumerate() {
             if o.forced.contains(&e) {
@@ -957,12 +1068,45 @@ fn select(s: &Series, o: &Options) -> Report {
                 alt.push(c);
                 let mut alt_corr = Corrections::default();
                 let alt_state = refine(s, o, &mut alt_corr, &alt, o.refine_iterations);
+                let (ao, ab, asd) = rest_tilt(&alt, &alt_state.fit, &alt_corr, s.model.gravity_m_s2, rest_yaw);
+                let alt_total = [ao[0] + ab.y / s.model.gravity_m_s2, ao[1] - ab.x / s.model.gravity_m_s2];
+                for k in 0..2 {
+                    tilt_widen[k] = tilt_widen[k].max((alt_total[k] - tilt_total[k]).abs() + Z_975 * asd[k]);
+                }
                 for f in effects.iter_mut().filter(|f| f.effect != e) {
                     let alt_params = params_of(f.effect, &alt_state.fit.theta, &alt_state.fit.cov, &alt_state.fit.set, &alt_corr);
                     for (p, q) in f.params.iter_mut().zip(alt_params) {
                         p.ci95 = p.ci95.max((q.value - p.value).abs() + q.ci95);
                     }
                 }
+            }
+        }
+    }
+    // the widening is an extra half-width beyond the fit's own
+    let tilt_widen = [0, 1].map(|k| (tilt_widen[k] - Z_975 * tilt_sd[k]).max(0.0));
+    let ground_check = super::ground::ground_check(s);
+    let ground_agreement = match (&ground_check, too_few) {
+        (Some(raw), false) => super::ground::tilt_at_rest(s, &tilt_bias).map(|corrected| {
+            super::ground::agreement(raw, &corrected, tilt_offset, tilt_sd, tilt_widen, selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt), selected.contains(&Effect::AccelBias))
+        }),
+        _ => None,
+    };
+    if let Some(a) = &ground_agreement {
+        for (name, t) in [("roll", &a.roll), ("pitch", &a.pitch)] {
+            if t.difference_deg.abs() > 1.0 && t.covers {
+                notes.push(format!(
+                    "ground check and flight differ by {:.2}° in {name}, within what this flight determines (±{:.2}°): the flight cannot pin its tilt down to 1°",
+                    t.difference_deg, t.ci95_deg
+                ));
+            } else if !t.covers {
+                notes.push(format!(
+                    "ground check and flight disagree in {name}: the ground reads {:.2}°{}, the flight {:.2}° (difference {:.2} ± {:.2}°): the markers or the IMU board moved between rest and flight, or the flight holds an effect the candidate library lacks",
+                    t.ground_deg,
+                    if t.bias_tilt_deg != 0.0 { format!(" ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg) } else { String::new() },
+                    t.flight_deg,
+                    t.difference_deg,
+                    t.ci95_deg
+                ));
             }
         }
     }
@@ -978,8 +1122,10 @@ fn select(s: &Series, o: &Options) -> Report {
         effects,
         errors,
         whiteness,
+        left,
         yaw_spread_deg,
-        ground_check: super::ground::ground_check(s),
+        ground_check,
+        ground_agreement,
         notes,
         repairs: s.repairs.clone(),
         data_quality: super::quality::DataQuality::default(),

@@ -275,6 +275,39 @@ pub fn autocorrelation(x: &[f64], max_lag: usize) -> (Vec<f64>, usize) {
     (r, n)
 }
 
+/// Pearson correlation of x and y over the samples where both are finite, with Bartlett's
+/// effective sample size for two autocorrelated series,
+/// n_eff = n / (1 + 2·Σ_{k=1..L} ρ_x(k)·ρ_y(k)) (clamped to [2, n]),
+/// under which r is approximately N(0, 1/n_eff) when x and y are independent.
+/// Returns (r, n_eff); (0, 0) when either is constant or fewer than 3 samples remain.
+pub fn correlation(x: &[f64], y: &[f64], max_lag: usize) -> (f64, f64) {
+    let both: Vec<f64> = x.iter().zip(y).map(|(a, b)| if a.is_finite() && b.is_finite() { 0.0 } else { f64::NAN }).collect();
+    let xs: Vec<f64> = x.iter().zip(&both).map(|(a, m)| a + m).collect();
+    let ys: Vec<f64> = y.iter().zip(&both).map(|(a, m)| a + m).collect();
+    let idx: Vec<usize> = (0..xs.len()).filter(|&k| xs[k].is_finite()).collect();
+    let n = idx.len();
+    if n < 3 {
+        return (0.0, 0.0);
+    }
+    let mx = idx.iter().map(|&k| xs[k]).sum::<f64>() / n as f64;
+    let my = idx.iter().map(|&k| ys[k]).sum::<f64>() / n as f64;
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for &k in &idx {
+        sxy += (xs[k] - mx) * (ys[k] - my);
+        sxx += (xs[k] - mx).powi(2);
+        syy += (ys[k] - my).powi(2);
+    }
+    if sxx <= 0.0 || syy <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let r = sxy / (sxx * syy).sqrt();
+    let (rx, _) = autocorrelation(&xs, max_lag);
+    let (ry, _) = autocorrelation(&ys, max_lag);
+    let inflation = 1.0 + 2.0 * rx.iter().zip(&ry).map(|(a, b)| a * b).sum::<f64>();
+    let n_eff = (n as f64 / inflation.max(1e-9)).clamp(2.0, n as f64);
+    (r, n_eff)
+}
+
 /// The Ljung–Box portmanteau test: Q = n(n+2)·Σ_{k=1..h} ρ_k²/(n−k), compared with χ²(h − fitted).
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct LjungBox {

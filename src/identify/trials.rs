@@ -23,6 +23,7 @@
 //! | constant force | `vehicles[0].disturbance.force_n` | 2–10 % of the weight (N, E), 0–3 % (D) |
 //! | thrust scale | `vehicles[0].undeclared.thrust_scale` | 3–15 % off 1 |
 //! | ground effect | `vehicles[0].undeclared.ground_effect` | c_g 0.5–1.5, in half the flights with a low hover |
+//! | lever arm, mocap origin → IMU | `vehicles[0].markers.displacement_mm` (−r for every marker) | 10–40 mm |
 //!
 //! A quarter of the flights end with a low hover (1.2–3 rotor radii over the floor, at least
 //! 0.1 m, for 4 s).
@@ -46,8 +47,17 @@ use std::fmt::Write as _;
 
 /// The effects drawn as 0–3 of a flight's hidden effects (the ground effect is drawn on its
 /// own, only for flights with a low hover).
-pub const SIMULATED: [Effect; 8] =
-    [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::AccelBias, Effect::GyroBias, Effect::RotorDrag, Effect::ConstantForce, Effect::ThrustScale];
+pub const SIMULATED: [Effect; 9] = [
+    Effect::BodyOffset,
+    Effect::WorldTilt,
+    Effect::MocapDelay,
+    Effect::AccelBias,
+    Effect::GyroBias,
+    Effect::RotorDrag,
+    Effect::ConstantForce,
+    Effect::ThrustScale,
+    Effect::LeverArm,
+];
 
 /// One drawn trial.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -107,6 +117,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             Effect::RotorDrag => (0..2).map(|_| r(d.u(0.1, 0.5), 3)).collect(),
             Effect::ConstantForce => vec![r(d.signed(0.02, 0.1) * weight, 4), r(d.signed(0.02, 0.1) * weight, 4), r(d.signed(0.0, 0.03) * weight, 4)],
             Effect::ThrustScale => vec![r(d.signed(0.03, 0.15), 4)],
+            Effect::LeverArm => (0..3).map(|_| r(d.signed(10.0, 40.0), 1)).collect(),
             _ => unreachable!("only simulated effects are hidden"),
         };
         hidden.push((e, v));
@@ -179,10 +190,17 @@ pub fn draw(seed: u64, index: u64) -> Trial {
     let mut imu = vec!["gyro_noise_deg_s: 0.3".to_string(), "accel_noise_m_s2: 0.05".to_string()];
     let mut undeclared = Vec::new();
     let mut camera = String::new();
+    let mut markers = Vec::new();
     let list = |v: &[f64]| format!("[{}]", v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "));
     for (e, v) in &hidden {
         match e {
-            Effect::BodyOffset => vehicle.push(format!("markers: {{ rotation_deg: {} }}", list(v))),
+            Effect::BodyOffset => markers.push(format!("rotation_deg: {}", list(v))),
+            // the mocap tracks the markers' origin, displaced by d = −r from the IMU (at the
+            // centre of mass); the built-in patterns have four markers
+            Effect::LeverArm => {
+                let d = list(&v.iter().map(|x| -x).collect::<Vec<_>>());
+                markers.push(format!("displacement_mm: [{d}, {d}, {d}, {d}]"));
+            }
             Effect::WorldTilt => camera = format!(", camera_error: {{ rotation_deg: [{}, {}, 0] }}", v[0], v[1]),
             Effect::MocapDelay => undeclared.push(format!("mocap_delay_ms: {}", v[0])),
             Effect::AccelBias => imu.push(format!("accel_bias_m_s2: {}", list(v))),
@@ -193,6 +211,9 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
             _ => {}
         }
+    }
+    if !markers.is_empty() {
+        vehicle.push(format!("markers: {{ {} }}", markers.join(", ")));
     }
     vehicle.push(format!("imu: {{ {} }}", imu.join(", ")));
     if !undeclared.is_empty() {

@@ -18,7 +18,7 @@ fn scenario(name: &str) -> PathBuf {
 fn every_identify_scenario_finds_its_hidden_effect() {
     let round = |x: f64, k: i32| ((x * 10f64.powi(k)).round() / 10f64.powi(k)) + 0.0;
     let mut summary = Vec::new();
-    for name in ["none", "world-tilt", "rotor-drag", "mocap-delay", "wind", "thrust-scale", "two-effects", "marker-offsets", "accel-bias", "gyro-bias", "ground-effect"] {
+    for name in ["none", "world-tilt", "rotor-drag", "mocap-delay", "wind", "thrust-scale", "two-effects", "marker-offsets", "accel-bias", "gyro-bias", "ground-effect", "lever-arm"] {
         let done = identify_cli(&scenario(name), None, None, None, None, None, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
         summary.push(serde_json::json!({
             "scenario": name,
@@ -35,7 +35,15 @@ fn every_identify_scenario_finds_its_hidden_effect() {
             assert_eq!(after.position_rmse_m, 0.0, "{name}");
         } else {
             assert!(before.position_rmse_m > 0.005, "{name}: the hidden effect must move the flight ({before:?})");
-            assert!(after.position_rmse_m < 0.1 * before.position_rmse_m, "{name}: fed back {after:?} vs nominal {before:?}");
+            if name == "lever-arm" {
+                // a lever arm hardly moves the flight (13 mm), and the closed loop's floor for a
+                // parameter 0.6 mm off is 8.5 mm (PPM counts that flip change the command
+                // sequence; with the exact truth fed back the flight is the data's to the bit):
+                // the fed-back flight must only be closer
+                assert!(after.position_rmse_m < before.position_rmse_m, "{name}: fed back {after:?} vs nominal {before:?}");
+            } else {
+                assert!(after.position_rmse_m < 0.1 * before.position_rmse_m, "{name}: fed back {after:?} vs nominal {before:?}");
+            }
         }
     }
     // a reviewed summary (the checks above are the assertions; this pins the numbers' drift)
@@ -60,7 +68,7 @@ fn nothing_hidden_gives_no_effect_over_20_seeds() {
 /// (the scenario files pin seed 5).
 #[test]
 fn hidden_effects_are_found_first_on_other_seeds() {
-    let cases: [(&str, Effect, &[f64], &[f64]); 9] = [
+    let cases: [(&str, Effect, &[f64], &[f64]); 10] = [
         ("world-tilt", Effect::WorldTilt, &[0.8, -0.5], &[0.05, 0.05]),
         ("rotor-drag", Effect::RotorDrag, &[0.35, 0.35], &[0.02, 0.02]),
         ("mocap-delay", Effect::MocapDelay, &[10.0], &[1.0]),
@@ -70,6 +78,7 @@ fn hidden_effects_are_found_first_on_other_seeds() {
         ("accel-bias", Effect::AccelBias, &[0.15, -0.10, 0.20], &[0.02, 0.02, 0.02]),
         ("gyro-bias", Effect::GyroBias, &[1.0, -0.6, 0.8], &[0.05, 0.05, 0.05]),
         ("ground-effect", Effect::GroundEffect, &[1.0], &[0.15]),
+        ("lever-arm", Effect::LeverArm, &[10.0, -5.0, 30.0], &[1.5, 1.5, 1.5]),
     ];
     for (name, effect, truth, tol) in cases {
         let mut s = Scenario::load(&scenario(name)).unwrap();
@@ -84,7 +93,10 @@ fn hidden_effects_are_found_first_on_other_seeds() {
                 assert!((p.value - t).abs() <= *tl, "{name} seed {seed}: {} = {} (truth {t} ± {tl})", p.name, p.value);
             }
             let cut = flyarena::identify::check::effect_cut(&r, effect).unwrap();
-            assert!(cut >= 0.5, "{name} seed {seed}: held-out cut {cut}");
+            // the lever arm's signal (≈ 0.05 m/s² on the x3d's circles) is of the size of the
+            // smoothed accelerometer noise, which bounds its cut from above
+            let min_cut = if effect == Effect::LeverArm { 0.25 } else { 0.5 };
+            assert!(cut >= min_cut, "{name} seed {seed}: held-out cut {cut}");
         }
     }
 }

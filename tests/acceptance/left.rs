@@ -1,0 +1,126 @@
+//! What `identify` says is left, and the ground check against the flight.
+//!
+//! - The ground check reads the marker offset *plus* the tilt of an accelerometer bias,
+//!   δ + (b_y/g, −b_x/g) (closed form, `identify::ground`); with the bias removed it reads δ.
+//! - "What is left" names the measured signal that a residual the library cannot explain
+//!   follows (a missed effect), and names nothing on a flight the model explains (no invented
+//!   lead).
+
+use flyarena::identify::design::Channel;
+use flyarena::identify::flyarena_log::run_and_log;
+use flyarena::identify::{Effect, Options, ground, identify};
+use flyarena::scenario::Scenario;
+use nalgebra::Vector3;
+
+const G: f64 = 9.81;
+
+fn scenario(file: &str, edit: impl Fn(String) -> String) -> Scenario {
+    let text = std::fs::read_to_string(super::root().join("scenarios").join(file)).unwrap();
+    Scenario::parse(&edit(text), std::path::Path::new(file)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Markers turned by (1.5°, −1.0°) and an accelerometer bias b = (0.15, −0.10, 0.20) m/s²: at
+/// rest the ground check reads roll 1.5 + b_y/g = 0.916°, pitch −1.0 − b_x/g = −1.876°, and
+/// (1.5, −1.0) once b is removed. The flight fits both, and the agreement compares like with
+/// like: difference within 0.1° and inside its interval.
+#[test]
+fn ground_check_reads_offset_plus_bias_tilt() {
+    let s = scenario("identify-accel-bias.yaml", |t| t.replace("  - name: x3d\n", "  - name: x3d\n    markers: { rotation_deg: [1.5, -1.0, 3.0] }\n"));
+    let (_, series) = run_and_log(&s, 0, "bias").unwrap();
+    let b = Vector3::new(0.15, -0.10, 0.20);
+    let raw = ground::ground_check(&series).expect("the flight starts at rest");
+    let expect_raw = (1.5 + (b.y / G).to_degrees(), -1.0 - (b.x / G).to_degrees());
+    assert!((raw.roll_deg - expect_raw.0).abs() < 0.03, "raw roll {} vs {}", raw.roll_deg, expect_raw.0);
+    assert!((raw.pitch_deg - expect_raw.1).abs() < 0.03, "raw pitch {} vs {}", raw.pitch_deg, expect_raw.1);
+    let corrected = ground::tilt_at_rest(&series, &b).unwrap();
+    assert!((corrected.roll_deg - 1.5).abs() < 0.03, "corrected roll {}", corrected.roll_deg);
+    assert!((corrected.pitch_deg + 1.0).abs() < 0.03, "corrected pitch {}", corrected.pitch_deg);
+
+    let r = identify(&series, &Options::default()).unwrap();
+    assert!(r.effect(Effect::BodyOffset).is_some() && r.effect(Effect::AccelBias).is_some(), "{:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());
+    let a = r.ground_agreement.expect("ground check and a fit");
+    assert!(a.frame_fitted && a.accel_bias_fitted);
+    let offset = r.effect(Effect::BodyOffset).unwrap();
+    for ((t, bias_tilt), k) in [(&a.roll, (b.y / G).to_degrees()), (&a.pitch, -(b.x / G).to_degrees())].into_iter().zip(0..) {
+        assert!((t.bias_tilt_deg - bias_tilt).abs() < 0.1, "{t:?}");
+        assert!(t.difference_deg.abs() < 0.1 && t.covers, "{t:?}");
+        // the interval holds the ground's scatter (1.96·se) and no more than the flight's parts
+        let se = [raw.roll_se_deg, raw.pitch_se_deg][k];
+        let bias_ci = r.effect(Effect::AccelBias).unwrap().params[1 - k].ci95 / G;
+        assert!(t.ci95_deg >= 1.959 * se && t.ci95_deg <= (1.96 * se).hypot(offset.params[k].ci95 + bias_ci.to_degrees()) + 1e-9, "{t:?} vs offset {:?}", offset.params[k]);
+    }
+}
+
+/// Markers knocked between the rest and the flight cannot be told from the flight alone, but
+/// the agreement says so: the ground reads the offset the markers had at rest. Simulated by
+/// removing from the log's rest the tilt the markers add, i.e. the ground check of a flight
+/// with a 1.5° roll offset whose rest reads 0° — a 1.5° disagreement beyond its interval.
+#[test]
+fn markers_moved_after_the_rest_are_a_disagreement() {
+    let s = scenario("identify-marker-offsets.yaml", |t| t);
+    let (_, mut series) = run_and_log(&s, 0, "moved").unwrap();
+    let raw = ground::ground_check(&series).unwrap();
+    // the rest: turn the IMU reading so that the ground check reads (0, 0)
+    let (start, _) = series.segments[0];
+    let rot = nalgebra::UnitQuaternion::from_euler_angles(-raw.roll_deg.to_radians(), -raw.pitch_deg.to_radians(), 0.0);
+    let z0 = series.pos_mocap_nav[start].z;
+    for i in start..series.len() {
+        if (series.pos_mocap_nav[i].z - z0).abs() > 0.005 {
+            break;
+        }
+        series.accel_body[i] = rot.transform_vector(&series.accel_body[i]);
+    }
+    let level = ground::ground_check(&series).unwrap();
+    assert!(level.roll_deg.abs() < 0.05 && level.pitch_deg.abs() < 0.05, "{level:?}");
+    let r = identify(&series, &Options::default()).unwrap();
+    let a = r.ground_agreement.unwrap();
+    assert!(!a.roll.covers && (a.roll.difference_deg + 1.5).abs() < 0.1, "{:?}", a.roll);
+    assert!(!a.pitch.covers && (a.pitch.difference_deg - 1.0).abs() < 0.1, "{:?}", a.pitch);
+    assert!(r.notes.iter().any(|n| n.contains("disagree in roll")), "{:?}", r.notes);
+}
+
+/// A missed effect: rotor drag kept out of the candidates. The force channel's x residual is
+/// −k·v_x, so "what is left" calls it structured and names the body velocity x, with r < 0.
+#[test]
+fn what_is_left_names_the_signal_of_a_missed_effect() {
+    let s = scenario("identify-rotor-drag.yaml", |t| t);
+    let (_, series) = run_and_log(&s, 0, "drag").unwrap();
+    let opts = Options { candidates: Effect::ALL.iter().copied().filter(|e| *e != Effect::RotorDrag).collect(), ..Options::default() };
+    let r = identify(&series, &opts).unwrap();
+    assert!(r.effect(Effect::RotorDrag).is_none());
+    for axis in ['x', 'y'] {
+        let l = r.left.iter().find(|l| l.channel == Channel::Force && l.axis == axis).unwrap();
+        assert!(l.structured, "{l:?}");
+        let first = &l.correlates[0];
+        assert!(first.signal.starts_with(&format!("body velocity {axis}")) && first.r < -0.5, "force.{axis}: {:?}", l.correlates);
+    }
+}
+
+/// No invented lead: on flights whose effects the model holds (nothing hidden; rotor drag
+/// found), no channel axis follows a measured signal.
+#[test]
+fn what_is_left_invents_nothing_when_the_model_is_complete() {
+    for file in ["identify-none.yaml", "identify-rotor-drag.yaml"] {
+        let s = scenario(file, |t| t);
+        let (_, series) = run_and_log(&s, 0, file).unwrap();
+        let r = identify(&series, &Options::default()).unwrap();
+        let leads: Vec<_> = r.left.iter().filter(|l| !l.correlates.is_empty()).collect();
+        assert!(leads.is_empty(), "{file}: {leads:?}");
+    }
+}
+
+/// No false disagreement: on simulated flights whose frames did not move between rest and
+/// flight, the ground check and the flight's model agree within their interval, whichever frame
+/// effect the flight holds: a world tilt reads at rest like a body offset (turned by the rest
+/// yaw), an accelerometer bias like a tilt of b/g.
+#[test]
+fn ground_and_flight_agree_when_nothing_moved() {
+    for name in ["none", "world-tilt", "marker-offsets", "accel-bias", "lever-arm"] {
+        let s = scenario(&format!("identify-{name}.yaml"), |t| t);
+        let (_, series) = run_and_log(&s, 0, name).unwrap();
+        let r = identify(&series, &Options::default()).unwrap();
+        let a = r.ground_agreement.unwrap_or_else(|| panic!("{name}: no agreement"));
+        assert!(a.roll.covers && a.pitch.covers, "{name}: {a:?}");
+        assert!(a.roll.difference_deg.abs() < 0.1 && a.pitch.difference_deg.abs() < 0.1, "{name}: {a:?}");
+    }
+}
