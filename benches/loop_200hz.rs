@@ -71,10 +71,10 @@ fn scenario(c: &mut Criterion) {
     let s = fig6();
     let mut g = c.benchmark_group("scenario");
     g.sample_size(20);
-    g.bench_function("fig6", |b| b.iter(|| flyarena::cli::run_scenario(&s, false)));
+    g.bench_function("fig6", |b| b.iter(|| flyarena::run::run_scenario(&s, false)));
     g.bench_function("fig6_recorded", |b| {
         b.iter(|| {
-            let (main, unc, report) = flyarena::cli::run_scenario(&s, true);
+            let flyarena::run::Outcome { main, uncompensated: unc, report } = flyarena::run::run_scenario(&s, true);
             flyarena::record::encode(&main, unc.as_ref(), &report, flyarena::record::RecordOptions::default()).unwrap().len()
         })
     });

@@ -11,7 +11,8 @@
 //!   ─► vehicle's onboard rate loop;  vehicle::telemetry (gyro, XBee) ─► calibrate::gyro
 //! requirements (R1–R5) · record (Rerun .rrd) · sweep (Monte Carlo, shards) · log (flight CSV)
 //! identify: flight log ─► residuals of the declared model ─► the effect it lacks ─► fragment ─► run
-//! cli
+//! run (a scenario end to end, used by all of the above) · output (whole files, contained names)
+//! the `flyarena` binary (src/main.rs, src/cli.rs) is a thin command line over this library
 //! ```
 //!
 //! ## Frames first
@@ -76,6 +77,7 @@ pub mod estimate;
 pub mod guidance;
 pub mod link;
 pub mod radio;
+pub mod effects;
 pub mod scenario;
 pub mod engine;
 pub mod requirements;
@@ -83,5 +85,6 @@ pub mod log;
 pub mod identify;
 #[cfg(feature = "record")]
 pub mod record;
+pub mod run;
 pub mod sweep;
-pub mod cli;
+pub mod output;

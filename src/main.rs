@@ -1,4 +1,7 @@
+//! `flyarena`: the command line over the flyarena library (see `src/cli.rs`).
+
+mod cli;
+
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    std::process::exit(flyarena::cli::main_with_args(&args));
+    std::process::exit(cli::main());
 }

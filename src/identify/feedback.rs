@@ -19,7 +19,7 @@ use super::design::Effect;
 use super::select::Report;
 use super::series::Series;
 use crate::scenario::Scenario;
-use crate::sweep::set_in;
+use crate::scenario::patch::set_in;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -36,7 +36,7 @@
 //! ```
 
 pub mod check;
-pub mod cli;
+pub mod workflow;
 pub mod design;
 pub mod feedback;
 pub mod mapping;

@@ -7,6 +7,7 @@
 //! line, column, field path and allowed range ([`ScenarioError`]).
 
 pub mod error;
+pub mod patch;
 pub mod ranges;
 
 pub use error::{ScenarioError, Span};
@@ -24,6 +25,14 @@ use std::path::Path;
 /// The physics and onboard-loop rate (Hz). Every other rate must divide it.
 pub const PHYSICS_HZ: u32 = 1000;
 
+/// A name that becomes part of a file name, checked where it is read (so the error carries the
+/// file, line and column).
+fn file_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<String, D::Error> {
+    let s = String::deserialize(d)?;
+    crate::output::check_file_name(&s).map_err(|m| serde::de::Error::custom(format!("name {:?} {m}", s.chars().take(40).collect::<String>())))?;
+    Ok(s)
+}
+
 fn d_seed() -> u64 {
     1
 }
@@ -31,6 +40,8 @@ fn d_seed() -> u64 {
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
+    /// Becomes file names (`out/<name>.json`): a safe name, see [`crate::output::check_file_name`].
+    #[serde(deserialize_with = "file_name")]
     pub name: String,
     #[serde(default)]
     pub description: String,
@@ -295,6 +306,8 @@ impl Default for CalibrationCfg {
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct VehicleCfg {
+    /// Becomes file names (`--log PATH-<vehicle>.csv`): a safe name, see [`crate::output::check_file_name`].
+    #[serde(deserialize_with = "file_name")]
     pub name: String,
     /// Home on the floor, North and East (m).
     #[serde(default, with = "ranges::position_m::arr")]
@@ -550,7 +563,7 @@ pub struct IdentifyReq {
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ExpectedEffect {
-    pub effect: crate::identify::Effect,
+    pub effect: crate::effects::Effect,
     /// The true parameter values, in the units `identify` reports them in.
     pub values: Vec<f64>,
     /// |estimate − value| ≤ tolerance, per parameter.

@@ -50,10 +50,10 @@ fn rrd_path_and_no_rrd() {
     assert!(d.join("r/x.rrd").metadata().unwrap().len() > 10_000);
     let (code, _, err) = flyarena(&["run", scen.to_str().unwrap(), "--rrd", "a.rrd", "--no-rrd"], &d);
     assert_eq!(code, 2);
-    assert!(err.contains("contradict"), "{err}");
+    assert!(err.contains("cannot be used with"), "{err}");
     let (code, _, err) = flyarena(&["run", scen.to_str().unwrap(), "--rrd-every", "0"], &d);
     assert_eq!(code, 2);
-    assert!(err.contains("--rrd-every takes a whole number from 1 to 1000"), "{err}");
+    assert!(err.contains("--rrd-every") && err.contains("1..=1000"), "{err}");
 }
 
 #[test]
@@ -173,4 +173,73 @@ fn cross_validation_with_non_ascii_flight_names() {
     let (code, out, err) = flyarena(&["identify", "aéééééééé.csv", "b.csv", "--mapping", "m.yaml", "--out", "o"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("cross-validation") && out.contains("aéééééééé"), "{out}");
+}
+
+/// Names that become file names are restricted to a safe set, checked where they are read (file,
+/// line, column, the allowed set): a scenario from someone else cannot write outside `--out`.
+/// Each hostile name exits 2 and writes nothing anywhere; a safe one runs.
+#[test]
+fn hostile_names_are_rejected_before_anything_is_written() {
+    let d = tmp("hostile");
+    let long = "a".repeat(101);
+    let cases: [(&str, &str); 11] = [
+        ("../escaped", "'/'"),
+        ("/etc/flyarena", "'/'"),
+        ("a/b", "'/'"),
+        ("a\\\\b", "'\\\\'"),
+        ("\"nul\\0byte\"", "'\\0'"),
+        ("CON", "device name"),
+        ("lpt1.json", "device name"),
+        (".hidden", "starts with `.`"),
+        ("..", "starts with `.`"),
+        ("\"\"", "is empty"),
+        (&long, "at most 100"),
+    ];
+    for (k, (name, why)) in cases.iter().enumerate() {
+        let dir = d.join(format!("case{k}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("s.yaml"), format!("name: {name}\nvehicles:\n  - {{ name: v }}\nplan:\n  - takeoff: {{ altitude_m: 1, duration_s: 2 }}\n")).unwrap();
+        let (code, out, err) = flyarena(&["run", "s.yaml", "--out", "o", "--log", "o/log.csv"], &dir);
+        assert_eq!(code, 2, "{name}: {out}{err}");
+        assert!(err.contains("s.yaml:1:7") && err.contains(why) && err.contains("letters A–Z") | err.contains("at most") | err.contains("device") | err.contains("starts with"), "{name}: {err}");
+        let entries: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(entries, vec![std::ffi::OsString::from("s.yaml")], "{name}: something was written");
+    }
+    // a vehicle's name becomes PATH-<vehicle>.csv: the same rule, located at the vehicle
+    let dir = d.join("vehicle");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("s.yaml"), "name: ok\nvehicles:\n  - { name: a }\n  - { name: ../b }\nplan:\n  - takeoff: { altitude_m: 1, duration_s: 2 }\n").unwrap();
+    let (code, _, err) = flyarena(&["run", "s.yaml", "--out", "o"], &dir);
+    assert_eq!(code, 2);
+    assert!(err.contains("s.yaml:4:") && err.contains("'/'"), "{err}");
+    // the safe set runs
+    std::fs::write(dir.join("s.yaml"), "name: Fig-6_v2.1\nvehicles:\n  - { name: x3d }\nplan:\n  - takeoff: { altitude_m: 1, duration_s: 2 }\n").unwrap();
+    let (code, out, err) = flyarena(&["run", "s.yaml", "--out", "o", "--no-rrd"], &dir);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(dir.join("o/Fig-6_v2.1.json").exists());
+}
+
+/// A declared command line: every subcommand answers --help (exit 0) from its declaration,
+/// --version names the crate's version, completions are generated, a bad value exits 2.
+#[test]
+fn every_command_has_help_version_and_completions() {
+    let d = tmp("help");
+    for cmd in ["run", "check", "sweep", "merge", "identify", "trials", "completions"] {
+        let (code, out, err) = flyarena(&[cmd, "--help"], &d);
+        assert_eq!(code, 0, "{cmd}: {err}");
+        assert!(out.contains("Usage: flyarena") && out.contains(cmd), "{cmd}: {out}");
+    }
+    let (code, out, _) = flyarena(&["--version"], &d);
+    assert_eq!((code, out.trim()), (0, format!("flyarena {}", env!("CARGO_PKG_VERSION")).as_str()));
+    for shell in ["bash", "zsh", "fish"] {
+        let (code, out, err) = flyarena(&["completions", shell], &d);
+        assert_eq!(code, 0, "{err}");
+        assert!(out.contains("identify") && out.contains("rrd-every"), "{shell}");
+    }
+    let (code, _, err) = flyarena(&["sweep", "x.yaml", "--shard", "3/2"], &d);
+    assert_eq!(code, 2);
+    assert!(err.contains("1 ≤ K ≤ N"), "{err}");
+    let (code, _, err) = flyarena(&["run", "x.yaml", "--rrd", "a.rrd", "--no-rrd"], &d);
+    assert_eq!(code, 2);
+    assert!(err.contains("--no-rrd"), "{err}");
 }

@@ -1,7 +1,7 @@
 //! `identify`: hidden effects found, named and estimated; nothing found when nothing is hidden;
 //! the column mapping's frame conversions checked by hand; the real NanoBench flights.
 
-use flyarena::identify::cli::run as identify_cli;
+use flyarena::identify::workflow::run as identify_cli;
 use flyarena::identify::flyarena_log::run_and_log;
 use flyarena::identify::mapping::Mapping;
 use flyarena::identify::{Effect, Options, identify};

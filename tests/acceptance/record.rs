@@ -2,13 +2,13 @@
 //! deterministic content.
 
 use super::root;
-use flyarena::cli::run_scenario;
+use flyarena::run::{Outcome, run_scenario};
 use flyarena::record::{RecordOptions, decode, encode, recording_id};
 use flyarena::scenario::Scenario;
 
 fn fig6() -> (Scenario, flyarena::engine::RunOutput, Option<flyarena::engine::RunOutput>, flyarena::requirements::Report) {
     let s = Scenario::load(&root().join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap();
-    let (main, unc, report) = run_scenario(&s, true);
+    let Outcome { main, uncompensated: unc, report } = run_scenario(&s, true);
     (s, main, unc, report)
 }
 

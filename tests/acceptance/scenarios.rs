@@ -2,7 +2,7 @@
 //! each run is pinned as an insta snapshot in the top-level snapshots/ folder (reviewed summaries,
 //! not a substitute for the physics checks in physics.rs).
 
-use flyarena::cli::run_scenario;
+use flyarena::run::{Outcome, run_scenario};
 use flyarena::scenario::Scenario;
 
 fn round(x: f64, digits: i32) -> f64 {
@@ -26,7 +26,7 @@ fn every_scenario_meets_its_requirements() {
             // R5 is checked by `flyarena identify` (tests/acceptance/identify.rs)
             continue;
         }
-        let (main, unc, report) = run_scenario(&s, false);
+        let Outcome { main, uncompensated: unc, report } = run_scenario(&s, false);
         assert!(!report.rows.is_empty(), "{}: declares no requirements", s.name);
         assert!(report.passed(), "{}:\n{}", s.name, report.table());
         let summary = serde_json::json!({

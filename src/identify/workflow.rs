@@ -1,4 +1,6 @@
-//! `flyarena identify`: inputs, the closed-loop comparison, and the outputs.
+//! The `identify` workflow behind `flyarena identify`, usable from Rust: load the input (a scenario
+//! to run, a flyarena log with its scenario, or another tool's log through a mapping), identify,
+//! compare the closed loop, and return the report, its text, its JSON and the fragment.
 
 use super::feedback::{TrajectoryError, fragment, nominal_and_fed_back, trajectory_error};
 use super::{Options, flyarena_log, identify, report};

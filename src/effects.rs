@@ -1,0 +1,133 @@
+//! The vocabulary of what a flight can hold that the declared model lacks: the residual
+//! [`Channel`]s `identify` compares and the candidate [`Effect`]s, with their parameters and
+//! units. It sits below both `scenario` (whose R5 names expected effects) and `identify` (which
+//! finds them), so neither depends on the other for it. The regressors are in
+//! `identify::design`; the simulated counterparts in `scenario` fields (see
+//! `identify::trials` for the table).
+
+/// The residual channels: three axes each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Channel {
+    AccelKin,
+    Gyro,
+    Force,
+}
+
+impl Channel {
+    pub const ALL: [Channel; 3] = [Channel::AccelKin, Channel::Gyro, Channel::Force];
+    pub fn name(self) -> &'static str {
+        match self {
+            Channel::AccelKin => "accel_kin",
+            Channel::Gyro => "gyro",
+            Channel::Force => "force",
+        }
+    }
+    pub fn unit(self) -> &'static str {
+        match self {
+            Channel::Gyro => "rad/s",
+            _ => "m/s²",
+        }
+    }
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// The candidate effects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    BodyOffset,
+    WorldTilt,
+    MocapDelay,
+    AccelBias,
+    GyroBias,
+    RotorDrag,
+    ConstantForce,
+    ThrustScale,
+    ThrustVoltage,
+    GroundEffect,
+    LeverArm,
+}
+
+impl Effect {
+    pub const ALL: [Effect; 11] = [
+        Effect::BodyOffset,
+        Effect::WorldTilt,
+        Effect::MocapDelay,
+        Effect::AccelBias,
+        Effect::GyroBias,
+        Effect::RotorDrag,
+        Effect::ConstantForce,
+        Effect::ThrustScale,
+        Effect::ThrustVoltage,
+        Effect::GroundEffect,
+        Effect::LeverArm,
+    ];
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::BodyOffset => "body offset (mocap → body rotation)",
+            Effect::WorldTilt => "mocap world tilt",
+            Effect::MocapDelay => "mocap delay vs IMU",
+            Effect::AccelBias => "accelerometer bias",
+            Effect::GyroBias => "gyro bias",
+            Effect::RotorDrag => "rotor drag",
+            Effect::ConstantForce => "constant force (wind, tether)",
+            Effect::ThrustScale => "thrust scale",
+            Effect::ThrustVoltage => "thrust vs battery voltage",
+            Effect::GroundEffect => "ground effect",
+            Effect::LeverArm => "lever arm, mocap origin → IMU",
+        }
+    }
+    pub fn key(self) -> &'static str {
+        match self {
+            Effect::BodyOffset => "body_offset",
+            Effect::WorldTilt => "world_tilt",
+            Effect::MocapDelay => "mocap_delay",
+            Effect::AccelBias => "accel_bias",
+            Effect::GyroBias => "gyro_bias",
+            Effect::RotorDrag => "rotor_drag",
+            Effect::ConstantForce => "constant_force",
+            Effect::ThrustScale => "thrust_scale",
+            Effect::ThrustVoltage => "thrust_voltage",
+            Effect::GroundEffect => "ground_effect",
+            Effect::LeverArm => "lever_arm",
+        }
+    }
+    /// Parameter names and the factor from the internal SI/radian value to the reported unit.
+    pub fn params(self) -> &'static [(&'static str, &'static str, f64)] {
+        const DEG: f64 = 180.0 / std::f64::consts::PI;
+        match self {
+            Effect::BodyOffset => &[("roll", "deg", DEG), ("pitch", "deg", DEG), ("yaw", "deg", DEG)],
+            Effect::WorldTilt => &[("roll", "deg", DEG), ("pitch", "deg", DEG)],
+            Effect::MocapDelay => &[("delay", "ms", 1e3)],
+            Effect::AccelBias => &[("x", "m/s²", 1.0), ("y", "m/s²", 1.0), ("z", "m/s²", 1.0)],
+            Effect::GyroBias => &[("x", "deg/s", DEG), ("y", "deg/s", DEG), ("z", "deg/s", DEG)],
+            Effect::RotorDrag => &[("k_x", "1/s", 1.0), ("k_y", "1/s", 1.0)],
+            Effect::ConstantForce => &[("north", "N", 1.0), ("east", "N", 1.0), ("down", "N", 1.0)],
+            Effect::ThrustScale => &[("scale − 1", "", 1.0)],
+            Effect::ThrustVoltage => &[("per volt", "1/V", 1.0)],
+            Effect::GroundEffect => &[("c_g", "", 1.0)],
+            Effect::LeverArm => &[("x", "mm", 1e3), ("y", "mm", 1e3), ("z", "mm", 1e3)],
+        }
+    }
+    pub fn n_params(self) -> usize {
+        self.params().len()
+    }
+    pub fn channels(self) -> &'static [Channel] {
+        match self {
+            Effect::BodyOffset | Effect::MocapDelay => &[Channel::AccelKin, Channel::Gyro],
+            Effect::WorldTilt => &[Channel::AccelKin],
+            Effect::AccelBias => &[Channel::AccelKin, Channel::Force],
+            Effect::GyroBias => &[Channel::Gyro],
+            Effect::LeverArm => &[Channel::AccelKin],
+            _ => &[Channel::Force],
+        }
+    }
+    /// Applied exactly through [`Corrections`] (re-linearised after each fit), not additively.
+    pub fn is_correction(self) -> bool {
+        matches!(self, Effect::BodyOffset | Effect::WorldTilt | Effect::MocapDelay)
+    }
+}
+
