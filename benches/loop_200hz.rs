@@ -47,7 +47,16 @@ fn loop_200hz(c: &mut Criterion) {
 fn fleet(c: &mut Criterion) {
     let mut g = c.benchmark_group("fleet");
     for n in [1usize, 4, 16] {
-        let vehicles: String = (0..n).map(|i| format!("  - {{ name: v{i}, home_m: [{}, {}], markers: {{ pattern: {}, rotation_deg: [2, -1, 0] }} }}\n", (i % 4) as f64 * 2.0 - 3.0, (i / 4) as f64 * 2.0 - 3.0, i % 8)).collect();
+        let vehicles: String = (0..n)
+            .map(|i| {
+                format!(
+                    "  - {{ name: v{i}, home_m: [{}, {}], markers: {{ pattern: {}, rotation_deg: [2, -1, 0] }} }}\n",
+                    (i % 4) as f64 * 2.0 - 3.0,
+                    (i / 4) as f64 * 2.0 - 3.0,
+                    i % 8
+                )
+            })
+            .collect();
         // patterns repeat beyond 8 vehicles; give the others explicit, distinct templates
         let vehicles = if n > 8 {
             (0..n)
@@ -59,10 +68,11 @@ fn fleet(c: &mut Criterion) {
         } else {
             vehicles
         };
-        let y = format!("name: fleet{n}\nvehicles:\n{vehicles}plan:\n  - takeoff: {{ altitude_m: 1, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 3, average_s: 20 }}\n");
+        let y =
+            format!("name: fleet{n}\nvehicles:\n{vehicles}plan:\n  - takeoff: {{ altitude_m: 1, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 3, average_s: 20 }}\n");
         let s = Scenario::parse(&y, Path::new("fleet.yaml")).unwrap_or_else(|e| panic!("{e}"));
         g.throughput(Throughput::Elements(n as u64));
-        g.bench_with_input(BenchmarkId::from_parameter(n), &s, |b, s| bench_periods(b, s));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &s, bench_periods);
     }
     g.finish();
 }

@@ -423,7 +423,8 @@ fn cmd_sweep(a: SweepArgs) -> i32 {
 fn cmd_merge(files: &[PathBuf], out: &Path) -> i32 {
     let mut parts = Vec::new();
     for f in files {
-        let part = std::fs::read(f).map_err(|e| e.to_string()).and_then(|b| serde_json::from_slice::<flyarena::sweep::SweepOutput>(&b).map_err(|e| format!("not a shard file: {e}")));
+        let part =
+            std::fs::read(f).map_err(|e| e.to_string()).and_then(|b| serde_json::from_slice::<flyarena::sweep::SweepOutput>(&b).map_err(|e| format!("not a shard file: {e}")));
         match part {
             Ok(p) => parts.push(p),
             Err(e) => {

@@ -83,7 +83,7 @@ impl Rate {
     }
     /// How many periods of `base` make one period of `self`, if `self` divides `base` exactly.
     pub fn ticks_of(self, base: Rate) -> Option<u64> {
-        (base.hz % self.hz == 0).then(|| (base.hz / self.hz) as u64)
+        base.hz.is_multiple_of(self.hz).then(|| (base.hz / self.hz) as u64)
     }
 }
 

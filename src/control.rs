@@ -111,20 +111,11 @@ pub fn control(g: &Gains, r: &Reference, pos: Vec3<MocapNav>, vel: Vec3<MocapNav
         roll_com = 0.0; // (6)
     }
     let pitch_com = x2.asin().clamp(-g.max_tilt[1], g.max_tilt[1]);
-    let euler_rates = Vector3::new(
-        g.k_att[0] * (roll_com - e.roll),
-        g.k_att[1] * (pitch_com - e.pitch),
-        g.k_att[2] * wrap_pi(r.yaw - e.yaw) + r.yaw_rate,
-    );
+    let euler_rates = Vector3::new(g.k_att[0] * (roll_com - e.roll), g.k_att[1] * (pitch_com - e.pitch), g.k_att[2] * wrap_pi(r.yaw - e.yaw) + r.yaw_rate);
     let pqr = t_w_inv_sc(roll_sc, pitch_sc) * euler_rates; // (3), (4)
     let f_t = g.mass_kg * (acc.z() - GRAVITY * roll_sc.1 * pitch_sc.1); // (5)
     let thrust = if r.motors_off { 0.0 } else { (-f_t).clamp(0.0, g.thrust_max_n) };
-    ControlOutput {
-        rates: if r.motors_off { Vec3::zeros() } else { Vec3::from_raw(pqr) },
-        thrust_n: thrust,
-        angles_com: Euler::new(roll_com, pitch_com, r.yaw),
-        accel_com: acc,
-    }
+    ControlOutput { rates: if r.motors_off { Vec3::zeros() } else { Vec3::from_raw(pqr) }, thrust_n: thrust, angles_com: Euler::new(roll_com, pitch_com, r.yaw), accel_com: acc }
 }
 
 /// The failsafe law, used when the mocap has been silent for longer than the timeout: level

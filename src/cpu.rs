@@ -2,7 +2,7 @@
 //!
 //! A release build targets any x86-64 CPU (SSE2), so that the binary runs everywhere. The
 //! rigid-body RK4 step ([`crate::vehicle::X3d::step`], a third of the 200 Hz loop) is compiled a
-//! second time for AVX2 and picked at run time ([`avx2_dispatch!`]): the VEX three-operand
+//! second time for AVX2 and picked at run time (`avx2_dispatch!`): the VEX three-operand
 //! instructions drop most register copies and the 17-element stage sums use 256-bit vectors
 //! (−17 % instructions in that step). The results are the same bits, because the arithmetic is
 //! the same IEEE operations in the same order (Rust never contracts a·b + c into an FMA, and never

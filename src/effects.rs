@@ -125,9 +125,8 @@ impl Effect {
             _ => &[Channel::Force],
         }
     }
-    /// Applied exactly through [`Corrections`] (re-linearised after each fit), not additively.
+    /// Applied exactly through [`Corrections`](crate::identify::Corrections) (re-linearised after each fit), not additively.
     pub fn is_correction(self) -> bool {
         matches!(self, Effect::BodyOffset | Effect::WorldTilt | Effect::MocapDelay)
     }
 }
-

@@ -176,17 +176,10 @@ impl Plan {
         };
         let s = &self.phases[i];
         let settle_s = match s.phase {
-            Phase::CalibrateRollPitch { settle_s, .. }
-            | Phase::CalibrateYaw { settle_s, .. }
-            | Phase::YawSpin { settle_s, .. }
-            | Phase::CalibrateGyro { settle_s, .. } => settle_s,
+            Phase::CalibrateRollPitch { settle_s, .. } | Phase::CalibrateYaw { settle_s, .. } | Phase::YawSpin { settle_s, .. } | Phase::CalibrateGyro { settle_s, .. } => settle_s,
             _ => return s.end,
         };
-        if (t - s.start).as_secs_f64() < settle_s {
-            (s.start + Nanos::from_secs_f64(settle_s) - Nanos::from_micros(1)).min(s.end)
-        } else {
-            s.end
-        }
+        if (t - s.start).as_secs_f64() < settle_s { (s.start + Nanos::from_secs_f64(settle_s) - Nanos::from_micros(1)).min(s.end) } else { s.end }
     }
 
     /// The reference at time `t`, and the calibration window it is in.
@@ -225,9 +218,7 @@ impl Plan {
                 let (p, v, a) = along(d, v, a, dir);
                 (Reference { pos: p, vel: v, acc: a, ..hold(p, s.from_yaw, false) }, Window::None)
             }
-            Phase::CalibrateRollPitch { settle_s, .. } => {
-                (hold(s.from, s.from_yaw, false), if tau >= settle_s { Window::HoverAverage } else { Window::None })
-            }
+            Phase::CalibrateRollPitch { settle_s, .. } => (hold(s.from, s.from_yaw, false), if tau >= settle_s { Window::HoverAverage } else { Window::None }),
             Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
                 if tau < settle_s {
                     (hold(s.from, 0.0, false), Window::None)

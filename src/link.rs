@@ -32,7 +32,11 @@ impl LossModel {
         match *self {
             LossModel::Bernoulli { p } => p,
             LossModel::GilbertElliott { p_good_to_bad: gb, p_bad_to_good: bg, loss_good, loss_bad } => {
-                if gb + bg == 0.0 { loss_good } else { (bg * loss_good + gb * loss_bad) / (gb + bg) }
+                if gb + bg == 0.0 {
+                    loss_good
+                } else {
+                    (bg * loss_good + gb * loss_bad) / (gb + bg)
+                }
             }
         }
     }
@@ -121,11 +125,7 @@ impl<T: Copy> Link<T> {
             self.stats.lost_on_link += 1;
             return;
         }
-        let jitter = if self.params.jitter.0 > 0 {
-            Nanos((self.jitter_rng.uniform() * self.params.jitter.0 as f64) as i64)
-        } else {
-            Nanos::ZERO
-        };
+        let jitter = if self.params.jitter.0 > 0 { Nanos((self.jitter_rng.uniform() * self.params.jitter.0 as f64) as i64) } else { Nanos::ZERO };
         let arrival = now + self.params.latency + jitter;
         // keep the queue sorted by arrival time (ties keep send order)
         let idx = self.in_flight.partition_point(|(a, _, _)| *a <= arrival);

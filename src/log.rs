@@ -26,8 +26,26 @@ use std::fmt::Write as _;
 
 /// The columns, in order.
 pub const COLUMNS: [&str; 20] = [
-    "t_s", "seq", "mocap_valid", "pos_n_m", "pos_e_m", "pos_d_m", "q_w", "q_x", "q_y", "q_z", "gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s", "acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2",
-    "cmd_p", "cmd_q", "cmd_r", "cmd_thrust",
+    "t_s",
+    "seq",
+    "mocap_valid",
+    "pos_n_m",
+    "pos_e_m",
+    "pos_d_m",
+    "q_w",
+    "q_x",
+    "q_y",
+    "q_z",
+    "gyro_x_rad_s",
+    "gyro_y_rad_s",
+    "gyro_z_rad_s",
+    "acc_x_m_s2",
+    "acc_y_m_s2",
+    "acc_z_m_s2",
+    "cmd_p",
+    "cmd_q",
+    "cmd_r",
+    "cmd_thrust",
 ];
 
 /// Writes the log of one vehicle (the run must have been made with `trace: true`).

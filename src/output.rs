@@ -77,7 +77,8 @@ pub fn check_file_name(name: &str) -> Result<(), String> {
         return Err("starts with `.` (a hidden file, or a way out of the output folder)".into());
     }
     let stem = name.split('.').next().unwrap_or("").to_ascii_uppercase();
-    let reserved = ["CON", "PRN", "AUX", "NUL"].contains(&stem.as_str()) || ((stem.starts_with("COM") || stem.starts_with("LPT")) && stem.len() == 4 && stem.as_bytes()[3].is_ascii_digit());
+    let reserved =
+        ["CON", "PRN", "AUX", "NUL"].contains(&stem.as_str()) || ((stem.starts_with("COM") || stem.starts_with("LPT")) && stem.len() == 4 && stem.as_bytes()[3].is_ascii_digit());
     if reserved {
         return Err(format!("is `{stem}`, a device name on Windows"));
     }

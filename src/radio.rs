@@ -76,10 +76,7 @@ impl Radio {
     pub fn decode(&self, f: &PpmFrame) -> RateCommand {
         let s = self.params.rate_scale_rad_s;
         let rate = |c: u8| (c as f64 - RATE_CENTER as f64) * s;
-        RateCommand {
-            rates: Vec3::new(rate(f.p()), rate(f.q()), rate(f.r())),
-            thrust_n: f.thrust() as f64 * self.params.thrust_max_n / 255.0,
-        }
+        RateCommand { rates: Vec3::new(rate(f.p()), rate(f.q()), rate(f.r())), thrust_n: f.thrust() as f64 * self.params.thrust_max_n / 255.0 }
     }
 
     /// Transmits one frame at `now`; returns it (for logging).

@@ -101,9 +101,7 @@ struct Rec<'a> {
 
 impl Rec<'_> {
     fn series(&self, path: &str, name: &str, color: [u8; 3], cols: &Columns, values: Vec<f64>) -> Result<(), RecordError> {
-        self.rec
-            .log_static(path, &rerun::SeriesLines::new().with_names([name]).with_colors([rerun::Color::from_rgb(color[0], color[1], color[2])]))
-            .map_err(err)?;
+        self.rec.log_static(path, &rerun::SeriesLines::new().with_names([name]).with_colors([rerun::Color::from_rgb(color[0], color[1], color[2])])).map_err(err)?;
         self.rec.send_columns(path, cols.time(), rerun::Scalars::new(values).columns_of_unit_batches().map_err(err)?).map_err(err)
     }
 
@@ -117,11 +115,7 @@ impl Rec<'_> {
     fn event(&self, t: Nanos, level: &str, text: String) -> Result<(), RecordError> {
         let cols = Columns::of(std::iter::once(t));
         self.rec
-            .send_columns(
-                "events",
-                cols.time(),
-                rerun::TextLog::update_fields().with_many_text([text]).with_many_level([level]).columns_of_unit_batches().map_err(err)?,
-            )
+            .send_columns("events", cols.time(), rerun::TextLog::update_fields().with_many_text([text]).with_many_level([level]).columns_of_unit_batches().map_err(err)?)
             .map_err(err)
     }
 }
@@ -191,7 +185,7 @@ fn send_blueprint(rec: &rerun::RecordingStream, bp: Blueprint, plot_paths: &[Str
     use rerun::datatypes::TimeRangeBoundary::Absolute;
     let whole = TimeRange(rerun::datatypes::TimeRange { start: Absolute(0.into()), end: Absolute(end.0.into()) });
     for path in plot_paths {
-        let axis = rerun::external::re_sdk_types::blueprint::archetypes::TimeAxis::new().with_view_range(whole.clone());
+        let axis = rerun::external::re_sdk_types::blueprint::archetypes::TimeAxis::new().with_view_range(whole);
         extra.log(format!("{path}/TimeAxis"), &axis).map_err(err)?;
     }
     extra.flush_blocking().map_err(err)?;
@@ -297,8 +291,7 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
     )
     .map_err(err)?;
     let path = |name: &str, pts: Vec<[f32; 3]>, color: [u8; 3]| {
-        rec.log_static(format!("world/{n}/{name}"), &rerun::LineStrips3D::new([pts]).with_colors([rgb(color)]).with_radii([0.008]))
-            .map_err(err)
+        rec.log_static(format!("world/{n}/{name}"), &rerun::LineStrips3D::new([pts]).with_colors([rgb(color)]).with_radii([0.008])).map_err(err)
     };
     path("reference_path", v.trace.iter().map(|s| f32x3(s.reference)).collect(), REFERENCE_COLOR)?;
     path("flown_path", v.trace.iter().map(|s| f32x3(s.pos)).collect(), TRUE_COLOR)?;
@@ -333,8 +326,20 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
     }
 
     // link monitoring
-    r.series(&format!("plots/{n}/link/missing_frames"), &format!("{n} mocap frames missing"), MEASURED_COLOR, &cols, samples.iter().map(|s| s.link.missing_frames as f64).collect())?;
-    r.series(&format!("plots/{n}/link/longest_gap_ms"), &format!("{n} longest gap (ms)"), UNCOMPENSATED_COLOR, &cols, samples.iter().map(|s| s.link.longest_gap_ns as f64 * 1e-6).collect())?;
+    r.series(
+        &format!("plots/{n}/link/missing_frames"),
+        &format!("{n} mocap frames missing"),
+        MEASURED_COLOR,
+        &cols,
+        samples.iter().map(|s| s.link.missing_frames as f64).collect(),
+    )?;
+    r.series(
+        &format!("plots/{n}/link/longest_gap_ms"),
+        &format!("{n} longest gap (ms)"),
+        UNCOMPENSATED_COLOR,
+        &cols,
+        samples.iter().map(|s| s.link.longest_gap_ns as f64 * 1e-6).collect(),
+    )?;
 
     // calibration: RLS sample by sample, the batch LS result, the gyro estimate and the truth
     let cal = &v.calibration;
@@ -342,7 +347,13 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
         let rc = Columns::of(v.rls_trace.iter().map(|s| s.t));
         // the same quantity as the report's yaw offset: previous estimate + held yaw + fit
         let shift = cal.yaw_offset.zip(cal.yaw_ls).map_or(0.0, |(y, ls)| y - ls.psi_offset);
-        r.series(&format!("plots/{n}/calibration/yaw_rls_deg"), &format!("{n} yaw RLS"), COMPENSATED_COLOR, &rc, v.rls_trace.iter().map(|s| (s.psi_offset + shift).to_degrees()).collect())?;
+        r.series(
+            &format!("plots/{n}/calibration/yaw_rls_deg"),
+            &format!("{n} yaw RLS"),
+            COMPENSATED_COLOR,
+            &rc,
+            v.rls_trace.iter().map(|s| (s.psi_offset + shift).to_degrees()).collect(),
+        )?;
         if let Some(y) = cal.yaw_offset {
             let ends = [v.rls_trace[0].t, v.rls_trace[v.rls_trace.len() - 1].t];
             r.series(&format!("plots/{n}/calibration/yaw_ls_deg"), &format!("{n} yaw batch LS"), MEASURED_COLOR, &Columns::of(ends.into_iter()), vec![y.to_degrees(); 2])?;
@@ -353,8 +364,20 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
     if !v.hover_trace.is_empty() {
         // the hover average converging onto the roll and pitch offsets
         let hc = Columns::of(v.hover_trace.iter().map(|s| s.t));
-        r.series(&format!("plots/{n}/calibration/roll_hover_deg"), &format!("{n} roll hover average"), [230, 120, 60], &hc, v.hover_trace.iter().map(|s| s.roll.to_degrees()).collect())?;
-        r.series(&format!("plots/{n}/calibration/pitch_hover_deg"), &format!("{n} pitch hover average"), [150, 80, 40], &hc, v.hover_trace.iter().map(|s| s.pitch.to_degrees()).collect())?;
+        r.series(
+            &format!("plots/{n}/calibration/roll_hover_deg"),
+            &format!("{n} roll hover average"),
+            [230, 120, 60],
+            &hc,
+            v.hover_trace.iter().map(|s| s.roll.to_degrees()).collect(),
+        )?;
+        r.series(
+            &format!("plots/{n}/calibration/pitch_hover_deg"),
+            &format!("{n} pitch hover average"),
+            [150, 80, 40],
+            &hc,
+            v.hover_trace.iter().map(|s| s.pitch.to_degrees()).collect(),
+        )?;
         r.series(&format!("plots/{n}/calibration/roll_truth_deg"), &format!("{n} roll truth"), [60, 170, 90], &whole, vec![v.truth.euler.roll.to_degrees(); 2])?;
         r.series(&format!("plots/{n}/calibration/pitch_truth_deg"), &format!("{n} pitch truth"), [40, 110, 60], &whole, vec![v.truth.euler.pitch.to_degrees(); 2])?;
     }
@@ -369,12 +392,31 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
         r.event(*t, "INFO", format!("{n}: phase {name}"))?;
     }
     if let (Some((roll, pitch, k)), Some(t)) = (cal.roll_pitch, phase_end(v, "calibrate_roll_pitch")) {
-        r.event(t, "INFO", format!("{n}: hover average over {k} frames: roll offset {:.4}°, pitch offset {:.4}° (truth {:.4}°, {:.4}°)", roll.to_degrees(), pitch.to_degrees(), v.truth.euler.roll.to_degrees(), v.truth.euler.pitch.to_degrees()))?;
+        r.event(
+            t,
+            "INFO",
+            format!(
+                "{n}: hover average over {k} frames: roll offset {:.4}°, pitch offset {:.4}° (truth {:.4}°, {:.4}°)",
+                roll.to_degrees(),
+                pitch.to_degrees(),
+                v.truth.euler.roll.to_degrees(),
+                v.truth.euler.pitch.to_degrees()
+            ),
+        )?;
     }
     if let Some(t) = phase_end(v, "calibrate_yaw") {
         if let Some(val) = cal.validity {
             let level = if val.accepted { "INFO" } else { "WARN" };
-            r.event(t, level, format!("{n}: validity (7) {}: mean yaw {:.3}°, mean roll {:.3}°", if val.accepted { "accepted" } else { "rejected" }, val.mean_yaw.to_degrees(), val.mean_roll.to_degrees()))?;
+            r.event(
+                t,
+                level,
+                format!(
+                    "{n}: validity (7) {}: mean yaw {:.3}°, mean roll {:.3}°",
+                    if val.accepted { "accepted" } else { "rejected" },
+                    val.mean_yaw.to_degrees(),
+                    val.mean_roll.to_degrees()
+                ),
+            )?;
         }
         if let Some(y) = cal.yaw_offset {
             r.event(t, "INFO", format!("{n}: straight-flight yaw offset {:.3}° (truth {:.3}°)", y.to_degrees(), v.truth.euler.yaw.to_degrees()))?;
@@ -382,7 +424,19 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
     }
     if let (Some(g), Some(t)) = (cal.gyro, phase_end(v, "calibrate_gyro")) {
         let e = g.euler.to_degrees();
-        r.event(t, "INFO", format!("{n}: gyro alignment over {} windows: roll {:.3}°, pitch {:.3}°, yaw {:.3}° ± {:.3}° (truth yaw {:.3}°)", g.windows, e[0], e[1], e[2], g.sigma[2].to_degrees(), v.truth.euler.yaw.to_degrees()))?;
+        r.event(
+            t,
+            "INFO",
+            format!(
+                "{n}: gyro alignment over {} windows: roll {:.3}°, pitch {:.3}°, yaw {:.3}° ± {:.3}° (truth yaw {:.3}°)",
+                g.windows,
+                e[0],
+                e[1],
+                e[2],
+                g.sigma[2].to_degrees(),
+                v.truth.euler.yaw.to_degrees()
+            ),
+        )?;
     }
     let mut longest = 0;
     for s in &v.trace {
@@ -398,10 +452,11 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
 
 /// Three labelled axis arrows (x, y, z of a frame) of length `len` (m).
 fn axes(rec: &rerun::RecordingStream, path: &str, len: f32, colors: [[u8; 3]; 3], suffix: &str) -> Result<(), RecordError> {
-    let arrows = rerun::Arrows3D::from_vectors([[len, 0.0, 0.0], [0.0, len, 0.0], [0.0, 0.0, len]])
-        .with_colors(colors.map(rgb))
-        .with_radii([0.004])
-        .with_labels([format!("x_{suffix}"), format!("y_{suffix}"), format!("z_{suffix}")]);
+    let arrows = rerun::Arrows3D::from_vectors([[len, 0.0, 0.0], [0.0, len, 0.0], [0.0, 0.0, len]]).with_colors(colors.map(rgb)).with_radii([0.004]).with_labels([
+        format!("x_{suffix}"),
+        format!("y_{suffix}"),
+        format!("z_{suffix}"),
+    ]);
     rec.log_static(path, &arrows).map_err(err)
 }
 

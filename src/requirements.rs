@@ -129,9 +129,21 @@ pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&R
                     rows.push(row("R2", "max drift while yawing, compensated".into(), format!("{:.4} m", c), format!("≤ {:.4} m", r.max_m), c <= r.max_m));
                     if u > r.max_m {
                         let ratio = c / u;
-                        rows.push(row("R2", format!("drift compensated / uncompensated ({:.4} m)", u), format!("{:.2} %", 100.0 * ratio), format!("≤ {:.0} %", 100.0 * r.max_ratio), ratio <= r.max_ratio));
+                        rows.push(row(
+                            "R2",
+                            format!("drift compensated / uncompensated ({:.4} m)", u),
+                            format!("{:.2} %", 100.0 * ratio),
+                            format!("≤ {:.0} %", 100.0 * r.max_ratio),
+                            ratio <= r.max_ratio,
+                        ));
                     } else {
-                        rows.push(row("R2", "drift compensated / uncompensated".into(), format!("n/a: uncompensated {:.4} m is already within the bound", u), format!("≤ {:.0} %", 100.0 * r.max_ratio), true));
+                        rows.push(row(
+                            "R2",
+                            "drift compensated / uncompensated".into(),
+                            format!("n/a: uncompensated {:.4} m is already within the bound", u),
+                            format!("≤ {:.0} %", 100.0 * r.max_ratio),
+                            true,
+                        ));
                     }
                 }
                 _ => rows.push(row("R2", "max drift while yawing".into(), "no yaw_spin phase".into(), format!("≤ {:.4} m", r.max_m), false)),

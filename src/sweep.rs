@@ -15,9 +15,9 @@
 //! The variations are applied to the YAML tree, which is then parsed and validated like any
 //! scenario, so a variation that leaves the allowed range is reported like a bad scenario.
 
+use crate::rng::{Component, Stream};
 use crate::run::run_scenario;
 use crate::scenario::patch::set_path;
-use crate::rng::{Component, Stream};
 use crate::scenario::{Scenario, ScenarioError, SweepCfg, Variation};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -275,7 +275,10 @@ pub fn merge(parts: Vec<SweepOutput>) -> Result<SweepOutput, SweepError> {
     let (scenario, seed, runs, fields, grid) = (first.scenario.clone(), first.sweep_seed, first.runs, first.fields.clone(), first.grid.clone());
     for p in &parts {
         if (p.scenario.as_str(), p.sweep_seed, p.runs, &p.fields) != (scenario.as_str(), seed, runs, &fields) {
-            return Err(SweepError::Merge(format!("shard {:?} of `{}` (seed {}, {} runs) does not belong with `{scenario}` (seed {seed}, {runs} runs)", p.shard, p.scenario, p.sweep_seed, p.runs)));
+            return Err(SweepError::Merge(format!(
+                "shard {:?} of `{}` (seed {}, {} runs) does not belong with `{scenario}` (seed {seed}, {runs} runs)",
+                p.shard, p.scenario, p.sweep_seed, p.runs
+            )));
         }
     }
     let mut rows: Vec<SweepRow> = parts.into_iter().flat_map(|p| p.rows).collect();

@@ -146,16 +146,7 @@ pub struct Rls {
 impl Rls {
     /// `min_spread_m`: how far X_N must have moved before the recursion starts (m).
     pub fn new(min_spread_m: f64) -> Self {
-        Rls {
-            origin: None,
-            info: Matrix2::zeros(),
-            info_y: Vector2::zeros(),
-            state: None,
-            min_spread_m,
-            n: 0,
-            min_x: f64::INFINITY,
-            max_x: f64::NEG_INFINITY,
-        }
+        Rls { origin: None, info: Matrix2::zeros(), info_y: Vector2::zeros(), state: None, min_spread_m, n: 0, min_x: f64::INFINITY, max_x: f64::NEG_INFINITY }
     }
 
     pub fn update(&mut self, north: f64, east: f64) {

@@ -173,8 +173,7 @@ impl Arena {
             translation: Vec3::from_array(cam.translation_mm.map(|x| x * 1e-3)),
         };
         let link = LinkParams { latency: ms(s.link.latency_ms), jitter: ms(s.link.jitter_ms), loss: s.link.loss.model() };
-        let outages: Vec<(Nanos, Option<Nanos>)> =
-            s.link.outages.iter().map(|o| (Nanos::from_secs_f64(o.value.from_s), o.value.to_s.map(Nanos::from_secs_f64))).collect();
+        let outages: Vec<(Nanos, Option<Nanos>)> = s.link.outages.iter().map(|o| (Nanos::from_secs_f64(o.value.from_s), o.value.to_s.map(Nanos::from_secs_f64))).collect();
         let tm = &s.telemetry;
         let telemetry = LinkParams { latency: ms(tm.latency_ms), jitter: ms(tm.jitter_ms), loss: tm.loss.model() };
         let telemetry_every = rate(tm.rate_hz.value).ticks_of(physics).expect("validated") as u32;
@@ -212,14 +211,7 @@ impl Arena {
                     rate_scale_rad_s: s.radio.rate_scale_deg_s.to_radians(),
                     thrust_max_n: thrust_max,
                 });
-                let gains = Gains {
-                    k_x: c.k_x,
-                    k_v: c.k_v,
-                    k_att: c.k_att,
-                    max_tilt: [c.max_tilt_deg.to_radians(); 2],
-                    thrust_max_n: thrust_max,
-                    mass_kg: params.mass_kg,
-                };
+                let gains = Gains { k_x: c.k_x, k_v: c.k_v, k_att: c.k_att, max_tilt: [c.max_tilt_deg.to_radians(); 2], thrust_max_n: thrust_max, mass_kg: params.mass_kg };
                 let home = Vec3::<MocapNav>::new(v.home_m[0], v.home_m[1], 0.0);
                 let yaw0 = v.yaw0_deg.to_radians();
                 let plan = Plan::schedule(&phases, home, yaw0);

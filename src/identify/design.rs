@@ -25,8 +25,8 @@
 //! towards zero: with twice-differentiated mocap the delay came out 30 % short).
 //! | effect | parameters | regressor |
 //! |---|---|---|
-//! | body offset R_off = exp([δ]×) | δ (rad) | accel_kin: e_j × f_imu; gyro: e_j × ω_imu |
-//! | mocap world tilt R_w = exp([τ]×) | τ_x, τ_y (rad) | accel_kin: Rᵀ(g·e_D × e_j) |
+//! | body offset R_off = exp(\[δ\]×) | δ (rad) | accel_kin: e_j × f_imu; gyro: e_j × ω_imu |
+//! | mocap world tilt R_w = exp(\[τ\]×) | τ_x, τ_y (rad) | accel_kin: Rᵀ(g·e_D × e_j) |
 //! | mocap delay τ_d | τ_d (s) | accel_kin: df_imu/dt; gyro: dω_imu/dt |
 //! | accelerometer bias | b_a (m/s²) | accel_kin and force: e_j |
 //! | gyro bias | b_g (rad/s) | gyro: e_j |
@@ -45,8 +45,8 @@
 //! simulator the IMU sits at the centre of mass, so uniformly displaced markers d are a lever
 //! arm r = −d.
 
-pub use crate::effects::{Channel, Effect};
 use super::series::{Corrected, Corrections, Series, correct};
+pub use crate::effects::{Channel, Effect};
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// Where an effect's columns sit in the full design.
@@ -69,10 +69,10 @@ pub struct Design {
     /// Sample times (s), after decimation.
     pub t: Vec<f64>,
     pub ok: Vec<bool>,
-    /// [channel][axis] → samples
+    /// \[channel\]\[axis\] → samples
     pub measured: [[Vec<f64>; 3]; 3],
     pub predicted: [[Vec<f64>; 3]; 3],
-    /// [channel][axis] → (column, samples) for the columns that touch it
+    /// \[channel\]\[axis\] → (column, samples) for the columns that touch it
     pub columns: [[Vec<Column>; 3]; 3],
     pub has_force: bool,
     pub has_vbat: bool,

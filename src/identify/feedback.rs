@@ -52,7 +52,8 @@ pub fn nominal_tree(tree: &Value, i: usize) -> Value {
     let mut t = tree.clone();
     remove(&mut t, &["mocap", "camera_error"]);
     if let Some(v) = t.get_mut("vehicles").and_then(|v| v.get_mut(i)) {
-        for path in [&["markers", "rotation_deg"][..], &["markers", "displacement_mm"], &["disturbance"], &["undeclared"], &["imu", "gyro_bias_deg_s"], &["imu", "accel_bias_m_s2"]] {
+        for path in [&["markers", "rotation_deg"][..], &["markers", "displacement_mm"], &["disturbance"], &["undeclared"], &["imu", "gyro_bias_deg_s"], &["imu", "accel_bias_m_s2"]]
+        {
             remove(v, path);
         }
     }
@@ -66,10 +67,7 @@ fn r3(x: f64) -> f64 {
 /// The fragment of a report for vehicle `i` (with `n_markers` markers); effects flyarena does not simulate are listed as
 /// comments.
 pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> String {
-    let mut lines = vec![
-        format!("# flyarena identify: the effects found in {}", r.source),
-        "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string(),
-    ];
+    let mut lines = vec![format!("# flyarena identify: the effects found in {}", r.source), "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string()];
     let mut set = Vec::new();
     for f in &r.effects {
         let v: Vec<f64> = f.params.iter().map(|p| r3(p.value)).collect();

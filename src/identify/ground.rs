@@ -69,7 +69,13 @@ pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Opt
     let m = rp.len() as f64;
     let (mr, mp) = rp.iter().fold((0.0, 0.0), |a, x| (a.0 + x.0 / m, a.1 + x.1 / m));
     let (vr, vp) = rp.iter().fold((0.0, 0.0), |a, x| (a.0 + (x.0 - mr).powi(2) / (m - 1.0), a.1 + (x.1 - mp).powi(2) / (m - 1.0)));
-    Some(GroundCheck { roll_deg: mr.to_degrees(), pitch_deg: mp.to_degrees(), roll_se_deg: (vr / m).sqrt().to_degrees(), pitch_se_deg: (vp / m).sqrt().to_degrees(), samples: rp.len() })
+    Some(GroundCheck {
+        roll_deg: mr.to_degrees(),
+        pitch_deg: mp.to_degrees(),
+        roll_se_deg: (vr / m).sqrt().to_degrees(),
+        pitch_se_deg: (vp / m).sqrt().to_degrees(),
+        samples: rp.len(),
+    })
 }
 
 /// One axis of [`GroundAgreement`] (degrees at this edge).
@@ -114,13 +120,29 @@ const Z: f64 = 1.959963984540054;
 /// Builds the agreement from the raw ground check, the bias-corrected one, the flight's offset
 /// (rad), the standard deviation of offset + bias tilt (rad) and an extra half-width (rad) from
 /// models the flight cannot tell apart.
-pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, offset_rad: [f64; 2], sd_rad: [f64; 2], widen_rad: [f64; 2], frame_fitted: bool, accel_bias_fitted: bool) -> GroundAgreement {
+pub fn agreement(
+    raw: &GroundCheck,
+    corrected: &GroundCheck,
+    offset_rad: [f64; 2],
+    sd_rad: [f64; 2],
+    widen_rad: [f64; 2],
+    frame_fitted: bool,
+    accel_bias_fitted: bool,
+) -> GroundAgreement {
     let axis = |k: usize| {
         let (g, gc, se) = if k == 0 { (raw.roll_deg, corrected.roll_deg, raw.roll_se_deg) } else { (raw.pitch_deg, corrected.pitch_deg, raw.pitch_se_deg) };
         let flight = offset_rad[k].to_degrees();
         let difference = gc - flight;
         let ci95 = (Z * se).hypot(Z * sd_rad[k].to_degrees()) + widen_rad[k].to_degrees();
-        TiltAgreement { ground_deg: g, bias_tilt_deg: g - gc, ground_corrected_deg: gc, flight_deg: flight, difference_deg: difference, ci95_deg: ci95, covers: difference.abs() <= ci95 }
+        TiltAgreement {
+            ground_deg: g,
+            bias_tilt_deg: g - gc,
+            ground_corrected_deg: gc,
+            flight_deg: flight,
+            difference_deg: difference,
+            ci95_deg: ci95,
+            covers: difference.abs() <= ci95,
+        }
     };
     GroundAgreement { roll: axis(0), pitch: axis(1), frame_fitted, accel_bias_fitted }
 }

@@ -120,9 +120,11 @@ pub struct Motors {
 }
 
 fn unit_factor(what: &str, unit: &str, allowed: &[(&str, f64)]) -> Result<f64, String> {
-    allowed.iter().find(|(u, _)| *u == unit).map(|x| x.1).ok_or_else(|| {
-        format!("{what}: unit `{unit}` is not one of {}", allowed.iter().map(|(u, _)| format!("`{u}`")).collect::<Vec<_>>().join(", "))
-    })
+    allowed
+        .iter()
+        .find(|(u, _)| *u == unit)
+        .map(|x| x.1)
+        .ok_or_else(|| format!("{what}: unit `{unit}` is not one of {}", allowed.iter().map(|(u, _)| format!("`{u}`")).collect::<Vec<_>>().join(", ")))
 }
 
 impl Mapping {
@@ -241,9 +243,7 @@ impl Mapping {
                 return Err(format!("{file}:{lineno}: {} cells for {} columns", cells.len(), header.len()));
             }
             let num = |i: usize| -> Option<f64> { cells[i].trim().parse::<f64>().ok().filter(|x| x.is_finite()) };
-            let need = |i: usize| -> Result<f64, String> {
-                num(i).ok_or_else(|| format!("{file}:{lineno}: column `{}`: `{}` is not a finite number", header[i], cells[i].trim()))
-            };
+            let need = |i: usize| -> Result<f64, String> { num(i).ok_or_else(|| format!("{file}:{lineno}: column `{}`: `{}` is not a finite number", header[i], cells[i].trim())) };
             let t = need(ti)? * time_f;
             if let Some(&prev) = s.t_s.last() {
                 if t < prev {

@@ -36,18 +36,18 @@
 //! ```
 
 pub mod check;
-pub mod workflow;
 pub mod design;
 pub mod feedback;
-pub mod mapping;
-pub mod quality;
 pub mod flyarena_log;
 pub mod ground;
+pub mod mapping;
+pub mod quality;
 pub mod report;
 pub mod select;
 pub mod series;
 pub mod stats;
 pub mod trials;
+pub mod workflow;
 
 pub use design::{Channel, DesignOptions, Effect};
 pub use select::{IdentifyError, Options, Report, identify};

@@ -130,7 +130,10 @@ impl DataQuality {
     }
     /// One line per stretch, for messages.
     pub fn describe(&self) -> Vec<String> {
-        self.cuts.iter().map(|c| format!("{} {:.2}–{:.2} s: {}{}", c.channel.name(), c.from_s, c.to_s, c.reason, if c.at_floor { " (at the floor: touchdown or contact)" } else { "" })).collect()
+        self.cuts
+            .iter()
+            .map(|c| format!("{} {:.2}–{:.2} s: {}{}", c.channel.name(), c.from_s, c.to_s, c.reason, if c.at_floor { " (at the floor: touchdown or contact)" } else { "" }))
+            .collect()
     }
 }
 

@@ -60,7 +60,15 @@ pub fn render(r: &Report) -> String {
             let ps: Vec<String> = f
                 .params
                 .iter()
-                .map(|p| if p.identifiable { format!("{} {} ± {} {}", p.name, sig(p.value), sig(p.ci95), p.unit) } else { format!("{} {} {} (not identifiable)", p.name, sig(p.value), p.unit) }.trim_end().to_string())
+                .map(|p| {
+                    if p.identifiable {
+                        format!("{} {} ± {} {}", p.name, sig(p.value), sig(p.ci95), p.unit)
+                    } else {
+                        format!("{} {} {} (not identifiable)", p.name, sig(p.value), p.unit)
+                    }
+                    .trim_end()
+                    .to_string()
+                })
                 .collect();
             let _ = writeln!(s, "    {:<34} {}", f.name, ps.join(", "));
         }

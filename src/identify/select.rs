@@ -655,10 +655,7 @@ fn rest_tilt(selected: &[Effect], fit: &Fit, corr: &Corrections, g: f64, yaw: f6
     let o = cols_of(Effect::BodyOffset);
     let w = cols_of(Effect::WorldTilt);
     // gradients of the two sums with respect to the columns
-    let grads = [
-        [(o.start, 1.0), (w.start, c), (w.start + 1, s), (b.start + 1, 1.0 / g)],
-        [(o.start + 1, 1.0), (w.start, -s), (w.start + 1, c), (b.start, -1.0 / g)],
-    ];
+    let grads = [[(o.start, 1.0), (w.start, c), (w.start + 1, s), (b.start + 1, 1.0 / g)], [(o.start + 1, 1.0), (w.start, -s), (w.start + 1, c), (b.start, -1.0 / g)]];
     let sd = grads.map(|grad| {
         let pos: Vec<(usize, f64)> = grad.iter().filter_map(|(j, c)| fit.set.iter().position(|x| x == j).map(|p| (p, *c))).collect();
         let mut v = 0.0;
@@ -788,7 +785,7 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             let theta = DVector::from_iterator(k, values.iter().zip(e.params()).map(|(v, (_, _, f))| v / f));
             let lambda = (theta.transpose() * schur * &theta)[(0, 0)].max(0.0);
             // held-out energy of the effect alone, and of the full model's residual, on its channels
-            let mut th = vec![0.0; N_COLUMNS];
+            let mut th = [0.0; N_COLUMNS];
             for (j, v) in block.iter().zip(theta.iter()) {
                 th[*j] = *v;
             }
@@ -833,7 +830,7 @@ fn select(s: &Series, o: &Options) -> Report {
     let mut final_candidates = Vec::new();
     // the nominal model's held-out residual energy, for the weights and the "before" errors
     let nominal = refine(s, o, &mut corr, &[], 0);
-    let w0: Vec<f64> = heldout_rss(&nominal.grams, &vec![0.0; N_COLUMNS]).iter().map(|x| 1.0 / x.max(1e-300)).collect();
+    let w0: Vec<f64> = heldout_rss(&nominal.grams, &[0.0; N_COLUMNS]).iter().map(|x| 1.0 / x.max(1e-300)).collect();
     let act = active(&nominal.design);
     let usable = nominal.train.iter().filter(|x| **x).count();
     let too_few = usable < MIN_TRAIN_SAMPLES;
@@ -977,7 +974,9 @@ fn select(s: &Series, o: &Options) -> Report {
     // identifiability of the two frame effects, whatever was selected
     let yaw_spread_deg = state.design.yaw_spread_rad.to_degrees();
     let mut not_identifiable: Vec<(Effect, Effect, f64)> = steps.iter().flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho))).collect();
-    let flagged = |a: Effect, b: Effect| steps.iter().any(|st: &Step| (st.added == a && st.not_identifiable_from.iter().any(|x| x.0 == b)) || (st.added == b && st.not_identifiable_from.iter().any(|x| x.0 == a)));
+    let flagged = |a: Effect, b: Effect| {
+        steps.iter().any(|st: &Step| (st.added == a && st.not_identifiable_from.iter().any(|x| x.0 == b)) || (st.added == b && st.not_identifiable_from.iter().any(|x| x.0 == a)))
+    };
     if (selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt)) && !flagged(Effect::BodyOffset, Effect::WorldTilt) {
         let rho = canonical_corr(&state.grams, &[], &set_of(&[Effect::WorldTilt]), &set_of(&[Effect::BodyOffset]));
         if rho > 0.99 {
@@ -1023,13 +1022,19 @@ fn select(s: &Series, o: &Options) -> Report {
         let lb = ljung_box(&w, 20, ar.order());
         let correlates = leads(d, c, a, &after);
         let err = errors.last().expect("pushed above");
-        left.push(Left { channel: ch, axis: AXES[a], rmse: err.rmse_after, unit: err.unit.clone(), ljung_box_p: lb.p_value, structured: !correlates.is_empty() || lb.p_value < 0.01, correlates });
+        left.push(Left {
+            channel: ch,
+            axis: AXES[a],
+            rmse: err.rmse_after,
+            unit: err.unit.clone(),
+            ljung_box_p: lb.p_value,
+            structured: !correlates.is_empty() || lb.p_value < 0.01,
+            correlates,
+        });
         whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: lb });
     }
-    let mut effects: Vec<Found> = selected
-        .iter()
-        .map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &state_corr) })
-        .collect();
+    let mut effects: Vec<Found> =
+        selected.iter().map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &state_corr) }).collect();
     // swaps the final model cannot tell apart: a selected effect E and a candidate C outside the
     // model whose blocks are collinear once every *other* selected effect is projected out (the
     // check at each step conditions only on what was selected before, and misses pairs that a
@@ -1087,7 +1092,15 @@ fn select(s: &Series, o: &Options) -> Report {
     let ground_check = super::ground::ground_check(s);
     let ground_agreement = match (&ground_check, too_few) {
         (Some(raw), false) => super::ground::tilt_at_rest(s, &tilt_bias).map(|corrected| {
-            super::ground::agreement(raw, &corrected, tilt_offset, tilt_sd, tilt_widen, selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt), selected.contains(&Effect::AccelBias))
+            super::ground::agreement(
+                raw,
+                &corrected,
+                tilt_offset,
+                tilt_sd,
+                tilt_widen,
+                selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt),
+                selected.contains(&Effect::AccelBias),
+            )
         }),
         _ => None,
     };

@@ -181,7 +181,15 @@ mod tests {
     use super::*;
 
     fn model() -> NominalModel {
-        NominalModel { vehicle: "test".into(), mass_kg: 1.0, rotor_drag_per_s: [0.0; 2], rotor_radius_m: 0.1, vbat_ref_v: 3.7, gravity_m_s2: 9.81, imu_range: crate::vehicle::params::ImuRange::x3d() }
+        NominalModel {
+            vehicle: "test".into(),
+            mass_kg: 1.0,
+            rotor_drag_per_s: [0.0; 2],
+            rotor_radius_m: 0.1,
+            vbat_ref_v: 3.7,
+            gravity_m_s2: 9.81,
+            imu_range: crate::vehicle::params::ImuRange::x3d(),
+        }
     }
 
     /// Regression: the glitch detector and the delay correction interpolated attitudes with a

@@ -128,7 +128,9 @@ pub fn draw(seed: u64, index: u64) -> Trial {
     let mut plan = vec!["idle: { duration_s: 1 }".to_string(), format!("takeoff: {{ altitude_m: {alt}, duration_s: 3 }}"), "hover: { duration_s: 2 }".to_string()];
     let mut words = Vec::new();
     let pieces = 3 + d.pick(3);
-    let wp_at = |n: f64, e: f64, height: f64, speed: f64, hold: f64| format!("waypoint: {{ pos_m: [{}, {}, {}], speed_m_s: {speed}, accel_m_s2: 1.5, hold_s: {hold} }}", r(n, 2), r(e, 2), -height);
+    let wp_at = |n: f64, e: f64, height: f64, speed: f64, hold: f64| {
+        format!("waypoint: {{ pos_m: [{}, {}, {}], speed_m_s: {speed}, accel_m_s2: 1.5, hold_s: {hold} }}", r(n, 2), r(e, 2), -height)
+    };
     let wp = |n: f64, e: f64, speed: f64, hold: f64| wp_at(n, e, alt, speed, hold);
     for _ in 0..pieces {
         match d.pick(5) {

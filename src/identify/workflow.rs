@@ -23,9 +23,11 @@ pub struct Done {
 fn vehicle_index(s: &Scenario, name: Option<&str>) -> Result<usize, String> {
     match name {
         None => Ok(0),
-        Some(n) => s.vehicles.value.iter().position(|v| v.value.name == n).ok_or_else(|| {
-            format!("no vehicle `{n}` in the scenario; it has {}", s.vehicles.value.iter().map(|v| format!("`{}`", v.value.name)).collect::<Vec<_>>().join(", "))
-        }),
+        Some(n) => {
+            s.vehicles.value.iter().position(|v| v.value.name == n).ok_or_else(|| {
+                format!("no vehicle `{n}` in the scenario; it has {}", s.vehicles.value.iter().map(|v| format!("`{}`", v.value.name)).collect::<Vec<_>>().join(", "))
+            })
+        }
     }
 }
 
@@ -40,7 +42,15 @@ fn options(forced: &[super::Effect], smoothing_ms: Option<f64>, map: Option<&sup
     opts
 }
 
-pub fn run(input: &Path, scenario: Option<&Path>, mapping: Option<&Path>, vehicle: Option<&str>, seed: Option<u64>, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<Done, String> {
+pub fn run(
+    input: &Path,
+    scenario: Option<&Path>,
+    mapping: Option<&Path>,
+    vehicle: Option<&str>,
+    seed: Option<u64>,
+    smoothing_ms: Option<f64>,
+    forced: &[super::Effect],
+) -> Result<Done, String> {
     let opts = options(forced, smoothing_ms, None);
     if let Some(m) = mapping {
         let map = super::mapping::Mapping::load(m)?;
@@ -131,7 +141,15 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     let series = kept;
     let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports
         .iter()
-        .map(|(_, r)| series.iter().map(|s| { let e = evaluate(s, &opts, r); (channel_cut(&e, Channel::AccelKin), channel_cut(&e, Channel::Force)) }).collect())
+        .map(|(_, r)| {
+            series
+                .iter()
+                .map(|s| {
+                    let e = evaluate(s, &opts, r);
+                    (channel_cut(&e, Channel::AccelKin), channel_cut(&e, Channel::Force))
+                })
+                .collect()
+        })
         .collect();
     let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.0}%", 100.0 * v));
     let mut text = String::from("per flight (held-out error cut per channel; effects with 95 % intervals):\n");
@@ -139,12 +157,22 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
         let cuts: Vec<String> = Channel::ALL.iter().map(|c| format!("{} {}", c.name(), pct(channel_cut(&r.errors, *c)))).collect();
         text += &format!("\n  {name}: {}\n", cuts.join(", "));
         for f in &r.effects {
-            let ps: Vec<String> =
-                f.params.iter().map(|p| if p.identifiable { format!("{} {:.3} ± {:.3} {}", p.name, p.value, p.ci95, p.unit) } else { format!("{} {:.3} {} (not identifiable)", p.name, p.value, p.unit) }).collect();
+            let ps: Vec<String> = f
+                .params
+                .iter()
+                .map(|p| {
+                    if p.identifiable {
+                        format!("{} {:.3} ± {:.3} {}", p.name, p.value, p.ci95, p.unit)
+                    } else {
+                        format!("{} {:.3} {} (not identifiable)", p.name, p.value, p.unit)
+                    }
+                })
+                .collect();
             text += &format!("    {:<34} {}\n", f.name, ps.join(", "));
         }
         if let Some(g) = &r.ground_check {
-            text += &format!("    ground check (at rest, {} samples): roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°\n", g.samples, g.roll_deg, g.roll_se_deg, g.pitch_deg, g.pitch_se_deg);
+            text +=
+                &format!("    ground check (at rest, {} samples): roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°\n", g.samples, g.roll_deg, g.roll_se_deg, g.pitch_deg, g.pitch_se_deg);
         }
         if let Some(a) = &r.ground_agreement {
             text += &format!(

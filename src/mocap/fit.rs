@@ -26,23 +26,14 @@ const MIN_SPREAD_M2: f64 = 1e-8;
 
 /// Fits `template[i]` onto `observed[i]` for the indices where `visible[i]`. `None` when fewer than
 /// three points are visible or they are collinear.
-pub fn rigid_fit<A: Frame, B: Frame>(
-    template: &[Vec3<A>],
-    observed: &[Vec3<B>],
-    visible: &[bool],
-) -> Option<RigidFit<A, B>> {
+pub fn rigid_fit<A: Frame, B: Frame>(template: &[Vec3<A>], observed: &[Vec3<B>], visible: &[bool]) -> Option<RigidFit<A, B>> {
     rigid_fit_near(template, observed, visible, None)
 }
 
 /// [`rigid_fit`] started from `guess`, a rotation near the answer (the previous frame's, 5 ms
 /// earlier): Newton's method on SO(3) ([`refine_rotation`]) reaches the same optimum in two or
 /// three cheap steps. Without a guess, or when Newton does not converge, it is [`kabsch`].
-pub fn rigid_fit_near<A: Frame, B: Frame>(
-    template: &[Vec3<A>],
-    observed: &[Vec3<B>],
-    visible: &[bool],
-    guess: Option<Rot<A, B>>,
-) -> Option<RigidFit<A, B>> {
+pub fn rigid_fit_near<A: Frame, B: Frame>(template: &[Vec3<A>], observed: &[Vec3<B>], visible: &[bool], guess: Option<Rot<A, B>>) -> Option<RigidFit<A, B>> {
     let n = visible.iter().zip(template).filter(|(v, _)| **v).count();
     if n < 3 || template.len() != observed.len() || template.len() != visible.len() {
         return None;
@@ -67,8 +58,7 @@ pub fn rigid_fit_near<A: Frame, B: Frame>(
     // (this runs 200 times a second per vehicle): with λ₁ ≥ λ₂ ≥ λ₃ ≥ 0, the sum of the principal
     // 2×2 minors c₂ = λ₁λ₂ + λ₁λ₃ + λ₂λ₃ lies in [λ₁λ₂, 3λ₁λ₂] and λ₁ ∈ [tr/3, tr], so
     // c₂/tr ∈ [λ₂/3, 3λ₂]: the test c₂/tr < MIN_SPREAD_M2 is λ₂'s within a factor of 3.
-    let c2 = spread[(0, 0)] * spread[(1, 1)] - spread[(0, 1)] * spread[(1, 0)] + spread[(0, 0)] * spread[(2, 2)]
-        - spread[(0, 2)] * spread[(2, 0)]
+    let c2 = spread[(0, 0)] * spread[(1, 1)] - spread[(0, 1)] * spread[(1, 0)] + spread[(0, 0)] * spread[(2, 2)] - spread[(0, 2)] * spread[(2, 0)]
         + spread[(1, 1)] * spread[(2, 2)]
         - spread[(1, 2)] * spread[(2, 1)];
     let tr = spread.trace();
@@ -87,11 +77,7 @@ pub fn rigid_fit_near<A: Frame, B: Frame>(
     for i in (0..template.len()).filter(|&i| visible[i]) {
         ss += (r * template[i].raw() + t - observed[i].raw()).norm_squared();
     }
-    Some(RigidFit {
-        rotation: Rot::from_quaternion(q),
-        translation: Vec3::from_raw(t),
-        rms_residual: (ss / n as f64).sqrt(),
-    })
+    Some(RigidFit { rotation: Rot::from_quaternion(q), translation: Vec3::from_raw(t), rms_residual: (ss / n as f64).sqrt() })
 }
 
 /// The rotation R maximising tr(R·H) for the cross-covariance H = Σ a_i·b_iᵀ, i.e. minimising
@@ -111,13 +97,13 @@ pub fn kabsch(h: &Matrix3<f64>) -> Option<Matrix3<f64>> {
 }
 
 /// Newton's method for Wahba's problem on SO(3) from a nearby rotation `guess`: maximise
-/// f(R) = tr(R·H). Writing R = exp([δ]×)·R₀ and A = R₀·H,
+/// f(R) = tr(R·H). Writing R = exp(\[δ\]×)·R₀ and A = R₀·H,
 ///
 /// ```text
 /// f ≈ tr A + gᵀδ − ½·δᵀ(tr(A)·I − S)·δ,   g = (A₁₂ − A₂₁, A₂₀ − A₀₂, A₀₁ − A₁₀),  S = (A + Aᵀ)/2
 /// ```
 ///
-/// (exact to second order: exp([δ]×) = I + [δ]× + ½[δ]×² + …, [δ]×² = δδᵀ − |δ|²I), so the step is
+/// (exact to second order: exp(\[δ\]×) = I + \[δ\]× + ½\[δ\]×² + …, \[δ\]×² = δδᵀ − |δ|²I), so the step is
 /// δ = (tr(A)·I − S)⁻¹·g, applied with the retraction q ← normalise(q + ½·(0, δ)⊗q). Convergence is
 /// quadratic; it stops when |δ| < 1e-9 rad (the next error is ~1e-18). At the optimum A is
 /// symmetric with eigenvalues σ₁ ≥ σ₂ ≥ σ₃ (σ₃ < 0 for a reflected H), and the Hessian
@@ -150,11 +136,7 @@ fn solve_positive_definite(m: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3
     if !(a > 0.0 && c22 > 0.0 && det > 0.0) {
         return None;
     }
-    let x = Vector3::new(
-        c00 * b[0] + c01 * b[1] + c02 * b[2],
-        c01 * b[0] + c11 * b[1] + c12 * b[2],
-        c02 * b[0] + c12 * b[1] + c22 * b[2],
-    ) / det;
+    let x = Vector3::new(c00 * b[0] + c01 * b[1] + c02 * b[2], c01 * b[0] + c11 * b[1] + c12 * b[2], c02 * b[0] + c12 * b[1] + c22 * b[2]) / det;
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
@@ -192,12 +174,7 @@ mod tests {
     use crate::frames::{Body, Euler, MocapBody, Nav};
 
     /// An asymmetric four-marker template (body frame, m).
-    const FOUR_MARKERS: [Vec3<Body>; 4] = [
-        Vec3::new(0.2, 0.0, -0.03),
-        Vec3::new(0.0, 0.17, -0.03),
-        Vec3::new(-0.13, 0.0, -0.03),
-        Vec3::new(0.0, -0.1, -0.05),
-    ];
+    const FOUR_MARKERS: [Vec3<Body>; 4] = [Vec3::new(0.2, 0.0, -0.03), Vec3::new(0.0, 0.17, -0.03), Vec3::new(-0.13, 0.0, -0.03), Vec3::new(0.0, -0.1, -0.05)];
 
     #[test]
     fn recovers_a_known_pose_exactly() {

@@ -19,12 +19,7 @@ pub const BUILTIN_PATTERNS: usize = 8;
 /// marker 15 mm further out than pattern k−1, so no two patterns are alike.
 pub fn builtin_pattern(k: usize) -> [Vec3<MocapBody>; 4] {
     let k = k as f64;
-    [
-        Vec3::new(0.21, 0.0, -0.03),
-        Vec3::new(0.0, 0.17, -0.03),
-        Vec3::new(-0.13, 0.0, -0.03),
-        Vec3::new(0.0, -0.10 - 0.015 * k, -0.05),
-    ]
+    [Vec3::new(0.21, 0.0, -0.03), Vec3::new(0.0, 0.17, -0.03), Vec3::new(-0.13, 0.0, -0.03), Vec3::new(0.0, -0.10 - 0.015 * k, -0.05)]
 }
 
 /// Sorted pairwise distances: the signature by which a mocap system tells patterns apart.
@@ -77,12 +72,7 @@ impl MarkerSet {
     pub fn true_offset(&self) -> Option<TrueOffset> {
         let visible = vec![true; self.template.len()];
         let fit = rigid_fit(&self.template, &self.mounted, &visible)?;
-        Some(TrueOffset {
-            rotation: fit.rotation,
-            translation: fit.translation,
-            euler: fit.rotation.euler(),
-            rms_misfit_m: fit.rms_residual,
-        })
+        Some(TrueOffset { rotation: fit.rotation, translation: fit.translation, euler: fit.rotation.euler(), rms_misfit_m: fit.rms_residual })
     }
 }
 

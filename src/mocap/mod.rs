@@ -118,22 +118,12 @@ impl Mocap {
         // the last frame's attitude starts the fit (Newton, three steps instead of Kabsch's ~8)
         let fit = rigid_fit_near(&self.markers.template, &self.observed, &self.visible, self.last_attitude.take())?;
         self.last_attitude = Some(fit.rotation);
-        Some(MocapFrame {
-            seq,
-            t_capture: t,
-            pos: fit.translation,
-            att: fit.rotation,
-            visible_markers: self.visible.iter().filter(|v| **v).count() as u8,
-        })
+        Some(MocapFrame { seq, t_capture: t, pos: fit.translation, att: fit.rotation, visible_markers: self.visible.iter().filter(|v| **v).count() as u8 })
     }
 }
 
 /// Shorthand used by tests: the ideal measured attitude R_w·R·R_off.
-pub fn ideal_measured_attitude(
-    camera: &CameraError,
-    truth: Rot<Body, Nav>,
-    offset: Rot<MocapBody, Body>,
-) -> Rot<MocapBody, MocapNav> {
+pub fn ideal_measured_attitude(camera: &CameraError, truth: Rot<Body, Nav>, offset: Rot<MocapBody, Body>) -> Rot<MocapBody, MocapNav> {
     camera.rotation * truth * offset
 }
 
@@ -149,13 +139,7 @@ mod tests {
         let off = ms.true_offset().unwrap();
         let cam = CameraError { rotation: Rot::from_euler(Euler::from_degrees(0.5, 0.0, 1.0)), translation: Vec3::new(0.01, 0.0, 0.0) };
         let mut m = Mocap::new(ms, vec![], cam, 0.0, Stream::new(1, Component::MocapNoise, 0));
-        let truth = State {
-            pos: Vec3::new(1.0, 2.0, -1.0),
-            vel: Vec3::zeros(),
-            att: Rot::from_euler(Euler::new(0.1, 0.05, 1.0)),
-            omega: Vec3::zeros(),
-            rotor_speed: [0.0; 4],
-        };
+        let truth = State { pos: Vec3::new(1.0, 2.0, -1.0), vel: Vec3::zeros(), att: Rot::from_euler(Euler::new(0.1, 0.05, 1.0)), omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
         let f = m.capture(Nanos(0), &truth).unwrap();
         let ideal = ideal_measured_attitude(&cam, truth.att, off.rotation);
         assert!((f.att.inverse() * ideal).angle() < 1e-12);

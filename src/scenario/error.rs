@@ -160,11 +160,7 @@ pub fn with_suggestion(message: &str) -> String {
     };
     let Some((bad, tail)) = rest.split_once('`') else { return message.to_string() };
     let candidates = tail.split("expected one of").nth(1).or_else(|| tail.split("expected").nth(1)).unwrap_or("");
-    let best = candidates
-        .split(|c: char| c == ',' || c.is_whitespace() || c == '`')
-        .filter(|c| !c.is_empty() && *c != "or")
-        .map(|c| (edit_distance(bad, c), c))
-        .min();
+    let best = candidates.split(|c: char| c == ',' || c.is_whitespace() || c == '`').filter(|c| !c.is_empty() && *c != "or").map(|c| (edit_distance(bad, c), c)).min();
     match best {
         Some((d, c)) if d <= 2.max(bad.len() / 3) => format!("{message}; did you mean `{c}`?"),
         _ => message.to_string(),

@@ -219,9 +219,7 @@ impl LossCfg {
         use crate::link::LossModel;
         match *self {
             LossCfg::Bernoulli(p) => LossModel::Bernoulli { p },
-            LossCfg::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => {
-                LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad }
-            }
+            LossCfg::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad },
         }
     }
 }
@@ -521,12 +519,8 @@ impl PhaseCfg {
             PhaseCfg::Hover { duration_s } => Phase::Hover { duration_s },
             PhaseCfg::Idle { duration_s } => Phase::Idle { duration_s },
             PhaseCfg::CalibrateRollPitch { settle_s, average_s } => Phase::CalibrateRollPitch { settle_s, average_s },
-            PhaseCfg::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
-                Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 }
-            }
-            PhaseCfg::YawSpin { settle_s, angle_deg, duration_s } => {
-                Phase::YawSpin { settle_s, angle_rad: angle_deg.to_radians(), duration_s }
-            }
+            PhaseCfg::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 },
+            PhaseCfg::YawSpin { settle_s, angle_deg, duration_s } => Phase::YawSpin { settle_s, angle_rad: angle_deg.to_radians(), duration_s },
             PhaseCfg::CalibrateGyro { settle_s, radius_m, period_s, turns } => Phase::CalibrateGyro { settle_s, radius_m, period_s, turns },
             PhaseCfg::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s } => Phase::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s },
             PhaseCfg::Land { duration_s } => Phase::Land { duration_s },
@@ -681,7 +675,10 @@ impl Scenario {
             }
         }
         if !(4..=crate::radio::MAX_CHANNELS as u32).contains(&self.radio.channels.value) {
-            return err(self.radio.channels.referenced, format!("{} channels is outside the allowed range [4, {}] (p, q, r and thrust need 4)", self.radio.channels.value, crate::radio::MAX_CHANNELS));
+            return err(
+                self.radio.channels.referenced,
+                format!("{} channels is outside the allowed range [4, {}] (p, q, r and thrust need 4)", self.radio.channels.value, crate::radio::MAX_CHANNELS),
+            );
         }
         for o in &self.link.outages {
             if o.value.to_s.is_some_and(|t| t <= o.value.from_s) {
@@ -714,7 +711,15 @@ impl Scenario {
             }
             let t = self.template(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
             if let Some((j, _)) = templates.iter().find(|(_, o)| patterns_confusable(o, &t, 0.005)) {
-                return err(v.referenced, format!("vehicle `{}` has the same marker pattern as vehicle `{}` (pairwise distances within 5 mm): the mocap could not tell them apart; give each a different `markers.pattern` (0–{}) or `template_m`", v.value.name, vehicles[*j].value.name, BUILTIN_PATTERNS - 1));
+                return err(
+                    v.referenced,
+                    format!(
+                        "vehicle `{}` has the same marker pattern as vehicle `{}` (pairwise distances within 5 mm): the mocap could not tell them apart; give each a different `markers.pattern` (0–{}) or `template_m`",
+                        v.value.name,
+                        vehicles[*j].value.name,
+                        BUILTIN_PATTERNS - 1
+                    ),
+                );
             }
             templates.push((i, t.clone()));
             let m = &v.value.markers;
@@ -740,12 +745,23 @@ impl Scenario {
             let period_ms = 1000.0 / self.mocap.rate_hz.value as f64;
             let frames = u.mocap_delay_ms / period_ms;
             if (frames - frames.round()).abs() > 1e-9 {
-                return err(v.referenced, format!("vehicle `{}`: undeclared.mocap_delay_ms {} is not a multiple of the mocap period {period_ms} ms", v.value.name, u.mocap_delay_ms));
+                return err(
+                    v.referenced,
+                    format!("vehicle `{}`: undeclared.mocap_delay_ms {} is not a multiple of the mocap period {period_ms} ms", v.value.name, u.mocap_delay_ms),
+                );
             }
             let p = self.vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
             let t_max = self.radio.thrust_max_n.unwrap_or(p.thrust_max()).min(p.thrust_max());
             if t_max <= p.hover_thrust() * 1.1 {
-                return err(v.referenced, format!("vehicle `{}`: maximum thrust {:.2} N is not above its hover thrust m·g = {:.2} N with a 10 % margin; it cannot fly (raise rotor_speed_max_rad_s, k_thrust or radio.thrust_max_n, or lower mass_kg)", v.value.name, t_max, p.hover_thrust()));
+                return err(
+                    v.referenced,
+                    format!(
+                        "vehicle `{}`: maximum thrust {:.2} N is not above its hover thrust m·g = {:.2} N with a 10 % margin; it cannot fly (raise rotor_speed_max_rad_s, k_thrust or radio.thrust_max_n, or lower mass_kg)",
+                        v.value.name,
+                        t_max,
+                        p.hover_thrust()
+                    ),
+                );
             }
         }
         Ok(())

@@ -196,11 +196,7 @@ impl X3d {
         };
         let dist = &self.disturbance;
         let l = p.arm_m;
-        let tau = [
-            l * (fl - fr) + dist.torque_body_nm[0],
-            l * (ff - fb) + dist.torque_body_nm[1],
-            p.k_torque_m * (ff + fb - fr - fl) + dist.torque_body_nm[2],
-        ];
+        let tau = [l * (fl - fr) + dist.torque_body_nm[0], l * (ff - fb) + dist.torque_body_nm[1], p.k_torque_m * (ff + fb - fr - fl) + dist.torque_body_nm[2]];
         let j = &p.inertia_kg_m2;
         let gyro = cross(w, [j[0] * w[0], j[1] * w[1], j[2] * w[2]]);
         let mut d = [0.0; N];
@@ -279,13 +275,7 @@ mod tests {
 
     fn hovering() -> X3d {
         let p = VehicleParams::x3d();
-        let s = State {
-            pos: Vec3::new(0.0, 0.0, -1.0),
-            vel: Vec3::zeros(),
-            att: Rot::identity(),
-            omega: Vec3::zeros(),
-            rotor_speed: [0.0; 4],
-        };
+        let s = State { pos: Vec3::new(0.0, 0.0, -1.0), vel: Vec3::zeros(), att: Rot::identity(), omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
         let mut x = X3d::in_flight(p, Disturbance::default(), s);
         let w = x.hover_rotor_speed();
         x.state.rotor_speed = [w; 4];

@@ -37,9 +37,6 @@ impl Imu {
         let mut noise = |s: f64| if s > 0.0 { s * self.rng.normal() } else { 0.0 };
         let ng = Vec3::new(noise(p.gyro_noise_rad_s), noise(p.gyro_noise_rad_s), noise(p.gyro_noise_rad_s));
         let na = Vec3::new(noise(p.accel_noise_m_s2), noise(p.accel_noise_m_s2), noise(p.accel_noise_m_s2));
-        ImuSample {
-            gyro: omega + Vec3::from_array(p.gyro_bias_rad_s) + ng,
-            specific_force: specific_force + Vec3::from_array(p.accel_bias_m_s2) + na,
-        }
+        ImuSample { gyro: omega + Vec3::from_array(p.gyro_bias_rad_s) + ng, specific_force: specific_force + Vec3::from_array(p.accel_bias_m_s2) + na }
     }
 }

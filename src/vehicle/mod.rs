@@ -1,7 +1,7 @@
 //! The X3D quadrotor: 6-DOF rigid body, four rotors, the onboard 1 kHz body-rate loop and the IMU.
 //!
 //! The engine drives it once per physics tick (1 ms):
-//! 1. [`X3d::imu`] samples the gyro and accelerometer from the current state;
+//! 1. [`imu::Imu::sample`] samples the gyro and accelerometer from the current state;
 //! 2. the onboard [`RateLoop`] turns the last radio command (body rates and collective thrust)
 //!    and the gyro sample into rotor-speed commands;
 //! 3. [`X3d::step`] integrates the dynamics over one tick (RK4, see [`dynamics`]);

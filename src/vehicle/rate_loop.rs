@@ -42,14 +42,7 @@ pub struct RateLoop {
 
 impl RateLoop {
     pub fn new(p: &VehicleParams) -> Self {
-        RateLoop {
-            inertia: p.inertia_kg_m2,
-            gain: p.rate_loop_gain_per_s,
-            arm: p.arm_m,
-            k_m: p.k_torque_m,
-            k_f: p.k_thrust,
-            f_max: p.rotor_thrust_max(),
-        }
+        RateLoop { inertia: p.inertia_kg_m2, gain: p.rate_loop_gain_per_s, arm: p.arm_m, k_m: p.k_torque_m, k_f: p.k_thrust, f_max: p.rotor_thrust_max() }
     }
 
     /// Rotor thrusts [front, right, back, left] (N) for a collective thrust and body torque.

@@ -80,7 +80,11 @@ fn bad_scenarios_exit_2_with_located_messages() {
         ("duplicate-key", good.replace("seed: 6", "seed: 6\nseed: 7")),
         ("collinear-markers", good.replace("      rotation_deg: [3, 3, 0]", "      template_m: [[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0]]")),
         ("heavy-vehicle", good.replace("    markers:", "    model: { mass_kg: 3 }\n    markers:")),
-        ("duplicate-pattern", good.replace("  - name: x3d\n", "  - name: a\n    markers: { pattern: 2 }\n  - name: x3d\n    home_m: [2, 0]\n    markers: { pattern: 2 }\n  - name: c\n").replace("    markers:\n      rotation_deg: [3, 3, 0]\n", "")),
+        (
+            "duplicate-pattern",
+            good.replace("  - name: x3d\n", "  - name: a\n    markers: { pattern: 2 }\n  - name: x3d\n    home_m: [2, 0]\n    markers: { pattern: 2 }\n  - name: c\n")
+                .replace("    markers:\n      rotation_deg: [3, 3, 0]\n", ""),
+        ),
         ("not-yaml", "name: [unclosed\n".into()),
     ];
     let d = tmp("bad");
@@ -201,7 +205,10 @@ fn hostile_names_are_rejected_before_anything_is_written() {
         std::fs::write(dir.join("s.yaml"), format!("name: {name}\nvehicles:\n  - {{ name: v }}\nplan:\n  - takeoff: {{ altitude_m: 1, duration_s: 2 }}\n")).unwrap();
         let (code, out, err) = flyarena(&["run", "s.yaml", "--out", "o", "--log", "o/log.csv"], &dir);
         assert_eq!(code, 2, "{name}: {out}{err}");
-        assert!(err.contains("s.yaml:1:7") && err.contains(why) && err.contains("letters A–Z") | err.contains("at most") | err.contains("device") | err.contains("starts with"), "{name}: {err}");
+        assert!(
+            err.contains("s.yaml:1:7") && err.contains(why) && err.contains("letters A–Z") | err.contains("at most") | err.contains("device") | err.contains("starts with"),
+            "{name}: {err}"
+        );
         let entries: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(entries, vec![std::ffi::OsString::from("s.yaml")], "{name}: something was written");
     }

@@ -31,11 +31,7 @@ fn fly(outage: &str, occlusions: &str) -> flyarena::engine::VehicleRun {
 
 /// Max horizontal distance from the reference between `from` and `to` (s).
 fn max_dev(v: &flyarena::engine::VehicleRun, from: f64, to: f64) -> f64 {
-    v.trace
-        .iter()
-        .filter(|s| (from..to).contains(&s.t.as_secs_f64()))
-        .map(|s| (s.pos - s.reference.assume_same_as()).horizontal_norm())
-        .fold(0.0, f64::max)
+    v.trace.iter().filter(|s| (from..to).contains(&s.t.as_secs_f64())).map(|s| (s.pos - s.reference.assume_same_as()).horizontal_norm()).fold(0.0, f64::max)
 }
 
 #[test]
@@ -127,4 +123,3 @@ fn an_outage_after_landing_keeps_the_motors_off() {
     assert!(v.trace.iter().filter(|s| s.t.as_secs_f64() > 24.1).all(|s| s.thrust_n == 0.0));
     assert!(v.final_pos.z().abs() < 1e-9);
 }
-

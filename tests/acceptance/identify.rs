@@ -1,9 +1,9 @@
 //! `identify`: hidden effects found, named and estimated; nothing found when nothing is hidden;
 //! the column mapping's frame conversions checked by hand; the real NanoBench flights.
 
-use flyarena::identify::workflow::run as identify_cli;
 use flyarena::identify::flyarena_log::run_and_log;
 use flyarena::identify::mapping::Mapping;
+use flyarena::identify::workflow::run as identify_cli;
 use flyarena::identify::{Effect, Options, identify};
 use flyarena::scenario::Scenario;
 use std::path::{Path, PathBuf};
@@ -18,7 +18,9 @@ fn scenario(name: &str) -> PathBuf {
 fn every_identify_scenario_finds_its_hidden_effect() {
     let round = |x: f64, k: i32| ((x * 10f64.powi(k)).round() / 10f64.powi(k)) + 0.0;
     let mut summary = Vec::new();
-    for name in ["none", "world-tilt", "rotor-drag", "mocap-delay", "wind", "thrust-scale", "two-effects", "marker-offsets", "accel-bias", "gyro-bias", "ground-effect", "lever-arm"] {
+    for name in
+        ["none", "world-tilt", "rotor-drag", "mocap-delay", "wind", "thrust-scale", "two-effects", "marker-offsets", "accel-bias", "gyro-bias", "ground-effect", "lever-arm"]
+    {
         let done = identify_cli(&scenario(name), None, None, None, None, None, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
         summary.push(serde_json::json!({
             "scenario": name,
@@ -165,7 +167,11 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     let t4 = 35.407_020_21 * u * u + 5.922_264_62 * u * 3.7 - 0.075_526_67;
     assert!((s.thrust_n.as_ref().unwrap()[0] - t4 * 9.81e-3).abs() < 1e-12);
     // the same attitude as Z-Y-X Euler angles in degrees gives the same pose
-    let m3 = Mapping::parse(&mapping_src("z_up", "flu").replace("attitude: { columns: [qw, qx, qy, qz], order: wxyz }", "attitude: { euler: [r, p, yw], unit: deg }"), Path::new("m.yaml")).unwrap();
+    let m3 = Mapping::parse(
+        &mapping_src("z_up", "flu").replace("attitude: { columns: [qw, qx, qy, qz], order: wxyz }", "attitude: { euler: [r, p, yw], unit: deg }"),
+        Path::new("m.yaml"),
+    )
+    .unwrap();
     let erow = |t: f64| format!("{t},100,200,1000,0,-10,90,0,0,30,0,0,1,30000,30000,30000,30000,3.7");
     let ecsv = format!("time_ms,x,y,z,r,p,yw,gx,gy,gz,ax,ay,az,m1,m2,m3,m4,vbat\n{}\n{}\n", erow(0.0), erow(10.0));
     let se = m3.read_str(&ecsv, "euler.csv").unwrap();
@@ -189,7 +195,8 @@ fn mapping_errors_name_what_to_fix() {
     assert!(e.contains("log.csv:2") && e.contains("vbat") && e.contains("`x`"), "{e}");
     let e = m.read_str(&format!("{CSV_HEADER}\n0,1,2,3,0.5,0,0,0,0,0,0,0,0,1,0,0,0,0,3.7\n"), "log.csv").unwrap_err();
     assert!(e.contains("norm 0.5000") && e.contains("order"), "{e}");
-    let e = Mapping::parse(&mapping_src("z_up", "flu").replace("unit: deg/s", "unit: dps"), Path::new("m.yaml")).and_then(|m| m.read_str(&format!("{CSV_HEADER}\n"), "x")).unwrap_err();
+    let e =
+        Mapping::parse(&mapping_src("z_up", "flu").replace("unit: deg/s", "unit: dps"), Path::new("m.yaml")).and_then(|m| m.read_str(&format!("{CSV_HEADER}\n"), "x")).unwrap_err();
     assert!(e.contains("`dps`") && e.contains("`deg/s`"), "{e}");
     let e = Mapping::parse(&format!("{}colour: red\n", mapping_src("z_up", "flu")), Path::new("m.yaml")).unwrap_err();
     assert!(e.contains("m.yaml") && e.contains("colour"), "{e}");
@@ -264,6 +271,59 @@ fn nanobench_flights() {
     }
     assert_eq!(usable, 9);
     assert!(agree >= 7, "in-flight body offset and ground tilt agree within 0.7° on {agree} of 9 flights");
+}
+
+/// The README's NanoBench table, pinned per flight (`scripts/nanobench-table.py`): each figure
+/// may move by at most a quarter of its own 95 % interval (a change that moves it more changes
+/// what the README says), the lever arm is selected on the same flights, the ground agreement's
+/// differences stay within 0.02°, and the held-out accel_kin RMSE within 2 %.
+#[test]
+fn nanobench_table_is_pinned() {
+    let Some(data) = super::shared_data() else { return };
+    type Pair = (f64, f64);
+    /// flight, body offset roll and pitch, thrust scale, drag k_x and k_y (value, ±95 %), lever
+    /// arm selected, ground differences roll and pitch (°), held-out accel_kin RMSE (m/s²)
+    type Row = (&'static str, [Pair; 2], Pair, [Pair; 2], bool, [f64; 2], f64);
+    #[rustfmt::skip]
+    let table: [Row; 9] = [
+        ("B10_lissajous_fast_rep1", [(-0.4571, 0.1485), (-0.9700, 0.4863)], (-0.1131, 0.0439), [(0.3968, 0.0258), (0.4259, 0.0255)], true, [0.062, 0.386], 0.0923),
+        ("B2_circle_fast_rep2", [(1.8030, 0.0617), (-2.2404, 0.1091)], (-0.1588, 0.0262), [(0.3908, 0.0117), (0.4204, 0.0132)], true, [-0.639, -0.534], 0.1246),
+        ("B2_circle_slow_rep2", [(-0.1955, 0.2730), (-0.7183, 0.4954)], (-0.1117, 0.0571), [(0.4111, 0.0545), (0.3898, 0.0254)], true, [0.110, -0.316], 0.0524),
+        ("B3_figure8_medium_rep2", [(1.8400, 0.2520), (-2.2719, 0.4674)], (-0.1068, 0.0409), [(0.3745, 0.0187), (0.4031, 0.0375)], false, [-0.435, -0.494], 0.1295),
+        ("B5_helix_fast_rep1", [(-0.1380, 0.3202), (-0.9592, 0.3286)], (-0.0415, 0.0821), [(0.4145, 0.0360), (0.4273, 0.0486)], true, [-0.011, -0.186], 0.0942),
+        ("B6_linear_ramp_rep2", [(0.3635, 0.0678), (-1.3604, 0.3243)], (-0.2381, 0.0038), [(0.3740, 0.0441), (0.2484, 0.4279)], false, [-0.558, -0.616], 0.0720),
+        ("B7_oval_fast_rep1", [(-0.2445, 0.1830), (-1.0541, 0.4972)], (-0.1152, 0.0437), [(0.4046, 0.0165), (0.4174, 0.0274)], true, [0.005, 0.233], 0.1015),
+        ("B8_star_medium_rep1", [(-0.3198, 0.1294), (-1.0171, 0.5139)], (-0.1307, 0.0291), [(0.3794, 0.0225), (0.3983, 0.0254)], true, [0.171, -0.086], 0.0749),
+        ("B9_trefoil_fast_rep1", [(1.2123, 0.1441), (-1.8037, 0.2089)], (-0.2266, 0.0050), [(0.4225, 0.0199), (0.4262, 0.0215)], false, [-1.031, -0.828], 0.0999),
+    ];
+    let map = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
+    let mut opts = Options { forced: vec![Effect::BodyOffset], ..Options::default() };
+    opts.design.smoothing_s = map.smoothing_ms.unwrap() * 1e-3;
+    let near = |name: &str, what: &str, got: f64, (want, ci): Pair| assert!((got - want).abs() <= 0.25 * ci + 1e-4, "{name}: {what} {got} (README {want} ± {ci})");
+    let mut diffs = [Vec::new(), Vec::new()];
+    for (name, offset, thrust, drag, lever, diff, rmse) in table {
+        let s = map.read(&data.join(format!("nanobench/dataset/{name}.csv"))).unwrap();
+        let r = identify(&s, &opts).unwrap();
+        near(name, "roll", r.param(Effect::BodyOffset, "roll").unwrap(), offset[0]);
+        near(name, "pitch", r.param(Effect::BodyOffset, "pitch").unwrap(), offset[1]);
+        near(name, "thrust scale", r.param(Effect::ThrustScale, "scale − 1").unwrap(), thrust);
+        near(name, "k_x", r.param(Effect::RotorDrag, "k_x").unwrap(), drag[0]);
+        near(name, "k_y", r.param(Effect::RotorDrag, "k_y").unwrap(), drag[1]);
+        assert_eq!(r.effect(Effect::LeverArm).is_some(), lever, "{name}: lever arm");
+        let a = r.ground_agreement.unwrap();
+        for (k, t) in [a.roll, a.pitch].iter().enumerate() {
+            assert!((t.difference_deg - diff[k]).abs() < 0.02, "{name}: ground difference {k}: {} vs {}", t.difference_deg, diff[k]);
+            diffs[k].push(t.difference_deg.abs());
+        }
+        let ak: Vec<f64> = r.errors.iter().filter(|e| e.channel == flyarena::identify::Channel::AccelKin).map(|e| e.rmse_after).collect();
+        let got = (ak.iter().map(|x| x * x).sum::<f64>() / ak.len() as f64).sqrt();
+        assert!((got / rmse - 1.0).abs() < 0.02, "{name}: accel_kin RMSE {got} vs {rmse}");
+    }
+    // the README's medians of |ground − bias tilt − flight|: 0.17° roll, 0.39° pitch
+    for (k, want) in [(0, 0.17), (1, 0.39)] {
+        diffs[k].sort_by(f64::total_cmp);
+        assert!((diffs[k][4] - want).abs() < 0.01, "median {k}: {}", diffs[k][4]);
+    }
 }
 
 /// Regression: a log cut to start in the air had its floor at the first pose, so every sample

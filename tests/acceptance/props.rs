@@ -110,7 +110,8 @@ mod parser_fuzz {
     }
 
     pub(super) fn edit() -> impl Strategy<Value = Edit> {
-        let special = prop::sample::select(vec!["{", "}", "[", "]", ":", "- ", "\n", "\t", "#", "&a", "*a", "!!str", "'", "\"", "é", "\u{0}", "1e999", "-", ".nan", "~", "<<: *a", "?"]);
+        let special =
+            prop::sample::select(vec!["{", "}", "[", "]", ":", "- ", "\n", "\t", "#", "&a", "*a", "!!str", "'", "\"", "é", "\u{0}", "1e999", "-", ".nan", "~", "<<: *a", "?"]);
         prop_oneof![
             (any::<usize>(), 1usize..20).prop_map(|(a, n)| Edit::Delete(a, n)),
             (any::<usize>(), special).prop_map(|(a, s)| Edit::Insert(a, s.to_string())),
@@ -200,7 +201,19 @@ mod mapping_fuzz {
             // the IMU wobbles a little (a reading repeated bit for bit while the vehicle turns
             // is a frozen sensor, which identify's data-quality gate cuts out)
             let w = 1e-3 * ((k * 7919 % 13) as f64 - 6.0);
-            s += &format!("{t},{},{},{z},0.01,-0.02,{},{},{},{},{},{},{},{},{m},{m},{m},{m},3.9\n", 0.3 * c, 0.3 * sn, (t * 0.1).sin(), (t * 0.1).cos(), 0.1 + w, -0.1 - w, 0.05 + w, 0.01 + w, 0.02 - w, 1.0 + w);
+            s += &format!(
+                "{t},{},{},{z},0.01,-0.02,{},{},{},{},{},{},{},{},{m},{m},{m},{m},3.9\n",
+                0.3 * c,
+                0.3 * sn,
+                (t * 0.1).sin(),
+                (t * 0.1).cos(),
+                0.1 + w,
+                -0.1 - w,
+                0.05 + w,
+                0.01 + w,
+                0.02 - w,
+                1.0 + w
+            );
         }
         s
     }

@@ -33,7 +33,9 @@ fn cuts_of(r: &flyarena::identify::Report, ch: QualityChannel) -> Vec<&Cut> {
 fn a_clean_simulated_flight_is_not_cut() {
     for preset in ["x3d", "crazyflie21"] {
         let s = Scenario::parse(
-            &std::fs::read_to_string(super::root().join("scenarios/identify-rotor-drag.yaml")).unwrap().replace("  - name: x3d\n", &format!("  - name: x3d\n    model: {{ preset: {preset} }}\n")),
+            &std::fs::read_to_string(super::root().join("scenarios/identify-rotor-drag.yaml"))
+                .unwrap()
+                .replace("  - name: x3d\n", &format!("  - name: x3d\n    model: {{ preset: {preset} }}\n")),
             std::path::Path::new("drag.yaml"),
         )
         .unwrap();
@@ -53,48 +55,78 @@ fn each_check_cuts_what_it_is_for() {
     let cases: Vec<(&str, QualityChannel, f64, Corrupt)> = vec![
         // the gyro at 99 % of its full scale: its disagreement with the mocap (≈ 0.99·FS) stays
         // under the 300 °/s bound, so only the full-scale check sees it
-        ("gyro full scale", QualityChannel::Gyro, 11.0, Box::new(move |s: &mut Series| {
-            for i in rows(s, 11.0, 11.03) {
-                s.gyro_body[i].x = 0.99 * g_fs;
-            }
-        })),
+        (
+            "gyro full scale",
+            QualityChannel::Gyro,
+            11.0,
+            Box::new(move |s: &mut Series| {
+                for i in rows(s, 11.0, 11.03) {
+                    s.gyro_body[i].x = 0.99 * g_fs;
+                }
+            }),
+        ),
         // the accelerometer saturated while the mocap has lost the vehicle for 0.2 s: with no
         // pose to compare with, only the full scale can tell
-        ("accel full scale, no mocap", QualityChannel::Accel, 12.5, Box::new(|s: &mut Series| {
-            for i in rows(s, 12.4, 12.6) {
-                s.mocap_ok[i] = false;
-            }
-            let i = rows(s, 12.5, 13.0).start;
-            s.accel_body[i].z = -0.99 * s.model.imu_range.accel_m_s2;
-        })),
+        (
+            "accel full scale, no mocap",
+            QualityChannel::Accel,
+            12.5,
+            Box::new(|s: &mut Series| {
+                for i in rows(s, 12.4, 12.6) {
+                    s.mocap_ok[i] = false;
+                }
+                let i = rows(s, 12.5, 13.0).start;
+                s.accel_body[i].z = -0.99 * s.model.imu_range.accel_m_s2;
+            }),
+        ),
         // +5 g on the accelerometer's x for one sample: 49 m/s², under the ±6 g full scale
-        ("accel spike", QualityChannel::Accel, 15.0, Box::new(|s: &mut Series| {
-            let i = rows(s, 15.0, 16.0).start;
-            s.accel_body[i].x += 5.0 * G;
-        })),
+        (
+            "accel spike",
+            QualityChannel::Accel,
+            15.0,
+            Box::new(|s: &mut Series| {
+                let i = rows(s, 15.0, 16.0).start;
+                s.accel_body[i].x += 5.0 * G;
+            }),
+        ),
         // the mocap teleports 1 m for 0.1 s (a marker swap): a jump, excluded from the IMU check
-        ("mocap jump", QualityChannel::Mocap, 18.0, Box::new(|s: &mut Series| {
-            for i in rows(s, 18.0, 18.1) {
-                s.pos_mocap_nav[i] += Vector3::new(1.0, 0.0, 0.0);
-            }
-        })),
+        (
+            "mocap jump",
+            QualityChannel::Mocap,
+            18.0,
+            Box::new(|s: &mut Series| {
+                for i in rows(s, 18.0, 18.1) {
+                    s.pos_mocap_nav[i] += Vector3::new(1.0, 0.0, 0.0);
+                }
+            }),
+        ),
         // the accelerometer repeats one reading for 0.5 s while the vehicle flies its circles
-        ("accel stuck", QualityChannel::Accel, 9.5, Box::new(|s: &mut Series| {
-            let r = rows(s, 9.5, 10.0);
-            let v = s.accel_body[r.start];
-            for i in r {
-                s.accel_body[i] = v;
-            }
-        })),
+        (
+            "accel stuck",
+            QualityChannel::Accel,
+            9.5,
+            Box::new(|s: &mut Series| {
+                let r = rows(s, 9.5, 10.0);
+                let v = s.accel_body[r.start];
+                for i in r {
+                    s.accel_body[i] = v;
+                }
+            }),
+        ),
         // the mocap freezes for 0.5 s during the yaw spin (the gyro turns ≈ 20°)
-        ("mocap frozen", QualityChannel::Mocap, 24.0, Box::new(|s: &mut Series| {
-            let r = rows(s, 24.0, 24.5);
-            let (p, q) = (s.pos_mocap_nav[r.start], s.att_mocap[r.start]);
-            for i in r {
-                s.pos_mocap_nav[i] = p;
-                s.att_mocap[i] = q;
-            }
-        })),
+        (
+            "mocap frozen",
+            QualityChannel::Mocap,
+            24.0,
+            Box::new(|s: &mut Series| {
+                let r = rows(s, 24.0, 24.5);
+                let (p, q) = (s.pos_mocap_nav[r.start], s.att_mocap[r.start]);
+                for i in r {
+                    s.pos_mocap_nav[i] = p;
+                    s.att_mocap[i] = q;
+                }
+            }),
+        ),
     ];
     for (name, channel, at, corrupt) in cases {
         let mut s = clean.clone();
@@ -117,7 +149,9 @@ fn each_check_cuts_what_it_is_for() {
 /// disagreement bound is what decides): 10 rad/s of gyro in hover is cut.
 #[test]
 fn gyro_that_disagrees_with_the_mocap_is_cut() {
-    let src = std::fs::read_to_string(super::root().join("scenarios/identify-rotor-drag.yaml")).unwrap().replace("  - name: x3d\n", "  - name: x3d\n    model: { preset: crazyflie21 }\n");
+    let src = std::fs::read_to_string(super::root().join("scenarios/identify-rotor-drag.yaml"))
+        .unwrap()
+        .replace("  - name: x3d\n", "  - name: x3d\n    model: { preset: crazyflie21 }\n");
     let scen = Scenario::parse(&src, std::path::Path::new("cf.yaml")).unwrap();
     let (_, mut s) = run_and_log(&scen, 0, "cf").unwrap();
     for i in rows(&s, 6.0, 6.05) {

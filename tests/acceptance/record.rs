@@ -2,8 +2,8 @@
 //! deterministic content.
 
 use super::root;
-use flyarena::run::{Outcome, run_scenario};
 use flyarena::record::{RecordOptions, decode, encode, recording_id};
+use flyarena::run::{Outcome, run_scenario};
 use flyarena::scenario::Scenario;
 
 fn fig6() -> (Scenario, flyarena::engine::RunOutput, Option<flyarena::engine::RunOutput>, flyarena::requirements::Report) {

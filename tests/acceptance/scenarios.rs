@@ -13,11 +13,7 @@ fn round(x: f64, digits: i32) -> f64 {
 
 #[test]
 fn every_scenario_meets_its_requirements() {
-    let mut files: Vec<_> = std::fs::read_dir(super::root().join("scenarios"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
-        .collect();
+    let mut files: Vec<_> = std::fs::read_dir(super::root().join("scenarios")).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "yaml")).collect();
     files.sort();
     assert!(files.len() >= 8, "expected the scenario set, found {files:?}");
     for f in files {
