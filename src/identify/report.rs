@@ -16,6 +16,14 @@ fn pct(x: Option<f64>) -> String {
     x.map_or("—".into(), |v| format!("{v:.1}%"))
 }
 
+/// One parameter as printed: "name value ± half-width unit", or "name value unit (not
+/// identifiable)" when the flight cannot back an interval; `num` formats the numbers.
+pub fn param_text(p: &super::select::Param, num: impl Fn(f64) -> String) -> String {
+    if p.identifiable { format!("{} {} ± {} {}", p.name, num(p.value), num(p.ci95), p.unit) } else { format!("{} {} {} (not identifiable)", p.name, num(p.value), p.unit) }
+        .trim_end()
+        .to_string()
+}
+
 pub fn render(r: &Report) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "identify: {}", r.source);
@@ -57,19 +65,7 @@ pub fn render(r: &Report) -> String {
     if !r.effects.is_empty() {
         let _ = writeln!(s, "\n  effects found (least squares, 95 % Newey–West intervals):");
         for f in &r.effects {
-            let ps: Vec<String> = f
-                .params
-                .iter()
-                .map(|p| {
-                    if p.identifiable {
-                        format!("{} {} ± {} {}", p.name, sig(p.value), sig(p.ci95), p.unit)
-                    } else {
-                        format!("{} {} {} (not identifiable)", p.name, sig(p.value), p.unit)
-                    }
-                    .trim_end()
-                    .to_string()
-                })
-                .collect();
+            let ps: Vec<String> = f.params.iter().map(|p| param_text(p, sig)).collect();
             let _ = writeln!(s, "    {:<34} {}", f.name, ps.join(", "));
         }
     }

@@ -157,17 +157,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
         let cuts: Vec<String> = Channel::ALL.iter().map(|c| format!("{} {}", c.name(), pct(channel_cut(&r.errors, *c)))).collect();
         text += &format!("\n  {name}: {}\n", cuts.join(", "));
         for f in &r.effects {
-            let ps: Vec<String> = f
-                .params
-                .iter()
-                .map(|p| {
-                    if p.identifiable {
-                        format!("{} {:.3} ± {:.3} {}", p.name, p.value, p.ci95, p.unit)
-                    } else {
-                        format!("{} {:.3} {} (not identifiable)", p.name, p.value, p.unit)
-                    }
-                })
-                .collect();
+            let ps: Vec<String> = f.params.iter().map(|p| report::param_text(p, |x| format!("{x:.3}"))).collect();
             text += &format!("    {:<34} {}\n", f.name, ps.join(", "));
         }
         if let Some(g) = &r.ground_check {
