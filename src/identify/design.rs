@@ -83,7 +83,8 @@ pub struct Design {
     /// Measured signals a leftover residual may follow (name, samples): the leads of "what is
     /// left". Time (a drift), speed and body velocity (drag), body rates and their derivative
     /// (an IMU lever arm), specific force (accelerometer scale and cross-axis), thrust and
-    /// battery (motor-speed effects), height (ground effect).
+    /// battery (motor-speed effects), height (ground effect). Empty unless built by
+    /// [`build_with_signals`].
     pub signals: Vec<Signal>,
 }
 
@@ -216,6 +217,16 @@ impl Default for DesignOptions {
 }
 
 pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
+    build_inner(s, corr, opt, false)
+}
+
+/// [`build`], with the measured [`Design::signals`] (the leads of "what is left"; built once, for
+/// the final model, not in every fit).
+pub fn build_with_signals(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
+    build_inner(s, corr, opt, true)
+}
+
+fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals: bool) -> Design {
     let n = s.len();
     let dt = s.dt();
     let kernel = gaussian_kernel(opt.smoothing_s / dt);
@@ -399,31 +410,35 @@ pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
     let kf = Channel::Force.index();
     let kg = Channel::Gyro.index();
     let sig = |name: &'static str, v: Vec<f64>, excludes: Vec<(usize, usize)>| Signal { name, samples: v, excludes };
-    let mut signals: Vec<Signal> = vec![
-        sig("time (s)", s.t_s.clone(), vec![]),
-        sig("speed (m/s)", vel_nav.iter().map(|v| v.norm()).collect(), vec![]),
-        sig("body velocity x (m/s)", v_body.iter().map(|v| v.x).collect(), vec![]),
-        sig("body velocity y (m/s)", v_body.iter().map(|v| v.y).collect(), vec![]),
-        sig("body velocity z (m/s)", v_body.iter().map(|v| v.z).collect(), vec![]),
-        sig("body rate norm (rad/s)", gyro_s.iter().map(|w| w.norm()).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]),
-        sig("body rate x (rad/s)", gyro_s.iter().map(|w| w.x).collect(), vec![(kg, 0)]),
-        sig("body rate y (rad/s)", gyro_s.iter().map(|w| w.y).collect(), vec![(kg, 1)]),
-        sig("body rate z (rad/s)", gyro_s.iter().map(|w| w.z).collect(), vec![(kg, 2)]),
-        sig("angular acceleration x (rad/s²)", omega_dot.iter().map(|w| w.x).collect(), vec![]),
-        sig("angular acceleration y (rad/s²)", omega_dot.iter().map(|w| w.y).collect(), vec![]),
-        sig("angular acceleration z (rad/s²)", omega_dot.iter().map(|w| w.z).collect(), vec![]),
-        sig("specific force x (m/s²)", accel_s.iter().map(|f| f.x).collect(), vec![(ka, 0), (kf, 0)]),
-        sig("specific force y (m/s²)", accel_s.iter().map(|f| f.y).collect(), vec![(ka, 1), (kf, 1)]),
-        sig("specific force z (m/s²)", accel_s.iter().map(|f| f.z).collect(), vec![(ka, 2), (kf, 2)]),
-        sig("height (m)", height.iter().map(|h| if h.is_finite() { *h } else { 0.0 }).collect(), vec![]),
-    ];
-    if let Some(t) = &thrust_s {
-        signals.push(sig("thrust (N)", t.clone(), vec![]));
-    }
-    if let Some(v) = &s.vbat_v {
-        signals.push(sig("battery (V)", v.clone(), vec![]));
-    }
-    let signals = signals.into_iter().map(|x| Signal { samples: pick(&x.samples), ..x }).collect();
+    let signals = if with_signals {
+        let mut signals: Vec<Signal> = vec![
+            sig("time (s)", s.t_s.clone(), vec![]),
+            sig("speed (m/s)", vel_nav.iter().map(|v| v.norm()).collect(), vec![]),
+            sig("body velocity x (m/s)", v_body.iter().map(|v| v.x).collect(), vec![]),
+            sig("body velocity y (m/s)", v_body.iter().map(|v| v.y).collect(), vec![]),
+            sig("body velocity z (m/s)", v_body.iter().map(|v| v.z).collect(), vec![]),
+            sig("body rate norm (rad/s)", gyro_s.iter().map(|w| w.norm()).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]),
+            sig("body rate x (rad/s)", gyro_s.iter().map(|w| w.x).collect(), vec![(kg, 0)]),
+            sig("body rate y (rad/s)", gyro_s.iter().map(|w| w.y).collect(), vec![(kg, 1)]),
+            sig("body rate z (rad/s)", gyro_s.iter().map(|w| w.z).collect(), vec![(kg, 2)]),
+            sig("angular acceleration x (rad/s²)", omega_dot.iter().map(|w| w.x).collect(), vec![]),
+            sig("angular acceleration y (rad/s²)", omega_dot.iter().map(|w| w.y).collect(), vec![]),
+            sig("angular acceleration z (rad/s²)", omega_dot.iter().map(|w| w.z).collect(), vec![]),
+            sig("specific force x (m/s²)", accel_s.iter().map(|f| f.x).collect(), vec![(ka, 0), (kf, 0)]),
+            sig("specific force y (m/s²)", accel_s.iter().map(|f| f.y).collect(), vec![(ka, 1), (kf, 1)]),
+            sig("specific force z (m/s²)", accel_s.iter().map(|f| f.z).collect(), vec![(ka, 2), (kf, 2)]),
+            sig("height (m)", height.iter().map(|h| if h.is_finite() { *h } else { 0.0 }).collect(), vec![]),
+        ];
+        if let Some(t) = &thrust_s {
+            signals.push(sig("thrust (N)", t.clone(), vec![]));
+        }
+        if let Some(v) = &s.vbat_v {
+            signals.push(sig("battery (V)", v.clone(), vec![]));
+        }
+        signals.into_iter().map(|x| Signal { samples: pick(&x.samples), ..x }).collect()
+    } else {
+        Vec::new()
+    };
     let measured = measured.map(|c| c.map(|a| pick(&a)));
     let predicted = predicted.map(|c| c.map(|a| pick(&a)));
     let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));

@@ -190,21 +190,55 @@ pub const LEAD_MIN_CORR: f64 = 0.1;
 /// At most this many leads per channel axis.
 pub const LEAD_MAX: usize = 3;
 
-/// The leads of one residual: the measured signals it follows (see [`Left::correlates`]).
-fn leads(d: &Design, c: usize, a: usize, residual: &[f64]) -> Vec<Correlate> {
+/// The measured signals of a design built with signals, masked to its usable samples, with
+/// their autocorrelations (lags 1..=50), computed once for every channel axis.
+struct LeadSignals<'a> {
+    design: &'a Design,
+    masked: Vec<Vec<f64>>,
+    acf: Vec<Vec<f64>>,
+}
+
+fn lead_signals(d: &Design) -> LeadSignals<'_> {
+    let masked: Vec<Vec<f64>> = d.signals.iter().map(|sg| (0..d.n).map(|i| if d.ok[i] { sg.samples[i] } else { f64::NAN }).collect()).collect();
+    let acf = masked.iter().map(|x| super::stats::autocorrelation(x, 50).0).collect();
+    LeadSignals { design: d, masked, acf }
+}
+
+/// The leads of one residual of channel `c`, axis `a`: the measured signals it follows (see
+/// [`Left::correlates`]).
+fn leads(ls: &LeadSignals, c: usize, a: usize, residual: &[f64]) -> Vec<Correlate> {
+    let d = ls.design;
     let r: Vec<f64> = (0..d.n).map(|i| if d.ok[i] { residual[i] } else { f64::NAN }).collect();
-    let mut out: Vec<Correlate> = d
-        .signals
-        .iter()
-        .filter(|sg| !sg.excludes.contains(&(c, a)))
-        .filter_map(|sg| {
-            let (name, x) = (sg.name, &sg.samples);
-            let (c, n_eff) = super::stats::correlation(&r, x, 50);
-            // two-sided test of r = 0 (r·√n_eff ~ N(0, 1)), Bonferroni over the signals
-            let p = super::stats::chi2_sf(c * c * n_eff, 1.0);
-            (n_eff > 0.0 && c.abs() >= LEAD_MIN_CORR && p < 0.01 / d.signals.len() as f64).then(|| Correlate { signal: name.to_string(), r: c, n_eff })
-        })
-        .collect();
+    let idx: Vec<usize> = (0..d.n).filter(|&i| r[i].is_finite()).collect();
+    if idx.len() < 3 {
+        return Vec::new();
+    }
+    let (r_acf, _) = super::stats::autocorrelation(&r, 50);
+    let mr = idx.iter().map(|&i| r[i]).sum::<f64>() / idx.len() as f64;
+    let srr: f64 = idx.iter().map(|&i| (r[i] - mr).powi(2)).sum();
+    let mut out: Vec<Correlate> = Vec::new();
+    for (k, sg) in d.signals.iter().enumerate() {
+        if sg.excludes.contains(&(c, a)) {
+            continue;
+        }
+        let x = &ls.masked[k];
+        let mx = idx.iter().map(|&i| x[i]).sum::<f64>() / idx.len() as f64;
+        let (mut sxy, mut sxx) = (0.0, 0.0);
+        for &i in &idx {
+            sxy += (r[i] - mr) * (x[i] - mx);
+            sxx += (x[i] - mx).powi(2);
+        }
+        if sxx <= 0.0 || srr <= 0.0 {
+            continue;
+        }
+        let rho = sxy / (sxx * srr).sqrt();
+        let n_eff = super::stats::effective_n(idx.len(), &r_acf, &ls.acf[k]);
+        // two-sided test of r = 0 (r·√n_eff ~ N(0, 1)), Bonferroni over the signals
+        let p = super::stats::chi2_sf(rho * rho * n_eff, 1.0);
+        if rho.abs() >= LEAD_MIN_CORR && p < 0.01 / d.signals.len() as f64 {
+            out.push(Correlate { signal: sg.name.to_string(), r: rho, n_eff });
+        }
+    }
     out.sort_by(|a, b| b.r.abs().total_cmp(&a.r.abs()));
     out.truncate(LEAD_MAX);
     out
@@ -1001,6 +1035,9 @@ fn select(s: &Series, o: &Options) -> Report {
     // errors before (nominal, no corrections) → after, on the held-out part
     let nominal_design = build(s, &Corrections::default(), &o.design);
     let d = &state.design;
+    // the same design with the measured signals, for the leads of what is left
+    let with_signals = super::design::build_with_signals(s, &state_corr, &o.design);
+    let lead_sigs = lead_signals(&with_signals);
     let mut errors = Vec::new();
     let mut whiteness = Vec::new();
     let mut left = Vec::new();
@@ -1020,7 +1057,7 @@ fn select(s: &Series, o: &Options) -> Report {
         let mut w = Vec::new();
         ar.whiten(&after, &ok, &mut w);
         let lb = ljung_box(&w, 20, ar.order());
-        let correlates = leads(d, c, a, &after);
+        let correlates = leads(&lead_sigs, c, a, &after);
         let err = errors.last().expect("pushed above");
         left.push(Left {
             channel: ch,

@@ -303,9 +303,14 @@ pub fn correlation(x: &[f64], y: &[f64], max_lag: usize) -> (f64, f64) {
     let r = sxy / (sxx * syy).sqrt();
     let (rx, _) = autocorrelation(&xs, max_lag);
     let (ry, _) = autocorrelation(&ys, max_lag);
-    let inflation = 1.0 + 2.0 * rx.iter().zip(&ry).map(|(a, b)| a * b).sum::<f64>();
-    let n_eff = (n as f64 / inflation.max(1e-9)).clamp(2.0, n as f64);
-    (r, n_eff)
+    (r, effective_n(n, &rx, &ry))
+}
+
+/// Bartlett's effective sample size of n pairs whose series have the autocorrelations rx, ry
+/// (lags 1..): n / (1 + 2·Σ ρ_x(k)·ρ_y(k)), clamped to [2, n].
+pub fn effective_n(n: usize, rx: &[f64], ry: &[f64]) -> f64 {
+    let inflation: f64 = 1.0 + 2.0 * rx.iter().zip(ry).map(|(a, b)| a * b).sum::<f64>();
+    (n as f64 / inflation.max(1e-9)).clamp(2.0, n as f64)
 }
 
 /// The Ljung–Box portmanteau test: Q = n(n+2)·Σ_{k=1..h} ρ_k²/(n−k), compared with χ²(h − fitted).
