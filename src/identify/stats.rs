@@ -275,39 +275,9 @@ pub fn autocorrelation(x: &[f64], max_lag: usize) -> (Vec<f64>, usize) {
     (r, n)
 }
 
-/// Pearson correlation of x and y over the samples where both are finite, with Bartlett's
-/// effective sample size for two autocorrelated series,
-/// n_eff = n / (1 + 2·Σ_{k=1..L} ρ_x(k)·ρ_y(k)) (clamped to [2, n]),
-/// under which r is approximately N(0, 1/n_eff) when x and y are independent.
-/// Returns (r, n_eff); (0, 0) when either is constant or fewer than 3 samples remain.
-pub fn correlation(x: &[f64], y: &[f64], max_lag: usize) -> (f64, f64) {
-    let both: Vec<f64> = x.iter().zip(y).map(|(a, b)| if a.is_finite() && b.is_finite() { 0.0 } else { f64::NAN }).collect();
-    let xs: Vec<f64> = x.iter().zip(&both).map(|(a, m)| a + m).collect();
-    let ys: Vec<f64> = y.iter().zip(&both).map(|(a, m)| a + m).collect();
-    let idx: Vec<usize> = (0..xs.len()).filter(|&k| xs[k].is_finite()).collect();
-    let n = idx.len();
-    if n < 3 {
-        return (0.0, 0.0);
-    }
-    let mx = idx.iter().map(|&k| xs[k]).sum::<f64>() / n as f64;
-    let my = idx.iter().map(|&k| ys[k]).sum::<f64>() / n as f64;
-    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
-    for &k in &idx {
-        sxy += (xs[k] - mx) * (ys[k] - my);
-        sxx += (xs[k] - mx).powi(2);
-        syy += (ys[k] - my).powi(2);
-    }
-    if sxx <= 0.0 || syy <= 0.0 {
-        return (0.0, 0.0);
-    }
-    let r = sxy / (sxx * syy).sqrt();
-    let (rx, _) = autocorrelation(&xs, max_lag);
-    let (ry, _) = autocorrelation(&ys, max_lag);
-    (r, effective_n(n, &rx, &ry))
-}
-
 /// Bartlett's effective sample size of n pairs whose series have the autocorrelations rx, ry
-/// (lags 1..): n / (1 + 2·Σ ρ_x(k)·ρ_y(k)), clamped to [2, n].
+/// (lags 1..): n / (1 + 2·Σ ρ_x(k)·ρ_y(k)), clamped to [2, n]. Under it the Pearson correlation
+/// of two independent autocorrelated series is approximately N(0, 1/n_eff).
 pub fn effective_n(n: usize, rx: &[f64], ry: &[f64]) -> f64 {
     let inflation: f64 = 1.0 + 2.0 * rx.iter().zip(ry).map(|(a, b)| a * b).sum::<f64>();
     (n as f64 / inflation.max(1e-9)).clamp(2.0, n as f64)
@@ -333,6 +303,24 @@ pub fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Bartlett's formula in closed form: two AR(1) series with φ_x, φ_y have
+    /// Σ_{k≥1} φ_x^k φ_y^k = φ_xφ_y/(1 − φ_xφ_y), so n_eff = n(1 − φ_xφ_y)/(1 + φ_xφ_y); white
+    /// series keep n; a clamp keeps n_eff in [2, n].
+    #[test]
+    fn effective_n_is_bartletts_closed_form() {
+        let acf = |phi: f64| (1..=2000).map(|k| phi.powi(k)).collect::<Vec<f64>>();
+        let n = 10_000;
+        for (px, py) in [(0.5, 0.5), (0.9, 0.3), (0.8, 0.0)] {
+            let want = n as f64 * (1.0 - px * py) / (1.0 + px * py);
+            let got = effective_n(n, &acf(px), &acf(py));
+            assert!((got / want - 1.0).abs() < 1e-9, "φ {px}, {py}: {got} vs {want}");
+        }
+        assert_eq!(effective_n(n, &[0.0; 50], &[0.3; 50]), n as f64);
+        // anti-correlated lags would inflate n: clamped to n; strongly persistent ones: at least 2
+        assert_eq!(effective_n(n, &acf(-0.9), &acf(0.9)), n as f64);
+        assert_eq!(effective_n(10, &[1.0; 50], &[1.0; 50]), 2.0);
+    }
     use crate::rng::{Component, Stream};
 
     #[test]

@@ -124,3 +124,27 @@ fn ground_and_flight_agree_when_nothing_moved() {
         assert!(a.roll.difference_deg.abs() < 0.1 && a.pitch.difference_deg.abs() < 0.1, "{name}: {a:?}");
     }
 }
+
+/// A world tilt reads at rest as a body tilt turned by the rest yaw. The world-tilt flight with
+/// its mocap world relabelled by a 90° yaw (every pose turned about the vertical: the same
+/// flight, a camera frame whose x points East) holds the tilt along the other axis; the
+/// vehicle rests at yaw 90° in it, and the agreement must turn the fitted world tilt back into
+/// the body frame to match the (unchanged) ground check.
+#[test]
+fn a_world_tilt_is_turned_by_the_rest_yaw() {
+    let s = scenario("identify-world-tilt.yaml", |t| t);
+    let (_, mut series) = run_and_log(&s, 0, "yawed").unwrap();
+    let yaw = nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2);
+    for i in 0..series.len() {
+        series.att_mocap[i] = yaw * series.att_mocap[i];
+        series.pos_mocap_nav[i] = yaw * series.pos_mocap_nav[i];
+    }
+    assert!((ground::rest_yaw(&series).unwrap() - std::f64::consts::FRAC_PI_2).abs() < 0.02);
+    let r = identify(&series, &Options::default()).unwrap();
+    assert!(r.effect(Effect::WorldTilt).is_some(), "{:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());
+    // the tilt (0.8°, −0.5°) is now about the other axes of the relabelled world
+    let (tx, ty) = (r.param(Effect::WorldTilt, "roll").unwrap(), r.param(Effect::WorldTilt, "pitch").unwrap());
+    assert!((tx - 0.5).abs() < 0.05 && (ty - 0.8).abs() < 0.05, "world tilt {tx}, {ty}");
+    let a = r.ground_agreement.unwrap();
+    assert!(a.roll.covers && a.pitch.covers && a.roll.difference_deg.abs() < 0.1 && a.pitch.difference_deg.abs() < 0.1, "{a:?}");
+}
