@@ -106,7 +106,7 @@ pub fn render(r: &Report) -> String {
         }
     }
     if let Some(a) = &r.ground_agreement {
-        let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs body offset):");
+        let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs the frame tilt, body offset + world tilt):");
         for (name, t) in [("roll", &a.roll), ("pitch", &a.pitch)] {
             let _ = writeln!(
                 s,

@@ -45,19 +45,12 @@ use crate::rng::{Component, Stream};
 use crate::scenario::Scenario;
 use std::fmt::Write as _;
 
-/// The effects drawn as 0–3 of a flight's hidden effects (the ground effect is drawn on its
-/// own, only for flights with a low hover).
-pub const SIMULATED: [Effect; 9] = [
-    Effect::BodyOffset,
-    Effect::WorldTilt,
-    Effect::MocapDelay,
-    Effect::AccelBias,
-    Effect::GyroBias,
-    Effect::RotorDrag,
-    Effect::ConstantForce,
-    Effect::ThrustScale,
-    Effect::LeverArm,
-];
+/// The effects drawn as 0–3 of a flight's hidden effects, in [`Effect::ALL`] order: every
+/// candidate but `thrust_voltage` (not simulated: no battery model) and the ground effect
+/// (drawn on its own, only for flights with a low hover).
+pub fn simulated() -> Vec<Effect> {
+    Effect::ALL.iter().copied().filter(|e| !matches!(e, Effect::ThrustVoltage | Effect::GroundEffect)).collect()
+}
 
 /// One drawn trial.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -104,7 +97,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
     let weight = if cf { 0.034 * 9.81 } else { 0.68 * 9.81 };
     // hidden effects: 0–3 distinct ones
     let count = d.pick(4);
-    let mut pool: Vec<Effect> = SIMULATED.to_vec();
+    let mut pool: Vec<Effect> = simulated();
     let mut hidden = Vec::new();
     for _ in 0..count {
         let e = pool.remove(d.pick(pool.len()));
