@@ -127,6 +127,6 @@ impl Effect {
     }
     /// Applied exactly through [`Corrections`](crate::identify::Corrections) (re-linearised after each fit), not additively.
     pub fn is_correction(self) -> bool {
-        matches!(self, Effect::BodyOffset | Effect::WorldTilt | Effect::MocapDelay)
+        matches!(self, Effect::BodyOffset | Effect::WorldTilt | Effect::MocapDelay | Effect::LeverArm)
     }
 }

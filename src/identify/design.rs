@@ -39,7 +39,9 @@
 //!
 //! The lever arm: the mocap tracks the marker template's origin, the IMU sits at r from it. A
 //! rigid body's point r has the specific force of the tracked point plus ω̇×r + ω×(ω×r), so the
-//! accelerometer reads that much more than the mocap implies. Only the difference IMU − tracked
+//! accelerometer reads that much more than the mocap implies. Like the rotations and the delay
+//! it is then folded into the [`Corrections`]: the corrected trajectory is the IMU's point
+//! (p + R·r), whose velocity is also what the drag columns see. Only the difference IMU − tracked
 //! point is seen by `accel_kin`; the force channel (IMU against thrust) would see the IMU's
 //! offset from the centre of mass instead, which the library does not model. In flyarena's
 //! simulator the IMU sits at the centre of mass, so uniformly displaced markers d are a lever
@@ -162,6 +164,28 @@ fn smooth_into(x: &[f64], segs: &[(usize, usize)], kernel: &[f64], out: &mut [f6
     }
 }
 
+/// [`smooth_vec3`] evaluated only at the rows that decimation keeps (i % stride == 0); the
+/// other rows keep their raw values and must not be read. For signals that are not
+/// differentiated afterwards, this saves (stride − 1)/stride of the work.
+fn smooth_vec3_kept(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64], stride: usize) -> Vec<Vector3<f64>> {
+    let h = kernel.len() / 2;
+    let mut out = x.to_vec();
+    for &(a, b) in segs {
+        if b - a <= 2 * h {
+            continue;
+        }
+        let first = (a + h).div_ceil(stride) * stride;
+        for i in (first..b - h).step_by(stride) {
+            let mut s = Vector3::zeros();
+            for (j, w) in kernel.iter().enumerate() {
+                s += *w * x[i + j - h];
+            }
+            out[i] = s;
+        }
+    }
+    out
+}
+
 pub(crate) fn smooth_vec3(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64]) -> Vec<Vector3<f64>> {
     let n = x.len();
     let mut out = vec![Vector3::zeros(); n];
@@ -247,7 +271,6 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let outliers = glitches.len();
     let segs = &s.segments;
     let g = s.model.gravity_m_s2;
-    let g_nav = Vector3::new(0.0, 0.0, g);
 
     // mask: inside a segment by more than the filter reach, every pose in reach valid
     let mut ok = vec![false; n];
@@ -278,11 +301,13 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
         }
     }
 
+    // decimation keeps one row per σ (below); what is not differentiated is smoothed only there
+    let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
     let pos_s = smooth_vec3(&pos_nav, segs, &kernel);
     let gyro_s = smooth_vec3(&s.gyro_body, segs, &kernel);
     let accel_s = smooth_vec3(&s.accel_body, segs, &kernel);
     // mocap body rates from neighbouring poses
-    let omega_s = smooth_vec3(&body_rates(&att_body, &s.t_s, segs), segs, &kernel);
+    let omega_s = smooth_vec3_kept(&body_rates(&att_body, &s.t_s, segs), segs, &kernel, stride);
     let mut vel_nav = vec![Vector3::zeros(); n];
     let mut acc_nav = vec![Vector3::zeros(); n];
     for &(a, b) in segs {
@@ -291,16 +316,6 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
             acc_nav[i] = second_difference(&pos_s, &s.t_s, i);
         }
     }
-    let rot_t: Vec<nalgebra::Matrix3<f64>> = att_body.iter().map(|q: &UnitQuaternion<f64>| q.to_rotation_matrix().matrix().transpose()).collect();
-    // f̂ = Rᵀ(p̈ − g·e_D), with gravity's part rotated *before* it is smoothed: the IMU is the
-    // smoothed Rᵀ(a − g·e_D), and smoothing after the rotation is not smoothing before it:
-    // K*(Rᵀg) − Rᵀg ≈ (σ²/2)·d²(Rᵀg)/dt², whose x is g·σ²/2·ω̇_y — an apparent lever arm of
-    // g·σ²/2 = 2 mm along z at σ = 20 ms (found as a +2 mm bias in every simulated lever arm).
-    // p̈ is small against g, so its own rotation-smoothing mismatch is left.
-    let grav_body: Vec<Vector3<f64>> = rot_t.iter().map(|r| r * (-g_nav)).collect();
-    let grav_body_s = smooth_vec3(&grav_body, segs, &kernel);
-    let f_hat: Vec<Vector3<f64>> = (0..n).map(|i| rot_t[i] * acc_nav[i] + grav_body_s[i]).collect();
-    let v_body: Vec<Vector3<f64>> = (0..n).map(|i| rot_t[i] * vel_nav[i]).collect();
     let deriv = |x: &[Vector3<f64>]| -> Vec<Vector3<f64>> {
         let mut d = vec![Vector3::zeros(); n];
         for &(a, b) in segs {
@@ -310,11 +325,46 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
         }
         d
     };
+    let jerk_nav = deriv(&acc_nav);
+    let omega_dot_imu = deriv(&gyro_s);
+    let rot_t: Vec<nalgebra::Matrix3<f64>> = att_body.iter().map(|q: &UnitQuaternion<f64>| q.to_rotation_matrix().matrix().transpose()).collect();
+    // Everything body-frame that is compared with the smoothed IMU must be rotated *before* it
+    // is smoothed, as the IMU is: the IMU reads K*(Rᵀ(p̈ − g·e_D)). For a Gaussian of σ (s),
+    // to second order (Ṙᵀ = −[ω]×Rᵀ, R̈ᵀ = ([ω]×² − [ω̇]×)Rᵀ):
+    //   K*(Rᵀx) = Rᵀ(K*x) + σ²·Ṙᵀẋ + (σ²/2)·R̈ᵀx
+    //           = Rᵀ(K*x) − σ²·ω×(Rᵀẋ) + (σ²/2)·(ω×(ω×Rᵀx) − ω̇×Rᵀx).
+    // Leaving the correction out is not small: for gravity it is g·σ²/2·ω̇ (an apparent lever
+    // arm of 2 mm along z at σ = 20 ms), for p̈ it is σ²·ω×(jerk), which the delay column (ḟ)
+    // partly absorbs (+0.1–0.2 ms on simulated flights with no delay). Gravity is constant, so
+    // its image is smoothed exactly: K*(Rᵀg). For p̈ and v, rotating the raw differences
+    // instead would multiply the pose's attitude noise with its own position noise (the two
+    // come from the same markers and correlate: a bias of mm/s² in f̂); the correction above
+    // takes ω and ω̇ from the IMU, whose noise is independent of the mocap's.
+    let sigma2 = opt.smoothing_s * opt.smoothing_s;
+    let rotated = |i: usize, x: &Vector3<f64>, x_dot: &Vector3<f64>| -> Vector3<f64> {
+        let (w, wd) = (gyro_s[i], omega_dot_imu[i]);
+        let rx = rot_t[i] * x;
+        rx - sigma2 * w.cross(&(rot_t[i] * x_dot)) + 0.5 * sigma2 * (w.cross(&w.cross(&rx)) - wd.cross(&rx))
+    };
+    // body-frame images of the nav axes, K*(Rᵀe_j), smoothed after the rotation (exact: the
+    // axes are constant); gravity's image and the world-tilt columns are multiples of them:
+    // Rᵀ(−g·e_D) = −g·Rᵀe_D, g·e_D × e_N = g·e_E, g·e_D × e_E = −g·e_N
+    let unit = |j: usize| Vector3::from_fn(|r, _| if r == j { 1.0 } else { 0.0 });
+    let nav_axes: [Vec<Vector3<f64>>; 3] = std::array::from_fn(|j| smooth_vec3_kept(&rot_t.iter().map(|r| r * unit(j)).collect::<Vec<_>>(), segs, &kernel, stride));
+    let grav_body_s: Vec<Vector3<f64>> = nav_axes[2].iter().map(|v| -g * v).collect();
+    let tilt_cols: [Vec<Vector3<f64>>; 2] = [nav_axes[1].iter().map(|v| g * v).collect(), nav_axes[0].iter().map(|v| -g * v).collect()];
+    let f_hat: Vec<Vector3<f64>> = (0..n).map(|i| rotated(i, &acc_nav[i], &jerk_nav[i]) + grav_body_s[i]).collect();
+    let v_body: Vec<Vector3<f64>> = (0..n).map(|i| rotated(i, &vel_nav[i], &acc_nav[i])).collect();
     // regressors of the rotations and the delay come from the IMU side: to first order
     // f_imu − f̂ = δ × f = τ·ḟ with f the IMU's or the mocap's alike, but the IMU is far less noisy
     // than twice-differentiated mocap, and noise in a regressor biases its parameter towards zero
     let f_dot = deriv(&accel_s);
-    let omega_dot = deriv(&gyro_s);
+    let omega_dot = &omega_dot_imu;
+    // the lever arm's centripetal part ω×(ω×r) is quadratic in ω: smoothed after the product,
+    // as the IMU smooths it (the product of smoothed rates misses K*(ω×(ω×r)) by the rates' own
+    // high-frequency content)
+    let centripetal: [Vec<Vector3<f64>>; 3] =
+        std::array::from_fn(|j| smooth_vec3_kept(&s.gyro_body.iter().map(|w| w.cross(&w.cross(&unit(j)))).collect::<Vec<_>>(), segs, &kernel, stride));
     let thrust_s = s.thrust_n.as_ref().map(|t| {
         let mut o = vec![0.0; n];
         smooth_into(t, segs, &kernel, &mut o);
@@ -328,7 +378,6 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let mut measured = [empty3(), empty3(), empty3()];
     let mut predicted = [empty3(), empty3(), empty3()];
     let mut columns: [[Vec<Column>; 3]; 3] = Default::default();
-    let unit = |j: usize| Vector3::from_fn(|r, _| if r == j { 1.0 } else { 0.0 });
     for a in 0..3 {
         // accel_kin
         let c = Channel::AccelKin.index();
@@ -338,14 +387,14 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
             columns[c][a].push((col(Effect::BodyOffset, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
         }
         for j in 0..2 {
-            columns[c][a].push((col(Effect::WorldTilt, j), rot_t.iter().map(|r| (r * g_nav.cross(&unit(j)))[a]).collect()));
+            columns[c][a].push((col(Effect::WorldTilt, j), tilt_cols[j].iter().map(|v| v[a]).collect()));
         }
         columns[c][a].push((col(Effect::MocapDelay, 0), f_dot.iter().map(|v| v[a]).collect()));
         columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
         // the IMU at r from the point the mocap tracks (body FRD): it feels the rotation's
         // acceleration ω̇×r + ω×(ω×r) that the tracked point does not (linear in r)
         for j in 0..3 {
-            columns[c][a].push((col(Effect::LeverArm, j), (0..n).map(|i| (omega_dot[i].cross(&unit(j)) + gyro_s[i].cross(&gyro_s[i].cross(&unit(j))))[a]).collect()));
+            columns[c][a].push((col(Effect::LeverArm, j), (0..n).map(|i| (omega_dot[i].cross(&unit(j)) + centripetal[j][i])[a]).collect()));
         }
         // gyro
         let c = Channel::Gyro.index();
@@ -372,7 +421,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
                 .collect();
             columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
             for j in 0..3 {
-                columns[c][a].push((col(Effect::ConstantForce, j), rot_t.iter().map(|r| (r * unit(j))[a] / m.mass_kg).collect()));
+                columns[c][a].push((col(Effect::ConstantForce, j), nav_axes[j].iter().map(|v| v[a] / m.mass_kg).collect()));
             }
             if a < 2 {
                 columns[c][a].push((col(Effect::RotorDrag, a), v_body.iter().map(|v| -v[a]).collect()));
@@ -398,7 +447,6 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     };
     // decimate to one sample per σ: the smoothing is the anti-alias filter, and neighbouring
     // samples of a smoothed signal carry little new information but a lot of correlation
-    let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
     let keep: Vec<usize> = (0..n).step_by(stride).collect();
     let pick = |v: &Vec<f64>| -> Vec<f64> { if v.is_empty() { Vec::new() } else { keep.iter().map(|&i| v[i]).collect() } };
     let ok: Vec<bool> = keep.iter().map(|&i| ok[i]).collect();
@@ -443,4 +491,61 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let predicted = predicted.map(|c| c.map(|a| pick(&a)));
     let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));
     Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad, outliers, signals }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::series::NominalModel;
+
+    /// A rigid body turning at a constant yaw rate Ω while it swings along north,
+    /// p(t) = (A·sin νt, 0, −1) m, R = R_z(Ωt); the IMU reads the exact specific force
+    /// Rᵀ(p̈ − g·e_D) and rate (0, 0, Ω), no noise. The smoothed IMU is K*(Rᵀ(p̈ − g·e_D)); the
+    /// mocap side must be the same to second order in σ. Rotating the smoothed p̈ instead
+    /// (Rᵀ(K*p̈)) misses σ²·ω×(Rᵀ·jerk) + (σ²/2)·ω×(ω×Rᵀp̈): with A = 0.5 m, ν = 2π rad/s,
+    /// Ω = 2 rad/s and σ = 20 ms that is 4·10⁻⁴·2·124 ≈ 0.1 m/s². What remains is the second
+    /// difference's own error (νΔt)²/12·Aν² ≈ 1.6·10⁻³ m/s² and O(σ⁴) terms.
+    #[test]
+    fn the_mocap_specific_force_is_rotated_before_it_is_smoothed() {
+        let (dt, n, a, nu, omega, g) = (0.005, 4000, 0.5, 2.0 * std::f64::consts::PI, 2.0, 9.81);
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+        let att: Vec<UnitQuaternion<f64>> = t.iter().map(|t| UnitQuaternion::from_euler_angles(0.0, 0.0, omega * t)).collect();
+        let pos: Vec<Vector3<f64>> = t.iter().map(|t| Vector3::new(a * (nu * t).sin(), 0.0, -1.0)).collect();
+        let accel: Vec<Vector3<f64>> = t.iter().zip(&att).map(|(t, q)| q.inverse() * (Vector3::new(-a * nu * nu * (nu * t).sin(), 0.0, 0.0) - Vector3::new(0.0, 0.0, g))).collect();
+        let s = Series {
+            source: "swing".into(),
+            t_s: t,
+            pos_mocap_nav: pos,
+            att_mocap: att,
+            mocap_ok: vec![true; n],
+            gyro_body: vec![Vector3::new(0.0, 0.0, omega); n],
+            accel_body: accel,
+            // the motors run throughout: no floor, nothing masked for height
+            thrust_n: Some(vec![g; n]),
+            vbat_v: None,
+            segments: vec![(0, n)],
+            model: NominalModel {
+                vehicle: "test".into(),
+                mass_kg: 1.0,
+                rotor_drag_per_s: [0.0; 2],
+                rotor_radius_m: 0.1,
+                vbat_ref_v: 0.0,
+                gravity_m_s2: g,
+                thrust_rel_sd: 0.0,
+                imu_range: crate::vehicle::params::ImuRange::x3d(),
+            },
+            repairs: Vec::new(),
+        };
+        let d = build(&s, &Corrections::default(), &DesignOptions::default());
+        let c = Channel::AccelKin.index();
+        let mut worst: f64 = 0.0;
+        for ax in 0..3 {
+            let r = d.residual(c, ax);
+            for i in (0..d.n).filter(|&i| d.ok[i]) {
+                worst = worst.max(r[i].abs());
+            }
+        }
+        assert!(d.ok.iter().filter(|x| **x).count() > 900, "too few usable samples");
+        assert!(worst < 5e-3, "accel_kin residual of an exact rigid body {worst} m/s²");
+    }
 }

@@ -228,6 +228,8 @@ impl Mapping {
                 },
                 vbat_ref_v: map.map_or(0.0, |m| m.vbat_ref_v),
                 gravity_m_s2: GRAVITY,
+                // the PWM map's own error is a thrust scale, which identify fits
+                thrust_rel_sd: 0.0,
                 imu_range: params.imu_range,
             },
             repairs: Vec::new(),

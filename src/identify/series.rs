@@ -16,6 +16,10 @@ pub struct NominalModel {
     /// Reference battery voltage for the thrust–voltage regressor (V).
     pub vbat_ref_v: f64,
     pub gravity_m_s2: f64,
+    /// Relative 1σ accuracy of the thrust the model predicts from the commands, as a systematic
+    /// (one factor for the whole flight). Propagated into every interval (see
+    /// `select::thrust_systematic`); 0 claims an exact thrust model.
+    pub thrust_rel_sd: f64,
     /// Full scale of the vehicle's IMU (from its preset), for the data-quality gate.
     pub imu_range: crate::vehicle::params::ImuRange,
 }
@@ -112,11 +116,16 @@ pub struct Corrections {
     pub world_tilt: UnitQuaternion<f64>,
     /// The mocap stream is late by this much against the IMU (s): the pose stamped t was taken at t − τ.
     pub mocap_delay_s: f64,
+    /// Lever arm r from the point the mocap tracks to the IMU, body FRD (m): the corrected
+    /// position is the IMU's, p_imu = p_tracked + R·r, so that its second derivative is what the
+    /// accelerometer feels and its velocity what the drag sees (a rigid body's point r moves with
+    /// v + ω×r and accelerates with a + ω̇×r + ω×(ω×r)).
+    pub lever_arm_m: Vector3<f64>,
 }
 
 impl Default for Corrections {
     fn default() -> Self {
-        Corrections { body_offset: UnitQuaternion::identity(), world_tilt: UnitQuaternion::identity(), mocap_delay_s: 0.0 }
+        Corrections { body_offset: UnitQuaternion::identity(), world_tilt: UnitQuaternion::identity(), mocap_delay_s: 0.0, lever_arm_m: Vector3::zeros() }
     }
 }
 
@@ -154,8 +163,9 @@ pub fn correct(s: &Series, c: &Corrections) -> Corrected {
             } else {
                 (s.pos_mocap_nav[i], s.att_mocap[i], false)
             };
-            pos_nav.push(w_inv * p);
-            att_body.push(w_inv * q * off_inv);
+            let att = w_inv * q * off_inv;
+            pos_nav.push(w_inv * p + att * c.lever_arm_m);
+            att_body.push(att);
             ok[i] = good;
         }
     }
@@ -188,6 +198,7 @@ mod tests {
             rotor_radius_m: 0.1,
             vbat_ref_v: 3.7,
             gravity_m_s2: 9.81,
+            thrust_rel_sd: 0.0,
             imu_range: crate::vehicle::params::ImuRange::x3d(),
         }
     }

@@ -141,12 +141,15 @@ pub const Z_995: f64 = 2.575_829_303_548_901;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Ar {
     pub a: Vec<f64>,
+    /// Innovation standard deviation.
     pub sigma: f64,
+    /// Variance of the series the model was fitted to (its marginal variance, mean square).
+    pub marginal_var: f64,
 }
 
 impl Ar {
     pub fn white(sigma: f64) -> Ar {
-        Ar { a: Vec::new(), sigma }
+        Ar { a: Vec::new(), sigma, marginal_var: sigma * sigma }
     }
     /// Fits orders 0..=max_order by least squares on the samples where `ok` holds for the sample
     /// and its p predecessors, and keeps the order with the lowest BIC.
@@ -187,7 +190,7 @@ impl Ar {
             let rss = (yy - a.dot(&b)).max(yy * 1e-15).max(f64::MIN_POSITIVE);
             let bic = n * (rss / n).ln() + p as f64 * n.ln();
             if best.as_ref().is_none_or(|(b0, _)| bic < *b0) {
-                best = Some((bic, Ar { a: a.iter().copied().collect(), sigma: (rss / n).sqrt() }));
+                best = Some((bic, Ar { a: a.iter().copied().collect(), sigma: (rss / n).sqrt(), marginal_var: yy / n }));
             }
         }
         best.map(|b| b.1).unwrap_or(Ar::white(1.0))

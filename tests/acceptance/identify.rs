@@ -263,14 +263,16 @@ fn nanobench_flights() {
         // the force model's held-out error falls by ≥ 80 % (thrust map scale and drag)
         let cut = flyarena::identify::check::heldout_cut(&r, flyarena::identify::Channel::Force).unwrap();
         assert!(cut > 0.8, "{name}: force cut {cut}");
-        let g = r.ground_check.expect("every flight starts at rest");
-        let (roll, pitch) = (r.param(Effect::BodyOffset, "roll").unwrap(), r.param(Effect::BodyOffset, "pitch").unwrap());
-        if (roll - g.roll_deg).abs() < 0.7 && (pitch - g.pitch_deg).abs() < 0.7 {
+        // the ground tilt minus the tilt a fitted accelerometer bias reads as, against the
+        // flight's frame tilt (comparing the raw ground tilt ignored the bias: B3's bias tilt
+        // of −0.21° in pitch put it 0.71° off)
+        let a = r.ground_agreement.expect("every flight starts at rest");
+        if a.roll.difference_deg.abs() < 0.7 && a.pitch.difference_deg.abs() < 0.7 {
             agree += 1;
         }
     }
     assert_eq!(usable, 9);
-    assert!(agree >= 7, "in-flight body offset and ground tilt agree within 0.7° on {agree} of 9 flights");
+    assert!(agree >= 8, "in-flight frame tilt and bias-corrected ground tilt agree within 0.7° on {agree} of 9 flights");
 }
 
 /// The README's NanoBench table, pinned per flight (`scripts/nanobench-table.py`): each figure
@@ -286,15 +288,15 @@ fn nanobench_table_is_pinned() {
     type Row = (&'static str, [Pair; 2], Pair, [Pair; 2], bool, [f64; 2], f64);
     #[rustfmt::skip]
     let table: [Row; 9] = [
-        ("B10_lissajous_fast_rep1", [(-0.4571, 0.1485), (-0.9700, 0.4863)], (-0.1131, 0.0439), [(0.3968, 0.0258), (0.4259, 0.0255)], true, [0.062, 0.386], 0.0923),
-        ("B2_circle_fast_rep2", [(1.8030, 0.0617), (-2.2404, 0.1091)], (-0.1588, 0.0262), [(0.3908, 0.0117), (0.4204, 0.0132)], true, [-0.639, -0.534], 0.1246),
-        ("B2_circle_slow_rep2", [(-0.1955, 0.2730), (-0.7183, 0.4954)], (-0.1117, 0.0571), [(0.4111, 0.0545), (0.3898, 0.0254)], true, [0.110, -0.316], 0.0524),
-        ("B3_figure8_medium_rep2", [(1.8400, 0.2520), (-2.2719, 0.4674)], (-0.1068, 0.0409), [(0.3745, 0.0187), (0.4031, 0.0375)], false, [-0.435, -0.494], 0.1295),
-        ("B5_helix_fast_rep1", [(-0.1380, 0.3202), (-0.9592, 0.3286)], (-0.0415, 0.0821), [(0.4145, 0.0360), (0.4273, 0.0486)], true, [-0.011, -0.186], 0.0942),
-        ("B6_linear_ramp_rep2", [(0.3635, 0.0678), (-1.3604, 0.3243)], (-0.2381, 0.0038), [(0.3740, 0.0441), (0.2484, 0.4279)], false, [-0.558, -0.616], 0.0720),
-        ("B7_oval_fast_rep1", [(-0.2445, 0.1830), (-1.0541, 0.4972)], (-0.1152, 0.0437), [(0.4046, 0.0165), (0.4174, 0.0274)], true, [0.005, 0.233], 0.1015),
-        ("B8_star_medium_rep1", [(-0.3198, 0.1294), (-1.0171, 0.5139)], (-0.1307, 0.0291), [(0.3794, 0.0225), (0.3983, 0.0254)], true, [0.171, -0.086], 0.0749),
-        ("B9_trefoil_fast_rep1", [(1.2123, 0.1441), (-1.8037, 0.2089)], (-0.2266, 0.0050), [(0.4225, 0.0199), (0.4262, 0.0215)], false, [-1.031, -0.828], 0.0999),
+        ("B10_lissajous_fast_rep1", [(-0.4576, 0.1470), (-0.9750, 0.4905)], (-0.1127, 0.0440), [(0.3933, 0.0257), (0.4245, 0.0256)], true, [0.062, 0.391], 0.0843),
+        ("B2_circle_fast_rep2", [(1.8070, 0.0609), (-2.2389, 0.1090)], (-0.1550, 0.0247), [(0.3931, 0.0111), (0.4217, 0.0128)], true, [-0.643, -0.536], 0.1150),
+        ("B2_circle_slow_rep2", [(-0.1938, 0.2784), (-0.7144, 0.4944)], (-0.1283, 0.0404), [(0.3983, 0.0439), (0.3856, 0.0214)], true, [0.108, -0.319], 0.0492),
+        ("B3_figure8_medium_rep2", [(1.6802, 0.2566), (-2.0647, 0.4560)], (-0.1211, 0.0523), [(0.3664, 0.0239), (0.3935, 0.0396)], true, [-0.431, -0.495], 0.1179),
+        ("B5_helix_fast_rep1", [(-0.2196, 0.2066), (-0.9719, 0.3402)], (-0.0644, 0.0593), [(0.4098, 0.0204), (0.4244, 0.0309)], false, [0.071, -0.173], 0.1011),
+        ("B6_linear_ramp_rep2", [(-0.0167, 0.4446), (-1.0919, 0.9173)], (-0.1416, 0.0344), [(0.3617, 0.0613), (0.4456, 0.5188)], true, [-0.569, -0.631], 0.0693),
+        ("B7_oval_fast_rep1", [(-0.2433, 0.1866), (-1.0466, 0.4892)], (-0.1167, 0.0425), [(0.4042, 0.0161), (0.4151, 0.0271)], false, [0.003, 0.225], 0.1124),
+        ("B8_star_medium_rep1", [(-0.3182, 0.1331), (-1.0109, 0.5035)], (-0.1312, 0.0285), [(0.3759, 0.0222), (0.3948, 0.0247)], true, [0.170, -0.092], 0.0716),
+        ("B9_trefoil_fast_rep1", [(1.2217, 1.0083), (-1.7961, 0.5994)], (-0.2258, 0.0147), [(0.4228, 0.0234), (0.4259, 0.0227)], false, [-1.033, -0.827], 0.0999),
     ];
     let map = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
     let mut opts = Options { forced: vec![Effect::BodyOffset], ..Options::default() };
@@ -372,4 +374,46 @@ plan:
     assert!(matches!(first.added, Effect::BodyOffset | Effect::WorldTilt), "{text}");
     assert!(first.not_identifiable_from.iter().any(|(e, rho)| *e == other && *rho > 0.99), "{text}");
     assert!(r.notes.iter().any(|n| n.contains("not identifiable")), "{text}");
+}
+
+/// The mocap delay is unbiased (issue 12: "9.5 ± 0.3 ms" for 10 ms, 11 of 90 intervals
+/// missing). Two causes, both fixed and each caught here: the mocap's specific force was
+/// rotated into the body frame after smoothing (K*(Rᵀp̈) ≠ Rᵀ(K*p̈) by σ²·ω×(Rᵀ·jerk), which
+/// the delay column partly absorbed), and the pooled least squares weighted the channels by
+/// their units, so the accelerometer's noisy ḟ column (three quarters noise on x and y)
+/// dominated the gyro's clean ω̇ one, and errors in that variable shrank the delay. On five
+/// seeds of the delay scenario the mean error must be within 0.05 ms of zero (it was −0.2 ms)
+/// and every 95 % interval must hold the truth.
+#[test]
+fn the_mocap_delay_is_unbiased_over_seeds() {
+    let mut errors = Vec::new();
+    for seed in 11..16 {
+        let mut s = Scenario::load(&scenario("mocap-delay")).unwrap();
+        s.seed = seed;
+        let (_, series) = run_and_log(&s, 0, "delay").unwrap();
+        let r = identify(&series, &Options { forced: vec![Effect::MocapDelay], ..Options::default() }).unwrap();
+        let p = &r.effect(Effect::MocapDelay).unwrap().params[0];
+        assert!((p.value - 10.0).abs() <= p.ci95, "seed {seed}: {} ± {} ms for 10", p.value, p.ci95);
+        errors.push(p.value - 10.0);
+    }
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    assert!(mean.abs() < 0.05, "mean error {mean} ms over seeds 11–15: {errors:?}");
+}
+
+/// The thrust the nominal model reconstructs from the collective command misses the rate
+/// loop's per-rotor jitter (`flyarena_log::THRUST_REL_SD`): with nothing hidden, a forced thrust
+/// scale comes out within 2σ_T of zero on both presets, and its interval carries the systematic
+/// (half-width ≥ 1.96·σ_T, which the statistics alone, ±1.5·10⁻⁴, would not reach).
+#[test]
+fn thrust_model_resolution_covers_the_rate_loop_jitter() {
+    use flyarena::identify::flyarena_log::THRUST_REL_SD;
+    for preset in ["x3d", "crazyflie21"] {
+        let text = std::fs::read_to_string(scenario("none")).unwrap().replace("  - name: x3d\n", &format!("  - name: x3d\n    model: {{ preset: {preset} }}\n"));
+        let s = Scenario::parse(&text, Path::new("none.yaml")).unwrap();
+        let (_, series) = run_and_log(&s, 0, preset).unwrap();
+        let r = identify(&series, &Options { forced: vec![Effect::ThrustScale], ..Options::default() }).unwrap();
+        let p = &r.effect(Effect::ThrustScale).unwrap().params[0];
+        assert!(p.value.abs() < 2.0 * THRUST_REL_SD, "{preset}: thrust scale {} with nothing hidden", p.value);
+        assert!(p.ci95 >= 1.96 * THRUST_REL_SD, "{preset}: ±{} leaves out the model's resolution", p.ci95);
+    }
 }
