@@ -168,14 +168,28 @@ fn smooth_into(x: &[f64], segs: &[(usize, usize)], kernel: &[f64], out: &mut [f6
 /// other rows keep their raw values and must not be read. For signals that are not
 /// differentiated afterwards, this saves (stride − 1)/stride of the work.
 fn smooth_vec3_kept(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64], stride: usize) -> Vec<Vector3<f64>> {
+    smooth_vec3_rows(x, segs, kernel, |i| i % stride == 0)
+}
+
+/// [`smooth_vec3`] evaluated at the kept rows and their two neighbours, all that a central
+/// difference at the kept rows reads.
+fn smooth_vec3_kept_and_neighbours(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64], stride: usize) -> Vec<Vector3<f64>> {
+    smooth_vec3_rows(x, segs, kernel, |i| {
+        let r = i % stride;
+        r == 0 || r == 1 || r == stride - 1
+    })
+}
+
+/// [`smooth_vec3`] at the rows where `need` holds (same sums in the same order, so the same
+/// bits); the other rows keep their raw values.
+fn smooth_vec3_rows(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64], need: impl Fn(usize) -> bool) -> Vec<Vector3<f64>> {
     let h = kernel.len() / 2;
     let mut out = x.to_vec();
     for &(a, b) in segs {
         if b - a <= 2 * h {
             continue;
         }
-        let first = (a + h).div_ceil(stride) * stride;
-        for i in (first..b - h).step_by(stride) {
+        for i in (a + h..b - h).filter(|&i| need(i)) {
             let mut s = Vector3::zeros();
             for (j, w) in kernel.iter().enumerate() {
                 s += *w * x[i + j - h];
@@ -304,8 +318,8 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     // decimation keeps one row per σ (below); what is not differentiated is smoothed only there
     let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
     let pos_s = smooth_vec3(&pos_nav, segs, &kernel);
-    let gyro_s = smooth_vec3(&s.gyro_body, segs, &kernel);
-    let accel_s = smooth_vec3(&s.accel_body, segs, &kernel);
+    let gyro_s = smooth_vec3_kept_and_neighbours(&s.gyro_body, segs, &kernel, stride);
+    let accel_s = smooth_vec3_kept_and_neighbours(&s.accel_body, segs, &kernel, stride);
     // mocap body rates from neighbouring poses
     let omega_s = smooth_vec3_kept(&body_rates(&att_body, &s.t_s, segs), segs, &kernel, stride);
     let mut vel_nav = vec![Vector3::zeros(); n];
@@ -353,8 +367,10 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let nav_axes: [Vec<Vector3<f64>>; 3] = std::array::from_fn(|j| smooth_vec3_kept(&rot_t.iter().map(|r| r * unit(j)).collect::<Vec<_>>(), segs, &kernel, stride));
     let grav_body_s: Vec<Vector3<f64>> = nav_axes[2].iter().map(|v| -g * v).collect();
     let tilt_cols: [Vec<Vector3<f64>>; 2] = [nav_axes[1].iter().map(|v| g * v).collect(), nav_axes[0].iter().map(|v| -g * v).collect()];
-    let f_hat: Vec<Vector3<f64>> = (0..n).map(|i| rotated(i, &acc_nav[i], &jerk_nav[i]) + grav_body_s[i]).collect();
-    let v_body: Vec<Vector3<f64>> = (0..n).map(|i| rotated(i, &vel_nav[i], &acc_nav[i])).collect();
+    // read at the kept rows only (decimation below)
+    let at_kept = |f: &dyn Fn(usize) -> Vector3<f64>| -> Vec<Vector3<f64>> { (0..n).map(|i| if i % stride == 0 { f(i) } else { Vector3::zeros() }).collect() };
+    let f_hat = at_kept(&|i| rotated(i, &acc_nav[i], &jerk_nav[i]) + grav_body_s[i]);
+    let v_body = at_kept(&|i| rotated(i, &vel_nav[i], &acc_nav[i]));
     // regressors of the rotations and the delay come from the IMU side: to first order
     // f_imu − f̂ = δ × f = τ·ḟ with f the IMU's or the mocap's alike, but the IMU is far less noisy
     // than twice-differentiated mocap, and noise in a regressor biases its parameter towards zero
@@ -547,5 +563,21 @@ mod tests {
         }
         assert!(d.ok.iter().filter(|x| **x).count() > 900, "too few usable samples");
         assert!(worst < 5e-3, "accel_kin residual of an exact rigid body {worst} m/s²");
+    }
+}
+#[cfg(test)]
+mod bits {
+    use super::*;
+    #[test]
+    fn rows_smoothing_is_bit_identical() {
+        let x: Vec<Vector3<f64>> = (0..500).map(|i| Vector3::new((i as f64 * 0.37).sin(), (i as f64 * 0.11).cos() * 3.3, i as f64 * 1e-3)).collect();
+        let k = gaussian_kernel(4.0);
+        let a = smooth_vec3(&x, &[(0, 500)], &k);
+        let b = smooth_vec3_rows(&x, &[(0, 500)], &k, |_| true);
+        for i in 0..500 {
+            for c in 0..3 {
+                assert_eq!(a[i][c].to_bits(), b[i][c].to_bits(), "{i} {c}");
+            }
+        }
     }
 }
