@@ -564,8 +564,9 @@ fn hac(d: &Design, train: &[bool], gs: &[Gram], set: &[usize], theta: &[f64], la
 }
 
 /// The covariance a systematic relative error ε ~ N(0, σ_T²) of the nominal thrust adds to the
-/// OLS parameters. Such an error adds ε·(−T/m) to the force channel's z residual, which is ε
-/// times the thrust-scale column c, so the parameters move by ε·(XᵀX)⁻¹Xᵀc: onto the thrust
+/// weighted least-squares parameters. Such an error adds ε·(−T/m) to the force channel's z
+/// residual, which is ε times the thrust-scale column c, so the parameters move by
+/// ε·(XᵀWX)⁻¹XᵀWc (W the channel-axis weights): onto the thrust
 /// scale alone when it is in the model, otherwise onto whatever explains a vertical force (an
 /// accelerometer bias z, a constant force D). The same ε holds for the whole flight, so no
 /// amount of data averages it away: it is added to the statistical covariance, not divided
