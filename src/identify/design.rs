@@ -200,21 +200,9 @@ fn smooth_vec3_rows(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64],
     out
 }
 
+/// Zero-phase smoothing of each axis inside each segment ([`smooth_into`] per axis, the same bits).
 pub(crate) fn smooth_vec3(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64]) -> Vec<Vector3<f64>> {
-    let n = x.len();
-    let mut out = vec![Vector3::zeros(); n];
-    let mut col = vec![0.0; n];
-    let mut sm = vec![0.0; n];
-    for a in 0..3 {
-        for i in 0..n {
-            col[i] = x[i][a];
-        }
-        smooth_into(&col, segs, kernel, &mut sm);
-        for i in 0..n {
-            out[i][a] = sm[i];
-        }
-    }
-    out
+    smooth_vec3_rows(x, segs, kernel, |_| true)
 }
 
 /// Body rates from neighbouring attitudes (body → nav), ω_k = Log(q_{k−1}⁻¹q_{k+1})/(t_{k+1} − t_{k−1})
@@ -340,7 +328,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
         d
     };
     let jerk_nav = deriv(&acc_nav);
-    let omega_dot_imu = deriv(&gyro_s);
+    let omega_dot = deriv(&gyro_s);
     let rot_t: Vec<nalgebra::Matrix3<f64>> = att_body.iter().map(|q: &UnitQuaternion<f64>| q.to_rotation_matrix().matrix().transpose()).collect();
     // Everything body-frame that is compared with the smoothed IMU must be rotated *before* it
     // is smoothed, as the IMU is: the IMU reads K*(Rᵀ(p̈ − g·e_D)). For a Gaussian of σ (s),
@@ -356,7 +344,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     // takes ω and ω̇ from the IMU, whose noise is independent of the mocap's.
     let sigma2 = opt.smoothing_s * opt.smoothing_s;
     let rotated = |i: usize, x: &Vector3<f64>, x_dot: &Vector3<f64>| -> Vector3<f64> {
-        let (w, wd) = (gyro_s[i], omega_dot_imu[i]);
+        let (w, wd) = (gyro_s[i], omega_dot[i]);
         let rx = rot_t[i] * x;
         rx - sigma2 * w.cross(&(rot_t[i] * x_dot)) + 0.5 * sigma2 * (w.cross(&w.cross(&rx)) - wd.cross(&rx))
     };
@@ -375,7 +363,6 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     // f_imu − f̂ = δ × f = τ·ḟ with f the IMU's or the mocap's alike, but the IMU is far less noisy
     // than twice-differentiated mocap, and noise in a regressor biases its parameter towards zero
     let f_dot = deriv(&accel_s);
-    let omega_dot = &omega_dot_imu;
     // the lever arm's centripetal part ω×(ω×r) is quadratic in ω: smoothed after the product,
     // as the IMU smooths it (the product of smoothed rates misses K*(ω×(ω×r)) by the rates' own
     // high-frequency content)
@@ -564,19 +551,24 @@ mod tests {
         assert!(d.ok.iter().filter(|x| **x).count() > 900, "too few usable samples");
         assert!(worst < 5e-3, "accel_kin residual of an exact rigid body {worst} m/s²");
     }
-}
-#[cfg(test)]
-mod bits {
-    use super::*;
+
+    /// The vector smoothing (all rows, or only some) gives the scalar smoothing's bits on every
+    /// axis, and rows outside `need` keep their raw values.
     #[test]
-    fn rows_smoothing_is_bit_identical() {
-        let x: Vec<Vector3<f64>> = (0..500).map(|i| Vector3::new((i as f64 * 0.37).sin(), (i as f64 * 0.11).cos() * 3.3, i as f64 * 1e-3)).collect();
-        let k = gaussian_kernel(4.0);
-        let a = smooth_vec3(&x, &[(0, 500)], &k);
-        let b = smooth_vec3_rows(&x, &[(0, 500)], &k, |_| true);
-        for i in 0..500 {
-            for c in 0..3 {
-                assert_eq!(a[i][c].to_bits(), b[i][c].to_bits(), "{i} {c}");
+    fn row_smoothing_matches_the_scalar_smoothing_bit_for_bit() {
+        let n = 500;
+        let x: Vec<Vector3<f64>> = (0..n).map(|i| Vector3::new((i as f64 * 0.37).sin(), (i as f64 * 0.11).cos() * 3.3, i as f64 * 1e-3)).collect();
+        let (k, segs) = (gaussian_kernel(4.0), [(0, 200), (200, n)]);
+        let all = smooth_vec3(&x, &segs, &k);
+        let some = smooth_vec3_rows(&x, &segs, &k, |i| i % 3 == 0);
+        for c in 0..3 {
+            let col: Vec<f64> = x.iter().map(|v| v[c]).collect();
+            let mut want = vec![0.0; n];
+            smooth_into(&col, &segs, &k, &mut want);
+            for i in 0..n {
+                assert_eq!(all[i][c].to_bits(), want[i].to_bits(), "row {i} axis {c}");
+                let expect = if i % 3 == 0 { want[i] } else { x[i][c] };
+                assert_eq!(some[i][c].to_bits(), expect.to_bits(), "row {i} axis {c} (some rows)");
             }
         }
     }

@@ -408,9 +408,11 @@ fn the_mocap_delay_is_unbiased_over_seeds() {
 fn thrust_model_resolution_covers_the_rate_loop_jitter() {
     use flyarena::identify::flyarena_log::THRUST_REL_SD;
     for preset in ["x3d", "crazyflie21"] {
-        let text = std::fs::read_to_string(scenario("none")).unwrap().replace("  - name: x3d\n", &format!("  - name: x3d\n    model: {{ preset: {preset} }}\n"));
-        let s = Scenario::parse(&text, Path::new("none.yaml")).unwrap();
+        let mut tree: serde_json::Value = serde_saphyr::from_str(&std::fs::read_to_string(scenario("none")).unwrap()).unwrap();
+        flyarena::scenario::patch::set_in(&mut tree, "vehicles[0].model.preset", serde_json::json!(preset), true).unwrap();
+        let s = Scenario::parse(&serde_json::to_string(&tree).unwrap(), Path::new("none.yaml")).unwrap();
         let (_, series) = run_and_log(&s, 0, preset).unwrap();
+        assert!(series.model.vehicle.contains(&format!("{preset} preset")), "flown with {}", series.model.vehicle);
         let r = identify(&series, &Options { forced: vec![Effect::ThrustScale], ..Options::default() }).unwrap();
         let p = &r.effect(Effect::ThrustScale).unwrap().params[0];
         assert!(p.value.abs() < 2.0 * THRUST_REL_SD, "{preset}: thrust scale {} with nothing hidden", p.value);
