@@ -14,6 +14,7 @@
 //! | `gyro_x_rad_s` … `gyro_z_rad_s` | rad/s | IMU angular rate, body FRD |
 //! | `acc_x_m_s2` … `acc_z_m_s2` | m/s² | IMU specific force, body FRD (−g on z at rest) |
 //! | `cmd_p`, `cmd_q`, `cmd_r`, `cmd_thrust` | counts 0..255 | the last PPM frame sent (empty before the first) |
+//! | `vbat_v` | V | battery terminal voltage (optional when reading: logs from before it are read without it) |
 //!
 //! Reading ([`read_csv`]): missing or misnamed columns, cells that are not numbers, NaN or
 //! infinity, timestamps that go backwards, and empty files are errors naming line and column.
@@ -25,7 +26,7 @@ use crate::engine::VehicleRun;
 use std::fmt::Write as _;
 
 /// The columns, in order.
-pub const COLUMNS: [&str; 20] = [
+pub const COLUMNS: [&str; 21] = [
     "t_s",
     "seq",
     "mocap_valid",
@@ -46,7 +47,11 @@ pub const COLUMNS: [&str; 20] = [
     "cmd_q",
     "cmd_r",
     "cmd_thrust",
+    "vbat_v",
 ];
+
+/// The columns a log may lack (they read as empty cells).
+pub const OPTIONAL: [&str; 1] = ["vbat_v"];
 
 /// Writes the log of one vehicle (the run must have been made with `trace: true`).
 pub fn write_csv(v: &VehicleRun, mocap_period_s: f64) -> String {
@@ -73,6 +78,7 @@ pub fn write_csv(v: &VehicleRun, mocap_period_s: f64) -> String {
             }
             None => s.push_str(",,,,"),
         }
+        let _ = write!(s, ",{}", r.vbat_v);
         s.push('\n');
     }
     s
@@ -128,13 +134,15 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
     let Some(header) = lines.first().filter(|h| !h.trim().is_empty()) else { return Err(LogError::Empty { file: f() }) };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let mut index = [0usize; COLUMNS.len()];
+    let required: Vec<&str> = COLUMNS.iter().copied().filter(|c| !OPTIONAL.contains(c)).collect();
     for (k, col) in COLUMNS.iter().enumerate() {
         match names.iter().position(|n| n == col) {
             Some(i) => index[k] = i,
+            None if OPTIONAL.contains(col) => index[k] = usize::MAX,
             None => {
                 let unknown: Vec<&str> = names.iter().copied().filter(|n| !COLUMNS.contains(n)).collect();
                 let hint = closest(col, &unknown).map_or(String::new(), |u| format!(" (is `{u}` meant to be `{col}`?)"));
-                return Err(LogError::Header { file: f(), message: format!("column `{col}` is missing{hint}; the log needs {}", COLUMNS.join(",")) });
+                return Err(LogError::Header { file: f(), message: format!("column `{col}` is missing{hint}; the log needs {}", required.join(",")) });
             }
         }
     }
@@ -157,7 +165,7 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
         }
         let mut row = [None; COLUMNS.len()];
         for (k, col) in COLUMNS.iter().enumerate() {
-            let cell = cells[index[k]].trim();
+            let Some(cell) = cells.get(index[k]).map(|c| c.trim()) else { continue };
             if cell.is_empty() {
                 continue;
             }

@@ -28,7 +28,8 @@ use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, Occlusion, TrueOff
 use crate::radio::{PpmFrame, Radio, RadioParams};
 use crate::rng::{Component, Stream};
 use crate::scenario::{PHYSICS_HZ, Scenario};
-use crate::vehicle::{Disturbance, Downlink, Imu, ImuParams, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
+use crate::vehicle::battery;
+use crate::vehicle::{Battery, Disturbance, Downlink, Imu, ImuParams, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
 
 /// Options that are not part of the scenario.
 #[derive(Clone, Copy, Debug)]
@@ -70,6 +71,8 @@ pub struct TraceSample {
     /// Last PPM frame sent.
     pub ppm: Option<PpmFrame>,
     pub thrust_n: f64,
+    /// Battery terminal voltage over this tick (V).
+    pub vbat_v: f64,
     pub link: LinkStats,
     pub phase: Option<usize>,
 }
@@ -114,6 +117,7 @@ pub struct RunOutput {
 struct Vehicle {
     name: String,
     x3d: X3d,
+    battery: Battery,
     rate_loop: RateLoop,
     imu: Imu,
     mocap: Mocap,
@@ -241,11 +245,13 @@ impl Arena {
                 let mut true_params = params.clone();
                 true_params.k_thrust *= u.thrust_scale;
                 true_params.ground_effect += u.ground_effect;
+                true_params.thrust_voltage_per_v += u.thrust_voltage_per_v;
                 true_params.rotor_drag_per_s = [params.rotor_drag_per_s[0] + u.rotor_drag_per_s[0], params.rotor_drag_per_s[1] + u.rotor_drag_per_s[1]];
                 let dist = Disturbance { force_nav_n: v.disturbance.force_n, torque_body_nm: v.disturbance.torque_nm };
                 let home_nav = camera.to_nav(home);
                 Vehicle {
                     name: v.name.clone(),
+                    battery: Battery::new(true_params.battery),
                     x3d: X3d::on_floor(true_params, dist, home_nav, yaw0),
                     rate_loop: RateLoop::new(&params),
                     imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
@@ -381,9 +387,21 @@ impl Vehicle {
         }
         let s = *self.x3d.state();
         let imu = self.imu.sample(s.omega, self.x3d.specific_force());
-        let rotor_cmd = self.rate_loop.rotor_speed_commands(&held, imu.gyro);
+        let mut rotor_cmd = self.rate_loop.rotor_speed_commands(&held, imu.gyro);
         if let Some(f) = self.downlink.sample(t, imu.gyro) {
             self.telemetry.send(t, f.seq, f);
+        }
+        // the battery matters only where something reads its voltage: the motors (a thrust
+        // against voltage) or the log (a trace); otherwise it is skipped, which changes nothing
+        // observable and keeps the loop at its speed
+        let p = self.x3d.params();
+        let mut vbat = f64::NAN;
+        if trace || p.thrust_voltage_per_v != 0.0 {
+            vbat = self.battery.step(battery::rotor_power_w(p, &s.rotor_speed), dt.as_secs_f64());
+            let speed = battery::speed_factor(p.thrust_voltage_per_v, vbat, p.battery.v_ref);
+            if speed != 1.0 {
+                rotor_cmd = rotor_cmd.map(|w| w * speed);
+            }
         }
         self.x3d.step(&rotor_cmd, dt.as_secs_f64());
         let s = self.x3d.state();
@@ -408,6 +426,7 @@ impl Vehicle {
                 reference_yaw: reference.yaw,
                 ppm: self.radio.last_sent().copied(),
                 thrust_n: held.thrust_n,
+                vbat_v: vbat,
                 link: *self.link.stats(),
                 phase: self.station.plan().phase_at(t),
             });

@@ -64,8 +64,8 @@ fn r3(x: f64) -> f64 {
     (x * 1e4).round() / 1e4
 }
 
-/// The fragment of a report for vehicle `i` (with `n_markers` markers); effects flyarena does not simulate are listed as
-/// comments.
+/// The fragment of a report for vehicle `i` (with `n_markers` markers): one scenario field per
+/// effect found, and a comment where a value had to be rounded to what the scenario can express.
 pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> String {
     let mut lines = vec![format!("# flyarena identify: the effects found in {}", r.source), "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string()];
     let mut set = Vec::new();
@@ -94,9 +94,7 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
                 let d: Vec<f64> = v.iter().map(|x| -x).collect();
                 set.push((format!("{vi}.markers.displacement_mm"), json!(vec![d; n_markers])));
             }
-            Effect::ThrustVoltage => {
-                lines.push(format!("# not simulated by flyarena, reported only: {} = {:?}", f.effect.key(), v));
-            }
+            Effect::ThrustVoltage => set.push((format!("{vi}.undeclared.thrust_voltage_per_v"), json!(v[0].max(0.0)))),
         }
     }
     lines.push(if set.is_empty() { "effects: {}".into() } else { "effects:".into() });

@@ -4,6 +4,8 @@
 //! The thrust the declared model expects at the vehicle is reconstructed from the logged PPM
 //! thrust count: T_cmd = count·T_max/255, delayed by the declared radio latency and passed
 //! through the declared first-order motor lag τ_m (T follows Ω², whose small-signal lag is τ_m).
+//! The logged battery voltage `vbat_v` is passed on with the declared pack's reference voltage
+//! V_ref, for the thrust–voltage candidate.
 
 use super::series::{NominalModel, Series};
 use crate::log::FlightLog;
@@ -60,6 +62,8 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
         thrust.push(lagged);
     }
     let v = &s.vehicles.value[vehicle].value;
+    // the battery voltage, where every row has it (logs from before it was logged have none)
+    let vbat: Option<Vec<f64>> = log.column("vbat_v").and_then(|c| c.iter().copied().collect());
     Ok(Series {
         source: source.to_string(),
         t_s: t,
@@ -69,14 +73,14 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
         gyro_body: (0..n).map(|i| Vector3::new(g[0][i], g[1][i], g[2][i])).collect(),
         accel_body: (0..n).map(|i| Vector3::new(a[0][i], a[1][i], a[2][i])).collect(),
         thrust_n: Some(thrust),
-        vbat_v: None,
+        vbat_v: vbat,
         segments: log.segments.clone(),
         model: NominalModel {
             vehicle: format!("{} ({:?} preset)", v.name, v.model.preset).to_lowercase(),
             mass_kg: p.mass_kg,
             rotor_drag_per_s: p.rotor_drag_per_s,
             rotor_radius_m: p.rotor_radius_m,
-            vbat_ref_v: 0.0,
+            vbat_ref_v: p.battery.v_ref,
             gravity_m_s2: GRAVITY,
             thrust_rel_sd: THRUST_REL_SD,
             imu_range: p.imu_range,

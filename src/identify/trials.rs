@@ -24,11 +24,12 @@
 //! | thrust scale | `vehicles[0].undeclared.thrust_scale` | 3–15 % off 1 |
 //! | ground effect | `vehicles[0].undeclared.ground_effect` | c_g 0.5–1.5, in half the flights with a low hover |
 //! | lever arm, mocap origin → IMU | `vehicles[0].markers.displacement_mm` (−r for every marker) | 10–40 mm |
+//! | thrust vs battery voltage | `vehicles[0].undeclared.thrust_voltage_per_v` | 0.05–0.2 /V (`crazyflie21`, 1 cell), 0.015–0.07 /V (`x3d`, 3 cells) |
 //!
 //! A quarter of the flights end with a low hover (1.2–3 rotor radii over the floor, at least
 //! 0.1 m, for 4 s).
-//! `thrust_voltage` is a candidate `identify` tests but the engine does not simulate (no battery
-//! model), so it is never hidden; found, it counts as an invention.
+//! The battery is each preset's pack at 90 % charge (see [`crate::vehicle::battery`]): the voltage
+//! sags with the load and falls as the charge is drawn, and the log carries it.
 //!
 //! **Scoring.** A hidden effect is *found* when it is selected, *flagged* when the report names
 //! it not identifiable from a selected effect (then neither a miss nor, for the selected
@@ -46,10 +47,9 @@ use crate::scenario::Scenario;
 use std::fmt::Write as _;
 
 /// The effects drawn as 0–3 of a flight's hidden effects, in [`Effect::ALL`] order: every
-/// candidate but `thrust_voltage` (not simulated: no battery model) and the ground effect
-/// (drawn on its own, only for flights with a low hover).
+/// candidate but the ground effect (drawn on its own, only for flights with a low hover).
 pub fn simulated() -> Vec<Effect> {
-    Effect::ALL.iter().copied().filter(|e| !matches!(e, Effect::ThrustVoltage | Effect::GroundEffect)).collect()
+    Effect::ALL.iter().copied().filter(|e| !matches!(e, Effect::GroundEffect)).collect()
 }
 
 /// One drawn trial.
@@ -111,6 +111,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             Effect::ConstantForce => vec![r(d.signed(0.02, 0.1) * weight, 4), r(d.signed(0.02, 0.1) * weight, 4), r(d.signed(0.0, 0.03) * weight, 4)],
             Effect::ThrustScale => vec![r(d.signed(0.03, 0.15), 4)],
             Effect::LeverArm => (0..3).map(|_| r(d.signed(10.0, 40.0), 1)).collect(),
+            Effect::ThrustVoltage => vec![r(if cf { d.u(0.05, 0.2) } else { d.u(0.015, 0.07) }, 4)],
             _ => unreachable!("only simulated effects are hidden"),
         };
         hidden.push((e, v));
@@ -204,7 +205,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             Effect::ConstantForce => vehicle.push(format!("disturbance: {{ force_n: {} }}", list(v))),
             Effect::ThrustScale => undeclared.push(format!("thrust_scale: {}", 1.0 + v[0])),
             Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
-            _ => {}
+            Effect::ThrustVoltage => undeclared.push(format!("thrust_voltage_per_v: {}", v[0])),
         }
     }
     if !markers.is_empty() {

@@ -320,6 +320,9 @@ pub struct VehicleCfg {
     pub imu: ImuCfg,
     #[serde(default)]
     pub disturbance: DisturbanceCfg,
+    /// The flight battery (declared); the preset's pack where a field is not given.
+    #[serde(default)]
+    pub battery: BatteryCfg,
     /// The truth differs from the declared model here (for `identify` to find).
     #[serde(default)]
     pub undeclared: UndeclaredCfg,
@@ -347,11 +350,16 @@ pub struct UndeclaredCfg {
     /// first order. The declared model has none.
     #[serde(with = "ranges::ground_effect")]
     pub ground_effect: f64,
+    /// Thrust against battery voltage c (1/V): the motors reach Ω_cmd·√(1 + c·(V − V_ref)), so
+    /// the thrust is the commanded one times 1 + c·(V − V_ref) (see [`crate::vehicle::battery`]).
+    /// The declared model has c = 0.
+    #[serde(with = "ranges::thrust_voltage_per_v")]
+    pub thrust_voltage_per_v: f64,
 }
 
 impl Default for UndeclaredCfg {
     fn default() -> Self {
-        UndeclaredCfg { thrust_scale: 1.0, rotor_drag_per_s: [0.0; 2], mocap_delay_ms: 0.0, ground_effect: 0.0 }
+        UndeclaredCfg { thrust_scale: 1.0, rotor_drag_per_s: [0.0; 2], mocap_delay_ms: 0.0, ground_effect: 0.0, thrust_voltage_per_v: 0.0 }
     }
 }
 
@@ -420,6 +428,22 @@ pub struct ImuCfg {
     pub gyro_bias_deg_s: [f64; 3],
     #[serde(with = "ranges::accel_m_s2_signed::arr")]
     pub accel_bias_m_s2: [f64; 3],
+}
+
+/// The battery pack (see [`crate::vehicle::battery`]); each field overrides the preset's.
+#[derive(Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BatteryCfg {
+    /// Cells in series, 1–12.
+    pub cells: Option<Spanned<u32>>,
+    #[serde(with = "ranges::capacity_mah::opt")]
+    pub capacity_mah: Option<f64>,
+    /// Internal resistance of the pack and its wiring (Ω).
+    #[serde(with = "ranges::resistance_ohm::opt")]
+    pub resistance_ohm: Option<f64>,
+    /// State of charge at take-off (0, 1].
+    #[serde(with = "ranges::charge::opt")]
+    pub charge_start: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
@@ -846,6 +870,21 @@ impl Scenario {
                 ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e))?;
             }
             p.rate_loop_gain_per_s = x.value;
+        }
+        let b = &self.vehicles.value[i].value.battery;
+        if let Some(x) = &b.cells {
+            ranges::check(x.value as f64, 1.0, 12.0, false, "cells").map_err(|e| (x.referenced, e))?;
+            p.battery.cells = x.value;
+            p.battery.v_ref = 3.7 * x.value as f64;
+        }
+        if let Some(x) = b.capacity_mah {
+            p.battery.capacity_ah = x * 1e-3;
+        }
+        if let Some(x) = b.resistance_ohm {
+            p.battery.resistance_ohm = x;
+        }
+        if let Some(x) = b.charge_start {
+            p.battery.charge_start = x;
         }
         Ok(p)
     }

@@ -117,4 +117,8 @@ ranged! {
     drag_per_s: 0.0, 10.0, false, "1/s";
     delay_ms: 0.0, 200.0, false, "ms";
     ground_effect: 0.0, 5.0, false, "";
+    thrust_voltage_per_v: 0.0, 1.0, false, "1/V";
+    capacity_mah: 0.0, 100000.0, true, "mA·h";
+    resistance_ohm: 0.0, 10.0, false, "Ω";
+    charge: 0.0, 1.0, true, "";
 }

@@ -1,18 +1,23 @@
-//! The X3D quadrotor: 6-DOF rigid body, four rotors, the onboard 1 kHz body-rate loop and the IMU.
+//! The X3D quadrotor: 6-DOF rigid body, four rotors, the onboard 1 kHz body-rate loop, the IMU
+//! and the battery.
 //!
 //! The engine drives it once per physics tick (1 ms):
 //! 1. [`imu::Imu::sample`] samples the gyro and accelerometer from the current state;
 //! 2. the onboard [`RateLoop`] turns the last radio command (body rates and collective thrust)
 //!    and the gyro sample into rotor-speed commands;
-//! 3. [`X3d::step`] integrates the dynamics over one tick (RK4, see [`dynamics`]);
-//! 4. the [`Downlink`] averages the gyro and sends body-rate telemetry back (XBee).
+//! 3. the [`Battery`] delivers the rotors' power; its terminal voltage sets the speed the
+//!    motors reach against those commands ([`battery::speed_factor`]);
+//! 4. [`X3d::step`] integrates the dynamics over one tick (RK4, see [`dynamics`]);
+//! 5. the [`Downlink`] averages the gyro and sends body-rate telemetry back (XBee).
 
+pub mod battery;
 pub mod dynamics;
 pub mod imu;
 pub mod params;
 pub mod rate_loop;
 pub mod telemetry;
 
+pub use battery::{Battery, BatteryParams};
 pub use dynamics::{Disturbance, State, X3d};
 pub use imu::{Imu, ImuParams, ImuSample};
 pub use params::{RotorLayout, VehicleParams};

@@ -7,6 +7,8 @@
 //! 24 N in all, a thrust-to-weight ratio of 3.6). These are the RotorS Hummingbird values; the
 //! paper itself gives no numbers.
 
+use super::battery::BatteryParams;
+
 /// Rotor arrangement. The X3D flies "+" (rotors on the body axes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -46,6 +48,11 @@ pub struct VehicleParams {
     /// Ground effect c_g (see [`super::dynamics`]): thrust T·(1 + c_g·(r/4h)²) at height h ≥ r.
     /// Zero in the presets.
     pub ground_effect: f64,
+    /// The flight battery (see [`super::battery`]).
+    pub battery: BatteryParams,
+    /// Thrust against battery voltage c (1/V, see [`super::battery`]): thrust × (1 + c·(V − V_ref)).
+    /// Zero in the presets.
+    pub thrust_voltage_per_v: f64,
 }
 
 /// Full scale of an IMU, per axis: the largest reading the sensor can give, as configured.
@@ -129,6 +136,8 @@ impl VehicleParams {
             imu_range: ImuRange::x3d(),
             rotor_radius_m: X3D_ROTOR_RADIUS_M,
             ground_effect: 0.0,
+            battery: BatteryParams::x3d(),
+            thrust_voltage_per_v: 0.0,
         }
     }
     /// The Bitcraze Crazyflie 2.1 (NanoBench's vehicle): 34 g with markers, inertia
@@ -151,6 +160,8 @@ impl VehicleParams {
             imu_range: ImuRange::crazyflie21(),
             rotor_radius_m: CRAZYFLIE21_ROTOR_RADIUS_M,
             ground_effect: 0.0,
+            battery: BatteryParams::crazyflie21(),
+            thrust_voltage_per_v: 0.0,
         }
     }
     /// Maximum thrust of one rotor (N).

@@ -18,9 +18,21 @@ fn scenario(name: &str) -> PathBuf {
 fn every_identify_scenario_finds_its_hidden_effect() {
     let round = |x: f64, k: i32| ((x * 10f64.powi(k)).round() / 10f64.powi(k)) + 0.0;
     let mut summary = Vec::new();
-    for name in
-        ["none", "world-tilt", "rotor-drag", "mocap-delay", "wind", "thrust-scale", "two-effects", "marker-offsets", "accel-bias", "gyro-bias", "ground-effect", "lever-arm"]
-    {
+    for name in [
+        "none",
+        "world-tilt",
+        "rotor-drag",
+        "mocap-delay",
+        "wind",
+        "thrust-scale",
+        "two-effects",
+        "marker-offsets",
+        "accel-bias",
+        "gyro-bias",
+        "ground-effect",
+        "lever-arm",
+        "thrust-voltage",
+    ] {
         let done = identify_cli(&scenario(name), None, None, None, None, None, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
         summary.push(serde_json::json!({
             "scenario": name,
@@ -70,7 +82,7 @@ fn nothing_hidden_gives_no_effect_over_20_seeds() {
 /// (the scenario files pin seed 5).
 #[test]
 fn hidden_effects_are_found_first_on_other_seeds() {
-    let cases: [(&str, Effect, &[f64], &[f64]); 10] = [
+    let cases: [(&str, Effect, &[f64], &[f64]); 11] = [
         ("world-tilt", Effect::WorldTilt, &[0.8, -0.5], &[0.05, 0.05]),
         ("rotor-drag", Effect::RotorDrag, &[0.35, 0.35], &[0.02, 0.02]),
         ("mocap-delay", Effect::MocapDelay, &[10.0], &[1.0]),
@@ -81,6 +93,7 @@ fn hidden_effects_are_found_first_on_other_seeds() {
         ("gyro-bias", Effect::GyroBias, &[1.0, -0.6, 0.8], &[0.05, 0.05, 0.05]),
         ("ground-effect", Effect::GroundEffect, &[1.0], &[0.15]),
         ("lever-arm", Effect::LeverArm, &[10.0, -5.0, 30.0], &[1.5, 1.5, 1.5]),
+        ("thrust-voltage", Effect::ThrustVoltage, &[0.14], &[0.01]),
     ];
     for (name, effect, truth, tol) in cases {
         let mut s = Scenario::load(&scenario(name)).unwrap();
@@ -232,6 +245,37 @@ fn crazyflie21_thrust_map_is_the_stand_fit() {
     let fit = g.cholesky().unwrap().solve(&b);
     let map = flyarena::vehicle::params::PwmThrustMap::crazyflie21();
     assert!((fit - nalgebra::Vector3::new(map.a_g, map.b_g_per_v, map.c_g)).norm() < 1e-6, "{fit:?} vs {map:?}");
+}
+
+/// The `crazyflie21` battery against the thrust stand (`cf2.1-stock-prop.csv`: weight, PWM,
+/// battery voltage, four rpm, supply voltage, current, power): the internal resistance is the
+/// slope of the battery voltage against the current, vbat = a + d·row − R·i (least squares,
+/// the row term for the discharge), and the efficiency is shaft power k_m·T·Ω over electrical
+/// power V·I, median over 25–45 g of thrust (hover is 34 g), with the preset's k_m.
+#[test]
+fn crazyflie21_battery_is_the_stand_fit() {
+    let Some(data) = super::shared_data() else { return };
+    let text = std::fs::read_to_string(data.join("crazyflie-thrust-stand/cf2.1-stock-prop.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    let (mut g, mut b) = (nalgebra::Matrix3::<f64>::zeros(), nalgebra::Vector3::<f64>::zeros());
+    let mut eta = Vec::new();
+    let vp = flyarena::vehicle::VehicleParams::crazyflie21();
+    for (k, r) in rows.iter().enumerate() {
+        let (w_g, vbat, i, p) = (r[0], r[2], r[8], r[9]);
+        let x = nalgebra::Vector3::new(1.0, k as f64, -i);
+        g += x * x.transpose();
+        b += x * vbat;
+        let omega = (r[3] + r[4] + r[5] + r[6]) / 4.0 * std::f64::consts::TAU / 60.0;
+        if (25.0..45.0).contains(&w_g) && p > 0.0 {
+            eta.push(vp.k_torque_m * w_g * 9.81e-3 * omega / p);
+        }
+    }
+    let fit = g.cholesky().unwrap().solve(&b);
+    eta.sort_by(f64::total_cmp);
+    let eta_median = eta[eta.len() / 2];
+    let pack = flyarena::vehicle::BatteryParams::crazyflie21();
+    assert!((fit[2] - 0.216).abs() < 0.002 && (pack.resistance_ohm - fit[2]).abs() < 0.01, "R {} Ω vs the preset's {}", fit[2], pack.resistance_ohm);
+    assert!((eta_median - 0.459).abs() < 0.005 && (pack.efficiency - eta_median).abs() < 0.02, "η {eta_median} vs the preset's {}", pack.efficiency);
 }
 
 /// The real flights (NanoBench, ../shared/data): per flight, with the body offset fitted

@@ -25,13 +25,30 @@ fn a_log_reads_back_bit_for_bit() {
         assert_eq!(log.column("acc_z_m_s2").unwrap()[k].map(f64::to_bits), Some(s.imu.specific_force.z().to_bits()));
         assert_eq!(log.column("pos_n_m").unwrap()[k].map(f64::to_bits), s.captured.map(|f| f.pos.x().to_bits()));
         assert_eq!(log.column("cmd_thrust").unwrap()[k], s.ppm.map(|p| p.channels[3] as f64));
+        assert_eq!(log.column("vbat_v").unwrap()[k].map(f64::to_bits), Some(s.vbat_v.to_bits()));
     }
+}
+
+/// A log from before the battery voltage was logged (no `vbat_v` column) still reads, with the
+/// voltage empty; a required column missing is still an error.
+#[test]
+fn a_log_without_the_battery_column_reads() {
+    let old: String = small_log().lines().map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n").collect();
+    assert!(old.starts_with("t_s,") && !old.contains("vbat"));
+    let log = read_csv(&old, "old.csv").unwrap();
+    assert_eq!(log.rows(), 6);
+    assert!(log.column("vbat_v").unwrap().iter().all(Option::is_none));
+    assert_eq!(log.column("cmd_thrust").unwrap()[0], Some(140.0));
+    let new = read_csv(&small_log(), "new.csv").unwrap();
+    assert!(new.column("vbat_v").unwrap().iter().all(|v| *v == Some(3.9)));
+    let no_thrust = old.replacen(",cmd_thrust", ",cmd_thrus", 1);
+    assert!(read_csv(&no_thrust, "x.csv").unwrap_err().to_string().contains("column `cmd_thrust` is missing"));
 }
 
 fn small_log() -> String {
     let mut s = COLUMNS.join(",") + "\n";
     for k in 0..6 {
-        s += &format!("{},{k},1,0.1,0.2,-1,1,0,0,0,0.01,0,0,0,0,-9.81,128,128,128,140\n", k as f64 * 0.005);
+        s += &format!("{},{k},1,0.1,0.2,-1,1,0,0,0,0.01,0,0,0,0,-9.81,128,128,128,140,3.9\n", k as f64 * 0.005);
     }
     s
 }

@@ -20,8 +20,8 @@ fn band(p: f64, n: usize) -> f64 {
     3.0 * (p * (1.0 - p) / n.max(1) as f64).sqrt()
 }
 
-/// The intervals claim 95 %. Measured on the README's 300 flights: 96.2 % (seed 1) and 96.0 %
-/// (seed 2), every effect at 92.7 % or more. The sample here must agree with 95 % within its
+/// The intervals claim 95 %. Measured on the README's 300 flights: 95.1 % (seed 1) and 95.2 %
+/// (seed 2), every effect at 90.5 % or more but the constant force on seed 2 (87.8 %). The sample here must agree with 95 % within its
 /// binomial band: intervals that narrow (or widen) by a quarter fail it.
 const NOMINAL_COVERAGE: f64 = 0.95;
 
@@ -152,5 +152,42 @@ fn a_lever_arm_does_not_bias_the_drag() {
         for ((est, hw), truth) in h.estimates.iter().zip(&h.truth) {
             assert!((est - truth).abs() <= *hw, "{:?}: {est} ± {hw} for {truth}", h.effect);
         }
+    }
+}
+
+/// Trial 179 of seed 1 (a fixture) hides a thrust scale of −0.133 and a thrust against voltage
+/// of 0.0994 /V on the `crazyflie21`. The design fits them additively, T·(1 + a + b·ΔV); the
+/// simulation multiplies, T·(1 + a)·(1 + c·ΔV), so b = (1 + a)·c. Reported as b, the voltage
+/// came out 0.0851 ± 0.0048 (6 half-widths short); reported as c = b/(1 + a), both intervals
+/// hold the truth.
+#[test]
+fn thrust_against_voltage_is_reported_as_the_simulation_multiplies_it() {
+    use flyarena::identify::Effect::*;
+    let t = fixture(1, 179, "crazyflie21", vec![(ThrustScale, vec![-0.1327]), (ThrustVoltage, vec![0.0994])]);
+    let o = run(&t, &Options::default());
+    for h in &o.hidden {
+        assert!(h.found && h.identifiable, "{:?}: {o:#?}", h.effect);
+        let ((est, hw), truth) = (h.estimates[0], h.truth[0]);
+        assert!((est - truth).abs() <= hw, "{:?}: {est} ± {hw} for {truth}", h.effect);
+    }
+}
+
+/// Trial 294 of seed 1 (a fixture): a world tilt, a thrust scale of 0.0836 and a thrust against
+/// voltage of 0.0569 /V on the `x3d`, whose pack sits 0.8 V above V_ref with little variation.
+/// The step that adds the thrust scale finds it collinear with the voltage (canonical
+/// correlation 0.999); the thrust scale then holds the voltage's mean (0.131). The report must
+/// not claim an interval for it (it claimed 0.131 ± 0.0006), and the voltage counts as flagged,
+/// not missed.
+#[test]
+fn a_thrust_scale_that_holds_a_voltage_effect_claims_no_interval() {
+    use flyarena::identify::Effect::*;
+    let t = fixture(1, 294, "x3d", vec![(WorldTilt, vec![-1.425, 1.43]), (ThrustScale, vec![0.0836]), (ThrustVoltage, vec![0.0569])]);
+    let o = run(&t, &Options::default());
+    let by = |e| o.hidden.iter().find(|h| h.effect == e).unwrap();
+    assert!(by(ThrustScale).found && !by(ThrustScale).identifiable, "{o:#?}");
+    assert!(!by(ThrustVoltage).found && by(ThrustVoltage).flagged, "{o:#?}");
+    let w = by(WorldTilt);
+    for ((est, hw), truth) in w.estimates.iter().zip(&w.truth) {
+        assert!((est - truth).abs() <= *hw, "world tilt {est} ± {hw} for {truth}");
     }
 }
