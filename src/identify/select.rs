@@ -1363,4 +1363,32 @@ mod tests {
         // the held-out cut alone
         assert!(!passes_gates(1e-12, -100.0, 0.0999, &o, m));
     }
+
+    /// The multiplicative reparameterisation by hand: a thrust scale a = −0.2 and an additive
+    /// voltage coefficient b = 0.08 give c = b/(1 + a) = 0.1; with var a = 4·10⁻⁶,
+    /// var b = 9·10⁻⁶ and cov(a, b) = 3·10⁻⁶, var c = (9 − 2·0.1·3 + 0.01·4)·10⁻⁶/0.64
+    /// = 1.31875·10⁻⁵. The ground effect is treated alike; without a thrust scale in the fit,
+    /// b is reported as it is.
+    #[test]
+    fn a_thrust_multiplier_is_reported_over_the_thrust_scale() {
+        let (ts, tv, ge) = (cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start);
+        let mut theta = vec![0.0; N_COLUMNS];
+        theta[ts] = -0.2;
+        theta[tv] = 0.08;
+        theta[ge] = 0.08;
+        let cov = DMatrix::from_row_slice(2, 2, &[4e-6, 3e-6, 3e-6, 9e-6]);
+        let corr = Corrections::default();
+        for (e, col) in [(Effect::ThrustVoltage, tv), (Effect::GroundEffect, ge)] {
+            let p = params_of(e, &theta, &cov, &[ts, col], &corr);
+            assert_eq!(p.len(), 1);
+            assert!((p[0].value - 0.1).abs() < 1e-15, "{e:?}: {}", p[0].value);
+            assert!((p[0].ci95 - Z_975 * 1.31875e-5f64.sqrt()).abs() < 1e-12, "{e:?}: {}", p[0].ci95);
+            // the fit's order does not matter
+            let swapped = DMatrix::from_row_slice(2, 2, &[9e-6, 3e-6, 3e-6, 4e-6]);
+            let q = params_of(e, &theta, &swapped, &[col, ts], &corr);
+            assert!((q[0].value - p[0].value).abs() < 1e-15 && (q[0].ci95 - p[0].ci95).abs() < 1e-15);
+            let alone = params_of(e, &theta, &DMatrix::from_row_slice(1, 1, &[9e-6]), &[col], &corr);
+            assert!((alone[0].value - 0.08).abs() < 1e-15 && (alone[0].ci95 - Z_975 * 3e-3).abs() < 1e-15);
+        }
+    }
 }

@@ -191,3 +191,23 @@ fn a_thrust_scale_that_holds_a_voltage_effect_claims_no_interval() {
         assert!((est - truth).abs() <= *hw, "world tilt {est} ± {hw} for {truth}");
     }
 }
+
+/// The excitation's held-out share counts only what the flight's other hidden effects leave. On
+/// flight 1-294 (`x3d`, its pack 0.8 V above V_ref with little variation), a thrust against
+/// voltage beside a hidden thrust scale is mostly the scale's mean; alone it is all its own. λ,
+/// which conditions on every candidate, does not depend on the partners.
+#[test]
+fn excitation_share_discounts_what_the_other_hidden_effects_explain() {
+    use flyarena::identify::Effect::*;
+    use flyarena::identify::select::excitation;
+    let t = fixture(1, 294, "x3d", vec![]);
+    let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("trial-1-294.yaml")).unwrap();
+    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "294").unwrap();
+    let o = Options::default();
+    let tv = (ThrustVoltage, vec![0.0569]);
+    let alone = excitation(&series, &o, std::slice::from_ref(&tv))[0];
+    let beside = excitation(&series, &o, &[(ThrustScale, vec![0.0836]), tv.clone()])[1];
+    assert_eq!(alone.lambda.to_bits(), beside.lambda.to_bits());
+    assert!(alone.heldout_share > 0.95, "{alone:?}");
+    assert!(beside.heldout_share < 0.5, "{beside:?}");
+}
