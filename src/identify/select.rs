@@ -8,8 +8,9 @@
 //! 2. each candidate C ∉ S is fitted together with S on the training part. It *passes* when
 //!    - the prewhitened F-test of C's block has p < α / (number of candidates) (Bonferroni),
 //!    - ΔBIC = n·ln(RSS_{S+C}/RSS_S) + k_C·ln n < 0 (prewhitened RSS), and
-//!    - the held-out error on C's channels falls by at least `min_heldout_gain` (each axis
-//!      relative to its error under S);
+//!    - the held-out error on the channel axes C has a regressor on falls by at least
+//!      `min_heldout_gain` (each axis relative to its error under S; a thrust scale, which acts
+//!      on force z alone, is not averaged with force x and y, which it cannot change);
 //! 3. candidates that pass the F-test and ΔBIC but fail only the held-out gate are also tried in
 //!    pairs (two effects that explain the residual only together each extrapolate badly alone),
 //!    at a Bonferroni level over the singles and these pairs; a passing pair with a lower ΔBIC
@@ -55,7 +56,7 @@ pub struct Options {
     pub quality: super::quality::QualityOptions,
     /// Family-wise level of the F-test (Bonferroni over the candidates of a step).
     pub alpha: f64,
-    /// A candidate must cut the held-out error on its channels by this fraction.
+    /// A candidate must cut the held-out error on the channel axes it acts on by this fraction.
     pub min_heldout_gain: f64,
     pub max_ar_order: usize,
     pub block_s: f64,
@@ -828,7 +829,7 @@ pub struct Excitation {
     /// Gram matrix of all candidates, θ the effect's true parameters). The F-test of the block
     /// has power ≈ 95 % at the Bonferroni level 0.001 from λ ≈ 25 (one parameter) to 35 (three).
     pub lambda: f64,
-    /// The share of the held-out residual energy on the effect's channels that the effect
+    /// The share of the held-out residual energy on the channel axes the effect acts on that it
     /// makes, E/(E + N): E = θᵀ·(G_t,CC − G_t,CH·G_t,HH⁻¹·G_t,HC)·θ, the held-out energy of the
     /// part of the effect that the flight's *other hidden effects* H do not explain (G_t the raw
     /// held-out Gram over the effect's channels; the held-out gate tests the effect on top of
@@ -889,8 +890,8 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             let pos = |j: usize| order.iter().position(|x| *x == j);
             let mut g_t = DMatrix::<f64>::zeros(order.len(), order.len());
             let mut noise = 0.0;
-            for (q, (c, _)) in act.iter().enumerate() {
-                if e.channels().iter().any(|ch| ch.index() == *c) {
+            for q in 0..act.len() {
+                if gs[q].cols.iter().any(|j| block.contains(j)) {
                     let gr = &gs[q];
                     for (u, ju) in gr.cols.iter().enumerate() {
                         for (v, jv) in gr.cols.iter().enumerate() {
@@ -1005,8 +1006,11 @@ fn select(s: &Series, o: &Options) -> Report {
             let p_value = f_sf(f, k, n - set.len() as f64);
             let rss1_t = heldout_rss(&grams_test, &f1.theta);
             let (mut e0, mut e1) = (0.0, 0.0);
-            for (q, (c, _)) in act.iter().enumerate() {
-                if effects.iter().any(|e| e.channels().iter().any(|ch| ch.index() == *c)) {
+            let block = set_of(effects);
+            for q in 0..act.len() {
+                // the axes the block has a regressor on (a thrust scale acts on force z alone:
+                // counting force x and y, which it cannot change, would dilute its cut by 3)
+                if grams_test[q].cols.iter().any(|j| block.contains(j)) {
                     // each axis relative to the current model's error on it: a cut on an axis
                     // that earlier steps already brought down counts as much as on a fresh one
                     let w = 1.0 / rss_base_t[q].max(1e-300);
@@ -1166,11 +1170,7 @@ fn select(s: &Series, o: &Options) -> Report {
             let others: Vec<Effect> = selected.iter().copied().filter(|x| *x != e).collect();
             for c in outside.iter().copied() {
                 let rho = canonical_corr(&state.grams, &set_of(&others), &set_of(&[e]), &set_of(&[c]));
-                // a pair the step that added E could not tell apart stays a pair, whatever this
-                // check's noise model says (an AR fitted to a residual that still holds C's
-                // signal can make the two look separable)
-                let at_step = flagged(e, c);
-                if rho <= 0.99 && !at_step {
+                if rho <= 0.99 {
                     continue;
                 }
                 if !not_identifiable.iter().any(|(a, b, _)| (*a == e && *b == c) || (*a == c && *b == e)) {

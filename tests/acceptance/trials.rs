@@ -21,7 +21,8 @@ fn band(p: f64, n: usize) -> f64 {
 }
 
 /// The intervals claim 95 %. Measured on the README's 300 flights: 95.1 % (seed 1) and 95.2 %
-/// (seed 2), every effect at 90.5 % or more but the constant force on seed 2 (87.8 %). The sample here must agree with 95 % within its
+/// (seed 2), every effect at 90.8 % or more but thrust against voltage on seed 1 (19/22) and the
+/// constant force on seed 2 (88.6 %). The sample here must agree with 95 % within its
 /// binomial band: intervals that narrow (or widen) by a quarter fail it.
 const NOMINAL_COVERAGE: f64 = 0.95;
 
@@ -172,23 +173,38 @@ fn thrust_against_voltage_is_reported_as_the_simulation_multiplies_it() {
     }
 }
 
-/// Trial 294 of seed 1 (a fixture): a world tilt, a thrust scale of 0.0836 and a thrust against
-/// voltage of 0.0569 /V on the `x3d`, whose pack sits 0.8 V above V_ref with little variation.
-/// The step that adds the thrust scale finds it collinear with the voltage (canonical
-/// correlation 0.999); the thrust scale then holds the voltage's mean (0.131). The report must
-/// not claim an interval for it (it claimed 0.131 ± 0.0006), and the voltage counts as flagged,
-/// not missed.
+/// Trial 169 of seed 1 (a fixture): a thrust scale of −0.128, a thrust against voltage of
+/// 0.0244 /V and a lever arm on the `x3d`, whose pack sits 0.8 V above V_ref with little
+/// variation. The step that adds the thrust scale finds it collinear with the voltage
+/// (canonical correlation > 0.99), and the thrust scale then holds the voltage's mean (−0.112).
+/// The report must not claim an interval for it, and the voltage counts as flagged, not missed.
+/// (Flight 294 showed the danger first: a thrust scale that claimed 0.131 ± 0.0006 for 0.084.
+/// Since the held-out gate judges the voltage on force z alone, 294 selects both; see below.)
 #[test]
 fn a_thrust_scale_that_holds_a_voltage_effect_claims_no_interval() {
     use flyarena::identify::Effect::*;
-    let t = fixture(1, 294, "x3d", vec![(WorldTilt, vec![-1.425, 1.43]), (ThrustScale, vec![0.0836]), (ThrustVoltage, vec![0.0569])]);
+    let t = fixture(1, 169, "x3d", vec![(ThrustScale, vec![-0.1278]), (ThrustVoltage, vec![0.0244]), (LeverArm, vec![-18.2, -14.3, -31.3])]);
     let o = run(&t, &Options::default());
     let by = |e| o.hidden.iter().find(|h| h.effect == e).unwrap();
     assert!(by(ThrustScale).found && !by(ThrustScale).identifiable, "{o:#?}");
     assert!(!by(ThrustVoltage).found && by(ThrustVoltage).flagged, "{o:#?}");
-    let w = by(WorldTilt);
-    for ((est, hw), truth) in w.estimates.iter().zip(&w.truth) {
-        assert!((est - truth).abs() <= *hw, "world tilt {est} ± {hw} for {truth}");
+}
+
+/// Trial 294 of seed 1 (a fixture): a world tilt, a thrust scale of 0.0836 and a thrust against
+/// voltage of 0.0569 /V on the `x3d`. The two thrust effects are collinear to 0.999 but the
+/// flight holds enough of the voltage's variation to select both; their estimates then trade
+/// off along the collinear direction, and the intervals must be wide enough that neither is
+/// confidently wrong (beyond 3 half-widths).
+#[test]
+fn a_collinear_thrust_pair_is_not_confidently_wrong() {
+    use flyarena::identify::Effect::*;
+    let t = fixture(1, 294, "x3d", vec![(WorldTilt, vec![-1.425, 1.43]), (ThrustScale, vec![0.0836]), (ThrustVoltage, vec![0.0569])]);
+    let o = run(&t, &Options::default());
+    for h in &o.hidden {
+        assert!(h.found || h.flagged, "{:?} missed: {o:#?}", h.effect);
+        for ((est, hw), truth) in h.estimates.iter().zip(&h.truth) {
+            assert!(!h.identifiable || (est - truth).abs() <= 3.0 * hw, "{:?}: {est} ± {hw} for {truth}", h.effect);
+        }
     }
 }
 
@@ -210,4 +226,20 @@ fn excitation_share_discounts_what_the_other_hidden_effects_explain() {
     assert_eq!(alone.lambda.to_bits(), beside.lambda.to_bits());
     assert!(alone.heldout_share > 0.95, "{alone:?}");
     assert!(beside.heldout_share < 0.5, "{beside:?}");
+}
+
+/// Trial 168 of seed 1 (a fixture): a ground effect (c_g 1.238) on the `x3d`, hovering 4 s at
+/// 0.265 m (1.1 % more thrust there). The ground effect acts on force z alone; its held-out cut
+/// was averaged with force x and y, which it cannot change, and came out 9.5 %, under the 10 %
+/// gate, although ΔBIC was −4740. Judged on the axis it acts on, it is found, and its interval
+/// holds the truth.
+#[test]
+fn a_single_axis_effect_is_judged_on_its_own_axis() {
+    use flyarena::identify::Effect::*;
+    let t = fixture(1, 168, "x3d", vec![(GroundEffect, vec![1.238])]);
+    let o = run(&t, &Options::default());
+    let h = &o.hidden[0];
+    assert!(h.found && o.extra.is_empty(), "{o:#?}");
+    let (est, hw) = h.estimates[0];
+    assert!((est - 1.238).abs() <= hw, "c_g {est} ± {hw} for 1.238");
 }
