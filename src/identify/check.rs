@@ -16,7 +16,7 @@ pub fn effect_cut(r: &Report, e: Effect) -> Option<f64> {
 }
 
 pub fn check(r: &Report, req: &IdentifyReq, vehicle: &str) -> requirements::Report {
-    let row = |what: String, measured: String, limit: String, pass: bool| Row { vehicle: vehicle.to_string(), id: "R5", what, measured, limit, pass };
+    let row = |what: String, measured: String, limit: String, pass: bool| Row { vehicle: vehicle.to_string(), id: "R5", what, measured, limit, pass, asserted: true };
     let mut rows = Vec::new();
     let found: Vec<Effect> = r.effects.iter().map(|f| f.effect).collect();
     let names = |v: &[Effect]| if v.is_empty() { "nothing".to_string() } else { v.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ") };

@@ -16,6 +16,7 @@ mod record;
 mod scenarios;
 mod sweep;
 mod trials;
+mod twins;
 
 use flyarena::scenario::Scenario;
 
