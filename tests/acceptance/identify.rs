@@ -12,27 +12,43 @@ fn scenario(name: &str) -> PathBuf {
     super::root().join("scenarios").join(format!("identify-{name}.yaml"))
 }
 
+/// The identify scenarios, `scenarios/identify-<name>.yaml`.
+const IDENTIFY_SCENARIOS: [&str; 13] = [
+    "none",
+    "world-tilt",
+    "rotor-drag",
+    "mocap-delay",
+    "wind",
+    "thrust-scale",
+    "two-effects",
+    "marker-offsets",
+    "accel-bias",
+    "gyro-bias",
+    "ground-effect",
+    "lever-arm",
+    "thrust-voltage",
+];
+
+/// A new identify scenario without its place in the list above fails here.
+#[test]
+fn every_identify_scenario_file_is_tested() {
+    let mut files: Vec<String> = std::fs::read_dir(super::root().join("scenarios"))
+        .unwrap()
+        .filter_map(|e| e.unwrap().file_name().to_string_lossy().strip_prefix("identify-").and_then(|n| n.strip_suffix(".yaml")).map(str::to_string))
+        .collect();
+    files.sort();
+    let mut listed: Vec<String> = IDENTIFY_SCENARIOS.iter().map(|s| s.to_string()).collect();
+    listed.sort();
+    assert_eq!(files, listed);
+}
+
 /// Every identify scenario meets R5 through the command's own path (run, log, identify,
 /// closed loop), and feeding the effects back brings the simulation onto the data.
 #[test]
 fn every_identify_scenario_finds_its_hidden_effect() {
     let round = |x: f64, k: i32| ((x * 10f64.powi(k)).round() / 10f64.powi(k)) + 0.0;
     let mut summary = Vec::new();
-    for name in [
-        "none",
-        "world-tilt",
-        "rotor-drag",
-        "mocap-delay",
-        "wind",
-        "thrust-scale",
-        "two-effects",
-        "marker-offsets",
-        "accel-bias",
-        "gyro-bias",
-        "ground-effect",
-        "lever-arm",
-        "thrust-voltage",
-    ] {
+    for name in IDENTIFY_SCENARIOS {
         let done = identify_cli(&scenario(name), None, None, None, None, None, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
         summary.push(serde_json::json!({
             "scenario": name,
