@@ -200,6 +200,49 @@ mod tests {
         assert!(out.rates.x() < 0.0);
     }
 
+    /// (1)–(5) by hand at a tilted, yawed attitude, with position, velocity, acceleration and
+    /// yaw-rate feed-forward and different gains on every axis (so K_X and K_V, the axes, and
+    /// φ and θ in T_w⁻¹ cannot be exchanged unnoticed). C_b^n is built here from its elementary
+    /// rotations Rz(ψ)·Ry(θ)·Rx(φ), not from the code's attitude type.
+    #[test]
+    fn the_cascade_in_closed_form_off_identity() {
+        let g = Gains { k_x: [1.0, 1.5, 0.8], k_v: [2.0, 2.5, 3.0], k_att: [6.0, 5.0, 3.0], max_tilt: [0.6, 0.6], thrust_max_n: 24.0, mass_kg: 0.68 };
+        let (phi, theta, psi) = (0.1, -0.2, 0.5);
+        let rot = |axis: nalgebra::Unit<Vector3<f64>>, a: f64| nalgebra::Rotation3::from_axis_angle(&axis, a).into_inner();
+        let c_b_n = rot(Vector3::z_axis(), psi) * rot(Vector3::y_axis(), theta) * rot(Vector3::x_axis(), phi);
+        let c_n_b = c_b_n.transpose();
+        let att: Rot<Body, MocapNav> = Rot::from_euler(Euler::new(phi, theta, psi));
+        let (r_pos, r_vel, r_acc) = (Vector3::new(1.0, -0.5, -1.2), Vector3::new(0.3, 0.2, -0.1), Vector3::new(0.2, -0.3, 0.1));
+        let (pos, vel) = (Vector3::new(0.8, -0.3, -1.0), Vector3::new(0.1, 0.4, 0.05));
+        let r = Reference {
+            pos: Vec3::from_raw(r_pos),
+            vel: Vec3::from_raw(r_vel),
+            acc: Vec3::from_raw(r_acc),
+            yaw: 0.7,
+            yaw_rate: 0.2,
+            lateral: LateralMode::Closed,
+            motors_off: false,
+        };
+        let out = control(&g, &r, Vec3::from_raw(pos), Vec3::from_raw(vel), att);
+        let dx = c_n_b * (r_pos - pos);
+        let dv = c_n_b * (r_vel - vel);
+        let a = c_n_b * r_acc + Vector3::new(g.k_v[0] * (g.k_x[0] * dx.x + dv.x), g.k_v[1] * (g.k_x[1] * dx.y + dv.y), g.k_v[2] * (g.k_x[2] * dx.z + dv.z));
+        assert!((out.accel_com.raw() - a).norm() < 1e-12, "(2): {:?} vs {a:?}", out.accel_com);
+        let roll_com = (a.y / (GRAVITY * theta.cos())).asin();
+        let pitch_com = (-a.x / GRAVITY).asin();
+        assert!((out.angles_com.roll - roll_com).abs() < 1e-12 && (out.angles_com.pitch - pitch_com).abs() < 1e-12);
+        let rates = Vector3::new(6.0 * (roll_com - phi), 5.0 * (pitch_com - theta), 3.0 * (0.7 - psi) + 0.2);
+        let t = Matrix3::new(1.0, 0.0, -theta.sin(), 0.0, phi.cos(), theta.cos() * phi.sin(), 0.0, -phi.sin(), theta.cos() * phi.cos());
+        assert!((out.rates.raw() - t * rates).norm() < 1e-12, "(3)-(4): {:?} vs {:?}", out.rates, t * rates);
+        let thrust = -0.68 * (a.z - GRAVITY * phi.cos() * theta.cos());
+        assert!((out.thrust_n - thrust).abs() < 1e-12, "(5): {} vs {thrust}", out.thrust_n);
+        // (6): the yaw flight holds φ_com = 0 whatever the lateral error, and nothing else changes
+        let six = control(&g, &Reference { lateral: LateralMode::RollZero, ..r }, Vec3::from_raw(pos), Vec3::from_raw(vel), att);
+        assert!(six.angles_com.roll == 0.0 && roll_com.abs() > 0.01 && six.angles_com.pitch == out.angles_com.pitch && six.thrust_n == out.thrust_n);
+        let rates6 = Vector3::new(6.0 * -phi, rates.y, rates.z);
+        assert!((six.rates.raw() - t * rates6).norm() < 1e-12);
+    }
+
     #[test]
     fn angle_commands_saturate() {
         let out = control(&gains(), &hold(Vec3::zeros()), Vec3::new(-50.0, 50.0, 0.0), Vec3::zeros(), Rot::identity());
