@@ -220,3 +220,27 @@ plan:
     let peak = out.vehicles[0].trace.iter().map(|t| t.att_true.roll.abs().max(t.att_true.pitch.abs())).fold(0.0, f64::max).to_degrees();
     assert!(peak > 4.9 && peak < 5.5, "peak tilt {peak}°");
 }
+
+/// The calibration circles as flown in `yaw-offset` (0.25 m, 2 s): nominally
+/// atan(r·ω²/g) = atan(0.25·π²/9.81) = 14.1° of tilt turning at ω = π rad/s, a roll and pitch
+/// rate of 0.246·π = 0.77 rad/s = 44 °/s. The position loop overshoots the circle, so the
+/// vehicle flies a wider one: over the middle turn the mean tilt and the mean |(p, q)| are
+/// pinned here at their flown values, 20° and 64 °/s (README; flown 20.3° and 64.3 °/s), within 3 %.
+#[test]
+fn calibration_circles_as_flown() {
+    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/yaw-offset.yaml")).unwrap();
+    let out = run(&s, RunOptions { trace: true, apply_calibration: Some(true) });
+    let v = &out.vehicles[0];
+    let k = v.phases.iter().position(|(_, name)| *name == "calibrate_gyro").unwrap();
+    // settle 2 s, then three turns of 2 s: the middle turn is 4–6 s into the phase
+    let t0 = v.phases[k].0.as_secs_f64() + 4.0;
+    let turn: Vec<_> = v.trace.iter().filter(|t| (t0..t0 + 2.0).contains(&t.t.as_secs_f64())).collect();
+    assert!(turn.len() > 300, "{}", turn.len());
+    let n = turn.len() as f64;
+    let tilt = turn.iter().map(|t| (t.att_true.roll.cos() * t.att_true.pitch.cos()).acos()).sum::<f64>() / n;
+    let rate = turn.iter().map(|t| t.omega.x().hypot(t.omega.y())).sum::<f64>() / n;
+    let nominal_tilt = (0.25 * std::f64::consts::PI.powi(2) / 9.81).atan();
+    assert!((nominal_tilt.to_degrees() - 14.1).abs() < 0.05);
+    assert!((tilt.to_degrees() / 20.0 - 1.0).abs() < 0.03, "mean tilt {}°", tilt.to_degrees());
+    assert!((rate.to_degrees() / 64.0 - 1.0).abs() < 0.03, "mean rate {} °/s", rate.to_degrees());
+}
