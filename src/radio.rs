@@ -122,6 +122,19 @@ mod tests {
         assert_eq!(c.thrust_n, 0.0);
     }
 
+    /// Thrust counts by hand with T_max = 24 N: 23 N is 255·23/24 = 244.375 → 244 (over 256
+    /// counts it would be 245), count 100 is 100·24/255 = 9.41176 N (9.375 N over 256), and the
+    /// full count gives exactly T_max.
+    #[test]
+    fn thrust_counts_are_255ths_of_the_maximum() {
+        let r = radio();
+        assert_eq!(r.encode(Vec3::zeros(), 23.0).thrust(), 244);
+        assert_eq!(r.encode(Vec3::zeros(), 24.0).thrust(), 255);
+        let hundred = r.decode(&r.encode(Vec3::zeros(), 100.0 * 24.0 / 255.0));
+        assert!((hundred.thrust_n - 9.411_764_705_882_353).abs() < 1e-12, "{}", hundred.thrust_n);
+        assert_eq!(r.decode(&r.encode(Vec3::zeros(), 24.0)).thrust_n, 24.0);
+    }
+
     #[test]
     fn quantization_error_is_at_most_half_a_count() {
         let r = radio();
