@@ -61,6 +61,16 @@ fn hover_average_recovers_the_roll_offset() {
     assert!(pitch.to_degrees().abs() < 0.02, "pitch estimate {}°", pitch.to_degrees());
 }
 
+/// The paper's straight-flight yaw estimate (deg) after a take-off, the hover calibration and
+/// the flight (6) of 6 m at 0.75 m/s, for a pure marker yaw of `yaw_deg`; `extra` is added to the
+/// scenario's top level (noise, radio).
+fn straight_flight_yaw(seed: u64, yaw_deg: f64, extra: &str) -> f64 {
+    let y = format!(
+        "name: yaw-flight\nseed: {seed}\n{extra}vehicles:\n  - name: x3d\n    home_m: [-3, 0]\n    markers: {{ rotation_deg: [0, 0, {yaw_deg}] }}\nplan:\n  - takeoff: {{ altitude_m: 1.0, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 6, average_s: 5 }}\n  - calibrate_yaw: {{ settle_s: 3, distance_m: 6, speed_m_s: 0.75 }}\n"
+    );
+    run(&inline(&y), RunOptions { trace: false, apply_calibration: None }).vehicles[0].calibration.yaw_offset.unwrap().to_degrees()
+}
+
 /// Yaw observability (README): with the attitude loop closed on the mocap, the thrust axis is
 /// tilted in the mocap frame, and a marker rotation about the body z axis leaves that axis
 /// unchanged, so the straight flight (6) goes along *measured* North to first order and the fit
@@ -70,23 +80,8 @@ fn hover_average_recovers_the_roll_offset() {
 /// error budget of the README, ±1.7° over seeds and 3.2° on one: it is not ~0).
 #[test]
 fn straight_flight_is_nearly_blind_to_a_marker_yaw_offset() {
-    let y = r#"
-name: yaw-blind
-seed: SEED
-vehicles:
-  - name: x3d
-    home_m: [-3, 0]
-    markers: { rotation_deg: [0, 0, YAW] }
-plan:
-  - takeoff: { altitude_m: 1.0, duration_s: 3 }
-  - calibrate_roll_pitch: { settle_s: 6, average_s: 5 }
-  - calibrate_yaw: { settle_s: 3, distance_m: 6, speed_m_s: 0.75 }
-"#;
     for seed in 1..=3 {
-        let est = |yaw: f64| {
-            let s = inline(&y.replace("SEED", &seed.to_string()).replace("YAW", &yaw.to_string()));
-            run(&s, RunOptions { trace: false, apply_calibration: None }).vehicles[0].calibration.yaw_offset.unwrap().to_degrees()
-        };
+        let est = |yaw: f64| straight_flight_yaw(seed, yaw, "");
         let with = est(4.0);
         let without = est(0.0);
         eprintln!("seed {seed}: estimate {with:.3}° with 4° of marker yaw, {without:.3}° with none");
@@ -173,24 +168,7 @@ fn fig6_uncompensated_radius_is_the_closed_form() {
 /// 0.024°). A method that saw the offset would give 4°; one that is broken, anything.
 #[test]
 fn straight_flight_yaw_is_the_leak_alone_without_noise() {
-    let y = r#"
-name: yaw-leak
-seed: 1
-mocap: { noise_mm: 0 }
-radio: { rate_scale_deg_s: 0.05 }
-vehicles:
-  - name: x3d
-    home_m: [-3, 0]
-    markers: { rotation_deg: [0, 0, YAW] }
-plan:
-  - takeoff: { altitude_m: 1.0, duration_s: 3 }
-  - calibrate_roll_pitch: { settle_s: 6, average_s: 5 }
-  - calibrate_yaw: { settle_s: 3, distance_m: 6, speed_m_s: 0.75 }
-"#;
-    let est = |yaw: f64| {
-        let s = inline(&y.replace("YAW", &yaw.to_string()));
-        run(&s, RunOptions { trace: false, apply_calibration: None }).vehicles[0].calibration.yaw_offset.unwrap().to_degrees()
-    };
+    let est = |yaw: f64| straight_flight_yaw(1, yaw, "mocap: { noise_mm: 0 }\nradio: { rate_scale_deg_s: 0.05 }\n");
     let (none, four) = (est(0.0), est(4.0));
     assert!(none.abs() < 1e-3, "no offset: {none}°");
     assert!(four.abs() < 0.03 * 4.0, "4° of marker yaw leaks {four}°");
