@@ -176,6 +176,42 @@ mod tests {
         assert_eq!(l.receive(Nanos::from_millis(20)), Some(7));
     }
 
+    /// An outage on top of random loss: every packet sent in [10 s, 12 s) is lost, and outside
+    /// it the link loses exactly the packets the same link without the outage loses (the loss
+    /// model keeps drawing through the outage, so the outage does not shift later draws); the
+    /// gap shows as a run of at least the 400 frames of 5 ms inside it and a silence of ≥ 2 s.
+    #[test]
+    fn an_outage_over_random_loss_loses_all_inside_and_the_same_outside() {
+        let bern = LossModel::Bernoulli { p: 0.2 };
+        let (from, to) = (Nanos::from_millis(10_000), Nanos::from_millis(12_000));
+        let mut with = link(bern, 0).with_outages(vec![(from, Some(to))]);
+        let mut without = link(bern, 0);
+        let n = 8000u32;
+        let (mut got_with, mut got_without) = (Vec::new(), Vec::new());
+        for s in 0..n {
+            let t = Nanos::from_millis(5 * s as i64);
+            with.send(t, s, s);
+            without.send(t, s, s);
+            let later = t + Nanos::from_millis(20);
+            while let Some(x) = with.receive(later) {
+                got_with.push(x);
+            }
+            while let Some(x) = without.receive(later) {
+                got_without.push(x);
+            }
+        }
+        let inside = |s: &u32| (2000..2400).contains(s);
+        assert!(got_with.iter().all(|s| !inside(s)), "a packet got through the outage");
+        let outside: Vec<u32> = got_without.iter().copied().filter(|s| !inside(s)).collect();
+        assert_eq!(got_with, outside);
+        let lost_inside_anyway = got_without.iter().filter(|s| inside(s)).count() as u64;
+        let st = *with.stats();
+        assert_eq!(st.lost_on_link, without.stats().lost_on_link + lost_inside_anyway);
+        assert!(st.longest_missing_run >= 400 && st.longest_gap_ns >= 2_000_000_000, "{st:?}");
+        // 20 % outside (7600 packets: 1520 ± 3σ = 105) plus the 400 inside
+        assert!((st.lost_on_link as f64 - (1520.0 + 400.0)).abs() < 105.0, "{}", st.lost_on_link);
+    }
+
     #[test]
     fn gilbert_elliott_mean_loss_and_bursts() {
         // 10 % mean loss in bursts of mean length 5 frames
