@@ -222,3 +222,21 @@ fn calibration_circles_as_flown() {
     assert!((tilt.to_degrees() / 20.0 - 1.0).abs() < 0.03, "mean tilt {}°", tilt.to_degrees());
     assert!((rate.to_degrees() / 64.0 - 1.0).abs() < 0.03, "mean rate {} °/s", rate.to_degrees());
 }
+
+/// `validity-reject` in closed form: a constant yaw torque τ = 0.02 N·m (a bent rotor) is held
+/// by the onboard rate loop, τ_motor = J_z·K_ω,z·(r_com − r) with r = 0 in steady state, so the
+/// yaw-rate command settles at r_com = −τ/(J_z·K_ω,z), and the station's yaw loop
+/// r_com = K_ψ·(ψ_com − ψ) leaves a stand-off ψ − ψ_com = τ/(J_z·K_ω,z·K_ψ)
+/// = 0.02/(0.012·10·3) rad = 3.183°. The PPM rate steps (1.5 °/s) put a deadband of
+/// ±s/(2K_ψ) = ±0.25° around it; check (7) sees the mean yaw over the flight.
+#[test]
+fn validity_reject_yaw_stand_off_is_the_closed_form() {
+    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/validity-reject.yaml")).unwrap();
+    let out = run(&s, RunOptions { trace: false, apply_calibration: None });
+    let val = out.vehicles[0].calibration.validity.as_ref().expect("the yaw flight ran");
+    let stand_off = (0.02f64 / (0.012 * 10.0 * 3.0)).to_degrees();
+    assert!((stand_off - 3.183).abs() < 1e-3);
+    let deadband = 1.5 / (2.0 * 3.0);
+    assert!((val.mean_yaw.to_degrees() - stand_off).abs() <= deadband, "mean yaw {}° vs {stand_off}°", val.mean_yaw.to_degrees());
+    assert!(!val.accepted);
+}
