@@ -114,7 +114,9 @@ pub struct Station {
 }
 
 impl Station {
-    pub fn new(plan: Plan, gains: Gains, settings: CalibrationSettings, fs: FailsafeSettings, velocity_cutoff_hz: f64, record_rls: bool) -> Self {
+    /// A station flying `plan`; `record_traces` keeps the RLS recursion's and the hover
+    /// average's traces for the recording.
+    pub fn new(plan: Plan, gains: Gains, settings: CalibrationSettings, fs: FailsafeSettings, velocity_cutoff_hz: f64, record_traces: bool) -> Self {
         let (reference, window0) = plan.reference(Nanos::ZERO);
         // the straight-flight samples are kept for the batch fit: reserve them once, so the loop
         // does not allocate while flying
@@ -144,8 +146,8 @@ impl Station {
             command: ControlOutput { rates: Vec3::zeros(), thrust_n: 0.0, angles_com: Euler::ZERO, accel_com: Vec3::zeros() },
             reference,
             attitude: None,
-            rls_trace: record_rls.then(Vec::new),
-            hover_trace: record_rls.then(Vec::new),
+            rls_trace: record_traces.then(Vec::new),
+            hover_trace: record_traces.then(Vec::new),
             guidance: (Nanos::ZERO, reference, window0),
             fs,
             last_pose_at: None,

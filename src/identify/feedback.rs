@@ -60,7 +60,8 @@ pub fn nominal_tree(tree: &Value, i: usize) -> Value {
     t
 }
 
-fn r3(x: f64) -> f64 {
+/// Rounded to 4 decimals, as the fragment writes values.
+fn round4(x: f64) -> f64 {
     (x * 1e4).round() / 1e4
 }
 
@@ -70,7 +71,7 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
     let mut lines = vec![format!("# flyarena identify: the effects found in {}", r.source), "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string()];
     let mut set = Vec::new();
     for f in &r.effects {
-        let v: Vec<f64> = f.params.iter().map(|p| r3(p.value)).collect();
+        let v: Vec<f64> = f.params.iter().map(|p| round4(p.value)).collect();
         let vi = format!("vehicles[{i}]");
         match f.effect {
             Effect::BodyOffset => set.push((format!("{vi}.markers.rotation_deg"), json!(v))),
@@ -87,7 +88,7 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
             Effect::GyroBias => set.push((format!("{vi}.imu.gyro_bias_deg_s"), json!(v))),
             Effect::RotorDrag => set.push((format!("{vi}.undeclared.rotor_drag_per_s"), json!(v.iter().map(|x| x.max(0.0)).collect::<Vec<_>>()))),
             Effect::ConstantForce => set.push((format!("{vi}.disturbance.force_n"), json!(v))),
-            Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(r3(1.0 + f.params[0].value)))),
+            Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(round4(1.0 + f.params[0].value)))),
             Effect::GroundEffect => set.push((format!("{vi}.undeclared.ground_effect"), json!(v[0].max(0.0)))),
             Effect::LeverArm => {
                 // markers displaced by d make the mocap track the point d: r = −d for each marker

@@ -8,7 +8,7 @@ use crate::scenario::Scenario;
 use serde_json::{Value, json};
 use std::path::Path;
 
-pub struct Done {
+pub struct Identified {
     pub report: super::Report,
     /// R5, when the scenario declares it.
     pub requirements: Option<crate::requirements::Report>,
@@ -50,7 +50,7 @@ pub fn run(
     seed: Option<u64>,
     smoothing_ms: Option<f64>,
     forced: &[super::Effect],
-) -> Result<Done, String> {
+) -> Result<Identified, String> {
     let opts = options(forced, smoothing_ms, None);
     if let Some(m) = mapping {
         let map = super::mapping::Mapping::load(m)?;
@@ -63,7 +63,7 @@ pub fn run(
         let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32, 4);
         let json = json!({ "report": report, "closed_loop": null });
         let residuals = super::select::residual_series(&series, &opts, &report);
-        return Ok(Done { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
+        return Ok(Identified { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
     }
     let scen_path = scenario.unwrap_or(input);
     let src = std::fs::read_to_string(scen_path).map_err(|e| format!("{}: {e}", scen_path.display()))?;
@@ -98,12 +98,12 @@ pub fn run(
     let requirements = s.requirements.identify.as_ref().map(|req| super::check::check(&report, req, &s.vehicles.value[i].value.name));
     let json = json!({ "report": report, "closed_loop": { "nominal": before, "with_effects": after }, "requirements": requirements });
     let residuals = super::select::residual_series(&data, &opts, &report);
-    Ok(Done { report, requirements, text, json, fragment: frag, closed_loop: Some((before, after)), residuals })
+    Ok(Identified { report, requirements, text, json, fragment: frag, closed_loop: Some((before, after)), residuals })
 }
 
 /// Several logs through one mapping: each identified, then every flight's model evaluated on
 /// every other flight (cross-validation), per channel.
-pub struct Many {
+pub struct CrossValidated {
     pub reports: Vec<(String, super::Report)>,
     /// [fitted on][evaluated on] → cut of the accel_kin and force errors (None: channel missing)
     pub cross: Vec<Vec<(Option<f64>, Option<f64>)>>,
@@ -111,7 +111,7 @@ pub struct Many {
     pub json: Value,
 }
 
-pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<Many, String> {
+pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<CrossValidated, String> {
     use super::design::Channel;
     use super::select::{channel_cut, evaluate};
     let map = super::mapping::Mapping::load(mapping)?;
@@ -212,5 +212,5 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             "force_cut": cross.iter().map(|row| row.iter().map(|c| c.1).collect::<Vec<_>>()).collect::<Vec<_>>(),
         }
     });
-    Ok(Many { reports, cross, text, json })
+    Ok(CrossValidated { reports, cross, text, json })
 }
