@@ -832,7 +832,7 @@ pub struct Excitation {
     /// The share of the held-out residual energy on the channel axes the effect acts on that it
     /// makes, E/(E + N): E = θᵀ·(G_t,CC − G_t,CH·G_t,HH⁻¹·G_t,HC)·θ, the held-out energy of the
     /// part of the effect that the flight's *other hidden effects* H do not explain (G_t the raw
-    /// held-out Gram over the effect's channels; the held-out gate tests the effect on top of
+    /// held-out Gram over the channel axes the effect acts on; the held-out gate tests the effect on top of
     /// a model that holds them), N the held-out energy of the residual of the model with every
     /// candidate. The held-out gate needs a 10 % RMSE cut, i.e.
     /// a share of at least 19 %.
@@ -881,9 +881,9 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             let theta = DVector::from_iterator(k, values.iter().zip(e.params()).map(|(v, (_, _, f))| v / f));
             let lambda = (theta.transpose() * schur * &theta)[(0, 0)].max(0.0);
             // held-out energy of the part of the effect that the flight's other hidden effects
-            // do not explain (the Schur complement of the held-out Gram over the effect's
-            // channels: a thrust against voltage whose mean a hidden thrust scale takes is not
-            // counted), and of the full model's residual, on its channels
+            // do not explain (the Schur complement of the held-out Gram over the axes the effect
+            // acts on: a thrust against voltage whose mean a hidden thrust scale takes is not
+            // counted), and of the full model's residual, on those axes
             let mut order = block.clone();
             let partners: Vec<usize> = truth.iter().filter(|(x, _)| x != e && all.contains(x)).flat_map(|(x, _)| set_of(&[*x])).collect();
             order.extend(&partners);
