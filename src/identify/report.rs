@@ -61,6 +61,16 @@ pub fn render(r: &Report) -> String {
             .map(|c| format!("{} {:.0}{}", c.effect.key(), c.delta_bic, if c.passed { "" } else { "✗" }))
             .collect();
         let _ = writeln!(s, "          other candidates (ΔBIC, ✗ = fails a test): {}", runners.join(", "));
+        for w in r.removed.iter().filter(|w| w.after_step == k + 1) {
+            let _ = writeln!(
+                s,
+                "\n  backward check: − {}   on top of every other selected effect: ΔBIC {:.0}, F-test p {:.1e}, held-out error {:+.1} % (fails a test: it leaves)",
+                w.check.effect.name(),
+                w.check.delta_bic,
+                w.check.p_value,
+                -100.0 * w.check.heldout_gain
+            );
+        }
     }
     if !r.effects.is_empty() {
         let _ = writeln!(s, "\n  effects found (least squares, 95 % Newey–West intervals):");

@@ -243,3 +243,64 @@ fn a_single_axis_effect_is_judged_on_its_own_axis() {
     let (est, hw) = h.estimates[0];
     assert!((est - 1.238).abs() <= hw, "c_g {est} ± {hw} for 1.238");
 }
+
+/// Trial 78 of seed 3 (a fixture): an accelerometer bias (−0.15, 0.25, 0.17) m/s², rotor drag
+/// and a thrust scale of −0.097 on the `crazyflie21`. The accelerometer bias sits in the force
+/// channel too, so at step 1 a constant force explains force x, y *and* z best (ΔBIC −22584
+/// against −18871 for the thrust scale). Once the bias and the thrust scale are in, the force
+/// adds nothing (ΔBIC +27, p 0.74); without a backward check it stayed in the model as an
+/// invented effect. It must leave, and the three hidden effects' intervals must hold the truth.
+#[test]
+fn an_effect_that_later_ones_explain_leaves_the_model() {
+    use flyarena::identify::Effect::*;
+    let t = fixture(3, 78, "crazyflie21", vec![(AccelBias, vec![-0.1515, 0.2479, 0.1714]), (RotorDrag, vec![0.12, 0.176]), (ThrustScale, vec![-0.0973])]);
+    let o = run(&t, &Options::default());
+    assert!(o.extra.is_empty(), "invented: {:?}", o.extra);
+    for h in &o.hidden {
+        assert!(h.found, "{:?} missed: {o:#?}", h.effect);
+        // none confidently wrong (one of the 9 parameters, the bias x, misses its 95 % interval
+        // by 1.45 half-widths: about what 9 intervals are expected to do)
+        for ((est, hw), truth) in h.estimates.iter().zip(&h.truth) {
+            assert!((est - truth).abs() <= 3.0 * hw, "{:?}: {est} ± {hw} for {truth}", h.effect);
+        }
+    }
+    let scale = &o.hidden.iter().find(|h| h.effect == ThrustScale).unwrap().estimates[0];
+    assert!((scale.0 - -0.0973).abs() <= scale.1, "thrust scale {scale:?}");
+}
+
+/// Trial 216 of seed 3 (a fixture): a thrust scale of −0.087 and a thrust against voltage of
+/// 0.016 /V on the `x3d`, whose pack varies little. The step that adds the thrust scale names
+/// the voltage not identifiable from it (canonical correlation 0.997), and the thrust scale then
+/// holds the voltage's mean (−0.0765 for −0.0868). With the final model's noise model the
+/// correlation fell below 0.99, so the final check let the thrust scale claim ± 0.0004: 24
+/// half-widths off. A pair named at its step stays one: no interval is claimed.
+#[test]
+fn a_thrust_scale_named_beside_a_voltage_effect_claims_no_interval() {
+    use flyarena::identify::Effect::*;
+    let t = fixture(3, 216, "x3d", vec![(ThrustScale, vec![-0.0868]), (ThrustVoltage, vec![0.0158])]);
+    let o = run(&t, &Options::default());
+    let by = |e| o.hidden.iter().find(|h| h.effect == e).unwrap();
+    assert!(by(ThrustScale).found && !by(ThrustScale).identifiable, "{o:#?}");
+    assert!(by(ThrustVoltage).flagged, "{o:#?}");
+}
+
+/// Trial 20 of seed 3 (a fixture): a body offset (−2.75, −1.58, 2.09)°, an accelerometer bias
+/// and a 5 ms mocap delay on the `x3d`, flown as calibration circles and a yaw turn. Over the
+/// circles the rate vector turns at Ω ≈ 2.7 rad/s, so the delay looks like a body-offset yaw of
+/// Ω·δt ≈ 0.8°. The delay is significant in the fit but cuts the held-out error by 8 %, short of
+/// the gate, and stays out; the yaw then claimed 2.99 ± 0.13° for 2.09. The selected effects'
+/// intervals must cover the estimates with such a half-supported candidate in the model too.
+#[test]
+fn a_half_supported_delay_widens_the_body_offset_yaw() {
+    use flyarena::identify::Effect::*;
+    let t = fixture(3, 20, "x3d", vec![(BodyOffset, vec![-2.748, -1.582, 2.09]), (MocapDelay, vec![5.0]), (AccelBias, vec![0.2373, 0.057, 0.2207])]);
+    let o = run(&t, &Options::default());
+    for h in o.hidden.iter().filter(|h| h.effect != MocapDelay) {
+        assert!(h.found && h.identifiable, "{:?}: {o:#?}", h.effect);
+        for ((est, hw), truth) in h.estimates.iter().zip(&h.truth) {
+            assert!((est - truth).abs() <= 3.0 * hw, "{:?}: {est} ± {hw} for {truth}", h.effect);
+        }
+    }
+    let offset = &o.hidden.iter().find(|h| h.effect == BodyOffset).unwrap().estimates;
+    assert!((offset[2].0 - 2.09).abs() <= offset[2].1, "body offset yaw {:?} for 2.09", offset[2]);
+}
