@@ -417,36 +417,56 @@ fn grams(d: &Design, train: &[bool], test: &[bool], ars: &[Ar]) -> Vec<Gram> {
             b_r: DVector::zeros(m),
             w_r: 1.0 / ars[k].marginal_var.max(f64::MIN_POSITIVE),
         };
+        // accumulated in flat lower triangles (row p, column q ≤ p at p(p+1)/2 + q), each sum in
+        // sample order as before
+        let tri = m * (m + 1) / 2;
+        let (mut gw, mut gt, mut gr) = (vec![0.0; tri], vec![0.0; tri], vec![0.0; tri]);
+        let colv: Vec<&[f64]> = d.columns[c][a].iter().map(|x| x.1.as_slice()).collect();
+        let mut x = vec![0.0; m];
+        let accumulate = |g: &mut [f64], b: &mut DVector<f64>, x: &[f64], y: f64| {
+            let mut at = 0;
+            for p in 0..m {
+                b[p] += x[p] * y;
+                for q in 0..=p {
+                    g[at] += x[p] * x[q];
+                    at += 1;
+                }
+            }
+        };
         for i in 0..d.n {
-            if wy[i].is_finite() && (0..m).all(|q| wc[q][i].is_finite()) {
-                g.yy_w += wy[i] * wy[i];
-                g.n_w += 1;
-                for p in 0..m {
-                    g.b_w[p] += wc[p][i] * wy[i];
-                    for q in 0..=p {
-                        g.g_w[(p, q)] += wc[p][i] * wc[q][i];
-                    }
+            if wy[i].is_finite() {
+                let mut finite = true;
+                for q in 0..m {
+                    x[q] = wc[q][i];
+                    finite &= x[q].is_finite();
+                }
+                if finite {
+                    g.yy_w += wy[i] * wy[i];
+                    g.n_w += 1;
+                    accumulate(&mut gw, &mut g.b_w, &x, wy[i]);
                 }
             }
-            if train[i] {
-                let cv = |q: usize| d.columns[c][a][q].1[i];
-                for p in 0..m {
-                    g.b_r[p] += cv(p) * y[i];
-                    for q in 0..=p {
-                        g.g_r[(p, q)] += cv(p) * cv(q);
-                    }
+            if train[i] || test[i] {
+                for q in 0..m {
+                    x[q] = colv[q][i];
+                }
+                if train[i] {
+                    accumulate(&mut gr, &mut g.b_r, &x, y[i]);
+                }
+                if test[i] {
+                    g.yy_t += y[i] * y[i];
+                    g.n_t += 1;
+                    accumulate(&mut gt, &mut g.b_t, &x, y[i]);
                 }
             }
-            if test[i] {
-                let cv = |q: usize| d.columns[c][a][q].1[i];
-                g.yy_t += y[i] * y[i];
-                g.n_t += 1;
-                for p in 0..m {
-                    g.b_t[p] += cv(p) * y[i];
-                    for q in 0..=p {
-                        g.g_t[(p, q)] += cv(p) * cv(q);
-                    }
-                }
+        }
+        let mut at = 0;
+        for p in 0..m {
+            for q in 0..=p {
+                g.g_w[(p, q)] = gw[at];
+                g.g_t[(p, q)] = gt[at];
+                g.g_r[(p, q)] = gr[at];
+                at += 1;
             }
         }
         g.g_r *= g.w_r;

@@ -154,9 +154,15 @@ impl Ar {
     /// Fits orders 0..=max_order by least squares on the samples where `ok` holds for the sample
     /// and its p predecessors, and keeps the order with the lowest BIC.
     pub fn fit(e: &[f64], ok: &[bool], max_order: usize) -> Ar {
-        let valid = |k: usize, p: usize| k >= p && (k - p..=k).all(|j| ok[j]);
-        // one common sample set (valid for the largest order), so BICs are comparable
-        let rows: Vec<usize> = (0..e.len()).filter(|&k| valid(k, max_order)).collect();
+        // one common sample set (valid for the largest order: max_order + 1 consecutive usable
+        // samples ending at k), so BICs are comparable
+        let mut run = 0usize;
+        let rows: Vec<usize> = (0..e.len())
+            .filter(|&k| {
+                run = if ok[k] { run + 1 } else { 0 };
+                run > max_order
+            })
+            .collect();
         let n = rows.len() as f64;
         if rows.len() < 10 * (max_order + 1) {
             let var = rows.iter().map(|&k| e[k] * e[k]).sum::<f64>() / n.max(1.0);
@@ -202,8 +208,11 @@ impl Ar {
     pub fn whiten(&self, x: &[f64], ok: &[bool], out: &mut Vec<f64>) {
         out.clear();
         let p = self.order();
+        // consecutive usable samples ending at k: the filter needs p + 1 of them
+        let mut run = 0usize;
         for k in 0..x.len() {
-            if k < p || !(k - p..=k).all(|j| ok[j]) {
+            run = if ok[k] { run + 1 } else { 0 };
+            if run <= p {
                 out.push(f64::NAN);
                 continue;
             }
