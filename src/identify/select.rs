@@ -1310,6 +1310,14 @@ fn select(s: &Series, o: &Options) -> Report {
             let mut with_c = selected.clone();
             with_c.push(c.effect);
             let (af, at, ac) = folded(&set_of(&with_c), &with_c);
+            // the tilt at rest the ground check compares with moves too
+            let (base_offset, base_bias, _) = rest_tilt(&selected, &bf, &bc, g, rest_yaw);
+            let (alt_offset, alt_bias, _) = rest_tilt(&with_c, &af, &ac, g, rest_yaw);
+            let base_total = [base_offset[0] + base_bias.y / g, base_offset[1] - base_bias.x / g];
+            let alt_total = [alt_offset[0] + alt_bias.y / g, alt_offset[1] - alt_bias.x / g];
+            for k in 0..2 {
+                tilt_widen[k] = tilt_widen[k].max((alt_total[k] - base_total[k]).abs() + Z_975 * tilt_sd[k]);
+            }
             let mut moved = Vec::new();
             for f in effects.iter_mut() {
                 let base = params_of(f.effect, &bt, &bf.cov, &bf.set, &bc);
