@@ -1058,7 +1058,7 @@ fn select(s: &Series, o: &Options) -> Report {
         // offset that an accelerometer bias and a thrust scale explain once both are in). Each
         // linear effect must still pass the gates that let it in, now on top of all the
         // others; the worst that fails leaves for good (it cannot re-enter, so the selection
-        // ends), and the forward steps go on from the smaller model. Corrections (rotations,
+        // terminates), and the forward steps go on from the smaller model. Corrections (rotations,
         // delay, lever arm) are folded into the trajectory and are not re-tested; nor is a pair
         // that joined together (each alone fails by construction) or a forced effect.
         if !checked {
