@@ -1010,6 +1010,22 @@ fn score(gs: &[Gram], base: &Fit, effects: &[Effect], tests: usize, o: &Options)
     Candidate { effect: effects[0], delta_bic, f, p_value, heldout_gain, max_corr, passed }
 }
 
+/// The backward check's verdict on the selected set: each `testable` effect is scored on top
+/// of every other selected one (`tests` candidates for the Bonferroni level); of those that
+/// fail a gate, the one with the largest ΔBIC (the least support) leaves. None when all pass.
+fn backward_worst(gs: &[Gram], selected: &[Effect], testable: &[Effect], tests: usize, o: &Options) -> Option<Candidate> {
+    let mut worst: Option<Candidate> = None;
+    for e in testable {
+        let rest: Vec<Effect> = selected.iter().copied().filter(|x| x != e).collect();
+        let base = fit(gs, &set_of(&rest));
+        let c = score(gs, &base, &[*e], tests, o);
+        if !c.passed && worst.as_ref().is_none_or(|w| c.delta_bic > w.delta_bic) {
+            worst = Some(c);
+        }
+    }
+    worst
+}
+
 /// The selection on a gated flight.
 fn select(s: &Series, o: &Options) -> Report {
     let mut corr = Corrections::default();
@@ -1066,16 +1082,7 @@ fn select(s: &Series, o: &Options) -> Report {
             let testable: Vec<Effect> = selected.iter().copied().filter(|e| !e.is_correction() && !o.forced.contains(e) && !in_pair(*e)).collect();
             let outside =
                 o.candidates.iter().filter(|c| !selected.contains(c) && !removed.iter().any(|r: &Removal| r.check.effect == **c) && available(&state.design, **c)).count();
-            let mut worst: Option<Candidate> = None;
-            for e in testable {
-                let rest: Vec<Effect> = selected.iter().copied().filter(|x| *x != e).collect();
-                let base = fit(&state.grams, &set_of(&rest));
-                let c = score(&state.grams, &base, &[e], outside + 1, o);
-                if !c.passed && worst.as_ref().is_none_or(|w| c.delta_bic > w.delta_bic) {
-                    worst = Some(c);
-                }
-            }
-            if let Some(w) = worst {
+            if let Some(w) = backward_worst(&state.grams, &selected, &testable, outside + 1, o) {
                 selected.retain(|x| *x != w.effect);
                 let mut c2 = state_corr;
                 state = refine(s, o, &mut c2, &selected, o.refine_iterations);
@@ -1502,6 +1509,73 @@ mod tests {
         assert!(!passes_gates(1e-12, 0.0, 0.5, &o, m));
         // the held-out cut alone
         assert!(!passes_gates(1e-12, -100.0, 0.0999, &o, m));
+    }
+
+    /// The backward check removes the effect with the least support among those that fail.
+    /// One channel axis, pure noise y and three single-column regressors: a thrust scale
+    /// that explains nothing, a thrust against voltage that explains a little (0.02·x) and a
+    /// ground effect that explains y well (0.5·x). The ground effect passes; of the two that
+    /// fail, the one with the larger ΔBIC (the thrust scale, which fits only noise) leaves.
+    #[test]
+    fn the_backward_check_removes_the_least_supported_failure() {
+        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let n = 3000;
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut unif = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let xs: Vec<[f64; 3]> = (0..n).map(|_| [unif(), unif(), unif()]).collect();
+        let ys: Vec<f64> = xs.iter().map(|x| 0.02 * x[1] + 0.5 * x[2] + 0.1 * unif()).collect();
+        let mut g = Gram {
+            cols: cols.to_vec(),
+            g_w: DMatrix::zeros(3, 3),
+            b_w: DVector::zeros(3),
+            yy_w: 0.0,
+            n_w: 0,
+            g_t: DMatrix::zeros(3, 3),
+            b_t: DVector::zeros(3),
+            yy_t: 0.0,
+            n_t: 0,
+            g_r: DMatrix::zeros(3, 3),
+            b_r: DVector::zeros(3),
+            w_r: 1.0,
+        };
+        for (i, (x, y)) in xs.iter().zip(&ys).enumerate() {
+            let xv = DVector::from_row_slice(x);
+            let (gm, bv) = (&xv * xv.transpose(), &xv * *y);
+            if i % 3 == 2 {
+                g.g_t += gm;
+                g.b_t += bv;
+                g.yy_t += y * y;
+                g.n_t += 1;
+            } else {
+                g.g_w += &gm;
+                g.b_w += &bv;
+                g.yy_w += y * y;
+                g.n_w += 1;
+                g.g_r += gm;
+                g.b_r += bv;
+            }
+        }
+        let gs = [g];
+        let selected = [Effect::ThrustScale, Effect::ThrustVoltage, Effect::GroundEffect];
+        let o = Options::default();
+        let scores: Vec<Candidate> = selected
+            .iter()
+            .map(|e| {
+                let rest: Vec<Effect> = selected.iter().copied().filter(|x| x != e).collect();
+                score(&gs, &fit(&gs, &set_of(&rest)), &[*e], 1, &o)
+            })
+            .collect();
+        assert!(!scores[0].passed && !scores[1].passed && scores[2].passed, "{scores:#?}");
+        assert!(scores[0].delta_bic > scores[1].delta_bic, "{scores:#?}");
+        let w = backward_worst(&gs, &selected, &selected, 1, &o).expect("two fail");
+        assert_eq!(w.effect, Effect::ThrustScale);
+        // nothing to remove when every testable effect passes
+        assert!(backward_worst(&gs, &selected, &[Effect::GroundEffect], 1, &o).is_none());
     }
 
     /// The multiplicative reparameterisation by hand: a thrust scale a = −0.2 and an additive
