@@ -754,6 +754,12 @@ fn available(d: &Design, e: Effect) -> bool {
 /// (b_y/g, −b_x/g), as [`super::ground`] derives. Returns (frame part, bias, standard deviation
 /// of the whole sum from the fit's covariance: offset and bias trade off in a hover, their sum
 /// does not).
+/// The whole tilt at rest (roll, pitch; rad): the frame part plus the tilt (b_y/g, −b_x/g) an
+/// accelerometer bias b implies (see [`rest_tilt`]).
+fn total_tilt(frame: [f64; 2], bias: &Vector3<f64>, g: f64) -> [f64; 2] {
+    [frame[0] + bias.y / g, frame[1] - bias.x / g]
+}
+
 fn rest_tilt(selected: &[Effect], fit: &Fit, corr: &Corrections, g: f64, yaw: f64) -> ([f64; 2], nalgebra::Vector3<f64>, [f64; 2]) {
     let has = |e: Effect| selected.contains(&e);
     let (c, s) = (yaw.cos(), yaw.sin());
@@ -1010,6 +1016,12 @@ fn score(gs: &[Gram], base: &Fit, effects: &[Effect], tests: usize, o: &Options)
     Candidate { effect: effects[0], delta_bic, f, p_value, heldout_gain, max_corr, passed }
 }
 
+/// The candidates a forward step tries: not selected, not removed by the backward check (no
+/// re-entry), and with columns in the data.
+fn pool_of(o: &Options, d: &Design, selected: &[Effect], removed: &[Removal]) -> Vec<Effect> {
+    o.candidates.iter().copied().filter(|e| !selected.contains(e) && !removed.iter().any(|r| r.check.effect == *e) && available(d, *e)).collect()
+}
+
 /// The backward check's verdict on the selected set: each `testable` effect is scored on top
 /// of every other selected one (`tests` candidates for the Bonferroni level); of those that
 /// fail a gate, the one with the largest ΔBIC (the least support) leaves. None when all pass.
@@ -1053,7 +1065,6 @@ fn select(s: &Series, o: &Options) -> Report {
     let mut state = nominal;
     let mut state_corr = corr;
     let mut removed: Vec<Removal> = Vec::new();
-    let mut checked = true;
     if !too_few {
         for e in &o.forced {
             if available(&state.design, *e) && !selected.contains(e) {
@@ -1077,11 +1088,11 @@ fn select(s: &Series, o: &Options) -> Report {
         // terminates), and the forward steps go on from the smaller model. Corrections (rotations,
         // delay, lever arm) are folded into the trajectory and are not re-tested; nor is a pair
         // that joined together (each alone fails by construction) or a forced effect.
-        if !checked {
+        // (every pass of the loop after the first follows a step)
+        if !steps.is_empty() {
             let in_pair = |e: Effect| steps.iter().any(|st: &Step| st.together_with.is_some() && (st.added == e || st.together_with == Some(e)));
             let testable: Vec<Effect> = selected.iter().copied().filter(|e| !e.is_correction() && !o.forced.contains(e) && !in_pair(*e)).collect();
-            let outside =
-                o.candidates.iter().filter(|c| !selected.contains(c) && !removed.iter().any(|r: &Removal| r.check.effect == **c) && available(&state.design, **c)).count();
+            let outside = pool_of(o, &state.design, &selected, &removed).len();
             if let Some(w) = backward_worst(&state.grams, &selected, &testable, outside + 1, o) {
                 selected.retain(|x| *x != w.effect);
                 let mut c2 = state_corr;
@@ -1094,8 +1105,7 @@ fn select(s: &Series, o: &Options) -> Report {
             notes.push(format!("stopped after {} steps (max_steps)", o.max_steps));
             break;
         }
-        let pool: Vec<Effect> =
-            o.candidates.iter().copied().filter(|e| !selected.contains(e) && !removed.iter().any(|r| r.check.effect == *e) && available(&state.design, *e)).collect();
+        let pool = pool_of(o, &state.design, &selected, &removed);
         if pool.is_empty() {
             break;
         }
@@ -1149,7 +1159,6 @@ fn select(s: &Series, o: &Options) -> Report {
         }
         selected.push(best.effect);
         selected.extend(partner);
-        checked = false;
         let mut c2 = state_corr;
         state = refine(s, o, &mut c2, &selected, o.refine_iterations);
         state_corr = c2;
@@ -1243,7 +1252,7 @@ fn select(s: &Series, o: &Options) -> Report {
     let g = s.model.gravity_m_s2;
     let rest_yaw = super::ground::rest_yaw(s).unwrap_or(0.0);
     let (tilt_offset, tilt_bias, tilt_sd) = rest_tilt(&selected, &state.fit, &state_corr, g, rest_yaw);
-    let tilt_total = [tilt_offset[0] + tilt_bias.y / g, tilt_offset[1] - tilt_bias.x / g];
+    let tilt_total = total_tilt(tilt_offset, &tilt_bias, g);
     let mut tilt_widen = [0.0f64; 2];
     if !too_few {
         let outside: Vec<Effect> = o.candidates.iter().copied().filter(|c| !selected.contains(c) && available(&state.design, *c)).collect();
@@ -1283,8 +1292,8 @@ fn select(s: &Series, o: &Options) -> Report {
                 alt.push(c);
                 let mut alt_corr = Corrections::default();
                 let alt_state = refine(s, o, &mut alt_corr, &alt, o.refine_iterations);
-                let (ao, ab, asd) = rest_tilt(&alt, &alt_state.fit, &alt_corr, s.model.gravity_m_s2, rest_yaw);
-                let alt_total = [ao[0] + ab.y / s.model.gravity_m_s2, ao[1] - ab.x / s.model.gravity_m_s2];
+                let (ao, ab, asd) = rest_tilt(&alt, &alt_state.fit, &alt_corr, g, rest_yaw);
+                let alt_total = total_tilt(ao, &ab, g);
                 for k in 0..2 {
                     tilt_widen[k] = tilt_widen[k].max((alt_total[k] - tilt_total[k]).abs() + Z_975 * asd[k]);
                 }
@@ -1313,15 +1322,15 @@ fn select(s: &Series, o: &Options) -> Report {
             (f, theta, corr)
         };
         let (bf, bt, bc) = folded(&state.fit.set, &selected);
+        // the tilt at rest the ground check compares with moves too
+        let (base_offset, base_bias, _) = rest_tilt(&selected, &bf, &bc, g, rest_yaw);
+        let base_total = total_tilt(base_offset, &base_bias, g);
         for c in near {
             let mut with_c = selected.clone();
             with_c.push(c.effect);
             let (af, at, ac) = folded(&set_of(&with_c), &with_c);
-            // the tilt at rest the ground check compares with moves too
-            let (base_offset, base_bias, _) = rest_tilt(&selected, &bf, &bc, g, rest_yaw);
             let (alt_offset, alt_bias, _) = rest_tilt(&with_c, &af, &ac, g, rest_yaw);
-            let base_total = [base_offset[0] + base_bias.y / g, base_offset[1] - base_bias.x / g];
-            let alt_total = [alt_offset[0] + alt_bias.y / g, alt_offset[1] - alt_bias.x / g];
+            let alt_total = total_tilt(alt_offset, &alt_bias, g);
             for k in 0..2 {
                 tilt_widen[k] = tilt_widen[k].max((alt_total[k] - base_total[k]).abs() + Z_975 * tilt_sd[k]);
             }

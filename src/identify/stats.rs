@@ -147,6 +147,15 @@ pub struct Ar {
     pub marginal_var: f64,
 }
 
+/// Per sample k: whether samples k − p..=k are all usable (a running count of consecutive
+/// usable samples, so O(1) per sample whatever p).
+fn full_windows(ok: &[bool], p: usize) -> impl Iterator<Item = bool> + '_ {
+    ok.iter().scan(0usize, move |run, &o| {
+        *run = if o { *run + 1 } else { 0 };
+        Some(*run > p)
+    })
+}
+
 impl Ar {
     pub fn white(sigma: f64) -> Ar {
         Ar { a: Vec::new(), sigma, marginal_var: sigma * sigma }
@@ -154,15 +163,8 @@ impl Ar {
     /// Fits orders 0..=max_order by least squares on the samples where `ok` holds for the sample
     /// and its p predecessors, and keeps the order with the lowest BIC.
     pub fn fit(e: &[f64], ok: &[bool], max_order: usize) -> Ar {
-        // one common sample set (valid for the largest order: max_order + 1 consecutive usable
-        // samples ending at k), so BICs are comparable
-        let mut run = 0usize;
-        let rows: Vec<usize> = (0..e.len())
-            .filter(|&k| {
-                run = if ok[k] { run + 1 } else { 0 };
-                run > max_order
-            })
-            .collect();
+        // one common sample set (valid for the largest order), so BICs are comparable
+        let rows: Vec<usize> = full_windows(ok, max_order).enumerate().filter(|(_, v)| *v).map(|(k, _)| k).collect();
         let n = rows.len() as f64;
         if rows.len() < 10 * (max_order + 1) {
             let var = rows.iter().map(|&k| e[k] * e[k]).sum::<f64>() / n.max(1.0);
@@ -208,11 +210,8 @@ impl Ar {
     pub fn whiten(&self, x: &[f64], ok: &[bool], out: &mut Vec<f64>) {
         out.clear();
         let p = self.order();
-        // consecutive usable samples ending at k: the filter needs p + 1 of them
-        let mut run = 0usize;
-        for k in 0..x.len() {
-            run = if ok[k] { run + 1 } else { 0 };
-            if run <= p {
+        for (k, full) in full_windows(ok, p).enumerate().take(x.len()) {
+            if !full {
                 out.push(f64::NAN);
                 continue;
             }
