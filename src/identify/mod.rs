@@ -36,6 +36,7 @@
 //! ```
 
 pub mod check;
+pub mod consistency;
 pub mod design;
 pub mod feedback;
 pub mod flyarena_log;

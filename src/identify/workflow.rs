@@ -107,6 +107,8 @@ pub struct CrossValidated {
     pub reports: Vec<(String, super::Report)>,
     /// [fitted on][evaluated on] → cut of the accel_kin and force errors (None: channel missing)
     pub cross: Vec<Vec<(Option<f64>, Option<f64>)>>,
+    /// Mountings from the ground check, the body offsets' agreement inside each, and transfer.
+    pub consistency: super::consistency::Consistency,
     pub text: String,
     pub json: Value,
 }
@@ -203,8 +205,21 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             text.push('\n');
         }
     }
+    let accel_cross: Vec<Vec<Option<f64>>> = cross.iter().map(|row| row.iter().map(|c| c.0).collect()).collect();
+    // the body offset's own share: each model again without its offset
+    let offset_gain: Vec<Vec<Option<f64>>> = reports
+        .iter()
+        .zip(&accel_cross)
+        .map(|((_, r), row)| {
+            let bare = super::consistency::without_body_offset(r);
+            series.iter().zip(row).map(|(s, with)| Some(with.as_ref()? - channel_cut(&evaluate(s, &opts, bare.as_ref()?), Channel::AccelKin)?)).collect()
+        })
+        .collect();
+    let consistency = super::consistency::consistency(&reports, &accel_cross, &offset_gain, super::consistency::LINK_DEG);
+    text += &super::consistency::render(&consistency);
     let json = json!({
         "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
+        "consistency": consistency,
         "excluded": excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e})).collect::<Vec<_>>(),
         "cross_validation": {
             "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),
@@ -212,5 +227,5 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             "force_cut": cross.iter().map(|row| row.iter().map(|c| c.1).collect::<Vec<_>>()).collect::<Vec<_>>(),
         }
     });
-    Ok(CrossValidated { reports, cross, text, json })
+    Ok(CrossValidated { reports, cross, consistency, text, json })
 }

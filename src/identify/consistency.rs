@@ -1,0 +1,335 @@
+//! Consistency across flights: flights that share a marker mounting must give the same body
+//! offset, and one flight's model must lower the other's error where the mounting is shared
+//! (and not where it is not).
+//!
+//! ## Mountings from the ground check
+//! The ground check (see [`super::ground`]) reads the tilt between the accelerometer and the
+//! markers at rest, independently of the flight fit. Two flights belong to one mounting when
+//! their ground tilts (roll, pitch) are within `link_deg` of each other, and a mounting is a
+//! connected group of such links (single linkage: the groups do not depend on the order of the
+//! flights, but a chain of close flights can join two distant ones, so each group reports its
+//! largest ground distance). The default 0.5° is about the ground tilt that an accelerometer
+//! offset change of 0.085 m/s² (8.7 mg, a turn-on-to-turn-on repeatability of MEMS
+//! accelerometers) produces: closer than that, the ground check cannot tell two mountings
+//! apart. Flights without a ground check are in no group.
+//!
+//! ## Agreement inside a mounting
+//! Per axis (roll, pitch, yaw of the body offset, degrees), with σ_i = half-width_i / 1.96:
+//!   x̄ = Σ x_i/σ_i² / Σ 1/σ_i²,   χ² = Σ ((x_i − x̄)/σ_i)²,   p = P(χ²_{k−1} > χ²).
+//! The offsets agree within their intervals when p ≥ 0.05. A flight whose offset is not
+//! identifiable (no interval) or not fitted is left out of that test and named.
+//!
+//! ## Transfer
+//! From the cross-validation matrix (the model fitted on flight i applied to flight j, the cut
+//! of flight j's accel_kin error; j's samples are not in i's fit): the median cut over pairs
+//! i ≠ j in the same mounting against the median over pairs in different mountings. The whole
+//! model transfers partly everywhere (a lever arm, a delay are properties of the vehicle), so
+//! the offset's own share is measured too: the cut of i's model minus the cut of i's model
+//! without its body offset, on flight j. Inside a mounting it should be positive (one flight's
+//! offset lowers another's error); across mountings it should not.
+
+use super::design::Effect;
+use super::select::{MIN_TRAIN_SAMPLES, Report};
+use super::stats::{Z_975, chi2_sf};
+
+/// Ground tilts closer than this (deg) are one mounting, by default.
+pub const LINK_DEG: f64 = 0.5;
+/// Offsets agree inside a mounting when the χ² test gives p at least this.
+pub const AGREE_P: f64 = 0.05;
+
+/// One axis of the body offset inside one mounting.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AxisAgreement {
+    pub axis: &'static str,
+    /// Flights that entered the test (index into the flights).
+    pub flights: Vec<usize>,
+    /// Inverse-variance weighted mean (deg).
+    pub mean_deg: f64,
+    /// Largest minus smallest offset (deg).
+    pub spread_deg: f64,
+    pub chi2: f64,
+    pub dof: usize,
+    pub p: f64,
+    pub agree: bool,
+}
+
+/// One mounting: a group of flights whose ground tilts link.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Mounting {
+    pub flights: Vec<usize>,
+    /// Largest ground-tilt distance between two of its flights (deg).
+    pub ground_spread_deg: f64,
+    /// Per axis of the body offset, when at least two flights have an interval on it.
+    pub axes: Vec<AxisAgreement>,
+    /// Flights left out of the agreement test, and why.
+    pub left_out: Vec<(usize, String)>,
+}
+
+/// The consistency report of a cross-validation.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Consistency {
+    pub link_deg: f64,
+    pub flights: Vec<String>,
+    pub mountings: Vec<Mounting>,
+    /// Median accel_kin cut over ordered pairs inside one mounting, and the number of pairs
+/// (flights with too few samples to fit are neither model nor test).
+    pub within_cut: Option<f64>,
+    pub within_pairs: usize,
+    /// Median over ordered pairs in different mountings (flights of no mounting excluded).
+    pub across_cut: Option<f64>,
+    pub across_pairs: usize,
+    /// The body offset's own share of the cut (with it minus without it), medians inside one
+    /// mounting and across mountings, over the same pairs.
+    pub within_offset_gain: Option<f64>,
+    pub across_offset_gain: Option<f64>,
+    /// Pairs in which the offset makes the other flight's error worse (gain < 0), inside one
+    /// mounting and across mountings.
+    pub within_offset_worse: usize,
+    pub across_offset_worse: usize,
+}
+
+/// Connected groups of points closer than `link` (Euclidean), each sorted, ordered by their
+/// first member; `None` points are in no group.
+pub fn link_groups(points: &[Option<(f64, f64)>], link: f64) -> Vec<Vec<usize>> {
+    let n = points.len();
+    let mut group: Vec<Option<usize>> = vec![None; n];
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for start in 0..n {
+        if points[start].is_none() || group[start].is_some() {
+            continue;
+        }
+        let id = groups.len();
+        group[start] = Some(id);
+        let mut members = vec![start];
+        let mut k = 0;
+        while k < members.len() {
+            let a = points[members[k]].expect("members have points");
+            for j in 0..n {
+                if group[j].is_none()
+                    && let Some(b) = points[j]
+                    && (a.0 - b.0).hypot(a.1 - b.1) < link
+                {
+                    group[j] = Some(id);
+                    members.push(j);
+                }
+            }
+            k += 1;
+        }
+        members.sort_unstable();
+        groups.push(members);
+    }
+    groups
+}
+
+/// The χ² agreement of values with 95 % half-widths (see the module doc); `None` below two.
+pub fn agreement(axis: &'static str, values: &[(usize, f64, f64)]) -> Option<AxisAgreement> {
+    if values.len() < 2 {
+        return None;
+    }
+    let w: Vec<f64> = values.iter().map(|v| (Z_975 / v.2).powi(2)).collect();
+    let mean = values.iter().zip(&w).map(|(v, w)| v.1 * w).sum::<f64>() / w.iter().sum::<f64>();
+    let chi2: f64 = values.iter().zip(&w).map(|(v, w)| (v.1 - mean).powi(2) * w).sum();
+    let dof = values.len() - 1;
+    let p = chi2_sf(chi2, dof as f64);
+    let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v.1), hi.max(v.1)));
+    Some(AxisAgreement { axis, flights: values.iter().map(|v| v.0).collect(), mean_deg: mean, spread_deg: hi - lo, chi2, dof, p, agree: p >= AGREE_P })
+}
+
+/// The report's model without its body offset (the correction set to identity and its linear
+/// columns to zero); `None` when it has none.
+pub fn without_body_offset(r: &Report) -> Option<Report> {
+    r.effect(Effect::BodyOffset)?;
+    let mut bare = r.clone();
+    bare.corrections.body_offset = nalgebra::UnitQuaternion::identity();
+    let offs = super::design::column_offsets();
+    let at = Effect::BodyOffset as usize;
+    for k in offs[at]..offs[at + 1] {
+        if let Some(x) = bare.theta.get_mut(k) {
+            *x = 0.0;
+        }
+    }
+    Some(bare)
+}
+
+/// Whether the flight had enough usable samples for a fit (a flight without is neither a model
+/// nor a test of one).
+fn fitted(r: &Report) -> bool {
+    r.train_samples >= MIN_TRAIN_SAMPLES
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    Some(if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) })
+}
+
+/// The consistency of flights `reports` (name, report) with their accel_kin cross-validation
+/// cuts `cross[i][j]` (model of i on flight j) and the body offset's share of them
+/// `offset_gain[i][j]` (cut with i's offset minus cut without it).
+pub fn consistency(reports: &[(String, Report)], cross: &[Vec<Option<f64>>], offset_gain: &[Vec<Option<f64>>], link_deg: f64) -> Consistency {
+    let ground: Vec<Option<(f64, f64)>> = reports.iter().map(|(_, r)| r.ground_check.map(|g| (g.roll_deg, g.pitch_deg))).collect();
+    let groups = link_groups(&ground, link_deg);
+    let mut of = vec![None; reports.len()];
+    for (g, members) in groups.iter().enumerate() {
+        for &i in members {
+            of[i] = Some(g);
+        }
+    }
+    let mountings = groups
+        .iter()
+        .map(|members| {
+            let mut ground_spread_deg: f64 = 0.0;
+            for &a in members {
+                for &b in members {
+                    let (pa, pb) = (ground[a].expect("grouped"), ground[b].expect("grouped"));
+                    ground_spread_deg = ground_spread_deg.max((pa.0 - pb.0).hypot(pa.1 - pb.1));
+                }
+            }
+            let mut left_out = Vec::new();
+            let mut axes = Vec::new();
+            for axis in ["roll", "pitch", "yaw"] {
+                let mut values = Vec::new();
+                for &i in members {
+                    let r = &reports[i].1;
+                    if !fitted(r) {
+                        if axis == "roll" {
+                            left_out.push((i, format!("{} usable samples, {} needed: nothing was fitted", r.train_samples, MIN_TRAIN_SAMPLES)));
+                        }
+                        continue;
+                    }
+                    match r.effect(Effect::BodyOffset).and_then(|f| f.params.iter().find(|p| p.name == axis)) {
+                        Some(p) if p.identifiable && p.ci95 > 0.0 && p.ci95.is_finite() => values.push((i, p.value, p.ci95)),
+                        Some(_) => left_out.push((i, format!("its body offset {axis} is not identifiable"))),
+                        None if axis == "roll" => left_out.push((i, "no body offset was fitted (use --with body_offset)".into())),
+                        None => {}
+                    }
+                }
+                axes.extend(agreement(axis, &values));
+            }
+            Mounting { flights: members.clone(), ground_spread_deg, axes, left_out }
+        })
+        .collect();
+    let (mut within, mut across, mut within_gain, mut across_gain) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (i, row) in cross.iter().enumerate() {
+        for (j, cut) in row.iter().enumerate() {
+            if !fitted(&reports[i].1) || !fitted(&reports[j].1) {
+                continue;
+            }
+            if let (true, Some(c), Some(gi), Some(gj)) = (i != j, cut, of[i], of[j]) {
+                let gain = offset_gain.get(i).and_then(|r| r.get(j)).copied().flatten();
+                let (cuts, gains) = if gi == gj { (&mut within, &mut within_gain) } else { (&mut across, &mut across_gain) };
+                cuts.push(*c);
+                gains.extend(gain);
+            }
+        }
+    }
+    Consistency {
+        link_deg,
+        flights: reports.iter().map(|(n, _)| n.clone()).collect(),
+        mountings,
+        within_pairs: within.len(),
+        across_pairs: across.len(),
+        within_cut: median(within),
+        across_cut: median(across),
+        within_offset_worse: within_gain.iter().filter(|g| **g < 0.0).count(),
+        across_offset_worse: across_gain.iter().filter(|g| **g < 0.0).count(),
+        within_offset_gain: median(within_gain),
+        across_offset_gain: median(across_gain),
+    }
+}
+
+/// The consistency as text (one block per mounting, then the transfer).
+pub fn render(c: &Consistency) -> String {
+    let mut t = format!("\nconsistency across flights (one mounting: ground tilts linked within {:.2}°):\n", c.link_deg);
+    for (k, m) in c.mountings.iter().enumerate() {
+        let names: Vec<&str> = m.flights.iter().map(|&i| c.flights[i].as_str()).collect();
+        t += &format!("  mounting {}: {} (ground spread {:.2}°)\n", k + 1, names.join(", "), m.ground_spread_deg);
+        for a in &m.axes {
+            t += &format!(
+                "    body offset {:<5} mean {:+.2}°, spread {:.2}° over {} flights, χ² {:.1} on {} dof, p {:.2}: {}\n",
+                a.axis,
+                a.mean_deg,
+                a.spread_deg,
+                a.flights.len(),
+                a.chi2,
+                a.dof,
+                a.p,
+                if a.agree { "agree within their intervals" } else { "DISAGREE (p < 0.05): the markers moved between these flights, or an interval is too narrow" }
+            );
+        }
+        if m.flights.len() == 1 {
+            t += "    one flight: nothing to compare it with\n";
+        }
+        for (i, why) in &m.left_out {
+            t += &format!("    {} left out: {why}\n", c.flights[*i]);
+        }
+    }
+    let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.0} %", 100.0 * v));
+    t += &format!(
+        "  transfer (accel_kin error cut of one flight's model on another): median {} over {} pairs in one mounting, {} over {} pairs across mountings\n",
+        pct(c.within_cut),
+        c.within_pairs,
+        pct(c.across_cut),
+        c.across_pairs
+    );
+    let pp = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:+.0} points", 100.0 * v));
+    t += &format!(
+        "  the body offset's own share of that cut (with it minus without it): median {} in one mounting (worse in {} of {} pairs), {} across mountings (worse in {} of {})\n",
+        pp(c.within_offset_gain),
+        c.within_offset_worse,
+        c.within_pairs,
+        pp(c.across_offset_gain),
+        c.across_offset_worse,
+        c.across_pairs
+    );
+    t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Five points by hand: A–B 0.3 apart, B–C 0.4 (so C joins A through B, although A–C is
+    /// 0.7), D alone at 2, E without a point.
+    #[test]
+    fn groups_are_the_connected_links_in_any_order() {
+        let pts = [Some((0.0, 0.0)), Some((0.3, 0.0)), Some((0.7, 0.0)), Some((2.0, 2.0)), None];
+        assert_eq!(link_groups(&pts, 0.5), vec![vec![0, 1, 2], vec![3]]);
+        // reversed input: the same groups, renumbered
+        let rev: Vec<_> = pts.iter().rev().copied().collect();
+        assert_eq!(link_groups(&rev, 0.5), vec![vec![1], vec![2, 3, 4]]);
+        // a link must be closer than the threshold
+        assert_eq!(link_groups(&pts[..2], 0.3), vec![vec![0], vec![1]]);
+    }
+
+    /// Two values 1.0 ± 0.196 and 2.0 ± 0.392 (σ = 0.1, 0.2): x̄ = (1/0.01 + 2/0.04)/(1/0.01 +
+    /// 1/0.04) = 150/125 = 1.2, χ² = (0.2/0.1)² + (0.8/0.2)² = 4 + 16 = 20 on 1 dof,
+    /// p = erfc(√10) ≈ 7.7·10⁻⁶: they disagree. Halving the gap to 0.5 with σ = 0.3 each:
+    /// x̄ = 1.25, χ² = 2·(0.25/0.3)² = 1.389, p = erfc(√0.694) ≈ 0.239: they agree.
+    #[test]
+    fn agreement_is_the_chi2_of_the_weighted_mean() {
+        let a = agreement("roll", &[(0, 1.0, 0.1 * Z_975), (3, 2.0, 0.2 * Z_975)]).unwrap();
+        assert!((a.mean_deg - 1.2).abs() < 1e-12, "{}", a.mean_deg);
+        assert!((a.chi2 - 20.0).abs() < 1e-9, "{}", a.chi2);
+        assert_eq!((a.dof, a.flights.clone()), (1, vec![0, 3]));
+        assert!((a.p - 7.744e-6).abs() < 1e-8, "{}", a.p);
+        assert!(!a.agree);
+        assert!((a.spread_deg - 1.0).abs() < 1e-12);
+        let b = agreement("roll", &[(0, 1.0, 0.3 * Z_975), (1, 1.5, 0.3 * Z_975)]).unwrap();
+        assert!((b.mean_deg - 1.25).abs() < 1e-12);
+        assert!((b.chi2 - 1.388_888_9).abs() < 1e-6, "{}", b.chi2);
+        assert!((b.p - 0.2386).abs() < 1e-3, "{}", b.p);
+        assert!(b.agree);
+        assert!(agreement("roll", &[(0, 1.0, 0.1)]).is_none());
+    }
+
+    #[test]
+    fn the_median_of_an_even_count_is_the_mean_of_the_middle_two() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0, 10.0]), Some(2.5));
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(vec![]), None);
+    }
+}
