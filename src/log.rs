@@ -70,7 +70,9 @@ pub fn write_csv(v: &VehicleRun, mocap_period_s: f64) -> String {
             }
             None => s.push_str(",0,,,,,,,"),
         }
-        let (g, a) = (r.imu.gyro, r.imu.specific_force);
+        // an undeclared gyro delay: the logger stamps each gyro sample that much late (the
+        // first rows repeat the first sample: the vehicle is at rest there)
+        let (g, a) = (v.trace[k.saturating_sub(v.gyro_log_delay_frames)].imu.gyro, r.imu.specific_force);
         let _ = write!(s, ",{},{},{},{},{},{}", g.x(), g.y(), g.z(), a.x(), a.y(), a.z());
         match r.ppm {
             Some(p) => {

@@ -102,6 +102,8 @@ pub struct VehicleRun {
     pub phases: Vec<(Nanos, &'static str)>,
     /// Undeclared mocap delay in frames: the flight log stamps poses this many frames late.
     pub log_delay_frames: usize,
+    /// Undeclared gyro delay in frames: the flight log stamps gyro samples this many frames late.
+    pub gyro_log_delay_frames: usize,
     pub final_pos: Vec3<Nav>,
     pub any_nan: bool,
 }
@@ -123,6 +125,7 @@ struct Vehicle {
     mocap: Mocap,
     mocap_latency: Nanos,
     log_delay_frames: usize,
+    gyro_log_delay_frames: usize,
     link: Link<MocapFrame>,
     downlink: Downlink,
     telemetry: Link<TelemetryFrame>,
@@ -258,6 +261,7 @@ impl Arena {
                     mocap,
                     mocap_latency: ms(s.mocap.latency_ms + u.mocap_delay_ms),
                     log_delay_frames: (u.mocap_delay_ms * s.mocap.rate_hz.value as f64 / 1000.0).round() as usize,
+                    gyro_log_delay_frames: (u.gyro_delay_ms * s.mocap.rate_hz.value as f64 / 1000.0).round() as usize,
                     link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)).with_outages(outages.clone()),
                     downlink: Downlink::new(telemetry_every),
                     telemetry: Link::new(telemetry, Stream::new(s.seed, Component::TelemetryLoss, i), Stream::new(s.seed, Component::TelemetryJitter, i)),
@@ -342,6 +346,7 @@ impl Arena {
                     trace: v.trace,
                     phases,
                     log_delay_frames: v.log_delay_frames,
+                    gyro_log_delay_frames: v.gyro_log_delay_frames,
                     final_pos: v.x3d.state().pos,
                     any_nan: v.any_nan,
                 }

@@ -36,6 +36,7 @@
 //! | thrust vs battery | c (1/V) | force: −T/m·(V − V_ref)·e_z |
 //! | ground effect | c_g | force: −T/m·(r/4h)²·e_z (Cheeseman–Bennett, h ≥ r) |
 //! | lever arm, mocap origin → IMU | r (m, body) | accel_kin: ω̇_imu × e_j + ω_imu × (ω_imu × e_j) |
+//! | gyro delay vs accelerometer τ_g | τ_g (s) | gyro: −dω_imu/dt (the gyro reads ω(t − τ_g) ≈ ω − τ_g·ω̇) |
 //!
 //! The lever arm: the mocap tracks the marker template's origin, the IMU sits at r from it. A
 //! rigid body's point r has the specific force of the tracked point plus ω̇×r + ω×(ω×r), so the
@@ -59,7 +60,7 @@ pub fn column_offsets() -> [usize; Effect::ALL.len() + 1] {
     }
     o
 }
-pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3;
+pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3 + 1;
 
 /// One regressor column: its index in the full design and its samples.
 pub type Column = (usize, Vec<f64>);
@@ -271,6 +272,8 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
         }
     }
     let outliers = glitches.len();
+    // the gyro with its delay against the accelerometer taken out (rows it cannot reach are out)
+    let gyro_raw = super::series::gyro_advanced(s, corr.gyro_delay_s, &mut pose_ok);
     let segs = &s.segments;
     let g = s.model.gravity_m_s2;
 
@@ -306,7 +309,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     // decimation keeps one row per σ (below); what is not differentiated is smoothed only there
     let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
     let pos_s = smooth_vec3(&pos_nav, segs, &kernel);
-    let gyro_s = smooth_vec3_kept_and_neighbours(&s.gyro_body, segs, &kernel, stride);
+    let gyro_s = smooth_vec3_kept_and_neighbours(&gyro_raw, segs, &kernel, stride);
     let accel_s = smooth_vec3_kept_and_neighbours(&s.accel_body, segs, &kernel, stride);
     // mocap body rates from neighbouring poses
     let omega_s = smooth_vec3_kept(&body_rates(&att_body, &s.t_s, segs), segs, &kernel, stride);
@@ -367,7 +370,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     // as the IMU smooths it (the product of smoothed rates misses K*(ω×(ω×r)) by the rates' own
     // high-frequency content)
     let centripetal: [Vec<Vector3<f64>>; 3] =
-        std::array::from_fn(|j| smooth_vec3_kept(&s.gyro_body.iter().map(|w| w.cross(&w.cross(&unit(j)))).collect::<Vec<_>>(), segs, &kernel, stride));
+        std::array::from_fn(|j| smooth_vec3_kept(&gyro_raw.iter().map(|w| w.cross(&w.cross(&unit(j)))).collect::<Vec<_>>(), segs, &kernel, stride));
     let thrust_s = s.thrust_n.as_ref().map(|t| {
         let mut o = vec![0.0; n];
         smooth_into(t, segs, &kernel, &mut o);
@@ -408,6 +411,8 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
         }
         columns[c][a].push((col(Effect::MocapDelay, 0), omega_dot.iter().map(|v| v[a]).collect()));
         columns[c][a].push((col(Effect::GyroBias, a), vec![1.0; n]));
+        // the gyro's samples τ_g later than the accelerometer's: ω(t − τ_g) ≈ ω − τ_g·ω̇
+        columns[c][a].push((col(Effect::GyroDelay, 0), omega_dot.iter().map(|v| -v[a]).collect()));
     }
     let has_force = thrust_s.is_some();
     let has_vbat = s.vbat_v.is_some();

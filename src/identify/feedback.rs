@@ -96,6 +96,14 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
                 set.push((format!("{vi}.markers.displacement_mm"), json!(vec![d; n_markers])));
             }
             Effect::ThrustVoltage => set.push((format!("{vi}.undeclared.thrust_voltage_per_v"), json!(v[0].max(0.0)))),
+            Effect::GyroDelay => {
+                let period = 1000.0 / mocap_rate_hz as f64;
+                let frames = (v[0] / period).round().max(0.0);
+                if (frames * period - v[0]).abs() > 1e-6 {
+                    lines.push(format!("# gyro delay {} ms rounded to {} whole frames of {period} ms", v[0], frames));
+                }
+                set.push((format!("{vi}.undeclared.gyro_delay_ms"), json!(frames * period)));
+            }
         }
     }
     lines.push(if set.is_empty() { "effects: {}".into() } else { "effects:".into() });

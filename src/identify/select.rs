@@ -92,7 +92,7 @@ impl Default for Options {
             max_steps: 8,
             refine_iterations: 3,
             hac_lags: 12,
-            candidates: Effect::ALL.to_vec(),
+            candidates: Effect::ALL.iter().copied().filter(|e| e.searched()).collect(),
             forced: Vec::new(),
         }
     }
@@ -695,6 +695,7 @@ fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
                 corr.world_tilt *= UnitQuaternion::from_scaled_axis(d);
             }
             Effect::MocapDelay => corr.mocap_delay_s += theta[r.start],
+            Effect::GyroDelay => corr.gyro_delay_s += theta[r.start],
             Effect::LeverArm => corr.lever_arm_m += Vector3::new(theta[r.start], theta[r.start + 1], theta[r.start + 2]),
             _ => continue,
         }
@@ -806,6 +807,7 @@ fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: 
                 [r, p][k]
             }
             Effect::MocapDelay => corr.mocap_delay_s,
+            Effect::GyroDelay => corr.gyro_delay_s,
             Effect::LeverArm => corr.lever_arm_m[k],
             _ => theta[r.start + k],
         }
@@ -899,7 +901,7 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
     let s = &gated(s, o);
     let mut corr = Corrections::default();
     let st = refine(s, o, &mut corr, &[], 0);
-    let all: Vec<Effect> = Effect::ALL.iter().copied().filter(|e| available(&st.design, *e)).collect();
+    let all: Vec<Effect> = Effect::ALL.iter().copied().filter(|e| (o.candidates.contains(e) || o.forced.contains(e)) && available(&st.design, *e)).collect();
     let white: Vec<Ar> = active(&st.design).iter().map(|_| Ar::white(1.0)).collect();
     let g_ols = grams(&st.design, &st.train, &st.test, &white);
     let f_all = fit(&g_ols, &set_of(&all));
@@ -1201,6 +1203,15 @@ fn select(s: &Series, o: &Options) -> Report {
                 e.key()
             ));
         }
+    }
+
+    // a mocap that leads the IMU is no latency: a clock offset between the streams, or a delay
+    // of the gyro alone (which shares the mocap delay's gyro column and is not searched)
+    if selected.contains(&Effect::MocapDelay) && state_corr.mocap_delay_s < 0.0 && !selected.contains(&Effect::GyroDelay) {
+        notes.push(format!(
+            "the mocap delay came out negative ({:.1} ms: the mocap leads the IMU): a clock offset between the streams, or a delay of the gyro alone against the accelerometer, which `--with gyro_delay` tests",
+            state_corr.mocap_delay_s * 1e3
+        ));
     }
 
     // errors before (nominal, no corrections) → after, on the held-out part

@@ -121,12 +121,42 @@ pub struct Corrections {
     /// accelerometer feels and its velocity what the drag sees (a rigid body's point r moves with
     /// v + ω×r and accelerates with a + ω̇×r + ω×(ω×r)).
     pub lever_arm_m: Vector3<f64>,
+    /// The gyro stream is late by this much against the accelerometer (s): the gyro sample
+    /// stamped t was taken at t − τ_g; the corrected gyro at t is the stream read at t + τ_g.
+    pub gyro_delay_s: f64,
 }
 
 impl Default for Corrections {
     fn default() -> Self {
-        Corrections { body_offset: UnitQuaternion::identity(), world_tilt: UnitQuaternion::identity(), mocap_delay_s: 0.0, lever_arm_m: Vector3::zeros() }
+        Corrections { body_offset: UnitQuaternion::identity(), world_tilt: UnitQuaternion::identity(), mocap_delay_s: 0.0, lever_arm_m: Vector3::zeros(), gyro_delay_s: 0.0 }
     }
+}
+
+/// The gyro with a delay τ (s) taken out: row i reads the stream at t_i + τ (linear
+/// interpolation inside the row's segment), and `ok[i]` turns false where that reaches outside
+/// it. τ = 0 returns the stream itself.
+pub fn gyro_advanced(s: &Series, delay_s: f64, ok: &mut [bool]) -> Vec<Vector3<f64>> {
+    if delay_s == 0.0 {
+        return s.gyro_body.clone();
+    }
+    let shift = delay_s / s.dt();
+    let mut out = s.gyro_body.clone();
+    for &(a, b) in &s.segments {
+        for i in a..b {
+            let x = i as f64 + shift;
+            let k0 = x.floor();
+            let frac = x - k0;
+            let k0 = k0 as isize;
+            if k0 >= a as isize && (k0 as usize) < b && (frac == 0.0 || ((k0 + 1) as usize) < b) {
+                let k0 = k0 as usize;
+                let k1 = if frac == 0.0 { k0 } else { k0 + 1 };
+                out[i] = s.gyro_body[k0] * (1.0 - frac) + s.gyro_body[k1] * frac;
+            } else {
+                ok[i] = false;
+            }
+        }
+    }
+    out
 }
 
 /// The mocap stream with the corrections applied: true-body attitude (body → nav) and nav

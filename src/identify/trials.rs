@@ -47,9 +47,9 @@ use crate::scenario::Scenario;
 use std::fmt::Write as _;
 
 /// The effects drawn as 0–3 of a flight's hidden effects, in [`Effect::ALL`] order: every
-/// candidate but the ground effect (drawn on its own, only for flights with a low hover).
+/// searched candidate but the ground effect (drawn on its own, only for flights with a low hover).
 pub fn simulated() -> Vec<Effect> {
-    Effect::ALL.iter().copied().filter(|e| !matches!(e, Effect::GroundEffect)).collect()
+    Effect::ALL.iter().copied().filter(|e| e.searched() && !matches!(e, Effect::GroundEffect)).collect()
 }
 
 /// One drawn trial.
@@ -112,6 +112,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             Effect::ThrustScale => vec![r(d.signed(0.03, 0.15), 4)],
             Effect::LeverArm => (0..3).map(|_| r(d.signed(10.0, 40.0), 1)).collect(),
             Effect::ThrustVoltage => vec![r(if cf { d.u(0.05, 0.2) } else { d.u(0.015, 0.07) }, 4)],
+            Effect::GyroDelay => vec![5.0 * (1 + d.pick(3)) as f64],
             _ => unreachable!("only simulated effects are hidden"),
         };
         hidden.push((e, v));
@@ -206,6 +207,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             Effect::ThrustScale => undeclared.push(format!("thrust_scale: {}", 1.0 + v[0])),
             Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
             Effect::ThrustVoltage => undeclared.push(format!("thrust_voltage_per_v: {}", v[0])),
+            Effect::GyroDelay => undeclared.push(format!("gyro_delay_ms: {}", v[0])),
         }
     }
     if !markers.is_empty() {

@@ -345,6 +345,11 @@ pub struct UndeclaredCfg {
     /// mocap period, ms).
     #[serde(with = "ranges::delay_ms")]
     pub mocap_delay_ms: f64,
+    /// The flight log stamps each gyro sample this much late against the accelerometer (a
+    /// timing offset between the IMU's two streams: different filters, or a logger that stamps
+    /// them apart); multiple of the mocap period (ms). The vehicle's own rate loop is unaffected.
+    #[serde(with = "ranges::delay_ms")]
+    pub gyro_delay_ms: f64,
     /// Ground effect c_g: the rotors' thrust is T·(1 + c_g·(r/4h)²) at a height h above the
     /// floor (h ≥ the rotor radius r); c_g = 1 is Cheeseman and Bennett's image-rotor result to
     /// first order. The declared model has none.
@@ -359,7 +364,7 @@ pub struct UndeclaredCfg {
 
 impl Default for UndeclaredCfg {
     fn default() -> Self {
-        UndeclaredCfg { thrust_scale: 1.0, rotor_drag_per_s: [0.0; 2], mocap_delay_ms: 0.0, ground_effect: 0.0, thrust_voltage_per_v: 0.0 }
+        UndeclaredCfg { thrust_scale: 1.0, rotor_drag_per_s: [0.0; 2], mocap_delay_ms: 0.0, gyro_delay_ms: 0.0, ground_effect: 0.0, thrust_voltage_per_v: 0.0 }
     }
 }
 
@@ -767,12 +772,11 @@ impl Scenario {
             }
             let u = &v.value.undeclared;
             let period_ms = 1000.0 / self.mocap.rate_hz.value as f64;
-            let frames = u.mocap_delay_ms / period_ms;
-            if (frames - frames.round()).abs() > 1e-9 {
-                return err(
-                    v.referenced,
-                    format!("vehicle `{}`: undeclared.mocap_delay_ms {} is not a multiple of the mocap period {period_ms} ms", v.value.name, u.mocap_delay_ms),
-                );
+            for (field, delay) in [("mocap_delay_ms", u.mocap_delay_ms), ("gyro_delay_ms", u.gyro_delay_ms)] {
+                let frames = delay / period_ms;
+                if (frames - frames.round()).abs() > 1e-9 {
+                    return err(v.referenced, format!("vehicle `{}`: undeclared.{field} {delay} is not a multiple of the mocap period {period_ms} ms", v.value.name));
+                }
             }
             let p = self.vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
             let t_max = self.radio.thrust_max_n.unwrap_or(p.thrust_max()).min(p.thrust_max());

@@ -80,6 +80,7 @@ fn bad_scenarios_exit_2_with_located_messages() {
         ("duplicate-key", good.replace("seed: 6", "seed: 6\nseed: 7")),
         ("collinear-markers", good.replace("      rotation_deg: [3, 3, 0]", "      template_m: [[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0]]")),
         ("heavy-vehicle", good.replace("    markers:", "    model: { mass_kg: 3 }\n    markers:")),
+        ("gyro-delay-off-period", good.replace("    markers:", "    undeclared: { gyro_delay_ms: 3 }\n    markers:")),
         (
             "duplicate-pattern",
             good.replace("  - name: x3d\n", "  - name: a\n    markers: { pattern: 2 }\n  - name: x3d\n    home_m: [2, 0]\n    markers: { pattern: 2 }\n  - name: c\n")

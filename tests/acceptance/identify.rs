@@ -132,6 +132,27 @@ fn hidden_effects_are_found_first_on_other_seeds() {
     }
 }
 
+/// A gyro stamped 10 ms late against the accelerometer (`undeclared.gyro_delay_ms`). The gyro
+/// delay is a hypothesis to test, not searched: fitted with `--with gyro_delay` it comes out at
+/// the truth within its interval; searched without it, the gyro's share takes the shape of a
+/// mocap delay of the opposite sign, and the report says what a negative mocap delay may be.
+#[test]
+fn a_gyro_delay_is_found_when_tested_and_named_when_not() {
+    let yaml = std::fs::read_to_string(scenario("lever-arm")).unwrap();
+    let yaml = yaml.split("requirements:").next().unwrap().replace("    markers: { displacement_mm: [[-10, 5, -30], [-10, 5, -30], [-10, 5, -30], [-10, 5, -30]] }", "    undeclared: { gyro_delay_ms: 10 }");
+    assert!(yaml.contains("gyro_delay_ms"));
+    let s = super::inline(&yaml);
+    let (_, series) = run_and_log(&s, 0, "gyro-delay").unwrap();
+    let r = identify(&series, &Options { forced: vec![Effect::GyroDelay], ..Options::default() }).unwrap();
+    assert_eq!(r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(), [Effect::GyroDelay], "{}", flyarena::identify::report::render(&r));
+    let p = &r.effects[0].params[0];
+    assert!((p.value - 10.0).abs() <= p.ci95 && p.ci95 < 0.3, "gyro delay {} ± {} ms (truth 10)", p.value, p.ci95);
+    let r = identify(&series, &Options::default()).unwrap();
+    let delay = r.param(Effect::MocapDelay, "delay").unwrap();
+    assert!((delay + 10.0).abs() < 0.3, "a mocap delay of {delay} ms");
+    assert!(r.notes.iter().any(|n| n.contains("mocap delay came out negative") && n.contains("--with gyro_delay")), "{:?}", r.notes);
+}
+
 /// The paper's geometry in closed form: with the markers turned by R_off, the accelerometer
 /// at rest reads R_off·f̂; the ground check must return R_off's roll and pitch.
 #[test]
