@@ -72,7 +72,7 @@ pub struct Consistency {
     pub flights: Vec<String>,
     pub mountings: Vec<Mounting>,
     /// Median accel_kin cut over ordered pairs inside one mounting, and the number of pairs
-/// (flights with too few samples to fit are neither model nor test).
+    /// (flights with too few samples to fit are neither model nor test).
     pub within_cut: Option<f64>,
     pub within_pairs: usize,
     /// Median over ordered pairs in different mountings (flights of no mounting excluded).

@@ -139,7 +139,11 @@ fn hidden_effects_are_found_first_on_other_seeds() {
 #[test]
 fn a_gyro_delay_is_found_when_tested_and_named_when_not() {
     let yaml = std::fs::read_to_string(scenario("lever-arm")).unwrap();
-    let yaml = yaml.split("requirements:").next().unwrap().replace("    markers: { displacement_mm: [[-10, 5, -30], [-10, 5, -30], [-10, 5, -30], [-10, 5, -30]] }", "    undeclared: { gyro_delay_ms: 10 }");
+    let yaml = yaml
+        .split("requirements:")
+        .next()
+        .unwrap()
+        .replace("    markers: { displacement_mm: [[-10, 5, -30], [-10, 5, -30], [-10, 5, -30], [-10, 5, -30]] }", "    undeclared: { gyro_delay_ms: 10 }");
     assert!(yaml.contains("gyro_delay_ms"));
     let s = super::inline(&yaml);
     let (_, series) = run_and_log(&s, 0, "gyro-delay").unwrap();
