@@ -32,7 +32,7 @@ use crate::vehicle::params::{CRAZYFLIE21_ROTOR_RADIUS_M, GRAVITY, PwmThrustMap, 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::path::Path;
 
-#[derive(Debug, serde::Deserialize)]
+#[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Mapping {
     pub vehicle: VehiclePreset,
@@ -53,6 +53,57 @@ pub struct Mapping {
     /// markers have noisy mocap attitudes and need more.
     #[serde(default)]
     pub smoothing_ms: Option<f64>,
+    /// The topics of a ROS 2 bag (MCAP); `None` for a CSV log.
+    #[serde(skip)]
+    pub ros2: Option<super::ros2::Topics>,
+}
+
+/// A mapping for ROS 2 bags: topics instead of columns (see [`super::ros2`]).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Ros2File {
+    vehicle: VehiclePreset,
+    ros2: super::ros2::Topics,
+    #[serde(default = "z_up")]
+    world: WorldUp,
+    #[serde(default = "flu")]
+    body: BodyAxes,
+    #[serde(default)]
+    mass_kg: Option<f64>,
+    #[serde(default)]
+    smoothing_ms: Option<f64>,
+}
+
+fn z_up() -> WorldUp {
+    WorldUp::ZUp
+}
+
+fn flu() -> BodyAxes {
+    BodyAxes::Flu
+}
+
+impl Ros2File {
+    /// The CSV mapping of the rows [`super::ros2::to_csv`] writes.
+    fn into_mapping(self) -> Mapping {
+        let s = |x: &str| x.to_string();
+        let three = |a: &str, b: &str, c: &str, unit: &str| Columns3 { columns: [s(a), s(b), s(c)], unit: s(unit) };
+        Mapping {
+            vehicle: self.vehicle,
+            time: Column { column: s("t"), unit: Some(s("s")) },
+            position: three("px", "py", "pz", "m"),
+            attitude: AttitudeCols { columns: Some([s("qx"), s("qy"), s("qz"), s("qw")]), order: Some(QuatOrder::Xyzw), euler: None, unit: None },
+            world: self.world,
+            body: self.body,
+            gyro: three("gx", "gy", "gz", "rad/s"),
+            accel: three("ax", "ay", "az", "m/s2"),
+            // the motor columns are named when the bag is read (their count is the messages')
+            motors: self.ros2.motors.as_ref().map(|_| Motors { columns: Vec::new() }),
+            battery: self.ros2.battery.as_ref().map(|_| Column { column: s("vbat"), unit: None }),
+            mass_kg: self.mass_kg,
+            smoothing_ms: self.smoothing_ms,
+            ros2: Some(self.ros2),
+        }
+    }
 }
 
 #[derive(Debug, serde::Deserialize, Clone, Copy)]
@@ -62,7 +113,7 @@ pub enum VehiclePreset {
     X3d,
 }
 
-#[derive(Debug, serde::Deserialize)]
+#[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Column {
     pub column: String,
@@ -70,7 +121,7 @@ pub struct Column {
     pub unit: Option<String>,
 }
 
-#[derive(Debug, serde::Deserialize)]
+#[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Columns3 {
     pub columns: [String; 3],
@@ -79,7 +130,7 @@ pub struct Columns3 {
 
 /// The attitude, body → world in the log's own frames: a quaternion (`columns` and `order`), or
 /// Z-Y-X Euler angles (`euler: [roll, pitch, yaw]` and `unit`: R = R_z(yaw)·R_y(pitch)·R_x(roll)).
-#[derive(Debug, serde::Deserialize)]
+#[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AttitudeCols {
     #[serde(default)]
@@ -113,7 +164,7 @@ pub enum BodyAxes {
     Frd,
 }
 
-#[derive(Debug, serde::Deserialize)]
+#[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Motors {
     pub columns: Vec<String>,
@@ -133,7 +184,10 @@ impl Mapping {
         Self::parse(&src, path)
     }
     pub fn parse(src: &str, path: &Path) -> Result<Mapping, String> {
-        let m: Mapping = serde_saphyr::from_str(src).map_err(|e| format!("{}: {}", path.display(), crate::scenario::error::with_suggestion(&e.to_string())))?;
+        let err = |e: serde_saphyr::Error| format!("{}: {}", path.display(), crate::scenario::error::with_suggestion(&e.to_string()));
+        // a `ros2:` block makes it a mapping of topics, not columns
+        let keys: std::collections::BTreeMap<String, serde::de::IgnoredAny> = serde_saphyr::from_str(src).map_err(err)?;
+        let m: Mapping = if keys.contains_key("ros2") { serde_saphyr::from_str::<Ros2File>(src).map_err(err)?.into_mapping() } else { serde_saphyr::from_str(src).map_err(err)? };
         if let Some(mass) = m.mass_kg
             && !(mass > 0.0 && mass < 100.0)
         {
@@ -156,16 +210,33 @@ impl Mapping {
         }
         if let Some(mo) = &m.motors
             && mo.columns.is_empty()
+            && m.ros2.is_none()
         {
             return Err(format!("{}: motors.columns is empty; give one column per motor", path.display()));
         }
         Ok(m)
     }
 
-    /// Reads a CSV log through the mapping.
+    /// Reads a CSV log, or with a `ros2:` mapping a ROS 2 bag (MCAP), through the mapping.
     pub fn read(&self, path: &Path) -> Result<Series, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        self.read_str(&text, &path.display().to_string())
+        let file = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| format!("{file}: {e}"))?;
+        match &self.ros2 {
+            Some(topics) => {
+                let (text, repairs) = super::ros2::to_csv(&bytes, topics, &file)?;
+                let header = text.lines().next().unwrap_or("");
+                let motors = self.motors.as_ref().map(|_| Motors { columns: header.split(',').filter(|c| c.starts_with('m')).map(str::to_string).collect() });
+                let m = Mapping { motors, ..self.clone() };
+                let mut s = m.read_str(&text, &file)?;
+                s.repairs.splice(0..0, repairs);
+                Ok(s)
+            }
+            None if bytes.starts_with(super::ros2::MAGIC) => Err(format!("{file}: an MCAP file needs a mapping with a `ros2:` block of topics (see mappings/ros2-crazyflie.yaml)")),
+            None => {
+                let text = String::from_utf8(bytes).map_err(|e| format!("{file}: not UTF-8 text ({e})"))?;
+                self.read_str(&text, &file)
+            }
+        }
     }
 
     pub fn read_str(&self, text: &str, file: &str) -> Result<Series, String> {

@@ -44,6 +44,7 @@ pub mod ground;
 pub mod mapping;
 pub mod quality;
 pub mod report;
+pub mod ros2;
 pub mod select;
 pub mod series;
 pub mod stats;

@@ -13,6 +13,7 @@ mod props;
 mod quality;
 #[cfg(feature = "record")]
 mod record;
+mod ros2;
 mod scenarios;
 mod sweep;
 mod trials;

@@ -265,3 +265,147 @@ mod mapping_fuzz {
         }
     }
 }
+
+/// ROS 2 bags: a small valid bag (written here with the `mcap` crate's writer, uncompressed so
+/// that edits reach the messages), then bytes flipped, cut or inserted. The reader returns an
+/// error naming the file or rows, never panics; whatever it accepts, `identify` digests.
+mod ros2_fuzz {
+    use flyarena::identify::mapping::Mapping;
+    use flyarena::identify::{Options, identify};
+    use proptest::prelude::*;
+    use std::collections::BTreeMap;
+    use std::path::Path;
+
+    /// CDR (little endian) with XCDR1 alignment from the payload start.
+    struct Cdr(Vec<u8>);
+    impl Cdr {
+        fn new() -> Cdr {
+            Cdr(vec![0, 1, 0, 0])
+        }
+        fn pad(&mut self, a: usize) {
+            while !(self.0.len() - 4).is_multiple_of(a) {
+                self.0.push(0);
+            }
+        }
+        fn u32(&mut self, x: u32) -> &mut Self {
+            self.pad(4);
+            self.0.extend(x.to_le_bytes());
+            self
+        }
+        fn f32(&mut self, x: f32) -> &mut Self {
+            self.pad(4);
+            self.0.extend(x.to_le_bytes());
+            self
+        }
+        fn f64(&mut self, x: f64) -> &mut Self {
+            self.pad(8);
+            self.0.extend(x.to_le_bytes());
+            self
+        }
+        fn string(&mut self, s: &str) -> &mut Self {
+            self.u32(s.len() as u32 + 1);
+            self.0.extend(s.as_bytes());
+            self.0.push(0);
+            self
+        }
+        fn header(&mut self, ns: u64) -> &mut Self {
+            self.u32((ns / 1_000_000_000) as u32).u32((ns % 1_000_000_000) as u32).string("f")
+        }
+    }
+
+    pub(super) fn bag() -> Vec<u8> {
+        let mut buf = std::io::Cursor::new(Vec::new());
+        let opts = mcap::WriteOptions::new().compression(None);
+        let mut w = mcap::Writer::with_options(&mut buf, opts).unwrap();
+        let none = BTreeMap::new();
+        let mut ch = |name: &str, topic: &str| {
+            let s = w.add_schema(name, "ros2msg", b"").unwrap();
+            w.add_channel(s, topic, "cdr", &none).unwrap()
+        };
+        let (pose, imu, motors, battery) =
+            (ch("geometry_msgs/msg/PoseStamped", "/p"), ch("sensor_msgs/msg/Imu", "/i"), ch("std_msgs/msg/Float64MultiArray", "/m"), ch("sensor_msgs/msg/BatteryState", "/b"));
+        for k in 0..400u64 {
+            let ns = 1_000_000_000 + k * 10_000_000;
+            let t = k as f64 * 0.01;
+            let (c, sn) = ((t * 2.0).cos(), (t * 2.0).sin());
+            let z = if k < 50 { 0.02 } else { 0.02 + (t - 0.5).min(1.0) };
+            let m = if k < 50 { 0.0 } else { 47000.0 };
+            let wob = 1e-3 * ((k * 7919 % 13) as f64 - 6.0);
+            let (qx, qy, qz) = (0.01, -0.02, (t * 0.1).sin());
+            let qw = (1.0 - qx * qx - qy * qy - qz * qz).sqrt();
+            let mut msgs = vec![];
+            let mut p = Cdr::new();
+            p.header(ns).f64(0.3 * c).f64(0.3 * sn).f64(z).f64(qx).f64(qy).f64(qz).f64(qw);
+            msgs.push((pose, p.0));
+            let mut i = Cdr::new();
+            i.header(ns);
+            for x in [0.0, 0.0, 0.0, 1.0].iter().chain(&[0.0; 9]) {
+                i.f64(*x);
+            }
+            for x in [0.1 + wob, -0.1 - wob, 0.05 + wob].iter().chain(&[0.0; 9]) {
+                i.f64(*x);
+            }
+            for x in [0.1 + wob, 0.2 - wob, 9.81 + wob].iter().chain(&[0.0; 9]) {
+                i.f64(*x);
+            }
+            msgs.push((imu, i.0));
+            let mut mo = Cdr::new();
+            mo.u32(0).u32(0).u32(4).f64(m).f64(m).f64(m).f64(m);
+            msgs.push((motors, mo.0));
+            let mut b = Cdr::new();
+            b.header(ns).f32(3.9);
+            msgs.push((battery, b.0));
+            for (channel_id, data) in msgs {
+                w.write_to_known_channel(&mcap::records::MessageHeader { channel_id, sequence: k as u32, log_time: ns, publish_time: ns }, &data).unwrap();
+            }
+        }
+        w.finish().unwrap();
+        drop(w);
+        buf.into_inner()
+    }
+
+    pub(super) fn mapping() -> Mapping {
+        Mapping::parse("vehicle: crazyflie21\nros2: { pose: /p, imu: /i, motors: /m, battery: /b }\nsmoothing_ms: 50\n", Path::new("m.yaml")).unwrap()
+    }
+
+    fn read(bytes: &[u8]) -> Result<flyarena::identify::Series, String> {
+        let d = std::env::temp_dir().join(format!("flyarena-ros2-fuzz-{}-{:?}", std::process::id(), std::thread::current().id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let p = d.join("fuzz.mcap");
+        std::fs::write(&p, bytes).unwrap();
+        mapping().read(&p)
+    }
+
+    #[test]
+    fn corpus_is_valid() {
+        let s = read(&bag()).unwrap();
+        assert_eq!(s.len(), 400);
+        assert!(s.mocap_ok.iter().all(|x| *x));
+        assert!(s.thrust_n.as_ref().unwrap()[100] > 0.0);
+        identify(&s, &Options::default()).unwrap();
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(150))]
+        #[test]
+        fn the_bag_reader_never_panics(edits in prop::collection::vec((any::<prop::sample::Index>(), 0u8..3, any::<u8>()), 1..4)) {
+            let mut b = bag();
+            for (at, kind, byte) in &edits {
+                let k = at.index(b.len());
+                match kind {
+                    0 => b[k] ^= byte | 1,
+                    1 => b.truncate(k),
+                    _ => b.insert(k, *byte),
+                }
+            }
+            match read(&b) {
+                Ok(series) => {
+                    if let Ok(r) = identify(&series, &Options::default()) {
+                        prop_assert!(r.errors.iter().all(|e| !e.rmse_before.is_nan() && !e.rmse_after.is_nan()));
+                    }
+                }
+                Err(e) => prop_assert!(e.contains("fuzz.mcap"), "{e}"),
+            }
+        }
+    }
+}

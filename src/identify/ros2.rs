@@ -1,0 +1,345 @@
+//! ROS 2 bags in MCAP as identification data.
+//!
+//! A mapping with a `ros2:` block names the topics; the units and frames are ROS's own (REP 103:
+//! SI units, radians; `world` and `body` say which way the axes point, z-up world and FLU body by
+//! default):
+//!
+//! ```yaml
+//! vehicle: crazyflie21
+//! ros2:
+//!   pose: /vicon/cf/pose      # geometry_msgs/msg/PoseStamped or TransformStamped (body → world)
+//!   imu: /cf/imu              # sensor_msgs/msg/Imu: angular_velocity, linear_acceleration
+//!   motors: /cf/motors        # optional: std_msgs/msg/Float64MultiArray, PWM 0..65535 per motor
+//!   battery: /cf/battery      # optional: sensor_msgs/msg/BatteryState, voltage
+//! smoothing_ms: 50
+//! ```
+//!
+//! The messages are read with the `mcap` crate (chunks compressed with zstd or lz4 or not) and
+//! decoded from CDR (XCDR1, either byte order; this module, for the message types above). They
+//! are put on the IMU's clock, one row per IMU message, by each message's header stamp (the
+//! array, which has no header, by its log time): the pose is interpolated between the two poses
+//! around the row (linearly, and the attitude by normalised linear interpolation), or taken as
+//! is when a pose has the row's own stamp; a row between two poses further apart than 1.5
+//! median pose intervals (a dropped frame) is a frame in which the vehicle was not seen. Motors and battery hold their last
+//! value; rows before the first of them are left out (said in the repairs). The rows then go
+//! through the same reader as a CSV log ([`super::mapping`]), so that the two routes cannot
+//! drift apart: time is seconds from the first IMU stamp, exact in integer nanoseconds.
+//!
+//! Nothing read from the file can panic: a message cut short, a wrong schema or encoding, a
+//! missing topic or a non-finite value is an error naming the topic and the message's index.
+
+use std::fmt::Write as _;
+
+/// The topics of a ROS 2 mapping.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Topics {
+    pub pose: String,
+    pub imu: String,
+    #[serde(default)]
+    pub motors: Option<String>,
+    #[serde(default)]
+    pub battery: Option<String>,
+}
+
+/// An MCAP file starts with these magic bytes.
+pub const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+
+/// A little CDR (XCDR1) reader: primitives aligned to their size from the start of the payload
+/// (after the 4-byte encapsulation header), in the byte order the header names.
+struct Cdr<'a> {
+    buf: &'a [u8],
+    pos: usize,
+    little: bool,
+}
+
+impl<'a> Cdr<'a> {
+    fn new(data: &'a [u8]) -> Result<Cdr<'a>, String> {
+        if data.len() < 4 {
+            return Err("shorter than its CDR header".into());
+        }
+        let little = match data[1] {
+            0x00 => false,
+            0x01 => true,
+            k => return Err(format!("CDR representation {k:#04x} is not plain CDR (0x00 big or 0x01 little endian)")),
+        };
+        Ok(Cdr { buf: &data[4..], pos: 0, little })
+    }
+    fn take(&mut self, size: usize, align: usize) -> Result<&'a [u8], String> {
+        let start = self.pos.div_ceil(align) * align;
+        let end = start.checked_add(size).filter(|e| *e <= self.buf.len()).ok_or("cut short")?;
+        self.pos = end;
+        Ok(&self.buf[start..end])
+    }
+    fn u32(&mut self) -> Result<u32, String> {
+        let b: [u8; 4] = self.take(4, 4)?.try_into().expect("4 bytes");
+        Ok(if self.little { u32::from_le_bytes(b) } else { u32::from_be_bytes(b) })
+    }
+    fn i32(&mut self) -> Result<i32, String> {
+        Ok(self.u32()? as i32)
+    }
+    fn f32(&mut self) -> Result<f64, String> {
+        Ok(f32::from_bits(self.u32()?) as f64)
+    }
+    fn f64(&mut self) -> Result<f64, String> {
+        let b: [u8; 8] = self.take(8, 8)?.try_into().expect("8 bytes");
+        Ok(if self.little { f64::from_le_bytes(b) } else { f64::from_be_bytes(b) })
+    }
+    fn f64s<const N: usize>(&mut self) -> Result<[f64; N], String> {
+        let mut out = [0.0; N];
+        for x in &mut out {
+            *x = self.f64()?;
+        }
+        Ok(out)
+    }
+    fn string(&mut self) -> Result<(), String> {
+        let n = self.u32()? as usize;
+        self.take(n, 1)?;
+        Ok(())
+    }
+    /// std_msgs/Header: the stamp in nanoseconds (the frame id is skipped).
+    fn header(&mut self) -> Result<i128, String> {
+        let sec = self.i32()? as i128;
+        let nanosec = self.u32()? as i128;
+        self.string()?;
+        Ok(sec * 1_000_000_000 + nanosec)
+    }
+}
+
+/// One decoded stream: stamps (ns) and values.
+struct Stream<const N: usize> {
+    t: Vec<i128>,
+    v: Vec<[f64; N]>,
+}
+
+impl<const N: usize> Stream<N> {
+    fn new() -> Self {
+        Stream { t: Vec::new(), v: Vec::new() }
+    }
+    /// Sorted by stamp (stable: messages with one stamp keep their order).
+    fn sorted(mut self) -> Self {
+        let mut idx: Vec<usize> = (0..self.t.len()).collect();
+        idx.sort_by_key(|&i| self.t[i]);
+        self.t = idx.iter().map(|&i| self.t[i]).collect();
+        self.v = idx.iter().map(|&i| self.v[i]).collect();
+        self
+    }
+}
+
+fn schema_is(name: &str, want: &str) -> bool {
+    // "geometry_msgs/msg/PoseStamped" (ROS 2) or "geometry_msgs/PoseStamped"
+    name == want || name.replace("/msg/", "/") == want.replace("/msg/", "/")
+}
+
+/// Reads the bag `bytes` through `topics` into the rows of a CSV log with the columns
+/// `t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, and the repairs made.
+pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<String>), String> {
+    if !bytes.starts_with(MAGIC) {
+        return Err(format!("{file}: not an MCAP file (no MCAP magic bytes)"));
+    }
+    let mut pose = Stream::<7>::new();
+    let mut imu = Stream::<6>::new();
+    let mut motors: Stream<8> = Stream::new();
+    let mut n_motors: Option<usize> = None;
+    let mut battery = Stream::<1>::new();
+    let stream = mcap::MessageStream::new(bytes).map_err(|e| format!("{file}: {e}"))?;
+    for (k, m) in stream.enumerate() {
+        let m = m.map_err(|e| format!("{file}: record {k}: {e}"))?;
+        let topic = m.channel.topic.as_str();
+        let which = [Some(&topics.pose), Some(&topics.imu), topics.motors.as_ref(), topics.battery.as_ref()].iter().position(|t| t.is_some_and(|t| t == topic));
+        let Some(which) = which else { continue };
+        let schema = m.channel.schema.as_ref().map_or("", |s| s.name.as_str());
+        if m.channel.message_encoding != "cdr" {
+            return Err(format!("{file}: topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.channel.message_encoding));
+        }
+        let at = |e: String| format!("{file}: topic `{topic}`, message {} ({schema}): {e}", m.sequence);
+        let mut c = Cdr::new(&m.data).map_err(at)?;
+        let finite = |v: &[f64]| if v.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(at("a value is not finite".into())) };
+        match which {
+            0 => {
+                let (t, p) = if schema_is(schema, "geometry_msgs/msg/PoseStamped") {
+                    let t = c.header().map_err(at)?;
+                    (t, c.f64s::<7>().map_err(at)?)
+                } else if schema_is(schema, "geometry_msgs/msg/TransformStamped") {
+                    let t = c.header().map_err(at)?;
+                    c.string().map_err(at)?; // child_frame_id
+                    (t, c.f64s::<7>().map_err(at)?)
+                } else {
+                    return Err(at("the pose topic must be geometry_msgs/msg/PoseStamped or TransformStamped".into()));
+                };
+                finite(&p)?;
+                pose.t.push(t);
+                pose.v.push(p);
+            }
+            1 => {
+                if !schema_is(schema, "sensor_msgs/msg/Imu") {
+                    return Err(at("the imu topic must be sensor_msgs/msg/Imu".into()));
+                }
+                let t = c.header().map_err(at)?;
+                c.f64s::<4>().map_err(at)?; // orientation
+                c.f64s::<9>().map_err(at)?;
+                let w = c.f64s::<3>().map_err(at)?;
+                c.f64s::<9>().map_err(at)?;
+                let a = c.f64s::<3>().map_err(at)?;
+                let v = [w[0], w[1], w[2], a[0], a[1], a[2]];
+                finite(&v)?;
+                imu.t.push(t);
+                imu.v.push(v);
+            }
+            2 => {
+                if !schema_is(schema, "std_msgs/msg/Float64MultiArray") {
+                    return Err(at("the motors topic must be std_msgs/msg/Float64MultiArray".into()));
+                }
+                let dims = c.u32().map_err(at)?;
+                for _ in 0..dims {
+                    c.string().map_err(at)?;
+                    c.u32().map_err(at)?;
+                    c.u32().map_err(at)?;
+                }
+                c.u32().map_err(at)?; // data_offset
+                let n = c.u32().map_err(at)? as usize;
+                if n == 0 || n > 8 {
+                    return Err(at(format!("{n} motor values; 1 to 8 expected")));
+                }
+                if n_motors.is_some_and(|m| m != n) {
+                    return Err(at(format!("{n} motor values where earlier messages had {}", n_motors.unwrap_or(0))));
+                }
+                n_motors = Some(n);
+                let mut v = [0.0; 8];
+                for x in v.iter_mut().take(n) {
+                    *x = c.f64().map_err(at)?;
+                }
+                finite(&v)?;
+                motors.t.push(m.log_time as i128);
+                motors.v.push(v);
+            }
+            _ => {
+                if !schema_is(schema, "sensor_msgs/msg/BatteryState") {
+                    return Err(at("the battery topic must be sensor_msgs/msg/BatteryState".into()));
+                }
+                let t = c.header().map_err(at)?;
+                let v = [c.f32().map_err(at)?];
+                finite(&v)?;
+                battery.t.push(t);
+                battery.v.push(v);
+            }
+        }
+    }
+    for (topic, n) in [(Some(&topics.pose), pose.t.len()), (Some(&topics.imu), imu.t.len()), (topics.motors.as_ref(), motors.t.len()), (topics.battery.as_ref(), battery.t.len())] {
+        if let Some(topic) = topic
+            && n == 0
+        {
+            return Err(format!("{file}: no message on topic `{topic}`"));
+        }
+    }
+    let (pose, imu, motors, battery) = (pose.sorted(), imu.sorted(), motors.sorted(), battery.sorted());
+    // two poses further apart than 1.5 median intervals have a dropped frame between them:
+    // nothing is interpolated across it
+    let reach = {
+        let mut d: Vec<i128> = pose.t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0).collect();
+        d.sort_unstable();
+        d.get(d.len() / 2).map_or(0, |m| 3 * m / 2)
+    };
+    let mut csv = String::from("t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az");
+    for i in 0..n_motors.unwrap_or(0) {
+        let _ = write!(csv, ",m{}", i + 1);
+    }
+    if topics.battery.is_some() {
+        csv.push_str(",vbat");
+    }
+    csv.push('\n');
+    let mut repairs = Vec::new();
+    let (mut skipped, mut p, mut mo, mut ba) = (0usize, 0usize, 0usize, 0usize);
+    let t0 = imu.t[0];
+    for (t, v) in imu.t.iter().zip(&imu.v) {
+        // the last motor and battery values at or before t
+        while mo < motors.t.len() && motors.t[mo] <= *t {
+            mo += 1;
+        }
+        while ba < battery.t.len() && battery.t[ba] <= *t {
+            ba += 1;
+        }
+        if (topics.motors.is_some() && mo == 0) || (topics.battery.is_some() && ba == 0) {
+            skipped += 1;
+            continue;
+        }
+        // the first pose after t (p), and the one before
+        while p < pose.t.len() && pose.t[p] <= *t {
+            p += 1;
+        }
+        let _ = write!(csv, "{}", (*t - t0) as f64 * 1e-9);
+        let exact = p > 0 && pose.t[p - 1] == *t;
+        if exact {
+            for x in &pose.v[p - 1] {
+                let _ = write!(csv, ",{x}");
+            }
+        } else if p > 0 && p < pose.t.len() && pose.t[p] - pose.t[p - 1] <= reach {
+            let (a, b) = (&pose.v[p - 1], &pose.v[p]);
+            let f = (*t - pose.t[p - 1]) as f64 / (pose.t[p] - pose.t[p - 1]) as f64;
+            for k in 0..3 {
+                let _ = write!(csv, ",{}", a[k] * (1.0 - f) + b[k] * f);
+            }
+            // nlerp on the shorter arc
+            let sign = if (3..7).map(|k| a[k] * b[k]).sum::<f64>() < 0.0 { -1.0 } else { 1.0 };
+            let q: Vec<f64> = (3..7).map(|k| a[k] * (1.0 - f) + sign * b[k] * f).collect();
+            let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            for x in q {
+                let _ = write!(csv, ",{}", x / norm);
+            }
+        } else {
+            csv.push_str(",,,,,,,");
+        }
+        for x in v {
+            let _ = write!(csv, ",{x}");
+        }
+        if let Some(n) = n_motors {
+            for x in &motors.v[mo - 1][..n] {
+                let _ = write!(csv, ",{x}");
+            }
+        }
+        if topics.battery.is_some() {
+            let _ = write!(csv, ",{}", battery.v[ba - 1][0]);
+        }
+        csv.push('\n');
+    }
+    if skipped > 0 {
+        repairs.push(format!("{skipped} IMU messages before the first motor or battery message were left out"));
+    }
+    Ok((csv, repairs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// CDR by hand: little endian header, a Header (sec 7, nanosec 5, frame "ab"), then a
+    /// float64 aligned to 8 from the payload start: 4 + 4 + 4 (length) + 3 ("ab\0") = 15 → pad
+    /// to 16.
+    #[test]
+    fn cdr_aligns_from_the_payload_and_reads_a_header() {
+        let mut b = vec![0u8, 1, 0, 0];
+        b.extend(7i32.to_le_bytes());
+        b.extend(5u32.to_le_bytes());
+        b.extend(3u32.to_le_bytes());
+        b.extend(b"ab\0");
+        b.push(0); // padding to 16
+        b.extend(2.5f64.to_le_bytes());
+        let mut c = Cdr::new(&b).unwrap();
+        assert_eq!(c.header().unwrap(), 7_000_000_005);
+        assert_eq!(c.f64().unwrap(), 2.5);
+        assert!(c.f64().is_err(), "reading past the end is an error, not a panic");
+        // big endian
+        let mut b = vec![0u8, 0, 0, 0];
+        b.extend(1.25f64.to_be_bytes());
+        assert_eq!(Cdr::new(&b).unwrap().f64().unwrap(), 1.25);
+        assert!(Cdr::new(&[0, 7, 0, 0]).is_err());
+        assert!(Cdr::new(&[0, 1]).is_err());
+    }
+
+    #[test]
+    fn a_file_that_is_not_mcap_is_named() {
+        let t = Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None };
+        let e = to_csv(b"t,px\n1,2\n", &t, "f.mcap").unwrap_err();
+        assert!(e.contains("not an MCAP file"), "{e}");
+    }
+}

@@ -1,0 +1,115 @@
+//! ROS 2 bags (MCAP) as identify input, against the CSV route, with bags written by the
+//! independent ROS 2 writer `mcap-ros2-support` (PyPI; `.ci/run` installs it).
+
+use flyarena::identify::mapping::Mapping;
+use flyarena::identify::{Effect, Options, identify};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Writes `flight` (a NanoBench CSV) as a bag with `scripts/nanobench-to-mcap.py`. Without
+/// Python's `mcap_ros2` the test fails under CI (where `.ci/run` installs it) and is skipped,
+/// said on stderr, elsewhere.
+fn bag_of(flight: &Path, out: &Path) -> Option<()> {
+    let have = Command::new("python3").args(["-c", "import mcap_ros2.writer"]).status().is_ok_and(|s| s.success());
+    if !have {
+        assert!(std::env::var("CI").is_err(), "CI must have Python's mcap-ros2-support (pip install mcap-ros2-support==0.6.0, as .ci/run does)");
+        eprintln!("skipped: no Python mcap-ros2-support here (pip install mcap-ros2-support==0.6.0)");
+        return None;
+    }
+    let st = Command::new("python3").arg(super::root().join("scripts/nanobench-to-mcap.py")).arg(flight).arg(out).status().unwrap();
+    assert!(st.success(), "the bag writer failed on {}", flight.display());
+    Some(())
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("flyarena-ros2-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A NanoBench flight as a ROS 2 bag gives the CSV route's report: the same rows, the same
+/// effects in the same order and every parameter within a twentieth of its interval (the bag
+/// stamps time in integer nanoseconds from the first IMU message where the CSV has epoch
+/// seconds in a double, and BatteryState carries volts as float32: neither is bit for bit the
+/// CSV's, so a sample on the edge of a held-out block may change sides).
+#[test]
+fn a_ros2_bag_gives_the_csv_report() {
+    let Some(data) = super::shared_data() else { return };
+    let d = tmp("same");
+    for name in ["B3_figure8_medium_rep2", "B7_oval_fast_rep1"] {
+        let csv = data.join(format!("nanobench/dataset/{name}.csv"));
+        let bag = d.join(format!("{name}.mcap"));
+        if bag_of(&csv, &bag).is_none() {
+            return;
+        }
+        let opts = |m: &Mapping| {
+            let mut o = Options { forced: vec![Effect::BodyOffset], ..Options::default() };
+            o.design.smoothing_s = m.smoothing_ms.unwrap() * 1e-3;
+            o
+        };
+        let csv_map = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
+        let bag_map = Mapping::load(&super::root().join("mappings/ros2-crazyflie.yaml")).unwrap();
+        let a = identify(&csv_map.read(&csv).unwrap(), &opts(&csv_map)).unwrap();
+        let b = identify(&bag_map.read(&bag).unwrap(), &opts(&bag_map)).unwrap();
+        // the same rows; a decimated sample on a block edge may fall to the other side of it
+        assert_eq!(a.samples, b.samples, "{name}");
+        assert!(a.train_samples.abs_diff(b.train_samples) <= 2, "{name}: {} vs {} training samples", a.train_samples, b.train_samples);
+        let effects = |r: &flyarena::identify::Report| r.effects.iter().map(|f| f.effect).collect::<Vec<_>>();
+        assert_eq!(effects(&a), effects(&b), "{name}");
+        for (fa, fb) in a.effects.iter().zip(&b.effects) {
+            for (pa, pb) in fa.params.iter().zip(&fb.params) {
+                assert_eq!(pa.identifiable, pb.identifiable, "{name}: {} {}", fa.effect.key(), pa.name);
+                let tol = 0.05 * pa.ci95;
+                assert!((pa.value - pb.value).abs() <= tol, "{name}: {} {}: CSV {} ± {}, bag {}", fa.effect.key(), pa.name, pa.value, pa.ci95, pb.value);
+                assert!((pa.ci95 - pb.ci95).abs() <= 0.05 * pa.ci95.max(1e-9), "{name}: {} {} interval {} vs {}", fa.effect.key(), pa.name, pa.ci95, pb.ci95);
+            }
+        }
+    }
+}
+
+/// Hostile bags: cut short, a flipped byte inside a chunk (the writer's CRCs), the CSV mapping
+/// given a bag, a bag given where a topic is missing or has the wrong type: each is an error
+/// naming the file, never a panic or a number.
+#[test]
+fn broken_bags_are_errors_not_numbers() {
+    let Some(data) = super::shared_data() else { return };
+    let d = tmp("broken");
+    let bag = d.join("b.mcap");
+    if bag_of(&data.join("nanobench/dataset/B6_linear_ramp_rep2.csv"), &bag).is_none() {
+        return;
+    }
+    let bytes = std::fs::read(&bag).unwrap();
+    let map = Mapping::load(&super::root().join("mappings/ros2-crazyflie.yaml")).unwrap();
+    let read = |b: &[u8], m: &Mapping| {
+        let p = d.join("x.mcap");
+        std::fs::write(&p, b).unwrap();
+        m.read(&p).map(|_| ()).unwrap_err()
+    };
+    let cut = read(&bytes[..bytes.len() / 2], &map);
+    assert!(cut.contains("x.mcap"), "{cut}");
+    // a byte flipped in the middle of the first chunk (records: opcode u8, length u64 LE; a
+    // chunk is opcode 0x06): the chunk's CRC catches it (a flip in a message index, which only
+    // serves seeking, would change no measurement)
+    let mut at = 8;
+    while bytes[at] != 0x06 {
+        at += 9 + u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+    }
+    let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+    let mut flipped = bytes.clone();
+    flipped[at + 9 + len / 2] ^= 0x5a;
+    let e = read(&flipped, &map);
+    assert!(e.contains("x.mcap") && (e.contains("crc") || e.contains("CRC")), "{e}");
+    let csv_map = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
+    let e = read(&bytes, &csv_map);
+    assert!(e.contains("needs a mapping with a `ros2:` block"), "{e}");
+    let src = std::fs::read_to_string(super::root().join("mappings/ros2-crazyflie.yaml")).unwrap();
+    let missing = Mapping::parse(&src.replace("/cf/imu", "/cf/imu_typo"), Path::new("m.yaml")).unwrap();
+    let e = read(&bytes, &missing);
+    assert!(e.contains("no message on topic `/cf/imu_typo`"), "{e}");
+    let swapped = Mapping::parse(&src.replace("pose: /vicon/cf/pose", "pose: /cf/imu"), Path::new("m.yaml")).unwrap();
+    let e = read(&bytes, &swapped);
+    assert!(e.contains("must be geometry_msgs/msg/PoseStamped"), "{e}");
+    // a mapping with an unknown key in its ros2 block names it
+    let e = Mapping::parse(&src.replace("imu: /cf/imu", "imu: /cf/imu\n  gps: /cf/gps"), Path::new("m.yaml")).unwrap_err();
+    assert!(e.contains("gps"), "{e}");
+}
