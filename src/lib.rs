@@ -61,6 +61,10 @@
 //! assert!((roll.to_degrees() - 2.0).abs() < 0.05);
 //! ```
 //!
+//! [`run::run_scenario`] adds what `flyarena run` does on top: the uncompensated twin a
+//! requirement may compare with, the requirements evaluated and the summary; `sweep`,
+//! `identify` and the command line all go through it.
+//!
 //! Angles are radians everywhere inside; degrees exist only in YAML fields named `_deg` and in
 //! printed output. Time is [`clock::Nanos`], an integer; every random draw comes from a
 //! [`rng::Stream`] of its own, so a run is a pure function of its scenario and seed.
