@@ -14,7 +14,7 @@ cd "$(dirname "$0")/.."
 shard="${1:-0}"
 of="${2:-30}"
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/flyarena-target}"
-files=(src/control.rs src/calibrate src/mocap src/radio.rs src/link.rs src/requirements.rs src/vehicle src/identify/select.rs src/identify/stats.rs)
+files=(src/control.rs src/calibrate src/mocap src/radio.rs src/link.rs src/requirements.rs src/vehicle src/identify/select src/identify/stats.rs)
 args=()
 for f in "${files[@]}"; do
     if [ -d "$f" ]; then

@@ -146,3 +146,27 @@ pub fn agreement(
     };
     GroundAgreement { roll: axis(0), pitch: axis(1), frame_fitted, accel_bias_fitted }
 }
+
+/// The report's notes on a ground agreement: a difference beyond 1° that the flight's interval
+/// covers (the flight cannot pin its tilt down), or a disagreement.
+pub fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
+    let mut notes = Vec::new();
+    for (name, t) in [("roll", &a.roll), ("pitch", &a.pitch)] {
+        if t.difference_deg.abs() > 1.0 && t.covers {
+            notes.push(format!(
+                "ground check and flight differ by {:.2}° in {name}, within what this flight determines (±{:.2}°): the flight cannot pin its tilt down to 1°",
+                t.difference_deg, t.ci95_deg
+            ));
+        } else if !t.covers {
+            notes.push(format!(
+                "ground check and flight disagree in {name}: the ground reads {:.2}°{}, the flight {:.2}° (difference {:.2} ± {:.2}°): the markers or the IMU board moved between rest and flight, or the flight holds an effect the candidate library lacks",
+                t.ground_deg,
+                if t.bias_tilt_deg != 0.0 { format!(" ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg) } else { String::new() },
+                t.flight_deg,
+                t.difference_deg,
+                t.ci95_deg
+            ));
+        }
+    }
+    notes
+}

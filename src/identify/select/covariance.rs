@@ -1,0 +1,72 @@
+//! The covariance of the estimates: Newey–West (Bartlett) over the weighted scores summed per
+//! time sample, plus the systematic of the nominal thrust.
+
+use super::*;
+
+/// Newey–West (Bartlett, `lags`) covariance of the OLS parameters: (XᵀX)⁻¹·S·(XᵀX)⁻¹ with
+/// S = Σ_l w_l Σ_t (u_t u_{t−l}ᵀ + u_{t−l} u_tᵀ) (l = 0 counted once), w_l = 1 − l/(lags+1), and
+/// u_t = Σ_{channel axes} x_t·e_t the score of time sample t summed over every channel axis.
+/// Summing per time sample (not per channel axis) lets the channels' noises be correlated:
+/// `accel_kin` and `force` share the accelerometer's noise, and their rows are not independent
+/// information about, say, an accelerometer bias.
+pub(super) fn hac(d: &Design, train: &[bool], gs: &[Gram], set: &[usize], theta: &[f64], lags: usize) -> DMatrix<f64> {
+    let k = set.len();
+    let mut u: Vec<Option<DVector<f64>>> = (0..d.n).map(|t| train[t].then(|| DVector::zeros(k))).collect();
+    for ((c, a), gr) in active(d).into_iter().zip(gs) {
+        let e = residual_of(d, c, a, theta);
+        let cols: Vec<Option<&Vec<f64>>> = set.iter().map(|j| d.columns[c][a].iter().find(|x| x.0 == *j).map(|x| &x.1)).collect();
+        if cols.iter().all(Option::is_none) {
+            continue;
+        }
+        for (t, ut) in u.iter_mut().enumerate() {
+            if let Some(ut) = ut {
+                for (p, col) in cols.iter().enumerate() {
+                    if let Some(v) = col {
+                        ut[p] += gr.w_r * v[t] * e[t];
+                    }
+                }
+            }
+        }
+    }
+    let mut sm = DMatrix::<f64>::zeros(k, k);
+    for l in 0..=lags {
+        let w = 1.0 - l as f64 / (lags as f64 + 1.0);
+        for t in l..d.n {
+            if let (Some(ut), Some(ul)) = (&u[t], &u[t - l]) {
+                let m = ut * ul.transpose();
+                if l == 0 {
+                    sm += m;
+                } else {
+                    sm += (&m + m.transpose()) * w;
+                }
+            }
+        }
+    }
+    let ginv = inverse_spd(&system_raw(gs, set).0);
+    &ginv * sm * &ginv
+}
+
+/// The covariance a systematic relative error ε ~ N(0, σ_T²) of the nominal thrust adds to the
+/// weighted least-squares parameters. Such an error adds ε·(−T/m) to the force channel's z
+/// residual, which is ε times the thrust-scale column c, so the parameters move by
+/// ε·(XᵀWX)⁻¹XᵀWc (W the channel-axis weights): onto the thrust
+/// scale alone when it is in the model, otherwise onto whatever explains a vertical force (an
+/// accelerometer bias z, a constant force D). The same ε holds for the whole flight, so no
+/// amount of data averages it away: it is added to the statistical covariance, not divided
+/// by n. σ_T is the model's own resolution ([`NominalModel::thrust_rel_sd`]).
+pub(super) fn thrust_systematic(d: &Design, train: &[bool], gs: &[Gram], set: &[usize], rel_sd: f64) -> DMatrix<f64> {
+    let k = set.len();
+    let (c, a) = (Channel::Force.index(), 2);
+    let ts = cols_of(Effect::ThrustScale).start;
+    let thrust_col = d.columns[c][a].iter().find(|x| x.0 == ts).map(|x| &x.1);
+    let (Some(tc), true) = (thrust_col, rel_sd > 0.0) else { return DMatrix::zeros(k, k) };
+    let Some(w) = active(d).iter().position(|x| *x == (c, a)).map(|q| gs[q].w_r) else { return DMatrix::zeros(k, k) };
+    let mut xc = DVector::<f64>::zeros(k);
+    for (p, j) in set.iter().enumerate() {
+        if let Some((_, col)) = d.columns[c][a].iter().find(|x| x.0 == *j) {
+            xc[p] = w * (0..d.n).filter(|&i| train[i]).map(|i| col[i] * tc[i]).sum::<f64>();
+        }
+    }
+    let shift = inverse_spd(&system_raw(gs, set).0) * xc;
+    &shift * shift.transpose() * (rel_sd * rel_sd)
+}

@@ -1,0 +1,96 @@
+//! How strongly a flight excites an effect, decided before any outcome (used by the trials to
+//! score recall only on flights that could show the effect).
+
+use super::*;
+
+/// How strongly one flight excites an effect, decided from the data's information matrix
+/// and the effect's size, not from what `identify` found.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Excitation {
+    /// Noncentrality of the effect's block given every other candidate:
+    /// λ = θᵀ·(G_CC − G_CO·G_OO⁻¹·G_OC)·θ on the prewhitened training problem (G the whitened
+    /// Gram matrix of all candidates, θ the effect's true parameters). The F-test of the block
+    /// has power ≈ 95 % at the Bonferroni level 0.001 from λ ≈ 25 (one parameter) to 35 (three).
+    pub lambda: f64,
+    /// The share of the held-out residual energy on the channel axes the effect acts on that it
+    /// makes, E/(E + N): E = θᵀ·(G_t,CC − G_t,CH·G_t,HH⁻¹·G_t,HC)·θ, the held-out energy of the
+    /// part of the effect that the flight's *other hidden effects* H do not explain (G_t the raw
+    /// held-out Gram over the channel axes the effect acts on; the held-out gate tests the effect on top of
+    /// a model that holds them), N the held-out energy of the residual of the model with every
+    /// candidate. The held-out gate needs a 10 % RMSE cut, i.e.
+    /// a share of at least 19 %.
+    pub heldout_share: f64,
+}
+
+impl Excitation {
+    /// Enough for the selection to find the effect: λ ≥ 40 and a held-out share ≥ 0.3 (margins
+    /// over the 95 %-power λ and the 19 % the held-out gate needs).
+    pub fn sufficient(&self) -> bool {
+        self.lambda >= 40.0 && self.heldout_share >= 0.3
+    }
+}
+
+/// The excitation of each effect in `truth` (parameters in the reported units) on flight `s`,
+/// at the nominal corrections (see [`Excitation`]). Effects the data has no columns for get
+/// λ = 0.
+pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<Excitation> {
+    let s = &gated(s, o);
+    let mut corr = Corrections::default();
+    let st = refine(s, o, &mut corr, &[], 0);
+    let all: Vec<Effect> = Effect::ALL.iter().copied().filter(|e| (o.candidates.contains(e) || o.forced.contains(e)) && available(&st.design, *e)).collect();
+    let white: Vec<Ar> = active(&st.design).iter().map(|_| Ar::white(1.0)).collect();
+    let g_ols = grams(&st.design, &st.train, &st.test, &white);
+    let f_all = fit(&g_ols, &set_of(&all));
+    let ars = ar_models(&st.design, &st.train, &f_all.theta, o.max_ar_order);
+    let gs = grams(&st.design, &st.train, &st.test, &ars);
+    let rss_full_t = heldout_rss(&gs, &f_all.theta);
+    let act = active(&st.design);
+    truth
+        .iter()
+        .map(|(e, values)| {
+            if !all.contains(e) {
+                return Excitation { lambda: 0.0, heldout_share: 0.0 };
+            }
+            let block = set_of(&[*e]);
+            let others: Vec<usize> = set_of(&all).into_iter().filter(|j| !block.contains(j)).collect();
+            let mut order = block.clone();
+            order.extend(&others);
+            let (g, _, _, _) = system(&gs, &order);
+            let k = block.len();
+            let gcc = g.view((0, 0), (k, k)).into_owned();
+            let gco = g.view((0, k), (k, others.len())).into_owned();
+            let goo = g.view((k, k), (others.len(), others.len())).into_owned();
+            let schur = gcc - &gco * inverse_spd(&goo) * gco.transpose();
+            let theta = DVector::from_iterator(k, values.iter().zip(e.params()).map(|(v, (_, _, f))| v / f));
+            let lambda = (theta.transpose() * schur * &theta)[(0, 0)].max(0.0);
+            // held-out energy of the part of the effect that the flight's other hidden effects
+            // do not explain (the Schur complement of the held-out Gram over the axes the effect
+            // acts on: a thrust against voltage whose mean a hidden thrust scale takes is not
+            // counted), and of the full model's residual, on those axes
+            let mut order = block.clone();
+            let partners: Vec<usize> = truth.iter().filter(|(x, _)| x != e && all.contains(x)).flat_map(|(x, _)| set_of(&[*x])).collect();
+            order.extend(&partners);
+            let pos = |j: usize| order.iter().position(|x| *x == j);
+            let mut g_t = DMatrix::<f64>::zeros(order.len(), order.len());
+            let mut noise = 0.0;
+            for q in 0..act.len() {
+                if gs[q].cols.iter().any(|j| block.contains(j)) {
+                    let gr = &gs[q];
+                    for (u, ju) in gr.cols.iter().enumerate() {
+                        for (v, jv) in gr.cols.iter().enumerate() {
+                            if let (Some(pu), Some(pv)) = (pos(*ju), pos(*jv)) {
+                                g_t[(pu, pv)] += gr.g_t[(u, v)];
+                            }
+                        }
+                    }
+                    noise += rss_full_t[q];
+                }
+            }
+            let no = partners.len();
+            let schur_t = g_t.view((0, 0), (k, k)).into_owned() - g_t.view((0, k), (k, no)) * inverse_spd(&g_t.view((k, k), (no, no)).into_owned()) * g_t.view((k, 0), (no, k));
+            let energy = (theta.transpose() * schur_t * &theta)[(0, 0)].max(0.0);
+            let heldout_share = if energy + noise > 0.0 { energy / (energy + noise) } else { 0.0 };
+            Excitation { lambda, heldout_share }
+        })
+        .collect()
+}

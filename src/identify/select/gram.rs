@@ -1,0 +1,292 @@
+//! Least squares on Gram matrices: the training/held-out split, one Gram per channel axis
+//! (prewhitened training part, raw training part, raw held-out part), fits of column sets,
+//! held-out errors and canonical correlations between column sets.
+
+use super::*;
+
+/// Normal equations of one channel axis: whitened training part and raw held-out part.
+#[derive(Clone)]
+pub(super) struct Gram {
+    pub(super) cols: Vec<usize>,
+    pub(super) g_w: DMatrix<f64>,
+    pub(super) b_w: DVector<f64>,
+    pub(super) yy_w: f64,
+    pub(super) n_w: usize,
+    pub(super) g_t: DMatrix<f64>,
+    pub(super) b_t: DVector<f64>,
+    pub(super) yy_t: f64,
+    pub(super) n_t: usize,
+    /// raw training part, each channel axis weighted by `w_r` (weighted least squares)
+    pub(super) g_r: DMatrix<f64>,
+    pub(super) b_r: DVector<f64>,
+    /// 1/(mean square of the residual the noise model was fitted to): puts m/s² and rad/s on
+    /// one scale, and weights each channel axis by how well it measures
+    pub(super) w_r: f64,
+}
+
+pub(super) fn masks(s: &Series, d: &Design, o: &Options) -> (Vec<bool>, Vec<bool>) {
+    let t0 = s.t_s.first().copied().unwrap_or(0.0);
+    let tt = &d.t;
+    let mut train = vec![false; d.n];
+    let mut test = vec![false; d.n];
+    for i in 0..d.n {
+        if !d.ok[i] {
+            continue;
+        }
+        let block = ((tt[i] - t0) / o.block_s).floor() as usize;
+        if block % o.holdout_every == o.holdout_every - 1 {
+            test[i] = true;
+        } else {
+            train[i] = true;
+        }
+    }
+    (train, test)
+}
+
+/// Channel axes that have data.
+pub(super) fn active(d: &Design) -> Vec<(usize, usize)> {
+    let mut v = Vec::new();
+    for c in Channel::ALL {
+        for a in 0..3 {
+            if !d.measured[c.index()][a].is_empty() {
+                v.push((c.index(), a));
+            }
+        }
+    }
+    v
+}
+
+pub(super) fn residual_of(d: &Design, c: usize, a: usize, theta: &[f64]) -> Vec<f64> {
+    let mut r = d.residual(c, a);
+    for (j, col) in &d.columns[c][a] {
+        if theta[*j] != 0.0 {
+            for (ri, x) in r.iter_mut().zip(col) {
+                *ri -= theta[*j] * x;
+            }
+        }
+    }
+    r
+}
+
+pub(super) fn grams(d: &Design, train: &[bool], test: &[bool], ars: &[Ar]) -> Vec<Gram> {
+    let mut out = Vec::new();
+    let mut wy = Vec::new();
+    let mut wc: Vec<Vec<f64>> = Vec::new();
+    for (k, (c, a)) in active(d).into_iter().enumerate() {
+        let y = d.residual(c, a);
+        let cols: Vec<usize> = d.columns[c][a].iter().map(|x| x.0).collect();
+        let m = cols.len();
+        ars[k].whiten(&y, train, &mut wy);
+        wc.resize(m, Vec::new());
+        for (q, (_, col)) in d.columns[c][a].iter().enumerate() {
+            ars[k].whiten(col, train, &mut wc[q]);
+        }
+        let mut g = Gram {
+            cols: cols.clone(),
+            g_w: DMatrix::zeros(m, m),
+            b_w: DVector::zeros(m),
+            yy_w: 0.0,
+            n_w: 0,
+            g_t: DMatrix::zeros(m, m),
+            b_t: DVector::zeros(m),
+            yy_t: 0.0,
+            n_t: 0,
+            g_r: DMatrix::zeros(m, m),
+            b_r: DVector::zeros(m),
+            w_r: 1.0 / ars[k].marginal_var.max(f64::MIN_POSITIVE),
+        };
+        // accumulated in flat lower triangles (row p, column q ≤ p at p(p+1)/2 + q), each sum in
+        // sample order as before
+        let tri = m * (m + 1) / 2;
+        let (mut gw, mut gt, mut gr) = (vec![0.0; tri], vec![0.0; tri], vec![0.0; tri]);
+        let colv: Vec<&[f64]> = d.columns[c][a].iter().map(|x| x.1.as_slice()).collect();
+        let mut x = vec![0.0; m];
+        let accumulate = |g: &mut [f64], b: &mut DVector<f64>, x: &[f64], y: f64| {
+            let mut at = 0;
+            for p in 0..m {
+                b[p] += x[p] * y;
+                for q in 0..=p {
+                    g[at] += x[p] * x[q];
+                    at += 1;
+                }
+            }
+        };
+        for i in 0..d.n {
+            if wy[i].is_finite() {
+                let mut finite = true;
+                for q in 0..m {
+                    x[q] = wc[q][i];
+                    finite &= x[q].is_finite();
+                }
+                if finite {
+                    g.yy_w += wy[i] * wy[i];
+                    g.n_w += 1;
+                    accumulate(&mut gw, &mut g.b_w, &x, wy[i]);
+                }
+            }
+            if train[i] || test[i] {
+                for q in 0..m {
+                    x[q] = colv[q][i];
+                }
+                if train[i] {
+                    accumulate(&mut gr, &mut g.b_r, &x, y[i]);
+                }
+                if test[i] {
+                    g.yy_t += y[i] * y[i];
+                    g.n_t += 1;
+                    accumulate(&mut gt, &mut g.b_t, &x, y[i]);
+                }
+            }
+        }
+        let mut at = 0;
+        for p in 0..m {
+            for q in 0..=p {
+                g.g_w[(p, q)] = gw[at];
+                g.g_t[(p, q)] = gt[at];
+                g.g_r[(p, q)] = gr[at];
+                at += 1;
+            }
+        }
+        g.g_r *= g.w_r;
+        g.b_r *= g.w_r;
+        for p in 0..m {
+            for q in 0..p {
+                g.g_w[(q, p)] = g.g_w[(p, q)];
+                g.g_t[(q, p)] = g.g_t[(p, q)];
+                g.g_r[(q, p)] = g.g_r[(p, q)];
+            }
+        }
+        out.push(g);
+    }
+    out
+}
+
+/// The raw (training) normal equations of a set of columns, summed over channel axes.
+pub(super) fn system_raw(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>) {
+    let k = set.len();
+    let mut g = DMatrix::zeros(k, k);
+    let mut b = DVector::zeros(k);
+    for gr in gs {
+        let pos: Vec<Option<usize>> = set.iter().map(|j| gr.cols.iter().position(|c| c == j)).collect();
+        for (p, ip) in pos.iter().enumerate() {
+            let Some(ip) = ip else { continue };
+            b[p] += gr.b_r[*ip];
+            for (q, iq) in pos.iter().enumerate() {
+                if let Some(iq) = iq {
+                    g[(p, q)] += gr.g_r[(*ip, *iq)];
+                }
+            }
+        }
+    }
+    (g, b)
+}
+
+/// The whitened normal equations of a set of columns, summed over channel axes.
+pub(super) fn system(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>, f64, usize) {
+    let k = set.len();
+    let mut g = DMatrix::zeros(k, k);
+    let mut b = DVector::zeros(k);
+    let (mut yy, mut n) = (0.0, 0);
+    for gr in gs {
+        yy += gr.yy_w;
+        n += gr.n_w;
+        let pos: Vec<Option<usize>> = set.iter().map(|j| gr.cols.iter().position(|c| c == j)).collect();
+        for (p, ip) in pos.iter().enumerate() {
+            let Some(ip) = ip else { continue };
+            b[p] += gr.b_w[*ip];
+            for (q, iq) in pos.iter().enumerate() {
+                if let Some(iq) = iq {
+                    g[(p, q)] += gr.g_w[(*ip, *iq)];
+                }
+            }
+        }
+    }
+    (g, b, yy, n)
+}
+
+/// A fit of a set of columns: the parameters by ordinary least squares (they minimise the
+/// error the report measures), the tests on the prewhitened problem (GLS), and the covariance
+/// (prewhitened until [`refine`] replaces it by the Newey–West one).
+pub(super) struct Fit {
+    pub(super) set: Vec<usize>,
+    /// OLS parameters, full length N_COLUMNS.
+    pub(super) theta: Vec<f64>,
+    /// GLS (prewhitened) parameters, full length.
+    pub(super) theta_w: Vec<f64>,
+    /// Prewhitened residual sum of squares and sample count (for ΔBIC and the F-test).
+    pub(super) rss: f64,
+    pub(super) n: usize,
+    pub(super) cov: DMatrix<f64>,
+}
+
+pub(super) fn full(set: &[usize], x: &DVector<f64>) -> Vec<f64> {
+    let mut theta = vec![0.0; N_COLUMNS];
+    for (p, j) in set.iter().enumerate() {
+        theta[*j] = x[p];
+    }
+    theta
+}
+
+pub(super) fn fit(gs: &[Gram], set: &[usize]) -> Fit {
+    let (g, b, yy, n) = system(gs, set);
+    let x = solve_spd(&g, &b).unwrap_or_else(|| DVector::zeros(set.len()));
+    let rss = (yy - x.dot(&b)).max(1e-300);
+    let s2 = rss / (n.saturating_sub(set.len()).max(1)) as f64;
+    let cov = inverse_spd(&g) * s2;
+    let (gr, br) = system_raw(gs, set);
+    let xo = solve_spd(&gr, &br).unwrap_or_else(|| DVector::zeros(set.len()));
+    Fit { set: set.to_vec(), theta: full(set, &xo), theta_w: full(set, &x), rss, n, cov }
+}
+
+/// Held-out residual energy per channel axis for parameters θ.
+pub(super) fn heldout_rss(gs: &[Gram], theta: &[f64]) -> Vec<f64> {
+    gs.iter()
+        .map(|g| {
+            let th = DVector::from_iterator(g.cols.len(), g.cols.iter().map(|j| theta[*j]));
+            (g.yy_t - 2.0 * th.dot(&g.b_t) + (th.transpose() * &g.g_t * &th)[(0, 0)]).max(0.0)
+        })
+        .collect()
+}
+
+pub(super) fn cols_of(e: Effect) -> std::ops::Range<usize> {
+    let o = column_offsets();
+    o[e as usize]..o[e as usize + 1]
+}
+
+pub(super) fn set_of(effects: &[Effect]) -> Vec<usize> {
+    effects.iter().flat_map(|e| cols_of(*e)).collect()
+}
+
+/// Largest canonical correlation between the column blocks A and B with S projected out.
+pub(super) fn canonical_corr(gs: &[Gram], s: &[usize], a: &[usize], b: &[usize]) -> f64 {
+    let all: Vec<usize> = s.iter().chain(a).chain(b).copied().collect();
+    let (g, _, _, _) = system(gs, &all);
+    let (ns, na, nb) = (s.len(), a.len(), b.len());
+    let block = |r0: usize, nr: usize, c0: usize, nc: usize| g.view((r0, c0), (nr, nc)).into_owned();
+    let cond = |r0: usize, nr: usize, c0: usize, nc: usize| {
+        let m = block(r0, nr, c0, nc);
+        if ns == 0 {
+            return m;
+        }
+        let gss_inv = inverse_spd(&block(0, ns, 0, ns));
+        m - block(r0, nr, 0, ns) * gss_inv * block(0, ns, c0, nc)
+    };
+    let gaa = cond(ns, na, ns, na);
+    let gbb = cond(ns + na, nb, ns + na, nb);
+    let gab = cond(ns, na, ns + na, nb);
+    let (Some(ca), Some(cb)) = (gaa.clone().cholesky(), gbb.clone().cholesky()) else { return 1.0 };
+    // ρ² = eig(La⁻¹ Gab Gbb⁻¹ Gba La⁻ᵀ)
+    let la_inv = ca.l().try_inverse().unwrap_or_else(|| DMatrix::zeros(na, na));
+    let m = &la_inv * &gab * cb.inverse() * gab.transpose() * la_inv.transpose();
+    let sym = (&m + m.transpose()) * 0.5;
+    if !sym.iter().all(|x| x.is_finite()) {
+        return 1.0;
+    }
+    let Some(eig) = nalgebra::SymmetricEigen::try_new(sym, f64::EPSILON, 500) else { return 1.0 };
+    eig.eigenvalues.iter().copied().fold(0.0, f64::max).clamp(0.0, 1.0).sqrt()
+}
+
+/// The AR models of the current residual (one per active channel axis).
+pub(super) fn ar_models(d: &Design, train: &[bool], theta: &[f64], max_order: usize) -> Vec<Ar> {
+    active(d).into_iter().map(|(c, a)| Ar::fit(&residual_of(d, c, a, theta), train, max_order)).collect()
+}

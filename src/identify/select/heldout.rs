@@ -1,0 +1,84 @@
+//! The held-out errors of a report on a flight (the report's own or another's: cross-validation)
+//! and the residual series for plotting.
+
+use super::*;
+
+/// RMSE and NRMSE fit of the residuals `before` and `after` over the samples `idx` of the
+/// measured signal `y`.
+pub(super) fn axis_error(ch: Channel, a: usize, y: &[f64], before: &[f64], after: &[f64], idx: &[usize]) -> AxisError {
+    let nt = idx.len().max(1) as f64;
+    let mean = idx.iter().map(|&i| y[i]).sum::<f64>() / nt;
+    let norm_y = idx.iter().map(|&i| (y[i] - mean).powi(2)).sum::<f64>().sqrt();
+    let norm_b = idx.iter().map(|&i| before[i].powi(2)).sum::<f64>();
+    let norm_a = idx.iter().map(|&i| after[i].powi(2)).sum::<f64>();
+    let fit = |norm: f64| (norm_y > 1e-9 * nt.sqrt()).then(|| 100.0 * (1.0 - norm.sqrt() / norm_y));
+    AxisError {
+        channel: ch,
+        axis: AXES[a],
+        unit: ch.unit().into(),
+        samples: idx.len(),
+        rmse_before: (norm_b / nt).sqrt(),
+        rmse_after: (norm_a / nt).sqrt(),
+        fit_before_pct: fit(norm_b),
+        fit_after_pct: fit(norm_a),
+    }
+}
+
+/// The error of another flight's model on this flight: the nominal model and the nominal model
+/// with `r`'s corrections and parameters, on every usable sample of `s` (nothing is refitted).
+pub fn evaluate(s: &Series, o: &Options, r: &Report) -> Vec<AxisError> {
+    let s = &gated(s, o);
+    let before = build(s, &Corrections::default(), &o.design);
+    let after = build(s, &r.corrections, &o.design);
+    let mut out = Vec::new();
+    for (c, a) in active(&after) {
+        let rb = before.residual(c, a);
+        let ra = residual_of(&after, c, a, &r.theta);
+        let idx: Vec<usize> = (0..after.n).filter(|&i| after.ok[i] && before.ok[i]).collect();
+        out.push(axis_error(Channel::ALL[c], a, &after.measured[c][a], &rb, &ra, &idx));
+    }
+    out
+}
+
+/// 1 − ‖after‖/‖before‖ over the axes of one channel.
+pub fn channel_cut(errors: &[AxisError], c: Channel) -> Option<f64> {
+    let (mut b, mut a) = (0.0, 0.0);
+    for e in errors.iter().filter(|e| e.channel == c) {
+        b += e.rmse_before.powi(2);
+        a += e.rmse_after.powi(2);
+    }
+    (b > 0.0).then(|| 1.0 - (a / b).sqrt())
+}
+
+/// The residual of one channel axis over the usable (decimated) samples, before (nominal, no
+/// corrections) and after (the report's effects), for plotting.
+pub struct ResidualSeries {
+    pub channel: Channel,
+    pub axis: char,
+    /// Seconds from the first sample of the log.
+    pub t_s: Vec<f64>,
+    pub before: Vec<f64>,
+    pub after: Vec<f64>,
+}
+
+pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSeries> {
+    let s = &gated(s, o);
+    let before = build(s, &Corrections::default(), &o.design);
+    let after = build(s, &r.corrections, &o.design);
+    let t0 = s.t_s.first().copied().unwrap_or(0.0);
+    active(&after)
+        .into_iter()
+        .map(|(c, a)| {
+            let rb = before.residual(c, a);
+            let ra = residual_of(&after, c, a, &r.theta);
+            let idx: Vec<usize> = (0..after.n).filter(|&i| after.ok[i] && before.ok[i]).collect();
+            ResidualSeries {
+                channel: Channel::ALL[c],
+                axis: AXES[a],
+                t_s: idx.iter().map(|&i| after.t[i] - t0).collect(),
+                before: idx.iter().map(|&i| rb[i]).collect(),
+                after: idx.iter().map(|&i| ra[i]).collect(),
+            }
+        })
+        .collect()
+}

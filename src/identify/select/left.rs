@@ -1,0 +1,111 @@
+//! "What is left": the final residual per channel axis (held-out error, whiteness) and the
+//! measured signals it follows (the leads), with the effective sample size of two
+//! autocorrelated series (Bartlett) for the significance.
+
+use super::*;
+
+/// Weaker correlations than this are not named as leads (significant but explaining < 1 % of
+/// the residual's variance is no lead).
+pub const LEAD_MIN_CORR: f64 = 0.1;
+/// At most this many leads per channel axis.
+pub const LEAD_MAX: usize = 3;
+
+/// The measured signals of a design built with signals, masked to its usable samples, with
+/// their autocorrelations (lags 1..=50), computed once for every channel axis.
+pub(super) struct LeadSignals<'a> {
+    pub(super) design: &'a Design,
+    pub(super) masked: Vec<Vec<f64>>,
+    pub(super) acf: Vec<Vec<f64>>,
+}
+
+pub(super) fn lead_signals(d: &Design) -> LeadSignals<'_> {
+    let masked: Vec<Vec<f64>> = d.signals.iter().map(|sg| (0..d.n).map(|i| if d.ok[i] { sg.samples[i] } else { f64::NAN }).collect()).collect();
+    let acf = masked.iter().map(|x| crate::identify::stats::autocorrelation(x, 50).0).collect();
+    LeadSignals { design: d, masked, acf }
+}
+
+/// The leads of one residual of channel `c`, axis `a`: the measured signals it follows (see
+/// [`Left::correlates`]).
+pub(super) fn leads(ls: &LeadSignals, c: usize, a: usize, residual: &[f64]) -> Vec<Correlate> {
+    let d = ls.design;
+    let r: Vec<f64> = (0..d.n).map(|i| if d.ok[i] { residual[i] } else { f64::NAN }).collect();
+    let idx: Vec<usize> = (0..d.n).filter(|&i| r[i].is_finite()).collect();
+    if idx.len() < 3 {
+        return Vec::new();
+    }
+    let (r_acf, _) = crate::identify::stats::autocorrelation(&r, 50);
+    let mr = idx.iter().map(|&i| r[i]).sum::<f64>() / idx.len() as f64;
+    let srr: f64 = idx.iter().map(|&i| (r[i] - mr).powi(2)).sum();
+    let mut out: Vec<Correlate> = Vec::new();
+    for (k, sg) in d.signals.iter().enumerate() {
+        if sg.excludes.contains(&(c, a)) {
+            continue;
+        }
+        let x = &ls.masked[k];
+        let mx = idx.iter().map(|&i| x[i]).sum::<f64>() / idx.len() as f64;
+        let (mut sxy, mut sxx) = (0.0, 0.0);
+        for &i in &idx {
+            sxy += (r[i] - mr) * (x[i] - mx);
+            sxx += (x[i] - mx).powi(2);
+        }
+        if sxx <= 0.0 || srr <= 0.0 {
+            continue;
+        }
+        let rho = sxy / (sxx * srr).sqrt();
+        let n_eff = crate::identify::stats::effective_n(idx.len(), &r_acf, &ls.acf[k]);
+        // two-sided test of r = 0 (r·√n_eff ~ N(0, 1)), Bonferroni over the signals
+        let p = crate::identify::stats::chi2_sf(rho * rho * n_eff, 1.0);
+        if rho.abs() >= LEAD_MIN_CORR && p < 0.01 / d.signals.len() as f64 {
+            out.push(Correlate { signal: sg.name.to_string(), r: rho, n_eff });
+        }
+    }
+    out.sort_by(|a, b| b.r.abs().total_cmp(&a.r.abs()));
+    out.truncate(LEAD_MAX);
+    out
+}
+
+/// The final model's held-out error per channel axis (against the nominal model's), the
+/// whiteness of its residual (raw autocorrelation, then Ljung–Box after AR(p) prewhitening)
+/// and what is left of it (structured or not, and the leads it follows).
+pub(super) fn final_residuals(
+    d: &Design,
+    theta: &[f64],
+    test: &[bool],
+    nominal_design: &Design,
+    lead_sigs: &LeadSignals,
+    max_ar_order: usize,
+) -> (Vec<AxisError>, Vec<Whiteness>, Vec<Left>) {
+    let mut errors = Vec::new();
+    let mut whiteness = Vec::new();
+    let mut left = Vec::new();
+    for (c, a) in active(d) {
+        let before = nominal_design.residual(c, a);
+        let after = residual_of(d, c, a, theta);
+        let idx: Vec<usize> = (0..d.n).filter(|&i| test[i] && nominal_design.ok[i]).collect();
+        let ch = Channel::ALL[c];
+        errors.push(axis_error(ch, a, &d.measured[c][a], &before, &after, &idx));
+        // whiteness of the final residual on the usable samples
+        let ok: Vec<bool> = d.ok.clone();
+        let raw: Vec<f64> = (0..d.n).map(|i| if ok[i] { after[i] } else { f64::NAN }).collect();
+        let (r, n) = autocorrelation(&raw, 50);
+        let bound = Z_995 / (n.max(1) as f64).sqrt();
+        let outside = r.iter().filter(|x| x.abs() > bound).count() as f64 / r.len() as f64;
+        let ar = Ar::fit(&after, &ok, max_ar_order);
+        let mut w = Vec::new();
+        ar.whiten(&after, &ok, &mut w);
+        let lb = ljung_box(&w, 20, ar.order());
+        let correlates = leads(lead_sigs, c, a, &after);
+        let err = errors.last().expect("pushed above");
+        left.push(Left {
+            channel: ch,
+            axis: AXES[a],
+            rmse: err.rmse_after,
+            unit: err.unit.clone(),
+            ljung_box_p: lb.p_value,
+            structured: !correlates.is_empty() || lb.p_value < 0.01,
+            correlates,
+        });
+        whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: lb });
+    }
+    (errors, whiteness, left)
+}

@@ -1,0 +1,168 @@
+//! What the selection reports: the estimates with their intervals, each step's scoreboard,
+//! the held-out errors, the whiteness and what is left of the residual.
+
+use super::*;
+
+/// One parameter, in the reported unit.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Param {
+    pub name: String,
+    pub value: f64,
+    /// Half-width of the 95 % interval. Where the flight cannot tell an effect of the model from
+    /// one outside it, the interval is widened to cover the estimate of the swapped model too.
+    pub ci95: f64,
+    pub unit: String,
+    /// False when this effect cannot be told apart from one outside the model by this flight
+    /// (see [`Report::not_identifiable`]): the value is one of several explanations, and no
+    /// interval is claimed for it.
+    pub identifiable: bool,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Candidate {
+    pub effect: Effect,
+    pub delta_bic: f64,
+    pub f: f64,
+    pub p_value: f64,
+    /// Relative drop of the held-out error on the candidate's channels.
+    pub heldout_gain: f64,
+    /// Largest |correlation| of a prewhitened regressor column with the prewhitened residual.
+    pub max_corr: f64,
+    pub passed: bool,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Step {
+    pub added: Effect,
+    /// A second effect added in the same step: the two explain the residual only together
+    /// (each alone is significant but fails the held-out gate); the step's figures are the pair's.
+    pub together_with: Option<Effect>,
+    pub delta_bic: f64,
+    pub p_value: f64,
+    pub heldout_gain: f64,
+    pub candidates: Vec<Candidate>,
+    /// Effects that the data cannot tell apart from the one added, with their canonical correlation.
+    pub not_identifiable_from: Vec<(Effect, f64)>,
+    /// The parameters right after this step.
+    pub params: Vec<Param>,
+}
+
+/// An effect that left the model in the backward check after a step.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Removal {
+    /// The number of steps taken when it left (it left after step `after_step`, 1-based).
+    pub after_step: usize,
+    /// Its gates on top of every other selected effect, at least one failed.
+    pub check: Candidate,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Found {
+    pub effect: Effect,
+    pub name: String,
+    pub params: Vec<Param>,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AxisError {
+    pub channel: Channel,
+    pub axis: char,
+    pub unit: String,
+    pub samples: usize,
+    pub rmse_before: f64,
+    pub rmse_after: f64,
+    /// NRMSE fit, 100·(1 − ‖y − ŷ‖/‖y − ȳ‖) (%); None when the measured signal is constant
+    /// (an ideal accelerometer's x axis without drag reads exactly zero).
+    pub fit_before_pct: Option<f64>,
+    pub fit_after_pct: Option<f64>,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Whiteness {
+    pub channel: Channel,
+    pub axis: char,
+    /// Fraction of the lags 1..=50 of the raw residual outside the 99 % bounds ±2.58/√n.
+    pub raw_outside_99: f64,
+    pub ar_order: usize,
+    /// Ljung–Box on the residual prewhitened by its AR(p), 20 lags.
+    pub ljung_box: LjungBox,
+}
+
+/// A measured signal that the residual left at the end follows.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Correlate {
+    pub signal: String,
+    /// Pearson correlation with the final residual over the usable samples.
+    pub r: f64,
+    /// Bartlett's effective sample size (both series are autocorrelated).
+    pub n_eff: f64,
+}
+
+/// What is left on one channel axis once the effects are fitted: is the residual still
+/// structured, and what does it follow? A lead for the next effect, not a verdict.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Left {
+    pub channel: Channel,
+    pub axis: char,
+    /// Held-out RMSE after the effects.
+    pub rmse: f64,
+    pub unit: String,
+    /// Ljung–Box p-value of the prewhitened final residual (from [`Whiteness`]).
+    pub ljung_box_p: f64,
+    /// The signals the residual follows: |r| ≥ [`LEAD_MIN_CORR`] and r ≠ 0 at the 1 % level
+    /// Bonferroni-corrected over the signals (r·√n_eff against N(0, 1)), strongest first, at
+    /// most [`LEAD_MAX`].
+    pub correlates: Vec<Correlate>,
+    /// The residual is not noise: it follows a measured signal, or fails Ljung–Box at 1 %.
+    pub structured: bool,
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Report {
+    pub source: String,
+    pub samples: usize,
+    pub train_samples: usize,
+    pub heldout_samples: usize,
+    pub model: NominalModel,
+    pub options: Options,
+    pub steps: Vec<Step>,
+    /// The scoreboard of the last round, in which no candidate passed.
+    pub final_candidates: Vec<Candidate>,
+    /// Effects that joined in a step but failed the backward check (their gates re-run on top
+    /// of every other selected effect), in the order they left.
+    pub removed: Vec<Removal>,
+    pub effects: Vec<Found>,
+    pub errors: Vec<AxisError>,
+    pub whiteness: Vec<Whiteness>,
+    /// Per channel axis: what the effects leave unexplained and what it follows.
+    pub left: Vec<Left>,
+    /// Yaw spread of the flight (circular standard deviation, deg): world tilt and body offset
+    /// differ only when the vehicle yaws.
+    pub yaw_spread_deg: f64,
+    /// Roll/pitch misalignment from the vehicle at rest before take-off (independent check).
+    pub ground_check: Option<crate::identify::ground::GroundCheck>,
+    /// The ground check against the flight's offset plus the tilt of its accelerometer bias.
+    pub ground_agreement: Option<crate::identify::ground::GroundAgreement>,
+    pub notes: Vec<String>,
+    pub repairs: Vec<String>,
+    /// What the data-quality gate cut out before the fit.
+    pub data_quality: crate::identify::quality::DataQuality,
+    /// Pairs of effects this flight cannot tell apart (canonical correlation > 0.99): the first
+    /// was selected, the second would have explained the same residual.
+    pub not_identifiable: Vec<(Effect, Effect, f64)>,
+    #[serde(skip)]
+    pub corrections: Corrections,
+    /// The final linear parameters (internal units), by column.
+    #[serde(skip)]
+    pub theta: Vec<f64>,
+}
+
+impl Report {
+    pub fn effect(&self, e: Effect) -> Option<&Found> {
+        self.effects.iter().find(|f| f.effect == e)
+    }
+    /// A parameter value in its reported unit.
+    pub fn param(&self, e: Effect, name: &str) -> Option<f64> {
+        self.effect(e)?.params.iter().find(|p| p.name == name).map(|p| p.value)
+    }
+}
