@@ -291,7 +291,7 @@ fn cmd_check(args: &[PathBuf]) -> i32 {
     let mut code = PASS;
     for p in args {
         match Scenario::load(p) {
-            Ok(s) => println!("{}: ok ({} vehicle(s), {} phase(s), {:.1} s)", p.display(), s.vehicles.value.len(), s.plan.value.len(), s.run_time_s()),
+            Ok(s) => println!("{}: ok ({} vehicle(s), {} phase(s), {:.1} s)", p.display(), s.vehicle_cfgs().len(), s.plan.value.len(), s.run_time_s()),
             Err(e) => {
                 eprintln!("error: {e}");
                 code = BAD_INPUT;

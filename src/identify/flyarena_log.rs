@@ -61,7 +61,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
         lagged = alpha * lagged + (1.0 - alpha) * cmd;
         thrust.push(lagged);
     }
-    let v = &s.vehicles.value[vehicle].value;
+    let v = s.vehicle(vehicle);
     // the battery voltage, where every row has it (logs from before it was logged have none)
     let vbat: Option<Vec<f64>> = log.column("vbat_v").and_then(|c| c.iter().copied().collect());
     Ok(Series {

@@ -23,11 +23,10 @@ pub struct Identified {
 fn vehicle_index(s: &Scenario, name: Option<&str>) -> Result<usize, String> {
     match name {
         None => Ok(0),
-        Some(n) => {
-            s.vehicles.value.iter().position(|v| v.value.name == n).ok_or_else(|| {
-                format!("no vehicle `{n}` in the scenario; it has {}", s.vehicles.value.iter().map(|v| format!("`{}`", v.value.name)).collect::<Vec<_>>().join(", "))
-            })
-        }
+        Some(n) => s
+            .vehicle_cfgs()
+            .position(|v| v.name == n)
+            .ok_or_else(|| format!("no vehicle `{n}` in the scenario; it has {}", s.vehicle_cfgs().map(|v| format!("`{}`", v.name)).collect::<Vec<_>>().join(", "))),
     }
 }
 
@@ -79,7 +78,7 @@ pub fn run(
         let log = crate::log::read_csv(&text, &input.display().to_string()).map_err(|e| e.to_string())?;
         flyarena_log::series(&log, &s, i, &input.display().to_string())?
     } else {
-        flyarena_log::run_and_log(&s, i, &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicles.value[i].value.name))?.1
+        flyarena_log::run_and_log(&s, i, &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicle(i).name))?.1
     };
     let report = identify(&data, &opts).map_err(|e| e.to_string())?;
     let frag = fragment(&report, i, s.mocap.rate_hz.value, s.template(i).map_or(4, |t| t.len()));
@@ -95,7 +94,7 @@ pub fn run(
         before.attitude_rmse_deg,
         after.attitude_rmse_deg
     );
-    let requirements = s.requirements.identify.as_ref().map(|req| super::check::check(&report, req, &s.vehicles.value[i].value.name));
+    let requirements = s.requirements.identify.as_ref().map(|req| super::check::check(&report, req, &s.vehicle(i).name));
     let json = json!({ "report": report, "closed_loop": { "nominal": before, "with_effects": after }, "requirements": requirements });
     let residuals = super::select::residual_series(&data, &opts, &report);
     Ok(Identified { report, requirements, text, json, fragment: frag, closed_loop: Some((before, after)), residuals })

@@ -659,6 +659,16 @@ fn spanned<T>(value: T) -> Spanned<T> {
 }
 
 impl Scenario {
+    /// The vehicles, in the scenario's order (without the parser's source locations).
+    pub fn vehicle_cfgs(&self) -> impl ExactSizeIterator<Item = &VehicleCfg> {
+        self.vehicles.value.iter().map(|v| &v.value)
+    }
+
+    /// Vehicle `i` (panics when out of range, like indexing).
+    pub fn vehicle(&self, i: usize) -> &VehicleCfg {
+        &self.vehicles.value[i].value
+    }
+
     /// Reads, parses and validates a scenario file.
     pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
         let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;

@@ -166,7 +166,7 @@ mod parser_fuzz {
             match Scenario::parse(&src, Path::new("fuzz.yaml")) {
                 Ok(s) => {
                     // what is accepted stays valid: every vehicle has parameters and a template
-                    for i in 0..s.vehicles.value.len() {
+                    for i in 0..s.vehicle_cfgs().len() {
                         prop_assert!(s.vehicle_params(i).is_ok() && s.template(i).is_ok());
                     }
                     prop_assert!(s.run_time_s().is_finite() && s.run_time_s() > 0.0);
