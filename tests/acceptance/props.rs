@@ -269,7 +269,7 @@ mod mapping_fuzz {
 /// ROS 2 bags: a small valid bag (written here with the `mcap` crate's writer, uncompressed so
 /// that edits reach the messages), then bytes flipped, cut or inserted. The reader returns an
 /// error naming the file or rows, never panics; whatever it accepts, `identify` digests.
-mod ros2_fuzz {
+pub(crate) mod ros2_fuzz {
     use flyarena::identify::mapping::Mapping;
     use flyarena::identify::{Options, identify};
     use proptest::prelude::*;
@@ -314,6 +314,13 @@ mod ros2_fuzz {
     }
 
     pub(super) fn bag() -> Vec<u8> {
+        bag_with(1, 0, &[])
+    }
+
+    /// The bag with a pose on every `pose_every`-th IMU row only, stamped `pose_lag_ns` after the
+    /// row it was sampled at (its values are the truth at the row's time), the rows in `dropped`
+    /// without their pose.
+    pub(crate) fn bag_with(pose_every: u64, pose_lag_ns: u64, dropped: &[u64]) -> Vec<u8> {
         let mut buf = std::io::Cursor::new(Vec::new());
         let opts = mcap::WriteOptions::new().compression(None);
         let mut w = mcap::Writer::with_options(&mut buf, opts).unwrap();
@@ -335,8 +342,10 @@ mod ros2_fuzz {
             let qw = (1.0 - qx * qx - qy * qy - qz * qz).sqrt();
             let mut msgs = vec![];
             let mut p = Cdr::new();
-            p.header(ns).f64(0.3 * c).f64(0.3 * sn).f64(z).f64(qx).f64(qy).f64(qz).f64(qw);
-            msgs.push((pose, p.0));
+            p.header(ns + pose_lag_ns).f64(0.3 * c).f64(0.3 * sn).f64(z).f64(qx).f64(qy).f64(qz).f64(qw);
+            if k % pose_every == 0 && !dropped.contains(&k) {
+                msgs.push((pose, p.0));
+            }
             let mut i = Cdr::new();
             i.header(ns);
             for x in [0.0, 0.0, 0.0, 1.0].iter().chain(&[0.0; 9]) {
@@ -356,7 +365,8 @@ mod ros2_fuzz {
             b.header(ns).f32(3.9);
             msgs.push((battery, b.0));
             for (channel_id, data) in msgs {
-                w.write_to_known_channel(&mcap::records::MessageHeader { channel_id, sequence: k as u32, log_time: ns, publish_time: ns }, &data).unwrap();
+                let stamp = if channel_id == pose { ns + pose_lag_ns } else { ns };
+                w.write_to_known_channel(&mcap::records::MessageHeader { channel_id, sequence: k as u32, log_time: stamp, publish_time: stamp }, &data).unwrap();
             }
         }
         w.finish().unwrap();
@@ -364,7 +374,7 @@ mod ros2_fuzz {
         buf.into_inner()
     }
 
-    pub(super) fn mapping() -> Mapping {
+    pub(crate) fn mapping() -> Mapping {
         Mapping::parse("vehicle: crazyflie21\nros2: { pose: /p, imu: /i, motors: /m, battery: /b }\nsmoothing_ms: 50\n", Path::new("m.yaml")).unwrap()
     }
 

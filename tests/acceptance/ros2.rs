@@ -113,3 +113,39 @@ fn broken_bags_are_errors_not_numbers() {
     let e = Mapping::parse(&src.replace("imu: /cf/imu", "imu: /cf/imu\n  gps: /cf/gps"), Path::new("m.yaml")).unwrap_err();
     assert!(e.contains("gps"), "{e}");
 }
+
+/// Poses on their own clock: every second IMU row has a pose, stamped 5 ms after the row it
+/// was sampled at, and pose 202 is dropped. Each IMU row t then gets the pose interpolated
+/// between its neighbours, the truth at t − 5 ms: linear interpolation over 20 ms of
+/// x = 0.3·cos 2t errs by at most (0.02²/8)·1.2 = 6·10⁻⁵ m, where the nearest pose would be off
+/// by up to 0.6 m/s · 10 ms = 6 mm. The rows between poses 200 and 204 (40 ms apart: a dropped
+/// frame) are frames in which the vehicle was not seen, and no other row is.
+#[test]
+fn poses_are_interpolated_onto_the_imu_clock_and_not_across_a_dropped_frame() {
+    let bytes = super::props::ros2_fuzz::bag_with(2, 5_000_000, &[202]);
+    let p = tmp("interp").join("i.mcap");
+    std::fs::write(&p, bytes).unwrap();
+    let s = super::props::ros2_fuzz::mapping().read(&p).unwrap();
+    assert_eq!(s.len(), 400);
+    let mut checked = 0;
+    for k in 0..400usize {
+        let t = k as f64 * 0.01;
+        let inside = k >= 3 && k <= 396;
+        // poses 200 and 204 are stamped at rows 200.5 and 204.5: rows 201–204 lie between them
+        let dropped = (201..=204).contains(&k);
+        if !inside {
+            continue;
+        }
+        assert_eq!(s.mocap_ok[k], !dropped, "row {k}");
+        if dropped {
+            continue;
+        }
+        // the mapping turns the z-up world by π about x: y and z change sign
+        let x_true = 0.3 * (2.0 * (t - 0.005)).cos();
+        assert!((s.pos_mocap_nav[k].x - x_true).abs() < 1e-4, "row {k}: x {} vs {x_true}", s.pos_mocap_nav[k].x);
+        let y_true = -0.3 * (2.0 * (t - 0.005)).sin();
+        assert!((s.pos_mocap_nav[k].y - y_true).abs() < 1e-4, "row {k}: y {} vs {y_true}", s.pos_mocap_nav[k].y);
+        checked += 1;
+    }
+    assert!(checked > 380, "{checked}");
+}
