@@ -130,7 +130,7 @@ fn poses_are_interpolated_onto_the_imu_clock_and_not_across_a_dropped_frame() {
     let mut checked = 0;
     for k in 0..400usize {
         let t = k as f64 * 0.01;
-        let inside = k >= 3 && k <= 396;
+        let inside = (3..=396).contains(&k);
         // poses 200 and 204 are stamped at rows 200.5 and 204.5: rows 201–204 lie between them
         let dropped = (201..=204).contains(&k);
         if !inside {
