@@ -132,6 +132,21 @@ impl Default for Corrections {
     }
 }
 
+/// Row i of segment [a, b) read `shift` rows later (fractional): the two rows to interpolate
+/// between and the fraction, `None` where that reaches outside the segment.
+fn shifted(i: usize, shift: f64, a: usize, b: usize) -> Option<(usize, usize, f64)> {
+    let x = i as f64 + shift;
+    let k0 = x.floor();
+    let frac = x - k0;
+    let k0 = k0 as isize;
+    if k0 >= a as isize && (k0 as usize) < b && (frac == 0.0 || ((k0 + 1) as usize) < b) {
+        let k0 = k0 as usize;
+        Some((k0, if frac == 0.0 { k0 } else { k0 + 1 }, frac))
+    } else {
+        None
+    }
+}
+
 /// The gyro with a delay τ (s) taken out: row i reads the stream at t_i + τ (linear
 /// interpolation inside the row's segment), and `ok[i]` turns false where that reaches outside
 /// it. τ = 0 returns the stream itself.
@@ -143,16 +158,9 @@ pub fn gyro_advanced(s: &Series, delay_s: f64, ok: &mut [bool]) -> Vec<Vector3<f
     let mut out = s.gyro_body.clone();
     for &(a, b) in &s.segments {
         for i in a..b {
-            let x = i as f64 + shift;
-            let k0 = x.floor();
-            let frac = x - k0;
-            let k0 = k0 as isize;
-            if k0 >= a as isize && (k0 as usize) < b && (frac == 0.0 || ((k0 + 1) as usize) < b) {
-                let k0 = k0 as usize;
-                let k1 = if frac == 0.0 { k0 } else { k0 + 1 };
-                out[i] = s.gyro_body[k0] * (1.0 - frac) + s.gyro_body[k1] * frac;
-            } else {
-                ok[i] = false;
+            match shifted(i, shift, a, b) {
+                Some((k0, k1, frac)) => out[i] = s.gyro_body[k0] * (1.0 - frac) + s.gyro_body[k1] * frac,
+                None => ok[i] = false,
             }
         }
     }
@@ -180,13 +188,7 @@ pub fn correct(s: &Series, c: &Corrections) -> Corrected {
     for &(a, b) in &s.segments {
         for i in a..b {
             // the pose taken at t_i carries the stamp t_i + τ: read the stream there
-            let x = i as f64 + shift;
-            let k0 = x.floor();
-            let frac = x - k0;
-            let k0 = k0 as isize;
-            let (p, q, good) = if k0 >= a as isize && (k0 as usize) < b && (frac == 0.0 || ((k0 + 1) as usize) < b) {
-                let k0 = k0 as usize;
-                let k1 = if frac == 0.0 { k0 } else { k0 + 1 };
+            let (p, q, good) = if let Some((k0, k1, frac)) = shifted(i, shift, a, b) {
                 let p = s.pos_mocap_nav[k0] * (1.0 - frac) + s.pos_mocap_nav[k1] * frac;
                 let q = interpolate_attitude(&s.att_mocap[k0], &s.att_mocap[k1], frac);
                 (p, q, s.mocap_ok[k0] && s.mocap_ok[k1])
