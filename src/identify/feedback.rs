@@ -76,13 +76,15 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
         match f.effect {
             Effect::BodyOffset => set.push((format!("{vi}.markers.rotation_deg"), json!(v))),
             Effect::WorldTilt => set.push(("mocap.camera_error.rotation_deg".into(), json!([v[0], v[1], 0.0]))),
-            Effect::MocapDelay => {
+            Effect::MocapDelay | Effect::GyroDelay => {
+                // the scenario takes whole frames of the mocap period (≥ 0)
                 let period = 1000.0 / mocap_rate_hz as f64;
                 let frames = (v[0] / period).round().max(0.0);
+                let (what, field) = if f.effect == Effect::MocapDelay { ("mocap delay", "mocap_delay_ms") } else { ("gyro delay", "gyro_delay_ms") };
                 if (frames * period - v[0]).abs() > 1e-6 {
-                    lines.push(format!("# mocap delay {} ms rounded to {} whole frames of {period} ms", v[0], frames));
+                    lines.push(format!("# {what} {} ms rounded to {} whole frames of {period} ms", v[0], frames));
                 }
-                set.push((format!("{vi}.undeclared.mocap_delay_ms"), json!(frames * period)));
+                set.push((format!("{vi}.undeclared.{field}"), json!(frames * period)));
             }
             Effect::AccelBias => set.push((format!("{vi}.imu.accel_bias_m_s2"), json!(v))),
             Effect::GyroBias => set.push((format!("{vi}.imu.gyro_bias_deg_s"), json!(v))),
@@ -96,14 +98,6 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
                 set.push((format!("{vi}.markers.displacement_mm"), json!(vec![d; n_markers])));
             }
             Effect::ThrustVoltage => set.push((format!("{vi}.undeclared.thrust_voltage_per_v"), json!(v[0].max(0.0)))),
-            Effect::GyroDelay => {
-                let period = 1000.0 / mocap_rate_hz as f64;
-                let frames = (v[0] / period).round().max(0.0);
-                if (frames * period - v[0]).abs() > 1e-6 {
-                    lines.push(format!("# gyro delay {} ms rounded to {} whole frames of {period} ms", v[0], frames));
-                }
-                set.push((format!("{vi}.undeclared.gyro_delay_ms"), json!(frames * period)));
-            }
         }
     }
     lines.push(if set.is_empty() { "effects: {}".into() } else { "effects:".into() });
