@@ -151,6 +151,12 @@ pub fn without_body_offset(r: &Report) -> Option<Report> {
     Some(bare)
 }
 
+/// Whether a parameter enters the χ²: identifiable, with a finite interval (a parameter the
+/// flight cannot tell from another effect's claims none, and would weigh in with a made-up one).
+fn has_interval(p: &super::select::Param) -> bool {
+    p.identifiable && p.ci95 > 0.0 && p.ci95.is_finite()
+}
+
 /// Whether the flight had enough usable samples for a fit (a flight without is neither a model
 /// nor a test of one).
 fn fitted(r: &Report) -> bool {
@@ -201,7 +207,7 @@ pub fn consistency(reports: &[(String, Report)], cross: &[Vec<Option<f64>>], off
                         continue;
                     }
                     match r.effect(Effect::BodyOffset).and_then(|f| f.params.iter().find(|p| p.name == axis)) {
-                        Some(p) if p.identifiable && p.ci95 > 0.0 && p.ci95.is_finite() => values.push((i, p.value, p.ci95)),
+                        Some(p) if has_interval(p) => values.push((i, p.value, p.ci95)),
                         Some(_) => left_out.push((i, format!("its body offset {axis} is not identifiable"))),
                         None if axis == "roll" => left_out.push((i, "no body offset was fitted (use --with body_offset)".into())),
                         None => {}
@@ -324,6 +330,16 @@ mod tests {
         assert!((b.p - 0.2386).abs() < 1e-3, "{}", b.p);
         assert!(b.agree);
         assert!(agreement("roll", &[(0, 1.0, 0.1)]).is_none());
+    }
+
+    #[test]
+    fn only_identifiable_parameters_with_a_finite_interval_enter_the_test() {
+        let p = |identifiable: bool, ci95: f64| super::super::select::Param { name: "roll".into(), value: 1.0, ci95, unit: "deg".into(), identifiable };
+        assert!(has_interval(&p(true, 0.2)));
+        assert!(!has_interval(&p(false, 0.2)), "not identifiable");
+        assert!(!has_interval(&p(true, 0.0)), "no interval");
+        assert!(!has_interval(&p(true, f64::INFINITY)), "an infinite interval");
+        assert!(!has_interval(&p(true, f64::NAN)), "NaN");
     }
 
     #[test]
