@@ -157,16 +157,16 @@ pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<
         let finite = |v: &[f64]| if v.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(at("a value is not finite".into())) };
         match which {
             0 => {
-                let (t, p) = if schema_is(schema, "geometry_msgs/msg/PoseStamped") {
-                    let t = c.header().map_err(at)?;
-                    (t, c.f64s::<7>().map_err(at)?)
-                } else if schema_is(schema, "geometry_msgs/msg/TransformStamped") {
-                    let t = c.header().map_err(at)?;
-                    c.string().map_err(at)?; // child_frame_id
-                    (t, c.f64s::<7>().map_err(at)?)
-                } else {
+                // the two differ only by the transform's child_frame_id after the header
+                let transform = schema_is(schema, "geometry_msgs/msg/TransformStamped");
+                if !transform && !schema_is(schema, "geometry_msgs/msg/PoseStamped") {
                     return Err(at("the pose topic must be geometry_msgs/msg/PoseStamped or TransformStamped".into()));
-                };
+                }
+                let t = c.header().map_err(at)?;
+                if transform {
+                    c.string().map_err(at)?;
+                }
+                let p = c.f64s::<7>().map_err(at)?;
                 finite(&p)?;
                 pose.t.push(t);
                 pose.v.push(p);
