@@ -68,6 +68,26 @@ med = lambda v: sorted(v)[len(v) // 2] if len(v) % 2 else 0.5 * (sorted(v)[len(v
 print(f"\nmedian |difference|: roll {med(diffs['roll']):.2f}°, pitch {med(diffs['pitch']):.2f}° over {len(diffs['roll'])} flights; "
       f"beyond 1°: {sum(x > 1 for x in diffs['roll'])} roll, {sum(x > 1 for x in diffs['pitch'])} pitch")
 print()
+print("| flight | spin-up thrust / s | spin-up − rest roll | spin-up − rest pitch | spin-up − flight roll | spin-up − flight pitch |")
+print("|---|---|---|---|---|---|")
+for item in d['reports']:
+    r = item['report']; name = names.get(item['flight'], item['flight'])
+    a = (r.get('ground_agreement') or {}).get('spin_up')
+    if not a:
+        continue
+    ch = lambda t: f"{t['change_deg']:+.2f} ± {t['change_ci95_deg']:.2f}"
+    cell = lambda t: f"{t['difference_deg']:+.2f} ± {t['ci95_deg']:.2f}" + ('' if t['covers'] else ' ✗')
+    row = (f"| {name} | {100 * a['thrust_fraction']:.0f} % / {a['duration_s']:.2f} | {ch(a['roll'])} | {ch(a['pitch'])} | {cell(a['roll'])} | {cell(a['pitch'])} |")
+    print(re.sub(r'(?<![A-Za-z0-9])-(?=\d)', '−', row))
+sp = d.get('spin_up')
+if sp:
+    print()
+    for k in ('roll', 'pitch'):
+        a = sp[k]
+        print(f"{k}: median |difference| rest {a['median_rest_deg']:.2f}°, spin-up {a['median_spin_up_deg']:.2f}°; "
+              f"toward the flight in {a['toward_flight']} of {sp['flights']} (sign test p = {a['sign_test_p']:.3f})")
+
+print()
 print("what is left (final residual per channel axis; the measured signals it follows):")
 for item in d['reports']:
     r = item['report']; name = names.get(item['flight'], item['flight'])

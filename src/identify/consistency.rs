@@ -163,7 +163,7 @@ fn fitted(r: &Report) -> bool {
     r.train_samples >= MIN_TRAIN_SAMPLES
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
+pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
     if v.is_empty() {
         return None;
     }

@@ -58,6 +58,11 @@ pub fn rest_yaw(s: &Series) -> Option<f64> {
 /// every sample first: δ = f̂ × (f − b) / |f̂|².
 pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
     let (start, end) = rest(s)?;
+    Some(tilt_over(s, start, end, accel_bias_body))
+}
+
+/// δ = f̂ × (f − b) / |f̂|² averaged over rows [start, end) (≥ 2 rows), with its standard error.
+fn tilt_over(s: &Series, start: usize, end: usize, accel_bias_body: &nalgebra::Vector3<f64>) -> GroundCheck {
     let g = s.model.gravity_m_s2;
     let mut rp: Vec<(f64, f64)> = Vec::with_capacity(end - start);
     for i in start..end {
@@ -69,14 +74,54 @@ pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Opt
     let m = rp.len() as f64;
     let (mr, mp) = rp.iter().fold((0.0, 0.0), |a, x| (a.0 + x.0 / m, a.1 + x.1 / m));
     let (vr, vp) = rp.iter().fold((0.0, 0.0), |a, x| (a.0 + (x.0 - mr).powi(2) / (m - 1.0), a.1 + (x.1 - mp).powi(2) / (m - 1.0)));
-    Some(GroundCheck {
-        roll_deg: mr.to_degrees(),
-        pitch_deg: mp.to_degrees(),
-        roll_se_deg: (vr / m).sqrt().to_degrees(),
-        pitch_se_deg: (vp / m).sqrt().to_degrees(),
-        samples: rp.len(),
+    GroundCheck { roll_deg: mr.to_degrees(), pitch_deg: mp.to_degrees(), roll_se_deg: (vr / m).sqrt().to_degrees(), pitch_se_deg: (vp / m).sqrt().to_degrees(), samples: rp.len() }
+}
+
+/// The spin-up: the motors on, the vehicle still on the floor. Between the rest and the lift-off
+/// the rotors spin at a fraction of hover thrust while the floor holds the vehicle still, so the
+/// accelerometer reads the same frame tilt as at rest *plus* whatever spinning rotors add to it —
+/// a DC offset from vibration (rectification in the sensor or its filter), a frame or an IMU
+/// mount that bends under thrust. In flight all of that reads as a tilt (an offset that grows
+/// with thrust points like the thrust, and a hover cannot tell it from a turned frame), so the
+/// spin-up is the ground check to compare a flight with when the two ground checks differ.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct SpinUp {
+    /// The tilt with the motors on (bias removed as for the agreement's ground check).
+    pub check: GroundCheck,
+    /// Mean thrust over the rows, as a fraction of the weight m·g.
+    pub thrust_fraction: f64,
+    pub duration_s: f64,
+}
+
+/// Spin-up rows: from [`SPIN_UP_SKIP_S`] after the first row with thrust until the vehicle leaves
+/// the floor (more than [`LIFT_M`] above its rest height), the mocap drops or the segment ends.
+/// Needs a thrust column and the rest before it; `None` when fewer than [`SPIN_UP_MIN_S`] remain.
+pub fn spin_up(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<SpinUp> {
+    let thrust = s.thrust_n.as_ref()?;
+    let (start, _) = rest(s)?;
+    let seg_end = s.segments.first()?.1;
+    let on = (start..seg_end).find(|&i| thrust[i] > 0.0)?;
+    let z_rest = s.pos_mocap_nav[start..on].iter().map(|p| p.z).sum::<f64>() / (on - start) as f64;
+    let from = on + (SPIN_UP_SKIP_S / s.dt()).round() as usize;
+    let to = (from..seg_end).find(|&i| thrust[i] <= 0.0 || !s.mocap_ok[i] || (s.pos_mocap_nav[i].z - z_rest).abs() > LIFT_M).unwrap_or(seg_end);
+    if to <= from || ((to - from) as f64) * s.dt() < SPIN_UP_MIN_S {
+        return None;
+    }
+    let weight = s.model.mass_kg * s.model.gravity_m_s2;
+    Some(SpinUp {
+        check: tilt_over(s, from, to, accel_bias_body),
+        thrust_fraction: thrust[from..to].iter().sum::<f64>() / (to - from) as f64 / weight,
+        duration_s: (to - from) as f64 * s.dt(),
     })
 }
+
+/// The first rows after the motors start are left out: the rotors accelerate and the vehicle
+/// settles on its legs (s).
+pub const SPIN_UP_SKIP_S: f64 = 0.05;
+/// Shorter spin-ups are not used (s): at 100 Hz the mean of fewer rows scatters by > 0.2°.
+pub const SPIN_UP_MIN_S: f64 = 0.3;
+/// Above this height over the rest the vehicle has left the floor (m).
+pub const LIFT_M: f64 = 0.003;
 
 /// One axis of [`GroundAgreement`] (degrees at this edge).
 #[derive(Clone, Copy, Debug, serde::Serialize)]
@@ -112,23 +157,58 @@ pub struct GroundAgreement {
     /// A body offset or a world tilt was selected (or forced).
     pub frame_fitted: bool,
     pub accel_bias_fitted: bool,
+    /// The same comparison with the spin-up (motors on, still on the floor) as the ground check,
+    /// when the log has one ([`spin_up`]).
+    pub spin_up: Option<SpinUpAgreement>,
+}
+
+/// The spin-up against the rest and against the flight.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct SpinUpAgreement {
+    /// Mean thrust over the spin-up as a fraction of the weight.
+    pub thrust_fraction: f64,
+    pub duration_s: f64,
+    pub roll: SpinUpAxis,
+    pub pitch: SpinUpAxis,
+}
+
+/// One axis of [`SpinUpAgreement`] (degrees at this edge).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct SpinUpAxis {
+    /// The spin-up tilt with the fitted bias removed.
+    pub ground_corrected_deg: f64,
+    /// Spin-up − rest: what the spinning rotors add to the accelerometer's tilt.
+    pub change_deg: f64,
+    /// 95 % half-width of the change (the two means' standard errors).
+    pub change_ci95_deg: f64,
+    /// Spin-up − flight frame tilt.
+    pub difference_deg: f64,
+    /// 95 % half-width of that difference, built as the rest's.
+    pub ci95_deg: f64,
+    pub covers: bool,
 }
 
 /// Z_{0.975}
 const Z: f64 = 1.959963984540054;
 
-/// Builds the agreement from the raw ground check, the bias-corrected one, the flight's offset
-/// (rad), the standard deviation of offset + bias tilt (rad) and an extra half-width (rad) from
-/// models the flight cannot tell apart.
-pub fn agreement(
-    raw: &GroundCheck,
-    corrected: &GroundCheck,
-    offset_rad: [f64; 2],
-    sd_rad: [f64; 2],
-    widen_rad: [f64; 2],
-    frame_fitted: bool,
-    accel_bias_fitted: bool,
-) -> GroundAgreement {
+/// The flight's side of the agreement: its frame tilt at rest (body offset + world tilt, roll and
+/// pitch), what it fitted.
+#[derive(Clone, Copy, Debug)]
+pub struct FlightTilt {
+    /// The frame tilt (rad).
+    pub offset_rad: [f64; 2],
+    /// Standard deviation of offset + bias tilt (rad).
+    pub sd_rad: [f64; 2],
+    /// Extra half-width from models the flight cannot tell apart (rad).
+    pub widen_rad: [f64; 2],
+    pub frame_fitted: bool,
+    pub accel_bias_fitted: bool,
+}
+
+/// Builds the agreement from the raw ground check, the bias-corrected one, the flight's tilt and
+/// the spin-up (bias-corrected), if the log has one.
+pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt, spin: Option<&SpinUp>) -> GroundAgreement {
+    let FlightTilt { offset_rad, sd_rad, widen_rad, frame_fitted, accel_bias_fitted } = *flight;
     let axis = |k: usize| {
         let (g, gc, se) = if k == 0 { (raw.roll_deg, corrected.roll_deg, raw.roll_se_deg) } else { (raw.pitch_deg, corrected.pitch_deg, raw.pitch_se_deg) };
         let flight = offset_rad[k].to_degrees();
@@ -144,7 +224,106 @@ pub fn agreement(
             covers: difference.abs() <= ci95,
         }
     };
-    GroundAgreement { roll: axis(0), pitch: axis(1), frame_fitted, accel_bias_fitted }
+    let (roll, pitch) = (axis(0), axis(1));
+    let spin_up = spin.map(|sp| {
+        let spin_axis = |k: usize, rest: &TiltAgreement| {
+            let (on, on_se, rest_se) =
+                if k == 0 { (sp.check.roll_deg, sp.check.roll_se_deg, corrected.roll_se_deg) } else { (sp.check.pitch_deg, sp.check.pitch_se_deg, corrected.pitch_se_deg) };
+            let difference = on - rest.flight_deg;
+            let ci95 = (Z * on_se).hypot(Z * sd_rad[k].to_degrees()) + widen_rad[k].to_degrees();
+            SpinUpAxis {
+                ground_corrected_deg: on,
+                change_deg: on - rest.ground_corrected_deg,
+                change_ci95_deg: Z * on_se.hypot(rest_se),
+                difference_deg: difference,
+                ci95_deg: ci95,
+                covers: difference.abs() <= ci95,
+            }
+        };
+        SpinUpAgreement { thrust_fraction: sp.thrust_fraction, duration_s: sp.duration_s, roll: spin_axis(0, &roll), pitch: spin_axis(1, &pitch) }
+    });
+    GroundAgreement { roll, pitch, frame_fitted, accel_bias_fitted, spin_up }
+}
+
+/// Over several flights: is the rest or the spin-up the ground check a flight agrees with, per
+/// axis? If the spinning rotors add an offset that the flights carry too (in flight it reads as a
+/// tilt), the spin-up moves the ground check toward the flight: the sign test counts the flights
+/// where spin-up − rest points the way flight − rest does (p: one-sided binomial, ½ under "the
+/// change is unrelated to the flight").
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SpinUpSummary {
+    pub flights: usize,
+    pub roll: SpinUpAxisSummary,
+    pub pitch: SpinUpAxisSummary,
+}
+
+/// One axis of [`SpinUpSummary`] (degrees).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct SpinUpAxisSummary {
+    /// Median |rest − bias tilt − flight| over the flights with a spin-up.
+    pub median_rest_deg: f64,
+    /// Median |spin-up − bias tilt − flight|.
+    pub median_spin_up_deg: f64,
+    /// Flights where the spin-up's change points toward the flight.
+    pub toward_flight: usize,
+    /// P(≥ toward_flight of `flights` by chance), each flight ½.
+    pub sign_test_p: f64,
+}
+
+/// The summary over the agreements that have a spin-up; `None` when fewer than 3 do.
+pub fn spin_up_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreement>) -> Option<SpinUpSummary> {
+    let pairs: Vec<(&GroundAgreement, &SpinUpAgreement)> = agreements.into_iter().filter_map(|a| Some((a, a.spin_up.as_ref()?))).collect();
+    let n = pairs.len();
+    if n < 3 {
+        return None;
+    }
+    let axis = |pick: fn(&GroundAgreement) -> &TiltAgreement, pick_spin: fn(&SpinUpAgreement) -> &SpinUpAxis| {
+        let rest: Vec<f64> = pairs.iter().map(|(a, _)| pick(a).difference_deg.abs()).collect();
+        let spin: Vec<f64> = pairs.iter().map(|(_, sp)| pick_spin(sp).difference_deg.abs()).collect();
+        // the flight lies at rest − difference: toward it is a change of the opposite sign
+        let toward = pairs.iter().filter(|(a, sp)| pick_spin(sp).change_deg * pick(a).difference_deg < 0.0).count();
+        SpinUpAxisSummary {
+            median_rest_deg: super::consistency::median(rest).unwrap_or(f64::NAN),
+            median_spin_up_deg: super::consistency::median(spin).unwrap_or(f64::NAN),
+            toward_flight: toward,
+            sign_test_p: binomial_upper_tail(n, toward),
+        }
+    };
+    Some(SpinUpSummary { flights: n, roll: axis(|a| &a.roll, |s| &s.roll), pitch: axis(|a| &a.pitch, |s| &s.pitch) })
+}
+
+/// P(X ≥ k) for X ~ Binomial(n, ½).
+fn binomial_upper_tail(n: usize, k: usize) -> f64 {
+    let mut c = 1.0f64; // C(n, 0)
+    let mut sum = 0.0;
+    for i in 0..=n {
+        if i >= k {
+            sum += c;
+        }
+        c = c * (n - i) as f64 / (i + 1) as f64;
+    }
+    sum / 2f64.powi(n as i32)
+}
+
+/// The summary as the multi-flight report prints it.
+pub fn render_spin_up_summary(s: &SpinUpSummary) -> String {
+    let mut t = format!("\nground check at rest and at spin-up (motors on, still on the floor) against the flight, {} flights:\n", s.flights);
+    for (name, a) in [("roll", &s.roll), ("pitch", &s.pitch)] {
+        t += &format!(
+            "  {name:<5} median |difference| rest {:.2}°, spin-up {:.2}°; the spin-up moves toward the flight in {} of {} (sign test p = {:.3}){}\n",
+            a.median_rest_deg,
+            a.median_spin_up_deg,
+            a.toward_flight,
+            s.flights,
+            a.sign_test_p,
+            if a.sign_test_p < 0.05 {
+                ": the spinning rotors add an offset the flight carries too (rectified vibration, a mount that bends under thrust); in flight it reads as a tilt"
+            } else {
+                ": the difference is not what spinning rotors add on the floor"
+            }
+        );
+    }
+    t
 }
 
 /// The report's notes on a ground agreement: a difference beyond 1° that the flight's interval
@@ -169,4 +348,140 @@ pub fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
         }
     }
     notes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::series::NominalModel;
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    const G: f64 = 9.81;
+
+    /// 1 s at rest (motors off), 0.6 s spinning at `fraction` of the weight on the floor, then a
+    /// climb; 100 Hz, level markers. The accelerometer reads a frame tilt of `rest_deg` (roll,
+    /// pitch) at rest and `spin_deg` more while the motors run.
+    fn flight(rest_deg: [f64; 2], spin_deg: [f64; 2], fraction: f64) -> Series {
+        let n = 300;
+        let dt = 0.01;
+        let (rest_rows, spin_rows) = (100, 60);
+        let tilt = |i: usize| {
+            let extra = if i >= rest_rows { spin_deg } else { [0.0; 2] };
+            // the accelerometer's frame turned by (roll, pitch) against the markers, in the sign
+            // the ground check reports (δ = f̂ × f / |f̂|²): f = C·(−g·e_D), C the small rotation
+            let c = UnitQuaternion::from_euler_angles((rest_deg[0] + extra[0]).to_radians(), (rest_deg[1] + extra[1]).to_radians(), 0.0);
+            c.transform_vector(&Vector3::new(0.0, 0.0, -G))
+        };
+        Series {
+            source: "spin".into(),
+            t_s: (0..n).map(|i| i as f64 * dt).collect(),
+            pos_mocap_nav: (0..n).map(|i| Vector3::new(0.0, 0.0, if i < rest_rows + spin_rows { 0.0 } else { -0.01 * (i - rest_rows - spin_rows) as f64 })).collect(),
+            att_mocap: vec![UnitQuaternion::identity(); n],
+            mocap_ok: vec![true; n],
+            gyro_body: vec![Vector3::zeros(); n],
+            // a little alternating noise so that the standard errors are finite
+            accel_body: (0..n).map(|i| tilt(i) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 }).collect(),
+            thrust_n: Some((0..n).map(|i| if i < rest_rows { 0.0 } else { fraction * G }).collect()),
+            vbat_v: None,
+            segments: vec![(0, n)],
+            model: NominalModel {
+                vehicle: "test".into(),
+                mass_kg: 1.0,
+                rotor_drag_per_s: [0.0; 2],
+                rotor_radius_m: 0.1,
+                vbat_ref_v: 3.7,
+                gravity_m_s2: G,
+                thrust_rel_sd: 0.0,
+                imu_range: crate::vehicle::params::ImuRange::x3d(),
+            },
+            repairs: vec![],
+        }
+    }
+
+    /// The spin-up reads the rest's tilt plus what the spinning rotors add, over the rows from
+    /// 50 ms after the motors start until the lift (rows 105..161, the first climbing row at 161:
+    /// 0.56 s), at the thrust's fraction of the
+    /// weight; the rest keeps its own tilt.
+    #[test]
+    fn the_spin_up_reads_what_the_rotors_add() {
+        let s = flight([0.4, -1.0], [0.0, 0.5], 0.9);
+        let rest = ground_check(&s).unwrap();
+        assert!((rest.roll_deg - 0.4).abs() < 1e-3 && (rest.pitch_deg + 1.0).abs() < 1e-3, "{rest:?}");
+        let sp = spin_up(&s, &Vector3::zeros()).unwrap();
+        assert!((sp.check.roll_deg - 0.4).abs() < 1e-3 && (sp.check.pitch_deg + 0.5).abs() < 1e-3, "{sp:?}");
+        assert!((sp.thrust_fraction - 0.9).abs() < 1e-12);
+        assert!((sp.duration_s - 0.56).abs() < 1e-9 && sp.check.samples == 56, "{sp:?}");
+        // a bias removed from every sample moves both alike: b_y/g in roll
+        let b = spin_up(&s, &Vector3::new(0.0, 0.0981, 0.0)).unwrap();
+        assert!((sp.check.roll_deg - b.check.roll_deg - 0.0981f64.atan2(G).to_degrees()).abs() < 0.01, "{b:?}");
+    }
+
+    /// No spin-up without a thrust column, or when the vehicle lifts within 0.3 s of the motors.
+    #[test]
+    fn no_spin_up_without_thrust_or_time_on_the_floor() {
+        let mut s = flight([0.0; 2], [0.0; 2], 0.9);
+        s.thrust_n = None;
+        assert!(spin_up(&s, &Vector3::zeros()).is_none());
+        let mut s = flight([0.0; 2], [0.0; 2], 0.9);
+        // lifts 0.3 s after the motors start: 0.25 s of usable rows
+        for i in 130..s.len() {
+            s.pos_mocap_nav[i].z = -0.004;
+        }
+        assert!(spin_up(&s, &Vector3::zeros()).is_none());
+    }
+
+    /// A flight's frame tilt (deg) with a tight interval.
+    fn tilt(deg: [f64; 2]) -> FlightTilt {
+        FlightTilt { offset_rad: deg.map(f64::to_radians), sd_rad: [0.001; 2], widen_rad: [0.0; 2], frame_fitted: true, accel_bias_fitted: false }
+    }
+
+    /// The agreement's spin-up: change = spin-up − rest, difference = spin-up − flight.
+    #[test]
+    fn the_spin_up_agreement_compares_with_rest_and_flight() {
+        let s = flight([0.4, -1.0], [0.0, 0.5], 0.9);
+        let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, &Vector3::zeros()).unwrap());
+        let a = agreement(&raw, &raw, &tilt([0.4, -0.6]), Some(&sp));
+        let su = a.spin_up.unwrap();
+        assert!((su.pitch.change_deg - 0.5).abs() < 1e-3 && su.roll.change_deg.abs() < 1e-3, "{su:?}");
+        assert!((su.pitch.difference_deg - 0.1).abs() < 1e-3 && (a.pitch.difference_deg + 0.4).abs() < 1e-3, "{a:?}");
+        // with a bias removed from both checks the change is the same (the bias cancels) and
+        // the difference moves by the bias tilt
+        let b = Vector3::new(0.0981, 0.0, 0.0);
+        let (rc, spc) = (tilt_at_rest(&s, &b).unwrap(), spin_up(&s, &b).unwrap());
+        let ab = agreement(&raw, &rc, &tilt([0.4, -0.6]), Some(&spc));
+        let sb = ab.spin_up.unwrap();
+        assert!((sb.pitch.change_deg - 0.5).abs() < 1e-3, "{sb:?}");
+        assert!(
+            (sb.pitch.difference_deg - su.pitch.difference_deg - ab.pitch.bias_tilt_deg.abs()).abs() < 1e-3
+                || (sb.pitch.difference_deg - su.pitch.difference_deg + ab.pitch.bias_tilt_deg.abs()).abs() < 1e-3,
+            "{sb:?} {ab:?}"
+        );
+        assert!(ab.pitch.bias_tilt_deg.abs() > 0.5, "{ab:?}");
+    }
+
+    /// The sign test against the binomial by hand: P(X ≥ 8 | n = 9, ½) = (9 + 1)/512;
+    /// P(X ≥ 0) = 1; P(X ≥ 5 | 9) = ½.
+    #[test]
+    fn binomial_tail_by_hand() {
+        assert!((binomial_upper_tail(9, 8) - 10.0 / 512.0).abs() < 1e-15);
+        assert_eq!(binomial_upper_tail(9, 0), 1.0);
+        assert!((binomial_upper_tail(9, 5) - 0.5).abs() < 1e-15);
+        assert!((binomial_upper_tail(4, 4) - 1.0 / 16.0).abs() < 1e-15);
+    }
+
+    /// The summary counts a change as toward the flight when it has the opposite sign of
+    /// rest − flight, and takes the medians of both differences.
+    #[test]
+    fn the_summary_counts_moves_toward_the_flight() {
+        let s = flight([0.0, 0.0], [0.0, 0.5], 0.9);
+        let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, &Vector3::zeros()).unwrap());
+        // flights at pitch 0.4 (toward: rest − flight = −0.4, change +0.5), and one at −0.4 (away)
+        let at = |p: f64| agreement(&raw, &raw, &tilt([0.0, p]), Some(&sp));
+        let v = [at(0.4), at(0.4), at(-0.4)];
+        let sum = spin_up_summary(v.iter()).unwrap();
+        assert_eq!((sum.flights, sum.pitch.toward_flight), (3, 2));
+        assert!((sum.pitch.median_rest_deg - 0.4).abs() < 1e-3 && (sum.pitch.median_spin_up_deg - 0.1).abs() < 1e-3, "{sum:?}");
+        assert!((sum.pitch.sign_test_p - 0.5).abs() < 1e-12);
+        assert!(spin_up_summary(v[..2].iter()).is_none());
+    }
 }

@@ -131,6 +131,21 @@ pub fn render(r: &Report) -> String {
                 if t.covers { "(agree)" } else { "(DISAGREE)" }
             );
         }
+        if let Some(sp) = &a.spin_up {
+            let _ = writeln!(s, "  spin-up (motors on at {:.0} % of the weight, still on the floor, {:.2} s) as the ground check:", 100.0 * sp.thrust_fraction, sp.duration_s);
+            for (name, t) in [("roll", &sp.roll), ("pitch", &sp.pitch)] {
+                let _ = writeln!(
+                    s,
+                    "    {name:<5} spin-up {:+.2} (spin-up − rest {:+.2} ± {:.2}); difference to the flight {:+.2} ± {:.2} {}",
+                    t.ground_corrected_deg,
+                    t.change_deg,
+                    t.change_ci95_deg,
+                    t.difference_deg,
+                    t.ci95_deg,
+                    if t.covers { "(agree)" } else { "(DISAGREE)" }
+                );
+            }
+        }
     }
     for n in &r.notes {
         let _ = writeln!(s, "\n  note: {n}");

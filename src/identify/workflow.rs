@@ -174,6 +174,21 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
                 a.pitch.ci95_deg,
                 if a.roll.covers && a.pitch.covers { "" } else { " (disagree)" }
             );
+            if let Some(sp) = &a.spin_up {
+                text += &format!(
+                    "    spin-up ({:.0} % of the weight, {:.2} s) − rest: roll {:+.2} ± {:.2}°, pitch {:+.2} ± {:.2}°; spin-up − bias tilt vs flight offset: roll {:+.2} ± {:.2}°, pitch {:+.2} ± {:.2}°\n",
+                    100.0 * sp.thrust_fraction,
+                    sp.duration_s,
+                    sp.roll.change_deg,
+                    sp.roll.change_ci95_deg,
+                    sp.pitch.change_deg,
+                    sp.pitch.change_ci95_deg,
+                    sp.roll.difference_deg,
+                    sp.roll.ci95_deg,
+                    sp.pitch.difference_deg,
+                    sp.pitch.ci95_deg
+                );
+            }
         }
         for l in r.left.iter().filter(|l| !l.correlates.is_empty()) {
             let leads: Vec<String> = l.correlates.iter().map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
@@ -216,9 +231,14 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
         .collect();
     let consistency = super::consistency::consistency(&reports, &accel_cross, &offset_gain, super::consistency::LINK_DEG);
     text += &super::consistency::render(&consistency);
+    let spin_up = super::ground::spin_up_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
+    if let Some(sp) = &spin_up {
+        text += &super::ground::render_spin_up_summary(sp);
+    }
     let json = json!({
         "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
         "consistency": consistency,
+        "spin_up": spin_up,
         "excluded": excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e})).collect::<Vec<_>>(),
         "cross_validation": {
             "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),

@@ -388,6 +388,7 @@ fn nanobench_table_is_pinned() {
     opts.design.smoothing_s = map.smoothing_ms.unwrap() * 1e-3;
     let near = |name: &str, what: &str, got: f64, (want, ci): Pair| assert!((got - want).abs() <= 0.25 * ci + 1e-4, "{name}: {what} {got} (README {want} ± {ci})");
     let mut diffs = [Vec::new(), Vec::new()];
+    let mut agreements = Vec::new();
     for (name, offset, thrust, drag, lever, diff, rmse) in table {
         let s = map.read(&data.join(format!("nanobench/dataset/{name}.csv"))).unwrap();
         let r = identify(&s, &opts).unwrap();
@@ -402,6 +403,7 @@ fn nanobench_table_is_pinned() {
             assert!((t.difference_deg - diff[k]).abs() < 0.02, "{name}: ground difference {k}: {} vs {}", t.difference_deg, diff[k]);
             diffs[k].push(t.difference_deg.abs());
         }
+        agreements.push(a);
         let ak: Vec<f64> = r.errors.iter().filter(|e| e.channel == flyarena::identify::Channel::AccelKin).map(|e| e.rmse_after).collect();
         let got = (ak.iter().map(|x| x * x).sum::<f64>() / ak.len() as f64).sqrt();
         assert!((got / rmse - 1.0).abs() < 0.02, "{name}: accel_kin RMSE {got} vs {rmse}");
@@ -410,6 +412,14 @@ fn nanobench_table_is_pinned() {
     for (k, want) in [(0, 0.17), (1, 0.39)] {
         diffs[k].sort_by(f64::total_cmp);
         assert!((diffs[k][4] - want).abs() < 0.01, "median {k}: {}", diffs[k][4]);
+    }
+    // the spin-up as the ground check (README, *In flight against on the ground*): pitch moves
+    // toward the flight in 8 of 9 flights (p = 10/512) and its median falls to 0.25°; roll does not
+    let sum = flyarena::identify::ground::spin_up_summary(agreements.iter()).unwrap();
+    assert_eq!((sum.flights, sum.roll.toward_flight, sum.pitch.toward_flight), (9, 4, 8), "{sum:?}");
+    assert!((sum.pitch.sign_test_p - 10.0 / 512.0).abs() < 1e-12 && sum.roll.sign_test_p > 0.5, "{sum:?}");
+    for (got, want) in [(sum.roll.median_spin_up_deg, 0.34), (sum.pitch.median_spin_up_deg, 0.25)] {
+        assert!((got - want).abs() < 0.01, "{sum:?}");
     }
 }
 

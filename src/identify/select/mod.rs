@@ -585,15 +585,14 @@ fn select(s: &Series, o: &Options) -> Report {
     let ground_check = super::ground::ground_check(s);
     let ground_agreement = match (&ground_check, too_few) {
         (Some(raw), false) => super::ground::tilt_at_rest(s, &tilt_bias).map(|corrected| {
-            super::ground::agreement(
-                raw,
-                &corrected,
-                tilt_offset,
-                tilt_sd,
-                tilt_widen,
-                selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt),
-                selected.contains(&Effect::AccelBias),
-            )
+            let flight = super::ground::FlightTilt {
+                offset_rad: tilt_offset,
+                sd_rad: tilt_sd,
+                widen_rad: tilt_widen,
+                frame_fitted: selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt),
+                accel_bias_fitted: selected.contains(&Effect::AccelBias),
+            };
+            super::ground::agreement(raw, &corrected, &flight, super::ground::spin_up(s, &tilt_bias).as_ref())
         }),
         _ => None,
     };
