@@ -223,6 +223,13 @@ pub fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> serde_json::
             "gyro_bias_deg_s": g.gyro_bias.map(f64::to_degrees),
             "rms_residual_deg": g.rms_residual.to_degrees(),
             "windows": g.windows,
+            "telemetry_clock": g.clock.map(|k| serde_json::json!({
+                "offset_ms": k.offset_s * 1e3,
+                "offset_sigma_ms": k.offset_sigma_s * 1e3,
+                "drift_ppm": k.drift_ppm,
+                "drift_sigma_ppm": k.drift_sigma_ppm,
+                "at_s": k.t_mean_s,
+            })),
         })),
         "applied_offset_deg": c.applied.to_degrees(),
         "spin_max_deviation_m": v.spin_max_deviation_m,

@@ -19,6 +19,25 @@
 //! plus the spin reveals all three. The 1σ uncertainty of a small rotation error δ of C (body
 //! axes) is σ²·(tr(S)·I − S)⁻¹ with S = C·(Σ θ̃_m·θ̃_mᵀ)·Cᵀ and σ² the residual variance per
 //! component (Fisher information of the linearised fit; windows treated as independent).
+//!
+//! **An unsynchronised telemetry clock.** The telemetry's interval bounds are stamped by the
+//! vehicle's clock, t_v = t + δ₀ + d·t (offset δ₀, drift d, against the Vicon clock t). Pairing a
+//! gyro window with the mocap at t_v instead of t shifts θ_m by about δ·(ω(t_b) − ω(t_a)); while
+//! the rate vector turns at Ω (a circle) that is a rotation by Ω·δ about the turning axis, which
+//! C absorbs: a yaw error of Ω·δ (0.9° for 5 ms on a 2 s circle). With
+//! [`GyroAlignment::estimate_clock`] the alignment fits δ₀ and d itself. The windows are then
+//! fixed on the mocap's frames [t_a, t_b] (Vicon time), and for a grid of offsets δ_k (1 ms apart)
+//! the gyro increment is integrated over [t_a + δ_k, t_b + δ_k] on the telemetry clock (whole
+//! frames, and the covered part of a frame at either end at its mean rate). Shifting the gyro,
+//! not the mocap, keeps the same mocap frames — whose noise dominates the residual — in every
+//! candidate: shifting the mocap would pick other frames, and the residual would vary with their
+//! noise by more than with the offset. The moments are kept per candidate and per time block
+//! (5 s); for a clock model (δ₀, d) each block's are interpolated (cubic through the four nearest
+//! nodes) at its own offset δ₀ + d·(t̄_block − t̄), summed, and the rotation fitted as above;
+//! (δ₀, d) minimise the residual (the grid, then golden sections). The offset is observable from what a rotation cannot absorb — changes of |ω|
+//! (take-off, the ramps of the circles, stops) — and its uncertainty enters C's: the 1σ of C adds
+//! J·Σ_clock·Jᵀ, J = ∂C/∂(δ₀, d) by central differences, Σ_clock = 2σ²·H⁻¹ from the residual's
+//! Hessian H (profile likelihood, delta method).
 
 use crate::clock::Nanos;
 use crate::frames::{Body, Euler, MocapBody, MocapNav, Rot, Vec3};
@@ -40,15 +59,87 @@ pub struct GyroFit {
     /// RMS residual per component (rad per window).
     pub rms_residual: f64,
     pub windows: u64,
+    /// The telemetry clock fitted against the Vicon clock, when the alignment estimates it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clock: Option<ClockFit>,
 }
 
-const MOCAP_RING: usize = 64;
-const PENDING: usize = 8;
+/// The telemetry clock against the Vicon clock: t_v = t + offset + drift·(t − t̄), t̄ the mean time
+/// of the windows.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct ClockFit {
+    /// δ at the windows' mean time (s) and its 1σ.
+    pub offset_s: f64,
+    pub offset_sigma_s: f64,
+    /// Drift (parts per million) and its 1σ; `None` when the windows span fewer than three time
+    /// blocks (the drift is then not estimated: 0).
+    pub drift_ppm: Option<f64>,
+    pub drift_sigma_ppm: Option<f64>,
+    /// The windows' mean time on the telemetry clock (s).
+    pub t_mean_s: f64,
+}
+
+/// The grid of candidate offsets and the time blocks of [`GyroAlignment::estimate_clock`].
+#[derive(Clone, Copy, Debug)]
+pub struct ClockSearch {
+    /// Offsets searched: |δ| ≤ max_offset.
+    pub max_offset: Nanos,
+    /// Grid step of the candidate offsets (moments are interpolated between nodes).
+    pub step: Nanos,
+    /// Length of a time block (the drift is resolved between blocks).
+    pub block: Nanos,
+    /// Drifts searched: |d| ≤ max_drift_ppm.
+    pub max_drift_ppm: f64,
+}
+
+impl Default for ClockSearch {
+    fn default() -> Self {
+        ClockSearch { max_offset: Nanos::from_millis(50), step: Nanos::from_millis(1), block: Nanos::from_millis(5000), max_drift_ppm: 500.0 }
+    }
+}
+
+/// The moments that depend on the offset (through the gyro increment), per candidate.
+#[derive(Clone, Copy, Debug, Default)]
+struct GyroMoments {
+    sum_b: Vector3<f64>,
+    sum_mb: Matrix3<f64>,
+    sum_bb: f64,
+}
+
+/// One time block: the moments of the mocap side, and one [`GyroMoments`] per candidate offset.
+#[derive(Clone, Debug)]
+struct Block {
+    index: i64,
+    n: u64,
+    sum_t: f64,
+    sum_m: Vector3<f64>,
+    sum_mm: Matrix3<f64>,
+    per_offset: Vec<GyroMoments>,
+}
+
+/// The pooled moments of a fit.
+#[derive(Clone, Copy, Debug)]
+struct Moments {
+    n: f64,
+    sum_m: Vector3<f64>,
+    sum_b: Vector3<f64>,
+    sum_mb: Matrix3<f64>,
+    sum_mm: Matrix3<f64>,
+    sum_bb: f64,
+}
+
+/// Mocap attitudes kept (a power of two; 1.28 s at 200 Hz): enough for the windows waiting on
+/// frames up to the largest searched offset.
+const MOCAP_RING: usize = 256;
+const PENDING: usize = 16;
+/// A frame may be missing: interpolation looks this many periods either side for a neighbour.
+const NEIGHBOUR_PERIODS: i64 = 3;
 
 #[derive(Clone, Copy, Debug)]
 struct GyroWindow {
     t_a: Nanos,
     t_b: Nanos,
+    frames: u32,
     delta: Rot<Body, Body>,
 }
 
@@ -56,6 +147,8 @@ struct GyroWindow {
 #[derive(Clone, Debug)]
 pub struct GyroAlignment {
     window: Nanos,
+    /// Telemetry frames per window.
+    frames_per_window: u32,
     mocap_period: Nanos,
     mocap: [Option<(Nanos, Rot<MocapBody, MocapNav>)>; MOCAP_RING],
     newest_mocap: Nanos,
@@ -68,6 +161,14 @@ pub struct GyroAlignment {
     sum_mb: Matrix3<f64>,
     sum_mm: Matrix3<f64>,
     sum_bb: f64,
+    /// Set by [`GyroAlignment::estimate_clock`].
+    search: Option<ClockSearch>,
+    blocks: Vec<Block>,
+    /// With the clock search: the telemetry frames still needed, in t0 order, the newest frame's
+    /// end, and the next window (index of t_a on the window grid).
+    frames: std::collections::VecDeque<TelemetryFrame>,
+    newest_telemetry: Nanos,
+    next_window: Option<i64>,
 }
 
 fn gcd(a: i64, b: i64) -> i64 {
@@ -82,6 +183,7 @@ impl GyroAlignment {
         let k = ((min_window.0 + lcm - 1) / lcm).max(1);
         GyroAlignment {
             window: Nanos(k * lcm),
+            frames_per_window: (k * lcm / t) as u32,
             mocap_period: Nanos(m),
             mocap: [None; MOCAP_RING],
             newest_mocap: Nanos(i64::MIN),
@@ -94,7 +196,26 @@ impl GyroAlignment {
             sum_mb: Matrix3::zeros(),
             sum_mm: Matrix3::zeros(),
             sum_bb: 0.0,
+            search: None,
+            blocks: Vec::new(),
+            frames: std::collections::VecDeque::new(),
+            newest_telemetry: Nanos(i64::MIN),
+            next_window: None,
         }
+    }
+
+    /// Fits the telemetry clock (offset and drift against the Vicon clock) with the rotation,
+    /// for telemetry stamped by an unsynchronised vehicle clock (module doc).
+    pub fn estimate_clock(mut self, search: ClockSearch) -> Self {
+        self.search = Some(search);
+        self
+    }
+
+    /// The candidate offsets of the clock search: −max, −max + step, …, +max.
+    fn offsets(search: &ClockSearch) -> impl Iterator<Item = Nanos> + use<> {
+        let p = search.step.0.max(1);
+        let k = search.max_offset.0 / p;
+        (-k..=k).map(move |i| Nanos(i * p))
     }
 
     pub fn window(&self) -> Nanos {
@@ -117,23 +238,37 @@ impl GyroAlignment {
         let i = self.slot(t_capture);
         self.mocap[i] = Some((t_capture, att));
         self.newest_mocap = self.newest_mocap.max(t_capture);
-        self.resolve();
+        if self.search.is_some() {
+            self.next_window.get_or_insert(t_capture.0.div_euclid(self.window.0) + 1);
+            self.windows_on_mocap_grid();
+        } else {
+            self.resolve();
+        }
     }
 
     /// A telemetry frame (frames arrive in sequence order; a gap restarts the window).
     pub fn add_telemetry(&mut self, f: &TelemetryFrame) {
+        if self.search.is_some() {
+            let at = self.frames.iter().rposition(|g| g.t0 <= f.t0).map_or(0, |i| i + 1);
+            self.frames.insert(at, *f);
+            self.newest_telemetry = self.newest_telemetry.max(f.t1);
+            self.windows_on_mocap_grid();
+            return;
+        }
         let step = Rot::from_rotation_vector(f.gyro_mean * (f.t1 - f.t0).as_secs_f64());
         let w = match self.open {
-            Some(w) if w.t_b == f.t0 => GyroWindow { t_b: f.t1, delta: w.delta * step, ..w },
+            Some(w) if w.t_b == f.t0 => GyroWindow { t_b: f.t1, frames: w.frames + 1, delta: w.delta * step, ..w },
             Some(_) => {
                 self.dropped += 1;
-                GyroWindow { t_a: f.t0, t_b: f.t1, delta: step }
+                GyroWindow { t_a: f.t0, t_b: f.t1, frames: 1, delta: step }
             }
-            None => GyroWindow { t_a: f.t0, t_b: f.t1, delta: step },
+            None => GyroWindow { t_a: f.t0, t_b: f.t1, frames: 1, delta: step },
         };
-        if w.t_b - w.t_a >= self.window {
+        if w.frames >= self.frames_per_window {
             self.open = None;
-            if w.t_b - w.t_a == self.window {
+            // a window is `window` long on the Vicon clock; a telemetry clock that drifts (and
+            // that this mode takes for the Vicon's) makes it longer or shorter by its drift
+            if ((w.t_b - w.t_a).0 - self.window.0).abs() <= self.window.0 / 1000 {
                 self.push_pending(w);
             } else {
                 self.dropped += 1;
@@ -159,10 +294,28 @@ impl GyroAlignment {
         self.mocap[self.slot(t)].filter(|(tc, _)| *tc == t).map(|(_, a)| a)
     }
 
+    /// The mocap attitude at `t`: the frame captured then, if `t` is a frame time; otherwise the
+    /// slerp between the nearest frames before and after it (each within
+    /// [`NEIGHBOUR_PERIODS`]), once every frame that could be nearer has had time to arrive.
+    fn mocap_interp(&self, t: Nanos) -> Option<Rot<MocapBody, MocapNav>> {
+        let p = self.mocap_period.0;
+        let base = t.0.div_euclid(p) * p;
+        if base == t.0 {
+            return self.mocap_at(t);
+        }
+        if self.newest_mocap.0 < base + NEIGHBOUR_PERIODS * p {
+            return None;
+        }
+        let (ta, a) = (0..NEIGHBOUR_PERIODS).find_map(|k| self.mocap_at(Nanos(base - k * p)).map(|a| (base - k * p, a)))?;
+        let (tb, b) = (1..=NEIGHBOUR_PERIODS).find_map(|k| self.mocap_at(Nanos(base + k * p)).map(|b| (base + k * p, b)))?;
+        let s = (t.0 - ta) as f64 / (tb - ta) as f64;
+        Some(a * Rot::from_rotation_vector((a.inverse() * b).rotation_vector() * s))
+    }
+
     fn resolve(&mut self) {
         for i in 0..PENDING {
             let Some(w) = self.pending[i] else { continue };
-            match (self.mocap_at(w.t_a), self.mocap_at(w.t_b)) {
+            match (self.mocap_interp(w.t_a), self.mocap_interp(w.t_b)) {
                 (Some(a), Some(b)) => {
                     let theta_m = (a.inverse() * b).rotation_vector();
                     self.add_pair(theta_m, w.delta.rotation_vector());
@@ -178,6 +331,94 @@ impl GyroAlignment {
         }
     }
 
+    /// With the clock search: every window [t_a, t_b] of the grid whose mocap frames and whose
+    /// telemetry up to t_b + max_offset can have arrived is paired at every candidate offset (or
+    /// dropped, if a frame or a stretch of telemetry is missing).
+    fn windows_on_mocap_grid(&mut self) {
+        let Some(search) = self.search else { return };
+        while let Some(k) = self.next_window {
+            let (t_a, t_b) = (Nanos(k * self.window.0), Nanos((k + 1) * self.window.0));
+            if self.newest_mocap < t_b + Nanos(self.mocap_period.0 * NEIGHBOUR_PERIODS) || self.newest_telemetry < t_b + search.max_offset {
+                return;
+            }
+            self.next_window = Some(k + 1);
+            // frames that no later window needs
+            while self.frames.front().is_some_and(|f| f.t1 < t_a - search.max_offset) {
+                self.frames.pop_front();
+            }
+            let (Some(a), Some(b)) = (self.mocap_at(t_a), self.mocap_at(t_b)) else {
+                self.dropped += 1;
+                continue;
+            };
+            let theta_m = *(a.inverse() * b).rotation_vector().raw();
+            let thetas: Option<Vec<Vector3<f64>>> = Self::offsets(&search).map(|d| self.gyro_increment(t_a + d, t_b + d)).collect();
+            match thetas {
+                Some(thetas) => self.add_to_block(&search, t_a, t_b, theta_m, &thetas),
+                None => self.dropped += 1,
+            }
+        }
+    }
+
+    /// The gyro increment over [u0, u1] on the telemetry clock as a rotation vector: the frames'
+    /// steps in time order, or `None` where the frames leave a gap. A frame covered in part
+    /// contributes the integral of the parabola through its own mean and its neighbours' means
+    /// ([`partial_rate_integral`]): at a constant rate within the frame instead, the error
+    /// ω̇·L·(T − L)/2 follows the angular acceleration, like the shift being fitted, and would bias
+    /// the offset.
+    fn gyro_increment(&self, u0: Nanos, u1: Nanos) -> Option<Vector3<f64>> {
+        let mut at = u0;
+        let mut delta: Rot<Body, Body> = Rot::identity();
+        let first = self.frames.iter().position(|f| f.t1 > u0)?;
+        for i in first..self.frames.len() {
+            let f = &self.frames[i];
+            if f.t0 > at {
+                return None;
+            }
+            let end = f.t1.min(u1);
+            let step = if at == f.t0 && end == f.t1 {
+                f.gyro_mean * (f.t1 - f.t0).as_secs_f64()
+            } else {
+                // neighbours' means where the frames are contiguous, else this frame's own
+                let prev = i.checked_sub(1).map(|j| &self.frames[j]).filter(|g| g.t1 == f.t0).map_or(f.gyro_mean, |g| g.gyro_mean);
+                let next = self.frames.get(i + 1).filter(|g| g.t0 == f.t1).map_or(f.gyro_mean, |g| g.gyro_mean);
+                let span = (f.t1 - f.t0).as_secs_f64();
+                let x = |t: Nanos| (t - f.t0).as_secs_f64() / span;
+                let integral = |x: f64| partial_rate_integral(*prev.raw(), *f.gyro_mean.raw(), *next.raw(), x);
+                Vec3::from_raw((integral(x(end)) - integral(x(at))) * span)
+            };
+            delta = delta * Rot::from_rotation_vector(step);
+            at = end;
+            if at >= u1 {
+                return Some(*delta.rotation_vector().raw());
+            }
+        }
+        None
+    }
+
+    fn add_to_block(&mut self, search: &ClockSearch, t_a: Nanos, t_b: Nanos, theta_m: Vector3<f64>, thetas: &[Vector3<f64>]) {
+        let index = t_a.0.div_euclid(search.block.0.max(1));
+        let pos = match self.blocks.iter().rposition(|b| b.index <= index) {
+            Some(i) if self.blocks[i].index == index => i,
+            other => {
+                let at = other.map_or(0, |i| i + 1);
+                let block = Block { index, n: 0, sum_t: 0.0, sum_m: Vector3::zeros(), sum_mm: Matrix3::zeros(), per_offset: vec![GyroMoments::default(); thetas.len()] };
+                self.blocks.insert(at, block);
+                at
+            }
+        };
+        let block = &mut self.blocks[pos];
+        block.n += 1;
+        block.sum_t += 0.5 * (t_a.as_secs_f64() + t_b.as_secs_f64());
+        block.sum_m += theta_m;
+        block.sum_mm += theta_m * theta_m.transpose();
+        for (g, b) in block.per_offset.iter_mut().zip(thetas) {
+            g.sum_b += b;
+            g.sum_mb += theta_m * b.transpose();
+            g.sum_bb += b.norm_squared();
+        }
+        self.n += 1;
+    }
+
     /// Adds one pair of rotation vectors directly (θ_m in the mocap body frame, θ_b in the body
     /// frame, rad).
     pub fn add_pair(&mut self, theta_m: Vec3<MocapBody>, theta_b: Vec3<Body>) {
@@ -190,15 +431,30 @@ impl GyroAlignment {
         self.sum_bb += b.norm_squared();
     }
 
-    /// The fit, once at least 10 windows are in and θ_m has varied about two axes.
+    /// The fit, once at least 10 windows are in and θ_m has varied about two axes; with the
+    /// clock search, the rotation at the best clock (module doc) or `None` when the best offset
+    /// lies at the edge of the searched range.
     pub fn estimate(&self) -> Option<GyroFit> {
-        if self.n < 10 {
+        match &self.search {
+            None => {
+                let m = Moments { n: self.n as f64, sum_m: self.sum_m, sum_b: self.sum_b, sum_mb: self.sum_mb, sum_mm: self.sum_mm, sum_bb: self.sum_bb };
+                self.fit(&m, 0).map(|(fit, _, _)| fit)
+            }
+            Some(search) => self.estimate_with_clock(search),
+        }
+    }
+
+    /// Kabsch on pooled moments: the fit, its residual sum of squares and the 3×3 covariance of a
+    /// small rotation error of C (body axes). `extra` parameters are taken off the degrees of
+    /// freedom.
+    fn fit(&self, m: &Moments, extra: usize) -> Option<(GyroFit, f64, Matrix3<f64>)> {
+        if m.n < 10.0 {
             return None;
         }
-        let n = self.n as f64;
-        let (mm, mb) = (self.sum_m / n, self.sum_b / n);
-        let h = self.sum_mb - n * mm * mb.transpose();
-        let s_m = self.sum_mm - n * mm * mm.transpose();
+        let n = m.n;
+        let (mm, mb) = (m.sum_m / n, m.sum_b / n);
+        let h = m.sum_mb - n * mm * mb.transpose();
+        let s_m = m.sum_mm - n * mm * mm.transpose();
         let e = s_m.symmetric_eigenvalues();
         let mut ev = [e[0], e[1], e[2]];
         ev.sort_by(f64::total_cmp);
@@ -207,24 +463,172 @@ impl GyroAlignment {
         }
         let c = kabsch(&h)?;
         // RSS = Σ‖θ̃_b‖² + Σ‖θ̃_m‖² − 2·tr(C·H)
-        let ss_b = self.sum_bb - n * mb.norm_squared();
+        let ss_b = m.sum_bb - n * mb.norm_squared();
         let rss = (ss_b + s_m.trace() - 2.0 * (c * h).trace()).max(0.0);
-        let dof = (3.0 * n - 6.0).max(1.0);
+        let dof = (3.0 * n - 6.0 - extra as f64).max(1.0);
         let var = rss / dof;
         let s = c * s_m * c.transpose();
         let info = Matrix3::identity() * s.trace() - s;
         let cov = info.try_inverse()? * var;
         let bias = (mb - c * mm) / self.window.as_secs_f64();
         let rotation: Rot<MocapBody, Body> = Rot::from_matrix(&c);
-        Some(GyroFit {
+        let fit = GyroFit {
             rotation,
             euler: rotation.euler(),
             sigma: [cov[(0, 0)].max(0.0).sqrt(), cov[(1, 1)].max(0.0).sqrt(), cov[(2, 2)].max(0.0).sqrt()],
             gyro_bias: [bias.x, bias.y, bias.z],
             rms_residual: (rss / (3.0 * n)).sqrt(),
-            windows: self.n,
-        })
+            windows: n as u64,
+            clock: None,
+        };
+        Some((fit, rss, cov))
     }
+
+    /// The blocks' moments pooled for the clock (offset at the mean time `t_mean` (s), drift):
+    /// each block's interpolated at its own offset by the cubic through the four nearest nodes
+    /// (exact for moments up to cubic in the offset; a linear interpolation of Σ‖θ_b‖², which is
+    /// quadratic, would overestimate it between nodes and pull the minimum onto a node); `None`
+    /// outside the grid.
+    fn pooled(&self, search: &ClockSearch, t_mean: f64, offset_s: f64, drift: f64) -> Option<Moments> {
+        let step = search.step.as_secs_f64();
+        let max = (search.max_offset.0 / search.step.0.max(1)) as f64 * step;
+        let mut m = Moments { n: 0.0, sum_m: Vector3::zeros(), sum_b: Vector3::zeros(), sum_mb: Matrix3::zeros(), sum_mm: Matrix3::zeros(), sum_bb: 0.0 };
+        for b in &self.blocks {
+            let d = offset_s + drift * (b.sum_t / b.n as f64 - t_mean);
+            let u = (d + max) / step;
+            let last = b.per_offset.len() as f64 - 1.0;
+            // nodes k−1, k, k+1, k+2 around u ∈ [k, k+1]
+            if !(1.0..=last - 1.0).contains(&u) {
+                return None;
+            }
+            let k = (u.floor() as usize).min(b.per_offset.len() - 3);
+            let x = u - k as f64;
+            let w = [-x * (x - 1.0) * (x - 2.0) / 6.0, (x + 1.0) * (x - 1.0) * (x - 2.0) / 2.0, -(x + 1.0) * x * (x - 2.0) / 2.0, (x + 1.0) * x * (x - 1.0) / 6.0];
+            m.n += b.n as f64;
+            m.sum_m += b.sum_m;
+            m.sum_mm += b.sum_mm;
+            for (j, wj) in w.iter().enumerate() {
+                let node = &b.per_offset[k + j - 1];
+                m.sum_b += node.sum_b * *wj;
+                m.sum_mb += node.sum_mb * *wj;
+                m.sum_bb += node.sum_bb * *wj;
+            }
+        }
+        Some(m)
+    }
+
+    fn estimate_with_clock(&self, search: &ClockSearch) -> Option<GyroFit> {
+        let n: u64 = self.blocks.iter().map(|b| b.n).sum();
+        if n < 10 {
+            return None;
+        }
+        let t_mean = self.blocks.iter().map(|b| b.sum_t).sum::<f64>() / n as f64;
+        let with_drift = self.blocks.len() >= 3;
+        let extra = if with_drift { 2 } else { 1 };
+        let rss = |x: [f64; 2]| self.pooled(search, t_mean, x[0], x[1]).and_then(|m| self.fit(&m, extra)).map_or(f64::INFINITY, |f| f.1);
+        let step = search.step.as_secs_f64();
+        let max = (search.max_offset.0 / search.step.0.max(1)) as f64 * step;
+        let drift_step = search.max_drift_ppm * 1e-6 / 10.0;
+        let drifts: Vec<f64> = if with_drift { (-10..=10).map(|i| i as f64 * drift_step).collect() } else { vec![0.0] };
+        // the grid, then golden sections along each coordinate in turn
+        let mut best = ([0.0, 0.0], f64::INFINITY);
+        for d in Self::offsets(search) {
+            for &dr in &drifts {
+                let x = [d.as_secs_f64(), dr];
+                let r = rss(x);
+                if r < best.1 {
+                    best = (x, r);
+                }
+            }
+        }
+        if !best.1.is_finite() {
+            return None;
+        }
+        let mut x = best.0;
+        for _ in 0..4 {
+            x[0] = golden(|v| rss([v, x[1]]), x[0] - step, x[0] + step);
+            if with_drift {
+                x[1] = golden(|v| rss([x[0], v]), x[1] - drift_step, x[1] + drift_step);
+            }
+        }
+        // a minimum at the edge of the range is not a minimum
+        if x[0].abs() > max - 1.5 * step || (with_drift && x[1].abs() > search.max_drift_ppm * 1e-6 - drift_step) {
+            return None;
+        }
+        let (mut fit, r0, cov_c) = self.fit(&self.pooled(search, t_mean, x[0], x[1])?, extra)?;
+        // the clock's covariance 2σ²·H⁻¹ from the residual's Hessian, and C's sensitivity to it
+        let var = r0 / (3.0 * n as f64 - 6.0 - extra as f64).max(1.0);
+        let h = [0.25 * step, 0.25 * drift_step];
+        let p = if with_drift { 2 } else { 1 };
+        let mut hess = nalgebra::DMatrix::<f64>::zeros(p, p);
+        let at = |dx: [f64; 2]| rss([x[0] + dx[0], x[1] + dx[1]]);
+        for i in 0..p {
+            let mut e = [0.0; 2];
+            e[i] = h[i];
+            hess[(i, i)] = (at(e) - 2.0 * r0 + at([-e[0], -e[1]])) / (h[i] * h[i]);
+        }
+        if p == 2 {
+            hess[(0, 1)] = (at([h[0], h[1]]) - at([h[0], -h[1]]) - at([-h[0], h[1]]) + at([-h[0], -h[1]])) / (4.0 * h[0] * h[1]);
+            hess[(1, 0)] = hess[(0, 1)];
+        }
+        let cov_clock = hess.try_inverse()? * (2.0 * var);
+        let mut jac = nalgebra::DMatrix::<f64>::zeros(3, p);
+        for i in 0..p {
+            let mut e = [0.0; 2];
+            e[i] = h[i];
+            let c = |dx: [f64; 2]| self.pooled(search, t_mean, x[0] + dx[0], x[1] + dx[1]).and_then(|m| self.fit(&m, extra)).map(|f| f.0.rotation);
+            let (plus, minus) = (c(e)?, c([-e[0], -e[1]])?);
+            let d = (plus * minus.inverse()).rotation_vector();
+            for k in 0..3 {
+                jac[(k, i)] = d.to_array()[k] / (2.0 * h[i]);
+            }
+        }
+        let add = &jac * &cov_clock * jac.transpose();
+        for k in 0..3 {
+            fit.sigma[k] = (cov_c[(k, k)] + add[(k, k)]).max(0.0).sqrt();
+        }
+        fit.clock = Some(ClockFit {
+            offset_s: x[0],
+            offset_sigma_s: cov_clock[(0, 0)].max(0.0).sqrt(),
+            drift_ppm: with_drift.then_some(x[1] * 1e6),
+            drift_sigma_ppm: with_drift.then(|| cov_clock[(1, 1)].max(0.0).sqrt() * 1e6),
+            t_mean_s: t_mean,
+        });
+        Some(fit)
+    }
+}
+
+/// ∫₀ˣ p(s) ds for the parabola p on a frame s ∈ [0, 1] whose means over the previous frame
+/// [−1, 0], this one and the next [1, 2] are `a`, `b`, `c`:
+/// p(s) = b + β·(s − ½) + γ·((s − ½)² − 1/12), β = (c − a)/2, γ = (a + c)/2 − b, so
+/// ∫₀ˣ p = b·x + β·(x² − x)/2 + γ·(((x − ½)³ + ⅛)/3 − x/12); it is b at x = 1.
+fn partial_rate_integral(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>, x: f64) -> Vector3<f64> {
+    let beta = (c - a) * 0.5;
+    let gamma = (a + c) * 0.5 - b;
+    b * x + beta * ((x * x - x) / 2.0) + gamma * (((x - 0.5).powi(3) + 0.125) / 3.0 - x / 12.0)
+}
+
+/// The minimum of `f` on [a, b] by golden sections (60 steps: the bracket shrinks by 10⁻¹²).
+fn golden(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - r * (b - a), a + r * (b - a));
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..60 {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - r * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + r * (b - a);
+            fd = f(d);
+        }
+    }
+    0.5 * (a + b)
 }
 
 #[cfg(test)]
@@ -306,5 +710,96 @@ mod tests {
         assert!(g.windows() >= 95, "{} windows, {} dropped", g.windows(), g.dropped());
         // the mean of a window's 10 ms averages composes the rotation to second order
         assert!((fit.rotation.inverse() * c).angle().to_degrees() < 0.01, "{:?}", fit.euler.to_degrees());
+    }
+
+    /// Flies ω(t) (about all three axes, its magnitude varying) for `seconds` with a known C,
+    /// mocap attitudes at 200 Hz (arriving 12 ms late) and telemetry at 100 Hz stamped by a
+    /// clock t_v = t + offset + drift·t; returns the alignment's fit.
+    fn fly(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, seconds: i64) -> (GyroAlignment, Option<GyroFit>) {
+        let mut g = g;
+        let omega = |t: f64| Vec3::<Body>::new(0.6 * (3.0 * t).cos() * (1.0 + 0.5 * (0.7 * t).sin()), 0.5 * (2.0 * t).sin(), 0.2 + 0.3 * (1.3 * t).sin());
+        let stamp = |t: Nanos| Nanos(t.0 + offset.0 + (t.0 as f64 * drift_ppm * 1e-6).round() as i64);
+        let mut att: Rot<Body, Nav> = Rot::identity();
+        let (mut seq, mut gyro_sum) = (0, Vec3::<Body>::zeros());
+        let mut mocap_queue = std::collections::VecDeque::new();
+        let fine = 20;
+        for ms in 0..seconds * 1000 {
+            let t = Nanos::from_millis(ms);
+            if ms % 5 == 0 {
+                mocap_queue.push_back((t, (att * c).assume_frames::<MocapBody, MocapNav>()));
+            }
+            for j in 0..fine {
+                let w = omega((ms as f64 + (j as f64 + 0.5) / fine as f64) * 1e-3);
+                gyro_sum += w * (1.0 / fine as f64);
+                att = att * Rot::<Body, Body>::from_rotation_vector(w * (1e-3 / fine as f64));
+            }
+            if (ms + 1) % 10 == 0 {
+                let (t0, t1) = (Nanos::from_millis(ms - 9), Nanos::from_millis(ms + 1));
+                g.add_telemetry(&TelemetryFrame { seq, t0: stamp(t0), t1: stamp(t1), gyro_mean: gyro_sum * 0.1 });
+                seq += 1;
+                gyro_sum = Vec3::zeros();
+            }
+            while let Some(&(tc, a)) = mocap_queue.front() {
+                if tc + Nanos::from_millis(12) > t {
+                    break;
+                }
+                g.add_mocap(tc, a);
+                mocap_queue.pop_front();
+            }
+        }
+        let fit = g.estimate();
+        (g, fit)
+    }
+
+    fn gyro() -> GyroAlignment {
+        GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(40))
+    }
+
+    /// An unsynchronised clock, 13.3 ms ahead and 200 ppm fast: taken for the Vicon's it turns C
+    /// (by 0.15° for this motion, whose rate vector turns slowly); fitted, the offset at the windows' mean time and the drift come
+    /// out within their intervals and C within 0.01°.
+    #[test]
+    fn fits_an_unsynchronised_telemetry_clock() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(0.5, 0.3, -3.0));
+        let (offset, drift) = (Nanos::from_micros(13_300), 200.0);
+        let (_, naive) = fly(gyro(), c, offset, drift, 20);
+        let naive = naive.unwrap();
+        assert!((naive.rotation.inverse() * c).angle().to_degrees() > 0.1, "{:?}", naive.euler.to_degrees());
+        let (g, fit) = fly(gyro().estimate_clock(ClockSearch::default()), c, offset, drift, 20);
+        let fit = fit.unwrap_or_else(|| panic!("no fit: {} windows, {} dropped", g.windows(), g.dropped()));
+        let k = fit.clock.unwrap();
+        let truth = offset.as_secs_f64() + drift * 1e-6 * k.t_mean_s;
+        assert!((k.offset_s - truth).abs() < 3.0 * k.offset_sigma_s + 1e-6, "offset {} vs {truth} (σ {})", k.offset_s, k.offset_sigma_s);
+        assert!(k.offset_sigma_s < 1e-4, "{k:?}");
+        let (d, sd) = (k.drift_ppm.unwrap(), k.drift_sigma_ppm.unwrap());
+        assert!((d - drift).abs() < 3.0 * sd + 1.0, "drift {d} ± {sd}");
+        assert!((fit.rotation.inverse() * c).angle().to_degrees() < 0.01, "{:?}", fit.euler.to_degrees());
+        assert!(g.windows() > 450, "{} windows, {} dropped", g.windows(), g.dropped());
+    }
+
+    /// The clock search on a synchronised clock finds offset 0 and no drift, and C as well as
+    /// the plain alignment does; an offset beyond the searched range is no fit, not a wrong one.
+    #[test]
+    fn the_clock_search_finds_nothing_where_there_is_nothing_and_stops_at_its_range() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
+        let (_, fit) = fly(gyro().estimate_clock(ClockSearch::default()), c, Nanos::ZERO, 0.0, 16);
+        let fit = fit.unwrap();
+        let k = fit.clock.unwrap();
+        assert!(k.offset_s.abs() < 3.0 * k.offset_sigma_s + 1e-6 && k.drift_ppm.unwrap().abs() < 3.0 * k.drift_sigma_ppm.unwrap() + 1.0, "{k:?}");
+        assert!((fit.rotation.inverse() * c).angle().to_degrees() < 0.01);
+        let (_, beyond) = fly(gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(20), ..ClockSearch::default() }), c, Nanos::from_millis(30), 0.0, 16);
+        assert!(beyond.is_none(), "{beyond:?}");
+    }
+
+    /// The partial-frame integral against closed forms: ω(s) = s (means −½, ½, 3/2) integrates
+    /// to x²/2, ω(s) = s² (means 1/3, 1/3, 7/3) to x³/3; a whole frame gives its mean.
+    #[test]
+    fn partial_frame_integral_is_exact_for_parabolas() {
+        let v = |x: f64| Vector3::new(x, 0.0, 0.0);
+        for x in [0.0, 0.25, 0.5, 0.8, 1.0] {
+            assert!((partial_rate_integral(v(-0.5), v(0.5), v(1.5), x).x - x * x / 2.0).abs() < 1e-15);
+            assert!((partial_rate_integral(v(1.0 / 3.0), v(1.0 / 3.0), v(7.0 / 3.0), x).x - x * x * x / 3.0).abs() < 1e-15);
+        }
+        assert!((partial_rate_integral(v(3.0), v(-2.0), v(7.0), 1.0).x + 2.0).abs() < 1e-15);
     }
 }

@@ -13,7 +13,7 @@
 
 pub mod gyro;
 
-pub use gyro::{GyroAlignment, GyroFit};
+pub use gyro::{ClockFit, ClockSearch, GyroAlignment, GyroFit};
 
 use crate::frames::{Body, Euler, MocapBody, MocapNav, Rot, wrap_pi};
 use nalgebra::{Matrix2, Vector2};

@@ -230,6 +230,7 @@ impl Arena {
                     rls_min_spread_m: cal.rls_min_spread_m,
                     mocap_period: rate(s.mocap.rate_hz.value).period(),
                     telemetry_period: rate(tm.rate_hz.value).period(),
+                    estimate_telemetry_clock: tm.clock.estimate,
                 };
                 let fs = FailsafeSettings {
                     timeout: ms(c.failsafe_timeout_ms),
@@ -263,7 +264,7 @@ impl Arena {
                     log_delay_frames: (u.mocap_delay_ms * s.mocap.rate_hz.value as f64 / 1000.0).round() as usize,
                     gyro_log_delay_frames: (u.gyro_delay_ms * s.mocap.rate_hz.value as f64 / 1000.0).round() as usize,
                     link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)).with_outages(outages.clone()),
-                    downlink: Downlink::new(telemetry_every),
+                    downlink: Downlink::new(telemetry_every).with_clock(ms(tm.clock.offset_ms), tm.clock.drift_ppm),
                     telemetry: Link::new(telemetry, Stream::new(s.seed, Component::TelemetryLoss, i), Stream::new(s.seed, Component::TelemetryJitter, i)),
                     radio,
                     station,

@@ -2,7 +2,7 @@
 //! Vicon packet arrives — velocity estimation, guidance, the paper's calibration, and the
 //! controller of (1)–(5) fed with the offset-compensated attitude.
 
-use crate::calibrate::{Compensation, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
+use crate::calibrate::{ClockSearch, Compensation, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
 use crate::clock::Nanos;
 use crate::control::{ControlOutput, Gains, Reference, control, failsafe};
 use crate::estimate::VelocityEstimator;
@@ -25,6 +25,8 @@ pub struct CalibrationSettings {
     pub rls_min_spread_m: f64,
     pub mocap_period: Nanos,
     pub telemetry_period: Nanos,
+    /// The gyro alignment fits the telemetry clock (offset, drift) instead of assuming the Vicon's.
+    pub estimate_telemetry_clock: bool,
 }
 
 /// When the mocap falls silent: after `timeout` without a pose the station commands the
@@ -128,7 +130,10 @@ impl Station {
             .max()
             .unwrap_or(0);
         let rls = Rls::new(settings.rls_min_spread_m);
-        let gyro = GyroAlignment::new(settings.mocap_period, settings.telemetry_period, GYRO_WINDOW_MIN);
+        let mut gyro = GyroAlignment::new(settings.mocap_period, settings.telemetry_period, GYRO_WINDOW_MIN);
+        if settings.estimate_telemetry_clock {
+            gyro = gyro.estimate_clock(ClockSearch::default());
+        }
         Station {
             plan,
             gains,

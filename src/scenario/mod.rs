@@ -187,11 +187,26 @@ pub struct TelemetryCfg {
     #[serde(with = "ranges::latency_ms")]
     pub jitter_ms: f64,
     pub loss: LossCfg,
+    pub clock: TelemetryClockCfg,
 }
 impl Default for TelemetryCfg {
     fn default() -> Self {
-        TelemetryCfg { rate_hz: spanned(100), latency_ms: 10.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli(0.0) }
+        TelemetryCfg { rate_hz: spanned(100), latency_ms: 10.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli(0.0), clock: TelemetryClockCfg::default() }
     }
+}
+
+/// The vehicle clock that stamps the telemetry, against the Vicon clock:
+/// t_v = t + offset + drift·t (an XBee link is not synchronised).
+#[derive(Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TelemetryClockCfg {
+    #[serde(with = "ranges::clock_offset_ms")]
+    pub offset_ms: f64,
+    #[serde(with = "ranges::clock_drift_ppm")]
+    pub drift_ppm: f64,
+    /// The station fits the offset and drift with the gyro alignment instead of assuming the
+    /// telemetry is stamped on the Vicon clock.
+    pub estimate: bool,
 }
 
 #[derive(Debug, Deserialize, serde::Serialize)]

@@ -73,6 +73,8 @@ const INF: f64 = f64::INFINITY;
 ranged! {
     probability: 0.0, 1.0, false, "";
     latency_ms: 0.0, 1000.0, false, "ms";
+    clock_offset_ms: -40.0, 40.0, false, "ms";
+    clock_drift_ppm: -400.0, 400.0, false, "ppm";
     noise_mm: 0.0, 20.0, false, "mm";
     small_angle_deg: -30.0, 30.0, false, "°";
     yaw_angle_deg: -180.0, 180.0, false, "°";

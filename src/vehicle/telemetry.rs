@@ -19,7 +19,8 @@ use crate::frames::{Body, Vec3};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TelemetryFrame {
     pub seq: u32,
-    /// The averaging interval [t0, t1) on the vehicle's clock (synchronised with the arena's).
+    /// The averaging interval [t0, t1) on the vehicle's clock: the arena's, unless the scenario
+    /// gives the telemetry clock an offset or a drift ([`Downlink::with_clock`]).
     pub t0: Nanos,
     pub t1: Nanos,
     /// Mean gyro reading over the interval (rad/s, body frame).
@@ -35,12 +36,26 @@ pub struct Downlink {
     t0: Nanos,
     last: Option<(Nanos, Vec3<Body>)>,
     seq: u32,
+    clock_offset: Nanos,
+    clock_drift_ppm: f64,
 }
 
 impl Downlink {
     /// `every`: physics ticks per telemetry frame (≥ 1).
     pub fn new(every: u32) -> Self {
-        Downlink { every: every.max(1), integral: Vec3::zeros(), n: 0, t0: Nanos::ZERO, last: None, seq: 0 }
+        Downlink { every: every.max(1), integral: Vec3::zeros(), n: 0, t0: Nanos::ZERO, last: None, seq: 0, clock_offset: Nanos::ZERO, clock_drift_ppm: 0.0 }
+    }
+
+    /// Stamps the frames with the vehicle's clock t_v = t + offset + drift·t (drift in parts per
+    /// million, rounded to the nanosecond); the mean rate is the same on either clock.
+    pub fn with_clock(mut self, offset: Nanos, drift_ppm: f64) -> Self {
+        self.clock_offset = offset;
+        self.clock_drift_ppm = drift_ppm;
+        self
+    }
+
+    fn stamp(&self, t: Nanos) -> Nanos {
+        Nanos(t.0 + self.clock_offset.0 + (t.0 as f64 * self.clock_drift_ppm * 1e-6).round() as i64)
     }
 
     /// Adds the gyro sample taken at `t`; returns a frame when a period has been completed.
@@ -55,7 +70,7 @@ impl Downlink {
             return None;
         }
         let span = (t - self.t0).as_secs_f64();
-        let f = TelemetryFrame { seq: self.seq, t0: self.t0, t1: t, gyro_mean: self.integral * (1.0 / span) };
+        let f = TelemetryFrame { seq: self.seq, t0: self.stamp(self.t0), t1: self.stamp(t), gyro_mean: self.integral * (1.0 / span) };
         self.seq = self.seq.wrapping_add(1);
         self.integral = Vec3::zeros();
         self.n = 0;

@@ -64,6 +64,7 @@ scenario_tests! {
     fig6_roll_pitch_offsets: "fig6-roll-pitch-offsets.yaml",
     fig7_no_offsets: "fig7-no-offsets.yaml",
     fleet_4: "fleet-4.yaml",
+    gyro_clock: "gyro-clock.yaml",
     lossy_link: "lossy-link.yaml",
     lost_marker: "lost-marker.yaml",
     mocap_outage: "mocap-outage.yaml",
