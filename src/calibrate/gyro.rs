@@ -75,7 +75,7 @@ pub struct ClockFit {
     /// blocks (the drift is then not estimated: 0).
     pub drift_ppm: Option<f64>,
     pub drift_sigma_ppm: Option<f64>,
-    /// The windows' mean time on the telemetry clock (s).
+    /// The windows' mean time on the Vicon clock (s).
     pub t_mean_s: f64,
 }
 

@@ -60,6 +60,8 @@ pub struct TraceSample {
     pub att_true_rot: Rot<Body, Nav>,
     /// Attitude the controller used (offset removed).
     pub att_compensated: Option<Euler>,
+    /// The failsafe's attitude: the last compensated pose propagated with the telemetry gyro.
+    pub att_dead_reckoned: Option<Rot<Body, MocapNav>>,
     /// True body rates (rad/s).
     pub omega: Vec3<Body>,
     /// The Vicon frame captured at this tick (before the link), if the vehicle was seen.
@@ -428,6 +430,7 @@ impl Vehicle {
                 pos_measured: self.last_frame.map(|f| f.pos),
                 att_measured: self.last_frame.map(|f| f.att),
                 att_compensated: self.station.attitude().map(|a| a.euler()),
+                att_dead_reckoned: self.station.dead_reckoned(),
                 reference: reference.pos,
                 reference_yaw: reference.yaw,
                 ppm: self.radio.last_sent().copied(),

@@ -195,14 +195,31 @@ impl Station {
         (self.guidance.1, self.guidance.2)
     }
 
-    /// Handles one body-rate telemetry frame.
+    /// Handles one body-rate telemetry frame. The failsafe's attitude is propagated with it:
+    /// R ← R·exp((ω̄ − b̂_g)·(t₁ − t₀)) from the last pose on, where b̂_g is the gyro alignment's
+    /// bias once it has run (and calibration is applied; 0 before), and the frame's stamps are
+    /// taken to Vicon time by the alignment's fitted telemetry clock, t = t_v − δ(t_v), when it
+    /// fitted one. Without b̂_g a gyro bias b tilts the dead-reckoned attitude by |b|·t.
     pub fn on_telemetry(&mut self, f: &TelemetryFrame) {
         self.gyro.add_telemetry(f);
+        let fit = self.report.gyro.filter(|_| self.settings.apply);
+        let bias = fit.map_or(Vec3::zeros(), |g| Vec3::from_array(g.gyro_bias));
+        let clock = fit.and_then(|g| g.clock);
+        let to_vicon = |t: Nanos| match &clock {
+            Some(c) => t - Nanos::from_secs_f64(c.offset_s + c.drift_ppm.unwrap_or(0.0) * 1e-6 * (t.as_secs_f64() - c.t_mean_s)),
+            None => t,
+        };
         if let Some((a, t)) = self.dead_reckoned
-            && f.t0 >= t
+            && to_vicon(f.t0) >= t
         {
-            self.dead_reckoned = Some((a * Rot::from_rotation_vector(f.gyro_mean * (f.t1 - f.t0).as_secs_f64()), f.t1));
+            self.dead_reckoned = Some((a * Rot::from_rotation_vector((f.gyro_mean - bias) * (f.t1 - f.t0).as_secs_f64()), to_vicon(f.t1)));
         }
+    }
+
+    /// The failsafe's dead-reckoned attitude: the last compensated mocap attitude propagated
+    /// with the telemetry since ([`Station::on_telemetry`]).
+    pub fn dead_reckoned(&self) -> Option<Rot<Body, MocapNav>> {
+        self.dead_reckoned.map(|(a, _)| a)
     }
 
     /// Once per tick: enters (or continues) the failsafe when the mocap has been silent too long.
