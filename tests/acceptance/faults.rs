@@ -151,9 +151,9 @@ plan:
         let out = run(&inline(&y.replace("APPLY", &apply.to_string())), RunOptions::default());
         let v = &out.vehicles[0];
         assert_eq!(v.failsafe.episodes, 1);
-        assert_eq!(v.calibration.gyro.is_some(), true);
+        assert!(v.calibration.gyro.is_some());
         // the last tick of the failsafe: just before the first pose after the outage arrives
-        let s = v.trace.iter().filter(|s| (20.5..21.0).contains(&s.t.as_secs_f64())).last().unwrap();
+        let s = v.trace.iter().rfind(|s| (20.5..21.0).contains(&s.t.as_secs_f64())).unwrap();
         let dr = s.att_dead_reckoned.unwrap().assume_frames::<flyarena::frames::Body, flyarena::frames::Nav>();
         (dr.inverse() * s.att_true_rot).angle().to_degrees()
     };
