@@ -259,7 +259,7 @@ impl Arena {
                     name: v.name.clone(),
                     battery: Battery::new(true_params.battery),
                     x3d: X3d::on_floor(true_params, dist, home_nav, yaw0),
-                    rate_loop: RateLoop::new(&params),
+                    rate_loop: RateLoop::new(&params, physics.period().as_secs_f64()),
                     imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
                     mocap,
                     mocap_latency: ms(s.mocap.latency_ms + u.mocap_delay_ms),

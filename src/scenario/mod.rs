@@ -410,6 +410,7 @@ pub struct ModelCfg {
     pub rotor_speed_max_rad_s: Option<f64>,
     pub rotor_drag_per_s: Option<Spanned<[f64; 2]>>,
     pub rate_loop_gain_per_s: Option<Spanned<[f64; 3]>>,
+    pub rate_loop_integral_per_s2: Option<Spanned<[f64; 3]>>,
 }
 
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
@@ -899,6 +900,12 @@ impl Scenario {
                 ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e))?;
             }
             p.rate_loop_gain_per_s = x.value;
+        }
+        if let Some(x) = &m.rate_loop_integral_per_s2 {
+            for v in x.value {
+                ranges::check(v, 0.0, 1000.0, false, "1/s²").map_err(|e| (x.referenced, e))?;
+            }
+            p.rate_loop_integral_per_s2 = x.value;
         }
         let b = &self.vehicles.value[i].value.battery;
         if let Some(x) = &b.cells {

@@ -41,6 +41,9 @@ pub struct VehicleParams {
     pub layout: RotorLayout,
     /// Gain of the onboard rate loop per body axis (1/s): τ = J·K_ω·(ω_cmd − ω_gyro).
     pub rate_loop_gain_per_s: [f64; 3],
+    /// Integral gain of the onboard rate loop per body axis (1/s²): τ += J·K_I·∫(ω_cmd − ω_gyro)dt.
+    /// Zero in the presets (the X3D's loop is proportional).
+    pub rate_loop_integral_per_s2: [f64; 3],
     /// Full scale of the onboard IMU: no flight of this vehicle reads beyond it.
     pub imu_range: ImuRange,
     /// Rotor radius r (m), for the ground effect.
@@ -133,6 +136,7 @@ impl VehicleParams {
             rotor_drag_per_s: [0.0, 0.0],
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],
+            rate_loop_integral_per_s2: [0.0; 3],
             imu_range: ImuRange::x3d(),
             rotor_radius_m: X3D_ROTOR_RADIUS_M,
             ground_effect: 0.0,
@@ -157,6 +161,7 @@ impl VehicleParams {
             rotor_drag_per_s: [0.0, 0.0],
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],
+            rate_loop_integral_per_s2: [0.0; 3],
             imu_range: ImuRange::crazyflie21(),
             rotor_radius_m: CRAZYFLIE21_ROTOR_RADIUS_M,
             ground_effect: 0.0,

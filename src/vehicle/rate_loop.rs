@@ -2,8 +2,12 @@
 //!
 //! Input: the decoded radio command (body rates p, q, r in rad/s and collective thrust T in N,
 //! held between 50 Hz PPM frames) and the gyro sample ω_gyro (body frame, rad/s).
-//! Law: τ_com = J·K_ω·(ω_com − ω_gyro) + ω_gyro × J·ω_gyro (proportional rate tracking with
-//! gyroscopic feed-forward). The mixer of the "+" layout then solves
+//! Law: τ_com = J·K_ω·(ω_com − ω_gyro) + J·K_I·∫(ω_com − ω_gyro)dt + ω_gyro × J·ω_gyro
+//! (rate tracking with gyroscopic feed-forward; K_I = 0, proportional only, in the presets). The
+//! integral runs only while thrust is commanded (reset to 0 with the motors off: no wind-up on
+//! the floor) and is summed by the rectangle rule at the loop's period. With K_I > 0 a constant
+//! disturbance torque τ_d is held with no rate error in steady state (∫ settles at
+//! τ_d/(J·K_I)); without it the loop needs ω_com − ω = τ_d/(J·K_ω). The mixer of the "+" layout then solves
 //!
 //! ```text
 //!  T  = f_F + f_R + f_B + f_L          (collective thrust, along −z_body)
@@ -34,6 +38,10 @@ impl RateCommand {
 pub struct RateLoop {
     inertia: [f64; 3],
     gain: [f64; 3],
+    integral_gain: [f64; 3],
+    /// ∫(ω_com − ω_gyro)dt (rad), and the loop's period (s).
+    integral: [f64; 3],
+    period_s: f64,
     arm: f64,
     k_m: f64,
     k_f: f64,
@@ -41,8 +49,19 @@ pub struct RateLoop {
 }
 
 impl RateLoop {
-    pub fn new(p: &VehicleParams) -> Self {
-        RateLoop { inertia: p.inertia_kg_m2, gain: p.rate_loop_gain_per_s, arm: p.arm_m, k_m: p.k_torque_m, k_f: p.k_thrust, f_max: p.rotor_thrust_max() }
+    /// The loop of vehicle `p`, run every `period_s` seconds.
+    pub fn new(p: &VehicleParams, period_s: f64) -> Self {
+        RateLoop {
+            inertia: p.inertia_kg_m2,
+            gain: p.rate_loop_gain_per_s,
+            integral_gain: p.rate_loop_integral_per_s2,
+            integral: [0.0; 3],
+            period_s,
+            arm: p.arm_m,
+            k_m: p.k_torque_m,
+            k_f: p.k_thrust,
+            f_max: p.rotor_thrust_max(),
+        }
     }
 
     /// Rotor thrusts [front, right, back, left] (N) for a collective thrust and body torque.
@@ -57,15 +76,29 @@ impl RateLoop {
         [f_front, f_right, f_back, f_left].map(|f| f.clamp(0.0, self.f_max))
     }
 
-    /// Rotor speed commands [front, right, back, left] (rad/s).
-    pub fn rotor_speed_commands(&self, cmd: &RateCommand, gyro: Vec3<Body>) -> [f64; 4] {
+    /// Rotor speed commands [front, right, back, left] (rad/s); one call per loop period.
+    pub fn rotor_speed_commands(&mut self, cmd: &RateCommand, gyro: Vec3<Body>) -> [f64; 4] {
         let w = gyro.to_array();
         let j = self.inertia;
         let err = (cmd.rates - gyro).to_array();
         let jw = [j[0] * w[0], j[1] * w[1], j[2] * w[2]];
         let gyroscopic = [w[1] * jw[2] - w[2] * jw[1], w[2] * jw[0] - w[0] * jw[2], w[0] * jw[1] - w[1] * jw[0]];
-        let torque = [0, 1, 2].map(|i| j[i] * self.gain[i] * err[i] + gyroscopic[i]);
+        let mut torque = [0, 1, 2].map(|i| j[i] * self.gain[i] * err[i] + gyroscopic[i]);
+        if self.integral_gain.iter().any(|k| *k != 0.0) {
+            for i in 0..3 {
+                self.integral[i] = if cmd.thrust_n > 0.0 { self.integral[i] + err[i] * self.period_s } else { 0.0 };
+                torque[i] += j[i] * self.integral_gain[i] * self.integral[i];
+            }
+        }
         self.mix(cmd.thrust_n, torque).map(|f| (f / self.k_f).sqrt())
+    }
+
+    /// The yaw torque the loop commands (through the mixer and back), for the unit tests.
+    #[cfg(test)]
+    fn mix_torque_for_test(&mut self, cmd: &RateCommand, gyro: Vec3<Body>) -> f64 {
+        let w = self.rotor_speed_commands(cmd, gyro);
+        let f = w.map(|x| self.k_f * x * x);
+        self.k_m * (f[0] + f[2] - f[1] - f[3])
     }
 }
 
@@ -76,12 +109,38 @@ mod tests {
     #[test]
     fn mixer_reproduces_requested_thrust_and_torque() {
         let p = VehicleParams::x3d();
-        let rl = RateLoop::new(&p);
+        let rl = RateLoop::new(&p, 1e-3);
         let (t, tau) = (7.0, [0.05, -0.03, 0.01]);
         let [f, r, b, l] = rl.mix(t, tau);
         assert!((f + r + b + l - t).abs() < 1e-12);
         assert!((p.arm_m * (l - r) - tau[0]).abs() < 1e-12);
         assert!((p.arm_m * (f - b) - tau[1]).abs() < 1e-12);
         assert!((p.k_torque_m * (f + b - r - l) - tau[2]).abs() < 1e-12);
+    }
+
+    /// The rate loop alone on a rigid yaw axis J·ṙ = τ_com + τ_d (rotor lag ignored: the
+    /// torque acts at once, the loop at 1 kHz). With K_I = 0 the step torque τ_d leaves the rate
+    /// error τ_d/(J·K_ω); with K_I > 0 the error decays to 0 and ∫e settles at τ_d/(J·K_I).
+    #[test]
+    fn the_integral_removes_the_rate_error_of_a_constant_torque() {
+        let (tau_d, dt) = (0.02, 1e-3);
+        let steady = |ki: f64| {
+            let mut p = VehicleParams::x3d();
+            p.rate_loop_integral_per_s2 = [0.0, 0.0, ki];
+            let mut rl = RateLoop::new(&p, dt);
+            let j = p.inertia_kg_m2[2];
+            let cmd = RateCommand { rates: Vec3::zeros(), thrust_n: 7.0 };
+            let mut r = 0.0;
+            for _ in 0..10_000 {
+                let f = rl.mix_torque_for_test(&cmd, Vec3::new(0.0, 0.0, r));
+                r += (f + tau_d) / j * dt;
+            }
+            (r, rl.integral[2], j)
+        };
+        let (r_p, _, j) = steady(0.0);
+        assert!((r_p - tau_d / (j * 10.0)).abs() < 1e-6, "P only: rate {r_p}");
+        let (r_pi, integral, _) = steady(25.0);
+        assert!(r_pi.abs() < 1e-6, "PI: rate {r_pi}");
+        assert!((integral - (-tau_d / (j * 25.0))).abs() < 1e-5, "∫e = {integral}");
     }
 }

@@ -241,6 +241,22 @@ fn validity_reject_yaw_stand_off_is_the_closed_form() {
     assert!(!val.accepted);
 }
 
+/// The same bent rotor with an integrating onboard rate loop (`validity-integral.yaml`, yaw
+/// K_I = 25 1/s²): the integral holds the 0.02 N·m, the yaw loop needs no stand-off, and the
+/// straight flight's mean yaw falls from 3.18° to within the PPM deadband of 0 (±0.25°), so (7)
+/// accepts it. In closed form, on the rate loop alone: a step torque τ_d leaves a rate error
+/// τ_d/(J·K_ω) with K_I = 0 and none once ∫ has settled at τ_d/(J·K_I) (unit test in
+/// `vehicle::rate_loop`).
+#[test]
+fn an_integrating_rate_loop_removes_the_yaw_stand_off() {
+    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/validity-integral.yaml")).unwrap();
+    let out = run(&s, RunOptions { trace: false, apply_calibration: None });
+    let val = out.vehicles[0].calibration.validity.as_ref().expect("the yaw flight ran");
+    let deadband = 1.5 / (2.0 * 3.0);
+    assert!(val.mean_yaw.to_degrees().abs() <= deadband, "mean yaw {}°", val.mean_yaw.to_degrees());
+    assert!(val.accepted);
+}
+
 /// The gyro alignment on an unsynchronised telemetry clock (`scenarios/gyro-clock.yaml`, offset
 /// 0–20 ms, drift ±100 ppm): over 40 seeds the fitted yaw stays within 0.05° of the markers' 4°,
 /// and the 95 % intervals of the yaw and of the clock offset at the windows' mean time cover the

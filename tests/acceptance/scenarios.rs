@@ -69,6 +69,7 @@ scenario_tests! {
     lost_marker: "lost-marker.yaml",
     mocap_outage: "mocap-outage.yaml",
     sweep_hover_duration: "sweep-hover-duration.yaml",
+    validity_integral: "validity-integral.yaml",
     validity_reject: "validity-reject.yaml",
     yaw_offset: "yaw-offset.yaml",
 }
