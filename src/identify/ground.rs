@@ -430,6 +430,18 @@ mod tests {
         assert!(spin_up(&s, &Vector3::zeros()).is_none());
     }
 
+    /// The lift is measured from the floor's own height: on a platform 0.5 m up (z = −0.5 m in
+    /// NED) the spin-up is the same 56 rows as on the floor.
+    #[test]
+    fn the_lift_is_measured_from_the_rest_height() {
+        let mut s = flight([0.0; 2], [0.0, 0.5], 0.9);
+        for p in &mut s.pos_mocap_nav {
+            p.z -= 0.5;
+        }
+        let sp = spin_up(&s, &Vector3::zeros()).unwrap();
+        assert_eq!(sp.check.samples, 56, "{sp:?}");
+    }
+
     /// A flight's frame tilt (deg) with a tight interval.
     fn tilt(deg: [f64; 2]) -> FlightTilt {
         FlightTilt { offset_rad: deg.map(f64::to_radians), sd_rad: [0.001; 2], widen_rad: [0.0; 2], frame_fitted: true, accel_bias_fitted: false }
