@@ -321,7 +321,7 @@ fn finish_sweep(o: &flyarena::sweep::SweepOutput, out_dir: &Path, quiet: bool) -
         for g in summary["groups"].as_array().into_iter().flatten() {
             let m = |k: &str, q: &str| g["metrics"][k][q].as_f64().map_or("-".into(), |x| format!("{x:.4}"));
             println!(
-                "grid point {}: {}\n  pass rate {:.1} % ({}), roll err p95/p99 {}°/{}°, yaw (gyro) err p99 {}°, spin drift p99 {} m",
+                "grid point {}: {}\n  pass rate {:.1} % ({}), roll err p95/p99 {}°/{}°, yaw (gyro) err p99 {}°, yaw (straight flight) err p95/p99 {}°/{}°, spin drift p99 {} m",
                 g["grid_point"],
                 g["grid"],
                 100.0 * g["pass_rate_all"].as_f64().unwrap_or(0.0),
@@ -329,6 +329,8 @@ fn finish_sweep(o: &flyarena::sweep::SweepOutput, out_dir: &Path, quiet: bool) -
                 m("roll_err_deg", "p95"),
                 m("roll_err_deg", "p99"),
                 m("yaw_gyro_err_deg", "p99"),
+                m("yaw_ls_err_deg", "p95"),
+                m("yaw_ls_err_deg", "p99"),
                 m("spin_dev_m", "p99"),
             );
         }

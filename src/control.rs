@@ -18,6 +18,11 @@
 //! The paper's approximations (the ≈ forms, without the p, q, r coupling terms) are used, as the
 //! paper does. [u v w] = C_n^b·Ẋ_meas. The yaw-calibration flight (6) replaces the lateral loop by
 //! φ_com = 0 ([`LateralMode::RollZero`]).
+//!
+//! The output carries both what a rate-mode vehicle needs (p, q, r of (3)) and what an
+//! attitude-mode vehicle needs (φ_com, θ_com and the heading rate ψ̇_com, the third row of (3)
+//! before T_w⁻¹); the radio sends the one the vehicle's [`crate::vehicle::OnboardMode`] tracks. In
+//! attitude mode (3)'s roll and pitch rows and (4) run onboard, on the vehicle's own angles.
 
 use crate::frames::{Body, Euler, MocapNav, Rot, Vec3, wrap_pi};
 use crate::vehicle::params::GRAVITY;
@@ -70,6 +75,9 @@ pub struct ControlOutput {
     pub thrust_n: f64,
     /// φ_com, θ_com, ψ_com.
     pub angles_com: Euler,
+    /// ψ̇_com = K_ψ·wrap(ψ_com − ψ_m) + ψ̇_ff, the third Euler rate of (3) (rad/s): what the
+    /// radio's heading channel carries in attitude mode.
+    pub yaw_rate_com: f64,
     /// [u̇ v̇ ẇ]_com (m/s²).
     pub accel_com: Vec3<Body>,
 }
@@ -115,7 +123,13 @@ pub fn control(g: &Gains, r: &Reference, pos: Vec3<MocapNav>, vel: Vec3<MocapNav
     let pqr = t_w_inv_sc(roll_sc, pitch_sc) * euler_rates; // (3), (4)
     let f_t = g.mass_kg * (acc.z() - GRAVITY * roll_sc.1 * pitch_sc.1); // (5)
     let thrust = if r.motors_off { 0.0 } else { (-f_t).clamp(0.0, g.thrust_max_n) };
-    ControlOutput { rates: if r.motors_off { Vec3::zeros() } else { Vec3::from_raw(pqr) }, thrust_n: thrust, angles_com: Euler::new(roll_com, pitch_com, r.yaw), accel_com: acc }
+    ControlOutput {
+        rates: if r.motors_off { Vec3::zeros() } else { Vec3::from_raw(pqr) },
+        thrust_n: thrust,
+        angles_com: Euler::new(roll_com, pitch_com, r.yaw),
+        yaw_rate_com: if r.motors_off { 0.0 } else { euler_rates.z },
+        accel_com: acc,
+    }
 }
 
 /// The failsafe law, used when the mocap has been silent for longer than the timeout: level
@@ -132,6 +146,7 @@ pub fn failsafe(g: &Gains, att: Rot<Body, MocapNav>, yaw_hold: f64, fraction: f6
         rates: if motors_off { Vec3::zeros() } else { Vec3::from_raw(t_w_inv(e.roll, e.pitch) * euler_rates) },
         thrust_n: thrust,
         angles_com: Euler::new(0.0, 0.0, yaw_hold),
+        yaw_rate_com: if motors_off { 0.0 } else { euler_rates.z },
         accel_com: Vec3::new(0.0, 0.0, (1.0 - fraction) * GRAVITY),
     }
 }

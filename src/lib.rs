@@ -8,7 +8,7 @@
 //! scenario ─► engine (integer clock, 1 kHz) drives, per vehicle:
 //!   vehicle (X3D rigid body, rotors, IMU) ─► mocap (markers, rigid fit, 200 Hz) ─► link (UDP)
 //!   ─► engine::Station: estimate ─► guidance ─► calibrate ─► control (1)–(5) ─► radio (PPM 0..255)
-//!   ─► vehicle's onboard rate loop;  vehicle::telemetry (gyro, XBee) ─► calibrate::gyro
+//!   ─► vehicle's onboard (attitude and) rate loop;  vehicle::telemetry (gyro, XBee) ─► calibrate::gyro
 //! requirements (R1–R5) · record (Rerun .rrd) · sweep (Monte Carlo, shards) · log (flight CSV)
 //! identify: flight log ─► residuals of the declared model ─► the effect it lacks ─► fragment ─► run
 //! run (a scenario end to end, used by all of the above) · output (whole files, contained names)

@@ -13,7 +13,7 @@
 //! | `q_w`, `q_x`, `q_y`, `q_z` | | mocap attitude: unit quaternion of `Rot<MocapBody, MocapNav>` (scalar first, Hamilton) |
 //! | `gyro_x_rad_s` … `gyro_z_rad_s` | rad/s | IMU angular rate, body FRD |
 //! | `acc_x_m_s2` … `acc_z_m_s2` | m/s² | IMU specific force, body FRD (−g on z at rest) |
-//! | `cmd_p`, `cmd_q`, `cmd_r`, `cmd_thrust` | counts 0..255 | the last PPM frame sent (empty before the first) |
+//! | `cmd_p`, `cmd_q`, `cmd_r`, `cmd_thrust` | counts 0..255 | the last PPM frame sent (empty before the first); in attitude mode the first three carry φ_com, θ_com, ψ̇_com ([`crate::radio`]) |
 //! | `vbat_v` | V | battery terminal voltage (optional when reading: logs from before it are read without it) |
 //!
 //! Reading ([`read_csv`]): missing or misnamed columns, cells that are not numbers, NaN or

@@ -1,18 +1,24 @@
 //! The 72 MHz PPM command radio: 50 Hz frames of 8 channels, each an integer 0..255.
 //!
-//! Channel map (the rest are held at their neutral values):
-//! 0: roll rate p · 1: pitch rate q · 2: yaw rate r · 3: collective thrust T · 4–7: auxiliary (0).
+//! Channel map (the rest are held at their neutral values), by the vehicle's [`OnboardMode`]:
+//! - rate mode: 0: roll rate p · 1: pitch rate q · 2: yaw rate r · 3: collective thrust T;
+//! - attitude mode: 0: roll angle φ_com · 1: pitch angle θ_com · 2: heading rate ψ̇_com · 3: T.
+//!
+//! 4–7: auxiliary (0).
 //!
 //! Rates: count = clamp(round(128 + ω/s), 0, 255), ω = (count − 128)·s, with s the rate scale in
 //! rad/s per count (default 1.5 °/s, so −192…+190.5 °/s). 128 is exactly zero rate.
+//! Angles: count = clamp(round(128 + α/s_α), 0, 255), α = (count − 128)·s_α, with s_α the angle
+//! scale in rad per count (default 0.25°, so −32…+31.75°). 128 is exactly level.
 //! Thrust: count = clamp(round(255·T/T_max), 0, 255), T = count·T_max/255 (default T_max = the
 //! vehicle's maximum collective thrust, 24.0 N for the X3D: 0.094 N a count).
 //! The transmitter samples the controller's latest command every frame (zero-order hold until the
 //! next frame); the receiver decodes the frame `latency` after it was sampled.
 
 use crate::clock::Nanos;
-use crate::frames::{Body, Vec3};
-use crate::vehicle::RateCommand;
+use crate::control::ControlOutput;
+use crate::frames::Vec3;
+use crate::vehicle::{AttitudeCommand, OnboardMode, RateCommand};
 use std::collections::VecDeque;
 
 pub const MAX_CHANNELS: usize = 12;
@@ -23,7 +29,11 @@ pub struct RadioParams {
     pub channels: usize,
     pub latency: Nanos,
     pub rate_scale_rad_s: f64,
+    /// Attitude mode's roll and pitch channels: rad per count.
+    pub angle_scale_rad: f64,
     pub thrust_max_n: f64,
+    /// What the vehicle's onboard controller tracks, and so what the channels carry.
+    pub mode: OnboardMode,
 }
 
 /// One PPM frame as transmitted.
@@ -48,40 +58,70 @@ impl PpmFrame {
     }
 }
 
+/// What the receiver holds, decoded by the vehicle's mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Received {
+    Rates(RateCommand),
+    Attitude(AttitudeCommand),
+}
+
+impl Received {
+    /// The commanded collective thrust (N).
+    pub fn thrust_n(&self) -> f64 {
+        match self {
+            Received::Rates(c) => c.thrust_n,
+            Received::Attitude(c) => c.thrust_n,
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Radio {
     params: RadioParams,
     in_flight: VecDeque<(Nanos, PpmFrame)>,
-    held: RateCommand,
+    held: Received,
     last_sent: Option<PpmFrame>,
 }
 
 impl Radio {
     pub fn new(params: RadioParams) -> Self {
-        Radio { params, in_flight: VecDeque::with_capacity(8), held: RateCommand::idle(), last_sent: None }
+        let held = match params.mode {
+            OnboardMode::Rate => Received::Rates(RateCommand::idle()),
+            OnboardMode::Attitude => Received::Attitude(AttitudeCommand { roll: 0.0, pitch: 0.0, yaw_rate: 0.0, thrust_n: 0.0 }),
+        };
+        Radio { params, in_flight: VecDeque::with_capacity(8), held, last_sent: None }
     }
 
-    pub fn encode(&self, rates: Vec3<Body>, thrust_n: f64) -> PpmFrame {
-        let s = self.params.rate_scale_rad_s;
-        let rate = |w: f64| (RATE_CENTER as f64 + w / s).round().clamp(0.0, 255.0) as u8;
-        let thrust = (255.0 * thrust_n / self.params.thrust_max_n).round().clamp(0.0, 255.0) as u8;
+    /// The frame for a controller output: its body rates (rate mode) or its roll and pitch
+    /// commands and heading rate (attitude mode), and its thrust.
+    pub fn encode(&self, out: &ControlOutput) -> PpmFrame {
+        let count = |x: f64, scale: f64| (RATE_CENTER as f64 + x / scale).round().clamp(0.0, 255.0) as u8;
+        let (s, sa) = (self.params.rate_scale_rad_s, self.params.angle_scale_rad);
         let mut channels = [0u8; MAX_CHANNELS];
-        channels[0] = rate(rates.x());
-        channels[1] = rate(rates.y());
-        channels[2] = rate(rates.z());
-        channels[3] = thrust;
+        let first = match self.params.mode {
+            OnboardMode::Rate => [count(out.rates.x(), s), count(out.rates.y(), s), count(out.rates.z(), s)],
+            OnboardMode::Attitude => [count(out.angles_com.roll, sa), count(out.angles_com.pitch, sa), count(out.yaw_rate_com, s)],
+        };
+        channels[..3].copy_from_slice(&first);
+        channels[3] = (255.0 * out.thrust_n / self.params.thrust_max_n).round().clamp(0.0, 255.0) as u8;
         PpmFrame { channels, len: self.params.channels }
     }
 
-    pub fn decode(&self, f: &PpmFrame) -> RateCommand {
-        let s = self.params.rate_scale_rad_s;
-        let rate = |c: u8| (c as f64 - RATE_CENTER as f64) * s;
-        RateCommand { rates: Vec3::new(rate(f.p()), rate(f.q()), rate(f.r())), thrust_n: f.thrust() as f64 * self.params.thrust_max_n / 255.0 }
+    pub fn decode(&self, f: &PpmFrame) -> Received {
+        let value = |c: u8, scale: f64| (c as f64 - RATE_CENTER as f64) * scale;
+        let (s, sa) = (self.params.rate_scale_rad_s, self.params.angle_scale_rad);
+        let thrust_n = f.thrust() as f64 * self.params.thrust_max_n / 255.0;
+        match self.params.mode {
+            OnboardMode::Rate => Received::Rates(RateCommand { rates: Vec3::new(value(f.p(), s), value(f.q(), s), value(f.r(), s)), thrust_n }),
+            OnboardMode::Attitude => {
+                Received::Attitude(AttitudeCommand { roll: value(f.channels[0], sa), pitch: value(f.channels[1], sa), yaw_rate: value(f.channels[2], s), thrust_n })
+            }
+        }
     }
 
     /// Transmits one frame at `now`; returns it (for logging).
-    pub fn transmit(&mut self, now: Nanos, rates: Vec3<Body>, thrust_n: f64) -> PpmFrame {
-        let f = self.encode(rates, thrust_n);
+    pub fn transmit(&mut self, now: Nanos, out: &ControlOutput) -> PpmFrame {
+        let f = self.encode(out);
         self.in_flight.push_back((now + self.params.latency, f));
         self.last_sent = Some(f);
         f
@@ -92,7 +132,7 @@ impl Radio {
     }
 
     /// The command the vehicle's receiver holds at `now` (zero-order hold of the last decoded frame).
-    pub fn receiver(&mut self, now: Nanos) -> RateCommand {
+    pub fn receiver(&mut self, now: Nanos) -> Received {
         while let Some(&(t, f)) = self.in_flight.front() {
             if t > now {
                 break;
@@ -108,16 +148,41 @@ impl Radio {
 mod tests {
     use super::*;
 
+    use crate::frames::{Body, Euler};
+
+    fn params(mode: OnboardMode) -> RadioParams {
+        RadioParams { channels: 8, latency: Nanos::from_millis(10), rate_scale_rad_s: 1.5f64.to_radians(), angle_scale_rad: 0.25f64.to_radians(), thrust_max_n: 24.0, mode }
+    }
+
     fn radio() -> Radio {
-        Radio::new(RadioParams { channels: 8, latency: Nanos::from_millis(10), rate_scale_rad_s: 1.5f64.to_radians(), thrust_max_n: 24.0 })
+        Radio::new(params(OnboardMode::Rate))
+    }
+
+    /// A controller output with these body rates and thrust (and angle commands that rate mode
+    /// must ignore).
+    fn out(rates: Vec3<Body>, thrust_n: f64) -> ControlOutput {
+        ControlOutput { rates, thrust_n, angles_com: Euler::from_degrees(7.0, -3.0, 20.0), yaw_rate_com: 0.3, accel_com: Vec3::zeros() }
+    }
+
+    impl Radio {
+        fn encode_rates(&self, rates: Vec3<Body>, thrust_n: f64) -> PpmFrame {
+            self.encode(&out(rates, thrust_n))
+        }
+    }
+
+    fn rates(r: Received) -> RateCommand {
+        match r {
+            Received::Rates(c) => c,
+            Received::Attitude(c) => panic!("rate mode decoded {c:?}"),
+        }
     }
 
     #[test]
     fn zero_rate_is_exactly_representable_and_saturates() {
         let r = radio();
-        let f = r.encode(Vec3::new(0.0, 10.0, -10.0), 1000.0);
+        let f = r.encode_rates(Vec3::new(0.0, 10.0, -10.0), 1000.0);
         assert_eq!((f.p(), f.q(), f.r(), f.thrust()), (128, 255, 0, 255));
-        let c = r.decode(&r.encode(Vec3::zeros(), 0.0));
+        let c = rates(r.decode(&r.encode_rates(Vec3::zeros(), 0.0)));
         assert_eq!(c.rates, Vec3::zeros());
         assert_eq!(c.thrust_n, 0.0);
     }
@@ -128,11 +193,11 @@ mod tests {
     #[test]
     fn thrust_counts_are_255ths_of_the_maximum() {
         let r = radio();
-        assert_eq!(r.encode(Vec3::zeros(), 23.0).thrust(), 244);
-        assert_eq!(r.encode(Vec3::zeros(), 24.0).thrust(), 255);
-        let hundred = r.decode(&r.encode(Vec3::zeros(), 100.0 * 24.0 / 255.0));
+        assert_eq!(r.encode_rates(Vec3::zeros(), 23.0).thrust(), 244);
+        assert_eq!(r.encode_rates(Vec3::zeros(), 24.0).thrust(), 255);
+        let hundred = rates(r.decode(&r.encode_rates(Vec3::zeros(), 100.0 * 24.0 / 255.0)));
         assert!((hundred.thrust_n - 9.411_764_705_882_353).abs() < 1e-12, "{}", hundred.thrust_n);
-        assert_eq!(r.decode(&r.encode(Vec3::zeros(), 24.0)).thrust_n, 24.0);
+        assert_eq!(rates(r.decode(&r.encode_rates(Vec3::zeros(), 24.0))).thrust_n, 24.0);
     }
 
     #[test]
@@ -141,22 +206,44 @@ mod tests {
         let s = 1.5f64.to_radians();
         for k in -1000..1000 {
             let w = k as f64 * 0.0037;
-            let back = r.decode(&r.encode(Vec3::new(w, 0.0, 0.0), 6.67)).rates.x();
+            let back = rates(r.decode(&r.encode_rates(Vec3::new(w, 0.0, 0.0), 6.67))).rates.x();
             if w.abs() < 1.9 {
                 assert!((back - w).abs() <= s / 2.0 + 1e-12);
             }
         }
-        let t = r.decode(&r.encode(Vec3::zeros(), 6.67)).thrust_n;
+        let t = rates(r.decode(&r.encode_rates(Vec3::zeros(), 6.67))).thrust_n;
         assert!((t - 6.67).abs() <= 24.0 / 255.0 / 2.0);
     }
 
     #[test]
     fn receiver_holds_the_last_frame_after_latency() {
         let mut r = radio();
-        r.transmit(Nanos(0), Vec3::new(0.1, 0.0, 0.0), 5.0);
-        assert_eq!(r.receiver(Nanos::from_millis(9)), RateCommand::idle());
+        r.transmit(Nanos(0), &out(Vec3::new(0.1, 0.0, 0.0), 5.0));
+        assert_eq!(r.receiver(Nanos::from_millis(9)), Received::Rates(RateCommand::idle()));
         let c = r.receiver(Nanos::from_millis(10));
-        assert!(c.thrust_n > 4.9);
+        assert!(c.thrust_n() > 4.9);
         assert_eq!(r.receiver(Nanos::from_millis(25)), c);
+    }
+
+    /// Attitude mode carries the angle commands and the heading rate, not the body rates: 7° of
+    /// roll at 0.25° a count is 128 + 28 = 156, −3° of pitch 116, 0.3 rad/s of heading rate
+    /// 128 + 0.3/(1.5°/s) = 139.46 → 139; level is exactly 128 and decodes to exactly 0; beyond
+    /// ±32° the channel saturates.
+    #[test]
+    fn attitude_mode_carries_angles_in_counts() {
+        let r = Radio::new(params(OnboardMode::Attitude));
+        let f = r.encode(&out(Vec3::new(1.0, -1.0, 0.5), 12.0));
+        assert_eq!((f.channels[0], f.channels[1], f.channels[2], f.thrust()), (156, 116, 139, 128));
+        let Received::Attitude(c) = r.decode(&f) else { panic!("attitude mode decoded rates") };
+        assert!((c.roll - 7f64.to_radians()).abs() < 1e-12 && (c.pitch + 3f64.to_radians()).abs() < 1e-12, "{c:?}");
+        assert!((c.yaw_rate - 11.0 * 1.5f64.to_radians()).abs() < 1e-12 && (c.thrust_n - 128.0 * 24.0 / 255.0).abs() < 1e-12, "{c:?}");
+        let level = ControlOutput { angles_com: Euler::ZERO, yaw_rate_com: 0.0, ..out(Vec3::zeros(), 5.0) };
+        let Received::Attitude(c) = r.decode(&r.encode(&level)) else { panic!() };
+        assert_eq!((c.roll, c.pitch, c.yaw_rate), (0.0, 0.0, 0.0));
+        let steep = ControlOutput { angles_com: Euler::from_degrees(40.0, -40.0, 0.0), ..level };
+        assert_eq!(&r.encode(&steep).channels[..2], &[255, 0]);
+        // before the first frame the receiver holds level, no thrust
+        let mut r = r;
+        assert_eq!(r.receiver(Nanos::ZERO), Received::Attitude(AttitudeCommand { roll: 0.0, pitch: 0.0, yaw_rate: 0.0, thrust_n: 0.0 }));
     }
 }

@@ -26,7 +26,7 @@
 //! | `world/<v>/reference_path`, `flown_path`, `uncompensated_path` | reference, flown track, and the same flight without compensation (the circle of Fig. 6) |
 //! | `plots/<v>/attitude/{roll,pitch,yaw}/{true,measured,compensated}` | degrees |
 //! | `plots/<v>/position/{deviation_m,uncompensated_deviation_m}` | horizontal distance from the reference |
-//! | `plots/<v>/ppm/{p,q,r,thrust}` | the channels as sent, 0..255 |
+//! | `plots/<v>/ppm/{p,q,r,thrust}` | the channels as sent, 0..255 (attitude mode: φ_com, θ_com, ψ̇_com, thrust) |
 //! | `plots/<v>/link/{missing_frames,longest_gap_ms}`, `plots/<v>/telemetry/missing_frames` | link monitoring |
 //! | `plots/<v>/calibration/{roll,pitch}_hover_deg`, `{roll,pitch,yaw}_truth_deg`, `yaw_rls_deg`, `yaw_ls_deg`, `yaw_gyro_deg` | the running hover average, the RLS yaw sample by sample, the batch LS and gyro results, and the truth |
 //! | `events` | phase changes, calibration results, link gaps, requirement results (TextLog) |

@@ -3,7 +3,8 @@
 //! * **R1 offsets recovered**: |estimate − truth| ≤ tolerance for roll, pitch (hover averaging) and
 //!   yaw — from the gyro alignment when the plan flies `calibrate_gyro` (asserted), and from the
 //!   paper's straight flight when it flies `calibrate_yaw` (shown; asserted only if
-//!   `yaw_straight_flight_tol_deg` is set, because that method cannot observe a marker yaw) — the
+//!   `yaw_straight_flight_tol_deg` is set, because in rate mode that method cannot observe a
+//!   marker yaw; `yaw-attitude-mode` sets it, where the onboard attitude mode lets it) — the
 //!   truth being the Euler angles of R_off, the rigid fit of the template onto the mounted markers.
 //! * **R2 hover drift reduced**: while yawing on the spot, the maximum horizontal distance from the
 //!   commanded point with compensation is ≤ `max_m`, and ≤ `max_ratio` × the same run without

@@ -7,8 +7,9 @@
 //! 2. every packet that has arrived by t goes to the vehicle's [`Station`] (estimation, guidance,
 //!    calibration, control), in arrival order, then every telemetry frame that has arrived;
 //! 3. every 20th tick (50 Hz): the PPM radio samples the station's latest command;
-//! 4. the vehicle's receiver holds the last decoded frame; the IMU is sampled; the onboard rate
-//!    loop computes rotor commands; every 10th tick (100 Hz) the mean gyro reading goes back over
+//! 4. the vehicle's receiver holds the last decoded frame; the IMU is sampled; in attitude mode
+//!    the onboard attitude loop turns the held angles into body rates; the onboard rate loop
+//!    computes rotor commands; every 10th tick (100 Hz) the mean gyro reading goes back over
 //!    the telemetry link; the rigid body is integrated over 1 ms (RK4).
 //!
 //! Random draws come from one stream per component and vehicle ([`crate::rng`]), so a run is a
@@ -25,11 +26,11 @@ use crate::frames::{Body, Euler, MocapBody, MocapNav, Nav, Rot, Vec3};
 use crate::guidance::{Phase, Plan, Window};
 use crate::link::{Link, LinkParams, LinkStats};
 use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, Occlusion, TrueOffset};
-use crate::radio::{PpmFrame, Radio, RadioParams};
+use crate::radio::{PpmFrame, Radio, RadioParams, Received};
 use crate::rng::{Component, Stream};
 use crate::scenario::{PHYSICS_HZ, Scenario};
 use crate::vehicle::battery;
-use crate::vehicle::{Battery, Disturbance, Downlink, Imu, ImuParams, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
+use crate::vehicle::{AttitudeLoop, Battery, Disturbance, Downlink, Imu, ImuParams, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
 
 /// Options that are not part of the scenario.
 #[derive(Clone, Copy, Debug)]
@@ -123,6 +124,8 @@ struct Vehicle {
     x3d: X3d,
     battery: Battery,
     rate_loop: RateLoop,
+    /// Used in attitude mode only.
+    attitude_loop: AttitudeLoop,
     imu: Imu,
     mocap: Mocap,
     mocap_latency: Nanos,
@@ -218,7 +221,9 @@ impl Arena {
                     channels: s.radio.channels.value as usize,
                     latency: ms(s.radio.latency_ms),
                     rate_scale_rad_s: s.radio.rate_scale_deg_s.to_radians(),
+                    angle_scale_rad: s.radio.angle_scale_deg.to_radians(),
                     thrust_max_n: thrust_max,
+                    mode: params.onboard_mode,
                 });
                 let gains = Gains { k_x: c.k_x, k_v: c.k_v, k_att: c.k_att, max_tilt: [c.max_tilt_deg.to_radians(); 2], thrust_max_n: thrust_max, mass_kg: params.mass_kg };
                 let home = Vec3::<MocapNav>::new(v.home_m[0], v.home_m[1], 0.0);
@@ -260,6 +265,7 @@ impl Arena {
                     battery: Battery::new(true_params.battery),
                     x3d: X3d::on_floor(true_params, dist, home_nav, yaw0),
                     rate_loop: RateLoop::new(&params, physics.period().as_secs_f64()),
+                    attitude_loop: AttitudeLoop::new(params.attitude_loop_gain_per_s, physics.period().as_secs_f64(), yaw0),
                     imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
                     mocap,
                     mocap_latency: ms(s.mocap.latency_ms + u.mocap_delay_ms),
@@ -376,7 +382,7 @@ impl Vehicle {
         self.station.tick(t);
         if radio_tick {
             let cmd = *self.station.command();
-            self.radio.transmit(t, cmd.rates, cmd.thrust_n);
+            self.radio.transmit(t, &cmd);
         }
         let held = self.radio.receiver(t);
         // the engine's own measurements need the window (and in a spin the reference position)
@@ -386,7 +392,7 @@ impl Vehicle {
             self.window = WindowCache { window: w, pos: r.pos, until: self.station.plan().window_until(t) };
         }
         if self.window.window == Window::HoverAverage {
-            self.thrust_sum += held.thrust_n;
+            self.thrust_sum += held.thrust_n();
             self.thrust_n += 1;
         }
         if self.window.window == Window::Spin {
@@ -395,7 +401,15 @@ impl Vehicle {
         }
         let s = *self.x3d.state();
         let imu = self.imu.sample(s.omega, self.x3d.specific_force());
-        let mut rotor_cmd = self.rate_loop.rotor_speed_commands(&held, imu.gyro);
+        let rates = match held {
+            Received::Rates(c) => c,
+            Received::Attitude(a) => self.attitude_loop.rate_command(&a, &s.att, imu.gyro),
+        };
+        let gyro = match held {
+            Received::Rates(_) => imu.gyro,
+            Received::Attitude(_) => self.attitude_loop.calibrated(imu.gyro),
+        };
+        let mut rotor_cmd = self.rate_loop.rotor_speed_commands(&rates, gyro);
         if let Some(f) = self.downlink.sample(t, imu.gyro) {
             self.telemetry.send(t, f.seq, f);
         }
@@ -434,7 +448,7 @@ impl Vehicle {
                 reference: reference.pos,
                 reference_yaw: reference.yaw,
                 ppm: self.radio.last_sent().copied(),
-                thrust_n: held.thrust_n,
+                thrust_n: held.thrust_n(),
                 vbat_v: vbat,
                 link: *self.link.stats(),
                 phase: self.station.plan().phase_at(t),

@@ -148,7 +148,7 @@ impl Station {
             gyro,
             window: Window::None,
             report: CalibrationReport::default(),
-            command: ControlOutput { rates: Vec3::zeros(), thrust_n: 0.0, angles_com: Euler::ZERO, accel_com: Vec3::zeros() },
+            command: ControlOutput { rates: Vec3::zeros(), thrust_n: 0.0, angles_com: Euler::ZERO, yaw_rate_com: 0.0, accel_com: Vec3::zeros() },
             reference,
             attitude: None,
             rls_trace: record_traces.then(Vec::new),

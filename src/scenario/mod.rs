@@ -248,13 +248,16 @@ pub struct RadioCfg {
     pub latency_ms: f64,
     #[serde(with = "ranges::rate_scale_deg_s")]
     pub rate_scale_deg_s: f64,
+    /// Attitude mode's roll and pitch channels (° per count; 128 is level).
+    #[serde(with = "ranges::angle_scale_deg")]
+    pub angle_scale_deg: f64,
     /// Thrust at count 255 (N); default: the vehicle's maximum thrust.
     #[serde(with = "ranges::thrust_n::opt")]
     pub thrust_max_n: Option<f64>,
 }
 impl Default for RadioCfg {
     fn default() -> Self {
-        RadioCfg { rate_hz: spanned(50), channels: spanned(8), latency_ms: 10.0, rate_scale_deg_s: 1.5, thrust_max_n: None }
+        RadioCfg { rate_hz: spanned(50), channels: spanned(8), latency_ms: 10.0, rate_scale_deg_s: 1.5, angle_scale_deg: 0.25, thrust_max_n: None }
     }
 }
 
@@ -411,6 +414,9 @@ pub struct ModelCfg {
     pub rotor_drag_per_s: Option<Spanned<[f64; 2]>>,
     pub rate_loop_gain_per_s: Option<Spanned<[f64; 3]>>,
     pub rate_loop_integral_per_s2: Option<Spanned<[f64; 3]>>,
+    /// What the onboard controller tracks: `rate` (the presets) or `attitude`.
+    pub onboard_mode: Option<crate::vehicle::OnboardMode>,
+    pub attitude_loop_gain_per_s: Option<Spanned<[f64; 3]>>,
 }
 
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
@@ -906,6 +912,15 @@ impl Scenario {
                 ranges::check(v, 0.0, 1000.0, false, "1/s²").map_err(|e| (x.referenced, e))?;
             }
             p.rate_loop_integral_per_s2 = x.value;
+        }
+        if let Some(x) = m.onboard_mode {
+            p.onboard_mode = x;
+        }
+        if let Some(x) = &m.attitude_loop_gain_per_s {
+            for v in x.value {
+                ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e))?;
+            }
+            p.attitude_loop_gain_per_s = x.value;
         }
         let b = &self.vehicles.value[i].value.battery;
         if let Some(x) = &b.cells {

@@ -90,6 +90,7 @@ ranged! {
     tilt_deg: 0.0, 60.0, true, "°";
     cutoff_hz: 0.0, 500.0, true, "Hz";
     rate_scale_deg_s: 0.0, 20.0, true, "°/s per count";
+    angle_scale_deg: 0.0, 5.0, true, "° per count";
     thrust_n: 0.0, 10000.0, true, "N";
     duration_s: 0.0, 3600.0, true, "s";
     settle_s: 0.0, 3600.0, false, "s";

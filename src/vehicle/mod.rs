@@ -3,13 +3,15 @@
 //!
 //! The engine drives it once per physics tick (1 ms):
 //! 1. [`imu::Imu::sample`] samples the gyro and accelerometer from the current state;
-//! 2. the onboard [`RateLoop`] turns the last radio command (body rates and collective thrust)
-//!    and the gyro sample into rotor-speed commands;
+//! 2. in [`OnboardMode::Attitude`] the [`AttitudeLoop`] turns the last radio command (angles, a
+//!    yaw rate) into body rates; the onboard [`RateLoop`] turns those (or, in rate mode, the
+//!    radio's own body rates) and the gyro sample into rotor-speed commands, with the thrust;
 //! 3. the [`Battery`] delivers the rotors' power; its terminal voltage sets the speed the
 //!    motors reach against those commands ([`battery::speed_factor`]);
 //! 4. [`X3d::step`] integrates the dynamics over one tick (RK4, see [`dynamics`]);
 //! 5. the [`Downlink`] averages the gyro and sends body-rate telemetry back (XBee).
 
+pub mod attitude_loop;
 pub mod battery;
 pub mod dynamics;
 pub mod imu;
@@ -17,6 +19,7 @@ pub mod params;
 pub mod rate_loop;
 pub mod telemetry;
 
+pub use attitude_loop::{AttitudeCommand, AttitudeLoop, OnboardMode};
 pub use battery::{Battery, BatteryParams};
 pub use dynamics::{Disturbance, State, X3d};
 pub use imu::{Imu, ImuParams, ImuSample};

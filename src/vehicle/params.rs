@@ -44,6 +44,13 @@ pub struct VehicleParams {
     /// Integral gain of the onboard rate loop per body axis (1/s²): τ += J·K_I·∫(ω_cmd − ω_gyro)dt.
     /// Zero in the presets (the X3D's loop is proportional).
     pub rate_loop_integral_per_s2: [f64; 3],
+    /// What the onboard controller tracks: body rates (the paper's X3D, the presets) or angles
+    /// ([`super::attitude_loop`]).
+    pub onboard_mode: super::OnboardMode,
+    /// Gains [K_φ, K_θ, K_ψ] of the onboard attitude loop (1/s), used in attitude mode: well
+    /// below the rate loop's 25 1/s, and above the ground's 6 1/s, which has the radio's latency
+    /// in its loop and this one has not.
+    pub attitude_loop_gain_per_s: [f64; 3],
     /// Full scale of the onboard IMU: no flight of this vehicle reads beyond it.
     pub imu_range: ImuRange,
     /// Rotor radius r (m), for the ground effect.
@@ -137,6 +144,8 @@ impl VehicleParams {
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],
             rate_loop_integral_per_s2: [0.0; 3],
+            onboard_mode: super::OnboardMode::Rate,
+            attitude_loop_gain_per_s: [8.0, 8.0, 3.0],
             imu_range: ImuRange::x3d(),
             rotor_radius_m: X3D_ROTOR_RADIUS_M,
             ground_effect: 0.0,
@@ -162,6 +171,8 @@ impl VehicleParams {
             layout: RotorLayout::Plus,
             rate_loop_gain_per_s: [25.0, 25.0, 10.0],
             rate_loop_integral_per_s2: [0.0; 3],
+            onboard_mode: super::OnboardMode::Rate,
+            attitude_loop_gain_per_s: [8.0, 8.0, 3.0],
             imu_range: ImuRange::crazyflie21(),
             rotor_radius_m: CRAZYFLIE21_ROTOR_RADIUS_M,
             ground_effect: 0.0,

@@ -61,6 +61,7 @@ macro_rules! scenario_tests {
 
 scenario_tests! {
     displaced_markers: "displaced-markers.yaml",
+    fig6_attitude_mode: "fig6-attitude-mode.yaml",
     fig6_roll_pitch_offsets: "fig6-roll-pitch-offsets.yaml",
     fig7_no_offsets: "fig7-no-offsets.yaml",
     fleet_4: "fleet-4.yaml",
@@ -71,5 +72,6 @@ scenario_tests! {
     sweep_hover_duration: "sweep-hover-duration.yaml",
     validity_integral: "validity-integral.yaml",
     validity_reject: "validity-reject.yaml",
+    yaw_attitude_mode: "yaw-attitude-mode.yaml",
     yaw_offset: "yaw-offset.yaml",
 }

@@ -67,6 +67,48 @@ fn r1_straight_flight_yaw_fails_when_asserted() {
     assert!(!row.asserted && shown.table().contains("not asserted"), "{}", shown.table());
 }
 
+/// R1 straight-flight yaw in attitude mode (`yaw-attitude-mode.yaml`, asserted at 0.5°): a bent
+/// rotor's roll torque of 1.22·10⁻³ N·m leaves the onboard P loop a roll of
+/// ε = τ/(J_x·K_ω·K_φ) = 8.71·10⁻⁴ rad (0.05°) while (6) commands 0, the flight drifts East by
+/// g·ε·t²/2, and (8)–(9) take that for a heading. The expected error is the slope of the LS line
+/// through that drift along the flown profile (6 m, 0.75 m/s, 0.5 m/s² ramps: 3.24°); flown
+/// 3.09° (the loops' lag and the noise), so only that row fails, and (7) accepts the flight: its
+/// mean roll of 0.05° is far inside ε_φ = 1°.
+#[test]
+fn r1_straight_flight_yaw_fails_in_attitude_mode_with_a_roll_torque() {
+    let text = std::fs::read_to_string(super::root().join("scenarios/yaw-attitude-mode.yaml")).unwrap();
+    let tau = 1.22e-3;
+    let twin = text.replace("    imu: {", &format!("    disturbance: {{ torque_nm: [{tau}, 0, 0] }}\n    imu: {{"));
+    assert_ne!(twin, text);
+    let r = run_scenario(&super::inline(&twin), false).report;
+    only_failing(&r, "R1", "yaw offset, straight");
+    // the LS slope of E = g·ε·t²/2 against N(t), the trapezoid of the flight, at 200 Hz
+    let eps = tau / (0.007 * 25.0 * 8.0);
+    let (l, v, a) = (6.0, 0.75, 0.5);
+    let (ta, tc) = (v / a, (l - v * v / a) / v);
+    let total = 2.0 * ta + tc;
+    let (mut n, mut e) = (Vec::new(), Vec::new());
+    for k in 0..(total / 0.005) as usize {
+        let t = k as f64 * 0.005;
+        n.push(if t < ta {
+            0.5 * a * t * t
+        } else if t < ta + tc {
+            0.5 * v * ta + v * (t - ta)
+        } else {
+            l - 0.5 * a * (total - t).powi(2)
+        });
+        e.push(0.5 * flyarena::vehicle::params::GRAVITY * eps * t * t);
+    }
+    let (mn, me) = (n.iter().sum::<f64>() / n.len() as f64, e.iter().sum::<f64>() / e.len() as f64);
+    let sxy: f64 = n.iter().zip(&e).map(|(x, y)| (x - mn) * (y - me)).sum();
+    let sxx: f64 = n.iter().map(|x| (x - mn).powi(2)).sum();
+    let predicted = (sxy / sxx).atan().to_degrees();
+    assert!((predicted - 3.24).abs() < 0.01, "{predicted}");
+    let row = rows(&r, "R1", "yaw offset, straight")[0];
+    let err: f64 = row.measured.trim_end_matches('°').parse().unwrap();
+    assert!((err - predicted).abs() < 0.1 * predicted, "error {err}° vs the drift's {predicted}°\n{}", r.table());
+}
+
 /// R2 both rows: without the calibration in the controller the spin drifts as uncompensated.
 #[test]
 fn r2_fails_without_the_calibration() {
