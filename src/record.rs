@@ -26,7 +26,7 @@
 //! | `world/<v>/reference_path`, `flown_path`, `uncompensated_path` | reference, flown track, and the same flight without compensation (the circle of Fig. 6) |
 //! | `plots/<v>/attitude/{roll,pitch,yaw}/{true,measured,compensated}` | degrees |
 //! | `plots/<v>/position/{deviation_m,uncompensated_deviation_m}` | horizontal distance from the reference |
-//! | `plots/<v>/ppm/{p,q,r,thrust}` | the channels as sent, 0..255 (attitude mode: φ_com, θ_com, ψ̇_com, thrust) |
+//! | `plots/<v>/ppm/{p,q,r,thrust}` | the channels as sent, 0..255 (attitude mode: `ppm/{roll,pitch,yaw_rate,thrust}`, φ_com, θ_com, ψ̇_com) |
 //! | `plots/<v>/link/{missing_frames,longest_gap_ms}`, `plots/<v>/telemetry/missing_frames` | link monitoring |
 //! | `plots/<v>/calibration/{roll,pitch}_hover_deg`, `{roll,pitch,yaw}_truth_deg`, `yaw_rls_deg`, `yaw_ls_deg`, `yaw_gyro_deg` | the running hover average, the RLS yaw sample by sample, the batch LS and gyro results, and the truth |
 //! | `events` | phase changes, calibration results, link gaps, requirement results (TextLog) |
@@ -319,8 +319,12 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
         r.series(&format!("plots/{n}/position/uncompensated_deviation_m"), &format!("{n} uncompensated"), UNCOMPENSATED_COLOR, &ucols, us.iter().map(|s| dev(s)).collect())?;
     }
 
-    // PPM channels as sent
-    for (k, ch) in ["p", "q", "r", "thrust"].iter().enumerate() {
+    // PPM channels as sent, named by what they carry in the vehicle's onboard mode
+    let names = match v.params.onboard_mode {
+        crate::vehicle::OnboardMode::Rate => ["p", "q", "r", "thrust"],
+        crate::vehicle::OnboardMode::Attitude => ["roll", "pitch", "yaw_rate", "thrust"],
+    };
+    for (k, ch) in names.iter().enumerate() {
         let color = [[230, 90, 90], [90, 200, 90], [90, 120, 230], [200, 200, 200]][k];
         r.sparse_series(&format!("plots/{n}/ppm/{ch}"), &format!("{n} {ch}"), color, &samples, |s| s.ppm.map(|f| f.channels[k] as f64))?;
     }
