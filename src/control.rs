@@ -24,9 +24,9 @@
 //! before T_w⁻¹); the radio sends the one the vehicle's [`crate::vehicle::OnboardMode`] tracks. In
 //! attitude mode (3)'s roll and pitch rows and (4) run onboard, on the vehicle's own angles.
 
-use crate::frames::{Body, Euler, MocapNav, Rot, Vec3, wrap_pi};
+use crate::frames::{Body, Euler, MocapNav, Rot, Vec3, t_w_inv, t_w_inv_sc, wrap_pi};
 use crate::vehicle::params::GRAVITY;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Gains {
@@ -80,16 +80,6 @@ pub struct ControlOutput {
     pub yaw_rate_com: f64,
     /// [u̇ v̇ ẇ]_com (m/s²).
     pub accel_com: Vec3<Body>,
-}
-
-/// T_w⁻¹ of (4): maps Euler-angle rates to body rates.
-pub fn t_w_inv(roll: f64, pitch: f64) -> Matrix3<f64> {
-    t_w_inv_sc(roll.sin_cos(), pitch.sin_cos())
-}
-
-/// [`t_w_inv`] from (sin φ, cos φ) and (sin θ, cos θ).
-fn t_w_inv_sc((sf, cf): (f64, f64), (st, ct): (f64, f64)) -> Matrix3<f64> {
-    Matrix3::new(1.0, 0.0, -st, 0.0, cf, ct * sf, 0.0, -sf, ct * cf)
 }
 
 /// (sin φ, cos φ) and (sin θ, cos θ) of an attitude, read off C_b^n itself instead of calling the
@@ -247,7 +237,7 @@ mod tests {
         let pitch_com = (-a.x / GRAVITY).asin();
         assert!((out.angles_com.roll - roll_com).abs() < 1e-12 && (out.angles_com.pitch - pitch_com).abs() < 1e-12);
         let rates = Vector3::new(6.0 * (roll_com - phi), 5.0 * (pitch_com - theta), 3.0 * (0.7 - psi) + 0.2);
-        let t = Matrix3::new(1.0, 0.0, -theta.sin(), 0.0, phi.cos(), theta.cos() * phi.sin(), 0.0, -phi.sin(), theta.cos() * phi.cos());
+        let t = nalgebra::Matrix3::new(1.0, 0.0, -theta.sin(), 0.0, phi.cos(), theta.cos() * phi.sin(), 0.0, -phi.sin(), theta.cos() * phi.cos());
         assert!((out.rates.raw() - t * rates).norm() < 1e-12, "(3)-(4): {:?} vs {:?}", out.rates, t * rates);
         let thrust = -0.68 * (a.z - GRAVITY * phi.cos() * theta.cos());
         assert!((out.thrust_n - thrust).abs() < 1e-12, "(5): {} vs {thrust}", out.thrust_n);

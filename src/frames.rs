@@ -301,6 +301,18 @@ impl<A: Frame, B: Frame, C: Frame> Mul<Rot<A, B>> for Rot<B, C> {
     }
 }
 
+/// T_w⁻¹ of the paper's (4): maps Euler-angle rates [φ̇ θ̇ ψ̇] (Z-Y-X angles) to body rates
+/// [p q r] (rad/s, body frame): [[1, 0, −sin θ], [0, cos φ, cos θ·sin φ], [0, −sin φ, cos θ·cos φ]].
+/// Used by the ground controller (3) and by the onboard attitude loop.
+pub fn t_w_inv(roll: f64, pitch: f64) -> Matrix3<f64> {
+    t_w_inv_sc(roll.sin_cos(), pitch.sin_cos())
+}
+
+/// [`t_w_inv`] from (sin φ, cos φ) and (sin θ, cos θ).
+pub(crate) fn t_w_inv_sc((sf, cf): (f64, f64), (st, ct): (f64, f64)) -> Matrix3<f64> {
+    Matrix3::new(1.0, 0.0, -st, 0.0, cf, ct * sf, 0.0, -sf, ct * cf)
+}
+
 /// The paper's direction cosine matrix C_n^b (Sec. III.A) written out element by element.
 /// Kept separate from [`Rot`] on purpose: the tests check the two against each other.
 pub fn paper_c_n_b(e: Euler) -> Matrix3<f64> {

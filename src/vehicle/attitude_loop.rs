@@ -30,8 +30,7 @@
 //! ```
 
 use super::rate_loop::RateCommand;
-use crate::control::t_w_inv;
-use crate::frames::{Body, Nav, Rot, Vec3, wrap_pi};
+use crate::frames::{Body, Nav, Rot, Vec3, t_w_inv, wrap_pi};
 
 /// What the onboard controller of a vehicle tracks, and so what the radio carries.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

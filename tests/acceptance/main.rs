@@ -6,6 +6,7 @@ mod cli;
 mod determinism;
 mod faults;
 mod identify;
+mod layout;
 mod left;
 mod log;
 mod physics;

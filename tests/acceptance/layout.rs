@@ -1,0 +1,95 @@
+//! The crate's layout (issue 18): the library's top-level modules depend on each other in one
+//! direction only, and none of them reaches the command line.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// Top-level module → the top-level modules its non-test code names as `crate::m` (comments
+/// and `#[cfg(test)]` parts left out; `lib.rs` and the binary's `main.rs`, `cli.rs` are not
+/// library modules).
+fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    fn walk(dir: &Path, files: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, files);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                files.push(p);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(src, &mut files);
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for f in files {
+        let rel = f.strip_prefix(src).unwrap();
+        let top = rel.components().next().unwrap().as_os_str().to_string_lossy().trim_end_matches(".rs").to_string();
+        if ["lib", "main", "cli"].contains(&top.as_str()) {
+            continue;
+        }
+        let text = std::fs::read_to_string(&f).unwrap();
+        let code = text.split("#[cfg(test)]").next().unwrap();
+        let deps = g.entry(top.clone()).or_default();
+        for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
+            for (i, _) in line.match_indices("crate::") {
+                let name: String = line[i + 7..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                if !name.is_empty() && name != top {
+                    deps.insert(name);
+                }
+            }
+        }
+    }
+    g
+}
+
+/// A cycle of the graph, if there is one (depth-first search), as the path that closes it.
+fn find_cycle(g: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(v: &str, g: &BTreeMap<String, BTreeSet<String>>, path: &mut Vec<String>, done: &mut BTreeSet<String>) -> Option<Vec<String>> {
+        if let Some(k) = path.iter().position(|p| p == v) {
+            let mut c = path[k..].to_vec();
+            c.push(v.to_string());
+            return Some(c);
+        }
+        if done.contains(v) {
+            return None;
+        }
+        path.push(v.to_string());
+        for w in g.get(v).into_iter().flatten() {
+            if let Some(c) = visit(w, g, path, done) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        done.insert(v.to_string());
+        None
+    }
+    let mut done = BTreeSet::new();
+    g.keys().find_map(|v| visit(v, g, &mut Vec::new(), &mut done))
+}
+
+#[test]
+fn the_library_modules_depend_one_way() {
+    let g = module_graph(&super::root().join("src"));
+    assert!(g.len() > 10 && g["engine"].contains("vehicle"), "the scan finds the modules: {g:?}");
+    if let Some(c) = find_cycle(&g) {
+        panic!("module cycle: {}", c.join(" → "));
+    }
+    for (m, deps) in &g {
+        assert!(!deps.contains("cli"), "{m} imports the command line");
+    }
+}
+
+/// The cycle finder on a graph with a known cycle (and without it).
+#[test]
+fn the_cycle_finder_finds_a_cycle() {
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    let edge = |g: &mut BTreeMap<String, BTreeSet<String>>, a: &str, b: &str| {
+        g.entry(a.into()).or_default().insert(b.into());
+    };
+    edge(&mut g, "a", "b");
+    edge(&mut g, "b", "c");
+    edge(&mut g, "a", "c");
+    assert_eq!(find_cycle(&g), None);
+    edge(&mut g, "c", "a");
+    assert_eq!(find_cycle(&g), Some(vec!["a".into(), "b".into(), "c".into(), "a".into()]));
+}
