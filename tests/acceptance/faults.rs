@@ -196,3 +196,28 @@ plan:
     eprintln!("dead reckoning on the fitted clock: {err}°");
     assert!(err < 0.1, "dead-reckoned attitude {err}° from the truth");
 }
+
+/// The lossy link's failsafe episodes in closed form (`scenarios/lossy-link.yaml`). Poses come
+/// every 5 ms with a constant 20 ms latency, so a burst of k lost frames leaves k·5 + 5 ms
+/// between poses, and the failsafe (no pose for more than 100 ms) starts iff k ≥ 20. The
+/// Gilbert–Elliott chain enters its bad state π_good·p_gb = 0.9·0.0222 = 0.02 times a frame and
+/// stays k frames with P(k ≥ 20) = (1 − p_bg)^19 = 0.8^19 = 1.44 %, so a 42 s run (8400 frames)
+/// has 8400·0.02·0.0144 = 2.42 episodes on average. Over 60 seeds the total (flown: 139) must lie
+/// within 3√E of E = 145 (episodes are rare events of independent bursts: Poisson). A timeout of
+/// 50 ms gives k ≥ 10, 0.8^9 = 13 %, 9.3 times as many (tried: 207 over 10 seeds for 225).
+#[test]
+fn lossy_link_failsafe_episodes_are_the_closed_form() {
+    let text = std::fs::read_to_string(super::root().join("scenarios/lossy-link.yaml")).unwrap();
+    let (p_gb, p_bg): (f64, f64) = (0.0222222, 0.2);
+    assert!(text.contains("p_good_to_bad: 0.0222222, p_bad_to_good: 0.2"), "the scenario's chain changed");
+    let (mut total, mut expected) = (0u32, 0.0);
+    for seed in 1..=60 {
+        let s = inline(&text.replace("seed: 10", &format!("seed: {seed}")));
+        let frames = s.run_time_s() / 0.005;
+        let pi_good = p_bg / (p_gb + p_bg);
+        expected += frames * pi_good * p_gb * (1.0 - p_bg).powi(19);
+        total += run(&s, RunOptions { trace: false, apply_calibration: None }).vehicles[0].failsafe.episodes;
+    }
+    assert!((expected - 145.0).abs() < 1.0, "{expected}");
+    assert!((total as f64 - expected).abs() < 3.0 * expected.sqrt(), "{total} episodes over 60 seeds, expected {expected:.1}");
+}
