@@ -192,6 +192,15 @@ mod tests {
         let before = l.yaw_estimate();
         l.rate_command(&cmd(30.0, 0.0, 0.5), &att, r.rates);
         assert!((l.yaw_estimate() - before - 0.5e-3).abs() < 1e-12);
+        // pitched by θ = 30° (φ = 0) a heading turn ψ̇ is p = −sin θ·ψ̇, r = cos θ·ψ̇: the
+        // heading integrates r/cos θ = ψ̇, not r or r·cos θ
+        let mut l = AttitudeLoop::new([8.0, 8.0, 0.0], 1e-3, 0.0);
+        let att = Rot::from_euler(Euler::from_degrees(0.0, 30.0, 0.0));
+        let (s, c) = 30f64.to_radians().sin_cos();
+        for _ in 0..1000 {
+            l.rate_command(&cmd(0.0, 30.0, 0.5), &att, Vec3::new(-s * 0.5, 0.0, c * 0.5));
+        }
+        assert!((l.yaw_estimate() - 0.5).abs() < 1e-9, "{}", l.yaw_estimate());
     }
 
     /// Power-on calibration: at rest with a bias of (0.1, −0.1, 0.2) rad/s the heading stays put
