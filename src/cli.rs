@@ -6,6 +6,7 @@
 //! invalid scenario, bad arguments, an output that cannot be written) · 130 interrupted.
 
 use clap::{Args, CommandFactory, Parser, Subcommand};
+use flyarena::Error;
 use flyarena::output::{install_interrupt_handler, write_atomic};
 use flyarena::run::{Outcome, run_scenario};
 use flyarena::scenario::Scenario;
@@ -188,25 +189,15 @@ pub const PASS: i32 = 0;
 pub const FAIL: i32 = 1;
 pub const BAD_INPUT: i32 = 2;
 
-/// [`write_atomic`], with the error reported to the user as bad output (exit code 2).
-fn write_output(path: &Path, bytes: &[u8]) -> Result<(), i32> {
-    write_atomic(path, bytes).map_err(|e| {
-        eprintln!("error: cannot write {}: {e}", path.display());
-        BAD_INPUT
-    })
+/// [`write_atomic`], its failure an [`Error::Write`].
+fn write_output(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    write_atomic(path, bytes).map_err(|source| Error::Write { path: path.to_path_buf(), source })
 }
 
-fn cmd_run(a: RunArgs) -> i32 {
-    let loaded = match &a.effects {
-        Some(f) => flyarena::identify::feedback::load_with_effects(&a.scenario, f),
-        None => Scenario::load(&a.scenario).map_err(|e| e.to_string()),
-    };
-    let mut s = match loaded {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return BAD_INPUT;
-        }
+fn cmd_run(a: RunArgs) -> Result<i32, Error> {
+    let mut s = match &a.effects {
+        Some(f) => flyarena::identify::feedback::load_with_effects(&a.scenario, f)?,
+        None => Scenario::load(&a.scenario)?,
     };
     if let Some(seed) = a.seed {
         s.seed = seed;
@@ -218,9 +209,7 @@ fn cmd_run(a: RunArgs) -> i32 {
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name)));
     let json = serde_json::to_vec_pretty(&outcome.summary(&s)).expect("summary serialises");
     let Outcome { main, uncompensated: unc, report } = outcome;
-    if let Err(code) = write_output(&json_path, &json) {
-        return code;
-    }
+    write_output(&json_path, &json)?;
     let mut log_paths = Vec::new();
     if let Some(base) = &a.log {
         let period = 1.0 / s.mocap.rate_hz.value as f64;
@@ -231,9 +220,7 @@ fn cmd_run(a: RunArgs) -> i32 {
                 let stem = base.file_stem().map(|x| x.to_string_lossy().into_owned()).unwrap_or_default();
                 base.with_file_name(format!("{stem}-{}.csv", v.name))
             };
-            if let Err(code) = write_output(&path, flyarena::log::write_csv(v, period).as_bytes()) {
-                return code;
-            }
+            write_output(&path, flyarena::log::write_csv(v, period).as_bytes())?;
             log_paths.push(path);
         }
     }
@@ -241,16 +228,8 @@ fn cmd_run(a: RunArgs) -> i32 {
     #[cfg(feature = "record")]
     if let Some(path) = &rrd_path {
         let opts = flyarena::record::RecordOptions { every: a.rrd_every as usize };
-        let bytes = match flyarena::record::encode(&main, unc.as_ref(), &report, opts) {
-            Ok(b) => b,
-            Err(e) => {
-                eprintln!("error: cannot record the run: {e}");
-                return BAD_INPUT;
-            }
-        };
-        if let Err(code) = write_output(path, &bytes) {
-            return code;
-        }
+        let bytes = flyarena::record::encode(&main, unc.as_ref(), &report, opts)?;
+        write_output(path, &bytes)?;
     }
     let verdict = if report.passed() { "PASS" } else { "FAIL" };
     if !a.quiet {
@@ -284,7 +263,7 @@ fn cmd_run(a: RunArgs) -> i32 {
         }
     }
     println!("{verdict}: {} of {} requirement checks passed", report.rows.iter().filter(|r| r.pass).count(), report.rows.len());
-    if report.passed() { PASS } else { FAIL }
+    Ok(if report.passed() { PASS } else { FAIL })
 }
 
 fn cmd_check(args: &[PathBuf]) -> i32 {
@@ -306,14 +285,12 @@ fn sweep_files(out: &Path, name: &str) -> (PathBuf, PathBuf) {
 }
 
 /// Writes a whole sweep's outputs and prints its summary; returns the exit code.
-fn finish_sweep(o: &flyarena::sweep::SweepOutput, out_dir: &Path, quiet: bool) -> i32 {
+fn finish_sweep(o: &flyarena::sweep::SweepOutput, out_dir: &Path, quiet: bool) -> Result<i32, Error> {
     let summary = flyarena::sweep::summary(o);
     let (json_path, csv_path) = sweep_files(out_dir, &o.scenario);
     let json = serde_json::to_vec_pretty(&serde_json::json!({ "summary": summary, "output": o })).expect("serialises");
     for (path, bytes) in [(&json_path, json), (&csv_path, flyarena::sweep::csv(o).into_bytes())] {
-        if let Err(code) = write_output(path, &bytes) {
-            return code;
-        }
+        write_output(path, &bytes)?;
     }
     let failed = o.rows.iter().filter(|r| !r.passed).count();
     if !quiet {
@@ -337,18 +314,12 @@ fn finish_sweep(o: &flyarena::sweep::SweepOutput, out_dir: &Path, quiet: bool) -
         println!("\nrows: {}\nsummary: {}", csv_path.display(), json_path.display());
     }
     println!("{}: {} of {} rows passed every requirement", if failed == 0 { "PASS" } else { "FAIL" }, o.rows.len() - failed, o.rows.len());
-    if failed == 0 { PASS } else { FAIL }
+    Ok(if failed == 0 { PASS } else { FAIL })
 }
 
-fn cmd_sweep(a: SweepArgs) -> i32 {
+fn cmd_sweep(a: SweepArgs) -> Result<i32, Error> {
     let SweepArgs { scenario: file, runs, shard, out, quiet } = a;
-    let sweep = match flyarena::sweep::Sweep::load(&file) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return BAD_INPUT;
-        }
-    };
+    let sweep = flyarena::sweep::Sweep::load(&file)?;
     let runs = runs.unwrap_or(sweep.default_runs());
     let mine = flyarena::sweep::shard_runs(runs, shard).count() as u64;
     use std::io::IsTerminal;
@@ -381,13 +352,7 @@ fn cmd_sweep(a: SweepArgs) -> i32 {
         }
         Ok(f)
     })();
-    let journal = match journal {
-        Ok(f) => std::sync::Mutex::new(f),
-        Err(e) => {
-            eprintln!("error: cannot write the sweep journal {}: {e}", journal_path.display());
-            return BAD_INPUT;
-        }
-    };
+    let journal = std::sync::Mutex::new(journal.map_err(|source| Error::Write { path: journal_path.clone(), source })?);
     bar.inc(done_mine);
     let result = sweep.run_resumable(runs, shard, &done, &|_, rows| {
         let line = serde_json::to_string(rows).expect("serialises") + "\n";
@@ -398,162 +363,110 @@ fn cmd_sweep(a: SweepArgs) -> i32 {
         bar.inc(1);
     });
     bar.finish_and_clear();
-    let o = match result {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return BAD_INPUT;
-        }
-    };
+    let o = result?;
     let code = match shard {
-        None => finish_sweep(&o, &out, quiet),
+        None => finish_sweep(&o, &out, quiet)?,
         Some((k, n)) => {
             let path = out.join(format!("{}.sweep.shard-{}-of-{n}.json", o.scenario, k + 1));
-            if let Err(code) = write_output(&path, &serde_json::to_vec(&o).expect("serialises")) {
-                return code;
-            }
+            write_output(&path, &serde_json::to_vec(&o).expect("serialises"))?;
             println!("shard {}/{n}: {} runs → {} (combine with `flyarena merge`)", k + 1, mine, path.display());
             PASS
         }
     };
-    if code != BAD_INPUT {
-        let _ = std::fs::remove_file(&journal_path);
-    }
-    code
+    // the outputs are written: the journal has done its job (on an error above it stays, and
+    // a rerun resumes from it)
+    let _ = std::fs::remove_file(&journal_path);
+    Ok(code)
 }
 
-fn cmd_merge(files: &[PathBuf], out: &Path) -> i32 {
+fn cmd_merge(files: &[PathBuf], out: &Path) -> Result<i32, Error> {
     let mut parts = Vec::new();
     for f in files {
-        let part =
-            std::fs::read(f).map_err(|e| e.to_string()).and_then(|b| serde_json::from_slice::<flyarena::sweep::SweepOutput>(&b).map_err(|e| format!("not a shard file: {e}")));
-        match part {
-            Ok(p) => parts.push(p),
-            Err(e) => {
-                eprintln!("error: {}: {e}", f.display());
-                return BAD_INPUT;
-            }
-        }
+        let bytes = std::fs::read(f).map_err(|e| Error::Usage(format!("{}: {e}", f.display())))?;
+        let part = serde_json::from_slice::<flyarena::sweep::SweepOutput>(&bytes).map_err(|e| Error::Usage(format!("{}: not a shard file: {e}", f.display())))?;
+        parts.push(part);
     }
-    match flyarena::sweep::merge(parts) {
-        Ok(o) => finish_sweep(&o, out, false),
-        Err(e) => {
-            eprintln!("error: {e}");
-            BAD_INPUT
-        }
-    }
+    finish_sweep(&flyarena::sweep::merge(parts)?, out, false)
 }
 
 /// The combinations of inputs and options clap cannot declare.
-fn check_identify(a: &IdentifyArgs) -> Result<(), String> {
-    let first = a.inputs.first().ok_or("what to identify? `flyarena identify scenarios/<x>.yaml`, or a log with --scenario or --mapping")?;
+fn check_identify(a: &IdentifyArgs) -> Result<(), Error> {
+    let usage = |m: &str| Error::Usage(m.to_string());
+    let first = a.inputs.first().ok_or_else(|| usage("what to identify? `flyarena identify scenarios/<x>.yaml`, or a log with --scenario or --mapping"))?;
     let is_yaml = first.extension().is_some_and(|e| e == "yaml" || e == "yml");
     if a.inputs.len() > 1 && a.mapping.is_none() {
-        return Err("several inputs (cross-validation) need --mapping: they are logs of other tools".into());
+        return Err(usage("several inputs (cross-validation) need --mapping: they are logs of other tools"));
     }
     match (is_yaml, &a.scenario, &a.mapping) {
         (true, None, None) => {}
-        (true, _, _) => return Err("a scenario input is run and identified by itself: --scenario and --mapping are for logs".into()),
-        (false, Some(_), Some(_)) => return Err("--scenario (a flyarena log) and --mapping (another tool's log) exclude each other".into()),
-        (false, None, None) => return Err(format!("{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's)", first.display())),
+        (true, _, _) => return Err(usage("a scenario input is run and identified by itself: --scenario and --mapping are for logs")),
+        (false, Some(_), Some(_)) => return Err(usage("--scenario (a flyarena log) and --mapping (another tool's log) exclude each other")),
+        (false, None, None) => {
+            return Err(usage(&format!("{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's)", first.display())));
+        }
         _ => {}
     }
     Ok(())
 }
 
-fn cmd_identify(a: IdentifyArgs) -> i32 {
-    if let Err(e) = check_identify(&a) {
-        eprintln!("error: {e}");
-        return BAD_INPUT;
-    }
+fn cmd_identify(a: IdentifyArgs) -> Result<i32, Error> {
+    check_identify(&a)?;
     if a.inputs.len() > 1 {
         let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
-        return match flyarena::identify::workflow::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced) {
-            Ok(m) => {
-                let json_path = a.json.unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
-                if let Err(code) = write_output(&json_path, &serde_json::to_vec_pretty(&m.json).expect("serialises")) {
-                    return code;
-                }
-                if !a.quiet {
-                    print!("{}", m.text);
-                }
-                println!("\nreport: {}", json_path.display());
-                PASS
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                BAD_INPUT
-            }
-        };
+        let m = flyarena::identify::workflow::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced)?;
+        let json_path = a.json.unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
+        write_output(&json_path, &serde_json::to_vec_pretty(&m.json).expect("serialises"))?;
+        if !a.quiet {
+            print!("{}", m.text);
+        }
+        println!("\nreport: {}", json_path.display());
+        return Ok(PASS);
     }
     let input = &a.inputs[0];
-    match flyarena::identify::workflow::run(input, a.scenario.as_deref(), a.mapping.as_deref(), a.vehicle.as_deref(), a.seed, a.smoothing_ms, &a.forced) {
-        Ok(done) => {
-            let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
-            let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
-            let json = serde_json::to_vec_pretty(&done.json).expect("report serialises");
-            if let Err(code) = write_output(&json_path, &json) {
-                return code;
-            }
-            let frag_path = a.fragment.unwrap_or_else(|| a.out.join(format!("{stem}.effects.yaml")));
-            if let Err(code) = write_output(&frag_path, done.fragment.as_bytes()) {
-                return code;
-            }
-            let rrd_path = (cfg!(feature = "record") && !a.no_rrd).then(|| a.rrd.clone().unwrap_or_else(|| a.out.join(format!("{stem}.identify.rrd"))));
-            #[cfg(feature = "record")]
-            if let Some(path) = &rrd_path {
-                match flyarena::record::encode_identify(&stem, &done.report, &done.residuals) {
-                    Ok(bytes) => {
-                        if let Err(code) = write_output(path, &bytes) {
-                            return code;
-                        }
-                    }
-                    Err(e) => {
-                        eprintln!("error: cannot record the residuals: {e}");
-                        return BAD_INPUT;
-                    }
-                }
-            }
+    let done = flyarena::identify::workflow::run(input, a.scenario.as_deref(), a.mapping.as_deref(), a.vehicle.as_deref(), a.seed, a.smoothing_ms, &a.forced)?;
+    let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
+    let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
+    let json = serde_json::to_vec_pretty(&done.json).expect("report serialises");
+    write_output(&json_path, &json)?;
+    let frag_path = a.fragment.unwrap_or_else(|| a.out.join(format!("{stem}.effects.yaml")));
+    write_output(&frag_path, done.fragment.as_bytes())?;
+    let rrd_path = (cfg!(feature = "record") && !a.no_rrd).then(|| a.rrd.clone().unwrap_or_else(|| a.out.join(format!("{stem}.identify.rrd"))));
+    #[cfg(feature = "record")]
+    if let Some(path) = &rrd_path {
+        write_output(path, &flyarena::record::encode_identify(&stem, &done.report, &done.residuals)?)?;
+    }
+    if !a.quiet {
+        print!("{}", done.text);
+        println!("\nreport: {}\nscenario fragment: {} (`flyarena run SCENARIO --effects {}`)", json_path.display(), frag_path.display(), frag_path.display());
+        if let Some(p) = &rrd_path {
+            println!("residuals: {} (open with `rerun {}`)", p.display(), p.display());
+        }
+    }
+    match &done.requirements {
+        Some(req) => {
             if !a.quiet {
-                print!("{}", done.text);
-                println!("\nreport: {}\nscenario fragment: {} (`flyarena run SCENARIO --effects {}`)", json_path.display(), frag_path.display(), frag_path.display());
-                if let Some(p) = &rrd_path {
-                    println!("residuals: {} (open with `rerun {}`)", p.display(), p.display());
-                }
+                println!();
+                print!("{}", req.table());
+                println!();
             }
-            match &done.requirements {
-                Some(req) => {
-                    if !a.quiet {
-                        println!();
-                        print!("{}", req.table());
-                        println!();
-                    }
-                    let verdict = if req.passed() { "PASS" } else { "FAIL" };
-                    println!("{verdict}: {} of {} requirement checks passed", req.rows.iter().filter(|r| r.pass).count(), req.rows.len());
-                    if req.passed() { PASS } else { FAIL }
-                }
-                None => PASS,
-            }
+            let verdict = if req.passed() { "PASS" } else { "FAIL" };
+            println!("{verdict}: {} of {} requirement checks passed", req.rows.iter().filter(|r| r.pass).count(), req.rows.len());
+            Ok(if req.passed() { PASS } else { FAIL })
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            BAD_INPUT
-        }
+        None => Ok(PASS),
     }
 }
 
-fn cmd_trials(flights: u64, seed: u64, out: &Path) -> i32 {
+fn cmd_trials(flights: u64, seed: u64, out: &Path) -> Result<i32, Error> {
     let outcomes = flyarena::identify::trials::run_many(seed, flights, &flyarena::identify::Options::default());
     let table = flyarena::identify::trials::render(&outcomes);
     let (by, total) = flyarena::identify::trials::score(&outcomes);
     let json = serde_json::json!({ "seed": seed, "flights": flights, "scores": by.iter().map(|(e, s)| serde_json::json!({"effect": e, "score": s})).collect::<Vec<_>>(), "total": total, "outcomes": outcomes });
     let path = out.join(format!("trials-{seed}-{flights}.json"));
-    if let Err(code) = write_output(&path, &serde_json::to_vec_pretty(&json).expect("serialises")) {
-        return code;
-    }
+    write_output(&path, &serde_json::to_vec_pretty(&json).expect("serialises"))?;
     print!("{table}");
     println!("\nreport: {}", path.display());
-    PASS
+    Ok(PASS)
 }
 
 /// Parses the arguments, runs the command and returns the process exit code (clap's own
@@ -568,16 +481,20 @@ pub fn main() -> i32 {
         }
     };
     install_interrupt_handler();
-    match cli.command {
+    let done = match cli.command {
         Command::Run(a) => cmd_run(a),
-        Command::Check { scenarios } => cmd_check(&scenarios),
+        Command::Check { scenarios } => Ok(cmd_check(&scenarios)),
         Command::Sweep(a) => cmd_sweep(a),
         Command::Merge { shards, out } => cmd_merge(&shards, &out),
         Command::Identify(a) => cmd_identify(a),
         Command::Trials { flights, seed, out } => cmd_trials(flights, seed, &out),
         Command::Completions { shell } => {
             clap_complete::generate(shell, &mut Cli::command(), "flyarena", &mut std::io::stdout());
-            PASS
+            Ok(PASS)
         }
-    }
+    };
+    done.unwrap_or_else(|e| {
+        eprintln!("error: {e}");
+        e.exit_code()
+    })
 }

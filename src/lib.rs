@@ -79,6 +79,7 @@ pub mod control;
 pub mod cpu;
 pub mod effects;
 pub mod engine;
+mod error;
 pub mod estimate;
 pub mod frames;
 pub mod guidance;
@@ -96,3 +97,5 @@ pub mod run;
 pub mod scenario;
 pub mod sweep;
 pub mod vehicle;
+
+pub use error::{Error, Result};

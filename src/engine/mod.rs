@@ -199,7 +199,7 @@ impl Arena {
             .enumerate()
             .map(|(i, vs)| {
                 let v = &vs.value;
-                let params = s.vehicle_params(i).expect("validated");
+                let params = s.vehicle_params(i);
                 let template = s.template(i).expect("validated");
                 let n = template.len();
                 let disp: Vec<Vec3<_>> = match &v.markers.displacement_mm {

@@ -16,6 +16,7 @@
 //! trajectory is from the data.
 
 use super::design::Effect;
+use super::error::InputError;
 use super::select::Report;
 use super::series::Series;
 use crate::scenario::Scenario;
@@ -108,16 +109,18 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
 }
 
 /// Reads a scenario and applies a fragment to it.
-pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, String> {
-    let src = std::fs::read_to_string(scenario).map_err(|e| format!("{}: {e}", scenario.display()))?;
-    let fsrc = std::fs::read_to_string(fragment).map_err(|e| format!("{}: {e}", fragment.display()))?;
-    let frag: Fragment = serde_saphyr::from_str(&fsrc).map_err(|e| format!("{}: {e}", fragment.display()))?;
-    let mut tree: Value = serde_saphyr::from_str(&src).map_err(|e| format!("{}: {e}", scenario.display()))?;
+pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, InputError> {
+    let src = std::fs::read_to_string(scenario).map_err(|e| InputError::io(scenario.display(), e))?;
+    let fsrc = std::fs::read_to_string(fragment).map_err(|e| InputError::io(fragment.display(), e))?;
+    let frag: Fragment = serde_saphyr::from_str(&fsrc).map_err(|e| InputError::invalid(fragment.display(), e))?;
+    // the scenario is checked as a whole, with its positions, before the fragment touches it
+    Scenario::parse(&src, scenario)?;
+    let mut tree: Value = serde_saphyr::from_str(&src).map_err(|e| InputError::invalid(scenario.display(), e))?;
     for (path, v) in frag.effects {
-        set_in(&mut tree, &path, v, true).map_err(|e| format!("{}: {e}", fragment.display()))?;
+        set_in(&mut tree, &path, v, true).map_err(|e| InputError::invalid(fragment.display(), e))?;
     }
     let text = serde_json::to_string(&tree).expect("a JSON tree serialises");
-    Scenario::parse(&text, Path::new(&format!("{} + {}", scenario.display(), fragment.display()))).map_err(|e| e.to_string())
+    Ok(Scenario::parse(&text, Path::new(&format!("{} + {}", scenario.display(), fragment.display())))?)
 }
 
 /// Closed-loop distance between two flights of the same plan: RMS of the mocap position
@@ -144,13 +147,13 @@ pub fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
 }
 
 /// The scenario with its undeclared effects removed, and with the fragment applied to that.
-pub fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str, name: &str) -> Result<(Scenario, Scenario), String> {
+pub fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str, name: &str) -> Result<(Scenario, Scenario), InputError> {
     let nominal = nominal_tree(scenario_src, i);
-    let frag: Fragment = serde_saphyr::from_str(fragment_text).map_err(|e| format!("fragment: {e}"))?;
+    let frag: Fragment = serde_saphyr::from_str(fragment_text).map_err(|e| InputError::invalid("fragment", e))?;
     let mut fed = nominal.clone();
     for (path, v) in frag.effects {
-        set_in(&mut fed, &path, v, true)?;
+        set_in(&mut fed, &path, v, true).map_err(|e| InputError::invalid("fragment", e))?;
     }
-    let parse = |t: &Value, what: &str| Scenario::parse(&serde_json::to_string(t).expect("JSON"), Path::new(&format!("{name} ({what})"))).map_err(|e| e.to_string());
+    let parse = |t: &Value, what: &str| Scenario::parse(&serde_json::to_string(t).expect("JSON"), Path::new(&format!("{name} ({what})")));
     Ok((parse(&nominal, "nominal")?, parse(&fed, "with the identified effects")?))
 }

@@ -7,6 +7,7 @@
 //! The logged battery voltage `vbat_v` is passed on with the declared pack's reference voltage
 //! V_ref, for the thrust–voltage candidate.
 
+use super::error::InputError;
 use super::series::{NominalModel, Series};
 use crate::log::FlightLog;
 use crate::scenario::Scenario;
@@ -25,13 +26,16 @@ pub use crate::vehicle::params::X3D_ROTOR_RADIUS_M;
 /// that spread as one standard deviation of a systematic error.
 pub const THRUST_REL_SD: f64 = 2e-4;
 
-pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Result<Series, String> {
-    let p = s.vehicle_params(vehicle).map_err(|(_, m)| m)?;
-    let col = |name: &str| log.column(name).ok_or_else(|| format!("the log has no column `{name}`"));
+/// A flyarena log of vehicle `vehicle` of the scenario `s` as identification data (`source`
+/// names it in errors and the report). The commanded thrust goes through the radio latency and
+/// the motor lag of the scenario's model.
+pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Result<Series, InputError> {
+    let p = s.vehicle_params(vehicle);
+    let col = |name: &str| log.column(name).ok_or_else(|| InputError::log(source, format!("the log has no column `{name}`")));
     let n = log.rows();
     let t: Vec<f64> = col("t_s")?.iter().map(|x| x.unwrap_or(f64::NAN)).collect();
     let valid = col("mocap_valid")?;
-    let get = |name: &str| -> Result<Vec<f64>, String> { Ok(col(name)?.iter().map(|x| x.unwrap_or(f64::NAN)).collect()) };
+    let get = |name: &str| -> Result<Vec<f64>, InputError> { Ok(col(name)?.iter().map(|x| x.unwrap_or(f64::NAN)).collect()) };
     let (pn, pe, pd) = (get("pos_n_m")?, get("pos_e_m")?, get("pos_d_m")?);
     let (qw, qx, qy, qz) = (get("q_w")?, get("q_x")?, get("q_y")?, get("q_z")?);
     let g: Vec<Vec<f64>> = ["gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s"].iter().map(|c| get(c)).collect::<Result<_, _>>()?;
@@ -91,11 +95,11 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
 
 /// Runs a scenario and returns its flight log for vehicle `vehicle` as identification data,
 /// through the same CSV text a `run --log` writes (so the two routes cannot drift apart).
-pub fn run_and_log(s: &Scenario, vehicle: usize, source: &str) -> Result<(crate::engine::RunOutput, Series), String> {
+pub fn run_and_log(s: &Scenario, vehicle: usize, source: &str) -> Result<(crate::engine::RunOutput, Series), InputError> {
     let out = crate::engine::run(s, crate::engine::RunOptions { trace: true, apply_calibration: None });
-    let v = out.vehicles.get(vehicle).ok_or_else(|| format!("vehicle {vehicle} does not exist"))?;
+    let v = out.vehicles.get(vehicle).ok_or_else(|| InputError::log(source, format!("vehicle {vehicle} does not exist (the scenario has {})", out.vehicles.len())))?;
     let text = crate::log::write_csv(v, 1.0 / s.mocap.rate_hz.value as f64);
-    let log = crate::log::read_csv(&text, source).map_err(|e| e.to_string())?;
+    let log = crate::log::read_csv(&text, source)?;
     let series = series(&log, s, vehicle, source)?;
     Ok((out, series))
 }

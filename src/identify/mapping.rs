@@ -27,6 +27,7 @@
 //! increase; a repeated timestamp is dropped and a gap longer than 3 × the median interval
 //! splits the log into segments, both reported.
 
+use super::error::InputError;
 use super::series::{NominalModel, Series};
 use crate::vehicle::params::{CRAZYFLIE21_ROTOR_RADIUS_M, GRAVITY, PwmThrustMap, VehicleParams};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -106,7 +107,7 @@ impl Ros2File {
     }
 }
 
-#[derive(Debug, serde::Deserialize, Clone, Copy)]
+#[derive(Debug, serde::Deserialize, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum VehiclePreset {
     Crazyflie21,
@@ -170,57 +171,86 @@ pub struct Motors {
     pub columns: Vec<String>,
 }
 
-fn unit_factor(what: &str, unit: &str, allowed: &[(&str, f64)]) -> Result<f64, String> {
+fn unit_factor(file: &str, what: &str, unit: &str, allowed: &[(&str, f64)]) -> Result<f64, InputError> {
     allowed
         .iter()
         .find(|(u, _)| *u == unit)
         .map(|x| x.1)
-        .ok_or_else(|| format!("{what}: unit `{unit}` is not one of {}", allowed.iter().map(|(u, _)| format!("`{u}`")).collect::<Vec<_>>().join(", ")))
+        .ok_or_else(|| InputError::invalid(file, format!("{what}: unit `{unit}` is not one of {}", allowed.iter().map(|(u, _)| format!("`{u}`")).collect::<Vec<_>>().join(", "))))
+}
+
+/// The SI factors of a mapping's units (time, position, gyro, accelerometer, Euler angles).
+struct Factors {
+    time: f64,
+    pos: f64,
+    gyro: f64,
+    acc: f64,
+    euler: Option<f64>,
 }
 
 impl Mapping {
-    pub fn load(path: &Path) -> Result<Mapping, String> {
-        let src = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    /// Reads and checks a mapping file.
+    pub fn load(path: &Path) -> Result<Mapping, InputError> {
+        let src = std::fs::read_to_string(path).map_err(|e| InputError::io(path.display(), e))?;
         Self::parse(&src, path)
     }
-    pub fn parse(src: &str, path: &Path) -> Result<Mapping, String> {
-        let err = |e: serde_saphyr::Error| format!("{}: {}", path.display(), crate::scenario::error::with_suggestion(&e.to_string()));
+
+    /// Parses and checks a mapping (`path` names it in errors): unknown keys, the attitude's
+    /// form, units, ranges.
+    pub fn parse(src: &str, path: &Path) -> Result<Mapping, InputError> {
+        let file = path.display().to_string();
+        let err = |e: serde_saphyr::Error| InputError::invalid(&file, crate::scenario::error::with_suggestion(&e.to_string()));
         // a `ros2:` block makes it a mapping of topics, not columns
         let keys: std::collections::BTreeMap<String, serde::de::IgnoredAny> = serde_saphyr::from_str(src).map_err(err)?;
         let m: Mapping = if keys.contains_key("ros2") { serde_saphyr::from_str::<Ros2File>(src).map_err(err)?.into_mapping() } else { serde_saphyr::from_str(src).map_err(err)? };
         if let Some(mass) = m.mass_kg
             && !(mass > 0.0 && mass < 100.0)
         {
-            return Err(format!("{}: mass_kg {mass} is outside the allowed range (0, 100) kg", path.display()));
+            return Err(InputError::invalid(&file, format!("mass_kg {mass} is outside the allowed range (0, 100) kg")));
         }
         let a = &m.attitude;
         match (&a.columns, &a.order, &a.euler, &a.unit) {
             (Some(_), Some(_), None, None) | (None, None, Some(_), Some(_)) => {}
             _ => {
-                return Err(format!(
-                    "{}: attitude: give either a quaternion `{{columns: [4 names], order: xyzw or wxyz}}` or Z-Y-X Euler angles `{{euler: [roll, pitch, yaw], unit: rad or deg}}`",
-                    path.display()
+                return Err(InputError::invalid(
+                    &file,
+                    "attitude: give either a quaternion `{columns: [4 names], order: xyzw or wxyz}` or Z-Y-X Euler angles `{euler: [roll, pitch, yaw], unit: rad or deg}`",
                 ));
             }
         }
         if let Some(sm) = m.smoothing_ms
             && !(2.0..=500.0).contains(&sm)
         {
-            return Err(format!("{}: smoothing_ms {sm} is outside the allowed range [2, 500] ms", path.display()));
+            return Err(InputError::invalid(&file, format!("smoothing_ms {sm} is outside the allowed range [2, 500] ms")));
         }
         if let Some(mo) = &m.motors
             && mo.columns.is_empty()
             && m.ros2.is_none()
         {
-            return Err(format!("{}: motors.columns is empty; give one column per motor", path.display()));
+            return Err(InputError::invalid(&file, "motors.columns is empty; give one column per motor"));
         }
+        if m.motors.is_some() && m.vehicle == VehiclePreset::X3d {
+            return Err(InputError::invalid(&file, "the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`"));
+        }
+        m.factors(&file)?;
         Ok(m)
     }
 
+    fn factors(&self, file: &str) -> Result<Factors, InputError> {
+        let deg = std::f64::consts::PI / 180.0;
+        Ok(Factors {
+            time: unit_factor(file, "time", self.time.unit.as_deref().unwrap_or("s"), &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)])?,
+            pos: unit_factor(file, "position", &self.position.unit, &[("m", 1.0), ("mm", 1e-3)])?,
+            gyro: unit_factor(file, "gyro", &self.gyro.unit, &[("rad/s", 1.0), ("deg/s", deg)])?,
+            acc: unit_factor(file, "accel", &self.accel.unit, &[("m/s2", 1.0), ("m/s²", 1.0), ("g", GRAVITY)])?,
+            euler: self.attitude.unit.as_deref().map(|u| unit_factor(file, "attitude", u, &[("rad", 1.0), ("deg", deg)])).transpose()?,
+        })
+    }
+
     /// Reads a CSV log, or with a `ros2:` mapping a ROS 2 bag (MCAP), through the mapping.
-    pub fn read(&self, path: &Path) -> Result<Series, String> {
+    pub fn read(&self, path: &Path) -> Result<Series, InputError> {
         let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| format!("{file}: {e}"))?;
+        let bytes = std::fs::read(path).map_err(|e| InputError::io(&file, e))?;
         match &self.ros2 {
             Some(topics) => {
                 let (text, repairs) = super::ros2::to_csv(&bytes, topics, &file)?;
@@ -231,38 +261,38 @@ impl Mapping {
                 s.repairs.splice(0..0, repairs);
                 Ok(s)
             }
-            None if bytes.starts_with(super::ros2::MAGIC) => Err(format!("{file}: an MCAP file needs a mapping with a `ros2:` block of topics (see mappings/ros2-crazyflie.yaml)")),
+            None if bytes.starts_with(super::ros2::MAGIC) => {
+                Err(InputError::log(&file, "an MCAP file needs a mapping with a `ros2:` block of topics (see mappings/ros2-crazyflie.yaml)"))
+            }
             None => {
-                let text = String::from_utf8(bytes).map_err(|e| format!("{file}: not UTF-8 text ({e})"))?;
+                let text = String::from_utf8(bytes).map_err(|e| InputError::log(&file, format!("not UTF-8 text ({e})")))?;
                 self.read_str(&text, &file)
             }
         }
     }
 
-    pub fn read_str(&self, text: &str, file: &str) -> Result<Series, String> {
-        let time_f = unit_factor("time", self.time.unit.as_deref().unwrap_or("s"), &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)])?;
-        let pos_f = unit_factor("position", &self.position.unit, &[("m", 1.0), ("mm", 1e-3)])?;
-        let gyro_f = unit_factor("gyro", &self.gyro.unit, &[("rad/s", 1.0), ("deg/s", std::f64::consts::PI / 180.0)])?;
-        let acc_f = unit_factor("accel", &self.accel.unit, &[("m/s2", 1.0), ("m/s²", 1.0), ("g", GRAVITY)])?;
+    /// Reads a CSV log's text (`file` names it in errors and the report) through the mapping.
+    pub fn read_str(&self, text: &str, file: &str) -> Result<Series, InputError> {
+        let Factors { time: time_f, pos: pos_f, gyro: gyro_f, acc: acc_f, euler: euler_f } = self.factors("the mapping")?;
         let mut lines = text.lines();
-        let header: Vec<&str> = lines.next().ok_or_else(|| format!("{file}: the log is empty"))?.split(',').map(str::trim).collect();
-        let find = |name: &str| -> Result<usize, String> {
+        let header: Vec<&str> = lines.next().ok_or_else(|| InputError::log(file, "the log is empty"))?.split(',').map(str::trim).collect();
+        let find = |name: &str| -> Result<usize, InputError> {
             header.iter().position(|h| *h == name).ok_or_else(|| {
                 let close = header.iter().map(|h| (crate::scenario::error::edit_distance(name, h), *h)).filter(|(d, _)| *d <= 3).min().map(|x| x.1);
-                format!("{file}:1: the mapping names column `{name}`, which the header does not have{}", close.map_or(String::new(), |c| format!(" (is it `{c}`?)")))
+                InputError::row(
+                    file,
+                    1,
+                    format!("the mapping names column `{name}`, which the header does not have{}", close.map_or(String::new(), |c| format!(" (is it `{c}`?)"))),
+                )
             })
         };
         let ti = find(&self.time.column)?;
         let pi: Vec<usize> = self.position.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
         let att = &self.attitude;
-        let euler_f = match &att.unit {
-            Some(u) => Some(unit_factor("attitude", u, &[("rad", 1.0), ("deg", std::f64::consts::PI / 180.0)])?),
-            None => None,
-        };
         let att_names: Vec<&String> = match (&att.columns, &att.euler) {
             (Some(q), _) => q.iter().collect(),
             (None, Some(e)) => e.iter().collect(),
-            (None, None) => return Err(format!("{file}: the mapping has no attitude columns")),
+            (None, None) => return Err(InputError::invalid("the mapping", "it has no attitude columns")),
         };
         let qi: Vec<usize> = att_names.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
         let gi: Vec<usize> = self.gyro.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
@@ -276,7 +306,7 @@ impl Mapping {
             VehiclePreset::X3d => (VehicleParams::x3d(), None),
         };
         if !mi.is_empty() && map.is_none() {
-            return Err(format!("{file}: the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`"));
+            return Err(InputError::invalid("the mapping", "the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`"));
         }
         let mut s = Series {
             source: file.to_string(),
@@ -313,14 +343,21 @@ impl Mapping {
             }
             let cells: Vec<&str> = line.split(',').collect();
             if cells.len() < header.len() {
-                return Err(format!("{file}:{lineno}: {} cells for {} columns", cells.len(), header.len()));
+                return Err(InputError::row(file, lineno, format!("{} cells for {} columns", cells.len(), header.len())));
             }
             let num = |i: usize| -> Option<f64> { cells[i].trim().parse::<f64>().ok().filter(|x| x.is_finite()) };
-            let need = |i: usize| -> Result<f64, String> { num(i).ok_or_else(|| format!("{file}:{lineno}: column `{}`: `{}` is not a finite number", header[i], cells[i].trim())) };
+            let need = |i: usize| -> Result<f64, InputError> {
+                num(i).ok_or_else(|| InputError::Row {
+                    file: file.to_string(),
+                    line: lineno,
+                    column: Some(header[i].to_string()),
+                    message: format!("`{}` is not a finite number", cells[i].trim()),
+                })
+            };
             let t = need(ti)? * time_f;
             if let Some(&prev) = s.t_s.last() {
                 if t < prev {
-                    return Err(format!("{file}:{lineno}: time goes backwards ({t} s after {prev} s)"));
+                    return Err(InputError::row(file, lineno, format!("time goes backwards ({t} s after {prev} s)")));
                 }
                 if t == prev {
                     s.repairs.push(format!("line {lineno}: repeats the time of the previous row and was dropped"));
@@ -339,7 +376,7 @@ impl Mapping {
                         };
                         let norm = (w * w + x * x + y * y + z * z).sqrt();
                         if (norm - 1.0).abs() > 0.01 {
-                            return Err(format!("{file}:{lineno}: the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`"));
+                            return Err(InputError::row(file, lineno, format!("the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`")));
                         }
                         UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
                     }
@@ -380,7 +417,7 @@ impl Mapping {
             s.accel_body.push(acc);
         }
         if s.t_s.len() < 2 {
-            return Err(format!("{file}: fewer than two rows"));
+            return Err(InputError::log(file, "fewer than two rows"));
         }
         s.segments = crate::log::split_at_gaps(&s.t_s, &mut s.repairs);
         Ok(s)

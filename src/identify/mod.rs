@@ -38,6 +38,7 @@
 pub mod check;
 pub mod consistency;
 pub mod design;
+mod error;
 pub mod feedback;
 pub mod flyarena_log;
 pub mod ground;
@@ -52,5 +53,6 @@ pub mod trials;
 pub mod workflow;
 
 pub use design::{Channel, DesignOptions, Effect};
+pub use error::InputError;
 pub use select::{IdentifyError, Options, Report, identify};
 pub use series::{Corrections, NominalModel, Series};

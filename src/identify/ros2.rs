@@ -28,6 +28,7 @@
 //! Nothing read from the file can panic: a message cut short, a wrong schema or encoding, a
 //! missing topic or a non-finite value is an error naming the topic and the message's index.
 
+use super::error::InputError;
 use std::fmt::Write as _;
 
 /// The topics of a ROS 2 mapping.
@@ -47,6 +48,31 @@ pub const MAGIC: &[u8] = b"\x89MCAP0\r\n";
 
 /// A little CDR (XCDR1) reader: primitives aligned to their size from the start of the payload
 /// (after the 4-byte encapsulation header), in the byte order the header names.
+/// Why a message's CDR payload does not decode, or does not hold what its topic needs.
+#[derive(Debug, thiserror::Error)]
+enum CdrError {
+    #[error("shorter than its CDR header")]
+    NoHeader,
+    #[error("CDR representation {0:#04x} is not plain CDR (0x00 big or 0x01 little endian)")]
+    NotPlain(u8),
+    #[error("cut short")]
+    CutShort,
+    #[error("{0}")]
+    Content(String),
+}
+
+impl From<&str> for CdrError {
+    fn from(s: &str) -> Self {
+        CdrError::Content(s.to_string())
+    }
+}
+
+impl From<String> for CdrError {
+    fn from(s: String) -> Self {
+        CdrError::Content(s)
+    }
+}
+
 struct Cdr<'a> {
     buf: &'a [u8],
     pos: usize,
@@ -54,51 +80,51 @@ struct Cdr<'a> {
 }
 
 impl<'a> Cdr<'a> {
-    fn new(data: &'a [u8]) -> Result<Cdr<'a>, String> {
+    fn new(data: &'a [u8]) -> Result<Cdr<'a>, CdrError> {
         if data.len() < 4 {
-            return Err("shorter than its CDR header".into());
+            return Err(CdrError::NoHeader);
         }
         let little = match data[1] {
             0x00 => false,
             0x01 => true,
-            k => return Err(format!("CDR representation {k:#04x} is not plain CDR (0x00 big or 0x01 little endian)")),
+            k => return Err(CdrError::NotPlain(k)),
         };
         Ok(Cdr { buf: &data[4..], pos: 0, little })
     }
-    fn take(&mut self, size: usize, align: usize) -> Result<&'a [u8], String> {
+    fn take(&mut self, size: usize, align: usize) -> Result<&'a [u8], CdrError> {
         let start = self.pos.div_ceil(align) * align;
-        let end = start.checked_add(size).filter(|e| *e <= self.buf.len()).ok_or("cut short")?;
+        let end = start.checked_add(size).filter(|e| *e <= self.buf.len()).ok_or(CdrError::CutShort)?;
         self.pos = end;
         Ok(&self.buf[start..end])
     }
-    fn u32(&mut self) -> Result<u32, String> {
+    fn u32(&mut self) -> Result<u32, CdrError> {
         let b: [u8; 4] = self.take(4, 4)?.try_into().expect("4 bytes");
         Ok(if self.little { u32::from_le_bytes(b) } else { u32::from_be_bytes(b) })
     }
-    fn i32(&mut self) -> Result<i32, String> {
+    fn i32(&mut self) -> Result<i32, CdrError> {
         Ok(self.u32()? as i32)
     }
-    fn f32(&mut self) -> Result<f64, String> {
+    fn f32(&mut self) -> Result<f64, CdrError> {
         Ok(f32::from_bits(self.u32()?) as f64)
     }
-    fn f64(&mut self) -> Result<f64, String> {
+    fn f64(&mut self) -> Result<f64, CdrError> {
         let b: [u8; 8] = self.take(8, 8)?.try_into().expect("8 bytes");
         Ok(if self.little { f64::from_le_bytes(b) } else { f64::from_be_bytes(b) })
     }
-    fn f64s<const N: usize>(&mut self) -> Result<[f64; N], String> {
+    fn f64s<const N: usize>(&mut self) -> Result<[f64; N], CdrError> {
         let mut out = [0.0; N];
         for x in &mut out {
             *x = self.f64()?;
         }
         Ok(out)
     }
-    fn string(&mut self) -> Result<(), String> {
+    fn string(&mut self) -> Result<(), CdrError> {
         let n = self.u32()? as usize;
         self.take(n, 1)?;
         Ok(())
     }
     /// std_msgs/Header: the stamp in nanoseconds (the frame id is skipped).
-    fn header(&mut self) -> Result<i128, String> {
+    fn header(&mut self) -> Result<i128, CdrError> {
         let sec = self.i32()? as i128;
         let nanosec = self.u32()? as i128;
         self.string()?;
@@ -133,26 +159,26 @@ fn schema_is(name: &str, want: &str) -> bool {
 
 /// Reads the bag `bytes` through `topics` into the rows of a CSV log with the columns
 /// `t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, and the repairs made.
-pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<String>), String> {
+pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<String>), InputError> {
     if !bytes.starts_with(MAGIC) {
-        return Err(format!("{file}: not an MCAP file (no MCAP magic bytes)"));
+        return Err(InputError::log(file, "not an MCAP file (no MCAP magic bytes)"));
     }
     let mut pose = Stream::<7>::new();
     let mut imu = Stream::<6>::new();
     let mut motors: Stream<8> = Stream::new();
     let mut n_motors: Option<usize> = None;
     let mut battery = Stream::<1>::new();
-    let stream = mcap::MessageStream::new(bytes).map_err(|e| format!("{file}: {e}"))?;
+    let stream = mcap::MessageStream::new(bytes).map_err(|e| InputError::log(file, e.to_string()))?;
     for (k, m) in stream.enumerate() {
-        let m = m.map_err(|e| format!("{file}: record {k}: {e}"))?;
+        let m = m.map_err(|e| InputError::log(file, format!("record {k}: {e}")))?;
         let topic = m.channel.topic.as_str();
         let which = [Some(&topics.pose), Some(&topics.imu), topics.motors.as_ref(), topics.battery.as_ref()].iter().position(|t| t.is_some_and(|t| t == topic));
         let Some(which) = which else { continue };
         let schema = m.channel.schema.as_ref().map_or("", |s| s.name.as_str());
         if m.channel.message_encoding != "cdr" {
-            return Err(format!("{file}: topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.channel.message_encoding));
+            return Err(InputError::log(file, format!("topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.channel.message_encoding)));
         }
-        let at = |e: String| format!("{file}: topic `{topic}`, message {} ({schema}): {e}", m.sequence);
+        let at = |e: CdrError| InputError::Message { file: file.to_string(), topic: topic.to_string(), sequence: m.sequence, schema: schema.to_string(), reason: e.to_string() };
         let mut c = Cdr::new(&m.data).map_err(at)?;
         let finite = |v: &[f64]| if v.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(at("a value is not finite".into())) };
         match which {
@@ -199,10 +225,10 @@ pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<
                 c.u32().map_err(at)?; // data_offset
                 let n = c.u32().map_err(at)? as usize;
                 if n == 0 || n > 8 {
-                    return Err(at(format!("{n} motor values; 1 to 8 expected")));
+                    return Err(at(format!("{n} motor values; 1 to 8 expected").into()));
                 }
                 if n_motors.is_some_and(|m| m != n) {
-                    return Err(at(format!("{n} motor values where earlier messages had {}", n_motors.unwrap_or(0))));
+                    return Err(at(format!("{n} motor values where earlier messages had {}", n_motors.unwrap_or(0)).into()));
                 }
                 n_motors = Some(n);
                 let mut v = [0.0; 8];
@@ -229,7 +255,7 @@ pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<
         if let Some(topic) = topic
             && n == 0
         {
-            return Err(format!("{file}: no message on topic `{topic}`"));
+            return Err(InputError::log(file, format!("no message on topic `{topic}`")));
         }
     }
     let (pose, imu, motors, battery) = (pose.sorted(), imu.sorted(), motors.sorted(), battery.sorted());
@@ -339,7 +365,7 @@ mod tests {
     #[test]
     fn a_file_that_is_not_mcap_is_named() {
         let t = Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None };
-        let e = to_csv(b"t,px\n1,2\n", &t, "f.mcap").unwrap_err();
-        assert!(e.contains("not an MCAP file"), "{e}");
+        let e = to_csv(b"t,px\n1,2\n", &t, "f.mcap").unwrap_err().to_string();
+        assert_eq!(e, "f.mcap: not an MCAP file (no MCAP magic bytes)");
     }
 }

@@ -260,7 +260,7 @@ pub fn run(trial: &Trial, o: &Options) -> Outcome {
     };
     let series = match run_and_log(&s, 0, &format!("trial {}", trial.index)) {
         Ok((_, series)) => series,
-        Err(e) => return fail(e),
+        Err(e) => return fail(e.to_string()),
     };
     let report = match identify(&series, o) {
         Ok(r) => r,

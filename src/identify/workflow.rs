@@ -2,6 +2,7 @@
 //! to run, a flyarena log with its scenario, or another tool's log through a mapping), identify,
 //! compare the closed loop, and return the report, its text, its JSON and the fragment.
 
+use super::error::InputError;
 use super::feedback::{TrajectoryError, fragment, nominal_and_fed_back, trajectory_error};
 use super::{Options, flyarena_log, identify, report};
 use crate::scenario::Scenario;
@@ -20,13 +21,15 @@ pub struct Identified {
     pub residuals: Vec<super::select::ResidualSeries>,
 }
 
-fn vehicle_index(s: &Scenario, name: Option<&str>) -> Result<usize, String> {
+fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize, InputError> {
     match name {
         None => Ok(0),
-        Some(n) => s
-            .vehicle_cfgs()
-            .position(|v| v.name == n)
-            .ok_or_else(|| format!("no vehicle `{n}` in the scenario; it has {}", s.vehicle_cfgs().map(|v| format!("`{}`", v.name)).collect::<Vec<_>>().join(", "))),
+        Some(n) => s.vehicle_cfgs().position(|v| v.name == n).ok_or_else(|| {
+            InputError::invalid(
+                file.display(),
+                format!("no vehicle `{n}` in the scenario; it has {}", s.vehicle_cfgs().map(|v| format!("`{}`", v.name)).collect::<Vec<_>>().join(", ")),
+            )
+        }),
     }
 }
 
@@ -49,13 +52,13 @@ pub fn run(
     seed: Option<u64>,
     smoothing_ms: Option<f64>,
     forced: &[super::Effect],
-) -> Result<Identified, String> {
+) -> Result<Identified, InputError> {
     let opts = options(forced, smoothing_ms, None);
     if let Some(m) = mapping {
         let map = super::mapping::Mapping::load(m)?;
         let opts = options(forced, smoothing_ms, Some(&map));
         let series = map.read(input)?;
-        let report = identify(&series, &opts).map_err(|e| e.to_string())?;
+        let report = identify(&series, &opts)?;
         let text = report::render(&report);
         // the log's own frame rate, for rounding a delay to whole frames
         // (and four markers, the common pattern, for a lever arm: the log names no template)
@@ -65,22 +68,22 @@ pub fn run(
         return Ok(Identified { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
     }
     let scen_path = scenario.unwrap_or(input);
-    let src = std::fs::read_to_string(scen_path).map_err(|e| format!("{}: {e}", scen_path.display()))?;
-    let mut s = Scenario::parse(&src, scen_path).map_err(|e| e.to_string())?;
-    let mut tree: Value = serde_saphyr::from_str(&src).map_err(|e| format!("{}: {e}", scen_path.display()))?;
+    let src = std::fs::read_to_string(scen_path).map_err(|e| InputError::io(scen_path.display(), e))?;
+    let mut s = Scenario::parse(&src, scen_path)?;
+    let mut tree: Value = serde_saphyr::from_str(&src).map_err(|e| InputError::invalid(scen_path.display(), e))?;
     if let Some(seed) = seed {
         s.seed = seed;
         tree["seed"] = json!(seed);
     }
-    let i = vehicle_index(&s, vehicle)?;
+    let i = vehicle_index(&s, scen_path, vehicle)?;
     let data = if scenario.is_some() {
-        let text = std::fs::read_to_string(input).map_err(|e| format!("{}: {e}", input.display()))?;
-        let log = crate::log::read_csv(&text, &input.display().to_string()).map_err(|e| e.to_string())?;
+        let text = std::fs::read_to_string(input).map_err(|e| InputError::io(input.display(), e))?;
+        let log = crate::log::read_csv(&text, &input.display().to_string())?;
         flyarena_log::series(&log, &s, i, &input.display().to_string())?
     } else {
         flyarena_log::run_and_log(&s, i, &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicle(i).name))?.1
     };
-    let report = identify(&data, &opts).map_err(|e| e.to_string())?;
+    let report = identify(&data, &opts)?;
     let frag = fragment(&report, i, s.mocap.rate_hz.value, s.template(i).map_or(4, |t| t.len()));
     // closed loop: the nominal scenario and the nominal scenario with the effects, same seed
     let (nominal, fed) = nominal_and_fed_back(&tree, i, &frag, &scen_path.display().to_string())?;
@@ -112,7 +115,7 @@ pub struct CrossValidated {
     pub json: Value,
 }
 
-pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<CrossValidated, String> {
+pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<CrossValidated, InputError> {
     use super::design::Channel;
     use super::select::{channel_cut, evaluate};
     let map = super::mapping::Mapping::load(mapping)?;
@@ -137,7 +140,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
         }
     }
     if reports.is_empty() {
-        return Err(excluded.iter().map(|(_, e)| e.as_str()).collect::<Vec<_>>().join("\n"));
+        return Err(InputError::NoFlightPasses(excluded.into_iter().map(|(_, e)| e).collect()));
     }
     let series = kept;
     let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports

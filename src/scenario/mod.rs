@@ -810,7 +810,7 @@ impl Scenario {
                     return err(v.referenced, format!("vehicle `{}`: undeclared.{field} {delay} is not a multiple of the mocap period {period_ms} ms", v.value.name));
                 }
             }
-            let p = self.vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
+            let p = self.checked_vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
             let t_max = self.radio.thrust_max_n.unwrap_or(p.thrust_max()).min(p.thrust_max());
             if t_max <= p.hover_thrust() * 1.1 {
                 return err(
@@ -865,7 +865,12 @@ impl Scenario {
     }
 
     /// The physical parameters of vehicle `i` (preset with overrides).
-    pub fn vehicle_params(&self, i: usize) -> Result<VehicleParams, (serde_saphyr::Location, String)> {
+    pub fn vehicle_params(&self, i: usize) -> VehicleParams {
+        self.checked_vehicle_params(i).expect("checked when the scenario was parsed")
+    }
+
+    /// [`Scenario::vehicle_params`], with the range check that parsing runs (where in the file).
+    fn checked_vehicle_params(&self, i: usize) -> Result<VehicleParams, (serde_saphyr::Location, String)> {
         let m = &self.vehicles.value[i].value.model;
         let mut p = match m.preset {
             Preset::X3d => VehicleParams::x3d(),

@@ -230,7 +230,7 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     let ecsv = format!("time_ms,x,y,z,r,p,yw,gx,gy,gz,ax,ay,az,m1,m2,m3,m4,vbat\n{}\n{}\n", erow(0.0), erow(10.0));
     let se = m3.read_str(&ecsv, "euler.csv").unwrap();
     assert!(se.att_mocap[0].angle_to(&s.att_mocap[0]) < 1e-12);
-    let e = Mapping::parse(&mapping_src("z_up", "flu").replace("order: wxyz", "order: wxyz, unit: deg"), Path::new("m.yaml")).unwrap_err();
+    let e = Mapping::parse(&mapping_src("z_up", "flu").replace("order: wxyz", "order: wxyz, unit: deg"), Path::new("m.yaml")).unwrap_err().to_string();
     assert!(e.contains("either a quaternion") && e.contains("euler"), "{e}");
     // z-down world and FRD body are taken as they are
     let m2 = Mapping::parse(&mapping_src("z_down", "frd"), Path::new("m.yaml")).unwrap();
@@ -243,18 +243,18 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
 fn mapping_errors_name_what_to_fix() {
     let m = Mapping::parse(&mapping_src("z_up", "flu"), Path::new("m.yaml")).unwrap();
     let bad_col = format!("{}\n", CSV_HEADER.replace("vbat", "v_bat"));
-    let e = m.read_str(&bad_col, "log.csv").unwrap_err();
+    let e = m.read_str(&bad_col, "log.csv").unwrap_err().to_string();
     assert!(e.contains("log.csv:1") && e.contains("`vbat`") && e.contains("`v_bat`"), "{e}");
-    let e = m.read_str(&format!("{CSV_HEADER}\n0,1,2,3,1,0,0,0,0,0,0,0,0,1,0,0,0,0,x\n"), "log.csv").unwrap_err();
+    let e = m.read_str(&format!("{CSV_HEADER}\n0,1,2,3,1,0,0,0,0,0,0,0,0,1,0,0,0,0,x\n"), "log.csv").unwrap_err().to_string();
     assert!(e.contains("log.csv:2") && e.contains("vbat") && e.contains("`x`"), "{e}");
-    let e = m.read_str(&format!("{CSV_HEADER}\n0,1,2,3,0.5,0,0,0,0,0,0,0,0,1,0,0,0,0,3.7\n"), "log.csv").unwrap_err();
+    let e = m.read_str(&format!("{CSV_HEADER}\n0,1,2,3,0.5,0,0,0,0,0,0,0,0,1,0,0,0,0,3.7\n"), "log.csv").unwrap_err().to_string();
     assert!(e.contains("norm 0.5000") && e.contains("order"), "{e}");
-    let e =
-        Mapping::parse(&mapping_src("z_up", "flu").replace("unit: deg/s", "unit: dps"), Path::new("m.yaml")).and_then(|m| m.read_str(&format!("{CSV_HEADER}\n"), "x")).unwrap_err();
-    assert!(e.contains("`dps`") && e.contains("`deg/s`"), "{e}");
-    let e = Mapping::parse(&format!("{}colour: red\n", mapping_src("z_up", "flu")), Path::new("m.yaml")).unwrap_err();
+    // a unit is the mapping's defect, named at the mapping's file when it is parsed
+    let e = Mapping::parse(&mapping_src("z_up", "flu").replace("unit: deg/s", "unit: dps"), Path::new("m.yaml")).unwrap_err().to_string();
+    assert!(e.starts_with("m.yaml: gyro: unit `dps`") && e.contains("`deg/s`"), "{e}");
+    let e = Mapping::parse(&format!("{}colour: red\n", mapping_src("z_up", "flu")), Path::new("m.yaml")).unwrap_err().to_string();
     assert!(e.contains("m.yaml") && e.contains("colour"), "{e}");
-    let e = Mapping::parse(&mapping_src("up", "flu"), Path::new("m.yaml")).unwrap_err();
+    let e = Mapping::parse(&mapping_src("up", "flu"), Path::new("m.yaml")).unwrap_err().to_string();
     assert!(e.contains("z_up") && e.contains("z_down"), "{e}");
 }
 

@@ -83,7 +83,7 @@ fn broken_bags_are_errors_not_numbers() {
     let read = |b: &[u8], m: &Mapping| {
         let p = d.join("x.mcap");
         std::fs::write(&p, b).unwrap();
-        m.read(&p).map(|_| ()).unwrap_err()
+        m.read(&p).map(|_| ()).unwrap_err().to_string()
     };
     let cut = read(&bytes[..bytes.len() / 2], &map);
     assert!(cut.contains("x.mcap"), "{cut}");
@@ -110,7 +110,7 @@ fn broken_bags_are_errors_not_numbers() {
     let e = read(&bytes, &swapped);
     assert!(e.contains("must be geometry_msgs/msg/PoseStamped"), "{e}");
     // a mapping with an unknown key in its ros2 block names it
-    let e = Mapping::parse(&src.replace("imu: /cf/imu", "imu: /cf/imu\n  gps: /cf/gps"), Path::new("m.yaml")).unwrap_err();
+    let e = Mapping::parse(&src.replace("imu: /cf/imu", "imu: /cf/imu\n  gps: /cf/gps"), Path::new("m.yaml")).unwrap_err().to_string();
     assert!(e.contains("gps"), "{e}");
 }
 

@@ -1,0 +1,50 @@
+//! One error type for the library's entry points: [`Error`] gathers each stage's own error
+//! (the scenario's, a log's, an `identify` input's, a sweep's, the recording's) and the
+//! outputs that cannot be written, so that a program driving flyarena handles one type and
+//! still matches on the stage. Every message names the file, and the line and column where
+//! the defect has them. The command line prints the message and exits with
+//! [`Error::exit_code`].
+
+use std::path::PathBuf;
+
+/// Anything that stops a run, a sweep or an identification before it has a result.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A scenario that cannot be run.
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
+    /// A flyarena flight log that does not read.
+    #[error(transparent)]
+    Log(#[from] crate::log::LogError),
+    /// An `identify` input (a mapping, a log, a bag, a fragment) that cannot be used.
+    #[error(transparent)]
+    Input(#[from] crate::identify::InputError),
+    /// Data that does not pass `identify`'s data-quality gate.
+    #[error(transparent)]
+    Identify(#[from] crate::identify::IdentifyError),
+    /// A sweep that cannot run or merge.
+    #[error(transparent)]
+    Sweep(#[from] crate::sweep::SweepError),
+    /// A recording that cannot be encoded.
+    #[cfg(feature = "record")]
+    #[error(transparent)]
+    Record(#[from] crate::record::RecordError),
+    /// An output that cannot be written (nothing is left half written: see
+    /// [`crate::output::write_atomic`]).
+    #[error("cannot write {}: {source}", path.display())]
+    Write { path: PathBuf, source: std::io::Error },
+    /// A combination of inputs that does not make a job (what to give instead).
+    #[error("{0}")]
+    Usage(String),
+}
+
+impl Error {
+    /// The exit code of the command line for this error: 2, bad input (1 is kept for a
+    /// requirement that failed, 0 for a pass).
+    pub fn exit_code(&self) -> i32 {
+        2
+    }
+}
+
+/// `Result` with [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;
