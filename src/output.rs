@@ -60,27 +60,43 @@ pub const FILE_NAME_CHARS: &str = "letters A–Z a–z, digits 0–9, `-`, `_` a
 /// suffixes such as `.sweep.shard-12-of-64.journal.jsonl`).
 pub const FILE_NAME_MAX: usize = 100;
 
+/// What is wrong with a name that becomes part of a file name (the message completes "name
+/// `x` ...").
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum BadFileName {
+    #[error("is empty; use {FILE_NAME_CHARS}")]
+    Empty,
+    #[error("is {0} characters long; at most {FILE_NAME_MAX}")]
+    TooLong(usize),
+    #[error("holds {0:?}, which cannot be in a file name here; use {FILE_NAME_CHARS}")]
+    Character(char),
+    #[error("starts with `.` (a hidden file, or a way out of the output folder)")]
+    Dot,
+    #[error("is `{0}`, a device name on Windows")]
+    Device(String),
+}
+
 /// Checks a name that becomes part of a file name: 1 to [`FILE_NAME_MAX`] characters from
 /// [`FILE_NAME_CHARS`], not starting with `.` (no hidden files, no `..`), and not a name Windows
 /// reserves for a device (`CON`, `NUL`, `COM1`, …, with any extension). Returns what is wrong.
-pub fn check_file_name(name: &str) -> Result<(), String> {
+pub fn check_file_name(name: &str) -> Result<(), BadFileName> {
     if name.is_empty() {
-        return Err(format!("is empty; use {FILE_NAME_CHARS}"));
+        return Err(BadFileName::Empty);
     }
     if name.len() > FILE_NAME_MAX {
-        return Err(format!("is {} characters long; at most {FILE_NAME_MAX}", name.len()));
+        return Err(BadFileName::TooLong(name.len()));
     }
     if let Some(c) = name.chars().find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))) {
-        return Err(format!("holds {c:?}, which cannot be in a file name here; use {FILE_NAME_CHARS}"));
+        return Err(BadFileName::Character(c));
     }
     if name.starts_with('.') {
-        return Err("starts with `.` (a hidden file, or a way out of the output folder)".into());
+        return Err(BadFileName::Dot);
     }
     let stem = name.split('.').next().unwrap_or("").to_ascii_uppercase();
     let reserved =
         ["CON", "PRN", "AUX", "NUL"].contains(&stem.as_str()) || ((stem.starts_with("COM") || stem.starts_with("LPT")) && stem.len() == 4 && stem.as_bytes()[3].is_ascii_digit());
     if reserved {
-        return Err(format!("is `{stem}`, a device name on Windows"));
+        return Err(BadFileName::Device(stem));
     }
     Ok(())
 }

@@ -93,7 +93,7 @@ impl Sweep {
         if cfg.vary.is_empty() {
             return Err(spec("`vary` is empty: name at least one field to vary".into()));
         }
-        let variations = cfg.vary.iter().map(|v| v.variation().map_err(&spec)).collect::<Result<Vec<_>, _>>()?;
+        let variations = cfg.vary.iter().map(|v| v.variation().map_err(|e| spec(e.to_string()))).collect::<Result<Vec<_>, _>>()?;
         let tree: serde_json::Value = serde_saphyr::from_str(&src).map_err(|e| spec(e.to_string()))?;
         let text_hash = src.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3));
         let sweep = Sweep { name: scenario.name.clone(), text_hash, tree, cfg, variations, file: file.clone() };
@@ -142,7 +142,7 @@ impl Sweep {
         let (params, seed, grid_point) = self.draw(i);
         let mut t = self.tree.clone();
         for (v, x) in self.cfg.vary.iter().zip(&params) {
-            set_path(&mut t, &v.field, *x).map_err(|message| SweepError::Run { run: i, message })?;
+            set_path(&mut t, &v.field, *x).map_err(|message| SweepError::Run { run: i, message: message.to_string() })?;
         }
         t["seed"] = serde_json::json!(seed);
         // YAML is a superset of JSON: the varied tree goes through the same parser and checks

@@ -110,18 +110,28 @@ pub enum Variation {
     Grid(Vec<f64>),
 }
 
+/// A `vary` entry whose distribution is not one of the three, or not finite.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{field}`: {problem}")]
+pub struct VaryError {
+    pub field: String,
+    pub problem: &'static str,
+}
+
 impl VaryCfg {
-    pub fn variation(&self) -> Result<Variation, String> {
+    /// The checked distribution of this field.
+    pub fn variation(&self) -> Result<Variation, VaryError> {
         let finite = |xs: &[f64]| xs.iter().all(|x| x.is_finite());
+        let bad = |problem: &'static str| Err(VaryError { field: self.field.clone(), problem });
         match (&self.uniform, &self.normal, &self.grid) {
             (Some([lo, hi]), None, None) if finite(&[*lo, *hi]) && lo <= hi => Ok(Variation::Uniform(*lo, *hi)),
             (None, Some([m, sd]), None) if finite(&[*m, *sd]) && *sd >= 0.0 => Ok(Variation::Normal(*m, *sd)),
             (None, None, Some(g)) if !g.is_empty() && finite(g) => Ok(Variation::Grid(g.clone())),
-            (None, None, None) => Err(format!("`{}`: give one of `uniform: [lo, hi]`, `normal: [mean, sd]` or `grid: [values]`", self.field)),
-            (Some(_), None, None) => Err(format!("`{}`: uniform needs finite lo ≤ hi", self.field)),
-            (None, Some(_), None) => Err(format!("`{}`: normal needs a finite mean and sd ≥ 0", self.field)),
-            (None, None, Some(_)) => Err(format!("`{}`: grid needs at least one finite value", self.field)),
-            _ => Err(format!("`{}`: give only one of uniform, normal, grid", self.field)),
+            (None, None, None) => bad("give one of `uniform: [lo, hi]`, `normal: [mean, sd]` or `grid: [values]`"),
+            (Some(_), None, None) => bad("uniform needs finite lo ≤ hi"),
+            (None, Some(_), None) => bad("normal needs a finite mean and sd ≥ 0"),
+            (None, None, Some(_)) => bad("grid needs at least one finite value"),
+            _ => bad("give only one of uniform, normal, grid"),
         }
     }
 }
@@ -791,7 +801,7 @@ impl Scenario {
             }
             if let Some(d) = &m.displacement_mm {
                 for x in d.value.iter().flatten() {
-                    ranges::check(*x, -200.0, 200.0, false, "mm").map_err(|e| Self::invalid(src, file, d.referenced, e))?;
+                    ranges::check(*x, -200.0, 200.0, false, "mm").map_err(|e| Self::invalid(src, file, d.referenced, e.to_string()))?;
                 }
             }
             for o in &m.occlusions {
@@ -837,7 +847,7 @@ impl Scenario {
                     return Err((t.referenced, format!("{} markers is outside the allowed range [3, 8]", t.value.len())));
                 }
                 for x in t.value.iter().flatten() {
-                    ranges::check(*x, -1.0, 1.0, false, "m").map_err(|e| (t.referenced, e))?;
+                    ranges::check(*x, -1.0, 1.0, false, "m").map_err(|e| (t.referenced, e.to_string()))?;
                 }
                 t.value.iter().map(|a| Vec3::from_array(*a)).collect()
             }
@@ -881,7 +891,7 @@ impl Scenario {
         }
         if let Some(x) = &m.inertia_kg_m2 {
             for v in x.value {
-                ranges::check(v, 0.0, 10.0, true, "kg·m²").map_err(|e| (x.referenced, e))?;
+                ranges::check(v, 0.0, 10.0, true, "kg·m²").map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.inertia_kg_m2 = x.value;
         }
@@ -902,19 +912,19 @@ impl Scenario {
         }
         if let Some(x) = &m.rotor_drag_per_s {
             for v in x.value {
-                ranges::check(v, 0.0, 10.0, false, "1/s").map_err(|e| (x.referenced, e))?;
+                ranges::check(v, 0.0, 10.0, false, "1/s").map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.rotor_drag_per_s = x.value;
         }
         if let Some(x) = &m.rate_loop_gain_per_s {
             for v in x.value {
-                ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e))?;
+                ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.rate_loop_gain_per_s = x.value;
         }
         if let Some(x) = &m.rate_loop_integral_per_s2 {
             for v in x.value {
-                ranges::check(v, 0.0, 1000.0, false, "1/s²").map_err(|e| (x.referenced, e))?;
+                ranges::check(v, 0.0, 1000.0, false, "1/s²").map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.rate_loop_integral_per_s2 = x.value;
         }
@@ -923,13 +933,13 @@ impl Scenario {
         }
         if let Some(x) = &m.attitude_loop_gain_per_s {
             for v in x.value {
-                ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e))?;
+                ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.attitude_loop_gain_per_s = x.value;
         }
         let b = &self.vehicles.value[i].value.battery;
         if let Some(x) = &b.cells {
-            ranges::check(x.value as f64, 1.0, 12.0, false, "cells").map_err(|e| (x.referenced, e))?;
+            ranges::check(x.value as f64, 1.0, 12.0, false, "cells").map_err(|e| (x.referenced, e.to_string()))?;
             p.battery.cells = x.value;
             p.battery.v_ref = 3.7 * x.value as f64;
         }

@@ -2,9 +2,26 @@
 //! varies and what an `identify` fragment sets. It works on the parsed YAML/JSON tree, before
 //! the scenario is validated, so a patched scenario is checked like a written one.
 
+/// Why a field path cannot be set.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PatchError {
+    #[error("empty field path")]
+    Empty,
+    #[error("`{path}`: `[{index}` is not an index")]
+    NotAnIndex { path: String, index: String },
+    #[error("`{path}`: not a list before [{index}]")]
+    NotAList { path: String, index: usize },
+    #[error("`{path}`: index {index} is outside the list (length {len})")]
+    OutsideList { path: String, index: usize, len: usize },
+    #[error("`{path}`: `{key}` is not inside a mapping")]
+    NotAMapping { path: String, key: String },
+    #[error("`{path}`: `{key}` is not set in the scenario; write it out to vary inside it")]
+    NotSet { path: String, key: String },
+}
+
 /// Sets the number at `path` (`a.b[2].c`) in a YAML/JSON tree; the containers must exist, a
 /// missing last key of a mapping is added.
-pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), String> {
+pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), PatchError> {
     set_in(tree, path, serde_json::json!(x), false)
 }
 
@@ -12,7 +29,7 @@ pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), 
 /// missing last key of a mapping is added, and so are missing mappings on the way when
 /// `create_mappings` holds (an `identify` fragment may set `mocap.camera_error` in a scenario
 /// that has no `mocap`).
-pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, create_mappings: bool) -> Result<(), String> {
+pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, create_mappings: bool) -> Result<(), PatchError> {
     let mut cur = tree;
     let mut parts: Vec<(String, Option<usize>)> = Vec::new();
     for seg in path.split('.') {
@@ -21,19 +38,19 @@ pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, cr
             parts.push((key.to_string(), None));
         }
         for idx in rest.split('[').filter(|s| !s.is_empty()) {
-            let n = idx.trim_end_matches(']').parse::<usize>().map_err(|_| format!("`{path}`: `[{idx}` is not an index"))?;
+            let n = idx.trim_end_matches(']').parse::<usize>().map_err(|_| PatchError::NotAnIndex { path: path.into(), index: idx.into() })?;
             parts.push((String::new(), Some(n)));
         }
     }
-    let last = parts.len().checked_sub(1).ok_or_else(|| "empty field path".to_string())?;
+    let last = parts.len().checked_sub(1).ok_or(PatchError::Empty)?;
     let mut v = Some(v);
     for (k, (key, idx)) in parts.iter().enumerate() {
         let end = k == last;
         cur = match idx {
             Some(n) => {
-                let len = cur.as_array().map(Vec::len).ok_or_else(|| format!("`{path}`: not a list before [{n}]"))?;
+                let len = cur.as_array().map(Vec::len).ok_or_else(|| PatchError::NotAList { path: path.into(), index: *n })?;
                 if *n >= len {
-                    return Err(format!("`{path}`: index {n} is outside the list (length {len})"));
+                    return Err(PatchError::OutsideList { path: path.into(), index: *n, len });
                 }
                 &mut cur[*n]
             }
@@ -41,10 +58,10 @@ pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, cr
                 if create_mappings && cur.is_null() {
                     *cur = serde_json::json!({});
                 }
-                let obj = cur.as_object_mut().ok_or_else(|| format!("`{path}`: `{key}` is not inside a mapping"))?;
+                let obj = cur.as_object_mut().ok_or_else(|| PatchError::NotAMapping { path: path.into(), key: key.clone() })?;
                 if !obj.contains_key(key.as_str()) {
                     if !end && !create_mappings {
-                        return Err(format!("`{path}`: `{key}` is not set in the scenario; write it out to vary inside it"));
+                        return Err(PatchError::NotSet { path: path.into(), key: key.clone() });
                     }
                     obj.insert(key.clone(), serde_json::Value::Null);
                 }
@@ -71,7 +88,7 @@ mod tests {
         assert_eq!(t["a"]["b"][1]["c"], 5.0);
         assert_eq!(t["v"][0]["m"]["r"][2], -3.0);
         assert_eq!(t["a"]["new"], 1.5);
-        assert!(set_path(&mut t, "v[3].m", 1.0).unwrap_err().contains("outside the list"));
-        assert!(set_path(&mut t, "x.y", 1.0).unwrap_err().contains("not set"));
+        assert_eq!(set_path(&mut t, "v[3].m", 1.0), Err(PatchError::OutsideList { path: "v[3].m".into(), index: 3, len: 1 }));
+        assert_eq!(set_path(&mut t, "x.y", 1.0).unwrap_err().to_string(), "`x.y`: `x` is not set in the scenario; write it out to vary inside it");
     }
 }

@@ -8,15 +8,21 @@ fn fmt_bound(x: f64) -> String {
     if x.is_infinite() { if x > 0.0 { "∞".into() } else { "−∞".into() } } else { format!("{x}") }
 }
 
+/// A number outside its documented range (or not finite).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}", (format!("{value} {unit} is outside the allowed range {}{}, {}]", if *open_lo { "(" } else { "[" }, fmt_bound(*lo), fmt_bound(*hi))).replace("  ", " "))]
+pub struct OutOfRange {
+    pub value: f64,
+    pub lo: f64,
+    pub hi: f64,
+    pub open_lo: bool,
+    pub unit: String,
+}
+
 /// Checks `lo ≤ v ≤ hi` (or `lo < v` when `open_lo`), NaN and infinities rejected.
-pub fn check(v: f64, lo: f64, hi: f64, open_lo: bool, unit: &str) -> Result<f64, String> {
+pub fn check(v: f64, lo: f64, hi: f64, open_lo: bool, unit: &str) -> Result<f64, OutOfRange> {
     let ok = v.is_finite() && (if open_lo { v > lo } else { v >= lo }) && v <= hi;
-    if ok {
-        Ok(v)
-    } else {
-        let l = if open_lo { "(" } else { "[" };
-        Err(format!("{v} {unit} is outside the allowed range {l}{}, {}]", fmt_bound(lo), fmt_bound(hi)).replace("  ", " "))
-    }
+    if ok { Ok(v) } else { Err(OutOfRange { value: v, lo, hi, open_lo, unit: unit.to_string() }) }
 }
 
 macro_rules! ranged {
