@@ -10,7 +10,6 @@ use flyarena::Error;
 use flyarena::output::{install_interrupt_handler, write_atomic};
 use flyarena::run::{Outcome, run_scenario};
 use flyarena::scenario::Scenario;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// flyarena — quadrotor flight under motion capture with misaligned frames
@@ -295,22 +294,7 @@ fn finish_sweep(o: &flyarena::sweep::SweepOutput, out_dir: &Path, quiet: bool) -
     let failed = o.rows.iter().filter(|r| !r.passed).count();
     if !quiet {
         println!("{}: {} runs, {} rows\n", o.scenario, o.runs, o.rows.len());
-        for g in summary["groups"].as_array().into_iter().flatten() {
-            let m = |k: &str, q: &str| g["metrics"][k][q].as_f64().map_or("-".into(), |x| format!("{x:.4}"));
-            println!(
-                "grid point {}: {}\n  pass rate {:.1} % ({}), roll err p95/p99 {}°/{}°, yaw (gyro) err p99 {}°, yaw (straight flight) err p95/p99 {}°/{}°, spin drift p99 {} m",
-                g["grid_point"],
-                g["grid"],
-                100.0 * g["pass_rate_all"].as_f64().unwrap_or(0.0),
-                g["pass_rate"],
-                m("roll_err_deg", "p95"),
-                m("roll_err_deg", "p99"),
-                m("yaw_gyro_err_deg", "p99"),
-                m("yaw_ls_err_deg", "p95"),
-                m("yaw_ls_err_deg", "p99"),
-                m("spin_dev_m", "p99"),
-            );
-        }
+        print!("{}", summary.text());
         println!("\nrows: {}\nsummary: {}", csv_path.display(), json_path.display());
     }
     println!("{}: {} of {} rows passed every requirement", if failed == 0 { "PASS" } else { "FAIL" }, o.rows.len() - failed, o.rows.len());
@@ -330,36 +314,14 @@ fn cmd_sweep(a: SweepArgs) -> Result<i32, Error> {
     } else {
         indicatif::ProgressBar::hidden()
     };
-    // the journal: one line per finished run, so a killed sweep restarted with the same
-    // arguments redoes nothing it finished; removed once the outputs are written
-    let journal_path = match shard {
-        None => out.join(format!("{}.sweep.journal.jsonl", sweep.name())),
-        Some((k, n)) => out.join(format!("{}.sweep.shard-{}-of-{n}.journal.jsonl", sweep.name(), k + 1)),
-    };
-    let header = sweep.journal_header(runs, shard);
-    let done = flyarena::sweep::read_journal(&journal_path, &header);
-    let done_mine = flyarena::sweep::shard_runs(runs, shard).filter(|i| done.contains_key(i)).count() as u64;
+    let journal = flyarena::sweep::Journal::open(&sweep, runs, shard, &out)?;
+    let done_mine = flyarena::sweep::shard_runs(runs, shard).filter(|i| journal.done().contains_key(i)).count() as u64;
     if done_mine > 0 && !quiet {
-        eprintln!("resuming: {done_mine} of {mine} runs already done ({})", journal_path.display());
+        eprintln!("resuming: {done_mine} of {mine} runs already done ({})", journal.path().display());
     }
-    let journal = (|| -> std::io::Result<std::fs::File> {
-        std::fs::create_dir_all(&out)?;
-        let mut f = std::fs::OpenOptions::new().create(true).append(true).open(&journal_path)?;
-        if done.is_empty() {
-            // a new journal (or one of another sweep): start it over
-            f = std::fs::File::create(&journal_path)?;
-            writeln!(f, "{}", serde_json::to_string(&header).expect("serialises"))?;
-        }
-        Ok(f)
-    })();
-    let journal = std::sync::Mutex::new(journal.map_err(|source| Error::Write { path: journal_path.clone(), source })?);
     bar.inc(done_mine);
-    let result = sweep.run_resumable(runs, shard, &done, &|_, rows| {
-        let line = serde_json::to_string(rows).expect("serialises") + "\n";
-        if let Ok(mut f) = journal.lock() {
-            // one write per line; a line cut by a kill is skipped on resume
-            let _ = f.write_all(line.as_bytes()).and_then(|_| f.flush());
-        }
+    let result = sweep.run_resumable(runs, shard, journal.done(), &|_, rows| {
+        journal.record(rows);
         bar.inc(1);
     });
     bar.finish_and_clear();
@@ -373,9 +335,8 @@ fn cmd_sweep(a: SweepArgs) -> Result<i32, Error> {
             PASS
         }
     };
-    // the outputs are written: the journal has done its job (on an error above it stays, and
-    // a rerun resumes from it)
-    let _ = std::fs::remove_file(&journal_path);
+    // on an error above the journal stays, and a rerun resumes from it
+    journal.finish();
     Ok(code)
 }
 

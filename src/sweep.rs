@@ -21,7 +21,9 @@ use crate::scenario::patch::set_path;
 use crate::scenario::{Scenario, ScenarioError, SweepCfg, Variation};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
 /// Metric names, in column order. Angles in degrees, distances in metres; NaN when a run has no
 /// value for it (e.g. no yaw flight).
@@ -39,6 +41,8 @@ pub enum SweepError {
     Run { run: u64, message: String },
     #[error("merge: {0}")]
     Merge(String),
+    #[error("cannot write the sweep journal {}: {source}", path.display())]
+    Journal { path: PathBuf, source: std::io::Error },
 }
 
 /// One vehicle of one run.
@@ -252,7 +256,7 @@ impl Sweep {
 
 /// Reads a journal: the rows of every completed run, if the header matches. Lines that do not
 /// parse (a line cut by a kill) are skipped; a journal of another sweep gives nothing.
-pub fn read_journal(path: &Path, header: &JournalHeader) -> std::collections::BTreeMap<u64, Vec<SweepRow>> {
+fn read_journal(path: &Path, header: &JournalHeader) -> std::collections::BTreeMap<u64, Vec<SweepRow>> {
     let mut done = std::collections::BTreeMap::new();
     let Ok(text) = std::fs::read_to_string(path) else { return done };
     let mut lines = text.lines();
@@ -267,6 +271,65 @@ pub fn read_journal(path: &Path, header: &JournalHeader) -> std::collections::BT
         }
     }
     done
+}
+
+/// A sweep's journal: one line per finished run (its rows), after a header naming the sweep,
+/// so that a killed sweep restarted with the same arguments redoes nothing it finished. It
+/// lives beside the outputs (`<name>.sweep.journal.jsonl`, or `.shard-K-of-N.journal.jsonl`)
+/// and is removed once they are written ([`Journal::finish`]); on an error it stays.
+pub struct Journal {
+    path: PathBuf,
+    file: std::sync::Mutex<std::fs::File>,
+    done: BTreeMap<u64, Vec<SweepRow>>,
+}
+
+impl Journal {
+    /// Opens the journal of `sweep` (`runs`, `shard`) in the folder `out`, creating the folder;
+    /// a journal of another sweep, or none, starts over.
+    pub fn open(sweep: &Sweep, runs: u64, shard: Option<(u64, u64)>, out: &Path) -> Result<Journal, SweepError> {
+        let path = match shard {
+            None => out.join(format!("{}.sweep.journal.jsonl", sweep.name())),
+            Some((k, n)) => out.join(format!("{}.sweep.shard-{}-of-{n}.journal.jsonl", sweep.name(), k + 1)),
+        };
+        let header = sweep.journal_header(runs, shard);
+        let done = read_journal(&path, &header);
+        let file = (|| -> std::io::Result<std::fs::File> {
+            std::fs::create_dir_all(out)?;
+            if done.is_empty() {
+                let mut f = std::fs::File::create(&path)?;
+                writeln!(f, "{}", serde_json::to_string(&header).expect("serialises"))?;
+                Ok(f)
+            } else {
+                std::fs::OpenOptions::new().append(true).open(&path)
+            }
+        })()
+        .map_err(|source| SweepError::Journal { path: path.clone(), source })?;
+        Ok(Journal { path, file: std::sync::Mutex::new(file), done })
+    }
+
+    /// The rows of the runs a previous attempt finished, by run.
+    pub fn done(&self) -> &BTreeMap<u64, Vec<SweepRow>> {
+        &self.done
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Appends the rows of one finished run (one write per line: a line cut by a kill is
+    /// skipped on resume; a failed write only costs that run again on resume).
+    pub fn record(&self, rows: &[SweepRow]) {
+        let line = serde_json::to_string(rows).expect("serialises") + "\n";
+        if let Ok(mut f) = self.file.lock() {
+            let _ = f.write_all(line.as_bytes()).and_then(|_| f.flush());
+        }
+    }
+
+    /// The outputs are written: the journal has done its job.
+    pub fn finish(self) {
+        drop(self.file);
+        let _ = std::fs::remove_file(&self.path);
+    }
 }
 
 /// Merges shard outputs into the output of the whole sweep.
@@ -319,41 +382,87 @@ fn stats(mut xs: Vec<f64>) -> Option<Stats> {
     Some(Stats { n, mean: xs.iter().sum::<f64>() / n as f64, p50: q(0.5), p95: q(0.95), p99: q(0.99), max: xs[n - 1] })
 }
 
+/// The summary of a sweep: one [`Group`] per grid point.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Summary {
+    pub scenario: String,
+    pub sweep_seed: u64,
+    pub runs: u64,
+    /// The varied fields, as in [`SweepOutput::fields`].
+    pub fields: Vec<String>,
+    pub groups: Vec<Group>,
+}
+
+/// The rows of one grid point: the grid values, pass rates and metric statistics.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Group {
+    pub grid_point: u64,
+    /// The grid fields' values at this point (the random draws vary inside the group).
+    pub grid: BTreeMap<String, f64>,
+    /// Rows (runs × vehicles).
+    pub rows: usize,
+    /// The share of rows that passed every requirement.
+    pub pass_rate_all: f64,
+    /// Per requirement ([`REQUIREMENTS`]), the share of the rows that have it and passed it.
+    pub pass_rate: BTreeMap<String, f64>,
+    /// Per metric ([`METRICS`]) with at least one finite value.
+    pub metrics: BTreeMap<String, Stats>,
+}
+
+impl Group {
+    /// The statistics of metric `name`, if any row has it.
+    pub fn metric(&self, name: &str) -> Option<&Stats> {
+        self.metrics.get(name)
+    }
+}
+
+impl Summary {
+    /// Two lines per grid point: its grid values, then the pass rates and the headline
+    /// percentiles (`-` where no row has the metric). What `flyarena sweep` prints.
+    pub fn text(&self) -> String {
+        let mut t = String::new();
+        for g in &self.groups {
+            let m = |k: &str, q: fn(&Stats) -> f64| g.metric(k).map_or("-".into(), |s| format!("{:.4}", q(s)));
+            let json = |v: &BTreeMap<String, f64>| serde_json::to_string(v).expect("a map of numbers serialises");
+            t += &format!(
+                "grid point {}: {}\n  pass rate {:.1} % ({}), roll err p95/p99 {}°/{}°, yaw (gyro) err p99 {}°, yaw (straight flight) err p95/p99 {}°/{}°, spin drift p99 {} m\n",
+                g.grid_point,
+                json(&g.grid),
+                100.0 * g.pass_rate_all,
+                json(&g.pass_rate),
+                m("roll_err_deg", |s| s.p95),
+                m("roll_err_deg", |s| s.p99),
+                m("yaw_gyro_err_deg", |s| s.p99),
+                m("yaw_ls_err_deg", |s| s.p95),
+                m("yaw_ls_err_deg", |s| s.p99),
+                m("spin_dev_m", |s| s.p99),
+            );
+        }
+        t
+    }
+}
+
 /// The summary of a sweep, per grid point: the grid values, metric statistics, pass rates.
-pub fn summary(out: &SweepOutput) -> serde_json::Value {
+pub fn summary(out: &SweepOutput) -> Summary {
     let points: std::collections::BTreeSet<u64> = out.rows.iter().map(|r| r.grid_point).collect();
-    let groups: Vec<serde_json::Value> = points
+    let groups = points
         .iter()
         .map(|&g| {
             let rows: Vec<&SweepRow> = out.rows.iter().filter(|r| r.grid_point == g).collect();
-            let metrics: serde_json::Map<String, serde_json::Value> = METRICS
-                .iter()
-                .enumerate()
-                .filter_map(|(k, m)| stats(rows.iter().filter_map(|r| r.metrics[k]).collect()).map(|s| (m.to_string(), serde_json::to_value(s).expect("stats serialise"))))
-                .collect();
-            let pass_rate: serde_json::Map<String, serde_json::Value> = REQUIREMENTS
+            let metrics = METRICS.iter().enumerate().filter_map(|(k, m)| stats(rows.iter().filter_map(|r| r.metrics[k]).collect()).map(|s| (m.to_string(), s))).collect();
+            let pass_rate = REQUIREMENTS
                 .iter()
                 .enumerate()
                 .filter_map(|(k, id)| {
                     let flags: Vec<bool> = rows.iter().filter_map(|r| r.requirements[k]).collect();
-                    (!flags.is_empty()).then(|| (id.to_string(), serde_json::json!(flags.iter().filter(|f| **f).count() as f64 / flags.len() as f64)))
+                    (!flags.is_empty()).then(|| (id.to_string(), flags.iter().filter(|f| **f).count() as f64 / flags.len() as f64))
                 })
                 .collect();
-            let grid: serde_json::Map<String, serde_json::Value> = rows
-                .first()
-                .map(|r| out.fields.iter().zip(&r.params).zip(&out.grid).filter(|(_, g)| **g).map(|((f, p), _)| (f.clone(), serde_json::json!(p))).collect())
-                .unwrap_or_default();
-            serde_json::json!({
-                "grid_point": g,
-                "grid": grid,
-                "rows": rows.len(),
-                "pass_rate_all": rows.iter().filter(|r| r.passed).count() as f64 / rows.len().max(1) as f64,
-                "pass_rate": pass_rate,
-                "metrics": metrics,
-            })
+            let grid = rows.first().map(|r| out.fields.iter().zip(&r.params).zip(&out.grid).filter(|(_, g)| **g).map(|((f, p), _)| (f.clone(), *p)).collect()).unwrap_or_default();
+            Group { grid_point: g, grid, rows: rows.len(), pass_rate_all: rows.iter().filter(|r| r.passed).count() as f64 / rows.len().max(1) as f64, pass_rate, metrics }
         })
         .collect();
-    serde_json::json!({ "scenario": out.scenario, "sweep_seed": out.sweep_seed, "runs": out.runs, "fields": out.fields, "groups": groups })
+    Summary { scenario: out.scenario.clone(), sweep_seed: out.sweep_seed, runs: out.runs, fields: out.fields.clone(), groups }
 }
 
 /// One CSV line per row: run, seed, grid_point, vehicle, the varied fields, the metrics, the

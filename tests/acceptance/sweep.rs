@@ -63,9 +63,9 @@ fn longer_hovers_calibrate_better() {
     let s = Sweep::load(&scenario()).unwrap();
     let out = s.run(40, None, &|| {}).unwrap();
     let summary = flyarena::sweep::summary(&out);
-    let p95 = |g: usize| summary["groups"][g]["metrics"]["roll_err_deg"]["p95"].as_f64().unwrap();
-    assert_eq!(summary["groups"][0]["grid"]["plan[1].calibrate_roll_pitch.average_s"], 0.5);
-    assert_eq!(summary["groups"][3]["grid"]["plan[1].calibrate_roll_pitch.average_s"], 4.0);
+    let p95 = |g: usize| summary.groups[g].metric("roll_err_deg").unwrap().p95;
+    assert_eq!(summary.groups[0].grid["plan[1].calibrate_roll_pitch.average_s"], 0.5);
+    assert_eq!(summary.groups[3].grid["plan[1].calibrate_roll_pitch.average_s"], 4.0);
     assert!(p95(3) < p95(0), "p95 at 4 s {} vs at 0.5 s {}", p95(3), p95(0));
 }
 
