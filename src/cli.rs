@@ -384,7 +384,14 @@ fn cmd_identify(a: IdentifyArgs) -> Result<i32, Error> {
         return Ok(PASS);
     }
     let input = &a.inputs[0];
-    let done = flyarena::identify::workflow::run(input, a.scenario.as_deref(), a.mapping.as_deref(), a.vehicle.as_deref(), a.seed, a.smoothing_ms, &a.forced)?;
+    use flyarena::identify::workflow::{Request, Source};
+    let source = match (&a.scenario, &a.mapping) {
+        (Some(scenario), _) => Source::FlyarenaLog { log: input, scenario },
+        (None, Some(mapping)) => Source::Mapped { log: input, mapping },
+        (None, None) => Source::Scenario(input),
+    };
+    let req = Request { vehicle: a.vehicle.as_deref(), seed: a.seed, smoothing_ms: a.smoothing_ms, forced: a.forced.clone(), ..Request::new(source) };
+    let done = flyarena::identify::workflow::run(&req)?;
     let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
     let json = serde_json::to_vec_pretty(&done.json).expect("report serialises");

@@ -33,9 +33,8 @@ fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize,
     }
 }
 
-/// Identifies from a scenario (run here), a flyarena log with its scenario, or a mapped log.
-/// The options of a command: the forced effects, and the smoothing from `--smoothing-ms`, else
-/// from the mapping, else the default.
+/// The options of a request: the forced effects, and the smoothing from the request, else from
+/// the mapping, else the default.
 fn options(forced: &[super::Effect], smoothing_ms: Option<f64>, map: Option<&super::mapping::Mapping>) -> Options {
     let mut opts = Options { forced: forced.to_vec(), ..Options::default() };
     if let Some(sm) = smoothing_ms.or(map.and_then(|m| m.smoothing_ms)) {
@@ -44,29 +43,61 @@ fn options(forced: &[super::Effect], smoothing_ms: Option<f64>, map: Option<&sup
     opts
 }
 
-pub fn run(
-    input: &Path,
-    scenario: Option<&Path>,
-    mapping: Option<&Path>,
-    vehicle: Option<&str>,
-    seed: Option<u64>,
-    smoothing_ms: Option<f64>,
-    forced: &[super::Effect],
-) -> Result<Identified, InputError> {
-    let opts = options(forced, smoothing_ms, None);
-    if let Some(m) = mapping {
-        let map = super::mapping::Mapping::load(m)?;
-        let opts = options(forced, smoothing_ms, Some(&map));
-        let series = map.read(input)?;
-        let report = identify(&series, &opts)?;
-        let text = report::render(&report);
-        // the log's own frame rate, for rounding a delay to whole frames
-        // (and four markers, the common pattern, for a lever arm: the log names no template)
-        let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32, 4);
-        let json = json!({ "report": report, "closed_loop": null });
-        let residuals = super::select::residual_series(&series, &opts, &report);
-        return Ok(Identified { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
+/// What `identify` reads.
+#[derive(Clone, Copy, Debug)]
+pub enum Source<'a> {
+    /// A scenario, flown here; its undeclared effects are the hidden truth.
+    Scenario(&'a Path),
+    /// A flyarena flight log (`run --log`) with the scenario it was flown from.
+    FlyarenaLog { log: &'a Path, scenario: &'a Path },
+    /// Another tool's log (CSV, or a ROS 2 bag) through a mapping.
+    Mapped { log: &'a Path, mapping: &'a Path },
+}
+
+/// One identification: the source and its options (what `flyarena identify` takes).
+#[derive(Clone, Debug)]
+pub struct Request<'a> {
+    pub source: Source<'a>,
+    /// The scenario's vehicle by name (the first when `None`; not used for a mapped log).
+    pub vehicle: Option<&'a str>,
+    /// Another seed for the scenario and its closed-loop reruns.
+    pub seed: Option<u64>,
+    /// The smoothing of the kinematics (ms); else the mapping's, else the default.
+    pub smoothing_ms: Option<f64>,
+    /// Effects fitted whatever the selection says (`--with`).
+    pub forced: Vec<super::Effect>,
+}
+
+impl<'a> Request<'a> {
+    /// A request with default options.
+    pub fn new(source: Source<'a>) -> Self {
+        Request { source, vehicle: None, seed: None, smoothing_ms: None, forced: Vec::new() }
     }
+}
+
+/// Identifies from a scenario (flown here), a flyarena log with its scenario, or a mapped log;
+/// for a scenario or a flyarena log, also flies the nominal and the fed-back model against
+/// the data (closed loop) and checks R5 when the scenario declares it.
+pub fn run(req: &Request) -> Result<Identified, InputError> {
+    let (forced, smoothing_ms, vehicle, seed) = (&req.forced[..], req.smoothing_ms, req.vehicle, req.seed);
+    let opts = options(forced, smoothing_ms, None);
+    let (input, scenario) = match req.source {
+        Source::Scenario(p) => (p, None),
+        Source::FlyarenaLog { log, scenario } => (log, Some(scenario)),
+        Source::Mapped { log: input, mapping: m } => {
+            let map = super::mapping::Mapping::load(m)?;
+            let opts = options(forced, smoothing_ms, Some(&map));
+            let series = map.read(input)?;
+            let report = identify(&series, &opts)?;
+            let text = report::render(&report);
+            // the log's own frame rate, for rounding a delay to whole frames
+            // (and four markers, the common pattern, for a lever arm: the log names no template)
+            let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32, 4);
+            let json = json!({ "report": report, "closed_loop": null });
+            let residuals = super::select::residual_series(&series, &opts, &report);
+            return Ok(Identified { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
+        }
+    };
     let scen_path = scenario.unwrap_or(input);
     let src = std::fs::read_to_string(scen_path).map_err(|e| InputError::io(scen_path.display(), e))?;
     let mut s = Scenario::parse(&src, scen_path)?;

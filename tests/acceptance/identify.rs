@@ -3,7 +3,7 @@
 
 use flyarena::identify::flyarena_log::run_and_log;
 use flyarena::identify::mapping::Mapping;
-use flyarena::identify::workflow::run as identify_cli;
+use flyarena::identify::workflow::{Request, Source, run as identify_cli};
 use flyarena::identify::{Effect, Options, identify};
 use flyarena::scenario::Scenario;
 use std::path::{Path, PathBuf};
@@ -49,7 +49,8 @@ fn every_identify_scenario_finds_its_hidden_effect() {
     let round = |x: f64, k: i32| ((x * 10f64.powi(k)).round() / 10f64.powi(k)) + 0.0;
     let mut summary = Vec::new();
     for name in IDENTIFY_SCENARIOS {
-        let done = identify_cli(&scenario(name), None, None, None, None, None, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let path = scenario(name);
+        let done = identify_cli(&Request::new(Source::Scenario(&path))).unwrap_or_else(|e| panic!("{name}: {e}"));
         summary.push(serde_json::json!({
             "scenario": name,
             "effects": done.report.effects.iter().map(|f| format!("{}: {}", f.effect.key(), f.params.iter().map(|p| format!("{} {}", p.name, round(p.value, 3))).collect::<Vec<_>>().join(", "))).collect::<Vec<_>>(),

@@ -159,7 +159,7 @@ fn identify_twin(name: &str, edit: impl Fn(String) -> String) -> Report {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(format!("twin-{name}.yaml"));
     std::fs::write(&path, edited).unwrap();
-    let done = flyarena::identify::workflow::run(&path, None, None, None, None, None, &[]).unwrap();
+    let done = flyarena::identify::workflow::run(&flyarena::identify::workflow::Request::new(flyarena::identify::workflow::Source::Scenario(&path))).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
     done.requirements.expect("R5 declared")
 }
