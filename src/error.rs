@@ -4,6 +4,7 @@
 //! still matches on the stage. Every message names the file, and the line and column where
 //! the defect has them. The command line prints the message and exits with
 //! [`Error::exit_code`].
+#![warn(missing_docs)]
 
 use std::path::PathBuf;
 
@@ -32,7 +33,12 @@ pub enum Error {
     /// An output that cannot be written (nothing is left half written: see
     /// [`crate::output::write_atomic`]).
     #[error("cannot write {}: {source}", path.display())]
-    Write { path: PathBuf, source: std::io::Error },
+    Write {
+        /// The output that was not written.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
     /// A combination of inputs that does not make a job (what to give instead).
     #[error("{0}")]
     Usage(String),

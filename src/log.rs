@@ -21,6 +21,7 @@
 //! Repairs, each reported in [`FlightLog::repairs`]: a last line cut short (no newline, too few
 //! cells) is dropped; a row repeating the previous timestamp exactly is dropped; a gap longer
 //! than 3 × the median sampling interval splits the log into segments.
+#![warn(missing_docs)]
 
 use crate::engine::VehicleRun;
 use std::fmt::Write as _;
@@ -89,6 +90,7 @@ pub fn write_csv(v: &VehicleRun, mocap_period_s: f64) -> String {
 /// A log read back: one `Vec<Option<f64>>` per column (`None` = empty cell), in [`COLUMNS`] order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FlightLog {
+    /// The cells, column by column.
     pub columns: Vec<Vec<Option<f64>>>,
     /// Row ranges [start, end) of the segments between gaps.
     pub segments: Vec<(usize, usize)>,
@@ -97,24 +99,55 @@ pub struct FlightLog {
 }
 
 impl FlightLog {
+    /// Rows read.
     pub fn rows(&self) -> usize {
         self.columns.first().map_or(0, Vec::len)
     }
+    /// The column named `name` (one of [`COLUMNS`]).
     pub fn column(&self, name: &str) -> Option<&[Option<f64>]> {
         COLUMNS.iter().position(|c| *c == name).map(|i| self.columns[i].as_slice())
     }
 }
 
+/// A flight log that does not read, with the file, line and column of the defect.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum LogError {
+    /// No header, or fewer than two rows.
     #[error("{file}: the log is empty: it needs the header line `{}` and at least two rows", COLUMNS.join(","))]
-    Empty { file: String },
+    Empty {
+        /// The log.
+        file: String,
+    },
+    /// The header is not flyarena's (a missing, unknown or misspelled column).
     #[error("{file}:1: {message}")]
-    Header { file: String, message: String },
+    Header {
+        /// The log.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A cell that is not a number of its column.
     #[error("{file}:{line}: column `{column}`: {message}")]
-    Cell { file: String, line: usize, column: String, message: String },
+    Cell {
+        /// The log.
+        file: String,
+        /// The line (1 is the header).
+        line: usize,
+        /// The column's name.
+        column: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A row as a whole (cell count, time order).
     #[error("{file}:{line}: {message}")]
-    Row { file: String, line: usize, message: String },
+    Row {
+        /// The log.
+        file: String,
+        /// The line (1 is the header).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 fn closest<'a>(bad: &str, candidates: &[&'a str]) -> Option<&'a str> {

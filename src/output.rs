@@ -5,6 +5,7 @@
 //!   ([`install_interrupt_handler`]) removes the temporary files being written.
 //! - [`check_file_name`] is the rule for names that become file names (a scenario's `name`, a
 //!   vehicle's `name`): a scenario from someone else must not write outside `--out`.
+#![warn(missing_docs)]
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -64,14 +65,19 @@ pub const FILE_NAME_MAX: usize = 100;
 /// `x` ...").
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum BadFileName {
+    /// No character.
     #[error("is empty; use {FILE_NAME_CHARS}")]
     Empty,
+    /// Longer than [`FILE_NAME_MAX`] (its length).
     #[error("is {0} characters long; at most {FILE_NAME_MAX}")]
     TooLong(usize),
+    /// A character outside [`FILE_NAME_CHARS`].
     #[error("holds {0:?}, which cannot be in a file name here; use {FILE_NAME_CHARS}")]
     Character(char),
+    /// A leading dot.
     #[error("starts with `.` (a hidden file, or a way out of the output folder)")]
     Dot,
+    /// A device name on Windows (`CON`, `COM1`, ...).
     #[error("is `{0}`, a device name on Windows")]
     Device(String),
 }

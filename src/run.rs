@@ -12,6 +12,7 @@
 //! let summary = outcome.summary(&s);
 //! assert_eq!(summary.scenario, "fig7-no-offsets");
 //! ```
+#![warn(missing_docs)]
 
 use crate::engine::{RunOptions, RunOutput, run};
 use crate::requirements::{self, Report, Row};
@@ -30,10 +31,15 @@ pub struct Outcome {
 /// The JSON summary of a run (`out/<scenario>.json`).
 #[derive(Debug, serde::Serialize)]
 pub struct Summary {
+    /// The scenario's name.
     pub scenario: String,
+    /// The seed it was flown with.
     pub seed: u64,
+    /// Simulated time (s).
     pub duration_s: f64,
+    /// Whether every requirement row passed.
     pub passed: bool,
+    /// The requirement rows, as in the table.
     pub requirements: Vec<Row>,
     /// Per vehicle: calibration, errors and failsafe figures (see `requirements::vehicle_summary`).
     pub vehicles: Vec<serde_json::Value>,

@@ -14,6 +14,7 @@
 //!
 //! The variations are applied to the YAML tree, which is then parsed and validated like any
 //! scenario, so a variation that leaves the allowed range is reported like a bad scenario.
+#![warn(missing_docs)]
 
 use crate::rng::{Component, Stream};
 use crate::run::run_scenario;
@@ -27,30 +28,58 @@ use std::path::{Path, PathBuf};
 
 /// Metric names, in column order. Angles in degrees, distances in metres; NaN when a run has no
 /// value for it (e.g. no yaw flight).
+/// Metrics per row, in this order: the roll and pitch calibration errors, the yaw errors of
+/// the gyro alignment and of the straight flight (deg), the spin drift (m) and its ratio to the
+/// uncompensated twin's, and |ψ_LS − ψ_RLS| (rad).
 pub const METRICS: [&str; 7] = ["roll_err_deg", "pitch_err_deg", "yaw_gyro_err_deg", "yaw_ls_err_deg", "spin_dev_m", "spin_ratio", "ls_rls_dpsi_rad"];
 /// Requirement pass flags per row.
 pub const REQUIREMENTS: [&str; 4] = ["R1", "R2", "R3", "R4"];
 
+/// Why a sweep cannot run, merge or keep its journal.
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
+    /// The scenario itself is not valid.
     #[error("{0}")]
     Scenario(#[from] ScenarioError),
+    /// The `sweep:` section is not valid (which entry, and why).
     #[error("{file}: sweep: {message}")]
-    Spec { file: String, message: String },
+    Spec {
+        /// The scenario file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// One run's patched scenario is not valid.
     #[error("run {run}: {message}")]
-    Run { run: u64, message: String },
+    Run {
+        /// The run's index.
+        run: u64,
+        /// What is wrong.
+        message: String,
+    },
+    /// Shard files that do not belong together.
     #[error("merge: {0}")]
     Merge(String),
+    /// The journal cannot be written.
     #[error("cannot write the sweep journal {}: {source}", path.display())]
-    Journal { path: PathBuf, source: std::io::Error },
+    Journal {
+        /// The journal's path.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
 }
 
 /// One vehicle of one run.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct SweepRow {
+    /// The run's index in the sweep.
     pub run: u64,
+    /// The scenario seed of the run (drawn from the sweep seed and the run index).
     pub seed: u64,
+    /// The index of the grid point the run flew.
     pub grid_point: u64,
+    /// The vehicle's name.
     pub vehicle: String,
     /// The varied values, in declaration order.
     pub params: Vec<f64>,
@@ -58,20 +87,26 @@ pub struct SweepRow {
     pub metrics: Vec<Option<f64>>,
     /// [`REQUIREMENTS`] pass flags (`None` when the scenario does not declare it).
     pub requirements: Vec<Option<bool>>,
+    /// Whether the row passed every requirement it has.
     pub passed: bool,
 }
 
 /// What a (partial) sweep produced: the rows of the runs it ran.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct SweepOutput {
+    /// The scenario's name.
     pub scenario: String,
+    /// The sweep's own seed (`sweep.seed`), from which every run's seed and draws come.
     pub sweep_seed: u64,
+    /// Runs in the whole sweep (a shard holds some of them).
     pub runs: u64,
+    /// The varied field paths, in declaration order.
     pub fields: Vec<String>,
     /// Which of `fields` are grids (the rest are random draws).
     pub grid: Vec<bool>,
     /// `[K, N]` for a shard, `None` for a whole sweep.
     pub shard: Option<[u64; 2]>,
+    /// The rows, by run and vehicle.
     pub rows: Vec<SweepRow>,
 }
 
@@ -109,9 +144,11 @@ impl Sweep {
         Ok(sweep)
     }
 
+    /// The scenario's name.
     pub fn name(&self) -> &str {
         &self.name
     }
+    /// The runs the scenario's `sweep.runs` asks for.
     pub fn default_runs(&self) -> u64 {
         self.cfg.runs as u64
     }
@@ -241,14 +278,20 @@ pub fn shard_runs(runs: u64, shard: Option<(u64, u64)>) -> impl Iterator<Item = 
 /// The first line of a sweep journal: which sweep the lines after it belong to.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct JournalHeader {
+    /// The scenario's name.
     pub scenario: String,
+    /// A hash of the scenario's text: an edited scenario starts a new journal.
     pub text_hash: u64,
+    /// The sweep's seed.
     pub sweep_seed: u64,
+    /// Runs in the whole sweep.
     pub runs: u64,
+    /// `[K, N]` (1-based) for a shard.
     pub shard: Option<[u64; 2]>,
 }
 
 impl Sweep {
+    /// The header a journal of this sweep (`runs`, `shard`) starts with.
     pub fn journal_header(&self, runs: u64, shard: Option<(u64, u64)>) -> JournalHeader {
         JournalHeader { scenario: self.name.clone(), text_hash: self.text_hash, sweep_seed: self.cfg.seed, runs, shard: shard.map(|(k, n)| [k + 1, n]) }
     }
@@ -312,6 +355,7 @@ impl Journal {
         &self.done
     }
 
+    /// Where the journal is.
     pub fn path(&self) -> &Path {
         &self.path
     }
@@ -362,11 +406,17 @@ pub fn merge(parts: Vec<SweepOutput>) -> Result<SweepOutput, SweepError> {
 /// Statistics of one metric over a group of rows (finite values only).
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Stats {
+    /// Finite values.
     pub n: usize,
+    /// Their mean.
     pub mean: f64,
+    /// Nearest-rank percentiles: the smallest value with at least p·n values at or below it.
     pub p50: f64,
+    /// See `p50`.
     pub p95: f64,
+    /// See `p50`.
     pub p99: f64,
+    /// The largest value.
     pub max: f64,
 }
 
@@ -385,17 +435,22 @@ fn stats(mut xs: Vec<f64>) -> Option<Stats> {
 /// The summary of a sweep: one [`Group`] per grid point.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Summary {
+    /// The scenario's name.
     pub scenario: String,
+    /// The sweep's seed.
     pub sweep_seed: u64,
+    /// Runs in the sweep.
     pub runs: u64,
     /// The varied fields, as in [`SweepOutput::fields`].
     pub fields: Vec<String>,
+    /// One per grid point, in grid-point order.
     pub groups: Vec<Group>,
 }
 
 /// The rows of one grid point: the grid values, pass rates and metric statistics.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Group {
+    /// The grid point's index.
     pub grid_point: u64,
     /// The grid fields' values at this point (the random draws vary inside the group).
     pub grid: BTreeMap<String, f64>,

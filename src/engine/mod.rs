@@ -15,6 +15,7 @@
 //! Random draws come from one stream per component and vehicle ([`crate::rng`]), so a run is a
 //! pure function of the scenario and its seed: bit-identical trajectories whatever the thread
 //! count (the engine is single-threaded per run; fleets and sweeps never share a stream).
+#![warn(missing_docs)]
 
 pub mod station;
 
@@ -50,12 +51,17 @@ impl Default for RunOptions {
 /// One trajectory sample (taken at each Vicon tick).
 #[derive(Clone, Copy, Debug)]
 pub struct TraceSample {
+    /// Simulation time of the tick.
     pub t: Nanos,
+    /// True position of the body origin (m, true NED).
     pub pos: Vec3<Nav>,
+    /// True velocity (m/s, true NED).
     pub vel: Vec3<Nav>,
+    /// True attitude as Z-Y-X Euler angles (rad).
     pub att_true: Euler,
     /// Raw mocap pose of the last received packet.
     pub pos_measured: Option<Vec3<MocapNav>>,
+    /// Raw mocap attitude of the last received packet (the markers' frame, not the body's).
     pub att_measured: Option<Rot<MocapBody, MocapNav>>,
     /// True attitude (body → true NED).
     pub att_true_rot: Rot<Body, Nav>,
@@ -69,26 +75,38 @@ pub struct TraceSample {
     pub captured: Option<MocapFrame>,
     /// The IMU sample of this tick (gyro, specific force; body frame).
     pub imu: ImuSample,
+    /// The guidance's position set point (m, mocap NED).
     pub reference: Vec3<MocapNav>,
+    /// The guidance's yaw set point (rad).
     pub reference_yaw: f64,
     /// Last PPM frame sent.
     pub ppm: Option<PpmFrame>,
+    /// The collective thrust the receiver holds (decoded command, N).
     pub thrust_n: f64,
     /// Battery terminal voltage over this tick (V).
     pub vbat_v: f64,
+    /// The mocap link's counts so far.
     pub link: LinkStats,
+    /// The plan phase flown (index into the scenario's `plan`), if any.
     pub phase: Option<usize>,
 }
 
 /// Everything a run produced for one vehicle.
 #[derive(Clone, Debug)]
 pub struct VehicleRun {
+    /// The vehicle's name in the scenario.
     pub name: String,
+    /// Its physical parameters (preset with the scenario's overrides).
     pub params: VehicleParams,
+    /// The true mocap → body offset the markers make (the calibration's truth).
     pub truth: TrueOffset,
+    /// The mounted markers and their template.
     pub markers: MarkerSet,
+    /// The camera system's own error (world tilt, scale), if declared.
     pub camera: CameraError,
+    /// What the calibration phases estimated.
     pub calibration: CalibrationReport,
+    /// The mocap link's counts (delivered, lost, late) over the run.
     pub link: LinkStats,
     /// The body-rate telemetry link (vehicle → station).
     pub telemetry: LinkStats,
@@ -98,24 +116,34 @@ pub struct VehicleRun {
     pub spin_max_deviation_m: Option<f64>,
     /// Mean commanded (decoded) thrust while hovering in calibrate_roll_pitch (N).
     pub hover_thrust_mean_n: Option<f64>,
+    /// One sample per Vicon tick, when [`RunOptions::trace`] is set.
     pub trace: Vec<TraceSample>,
+    /// The recursive least squares of the straight-flight yaw, sample by sample.
     pub rls_trace: Vec<RlsSample>,
     /// The running hover average (recording only).
     pub hover_trace: Vec<HoverSample>,
+    /// When each plan phase began, and its kind.
     pub phases: Vec<(Nanos, &'static str)>,
     /// Undeclared mocap delay in frames: the flight log stamps poses this many frames late.
     pub log_delay_frames: usize,
     /// Undeclared gyro delay in frames: the flight log stamps gyro samples this many frames late.
     pub gyro_log_delay_frames: usize,
+    /// True position at the end of the run (m, true NED).
     pub final_pos: Vec3<Nav>,
+    /// Whether the state ever stopped being finite (the run is then void).
     pub any_nan: bool,
 }
 
+/// Everything a run produced.
 #[derive(Clone, Debug)]
 pub struct RunOutput {
+    /// The scenario's name.
     pub scenario: String,
+    /// The seed the run drew every random stream from.
     pub seed: u64,
+    /// Simulated time at the end.
     pub duration: Nanos,
+    /// Per vehicle, in the scenario's order.
     pub vehicles: Vec<VehicleRun>,
 }
 
@@ -301,10 +329,12 @@ impl Arena {
         }
     }
 
+    /// The simulation time of the next tick.
     pub fn now(&self) -> Nanos {
         self.clock.now()
     }
 
+    /// Whether the scenario's run time is over.
     pub fn done(&self) -> bool {
         self.clock.tick() >= self.end_tick
     }
@@ -328,6 +358,7 @@ impl Arena {
         self.finish()
     }
 
+    /// Collects the results of the ticks run so far.
     pub fn finish(self) -> RunOutput {
         let duration = self.clock.now();
         // the clock has advanced past the last tick that ran

@@ -18,12 +18,19 @@ const GYRO_WINDOW_MIN: Nanos = Nanos(40_000_000);
 /// Calibration settings of the station.
 #[derive(Clone, Debug)]
 pub struct CalibrationSettings {
+    /// Whether the estimated offset is removed from the measured attitude (`calibration.apply`).
     pub apply: bool,
+    /// How it is removed.
     pub compensation: Compensation,
+    /// The validity check (7): the largest mean |ψ| of the straight flight (rad).
     pub eps_yaw: f64,
+    /// The validity check (7): the largest mean |φ| of the straight flight (rad).
     pub eps_roll: f64,
+    /// How far X_N must have moved before the RLS of (9) starts (m).
     pub rls_min_spread_m: f64,
+    /// The mocap frame period.
     pub mocap_period: Nanos,
+    /// The telemetry (body-rate downlink) period.
     pub telemetry_period: Nanos,
     /// The gyro alignment fits the telemetry clock (offset, drift) instead of assuming the Vicon's.
     pub estimate_telemetry_clock: bool,
@@ -34,20 +41,26 @@ pub struct CalibrationSettings {
 /// `motors_off_after` in failsafe it cuts the motors; the first pose that arrives ends it.
 #[derive(Clone, Copy, Debug)]
 pub struct FailsafeSettings {
+    /// Silence of the mocap after which the failsafe takes over.
     pub timeout: Nanos,
+    /// The failsafe's thrust as a fraction of the weight (a sink at (1 − f)·g).
     pub thrust_fraction: f64,
+    /// Time in failsafe after which the motors are cut.
     pub motors_off_after: Nanos,
 }
 
 /// What the failsafe did during a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct FailsafeReport {
+    /// How many times the failsafe took over.
     pub episodes: u32,
-    /// Time spent in failsafe (s), and the longest episode (s).
+    /// Time spent in failsafe (s).
     pub total_s: f64,
+    /// The longest episode (s).
     pub longest_s: f64,
-    /// When the first episode began (s), and whether the run ended in failsafe.
+    /// When the first episode began (s).
     pub first_at_s: Option<f64>,
+    /// Whether the run ended in failsafe.
     pub active_at_end: bool,
 }
 
@@ -56,12 +69,15 @@ pub struct FailsafeReport {
 pub struct CalibrationReport {
     /// (φ̄_m, θ̄_m) and the number of samples averaged.
     pub roll_pitch: Option<(f64, f64, u64)>,
+    /// The straight flight's batch least-squares line fit (9).
     pub yaw_ls: Option<LineFit>,
+    /// The same fit by recursive least squares (R3 compares the two).
     pub yaw_rls: Option<LineFit>,
     /// The yaw offset estimate: ψ̂_off = ψ̂_off,before + ψ̄_m − course, with the course from the
     /// batch fit (9). The paper assumes the held yaw ψ̄_m is 0; here the PPM yaw-rate quantization
     /// lets it sit anywhere in a ±0.5 count/K_ψ deadband (±0.25° by default), so it is added back.
     pub yaw_offset: Option<f64>,
+    /// The validity check (7) of the straight flight.
     pub validity: Option<Validity>,
     /// The full mocap-to-body rotation from gyro telemetry, at the end of calibrate_gyro.
     pub gyro: Option<GyroFit>,
@@ -72,18 +88,25 @@ pub struct CalibrationReport {
 /// The running hover average as it converged (for recording), rad.
 #[derive(Clone, Copy, Debug)]
 pub struct HoverSample {
+    /// When.
     pub t: Nanos,
+    /// The running mean of the measured roll (rad).
     pub roll: f64,
+    /// The running mean of the measured pitch (rad).
     pub pitch: f64,
 }
 
 /// One RLS estimate as it converged (for recording).
 #[derive(Clone, Copy, Debug)]
 pub struct RlsSample {
+    /// When.
     pub t: Nanos,
+    /// The yaw offset estimate so far (rad).
     pub psi_offset: f64,
 }
 
+/// The ground station of one vehicle: guidance, the cascaded controller (1)–(5), the
+/// calibration phases and the failsafe, fed by the mocap packets and the telemetry it receives.
 #[derive(Clone, Debug)]
 pub struct Station {
     plan: Plan,
@@ -162,6 +185,7 @@ impl Station {
         }
     }
 
+    /// The scheduled plan.
     pub fn plan(&self) -> &Plan {
         &self.plan
     }
@@ -169,9 +193,11 @@ impl Station {
     pub fn command(&self) -> &ControlOutput {
         &self.command
     }
+    /// The latest set point.
     pub fn reference(&self) -> &Reference {
         &self.reference
     }
+    /// The offset estimate the station holds.
     pub fn offset(&self) -> &OffsetEstimate {
         &self.offset
     }
@@ -179,9 +205,11 @@ impl Station {
     pub fn attitude(&self) -> Option<Rot<Body, MocapNav>> {
         self.attitude
     }
+    /// The RLS estimates so far (empty unless traced).
     pub fn rls_trace(&self) -> &[RlsSample] {
         self.rls_trace.as_deref().unwrap_or(&[])
     }
+    /// The hover averages so far (empty unless traced).
     pub fn hover_trace(&self) -> &[HoverSample] {
         self.hover_trace.as_deref().unwrap_or(&[])
     }
@@ -254,6 +282,7 @@ impl Station {
         }
     }
 
+    /// What the failsafe did so far.
     pub fn failsafe_report(&self) -> FailsafeReport {
         self.failsafe_report
     }

@@ -2,6 +2,7 @@
 //! flyarena log with its scenario, a scenario with an effects fragment. Every variant names the
 //! file, and the line and column where the defect has one; nothing here is a number made from
 //! bad data (the data-quality gate's own verdict is [`IdentifyError`]).
+#![warn(missing_docs)]
 
 use super::select::IdentifyError;
 use crate::log::LogError;
@@ -13,22 +14,57 @@ use std::fmt::Display;
 pub enum InputError {
     /// A file that cannot be read.
     #[error("{file}: {source}")]
-    Io { file: String, source: std::io::Error },
+    Io {
+        /// The file.
+        file: String,
+        /// Why.
+        source: std::io::Error,
+    },
     /// A mapping or an effects fragment that is not valid: the parser's message carries the
     /// line and column when it knows them.
     #[error("{file}: {message}")]
-    Invalid { file: String, message: String },
+    Invalid {
+        /// The mapping or fragment.
+        file: String,
+        /// What is wrong, and where.
+        message: String,
+    },
     /// A defect of a log's row: `line` counts from 1 (the header), `column` is the header's
     /// name of the cell when the defect is in one.
     #[error("{file}:{line}: {}{message}", column.as_ref().map_or(String::new(), |c| format!("column `{c}`: ")))]
-    Row { file: String, line: usize, column: Option<String>, message: String },
+    Row {
+        /// The log.
+        file: String,
+        /// The line (1 is the header).
+        line: usize,
+        /// The header's name of the cell, when the defect is in one.
+        column: Option<String>,
+        /// What is wrong.
+        message: String,
+    },
     /// A defect of a log as a whole: empty, not text, fewer than two rows, a column the
     /// mapping names and the log lacks, a format the mapping cannot read.
     #[error("{file}: {message}")]
-    Log { file: String, message: String },
+    Log {
+        /// The log.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A ROS 2 bag's message that does not decode (its topic, sequence number and schema).
     #[error("{file}: topic `{topic}`, message {sequence} ({schema}): {reason}")]
-    Message { file: String, topic: String, sequence: u32, schema: String, reason: String },
+    Message {
+        /// The bag.
+        file: String,
+        /// The message's topic.
+        topic: String,
+        /// Its sequence number.
+        sequence: u32,
+        /// Its schema's name.
+        schema: String,
+        /// What is wrong.
+        reason: String,
+    },
     /// The scenario (of a run, of a flyarena log, or patched by a fragment) is not valid.
     #[error("{0}")]
     Scenario(#[from] ScenarioError),
