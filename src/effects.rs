@@ -4,18 +4,24 @@
 //! finds them), so neither depends on the other for it. The regressors are in
 //! `identify::design`; the simulated counterparts in `scenario` fields (see
 //! `identify::trials` for the table).
+#![warn(missing_docs)]
 
 /// The residual channels: three axes each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Channel {
+    /// The accelerometer against the specific force the mocap trajectory implies (m/s²).
     AccelKin,
+    /// The gyro against the mocap's body rates (rad/s).
     Gyro,
+    /// The accelerometer against the force model: thrust from the commands, declared drag (m/s²).
     Force,
 }
 
 impl Channel {
+    /// Every channel, in report order.
     pub const ALL: [Channel; 3] = [Channel::AccelKin, Channel::Gyro, Channel::Force];
+    /// Its name in reports and JSON.
     pub fn name(self) -> &'static str {
         match self {
             Channel::AccelKin => "accel_kin",
@@ -23,12 +29,14 @@ impl Channel {
             Channel::Force => "force",
         }
     }
+    /// Its unit.
     pub fn unit(self) -> &'static str {
         match self {
             Channel::Gyro => "rad/s",
             _ => "m/s²",
         }
     }
+    /// Its position in [`Channel::ALL`].
     pub fn index(self) -> usize {
         self as usize
     }
@@ -38,21 +46,34 @@ impl Channel {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Effect {
+    /// The markers' frame turned against the body (roll, pitch, yaw).
     BodyOffset,
+    /// The mocap's world frame tilted against gravity (roll, pitch).
     WorldTilt,
+    /// The mocap poses late against the IMU.
     MocapDelay,
+    /// A constant accelerometer offset (body).
     AccelBias,
+    /// A constant gyro offset (body).
     GyroBias,
+    /// Horizontal drag proportional to the body velocity (rotor flapping, induced drag).
     RotorDrag,
+    /// A constant force in the world (wind, a tether, a centre of gravity off the thrust line).
     ConstantForce,
+    /// The thrust map off by a factor.
     ThrustScale,
+    /// Thrust that changes with the battery voltage.
     ThrustVoltage,
+    /// More thrust near the floor (Cheeseman–Bennett).
     GroundEffect,
+    /// The IMU away from the tracked point.
     LeverArm,
+    /// The gyro late against the accelerometer.
     GyroDelay,
 }
 
 impl Effect {
+    /// Every effect, in the order of the design's columns.
     pub const ALL: [Effect; 12] = [
         Effect::BodyOffset,
         Effect::WorldTilt,
@@ -67,6 +88,7 @@ impl Effect {
         Effect::LeverArm,
         Effect::GyroDelay,
     ];
+    /// Its name for people.
     pub fn name(self) -> &'static str {
         match self {
             Effect::BodyOffset => "body offset (mocap → body rotation)",
@@ -83,6 +105,7 @@ impl Effect {
             Effect::GyroDelay => "gyro delay vs accelerometer",
         }
     }
+    /// Its key in YAML, JSON and `--with`.
     pub fn key(self) -> &'static str {
         match self {
             Effect::BodyOffset => "body_offset",
@@ -117,9 +140,11 @@ impl Effect {
             Effect::GyroDelay => &[("delay", "ms", 1e3)],
         }
     }
+    /// How many parameters it has.
     pub fn n_params(self) -> usize {
         self.params().len()
     }
+    /// The residual channels it acts on.
     pub fn channels(self) -> &'static [Channel] {
         match self {
             Effect::BodyOffset | Effect::MocapDelay => &[Channel::AccelKin, Channel::Gyro],

@@ -39,6 +39,7 @@
 //! let thrust_axis = Vec3::<Body>::new(0.0, 0.0, -1.0);
 //! let _ = measured.apply(thrust_axis); // the mocap attitude does not accept true-body vectors
 //! ```
+#![warn(missing_docs)]
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use serde::Serialize;
@@ -48,6 +49,7 @@ use std::ops::{Add, AddAssign, Mul, Neg, Sub};
 
 /// A coordinate frame marker.
 pub trait Frame: Copy + fmt::Debug + 'static {
+    /// The frame's name in messages (`body`, `nav`, ...).
     const NAME: &'static str;
 }
 
@@ -108,12 +110,15 @@ impl<F: Frame> Serialize for Vec3<F> {
 }
 
 impl<F: Frame> Vec3<F> {
+    /// The vector with coordinates (x, y, z) in `F`.
     pub const fn new(x: f64, y: f64, z: f64) -> Self {
         Vec3 { v: Vector3::new(x, y, z), _f: PhantomData }
     }
+    /// The zero vector.
     pub const fn zeros() -> Self {
         Self::new(0.0, 0.0, 0.0)
     }
+    /// From coordinates `[x, y, z]` in `F`.
     pub fn from_array(a: [f64; 3]) -> Self {
         Self::new(a[0], a[1], a[2])
     }
@@ -121,21 +126,27 @@ impl<F: Frame> Vec3<F> {
     pub fn from_raw(v: Vector3<f64>) -> Self {
         Vec3 { v, _f: PhantomData }
     }
+    /// The coordinates, without the frame (for nalgebra).
     pub fn raw(&self) -> &Vector3<f64> {
         &self.v
     }
+    /// The coordinates `[x, y, z]`.
     pub fn to_array(self) -> [f64; 3] {
         [self.v.x, self.v.y, self.v.z]
     }
+    /// The first coordinate (north in a NED frame, forward in FRD).
     pub fn x(&self) -> f64 {
         self.v.x
     }
+    /// The second coordinate (east in NED, right in FRD).
     pub fn y(&self) -> f64 {
         self.v.y
     }
+    /// The third coordinate (down in both).
     pub fn z(&self) -> f64 {
         self.v.z
     }
+    /// The Euclidean norm.
     pub fn norm(&self) -> f64 {
         self.v.norm()
     }
@@ -143,15 +154,19 @@ impl<F: Frame> Vec3<F> {
     pub fn horizontal_norm(&self) -> f64 {
         self.v.x.hypot(self.v.y)
     }
+    /// The dot product with a vector of the same frame.
     pub fn dot(&self, o: &Self) -> f64 {
         self.v.dot(&o.v)
     }
+    /// The cross product with a vector of the same frame.
     pub fn cross(&self, o: &Self) -> Self {
         Self::from_raw(self.v.cross(&o.v))
     }
+    /// Each coordinate times its factor (per-axis gains).
     pub fn component_mul(&self, k: &[f64; 3]) -> Self {
         Self::new(self.v.x * k[0], self.v.y * k[1], self.v.z * k[2])
     }
+    /// Whether every coordinate is finite.
     pub fn is_finite(&self) -> bool {
         self.v.iter().all(|c| c.is_finite())
     }
@@ -195,13 +210,18 @@ impl<F: Frame> Mul<f64> for Vec3<F> {
 /// Roll φ, pitch θ, yaw ψ in radians, ZYX order (yaw first), as in the paper.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct Euler {
+    /// φ (rad), about the body x axis.
     pub roll: f64,
+    /// θ (rad), about the once-turned y axis.
     pub pitch: f64,
+    /// ψ (rad), about the navigation z axis (down).
     pub yaw: f64,
 }
 
 impl Euler {
+    /// Level, heading north.
     pub const ZERO: Euler = Euler { roll: 0.0, pitch: 0.0, yaw: 0.0 };
+    /// From φ, θ, ψ in radians.
     pub fn new(roll: f64, pitch: f64, yaw: f64) -> Self {
         Euler { roll, pitch, yaw }
     }
@@ -209,6 +229,7 @@ impl Euler {
     pub fn from_degrees(roll: f64, pitch: f64, yaw: f64) -> Self {
         Euler::new(roll.to_radians(), pitch.to_radians(), yaw.to_radians())
     }
+    /// `[φ, θ, ψ]` in degrees, for printing.
     pub fn to_degrees(self) -> [f64; 3] {
         [self.roll.to_degrees(), self.pitch.to_degrees(), self.yaw.to_degrees()]
     }
@@ -240,9 +261,11 @@ impl<A: Frame, B: Frame> fmt::Debug for Rot<A, B> {
 }
 
 impl<A: Frame, B: Frame> Rot<A, B> {
+    /// The rotation that changes nothing (for frames that coincide).
     pub fn identity() -> Self {
         Self::from_quaternion(UnitQuaternion::identity())
     }
+    /// From the unit quaternion that maps `A` coordinates to `B` coordinates.
     pub fn from_quaternion(q: UnitQuaternion<f64>) -> Self {
         Rot { q, _f: PhantomData }
     }
@@ -259,15 +282,19 @@ impl<A: Frame, B: Frame> Rot<A, B> {
         let (roll, pitch, yaw) = self.q.euler_angles();
         Euler { roll, pitch, yaw }
     }
+    /// The unit quaternion (`A` → `B`).
     pub fn quaternion(&self) -> &UnitQuaternion<f64> {
         &self.q
     }
+    /// The rotation matrix, whose columns are `A`'s axes expressed in `B`.
     pub fn matrix(&self) -> Matrix3<f64> {
         *self.q.to_rotation_matrix().matrix()
     }
+    /// The vector `v` of `A`, expressed in `B`.
     pub fn apply(&self, v: Vec3<A>) -> Vec3<B> {
         Vec3::from_raw(self.q.transform_vector(&v.v))
     }
+    /// The rotation back, `B` → `A`.
     pub fn inverse(&self) -> Rot<B, A> {
         Rot::from_quaternion(self.q.inverse())
     }

@@ -1,16 +1,21 @@
 //! What the selection reports: the estimates with their intervals, each step's scoreboard,
 //! the held-out errors, the whiteness and what is left of the residual.
 
+#![warn(missing_docs)]
+
 use super::*;
 
 /// One parameter, in the reported unit.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Param {
+    /// The parameter's name (`roll`, `k_x`, `north`, ...; see [`Effect::params`]).
     pub name: String,
+    /// The estimate, in `unit`.
     pub value: f64,
     /// Half-width of the 95 % interval. Where the flight cannot tell an effect of the model from
     /// one outside it, the interval is widened to cover the estimate of the swapped model too.
     pub ci95: f64,
+    /// The reported unit (degrees, ms, mm, ...: the edge's units, not the internal SI).
     pub unit: String,
     /// False when this effect cannot be told apart from one outside the model by this flight
     /// (see [`Report::not_identifiable`]): the value is one of several explanations, and no
@@ -18,28 +23,40 @@ pub struct Param {
     pub identifiable: bool,
 }
 
+/// One candidate's gates at one step: what adding it to the model would do.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Candidate {
+    /// The candidate.
     pub effect: Effect,
+    /// BIC with it minus BIC without (negative: it pays for its parameters).
     pub delta_bic: f64,
+    /// The F statistic of its block on the prewhitened training data.
     pub f: f64,
+    /// The F-test's p-value.
     pub p_value: f64,
     /// Relative drop of the held-out error on the candidate's channels.
     pub heldout_gain: f64,
     /// Largest |correlation| of a prewhitened regressor column with the prewhitened residual.
     pub max_corr: f64,
+    /// Whether it passed all three gates (F-test, ΔBIC, held-out).
     pub passed: bool,
 }
 
+/// One forward step of the selection: the effect that joined and the scoreboard it won.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Step {
+    /// The effect that joined.
     pub added: Effect,
     /// A second effect added in the same step: the two explain the residual only together
     /// (each alone is significant but fails the held-out gate); the step's figures are the pair's.
     pub together_with: Option<Effect>,
+    /// The added effect's ΔBIC.
     pub delta_bic: f64,
+    /// Its F-test p-value.
     pub p_value: f64,
+    /// Its relative drop of the held-out error.
     pub heldout_gain: f64,
+    /// Every candidate of the round, with its gates.
     pub candidates: Vec<Candidate>,
     /// Effects that the data cannot tell apart from the one added, with their canonical correlation.
     pub not_identifiable_from: Vec<(Effect, f64)>,
@@ -56,33 +73,49 @@ pub struct Removal {
     pub check: Candidate,
 }
 
+/// An effect in the final model, with its parameters.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Found {
+    /// The effect.
     pub effect: Effect,
+    /// Its name for people.
     pub name: String,
+    /// Its parameters with their 95 % intervals.
     pub params: Vec<Param>,
 }
 
+/// The held-out error of one channel axis before and after the effects.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AxisError {
+    /// The channel.
     pub channel: Channel,
+    /// Its axis, `x`, `y` or `z` (body frame).
     pub axis: char,
+    /// The channel's unit.
     pub unit: String,
+    /// Held-out samples compared.
     pub samples: usize,
+    /// RMSE of the nominal model.
     pub rmse_before: f64,
+    /// RMSE with the selected effects.
     pub rmse_after: f64,
     /// NRMSE fit, 100·(1 − ‖y − ŷ‖/‖y − ȳ‖) (%); None when the measured signal is constant
     /// (an ideal accelerometer's x axis without drag reads exactly zero).
     pub fit_before_pct: Option<f64>,
+    /// The same fit with the effects.
     pub fit_after_pct: Option<f64>,
 }
 
+/// Whether the final residual of one channel axis is white.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Whiteness {
+    /// The channel.
     pub channel: Channel,
+    /// Its axis.
     pub axis: char,
     /// Fraction of the lags 1..=50 of the raw residual outside the 99 % bounds ±2.58/√n.
     pub raw_outside_99: f64,
+    /// The order of the AR model that prewhitens it.
     pub ar_order: usize,
     /// Ljung–Box on the residual prewhitened by its AR(p), 20 lags.
     pub ljung_box: LjungBox,
@@ -91,6 +124,7 @@ pub struct Whiteness {
 /// A measured signal that the residual left at the end follows.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Correlate {
+    /// The signal's name and unit.
     pub signal: String,
     /// Pearson correlation with the final residual over the usable samples.
     pub r: f64,
@@ -102,10 +136,13 @@ pub struct Correlate {
 /// structured, and what does it follow? A lead for the next effect, not a verdict.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Left {
+    /// The channel.
     pub channel: Channel,
+    /// Its axis.
     pub axis: char,
     /// Held-out RMSE after the effects.
     pub rmse: f64,
+    /// The channel's unit.
     pub unit: String,
     /// Ljung–Box p-value of the prewhitened final residual (from [`Whiteness`]).
     pub ljung_box_p: f64,
@@ -117,22 +154,33 @@ pub struct Left {
     pub structured: bool,
 }
 
+/// What `identify` found in one flight, and how sure it is.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Report {
+    /// The flight's name (file, or scenario and seed).
     pub source: String,
+    /// Usable samples after decimation.
     pub samples: usize,
+    /// Of which the selection fitted on.
     pub train_samples: usize,
+    /// And held out to judge it.
     pub heldout_samples: usize,
+    /// The declared model the effects are added to.
     pub model: NominalModel,
+    /// The options it ran with.
     pub options: Options,
+    /// The forward steps, in order.
     pub steps: Vec<Step>,
     /// The scoreboard of the last round, in which no candidate passed.
     pub final_candidates: Vec<Candidate>,
     /// Effects that joined in a step but failed the backward check (their gates re-run on top
     /// of every other selected effect), in the order they left.
     pub removed: Vec<Removal>,
+    /// The final model's effects.
     pub effects: Vec<Found>,
+    /// Held-out errors per channel axis.
     pub errors: Vec<AxisError>,
+    /// Whiteness of the final residual per channel axis.
     pub whiteness: Vec<Whiteness>,
     /// Per channel axis: what the effects leave unexplained and what it follows.
     pub left: Vec<Left>,
@@ -143,13 +191,16 @@ pub struct Report {
     pub ground_check: Option<crate::identify::ground::GroundCheck>,
     /// The ground check against the flight's offset plus the tilt of its accelerometer bias.
     pub ground_agreement: Option<crate::identify::ground::GroundAgreement>,
+    /// What a reader should know (a negative delay, a half-supported candidate, ...).
     pub notes: Vec<String>,
+    /// What the reader repaired in the log (dropped duplicate rows, gaps).
     pub repairs: Vec<String>,
     /// What the data-quality gate cut out before the fit.
     pub data_quality: crate::identify::quality::DataQuality,
     /// Pairs of effects this flight cannot tell apart (canonical correlation > 0.99): the first
     /// was selected, the second would have explained the same residual.
     pub not_identifiable: Vec<(Effect, Effect, f64)>,
+    /// The final corrections (rotations, delays, lever arm) in internal units.
     #[serde(skip)]
     pub corrections: Corrections,
     /// The final linear parameters (internal units), by column.
@@ -158,6 +209,7 @@ pub struct Report {
 }
 
 impl Report {
+    /// The effect `e` of the final model, if selected.
     pub fn effect(&self, e: Effect) -> Option<&Found> {
         self.effects.iter().find(|f| f.effect == e)
     }
