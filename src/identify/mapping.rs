@@ -26,6 +26,7 @@
 //! any other empty or non-numeric cell is an error naming its line and column. Timestamps must
 //! increase; a repeated timestamp is dropped and a gap longer than 3 × the median interval
 //! splits the log into segments, both reported.
+#![warn(missing_docs)]
 
 use super::error::InputError;
 use super::series::{NominalModel, Series};
@@ -33,21 +34,34 @@ use crate::vehicle::params::{CRAZYFLIE21_ROTOR_RADIUS_M, GRAVITY, PwmThrustMap, 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::path::Path;
 
+/// How another tool's log maps onto identify's data: which column holds what, in which unit
+/// and frames (the YAML format of `mappings/*.yaml`, see the module doc).
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Mapping {
+    /// The nominal model the effects are added to.
     pub vehicle: VehiclePreset,
+    /// The time column (unit `s`, `ms`, `us` or `ns`; seconds by default).
     pub time: Column,
+    /// The mocap position (`m` or `mm`).
     pub position: Columns3,
+    /// The mocap attitude.
     pub attitude: AttitudeCols,
+    /// The log's world frame.
     pub world: WorldUp,
+    /// The log's body axes.
     pub body: BodyAxes,
+    /// The gyro (`rad/s` or `deg/s`).
     pub gyro: Columns3,
+    /// The accelerometer (`m/s2` or `g`).
     pub accel: Columns3,
+    /// The motor commands (PWM), for the force channel (`crazyflie21` only).
     #[serde(default)]
     pub motors: Option<Motors>,
+    /// The battery voltage (V).
     #[serde(default)]
     pub battery: Option<Column>,
+    /// The mass, when not the preset's (kg).
     #[serde(default)]
     pub mass_kg: Option<f64>,
     /// σ of the smoothing kernel for this data (ms; default 20). Small vehicles with close
@@ -107,25 +121,34 @@ impl Ros2File {
     }
 }
 
+/// The vehicle's nominal model.
 #[derive(Debug, serde::Deserialize, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum VehiclePreset {
+    /// Bitcraze Crazyflie 2.1, with its PWM thrust map.
     Crazyflie21,
+    /// AscTec X3D (no PWM map).
     X3d,
 }
 
+/// One column of the log.
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Column {
+    /// The header's name of the column.
     pub column: String,
+    /// Its unit, where the field has a choice.
     #[serde(default)]
     pub unit: Option<String>,
 }
 
+/// Three columns of one vector, and their unit.
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Columns3 {
+    /// The header's names of x, y, z.
     pub columns: [String; 3],
+    /// Their unit.
     pub unit: String,
 }
 
@@ -134,40 +157,55 @@ pub struct Columns3 {
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AttitudeCols {
+    /// The quaternion's four columns, in `order`.
     #[serde(default)]
     pub columns: Option<[String; 4]>,
+    /// The quaternion's component order.
     #[serde(default)]
     pub order: Option<QuatOrder>,
+    /// The Euler angles' columns: roll, pitch, yaw.
     #[serde(default)]
     pub euler: Option<[String; 3]>,
+    /// The Euler angles' unit (`rad` or `deg`).
     #[serde(default)]
     pub unit: Option<String>,
 }
 
+/// A quaternion's component order in the log.
 #[derive(Debug, serde::Deserialize, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
 pub enum QuatOrder {
+    /// Vector part first (ROS, Eigen's storage).
     Xyzw,
+    /// Scalar part first.
     Wxyz,
 }
 
+/// The log's world frame.
 #[derive(Debug, serde::Deserialize, Clone, Copy, PartialEq)]
 #[serde(rename_all = "snake_case")]
 pub enum WorldUp {
+    /// z up (ENU-like, most mocap software): turned to NED by a half turn about x.
     ZUp,
+    /// z down (NED): taken as it is.
     ZDown,
 }
 
+/// The log's body axes.
 #[derive(Debug, serde::Deserialize, Clone, Copy, PartialEq)]
 #[serde(rename_all = "snake_case")]
 pub enum BodyAxes {
+    /// Forward, left, up (ROS): turned to FRD by a half turn about x.
     Flu,
+    /// Forward, right, down: taken as they are.
     Frd,
 }
 
+/// The motor command columns.
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Motors {
+    /// One column per motor.
     pub columns: Vec<String>,
 }
 
