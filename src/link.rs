@@ -13,19 +13,36 @@
 //! The receiver monitors the link from the sequence numbers alone, as in the arena: packets
 //! received, frames missing (lost on the link or never sent because the vehicle was not seen), the
 //! longest run of missing frames and the longest time between two deliveries.
+#![warn(missing_docs)]
 
 use crate::clock::Nanos;
 use crate::rng::Stream;
 use std::collections::VecDeque;
 
+/// How packets are lost (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LossModel {
-    Bernoulli { p: f64 },
-    GilbertElliott { p_good_to_bad: f64, p_bad_to_good: f64, loss_good: f64, loss_bad: f64 },
+    /// Each packet lost independently.
+    Bernoulli {
+        /// Loss probability.
+        p: f64,
+    },
+    /// Bursts: a two-state Markov chain.
+    GilbertElliott {
+        /// Good → Bad per packet.
+        p_good_to_bad: f64,
+        /// Bad → Good per packet (1/mean burst length).
+        p_bad_to_good: f64,
+        /// Loss probability in Good.
+        loss_good: f64,
+        /// Loss probability in Bad.
+        loss_bad: f64,
+    },
 }
 
 impl LossModel {
+    /// Nothing is lost.
     pub const NONE: LossModel = LossModel::Bernoulli { p: 0.0 };
     /// Long-run fraction of packets lost.
     pub fn mean_loss(&self) -> f64 {
@@ -42,27 +59,37 @@ impl LossModel {
     }
 }
 
+/// A link's timing and loss.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LinkParams {
+    /// Fixed delay of every packet.
     pub latency: Nanos,
+    /// Extra delay, uniform in [0, jitter] per packet (it can reorder them).
     pub jitter: Nanos,
+    /// The loss model.
     pub loss: LossModel,
 }
 
 /// What the receiver knows about the link (from sequence numbers and arrival times).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct LinkStats {
+    /// Packets sent.
     pub sent: u64,
+    /// Packets the loss model dropped.
     pub lost_on_link: u64,
+    /// Packets delivered to the receiver.
     pub received: u64,
     /// Arrived after a newer packet and were discarded.
     pub stale: u64,
     /// Frames never delivered, seen as gaps in the sequence numbers.
     pub missing_frames: u64,
+    /// The longest run of consecutive missing frame numbers.
     pub longest_missing_run: u64,
+    /// The longest time between two deliveries (ns).
     pub longest_gap_ns: i64,
 }
 
+/// One link carrying packets of `T` stamped with sequence numbers.
 #[derive(Clone, Debug)]
 pub struct Link<T> {
     params: LinkParams,
@@ -78,6 +105,7 @@ pub struct Link<T> {
 }
 
 impl<T: Copy> Link<T> {
+    /// A link drawing its losses and jitter from their own streams.
     pub fn new(params: LinkParams, loss_rng: Stream, jitter_rng: Stream) -> Self {
         Link {
             params,
@@ -98,6 +126,7 @@ impl<T: Copy> Link<T> {
         self
     }
 
+    /// The receiver's counts so far.
     pub fn stats(&self) -> &LinkStats {
         &self.stats
     }

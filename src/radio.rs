@@ -14,6 +14,7 @@
 //! vehicle's maximum collective thrust, 24.0 N for the X3D: 0.094 N a count).
 //! The transmitter samples the controller's latest command every frame (zero-order hold until the
 //! next frame); the receiver decodes the frame `latency` after it was sampled.
+#![warn(missing_docs)]
 
 use crate::clock::Nanos;
 use crate::control::ControlOutput;
@@ -21,16 +22,23 @@ use crate::frames::Vec3;
 use crate::vehicle::{AttitudeCommand, OnboardMode, RateCommand};
 use std::collections::VecDeque;
 
+/// The most channels a frame holds.
 pub const MAX_CHANNELS: usize = 12;
+/// The count of zero rate (and of a level angle).
 pub const RATE_CENTER: u8 = 128;
 
+/// The radio's frame and scales (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct RadioParams {
+    /// Channels per frame.
     pub channels: usize,
+    /// From sampling a frame to its decoding on the vehicle.
     pub latency: Nanos,
+    /// Rate channels: rad/s per count.
     pub rate_scale_rad_s: f64,
     /// Attitude mode's roll and pitch channels: rad per count.
     pub angle_scale_rad: f64,
+    /// The thrust of count 255 (N).
     pub thrust_max_n: f64,
     /// What the vehicle's onboard controller tracks, and so what the channels carry.
     pub mode: OnboardMode,
@@ -39,20 +47,26 @@ pub struct RadioParams {
 /// One PPM frame as transmitted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct PpmFrame {
+    /// The counts, 0..255 (the first `len` are sent).
     pub channels: [u8; MAX_CHANNELS],
+    /// Channels in the frame.
     pub len: usize,
 }
 
 impl PpmFrame {
+    /// Channel 0 (roll rate, or roll angle in attitude mode).
     pub fn p(&self) -> u8 {
         self.channels[0]
     }
+    /// Channel 1 (pitch rate, or pitch angle in attitude mode).
     pub fn q(&self) -> u8 {
         self.channels[1]
     }
+    /// Channel 2 (yaw rate, or heading rate in attitude mode).
     pub fn r(&self) -> u8 {
         self.channels[2]
     }
+    /// Channel 3, the collective thrust.
     pub fn thrust(&self) -> u8 {
         self.channels[3]
     }
@@ -61,7 +75,9 @@ impl PpmFrame {
 /// What the receiver holds, decoded by the vehicle's mode.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Received {
+    /// Body rates and thrust (rate mode).
     Rates(RateCommand),
+    /// Roll, pitch, heading rate and thrust (attitude mode).
     Attitude(AttitudeCommand),
 }
 
@@ -75,6 +91,7 @@ impl Received {
     }
 }
 
+/// The transmitter, the frames in the air, and the receiver's held command.
 #[derive(Clone, Debug)]
 pub struct Radio {
     params: RadioParams,
@@ -84,6 +101,7 @@ pub struct Radio {
 }
 
 impl Radio {
+    /// A radio whose receiver holds the idle command (zero rates or level, zero thrust).
     pub fn new(params: RadioParams) -> Self {
         let held = match params.mode {
             OnboardMode::Rate => Received::Rates(RateCommand::idle()),
@@ -107,6 +125,7 @@ impl Radio {
         PpmFrame { channels, len: self.params.channels }
     }
 
+    /// What the receiver makes of a frame, by the vehicle's mode.
     pub fn decode(&self, f: &PpmFrame) -> Received {
         let value = |c: u8, scale: f64| (c as f64 - RATE_CENTER as f64) * scale;
         let (s, sa) = (self.params.rate_scale_rad_s, self.params.angle_scale_rad);
@@ -127,6 +146,7 @@ impl Radio {
         f
     }
 
+    /// The frame transmitted last.
     pub fn last_sent(&self) -> Option<&PpmFrame> {
         self.last_sent.as_ref()
     }
