@@ -147,7 +147,10 @@ pub struct RunOutput {
     pub vehicles: Vec<VehicleRun>,
 }
 
-struct Vehicle {
+/// One vehicle in the arena: the simulated airframe and everything between it and its ground
+/// station (links, radio, IMU, battery, onboard loops). `crate::vehicle` holds the models;
+/// this is their wiring for one run.
+struct VehicleLoop {
     name: String,
     x3d: X3d,
     battery: Battery,
@@ -191,7 +194,7 @@ pub struct Arena {
     radio_every: Every,
     dt: Nanos,
     trace: bool,
-    vehicles: Vec<Vehicle>,
+    vehicles: Vec<VehicleLoop>,
     name: String,
     seed: u64,
 }
@@ -288,7 +291,7 @@ impl Arena {
                 true_params.rotor_drag_per_s = [params.rotor_drag_per_s[0] + u.rotor_drag_per_s[0], params.rotor_drag_per_s[1] + u.rotor_drag_per_s[1]];
                 let dist = Disturbance { force_nav_n: v.disturbance.force_n, torque_body_nm: v.disturbance.torque_nm };
                 let home_nav = camera.to_nav(home);
-                Vehicle {
+                VehicleLoop {
                     name: v.name.clone(),
                     battery: Battery::new(true_params.battery),
                     x3d: X3d::on_floor(true_params, dist, home_nav, yaw0),
@@ -396,7 +399,7 @@ impl Arena {
     }
 }
 
-impl Vehicle {
+impl VehicleLoop {
     fn step(&mut self, t: Nanos, mocap_tick: bool, radio_tick: bool, dt: Nanos, trace: bool) {
         let mut captured = None;
         if mocap_tick && let Some(f) = self.mocap.capture(t, self.x3d.state()) {

@@ -143,7 +143,9 @@ fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
     }
 }
 
-struct State {
+/// A fitted problem at fixed corrections: the design, the train/held-out split, the Gram
+/// matrices of the prewhitened columns and the fit.
+struct Problem {
     design: Design,
     train: Vec<bool>,
     test: Vec<bool>,
@@ -153,7 +155,7 @@ struct State {
 
 /// Fits S at the current corrections, folds the exact effects, re-linearises; returns the
 /// final state with AR models fitted to the residual of S.
-fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], iterations: usize) -> State {
+fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], iterations: usize) -> Problem {
     let set = set_of(selected);
     let mut theta = vec![0.0; N_COLUMNS];
     let mut last = None;
@@ -170,7 +172,7 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         let has_corrections = selected.iter().any(|e| e.is_correction());
         if it == iterations || !has_corrections {
             f.cov = hac(&design, &train, &grams, &set, &f.theta, o.hac_lags) + thrust_systematic(&design, &train, &grams, &set, s.model.thrust_rel_sd);
-            last = Some(State { design, train, test, grams, fit: f });
+            last = Some(Problem { design, train, test, grams, fit: f });
             break;
         }
         fold(corr, &mut f.theta, selected);

@@ -8,7 +8,7 @@ use super::*;
 pub(super) struct Final<'a> {
     pub(super) s: &'a Series,
     pub(super) o: &'a Options,
-    pub(super) state: &'a State,
+    pub(super) state: &'a Problem,
     pub(super) corr: Corrections,
     pub(super) selected: &'a [Effect],
     /// Gravity (m/s²) and the yaw at rest (rad), for the tilt the ground check compares with.
