@@ -212,7 +212,7 @@ impl Sweep {
             .map(|&i| match done.get(&i) {
                 Some(r) => Ok::<_, SweepError>(r.clone()),
                 None => {
-                    let r = self.one(i)?;
+                    let r = self.run_one(i)?;
                     finished(i, &r);
                     Ok(r)
                 }
@@ -229,7 +229,7 @@ impl Sweep {
         })
     }
 
-    fn one(&self, i: u64) -> Result<Vec<SweepRow>, SweepError> {
+    fn run_one(&self, i: u64) -> Result<Vec<SweepRow>, SweepError> {
         let (s, params, grid_point) = self.scenario(i)?;
         let crate::run::Outcome { main, uncompensated: unc, report } = run_scenario(&s, false);
         Ok(main

@@ -231,11 +231,12 @@ pub enum LossCfg {
         p_bad_to_good: f64,
         #[serde(default, with = "ranges::probability")]
         loss_good: f64,
-        #[serde(default = "one", with = "ranges::probability")]
+        #[serde(default = "all_lost", with = "ranges::probability")]
         loss_bad: f64,
     },
 }
-fn one() -> f64 {
+/// Gilbert–Elliott's Bad state loses every packet unless told otherwise.
+fn all_lost() -> f64 {
     1.0
 }
 
@@ -512,23 +513,23 @@ pub enum PhaseCfg {
         duration_s: f64,
     },
     CalibrateRollPitch {
-        #[serde(default = "three", with = "ranges::settle_s")]
+        #[serde(default = "settle_hover_s", with = "ranges::settle_s")]
         settle_s: f64,
         #[serde(with = "ranges::duration_s")]
         average_s: f64,
     },
     CalibrateYaw {
-        #[serde(default = "two", with = "ranges::settle_s")]
+        #[serde(default = "settle_short_s", with = "ranges::settle_s")]
         settle_s: f64,
         #[serde(with = "ranges::distance_m")]
         distance_m: f64,
         #[serde(with = "ranges::speed_m_s")]
         speed_m_s: f64,
-        #[serde(default = "half", with = "ranges::accel_m_s2")]
+        #[serde(default = "gentle_accel_m_s2", with = "ranges::accel_m_s2")]
         accel_m_s2: f64,
     },
     YawSpin {
-        #[serde(default = "three", with = "ranges::settle_s")]
+        #[serde(default = "settle_hover_s", with = "ranges::settle_s")]
         settle_s: f64,
         #[serde(with = "ranges::spin_deg")]
         angle_deg: f64,
@@ -536,13 +537,13 @@ pub enum PhaseCfg {
         duration_s: f64,
     },
     CalibrateGyro {
-        #[serde(default = "two", with = "ranges::settle_s")]
+        #[serde(default = "settle_short_s", with = "ranges::settle_s")]
         settle_s: f64,
-        #[serde(default = "quarter", with = "ranges::radius_m")]
+        #[serde(default = "circle_radius_m", with = "ranges::radius_m")]
         radius_m: f64,
-        #[serde(default = "two", with = "ranges::period_s")]
+        #[serde(default = "circle_period_s", with = "ranges::period_s")]
         period_s: f64,
-        #[serde(default = "three", with = "ranges::turns")]
+        #[serde(default = "circle_turns", with = "ranges::turns")]
         turns: f64,
     },
     Waypoint {
@@ -550,7 +551,7 @@ pub enum PhaseCfg {
         pos_m: [f64; 3],
         #[serde(with = "ranges::speed_m_s")]
         speed_m_s: f64,
-        #[serde(default = "half", with = "ranges::accel_m_s2")]
+        #[serde(default = "gentle_accel_m_s2", with = "ranges::accel_m_s2")]
         accel_m_s2: f64,
         #[serde(default, with = "ranges::settle_s")]
         hold_s: f64,
@@ -560,17 +561,32 @@ pub enum PhaseCfg {
         duration_s: f64,
     },
 }
-fn two() -> f64 {
-    2.0
-}
-fn three() -> f64 {
+// Defaults of the plan's fields (README, *Scenario reference*).
+/// Hover before averaging roll/pitch or spinning (s).
+fn settle_hover_s() -> f64 {
     3.0
 }
-fn half() -> f64 {
+/// Hover before the straight flight or the gyro circles (s).
+fn settle_short_s() -> f64 {
+    2.0
+}
+/// Acceleration limit of a straight flight or a waypoint (m/s²).
+fn gentle_accel_m_s2() -> f64 {
     0.5
 }
-fn quarter() -> f64 {
+/// The gyro calibration's circle: radius (m), period (s), turns.
+fn circle_radius_m() -> f64 {
     0.25
+}
+fn circle_period_s() -> f64 {
+    2.0
+}
+fn circle_turns() -> f64 {
+    3.0
+}
+/// R5: an expected effect cuts the held-out error of its best channel by half.
+fn half_the_error() -> f64 {
+    0.5
 }
 
 impl PhaseCfg {
@@ -611,7 +627,7 @@ pub struct IdentifyReq {
     /// The hidden effects, in the order they must be found; empty: nothing may be found.
     pub expect: Vec<Spanned<ExpectedEffect>>,
     /// Each expected effect must cut the held-out RMSE of its best channel by this fraction.
-    #[serde(default = "half", with = "ranges::ratio")]
+    #[serde(default = "half_the_error", with = "ranges::ratio")]
     pub min_heldout_cut: f64,
 }
 
