@@ -5,13 +5,17 @@
 //! Motion profiles are trapezoidal in velocity (position, velocity and acceleration feed-forward
 //! continuous in position and velocity); yaw moves at constant rate with its rate as feed-forward.
 //! Positions are relative to the vehicle's home on the floor (NED, so altitude h is D = −h).
+#![warn(missing_docs)]
 
 use crate::clock::Nanos;
 use crate::control::{LateralMode, Reference};
 use crate::frames::{MocapNav, Vec3};
 
+/// One piece of a flight plan (the scenario's `plan:` entries). Times in s, distances in m,
+/// angles in rad, positions relative to home in the mocap's NED frame.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
+#[allow(missing_docs)] // the fields are named by what and in which unit; the variants say how
 pub enum Phase {
     /// Motors off on the floor (a log's rest before take-off: the accelerometer reads gravity).
     Idle { duration_s: f64 },
@@ -76,6 +80,7 @@ const TAKEOFF_ACCEL: f64 = 0.5;
 const LAND_OVERSHOOT_M: f64 = 0.1;
 
 impl Phase {
+    /// Its key in YAML and in the recording's timeline.
     pub fn name(&self) -> &'static str {
         match self {
             Phase::Idle { .. } => "idle",
@@ -94,19 +99,26 @@ impl Phase {
 /// A phase placed on the timeline, with the reference point and heading it starts from.
 #[derive(Clone, Debug)]
 pub struct Scheduled {
+    /// The phase.
     pub phase: Phase,
+    /// When it begins.
     pub start: Nanos,
+    /// When it ends (the next one begins).
     pub end: Nanos,
+    /// Where the reference starts (m, mocap NED).
     pub from: Vec3<MocapNav>,
+    /// The heading it starts from (rad).
     pub from_yaw: f64,
     /// Where the reference ends (position and heading).
     pub to: Vec3<MocapNav>,
+    /// The heading it ends at (rad).
     pub to_yaw: f64,
 }
 
 /// What part of a phase the vehicle is in: used by the station to run the calibrations.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Window {
+    /// No calibration runs.
     None,
     /// Average roll and pitch (calibrate_roll_pitch after settling).
     HoverAverage,
@@ -118,8 +130,10 @@ pub enum Window {
     GyroExcite,
 }
 
+/// The whole plan laid out in time: a pure function of time to a reference.
 #[derive(Clone, Debug)]
 pub struct Plan {
+    /// The phases in order, back to back.
     pub phases: Vec<Scheduled>,
     home: Vec3<MocapNav>,
 }
@@ -154,6 +168,7 @@ impl Plan {
         Plan { phases: out, home }
     }
 
+    /// When the last phase ends.
     pub fn end(&self) -> Nanos {
         self.phases.last().map_or(Nanos::ZERO, |p| p.end)
     }
