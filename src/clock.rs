@@ -12,6 +12,7 @@
 //! assert_eq!(vicon.ticks_of(physics), Some(5)); // a Vicon frame every 5 physics steps
 //! assert_eq!(Rate::from_hz(400).unwrap().ticks_of(physics), None); // 400 Hz does not divide 1 kHz
 //! ```
+#![warn(missing_docs)]
 
 use serde::Serialize;
 use std::fmt;
@@ -22,10 +23,13 @@ use std::ops::{Add, AddAssign, Sub};
 pub struct Nanos(pub i64);
 
 impl Nanos {
+    /// The start of a run, or no time.
     pub const ZERO: Nanos = Nanos(0);
+    /// Whole milliseconds.
     pub const fn from_millis(ms: i64) -> Self {
         Nanos(ms * 1_000_000)
     }
+    /// Whole microseconds.
     pub const fn from_micros(us: i64) -> Self {
         Nanos(us * 1_000)
     }
@@ -33,9 +37,11 @@ impl Nanos {
     pub fn from_secs_f64(s: f64) -> Self {
         Nanos((s * 1e9).round() as i64)
     }
+    /// In seconds (for printing and physics, not for keeping time).
     pub fn as_secs_f64(self) -> f64 {
         self.0 as f64 * 1e-9
     }
+    /// The integer nanoseconds.
     pub const fn as_nanos(self) -> i64 {
         self.0
     }
@@ -75,9 +81,11 @@ impl Rate {
     pub fn from_hz(hz: u32) -> Option<Self> {
         (hz > 0 && 1_000_000_000 % hz == 0).then_some(Rate { hz })
     }
+    /// The rate (Hz).
     pub fn hz(self) -> u32 {
         self.hz
     }
+    /// One period, exactly.
     pub fn period(self) -> Nanos {
         Nanos(1_000_000_000 / self.hz as i64)
     }
@@ -95,18 +103,23 @@ pub struct Clock {
 }
 
 impl Clock {
+    /// A clock at tick 0 ticking at `rate`.
     pub fn new(rate: Rate) -> Self {
         Clock { tick: 0, period: rate.period() }
     }
+    /// Ticks so far.
     pub fn tick(&self) -> u64 {
         self.tick
     }
+    /// tick·period.
     pub fn now(&self) -> Nanos {
         Nanos(self.tick as i64 * self.period.0)
     }
+    /// One tick.
     pub fn period(&self) -> Nanos {
         self.period
     }
+    /// The next tick.
     pub fn advance(&mut self) {
         self.tick += 1;
     }

@@ -28,6 +28,7 @@ use crate::frames::{Body, Euler, MocapNav, Rot, Vec3, t_w_inv, t_w_inv_sc, wrap_
 use crate::vehicle::params::GRAVITY;
 use nalgebra::Vector3;
 
+/// The cascaded controller's gains and limits.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Gains {
     /// K_X: position → velocity (1/s), per body axis.
@@ -44,6 +45,7 @@ pub struct Gains {
     pub mass_kg: f64,
 }
 
+/// Whether the lateral axis is closed or held at φ_com = 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LateralMode {
@@ -56,11 +58,17 @@ pub enum LateralMode {
 /// What guidance asks for, in the mocap's NED frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Reference {
+    /// Position set point (m).
     pub pos: Vec3<MocapNav>,
+    /// Velocity feed-forward (m/s).
     pub vel: Vec3<MocapNav>,
+    /// Acceleration feed-forward (m/s²).
     pub acc: Vec3<MocapNav>,
+    /// Heading set point ψ_com (rad).
     pub yaw: f64,
+    /// Heading rate feed-forward (rad/s).
     pub yaw_rate: f64,
+    /// Closed, or (6)'s φ_com = 0.
     pub lateral: LateralMode,
     /// Motors off (on the floor before take-off and after landing).
     pub motors_off: bool,

@@ -17,13 +17,20 @@ use crate::engine::{RunOutput, VehicleRun};
 use crate::scenario::{RequirementsCfg, Verdict};
 use std::fmt::Write as _;
 
+/// One requirement check, as the table shows it.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Row {
+    /// The vehicle checked.
     pub vehicle: String,
+    /// R1 … R5.
     pub id: &'static str,
+    /// What is checked (with the estimate and the truth where there are).
     pub what: String,
+    /// The measured figure, with its unit.
     pub measured: String,
+    /// The limit it is held to.
     pub limit: String,
+    /// Whether it holds (always true for a row that is not asserted).
     pub pass: bool,
     /// False for a row that is shown but not checked (an estimate the architecture cannot
     /// observe, a ratio that does not apply): the table says "not asserted" instead of "pass",
@@ -31,12 +38,15 @@ pub struct Row {
     pub asserted: bool,
 }
 
+/// The requirements of a run, evaluated.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Report {
+    /// One per check, by vehicle and requirement.
     pub rows: Vec<Row>,
 }
 
 impl Report {
+    /// Whether every row passed.
     pub fn passed(&self) -> bool {
         self.rows.iter().all(|r| r.pass)
     }

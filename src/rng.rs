@@ -14,17 +14,24 @@
 //! let mut other = Stream::new(7, Component::LinkLoss, 0);
 //! assert_ne!(Stream::new(7, Component::MocapNoise, 0).next_u64(), other.next_u64());
 //! ```
+#![warn(missing_docs)]
 
 /// The random consumers in the arena. The discriminant is part of the seed derivation: never
 /// renumber, only append.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u64)]
 pub enum Component {
+    /// The cameras' marker noise.
     MocapNoise = 1,
+    /// The mocap link's losses.
     LinkLoss = 2,
+    /// The mocap link's jitter.
     LinkJitter = 3,
+    /// The IMU's noise.
     ImuNoise = 4,
+    /// The telemetry downlink's losses.
     TelemetryLoss = 5,
+    /// The telemetry downlink's jitter.
     TelemetryJitter = 6,
     /// Per-run draws of a sweep (varied parameters and the run's seed); "vehicle" = run index.
     Sweep = 7,
@@ -45,6 +52,7 @@ pub struct Stream {
 }
 
 impl Stream {
+    /// The stream of `component` for `vehicle` in a run of `seed` (splitmix64 of the three).
     pub fn new(seed: u64, component: Component, vehicle: usize) -> Self {
         let mut x = seed ^ (component as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93);
         x ^= (vehicle as u64 + 1).wrapping_mul(0xA076_1D64_78BD_642F);
@@ -55,6 +63,7 @@ impl Stream {
         Stream { s }
     }
 
+    /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
         let s = &mut self.s;
         let result = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
