@@ -1,4 +1,4 @@
-//! The command line, declared with clap: `flyarena run|check|sweep|merge|identify|trials|completions`.
+//! The command line, declared with clap: `flyarena run|serve|check|sweep|merge|identify|trials|completions`.
 //! A thin shell over the library: it parses, calls `flyarena::…`, writes the outputs and turns
 //! results into exit codes.
 //!
@@ -25,6 +25,10 @@ enum Command {
     /// Simulate the scenario, print the requirements table, write the JSON summary and the Rerun
     /// recording (open it with `rerun out/<scenario>.rrd`)
     Run(RunArgs),
+    /// Fly the scenario in real time and stream its mocap as OptiTrack NatNet (UDP), so that a
+    /// lab's own mocap client receives the poses flyarena's station receives; then write what
+    /// `run` writes
+    Serve(ServeArgs),
     /// Validate scenarios without running them
     Check {
         /// Scenario files
@@ -99,6 +103,48 @@ struct RunArgs {
     /// Print only the verdict line
     #[arg(long, short)]
     quiet: bool,
+}
+
+#[derive(Args)]
+struct ServeArgs {
+    #[command(flatten)]
+    run: RunArgs,
+    /// Address to listen on (0.0.0.0: every interface)
+    #[arg(long, default_value = "127.0.0.1", value_name = "IPv4")]
+    bind: std::net::Ipv4Addr,
+    /// NatNet command port (Motive's: 1510)
+    #[arg(long, default_value_t = 1510, value_name = "PORT")]
+    command_port: u16,
+    /// NatNet data port announced to clients (Motive's: 1511)
+    #[arg(long, default_value_t = 1511, value_name = "PORT")]
+    data_port: u16,
+    /// Send frames to this multicast group (e.g. 239.255.42.99) instead of to each client
+    #[arg(long, value_name = "IPv4")]
+    multicast: Option<std::net::Ipv4Addr>,
+    /// Axis convention of the stream: z (x forward, y left, z up), y (Motive's y up) or ned
+    #[arg(long, value_enum, default_value_t = UpArg::Z)]
+    up: UpArg,
+    /// Simulated seconds per wall-clock second (1: real time)
+    #[arg(long, default_value_t = 1.0, value_parser = parse_speed)]
+    speed: f64,
+    /// Seconds to wait for a first client before the flight starts (0: start at once)
+    #[arg(long, default_value_t = 30.0, value_name = "S", value_parser = parse_wait)]
+    wait_s: f64,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum UpArg {
+    Z,
+    Y,
+    Ned,
+}
+
+fn parse_speed(v: &str) -> Result<f64, String> {
+    v.parse().ok().filter(|x: &f64| (0.01..=1000.0).contains(x)).ok_or_else(|| format!("takes a number from 0.01 to 1000 (simulated seconds per second), not `{v}`"))
+}
+
+fn parse_wait(v: &str) -> Result<f64, String> {
+    v.parse().ok().filter(|x: &f64| (0.0..=3600.0).contains(x)).ok_or_else(|| format!("takes seconds from 0 to 3600, not `{v}`"))
 }
 
 #[derive(Args)]
@@ -193,7 +239,8 @@ fn write_output(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     write_atomic(path, bytes).map_err(|source| Error::Write { path: path.to_path_buf(), source })
 }
 
-fn cmd_run(a: RunArgs) -> Result<i32, Error> {
+/// The scenario `run` and `serve` fly: the file, an `identify` fragment applied, the seed.
+fn load_for_run(a: &RunArgs) -> Result<Scenario, Error> {
     let mut s = match &a.effects {
         Some(f) => flyarena::identify::feedback::load_with_effects(&a.scenario, f)?,
         None => Scenario::load(&a.scenario)?,
@@ -201,12 +248,58 @@ fn cmd_run(a: RunArgs) -> Result<i32, Error> {
     if let Some(seed) = a.seed {
         s.seed = seed;
     }
+    Ok(s)
+}
+
+fn cmd_run(a: RunArgs) -> Result<i32, Error> {
+    let s = load_for_run(&a)?;
     let record = cfg!(feature = "record") && !a.no_rrd;
     let started = std::time::Instant::now();
     let outcome = run_scenario(&s, record);
+    write_run(a, &s, outcome, started.elapsed())
+}
+
+fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
+    use flyarena::serve::{ServeOptions, Up, serve};
+    let s = load_for_run(&a.run)?;
+    let record = cfg!(feature = "record") && !a.run.no_rrd;
+    let opts = ServeOptions {
+        bind: a.bind,
+        command_port: a.command_port,
+        data_port: a.data_port,
+        multicast: a.multicast,
+        up: match a.up {
+            UpArg::Z => Up::Z,
+            UpArg::Y => Up::Y,
+            UpArg::Ned => Up::Ned,
+        },
+        speed: a.speed,
+        wait_for_client: std::time::Duration::from_secs_f64(a.wait_s),
+    };
+    let to = a.multicast.map_or_else(|| "each client".to_string(), |g| format!("multicast {g}:{}", a.data_port));
+    eprintln!("serving {} as NatNet 3.1 on {}:{} (data port {}, {to}, {:?}-up); waiting up to {} s for a client", s.name, a.bind, a.command_port, a.data_port, opts.up, a.wait_s);
+    let started = std::time::Instant::now();
+    let (main, net) = serve(&s, &opts, flyarena::engine::RunOptions::default())?;
     let elapsed = started.elapsed();
+    if !a.run.quiet {
+        println!(
+            "served {} NatNet frames ({} poses) to {} client(s){}; the latest tick was sent {:.1} ms late at most{}",
+            net.frames,
+            net.poses,
+            net.clients.len(),
+            if net.clients.is_empty() { "" } else { " " }.to_string() + &net.clients.join(", "),
+            net.max_lag_ms,
+            if net.send_errors > 0 { format!("; {} datagrams could not be sent", net.send_errors) } else { String::new() }
+        );
+    }
+    let outcome = flyarena::run::evaluate(&s, main, record);
+    write_run(a.run, &s, outcome, elapsed)
+}
+
+/// Writes what `run` writes (summary, log, recording) and prints the table.
+fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Duration) -> Result<i32, Error> {
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name)));
-    let json = serde_json::to_vec_pretty(&outcome.summary(&s)).expect("summary serialises");
+    let json = serde_json::to_vec_pretty(&outcome.summary(s)).expect("summary serialises");
     let Outcome { main, uncompensated: unc, report } = outcome;
     write_output(&json_path, &json)?;
     let mut log_paths = Vec::new();
@@ -223,6 +316,7 @@ fn cmd_run(a: RunArgs) -> Result<i32, Error> {
             log_paths.push(path);
         }
     }
+    let record = cfg!(feature = "record") && !a.no_rrd;
     let rrd_path = record.then(|| a.rrd.unwrap_or_else(|| a.out.join(format!("{}.rrd", s.name))));
     #[cfg(feature = "record")]
     if let Some(path) = &rrd_path {
@@ -451,6 +545,7 @@ pub fn main() -> i32 {
     install_interrupt_handler();
     let done = match cli.command {
         Command::Run(a) => cmd_run(a),
+        Command::Serve(a) => cmd_serve(a),
         Command::Check { scenarios } => Ok(cmd_check(&scenarios)),
         Command::Sweep(a) => cmd_sweep(a),
         Command::Merge { shards, out } => cmd_merge(&shards, &out),

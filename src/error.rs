@@ -26,6 +26,9 @@ pub enum Error {
     /// A sweep that cannot run or merge.
     #[error(transparent)]
     Sweep(#[from] crate::sweep::SweepError),
+    /// A served run whose network could not be set up (`flyarena serve`).
+    #[error(transparent)]
+    Serve(#[from] crate::serve::ServeError),
     /// A recording that cannot be encoded.
     #[cfg(feature = "record")]
     #[error(transparent)]

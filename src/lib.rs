@@ -95,6 +95,7 @@ pub mod requirements;
 pub mod rng;
 pub mod run;
 pub mod scenario;
+pub mod serve;
 pub mod sweep;
 pub mod vehicle;
 

@@ -175,6 +175,9 @@ struct VehicleLoop {
     window: WindowCache,
     trace: Vec<TraceSample>,
     any_nan: bool,
+    /// The frames that reached the station in the current tick, kept only when tapped
+    /// ([`Arena::tap_delivered`]).
+    delivered: Option<Vec<MocapFrame>>,
 }
 
 /// The plan's window at the last evaluation, the reference position then, and until when both
@@ -315,6 +318,7 @@ impl Arena {
                     thrust_n: 0,
                     trace: Vec::new(),
                     any_nan: false,
+                    delivered: None,
                 }
             })
             .collect();
@@ -340,6 +344,33 @@ impl Arena {
     /// Whether the scenario's run time is over.
     pub fn done(&self) -> bool {
         self.clock.tick() >= self.end_tick
+    }
+
+    /// From now on, keep the mocap frames that reach each vehicle's station in a tick, for
+    /// [`Arena::delivered`] (a bridge streams them, e.g. `flyarena serve`). Changes nothing in
+    /// the run.
+    pub fn tap_delivered(&mut self) {
+        for v in &mut self.vehicles {
+            v.delivered.get_or_insert_with(Vec::new);
+        }
+    }
+
+    /// The mocap frames that reached vehicle `i`'s station during the last [`Arena::step`], in
+    /// arrival order (after the link's latency, jitter, loss and outages): what the station
+    /// received. Empty unless [`Arena::tap_delivered`] was called.
+    pub fn delivered(&self, i: usize) -> &[MocapFrame] {
+        self.vehicles.get(i).and_then(|v| v.delivered.as_deref()).unwrap_or(&[])
+    }
+
+    /// The number of vehicles.
+    pub fn vehicle_count(&self) -> usize {
+        self.vehicles.len()
+    }
+
+    /// The processing latency of vehicle `i`'s mocap (exposure to hand-over to the link,
+    /// including an undeclared delay).
+    pub fn mocap_latency(&self, i: usize) -> Nanos {
+        self.vehicles[i].mocap_latency
     }
 
     /// Advances every vehicle by one physics tick.
@@ -406,7 +437,13 @@ impl VehicleLoop {
             self.link.send(t + self.mocap_latency, f.seq, f);
             captured = Some(f);
         }
+        if let Some(d) = &mut self.delivered {
+            d.clear();
+        }
         while let Some(f) = self.link.receive(t) {
+            if let Some(d) = &mut self.delivered {
+                d.push(f);
+            }
             self.station.on_pose(t, &f);
             self.last_frame = Some(f);
         }

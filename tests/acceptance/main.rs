@@ -16,6 +16,7 @@ mod quality;
 mod record;
 mod ros2;
 mod scenarios;
+mod serve;
 mod sweep;
 mod trials;
 mod twins;

@@ -1,0 +1,363 @@
+//! The arena over the network: a scenario's mocap streamed as OptiTrack NatNet, so that a lab's
+//! own mocap client (libmotioncapture / Crazyswarm2, the `natnet` Python client, anything that
+//! reads Motive) receives flyarena's poses as if from the cameras.
+//!
+//! [`serve`] flies the scenario as `run` does (the same [`Arena`], bit for bit) paced by the
+//! wall clock, and sends every mocap frame at the moment it reaches the vehicle's station: after
+//! the mocap's processing latency, the link's latency and jitter, and only if the link did not
+//! lose it (loss, outages), with the scenario's noise, occlusions and marker misalignment in the
+//! pose. What a client receives is what flyarena's own ground station receives.
+//!
+//! **Frames.** flyarena's mocap world is NED (x north, y east, z down) and the rigid body's
+//! frame is the markers' frame (x forward, y right, z down). NatNet streams are usually Z-up or
+//! Y-up; [`Up`] chooses the convention, applied to the world and to the body alike:
+//!
+//! | `Up` | world (x, y, z) from NED (n, e, d) | quaternion (x, y, z, w) from NED's (x, y, z, w) |
+//! |---|---|---|
+//! | `Z` (default; Crazyswarm2, ROS) | (n, −e, −d): x forward, y left, z up | (x, −y, −z, w) |
+//! | `Y` (Motive's default) | (n, −d, e): y up | (x, −z, y, w) |
+//! | `Ned` | (n, e, d) | (x, y, z, w) |
+//!
+//! Each is a proper rotation C (det +1) applied as C·R·Cᵀ to the attitude R (body → world), so
+//! the quaternion's axis turns with C and its angle stays.
+//!
+//! **Timestamps** are simulated time in nanoseconds ([`natnet::CLOCK_HZ`]): the frame's
+//! `timestamp` and mid-exposure stamp are the exposure time, the data-received and transmit
+//! stamps are exposure + the mocap's processing latency (so a client's "camera latency" reads
+//! the scenario's `mocap.latency_ms`; the link's network latency comes after the transmit stamp,
+//! as on a real network). Frame numbers are the mocap's (+1 per camera frame, also for frames
+//! that were lost), so a client sees gaps where the link lost frames. Bodies the cameras did not
+//! see, or whose frame the link lost, are absent from that packet. The mean marker error is not
+//! modelled (0).
+//!
+//! **Clients.** Unicast: a client is registered by its connect (or keep-alive) packet and
+//! receives each frame at the address it sent from (the `natnet` client's command socket) and at
+//! its host's data port (libmotioncapture binds the data port from the server info). Multicast:
+//! frames go to the group and data port once. The model definition names each rigid body after
+//! its vehicle, with id = 1 + its index in the fleet, and lists its marker template.
+#![warn(missing_docs)]
+
+pub mod natnet;
+
+use crate::clock::Nanos;
+use crate::engine::{Arena, RunOptions, RunOutput};
+use crate::frames::{MocapBody, MocapNav, Rot, Vec3};
+use crate::scenario::Scenario;
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, UdpSocket};
+use std::time::{Duration, Instant};
+
+/// The stream's axis convention (module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Up {
+    /// x forward, y left, z up.
+    #[default]
+    Z,
+    /// Motive's default: y up, z = east.
+    Y,
+    /// flyarena's own: north, east, down.
+    Ned,
+}
+
+impl Up {
+    /// A mocap-world position in this convention (m).
+    pub fn position(self, p: Vec3<MocapNav>) -> [f32; 3] {
+        self.vector(p.to_array())
+    }
+
+    /// A vector of the rigid body's (marker) frame in this convention (m).
+    pub fn body_vector(self, p: Vec3<MocapBody>) -> [f32; 3] {
+        self.vector(p.to_array())
+    }
+
+    fn vector(self, [n, e, d]: [f64; 3]) -> [f32; 3] {
+        let v = match self {
+            Up::Z => [n, -e, -d],
+            Up::Y => [n, -d, e],
+            Up::Ned => [n, e, d],
+        };
+        v.map(|x| x as f32)
+    }
+
+    /// The attitude (body → world) as the quaternion (x, y, z, w) of this convention.
+    pub fn quaternion(self, r: &Rot<MocapBody, MocapNav>) -> [f32; 4] {
+        let q = r.quaternion();
+        let (w, x, y, z) = (q.w, q.i, q.j, q.k);
+        let v = match self {
+            Up::Z => [x, -y, -z, w],
+            Up::Y => [x, -z, y, w],
+            Up::Ned => [x, y, z, w],
+        };
+        v.map(|a| a as f32)
+    }
+}
+
+/// Where and how to serve.
+#[derive(Clone, Debug)]
+pub struct ServeOptions {
+    /// The address to listen on (127.0.0.1: this machine only; 0.0.0.0: every interface).
+    pub bind: Ipv4Addr,
+    /// NatNet's command port (Motive: 1510).
+    pub command_port: u16,
+    /// NatNet's data port, announced in the server info (Motive: 1511).
+    pub data_port: u16,
+    /// Send frames to this multicast group instead of to each client (Motive: 239.255.42.99).
+    pub multicast: Option<Ipv4Addr>,
+    /// The axis convention of the stream.
+    pub up: Up,
+    /// Simulated seconds per wall-clock second (1: real time).
+    pub speed: f64,
+    /// Wait this long for a first client before the flight starts (zero: start at once).
+    pub wait_for_client: Duration,
+}
+
+impl Default for ServeOptions {
+    fn default() -> Self {
+        ServeOptions { bind: Ipv4Addr::LOCALHOST, command_port: 1510, data_port: 1511, multicast: None, up: Up::Z, speed: 1.0, wait_for_client: Duration::from_secs(30) }
+    }
+}
+
+/// What a served run did on the network.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ServeReport {
+    /// The clients that connected (address they sent from).
+    pub clients: Vec<String>,
+    /// NatNet frames sent (one per frame number and arrival tick; each to every client).
+    pub frames: u64,
+    /// Rigid-body poses in those frames.
+    pub poses: u64,
+    /// Datagrams that could not be sent (e.g. a client's port closed).
+    pub send_errors: u64,
+    /// Requests answered (connect, model definition, frame, commands).
+    pub requests: u64,
+    /// Wall-clock time spent waiting for the first client (s).
+    pub waited_s: f64,
+    /// The largest delay of a physics tick behind its wall-clock time (ms): frames were sent at
+    /// most this late.
+    pub max_lag_ms: f64,
+}
+
+/// Why serving failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    /// The command port could not be opened.
+    #[error("cannot listen on {addr}: {source} (is another server on that port? choose another with --command-port)")]
+    Bind {
+        /// The address.
+        addr: SocketAddr,
+        /// The system's reason.
+        source: std::io::Error,
+    },
+    /// The speed is not a positive finite number.
+    #[error("speed {0} must be a positive number of simulated seconds per second")]
+    Speed(f64),
+    /// A socket operation failed.
+    #[error("network: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// The sockets and the clients.
+struct Server {
+    socket: UdpSocket,
+    opts: ServeOptions,
+    clients: Vec<SocketAddr>,
+    model_def: Vec<u8>,
+    server_info: Vec<u8>,
+    last_frame: Option<Vec<u8>>,
+    report: ServeReport,
+}
+
+/// At most this many unicast clients (each costs two datagrams per frame).
+const MAX_CLIENTS: usize = 32;
+
+impl Server {
+    fn bind(opts: &ServeOptions, model_def: Vec<u8>) -> Result<Server, ServeError> {
+        let addr = SocketAddr::V4(SocketAddrV4::new(opts.bind, opts.command_port));
+        let socket = UdpSocket::bind(addr).map_err(|source| ServeError::Bind { addr, source })?;
+        if opts.multicast.is_some() {
+            socket.set_multicast_ttl_v4(1)?;
+            socket.set_multicast_loop_v4(true)?;
+        }
+        let server_info = natnet::server_info("flyarena", [0, 1, 0, 0], opts.data_port, opts.multicast);
+        Ok(Server { socket, opts: opts.clone(), clients: Vec::new(), model_def, server_info, last_frame: None, report: ServeReport::default() })
+    }
+
+    /// Answers requests until `until` (wall clock).
+    fn listen_until(&mut self, until: Instant) -> Result<(), ServeError> {
+        let mut buf = [0u8; 2048];
+        loop {
+            let now = Instant::now();
+            if now >= until {
+                return Ok(());
+            }
+            self.socket.set_read_timeout(Some((until - now).max(Duration::from_micros(50))))?;
+            match self.socket.recv_from(&mut buf) {
+                Ok((n, from)) => self.answer(&buf[..n], from),
+                Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut | std::io::ErrorKind::ConnectionRefused) => {}
+                Err(e) => return Err(e.into()),
+            }
+        }
+    }
+
+    fn send(&mut self, bytes: &[u8], to: SocketAddr) {
+        if self.socket.send_to(bytes, to).is_err() {
+            self.report.send_errors += 1;
+        }
+    }
+
+    fn register(&mut self, from: SocketAddr) {
+        if !self.clients.contains(&from) && self.clients.len() < MAX_CLIENTS {
+            self.clients.push(from);
+            self.report.clients.push(from.to_string());
+        }
+    }
+
+    fn answer(&mut self, packet: &[u8], from: SocketAddr) {
+        let Some(req) = natnet::parse_request(packet) else { return };
+        self.report.requests += 1;
+        match req {
+            natnet::Request::Connect => {
+                self.register(from);
+                let info = self.server_info.clone();
+                self.send(&info, from);
+            }
+            natnet::Request::ModelDef => {
+                let def = self.model_def.clone();
+                self.send(&def, from);
+            }
+            natnet::Request::FrameOfData => {
+                if let Some(f) = self.last_frame.clone() {
+                    self.send(&f, from);
+                }
+            }
+            natnet::Request::KeepAlive => self.register(from),
+            natnet::Request::Disconnect => self.clients.retain(|c| *c != from),
+            // no Motive commands (recording, bitstream version) are supported: -1
+            natnet::Request::Command(_) => self.send(&natnet::response(Some(-1)), from),
+            natnet::Request::Unknown(_) => self.send(&natnet::response(None), from),
+        }
+    }
+
+    fn broadcast(&mut self, bytes: Vec<u8>, poses: usize) {
+        self.report.frames += 1;
+        self.report.poses += poses as u64;
+        if let Some(group) = self.opts.multicast {
+            self.send(&bytes, SocketAddr::V4(SocketAddrV4::new(group, self.opts.data_port)));
+        } else {
+            for c in self.clients.clone() {
+                self.send(&bytes, c);
+                let data = SocketAddr::new(c.ip(), self.opts.data_port);
+                if data != c {
+                    self.send(&bytes, data);
+                }
+            }
+        }
+        self.last_frame = Some(bytes);
+    }
+}
+
+/// The rigid-body definitions of a scenario's fleet in the convention `up`.
+pub fn rigid_bodies(s: &Scenario, up: Up) -> Vec<natnet::RigidBodyDef> {
+    s.vehicle_cfgs()
+        .enumerate()
+        .map(|(i, v)| natnet::RigidBodyDef {
+            name: v.name.clone(),
+            id: i as i32 + 1,
+            markers_m: s.template(i).expect("validated").into_iter().map(|m| up.body_vector(m)).collect(),
+        })
+        .collect()
+}
+
+/// Flies `s` paced by the wall clock and streams its mocap as NatNet (module doc). Returns the
+/// run, identical to [`crate::engine::run`] with the same options, and what happened on the
+/// network.
+pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunOutput, ServeReport), ServeError> {
+    if !(opts.speed.is_finite() && opts.speed > 0.0) {
+        return Err(ServeError::Speed(opts.speed));
+    }
+    let mut server = Server::bind(opts, natnet::model_def(&rigid_bodies(s, opts.up)))?;
+    let waiting = Instant::now();
+    let deadline = waiting + opts.wait_for_client;
+    while server.clients.is_empty() && Instant::now() < deadline {
+        server.listen_until((Instant::now() + Duration::from_millis(20)).min(deadline))?;
+    }
+    server.report.waited_s = waiting.elapsed().as_secs_f64();
+    let mut arena = Arena::new(s, run);
+    arena.tap_delivered();
+    let latency: Vec<Nanos> = (0..arena.vehicle_count()).map(|i| arena.mocap_latency(i)).collect();
+    let start = Instant::now();
+    let mut previous_ids: Vec<i32> = Vec::new();
+    while !arena.done() {
+        let due = start + Duration::from_secs_f64(arena.now().as_secs_f64() / opts.speed);
+        server.listen_until(due)?;
+        server.report.max_lag_ms = server.report.max_lag_ms.max(Instant::now().saturating_duration_since(due).as_secs_f64() * 1e3);
+        arena.step();
+        // one packet per frame number that arrived in this tick, with every body that came with it
+        let mut arrived: Vec<(u32, usize, crate::mocap::MocapFrame)> = Vec::new();
+        for i in 0..arena.vehicle_count() {
+            arrived.extend(arena.delivered(i).iter().map(|f| (f.seq, i, *f)));
+        }
+        arrived.sort_by_key(|(seq, i, _)| (*seq, *i));
+        for group in arrived.chunk_by(|a, b| a.0 == b.0) {
+            let (seq, first, f0) = group[0];
+            let bodies: Vec<natnet::RigidBody> = group
+                .iter()
+                .map(|(_, i, f)| natnet::RigidBody { id: *i as i32 + 1, pos_m: opts.up.position(f.pos), quat_xyzw: opts.up.quaternion(&f.att), mean_error_m: 0.0, tracked: true })
+                .collect();
+            let ids: Vec<i32> = bodies.iter().map(|b| b.id).collect();
+            let exposed = f0.t_capture.as_nanos().max(0) as u64;
+            let processed = (f0.t_capture + latency[first]).as_nanos().max(0) as u64;
+            let frame = natnet::Frame {
+                number: seq,
+                bodies,
+                timestamp_s: f0.t_capture.as_secs_f64(),
+                mid_exposure: exposed,
+                data_received: processed,
+                transmit: processed,
+                models_changed: ids != previous_ids,
+            };
+            previous_ids = ids;
+            server.broadcast(natnet::frame(&frame), group.len());
+        }
+    }
+    Ok((arena.finish(), server.report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frames::Euler;
+    use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+    fn c(up: Up) -> Matrix3<f64> {
+        match up {
+            Up::Z => Matrix3::new(1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0),
+            Up::Y => Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0),
+            Up::Ned => Matrix3::identity(),
+        }
+    }
+
+    /// The quaternion formulas of the table against C·R·Cᵀ computed as matrices, and the
+    /// position formulas against C·p, for attitudes that are not symmetric in any axis.
+    #[test]
+    fn conventions_are_the_rotation_c_applied_to_world_and_body() {
+        for up in [Up::Z, Up::Y, Up::Ned] {
+            let cm = c(up);
+            assert!((cm.determinant() - 1.0).abs() < 1e-12, "{up:?} is a proper rotation");
+            for (r, p, y) in [(0.3, -0.2, 1.1), (-1.0, 0.7, -2.5), (0.05, 0.0, 0.0)] {
+                let rot = Rot::<MocapBody, MocapNav>::from_euler(Euler::new(r, p, y));
+                let expected = cm * rot.matrix() * cm.transpose();
+                let [x, yq, z, w] = up.quaternion(&rot).map(|a| a as f64);
+                let got = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, yq, z)).to_rotation_matrix().into_inner();
+                assert!((got - expected).abs().max() < 1e-6, "{up:?}: {got} vs {expected}");
+            }
+            let v = Vector3::new(1.0, 2.0, 3.0);
+            let expected = cm * v;
+            let got = up.position(Vec3::from_array([1.0, 2.0, 3.0]));
+            assert_eq!(got, [expected.x as f32, expected.y as f32, expected.z as f32], "{up:?}");
+        }
+        // the cases in words: 1 m up is +z in Z-up and +y in Y-up
+        assert_eq!(Up::Z.position(Vec3::from_array([0.0, 0.0, -1.0])), [0.0, 0.0, 1.0]);
+        assert_eq!(Up::Y.position(Vec3::from_array([0.0, 0.0, -1.0])), [0.0, 1.0, 0.0]);
+    }
+}

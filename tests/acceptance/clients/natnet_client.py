@@ -1,0 +1,36 @@
+"""Receives `flyarena serve` with the `natnet` client from PyPI (unicast) and prints what it got
+as JSON: the server info, the rigid-body descriptions and every frame. Test helper for
+tests/acceptance/serve.rs; usage: natnet_client.py COMMAND_PORT SECONDS"""
+import json
+import sys
+import time
+
+from natnet import NatNetClient
+
+port, seconds = int(sys.argv[1]), float(sys.argv[2])
+frames, descriptions = [], []
+client = NatNetClient(server_ip_address="127.0.0.1", local_ip_address="127.0.0.1", command_port=port, use_multicast=False)
+client.on_data_frame_received_event.handlers.append(frames.append)
+client.on_data_description_received_event.handlers.append(descriptions.append)
+client.connect(timeout=20)
+client.request_modeldef()
+start = time.time()
+while time.time() - start < seconds:
+    client.update_sync()
+    time.sleep(0.001)
+info = client.server_info
+client.shutdown()
+print(json.dumps({
+    "application": info.application_name,
+    "natnet_version": str(info.nat_net_protocol_version),
+    "bodies": [[b.name, b.id_num, [list(m.pos) for m in b.markers]] for d in descriptions[:1] for b in d.rigid_bodies],
+    "frames": [
+        {
+            "number": f.prefix.frame_number,
+            "timestamp": f.suffix.timestamp,
+            "stamps": [f.suffix.stamp_camera_mid_exposure, f.suffix.stamp_data_received, f.suffix.stamp_transmit],
+            "bodies": [[b.id_num, list(b.pos), list(b.rot), b.tracking_valid] for b in f.rigid_bodies],
+        }
+        for f in frames
+    ],
+}))
