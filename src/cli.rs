@@ -127,9 +127,17 @@ struct ServeArgs {
     /// Simulated seconds per wall-clock second (1: real time)
     #[arg(long, default_value_t = 1.0, value_parser = parse_speed)]
     speed: f64,
-    /// Seconds to wait for a first client before the flight starts (0: start at once)
+    /// Seconds to wait for a first client before the flight starts (0: start at once); with
+    /// `station: external` vehicles, for a first command of each
     #[arg(long, default_value_t = 30.0, value_name = "S", value_parser = parse_wait)]
     wait_s: f64,
+    /// Lockstep: every radio tick of an external vehicle waits for its controller's command (no
+    /// wall clock); otherwise real time
+    #[arg(long)]
+    lockstep: bool,
+    /// Lockstep: how long a radio tick waits before the controller is taken as gone
+    #[arg(long, default_value_t = 1000, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=600_000), requires = "lockstep")]
+    lockstep_timeout_ms: u64,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -253,6 +261,14 @@ fn load_for_run(a: &RunArgs) -> Result<Scenario, Error> {
 
 fn cmd_run(a: RunArgs) -> Result<i32, Error> {
     let s = load_for_run(&a)?;
+    if let Some(v) = s.vehicle_cfgs().find(|v| v.station == flyarena::scenario::StationKind::External) {
+        return Err(Error::Usage(format!(
+            "{}: vehicle `{}` has `station: external`: an external controller flies it, so fly the scenario with `flyarena serve {}`",
+            a.scenario.display(),
+            v.name,
+            a.scenario.display()
+        )));
+    }
     let record = cfg!(feature = "record") && !a.no_rrd;
     let started = std::time::Instant::now();
     let outcome = run_scenario(&s, record);
@@ -275,9 +291,19 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
         },
         speed: a.speed,
         wait_for_client: std::time::Duration::from_secs_f64(a.wait_s),
+        lockstep: a.lockstep.then(|| std::time::Duration::from_millis(a.lockstep_timeout_ms)),
     };
     let to = a.multicast.map_or_else(|| "each client".to_string(), |g| format!("multicast {g}:{}", a.data_port));
-    eprintln!("serving {} as NatNet 3.1 on {}:{} (data port {}, {to}, {:?}-up); waiting up to {} s for a client", s.name, a.bind, a.command_port, a.data_port, opts.up, a.wait_s);
+    eprintln!(
+        "serving {} as NatNet 3.1 on {}:{} (data port {}, {to}, {:?}-up, {}); waiting up to {} s for a client",
+        s.name,
+        a.bind,
+        a.command_port,
+        a.data_port,
+        opts.up,
+        if a.lockstep { "lockstep" } else { "real time" },
+        a.wait_s
+    );
     let started = std::time::Instant::now();
     let (main, net) = serve(&s, &opts, flyarena::engine::RunOptions::default())?;
     let elapsed = started.elapsed();
@@ -291,6 +317,25 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
             net.max_lag_ms,
             if net.send_errors > 0 { format!("; {} datagrams could not be sent", net.send_errors) } else { String::new() }
         );
+    }
+    if !a.run.quiet {
+        for c in &net.commands {
+            let k = &c.stats;
+            println!(
+                "{}: {} commands received, {} applied, {} duplicate, {} out of order, {} missing; {} radio ticks held the last frame{}",
+                c.vehicle,
+                k.received,
+                k.applied,
+                k.duplicates,
+                k.out_of_order,
+                k.missing,
+                k.held,
+                if k.timeouts > 0 { "; the controller stopped answering (lockstep timeout)" } else { "" }
+            );
+        }
+        if net.rejected > 0 {
+            println!("{} packets were neither NatNet requests nor commands for an external vehicle", net.rejected);
+        }
     }
     let outcome = flyarena::run::evaluate(&s, main, record);
     write_run(a.run, &s, outcome, elapsed)

@@ -141,9 +141,24 @@ impl Radio {
     /// Transmits one frame at `now`; returns it (for logging).
     pub fn transmit(&mut self, now: Nanos, out: &ControlOutput) -> PpmFrame {
         let f = self.encode(out);
+        self.transmit_frame(now, f);
+        f
+    }
+
+    /// Transmits a frame given as counts (an external controller's, [`crate::serve`]); only the
+    /// radio's first `channels` are sent, the rest go out as 0.
+    pub fn transmit_frame(&mut self, now: Nanos, mut f: PpmFrame) {
+        f.len = self.params.channels;
+        f.channels[f.len..].fill(0);
         self.in_flight.push_back((now + self.params.latency, f));
         self.last_sent = Some(f);
-        f
+    }
+
+    /// The idle frame: zero rates or level, zero heading rate, zero thrust (128, 128, 128, 0).
+    pub fn idle_frame(&self) -> PpmFrame {
+        let mut channels = [0u8; MAX_CHANNELS];
+        channels[..3].fill(RATE_CENTER);
+        PpmFrame { channels, len: self.params.channels }
     }
 
     /// The frame transmitted last.

@@ -6,11 +6,17 @@
 //!    link `mocap.latency` later (processing), and arrives after the link's own latency/jitter, or never;
 //! 2. every packet that has arrived by t goes to the vehicle's [`Station`] (estimation, guidance,
 //!    calibration, control), in arrival order, then every telemetry frame that has arrived;
-//! 3. every 20th tick (50 Hz): the PPM radio samples the station's latest command;
+//! 3. every 20th tick (50 Hz): the PPM radio samples the station's latest command (for a vehicle
+//!    with `station: external`, the frame its external controller gave last,
+//!    [`Arena::set_command`]);
 //! 4. the vehicle's receiver holds the last decoded frame; the IMU is sampled; in attitude mode
 //!    the onboard attitude loop turns the held angles into body rates; the onboard rate loop
 //!    computes rotor commands; every 10th tick (100 Hz) the mean gyro reading goes back over
 //!    the telemetry link; the rigid body is integrated over 1 ms (RK4).
+//!
+//! Steps 1–2 are [`Arena::sense`], 3–4 [`Arena::act`]: a bridge to an external controller
+//! (`flyarena serve --lockstep`) asks for the radio frame in between, after the controller has
+//! seen every pose that arrived by t, as the built-in station has.
 //!
 //! Random draws come from one stream per component and vehicle ([`crate::rng`]), so a run is a
 //! pure function of the scenario and its seed: bit-identical trajectories whatever the thread
@@ -29,7 +35,7 @@ use crate::link::{Link, LinkParams, LinkStats};
 use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, Occlusion, TrueOffset};
 use crate::radio::{PpmFrame, Radio, RadioParams, Received};
 use crate::rng::{Component, Stream};
-use crate::scenario::{PHYSICS_HZ, Scenario};
+use crate::scenario::{PHYSICS_HZ, Scenario, StationKind};
 use crate::vehicle::battery;
 use crate::vehicle::{AttitudeLoop, Battery, Disturbance, Downlink, Imu, ImuParams, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
 
@@ -178,6 +184,13 @@ struct VehicleLoop {
     /// The frames that reached the station in the current tick, kept only when tapped
     /// ([`Arena::tap_delivered`]).
     delivered: Option<Vec<MocapFrame>>,
+    /// The telemetry frames that reached the station in the current tick (tapped likewise).
+    telemetry_delivered: Option<Vec<TelemetryFrame>>,
+    /// An external controller's frame, held until the next one (`None`: the built-in station
+    /// commands).
+    external: Option<PpmFrame>,
+    /// Set by [`VehicleLoop::sense`] for [`VehicleLoop::act`] in the same tick.
+    captured: Option<MocapFrame>,
 }
 
 /// The plan's window at the last evaluation, the reference position then, and until when both
@@ -200,6 +213,8 @@ pub struct Arena {
     vehicles: Vec<VehicleLoop>,
     name: String,
     seed: u64,
+    /// Between [`Arena::sense`] and [`Arena::act`]: whether this tick captures and transmits.
+    pending: Option<(bool, bool)>,
 }
 
 fn rate(hz: u32) -> Rate {
@@ -308,7 +323,6 @@ impl Arena {
                     link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)).with_outages(outages.clone()),
                     downlink: Downlink::new(telemetry_every).with_clock(ms(tm.clock.offset_ms), tm.clock.drift_ppm),
                     telemetry: Link::new(telemetry, Stream::new(s.seed, Component::TelemetryLoss, i), Stream::new(s.seed, Component::TelemetryJitter, i)),
-                    radio,
                     station,
                     truth,
                     last_frame: None,
@@ -319,6 +333,10 @@ impl Arena {
                     trace: Vec::new(),
                     any_nan: false,
                     delivered: None,
+                    telemetry_delivered: None,
+                    external: (v.station == StationKind::External).then(|| radio.idle_frame()),
+                    captured: None,
+                    radio,
                 }
             })
             .collect();
@@ -333,6 +351,7 @@ impl Arena {
             vehicles,
             name: s.name.clone(),
             seed: s.seed,
+            pending: None,
         }
     }
 
@@ -346,12 +365,33 @@ impl Arena {
         self.clock.tick() >= self.end_tick
     }
 
-    /// From now on, keep the mocap frames that reach each vehicle's station in a tick, for
-    /// [`Arena::delivered`] (a bridge streams them, e.g. `flyarena serve`). Changes nothing in
-    /// the run.
+    /// From now on, keep the mocap and telemetry frames that reach each vehicle's station in a
+    /// tick, for [`Arena::delivered`] and [`Arena::telemetry_delivered`] (a bridge streams them,
+    /// e.g. `flyarena serve`). Changes nothing in the run.
     pub fn tap_delivered(&mut self) {
         for v in &mut self.vehicles {
             v.delivered.get_or_insert_with(Vec::new);
+            v.telemetry_delivered.get_or_insert_with(Vec::new);
+        }
+    }
+
+    /// The telemetry frames (body-rate downlink) that reached vehicle `i`'s station during the
+    /// last [`Arena::sense`]. Empty unless [`Arena::tap_delivered`] was called.
+    pub fn telemetry_delivered(&self, i: usize) -> &[TelemetryFrame] {
+        self.vehicles.get(i).and_then(|v| v.telemetry_delivered.as_deref()).unwrap_or(&[])
+    }
+
+    /// Whether vehicle `i` is flown by an external controller (`station: external`).
+    pub fn is_external(&self, i: usize) -> bool {
+        self.vehicles.get(i).is_some_and(|v| v.external.is_some())
+    }
+
+    /// Gives an externally flown vehicle the frame its transmitter sends from the next radio
+    /// tick on (held until the next call, as a PPM transmitter holds its channels). Ignored for a
+    /// vehicle the built-in station flies.
+    pub fn set_command(&mut self, i: usize, frame: PpmFrame) {
+        if let Some(held) = self.vehicles.get_mut(i).and_then(|v| v.external.as_mut()) {
+            *held = frame;
         }
     }
 
@@ -373,13 +413,38 @@ impl Arena {
         self.vehicles[i].mocap_latency
     }
 
-    /// Advances every vehicle by one physics tick.
+    /// Advances every vehicle by one physics tick: [`Arena::sense`], then [`Arena::act`].
     pub fn step(&mut self) {
+        self.sense();
+        self.act();
+    }
+
+    /// The first half of the next tick: the mocap captures (on a Vicon tick), the frames and
+    /// telemetry that have arrived go to the stations, the stations tick. Returns whether the
+    /// radio transmits in this tick ([`Arena::act`]), so that an external controller can be
+    /// asked for its frame in between (lockstep). Calling it twice without `act` does nothing.
+    pub fn sense(&mut self) -> bool {
+        if let Some((_, radio_tick)) = self.pending {
+            return radio_tick;
+        }
         let t = self.clock.now();
         let mocap_tick = self.mocap_every.fires();
         let radio_tick = self.radio_every.fires();
         for v in &mut self.vehicles {
-            v.step(t, mocap_tick, radio_tick, self.dt, self.trace);
+            v.sense(t, mocap_tick);
+        }
+        self.pending = Some((mocap_tick, radio_tick));
+        radio_tick
+    }
+
+    /// The second half: the radio transmits (on a radio tick), the onboard loops and the physics
+    /// advance by one tick, the clock moves on. Runs [`Arena::sense`] first if it was not.
+    pub fn act(&mut self) {
+        self.sense();
+        let (mocap_tick, radio_tick) = self.pending.take().expect("sensed");
+        let t = self.clock.now();
+        for v in &mut self.vehicles {
+            v.act(t, mocap_tick, radio_tick, self.dt, self.trace);
         }
         self.clock.advance();
     }
@@ -431,11 +496,11 @@ impl Arena {
 }
 
 impl VehicleLoop {
-    fn step(&mut self, t: Nanos, mocap_tick: bool, radio_tick: bool, dt: Nanos, trace: bool) {
-        let mut captured = None;
+    fn sense(&mut self, t: Nanos, mocap_tick: bool) {
+        self.captured = None;
         if mocap_tick && let Some(f) = self.mocap.capture(t, self.x3d.state()) {
             self.link.send(t + self.mocap_latency, f.seq, f);
-            captured = Some(f);
+            self.captured = Some(f);
         }
         if let Some(d) = &mut self.delivered {
             d.clear();
@@ -447,13 +512,28 @@ impl VehicleLoop {
             self.station.on_pose(t, &f);
             self.last_frame = Some(f);
         }
+        if let Some(d) = &mut self.telemetry_delivered {
+            d.clear();
+        }
         while let Some(f) = self.telemetry.receive(t) {
+            if let Some(d) = &mut self.telemetry_delivered {
+                d.push(f);
+            }
             self.station.on_telemetry(&f);
         }
         self.station.tick(t);
+    }
+
+    fn act(&mut self, t: Nanos, mocap_tick: bool, radio_tick: bool, dt: Nanos, trace: bool) {
+        let captured = self.captured;
         if radio_tick {
-            let cmd = *self.station.command();
-            self.radio.transmit(t, &cmd);
+            match self.external {
+                Some(f) => self.radio.transmit_frame(t, f),
+                None => {
+                    let cmd = *self.station.command();
+                    self.radio.transmit(t, &cmd);
+                }
+            }
         }
         let held = self.radio.receiver(t);
         // the engine's own measurements need the window (and in a spin the reference position)

@@ -355,6 +355,22 @@ pub struct VehicleCfg {
     /// The truth differs from the declared model here (for `identify` to find).
     #[serde(default)]
     pub undeclared: UndeclaredCfg,
+    /// Who flies it: flyarena's ground station, or a controller outside flyarena that sends
+    /// radio frames over the network (`flyarena serve`).
+    #[serde(default)]
+    pub station: StationKind,
+}
+
+/// Who computes a vehicle's radio commands.
+#[derive(Debug, Deserialize, serde::Serialize, Clone, Copy, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum StationKind {
+    /// flyarena's own ground station (estimation, guidance, calibration, control).
+    #[default]
+    Builtin,
+    /// An external controller over UDP ([`crate::serve`]); until its first frame the radio sends
+    /// the idle frame (motors off).
+    External,
 }
 
 /// Effects in the simulated truth that the declared model (what the station, the onboard rate

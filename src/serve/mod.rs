@@ -37,12 +37,15 @@
 //! its vehicle, with id = 1 + its index in the fleet, and lists its marker template.
 #![warn(missing_docs)]
 
+pub mod command;
 pub mod natnet;
 
 use crate::clock::Nanos;
 use crate::engine::{Arena, RunOptions, RunOutput};
 use crate::frames::{MocapBody, MocapNav, Rot, Vec3};
+use crate::radio::PpmFrame;
 use crate::scenario::Scenario;
+use command::{CommandStats, Receiver};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, UdpSocket};
 use std::time::{Duration, Instant};
 
@@ -107,13 +110,27 @@ pub struct ServeOptions {
     pub up: Up,
     /// Simulated seconds per wall-clock second (1: real time).
     pub speed: f64,
-    /// Wait this long for a first client before the flight starts (zero: start at once).
+    /// Wait this long for a first client before the flight starts (zero: start at once); with
+    /// externally flown vehicles, for a first command of each.
     pub wait_for_client: Duration,
+    /// Lockstep: each radio tick of an externally flown vehicle waits for its controller's
+    /// command, at most this long (then the controller is taken as gone and its last frame is
+    /// held for the rest of the run). `None`: real time, paced by the wall clock.
+    pub lockstep: Option<Duration>,
 }
 
 impl Default for ServeOptions {
     fn default() -> Self {
-        ServeOptions { bind: Ipv4Addr::LOCALHOST, command_port: 1510, data_port: 1511, multicast: None, up: Up::Z, speed: 1.0, wait_for_client: Duration::from_secs(30) }
+        ServeOptions {
+            bind: Ipv4Addr::LOCALHOST,
+            command_port: 1510,
+            data_port: 1511,
+            multicast: None,
+            up: Up::Z,
+            speed: 1.0,
+            wait_for_client: Duration::from_secs(30),
+            lockstep: None,
+        }
     }
 }
 
@@ -133,8 +150,22 @@ pub struct ServeReport {
     /// Wall-clock time spent waiting for the first client (s).
     pub waited_s: f64,
     /// The largest delay of a physics tick behind its wall-clock time (ms): frames were sent at
-    /// most this late.
+    /// most this late (real time only).
     pub max_lag_ms: f64,
+    /// Per externally flown vehicle, what its commands did.
+    pub commands: Vec<VehicleCommands>,
+    /// Packets that were neither a NatNet request nor a command for an externally flown vehicle
+    /// (malformed, another version, an unknown vehicle id).
+    pub rejected: u64,
+}
+
+/// The command counts of one externally flown vehicle.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct VehicleCommands {
+    /// The vehicle's name.
+    pub vehicle: String,
+    /// The counts.
+    pub stats: CommandStats,
 }
 
 /// Why serving failed.
@@ -165,13 +196,20 @@ struct Server {
     server_info: Vec<u8>,
     last_frame: Option<Vec<u8>>,
     report: ServeReport,
+    /// Per vehicle: whether it is flown from outside, its controller's address, its receiver,
+    /// the newest frame to apply, whether its controller is taken as gone (lockstep timeout).
+    external: Vec<bool>,
+    controllers: Vec<Option<SocketAddr>>,
+    receivers: Vec<Receiver>,
+    incoming: Vec<Option<PpmFrame>>,
+    gone: Vec<bool>,
 }
 
 /// At most this many unicast clients (each costs two datagrams per frame).
 const MAX_CLIENTS: usize = 32;
 
 impl Server {
-    fn bind(opts: &ServeOptions, model_def: Vec<u8>) -> Result<Server, ServeError> {
+    fn bind(opts: &ServeOptions, model_def: Vec<u8>, external: Vec<bool>) -> Result<Server, ServeError> {
         let addr = SocketAddr::V4(SocketAddrV4::new(opts.bind, opts.command_port));
         let socket = UdpSocket::bind(addr).map_err(|source| ServeError::Bind { addr, source })?;
         if opts.multicast.is_some() {
@@ -179,7 +217,21 @@ impl Server {
             socket.set_multicast_loop_v4(true)?;
         }
         let server_info = natnet::server_info("flyarena", [0, 1, 0, 0], opts.data_port, opts.multicast);
-        Ok(Server { socket, opts: opts.clone(), clients: Vec::new(), model_def, server_info, last_frame: None, report: ServeReport::default() })
+        let n = external.len();
+        Ok(Server {
+            socket,
+            opts: opts.clone(),
+            clients: Vec::new(),
+            model_def,
+            server_info,
+            last_frame: None,
+            report: ServeReport::default(),
+            external,
+            controllers: vec![None; n],
+            receivers: vec![Receiver::default(); n],
+            incoming: vec![None; n],
+            gone: vec![false; n],
+        })
     }
 
     /// Answers requests until `until` (wall clock).
@@ -213,7 +265,23 @@ impl Server {
     }
 
     fn answer(&mut self, packet: &[u8], from: SocketAddr) {
-        let Some(req) = natnet::parse_request(packet) else { return };
+        if packet.starts_with(&command::COMMAND) {
+            match command::parse_command(packet) {
+                Ok(c) if (1..=self.external.len()).contains(&(c.vehicle_id as usize)) && self.external[c.vehicle_id as usize - 1] => {
+                    let i = c.vehicle_id as usize - 1;
+                    self.controllers[i] = Some(from);
+                    if self.receivers[i].accept(c.seq) {
+                        self.incoming[i] = Some(c.frame);
+                    }
+                }
+                _ => self.report.rejected += 1,
+            }
+            return;
+        }
+        let Some(req) = natnet::parse_request(packet) else {
+            self.report.rejected += 1;
+            return;
+        };
         self.report.requests += 1;
         match req {
             natnet::Request::Connect => {
@@ -268,59 +336,123 @@ pub fn rigid_bodies(s: &Scenario, up: Up) -> Vec<natnet::RigidBodyDef> {
         .collect()
 }
 
-/// Flies `s` paced by the wall clock and streams its mocap as NatNet (module doc). Returns the
-/// run, identical to [`crate::engine::run`] with the same options, and what happened on the
-/// network.
+/// Flies `s` and streams its mocap as NatNet (module doc); vehicles with `station: external`
+/// are flown by the commands that arrive ([`command`]). Paced by the wall clock, or in lockstep
+/// with the external controllers. Returns the run, identical to [`crate::engine::run`] with the
+/// same options when every external vehicle receives the frames the built-in station would
+/// send, and what happened on the network.
 pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunOutput, ServeReport), ServeError> {
     if !(opts.speed.is_finite() && opts.speed > 0.0) {
         return Err(ServeError::Speed(opts.speed));
     }
-    let mut server = Server::bind(opts, natnet::model_def(&rigid_bodies(s, opts.up)))?;
+    let mut arena = Arena::new(s, run);
+    arena.tap_delivered();
+    let n = arena.vehicle_count();
+    let external: Vec<bool> = (0..n).map(|i| arena.is_external(i)).collect();
+    let mut server = Server::bind(opts, natnet::model_def(&rigid_bodies(s, opts.up)), external.clone())?;
+    // before the flight: a NatNet client, or a first command from every external controller
     let waiting = Instant::now();
     let deadline = waiting + opts.wait_for_client;
-    while server.clients.is_empty() && Instant::now() < deadline {
+    let ready = |sv: &Server| if sv.external.iter().any(|e| *e) { (0..n).all(|i| !sv.external[i] || sv.controllers[i].is_some()) } else { !sv.clients.is_empty() };
+    while !ready(&server) && Instant::now() < deadline {
         server.listen_until((Instant::now() + Duration::from_millis(20)).min(deadline))?;
     }
     server.report.waited_s = waiting.elapsed().as_secs_f64();
-    let mut arena = Arena::new(s, run);
-    arena.tap_delivered();
-    let latency: Vec<Nanos> = (0..arena.vehicle_count()).map(|i| arena.mocap_latency(i)).collect();
+    let latency: Vec<Nanos> = (0..n).map(|i| arena.mocap_latency(i)).collect();
     let start = Instant::now();
     let mut previous_ids: Vec<i32> = Vec::new();
+    let mut period: u32 = 0;
     while !arena.done() {
-        let due = start + Duration::from_secs_f64(arena.now().as_secs_f64() / opts.speed);
-        server.listen_until(due)?;
-        server.report.max_lag_ms = server.report.max_lag_ms.max(Instant::now().saturating_duration_since(due).as_secs_f64() * 1e3);
-        arena.step();
-        // one packet per frame number that arrived in this tick, with every body that came with it
-        let mut arrived: Vec<(u32, usize, crate::mocap::MocapFrame)> = Vec::new();
-        for i in 0..arena.vehicle_count() {
-            arrived.extend(arena.delivered(i).iter().map(|f| (f.seq, i, *f)));
+        if opts.lockstep.is_none() {
+            let due = start + Duration::from_secs_f64(arena.now().as_secs_f64() / opts.speed);
+            server.listen_until(due)?;
+            server.report.max_lag_ms = server.report.max_lag_ms.max(Instant::now().saturating_duration_since(due).as_secs_f64() * 1e3);
+        } else {
+            server.listen_until(Instant::now())?;
         }
-        arrived.sort_by_key(|(seq, i, _)| (*seq, *i));
-        for group in arrived.chunk_by(|a, b| a.0 == b.0) {
-            let (seq, first, f0) = group[0];
-            let bodies: Vec<natnet::RigidBody> = group
-                .iter()
-                .map(|(_, i, f)| natnet::RigidBody { id: *i as i32 + 1, pos_m: opts.up.position(f.pos), quat_xyzw: opts.up.quaternion(&f.att), mean_error_m: 0.0, tracked: true })
-                .collect();
-            let ids: Vec<i32> = bodies.iter().map(|b| b.id).collect();
-            let exposed = f0.t_capture.as_nanos().max(0) as u64;
-            let processed = (f0.t_capture + latency[first]).as_nanos().max(0) as u64;
-            let frame = natnet::Frame {
-                number: seq,
-                bodies,
-                timestamp_s: f0.t_capture.as_secs_f64(),
-                mid_exposure: exposed,
-                data_received: processed,
-                transmit: processed,
-                models_changed: ids != previous_ids,
-            };
-            previous_ids = ids;
-            server.broadcast(natnet::frame(&frame), group.len());
+        let t = arena.now();
+        let radio_tick = arena.sense();
+        stream_frames(&mut server, &arena, opts.up, &latency, &mut previous_ids);
+        for i in (0..n).filter(|i| external[*i]) {
+            if let Some(to) = server.controllers[i] {
+                for f in arena.telemetry_delivered(i) {
+                    server.send(&command::telemetry(i as u8 + 1, f), to);
+                }
+            }
         }
+        if radio_tick {
+            for i in (0..n).filter(|i| external[*i]) {
+                if let Some(to) = server.controllers[i] {
+                    server.send(&command::request(i as u8 + 1, period, t.as_nanos()), to);
+                }
+            }
+            if let Some(timeout) = opts.lockstep {
+                let give_up = Instant::now() + timeout;
+                let waiting_for = |sv: &Server| {
+                    (0..n).filter(|&i| external[i] && !sv.gone[i] && sv.controllers[i].is_some() && sv.receivers[i].last().is_none_or(|l| l < period)).collect::<Vec<_>>()
+                };
+                loop {
+                    let left = waiting_for(&server);
+                    if left.is_empty() {
+                        break;
+                    }
+                    if Instant::now() >= give_up {
+                        for i in left {
+                            server.gone[i] = true;
+                            server.receivers[i].stats.timeouts += 1;
+                        }
+                        break;
+                    }
+                    server.listen_until((Instant::now() + Duration::from_millis(5)).min(give_up))?;
+                }
+            }
+        }
+        for i in 0..n {
+            if let Some(f) = server.incoming[i].take() {
+                arena.set_command(i, f);
+            }
+        }
+        if radio_tick {
+            for i in (0..n).filter(|i| external[*i]) {
+                server.receivers[i].radio_tick();
+            }
+            period += 1;
+        }
+        arena.act();
     }
+    server.report.commands = (0..n).filter(|i| external[*i]).map(|i| VehicleCommands { vehicle: s.vehicle(i).name.clone(), stats: server.receivers[i].stats }).collect();
     Ok((arena.finish(), server.report))
+}
+
+/// Sends the mocap frames that reached the stations in this tick: one NatNet frame per frame
+/// number, with every body that came with it.
+fn stream_frames(server: &mut Server, arena: &Arena, up: Up, latency: &[Nanos], previous_ids: &mut Vec<i32>) {
+    let mut arrived: Vec<(u32, usize, crate::mocap::MocapFrame)> = Vec::new();
+    for i in 0..arena.vehicle_count() {
+        arrived.extend(arena.delivered(i).iter().map(|f| (f.seq, i, *f)));
+    }
+    arrived.sort_by_key(|(seq, i, _)| (*seq, *i));
+    for group in arrived.chunk_by(|a, b| a.0 == b.0) {
+        let (seq, first, f0) = group[0];
+        let bodies: Vec<natnet::RigidBody> = group
+            .iter()
+            .map(|(_, i, f)| natnet::RigidBody { id: *i as i32 + 1, pos_m: up.position(f.pos), quat_xyzw: up.quaternion(&f.att), mean_error_m: 0.0, tracked: true })
+            .collect();
+        let ids: Vec<i32> = bodies.iter().map(|b| b.id).collect();
+        let exposed = f0.t_capture.as_nanos().max(0) as u64;
+        let processed = (f0.t_capture + latency[first]).as_nanos().max(0) as u64;
+        let frame = natnet::Frame {
+            number: seq,
+            bodies,
+            timestamp_s: f0.t_capture.as_secs_f64(),
+            mid_exposure: exposed,
+            data_received: processed,
+            transmit: processed,
+            models_changed: ids != *previous_ids,
+        };
+        *previous_ids = ids;
+        server.broadcast(natnet::frame(&frame), group.len());
+    }
 }
 
 #[cfg(test)]

@@ -268,3 +268,101 @@ fn a_taken_port_is_refused_with_exit_2() {
     assert!(err.contains(&format!("cannot listen on 127.0.0.1:{port}")) && err.contains("--command-port"), "{err}");
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0, "nothing written");
 }
+
+/// Lockstep with an external controller: a Python controller (tests only) replays, period by
+/// period, the radio frames flyarena's own station sent in Fig. 6, with duplicates and stale
+/// commands mixed in. The served flight is the in-process flight to the bit (so the bridge
+/// applies each command at the radio tick it answers, through the same radio model), the
+/// receiver drops and counts exactly what was duplicated or stale, the telemetry comes back, and
+/// R1–R2 pass as in `run`.
+#[test]
+fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
+    let path = super::root().join("scenarios/fig6-roll-pitch-offsets.yaml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let builtin = flyarena::scenario::Scenario::parse(&text, &path).unwrap();
+    let external_text = text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n");
+    assert_ne!(external_text, text);
+    let external = flyarena::scenario::Scenario::parse(&external_text, &path).unwrap();
+    let plain = run(&builtin, RunOptions::default());
+    // the frames the built-in station sent: the trace's last sent frame at each radio tick
+    // (50 Hz: every 20 ms, on Vicon ticks)
+    let period_ns = 20_000_000;
+    let frames: Vec<Vec<u8>> = plain.vehicles[0].trace.iter().filter(|x| x.t.as_nanos() % period_ns == 0).map(|x| x.ppm.expect("sent").channels[..8].to_vec()).collect();
+    let ticks = (plain.duration.as_nanos() as u64).div_ceil(period_ns as u64) as usize;
+    assert_eq!(frames.len(), ticks, "one frame per radio period");
+    let dir = tmp("lockstep");
+    let frames_path = dir.join("frames.json");
+    std::fs::write(&frames_path, serde_json::to_string(&frames).unwrap()).unwrap();
+    let port = free_port();
+    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_secs(10)), ..ServeOptions::default() };
+    assert!(python_has("json"), "python3 runs the controller");
+    let served = std::thread::spawn(move || serve(&external, &opts, RunOptions::default()));
+    let got = client("replay_controller.py", &[port.to_string(), "1".into(), frames_path.display().to_string()], Duration::from_secs(120));
+    let (served, net) = served.join().unwrap().unwrap();
+    let (a, b) = (&served.vehicles[0], &plain.vehicles[0]);
+    assert_eq!(a.trace.len(), b.trace.len());
+    for (x, y) in a.trace.iter().zip(&b.trace) {
+        assert_eq!(x.pos.to_array().map(f64::to_bits), y.pos.to_array().map(f64::to_bits), "at {:?}", x.t);
+        assert_eq!(x.ppm, y.ppm, "at {:?}", x.t);
+    }
+    assert_eq!(a.final_pos.to_array().map(f64::to_bits), b.final_pos.to_array().map(f64::to_bits));
+    let sent = &got["sent"];
+    let stats = net.commands[0].stats;
+    assert_eq!(got["requests"].as_u64().unwrap() as usize, ticks);
+    assert_eq!(stats.applied as usize, ticks);
+    assert_eq!(stats.duplicates, sent["duplicates"].as_u64().unwrap());
+    assert_eq!(stats.out_of_order, sent["out_of_order"].as_u64().unwrap());
+    assert!(stats.duplicates > 100 && stats.out_of_order > 100, "{stats:?}");
+    assert_eq!((stats.missing, stats.held, stats.timeouts), (0, 0, 0));
+    // telemetry at 100 Hz: about two per radio period reach the client
+    let telemetry = got["telemetry"].as_u64().unwrap() as usize;
+    assert!(telemetry > ticks && telemetry <= 2 * ticks + 2, "{telemetry} telemetry packets in {ticks} periods");
+    let outcome = flyarena::run::evaluate(&builtin, served, false);
+    assert!(outcome.report.passed(), "{}", outcome.report.table());
+}
+
+/// In lockstep, a controller that stops answering cannot hang the run: the tick waits its
+/// timeout once, the controller is taken as gone, and the run finishes holding its last frame.
+#[test]
+fn a_silent_controller_in_lockstep_times_out_once() {
+    let s = super::inline("name: silent\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 1 }\n");
+    let port = free_port();
+    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_millis(300)), ..ServeOptions::default() };
+    let served = std::thread::spawn(move || serve(&s, &opts, RunOptions::default()));
+    // register with one command for period 0 (full thrust), then say nothing
+    let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let started = Instant::now();
+    sock.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+    let mut buf = [0u8; 2048];
+    loop {
+        sock.send_to(&[0, 0, 5, 0, b'P', b'i', b'n', b'g', 0], ("127.0.0.1", port)).unwrap();
+        if sock.recv_from(&mut buf).is_ok_and(|(n, _)| n > 4 && buf[0] == 1) {
+            break;
+        }
+        assert!(started.elapsed() < Duration::from_secs(20), "no server info");
+    }
+    sock.send_to(&flyarena::serve::command::command(1, 0, &[128, 128, 128, 255, 0, 0, 0, 0]), ("127.0.0.1", port)).unwrap();
+    let (out, net) = served.join().unwrap().unwrap();
+    let k = net.commands[0].stats;
+    assert_eq!((k.applied, k.timeouts), (1, 1), "{k:?}");
+    // one radio tick per 20 ms of the run: the first sends the command, the others hold it
+    let ticks = (out.duration.as_nanos() as u64).div_ceil(20_000_000);
+    assert!(ticks >= 100, "{ticks}");
+    assert_eq!(k.held, ticks - 1);
+    assert!(started.elapsed() < Duration::from_secs(10), "one timeout of 0.3 s, not one per tick");
+    // full thrust held: the vehicle climbed far above the 1 m the plan asked for
+    assert!(out.vehicles[0].final_pos.z() < -3.0, "{:?}", out.vehicles[0].final_pos);
+}
+
+/// `run` cannot fly a vehicle that an external controller flies: exit 2, saying to serve it.
+#[test]
+fn run_refuses_an_external_vehicle() {
+    let dir = tmp("run-external");
+    let path = dir.join("ext.yaml");
+    std::fs::write(&path, "name: ext\nvehicles:\n  - name: v\n    station: external\nplan:\n  - hover: { duration_s: 1 }\n").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_flyarena")).arg("run").arg(&path).arg("--out").arg(dir.join("out")).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("vehicle `v` has `station: external`") && err.contains("flyarena serve"), "{err}");
+    assert!(!dir.join("out").exists(), "nothing written");
+}
