@@ -337,7 +337,13 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
             println!("{} packets were neither NatNet requests nor commands for an external vehicle", net.rejected);
         }
     }
-    let outcome = flyarena::run::evaluate(&s, main, record);
+    // the uncompensated counterpart R2 compares with is flown by flyarena's own station: an
+    // external controller's uncompensated flight is not at hand
+    let mut twin = load_for_run(&a.run)?;
+    for v in twin.vehicles.value.iter_mut() {
+        v.value.station = flyarena::scenario::StationKind::Builtin;
+    }
+    let outcome = flyarena::run::evaluate(&twin, main, record);
     write_run(a.run, &s, outcome, elapsed)
 }
 

@@ -236,19 +236,26 @@ impl Server {
 
     /// Answers requests until `until` (wall clock).
     fn listen_until(&mut self, until: Instant) -> Result<(), ServeError> {
-        let mut buf = [0u8; 2048];
-        loop {
-            let now = Instant::now();
-            if now >= until {
-                return Ok(());
-            }
-            self.socket.set_read_timeout(Some((until - now).max(Duration::from_micros(50))))?;
-            match self.socket.recv_from(&mut buf) {
-                Ok((n, from)) => self.answer(&buf[..n], from),
-                Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut | std::io::ErrorKind::ConnectionRefused) => {}
-                Err(e) => return Err(e.into()),
-            }
+        while Instant::now() < until {
+            self.listen_once(until)?;
         }
+        Ok(())
+    }
+
+    /// Answers the next request, waiting for it until `until` at most.
+    fn listen_once(&mut self, until: Instant) -> Result<(), ServeError> {
+        let mut buf = [0u8; 2048];
+        let now = Instant::now();
+        if now >= until {
+            return Ok(());
+        }
+        self.socket.set_read_timeout(Some((until - now).max(Duration::from_micros(50))))?;
+        match self.socket.recv_from(&mut buf) {
+            Ok((n, from)) => self.answer(&buf[..n], from),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut | std::io::ErrorKind::ConnectionRefused) => {}
+            Err(e) => return Err(e.into()),
+        }
+        Ok(())
     }
 
     fn send(&mut self, bytes: &[u8], to: SocketAddr) {
@@ -403,7 +410,7 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
                         }
                         break;
                     }
-                    server.listen_until((Instant::now() + Duration::from_millis(5)).min(give_up))?;
+                    server.listen_once(give_up)?;
                 }
             }
         }

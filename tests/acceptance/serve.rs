@@ -366,3 +366,35 @@ fn run_refuses_an_external_vehicle() {
     assert!(err.contains("vehicle `v` has `station: external`") && err.contains("flyarena serve"), "{err}");
     assert!(!dir.join("out").exists(), "nothing written");
 }
+
+/// A reference controller written from the paper in Python (tests only:
+/// `clients/fig6_controller.py`, its own guidance, velocity filter, hover average and (1)–(5),
+/// reading Z-up NatNet as a lab's client would) flies Fig. 6 through the bridge in lockstep: it
+/// takes off, finds the 3° + 3° marker offset by hovering, and with it compensated yaws on the
+/// spot within R2's limits (3 cm, 10 % of the uncompensated circle). Not to the bit: its poses
+/// are NatNet's f32 and its guidance is not flyarena's (the replay test above is the bit-exact one).
+#[test]
+fn a_reference_controller_written_from_the_paper_flies_fig6_through_the_bridge() {
+    if !python_has("natnet") {
+        return;
+    }
+    let path = super::root().join("scenarios/fig6-roll-pitch-offsets.yaml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let builtin = flyarena::scenario::Scenario::parse(&text, &path).unwrap();
+    let external = flyarena::scenario::Scenario::parse(&text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n"), &path).unwrap();
+    let port = free_port();
+    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_secs(10)), ..ServeOptions::default() };
+    let served = std::thread::spawn(move || serve(&external, &opts, RunOptions::default()));
+    let got = client("fig6_controller.py", &[port.to_string(), "1".into()], Duration::from_secs(180));
+    let (served, net) = served.join().unwrap().unwrap();
+    let offset: Vec<f64> = got["offset_deg"].as_array().expect("the controller averaged the hover").iter().map(|x| x.as_f64().unwrap()).collect();
+    assert!((offset[0] - 3.0).abs() < 0.1 && (offset[1] - 3.0).abs() < 0.1, "hover-averaged offset {offset:?}°");
+    let k = net.commands[0].stats;
+    assert_eq!((k.timeouts, k.held, k.missing), (0, 0, 0), "{k:?}");
+    let outcome = flyarena::run::evaluate(&builtin, served, false);
+    eprintln!("{}\n{got}\n{k:?}", outcome.report.table());
+    let r2: Vec<_> = outcome.report.rows.iter().filter(|r| r.id == "R2").collect();
+    assert_eq!(r2.len(), 2);
+    assert!(r2.iter().all(|r| r.pass), "{}", outcome.report.table());
+    assert!(outcome.main.vehicles[0].final_pos.z() > -0.1, "landed: {:?}", outcome.main.vehicles[0].final_pos);
+}
