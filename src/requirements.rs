@@ -119,6 +119,7 @@ pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&R
                         rows.push(row("R1", format!("{name} offset |est − truth| (est {}, truth {})", deg(est), deg(truth)), deg(err), format!("≤ {}", deg(tol)), err <= tol));
                     }
                 }
+                None if v.external => rows.push(shown("R1", "roll/pitch offsets".into(), "the external controller reported no offset (FAOF)".into(), format!("≤ {}", deg(tol)))),
                 None => rows.push(row("R1", "roll/pitch offsets".into(), "not calibrated (no calibrate_roll_pitch phase)".into(), format!("≤ {}", deg(tol)), false)),
             }
             // a yaw row exists for each yaw method the plan flies
@@ -147,6 +148,9 @@ pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&R
                         let err = crate::frames::wrap_pi(g.euler.yaw - truth).abs();
                         let what = format!("yaw offset, gyro telemetry (est {} ± {} 1σ, truth {})", deg(g.euler.yaw), deg(g.sigma[2]), deg(truth));
                         rows.push(row("R1", what, deg(err), format!("≤ {}", deg(tol)), err <= tol));
+                    }
+                    None if v.external => {
+                        rows.push(shown("R1", "yaw offset, gyro telemetry".into(), "the external controller flies it: no built-in gyro fit".into(), format!("≤ {}", deg(tol))))
                     }
                     None => rows.push(row("R1", "yaw offset, gyro telemetry".into(), "no estimate (rotation about two axes needed)".into(), format!("≤ {}", deg(tol)), false)),
                 }

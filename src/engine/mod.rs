@@ -138,6 +138,10 @@ pub struct VehicleRun {
     pub final_pos: Vec3<Nav>,
     /// Whether the state ever stopped being finite (the run is then void).
     pub any_nan: bool,
+    /// Flown by an external controller (`station: external`): the calibration above is then
+    /// what the controller reported ([`crate::serve::command`]'s offset message), not the
+    /// built-in station's.
+    pub external: bool,
 }
 
 /// Everything a run produced.
@@ -488,6 +492,7 @@ impl Arena {
                     gyro_log_delay_frames: v.gyro_log_delay_frames,
                     final_pos: v.x3d.state().pos,
                     any_nan: v.any_nan,
+                    external: v.external.is_some(),
                 }
             })
             .collect();

@@ -6,6 +6,7 @@
 //! |---|---|---|---|
 //! | command | controller → flyarena | 12 + n | `"FACM"`, version u8 = 1, vehicle id u8 (the rigid body's id: 1 + fleet index), n u8 (channels, 4..=12), 0 u8, sequence u32, counts u8 × n (0..255: the radio's channels, [`crate::radio`]) |
 //! | request | flyarena → controller | 20 | `"FARQ"`, version u8 = 1, vehicle id u8, 0 u16, radio period u32, simulated time of that radio tick i64 (ns) |
+//! | offset | controller → flyarena | 32 | `"FAOF"`, version u8 = 1, vehicle id u8, 0 u16, roll, pitch, yaw f64 (rad): the controller's estimate of the marker offset, in flyarena's convention (the rotation `markers.rotation_deg` declares: body FRD to the markers' frame, Z-Y-X); NaN where it has none |
 //! | telemetry | flyarena → controller | 40 | `"FATM"`, version u8 = 1, vehicle id u8, 0 u16, sequence u32, interval start i64, end i64 (ns, vehicle clock), mean gyro x y z f32 (rad/s, body FRD) |
 //!
 //! A controller registers for a vehicle with its first command (an idle frame, 128 128 128 0,
@@ -30,6 +31,30 @@ pub const COMMAND: [u8; 4] = *b"FACM";
 pub const REQUEST: [u8; 4] = *b"FARQ";
 /// A telemetry packet's magic.
 pub const TELEMETRY: [u8; 4] = *b"FATM";
+/// An offset report's magic.
+pub const OFFSET: [u8; 4] = *b"FAOF";
+
+/// Writes an offset report: the marker offset (roll, pitch, yaw, rad) a controller estimated.
+pub fn offset(vehicle_id: u8, roll_pitch_yaw: [f64; 3]) -> Vec<u8> {
+    let mut b = Vec::with_capacity(32);
+    b.extend_from_slice(&OFFSET);
+    b.extend_from_slice(&[VERSION, vehicle_id, 0, 0]);
+    for x in roll_pitch_yaw {
+        b.extend_from_slice(&x.to_le_bytes());
+    }
+    b
+}
+
+/// Reads an offset report: the vehicle id and (roll, pitch, yaw) in rad. `None` unless it is
+/// 32 bytes of version 1 with a finite roll and pitch (yaw may be NaN: not estimated).
+pub fn parse_offset(b: &[u8]) -> Option<(u8, [f64; 3])> {
+    if b.len() != 32 || b[0..4] != OFFSET || b[4] != VERSION {
+        return None;
+    }
+    let f = |i: usize| f64::from_le_bytes(b[8 + 8 * i..16 + 8 * i].try_into().expect("8 bytes"));
+    let o = [f(0), f(1), f(2)];
+    (o[0].is_finite() && o[1].is_finite() && !o[2].is_infinite()).then_some((b[5], o))
+}
 
 /// One command from an external controller.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -221,6 +246,22 @@ mod tests {
         r.accept(7);
         r.radio_tick();
         assert_eq!(r.stats.held, 2);
+    }
+
+    #[test]
+    fn offset_reports_are_read_and_bad_ones_refused() {
+        let b = offset(2, [0.05, -0.03, f64::NAN]);
+        assert_eq!(b.len(), 32);
+        assert_eq!(&b[..8], &[b'F', b'A', b'O', b'F', 1, 2, 0, 0]);
+        let (id, o) = parse_offset(&b).unwrap();
+        assert_eq!((id, o[0], o[1]), (2, 0.05, -0.03));
+        assert!(o[2].is_nan());
+        assert_eq!(parse_offset(&b[..31]), None);
+        assert_eq!(parse_offset(&offset(2, [f64::NAN, 0.0, 0.0])), None, "no roll: no report");
+        assert_eq!(parse_offset(&offset(2, [0.0, 0.0, f64::INFINITY])), None);
+        let mut v2 = b.clone();
+        v2[4] = 2;
+        assert_eq!(parse_offset(&v2), None);
     }
 
     #[test]

@@ -203,6 +203,8 @@ struct Server {
     receivers: Vec<Receiver>,
     incoming: Vec<Option<PpmFrame>>,
     gone: Vec<bool>,
+    /// The offset each external controller reported last (rad).
+    offsets: Vec<Option<[f64; 3]>>,
 }
 
 /// At most this many unicast clients (each costs two datagrams per frame).
@@ -213,8 +215,12 @@ impl Server {
         let addr = SocketAddr::V4(SocketAddrV4::new(opts.bind, opts.command_port));
         let socket = UdpSocket::bind(addr).map_err(|source| ServeError::Bind { addr, source })?;
         if opts.multicast.is_some() {
+            // one hop, looped back to this host's listeners, out of the interface we listen on
             socket.set_multicast_ttl_v4(1)?;
             socket.set_multicast_loop_v4(true)?;
+            if !opts.bind.is_unspecified() {
+                socket2::SockRef::from(&socket).set_multicast_if_v4(&opts.bind)?;
+            }
         }
         let server_info = natnet::server_info("flyarena", [0, 1, 0, 0], opts.data_port, opts.multicast);
         let n = external.len();
@@ -231,6 +237,7 @@ impl Server {
             receivers: vec![Receiver::default(); n],
             incoming: vec![None; n],
             gone: vec![false; n],
+            offsets: vec![None; n],
         })
     }
 
@@ -272,6 +279,13 @@ impl Server {
     }
 
     fn answer(&mut self, packet: &[u8], from: SocketAddr) {
+        if packet.starts_with(&command::OFFSET) {
+            match command::parse_offset(packet) {
+                Some((id, o)) if (1..=self.external.len()).contains(&(id as usize)) && self.external[id as usize - 1] => self.offsets[id as usize - 1] = Some(o),
+                _ => self.report.rejected += 1,
+            }
+            return;
+        }
         if packet.starts_with(&command::COMMAND) {
             match command::parse_command(packet) {
                 Ok(c) if (1..=self.external.len()).contains(&(c.vehicle_id as usize)) && self.external[c.vehicle_id as usize - 1] => {
@@ -428,7 +442,15 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
         arena.act();
     }
     server.report.commands = (0..n).filter(|i| external[*i]).map(|i| VehicleCommands { vehicle: s.vehicle(i).name.clone(), stats: server.receivers[i].stats }).collect();
-    Ok((arena.finish(), server.report))
+    let mut out = arena.finish();
+    // an external vehicle's calibration is what its controller reported, not what the built-in
+    // station (which ran alongside on the same poses) estimated
+    for (v, o) in out.vehicles.iter_mut().zip(&server.offsets).filter(|(v, _)| v.external) {
+        v.calibration.roll_pitch = o.map(|o| (o[0], o[1], 0));
+        v.calibration.yaw_offset = o.and_then(|o| o[2].is_finite().then_some(o[2]));
+        v.calibration.gyro = None;
+    }
+    Ok((out, server.report))
 }
 
 /// Sends the mocap frames that reached the stations in this tick: one NatNet frame per frame

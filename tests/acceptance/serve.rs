@@ -64,10 +64,15 @@ impl Killed {
 
 /// `flyarena serve` on the fixture at twice real time (3.5 s), waiting up to 30 s for a client.
 fn server(port: u16, data_port: u16, out: &Path) -> Killed {
+    server_with(port, data_port, out, &[])
+}
+
+fn server_with(port: u16, data_port: u16, out: &Path, extra: &[&str]) -> Killed {
     let child = Command::new(env!("CARGO_BIN_EXE_flyarena"))
         .arg("serve")
         .arg(fixture())
         .args(["--command-port", &port.to_string(), "--data-port", &data_port.to_string(), "--speed", "2", "--wait-s", "30", "--no-rrd", "-q"])
+        .args(extra)
         .arg("--out")
         .arg(out)
         .arg("--log")
@@ -274,7 +279,7 @@ fn a_taken_port_is_refused_with_exit_2() {
 /// commands mixed in. The served flight is the in-process flight to the bit (so the bridge
 /// applies each command at the radio tick it answers, through the same radio model), the
 /// receiver drops and counts exactly what was duplicated or stale, the telemetry comes back, and
-/// R1–R2 pass as in `run`.
+/// R2 passes as in `run` (R1 is shown, not asserted: a replay reports no offset).
 #[test]
 fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
     let path = super::root().join("scenarios/fig6-roll-pitch-offsets.yaml");
@@ -319,6 +324,9 @@ fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
     assert!(telemetry > ticks && telemetry <= 2 * ticks + 2, "{telemetry} telemetry packets in {ticks} periods");
     let outcome = flyarena::run::evaluate(&builtin, served, false);
     assert!(outcome.report.passed(), "{}", outcome.report.table());
+    // the replay reports no offset: R1 is shown, not asserted
+    let r1: Vec<_> = outcome.report.rows.iter().filter(|r| r.id == "R1").collect();
+    assert!(r1.len() == 1 && !r1[0].asserted && r1[0].measured.contains("reported no offset"), "{}", outcome.report.table());
 }
 
 /// In lockstep, a controller that stops answering cannot hang the run: the tick waits its
@@ -395,6 +403,37 @@ fn a_reference_controller_written_from_the_paper_flies_fig6_through_the_bridge()
     eprintln!("{}\n{got}\n{k:?}", outcome.report.table());
     let r2: Vec<_> = outcome.report.rows.iter().filter(|r| r.id == "R2").collect();
     assert_eq!(r2.len(), 2);
-    assert!(r2.iter().all(|r| r.pass), "{}", outcome.report.table());
+    assert!(r2.iter().all(|r| r.pass && r.asserted), "{}", outcome.report.table());
+    // R1 holds the controller's own estimate (its offset message), to the bit
+    let r1: Vec<_> = outcome.report.rows.iter().filter(|r| r.id == "R1").collect();
+    assert_eq!(r1.len(), 2);
+    assert!(r1.iter().all(|r| r.pass && r.asserted), "{}", outcome.report.table());
+    let (roll, pitch, _) = outcome.main.vehicles[0].calibration.roll_pitch.expect("reported");
+    assert_eq!((roll.to_degrees(), pitch.to_degrees()), (offset[0], offset[1]));
     assert!(outcome.main.vehicles[0].final_pos.z() > -0.1, "landed: {:?}", outcome.main.vehicles[0].final_pos);
+}
+
+/// Multicast (`--multicast`): the `natnet` client in its multicast mode receives the frames on
+/// the group, each pose the one flyarena logged for that frame number.
+#[test]
+fn the_natnet_client_receives_the_poses_over_multicast() {
+    if !python_has("natnet") {
+        return;
+    }
+    let (port, data_port, out) = (free_port(), free_port(), tmp("multicast"));
+    let group = "239.255.42.99";
+    let mut srv = server_with(port, data_port, &out, &["--multicast", group]);
+    let got = client("natnet_client.py", &[port.to_string(), "3".into(), group.into(), data_port.to_string()], Duration::from_secs(60));
+    assert_eq!(srv.wait_for(Duration::from_secs(60)), 0);
+    let logs = [log_poses(&out.join("served-cf1.csv")), log_poses(&out.join("served-cf2.csv"))];
+    let frames = got["frames"].as_array().unwrap();
+    assert!(frames.len() > 300, "{} frames in 3 s at 200 Hz", frames.len());
+    for f in frames {
+        let number = f["number"].as_u64().unwrap() as u32;
+        for b in f["bodies"].as_array().unwrap() {
+            let i = b[0].as_i64().unwrap() as usize - 1;
+            let (_, pos, q) = logs[i][&number];
+            assert_eq!((f32s::<3>(&b[1]), f32s::<4>(&b[2])), z_up(pos, q), "vehicle {i}, frame {number}");
+        }
+    }
 }

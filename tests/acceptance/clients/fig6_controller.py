@@ -192,4 +192,6 @@ while True:
         n_avg += 1
     elif tc >= T_AVG1 and offset is None and n_avg > 0:
         offset = (sums[0] / n_avg, sums[1] / n_avg)
+        # report it (flyarena's convention: the markers' rotation against the body; no yaw)
+        sock.sendto(b"FAOF" + bytes([1, vehicle, 0, 0]) + struct.pack("<ddd", offset[0], offset[1], float("nan")), server)
 print(json.dumps({"requests": requests, "frames": frames, "offset_deg": [math.degrees(a) for a in offset] if offset else None}))

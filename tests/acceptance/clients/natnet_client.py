@@ -8,8 +8,14 @@ import time
 from natnet import NatNetClient
 
 port, seconds = int(sys.argv[1]), float(sys.argv[2])
+group = sys.argv[3] if len(sys.argv) > 4 else None
 frames, descriptions = [], []
-client = NatNetClient(server_ip_address="127.0.0.1", local_ip_address="127.0.0.1", command_port=port, use_multicast=False)
+if group is None:
+    client = NatNetClient(server_ip_address="127.0.0.1", local_ip_address="127.0.0.1", command_port=port, use_multicast=False)
+else:
+    client = NatNetClient(
+        server_ip_address="127.0.0.1", local_ip_address="127.0.0.1", multicast_address=group, command_port=port, data_port=int(sys.argv[4]), use_multicast=True
+    )
 client.on_data_frame_received_event.handlers.append(frames.append)
 client.on_data_description_received_event.handlers.append(descriptions.append)
 client.connect(timeout=20)
