@@ -191,6 +191,9 @@ pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&R
                     rows.push(row("R3", format!("|ψ_LS − ψ_RLS| over {} samples", ls.n), format!("{dpsi:.1e} rad"), format!("≤ {:.0e} rad", r.yaw_tol_rad), dpsi <= r.yaw_tol_rad));
                     rows.push(row("R3", "|X_E0,LS − X_E0,RLS|".into(), format!("{dx:.1e} m"), format!("≤ {:.0e} m", r.x_e0_tol_m), dx <= r.x_e0_tol_m));
                 }
+                _ if v.external => {
+                    rows.push(shown("R3", "LS = RLS".into(), "n/a: an external controller flies it (its fits are its own)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad)))
+                }
                 _ => rows.push(row("R3", "LS = RLS".into(), "no yaw fit (no calibrate_yaw phase, or too short)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad), false)),
             }
         }
@@ -204,6 +207,7 @@ pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&R
                     (if want { "accept" } else { "reject" }).into(),
                     val.accepted == want,
                 )),
+                None if v.external => rows.push(shown("R4", "validity (7)".into(), "n/a: an external controller flies it".into(), (if want { "accept" } else { "reject" }).into())),
                 None => rows.push(row("R4", "validity (7)".into(), "no yaw flight".into(), (if want { "accept" } else { "reject" }).into(), false)),
             }
         }

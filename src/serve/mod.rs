@@ -444,11 +444,15 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
     server.report.commands = (0..n).filter(|i| external[*i]).map(|i| VehicleCommands { vehicle: s.vehicle(i).name.clone(), stats: server.receivers[i].stats }).collect();
     let mut out = arena.finish();
     // an external vehicle's calibration is what its controller reported, not what the built-in
-    // station (which ran alongside on the same poses) estimated
+    // station (which ran alongside on the same poses) estimated: R1 reads the report, R3 and R4
+    // (the station's own straight-flight fits) do not apply
     for (v, o) in out.vehicles.iter_mut().zip(&server.offsets).filter(|(v, _)| v.external) {
         v.calibration.roll_pitch = o.map(|o| (o[0], o[1], 0));
         v.calibration.yaw_offset = o.and_then(|o| o[2].is_finite().then_some(o[2]));
         v.calibration.gyro = None;
+        v.calibration.yaw_ls = None;
+        v.calibration.yaw_rls = None;
+        v.calibration.validity = None;
     }
     Ok((out, server.report))
 }

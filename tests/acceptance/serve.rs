@@ -470,3 +470,21 @@ fn a_reference_controller_flies_fig6_in_real_time() {
     eprintln!("{}\n{k:?}", outcome.report.table());
     assert!(outcome.report.rows.iter().filter(|r| r.id == "R1" || r.id == "R2").all(|r| r.pass && r.asserted), "{}", outcome.report.table());
 }
+
+/// R3 and R4 check flyarena's own straight-flight fits: for a vehicle an external controller
+/// flies they are shown as not applicable, not filled with the built-in station's fits (which
+/// runs alongside on the same poses); without an offset report, R1 is shown, not asserted.
+#[test]
+fn r3_and_r4_do_not_apply_to_an_external_vehicle() {
+    let s = super::inline(
+        "name: ext-yaw\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 2 }\n  - calibrate_yaw: { distance_m: 2.0, speed_m_s: 0.5 }\nrequirements:\n  offsets: { roll_pitch_tol_deg: 0.1 }\n  ls_equals_rls: {}\n  validity: { expect: accept }\n",
+    );
+    let opts = ServeOptions { command_port: 0, speed: 1000.0, wait_for_client: Duration::ZERO, ..ServeOptions::default() };
+    let (out, _) = serve(&s, &opts, RunOptions::default()).unwrap();
+    let report = flyarena::requirements::evaluate(&s.requirements, &out, None);
+    for id in ["R1", "R3", "R4"] {
+        let rows: Vec<_> = report.rows.iter().filter(|r| r.id == id).collect();
+        assert!(!rows.is_empty() && rows.iter().all(|r| !r.asserted && r.pass), "{id}: {}", report.table());
+    }
+    assert!(report.rows.iter().any(|r| r.measured.contains("external controller")), "{}", report.table());
+}
