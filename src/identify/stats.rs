@@ -315,6 +315,32 @@ pub fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
 mod tests {
     use super::*;
 
+    /// The AR order chosen by BIC does not depend on the series' unit: an AR(2) in metres and the
+    /// same series in micrometres (where the residual sum of squares far exceeds the sample
+    /// count) get the same order and the same coefficients, and σ scales with the unit.
+    #[test]
+    fn ar_order_and_coefficients_do_not_depend_on_the_unit() {
+        let mut x = vec![0.0f64; 4000];
+        let mut state = 7u64;
+        let mut noise = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        for k in 2..x.len() {
+            x[k] = 1.2 * x[k - 1] - 0.5 * x[k - 2] + noise();
+        }
+        let ok = vec![true; x.len()];
+        let m = Ar::fit(&x, &ok, 6);
+        let big: Vec<f64> = x.iter().map(|v| v * 1e6).collect();
+        let b = Ar::fit(&big, &ok, 6);
+        assert_eq!(m.a.len(), 2, "{:?}", m.a);
+        assert_eq!(b.a.len(), m.a.len(), "{:?} vs {:?}", b.a, m.a);
+        for (p, q) in m.a.iter().zip(&b.a) {
+            assert!((p - q).abs() < 1e-9, "{p} vs {q}");
+        }
+        assert!((b.sigma / m.sigma - 1e6).abs() < 1e-3);
+    }
+
     /// Bartlett's formula in closed form: two AR(1) series with φ_x, φ_y have
     /// Σ_{k≥1} φ_x^k φ_y^k = φ_xφ_y/(1 − φ_xφ_y), so n_eff = n(1 − φ_xφ_y)/(1 + φ_xφ_y); white
     /// series keep n; a clamp keeps n_eff in [2, n].

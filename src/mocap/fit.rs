@@ -171,6 +171,19 @@ pub fn kabsch_svd(h: &Matrix3<f64>) -> Option<Matrix3<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The degeneracy test of the polar decomposition is relative to the matrix's scale: a
+    /// rotation scaled by 10⁻⁵ (markers a few µm apart in the cross-covariance's units) is as
+    /// good a rotation as the unscaled one.
+    #[test]
+    fn polar_rotation_does_not_depend_on_the_scale() {
+        let r = *nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 1.0).matrix();
+        for k in [1.0, 1e-5, 1e3] {
+            let got = polar_rotation(&(r * k)).unwrap_or_else(|| panic!("scale {k}: refused"));
+            assert!((got - r).abs().max() < 1e-12, "scale {k}");
+        }
+        assert!(polar_rotation(&(r * 0.0)).is_none());
+    }
     use crate::frames::{Body, Euler, MocapBody, Nav};
 
     /// An asymmetric four-marker template (body frame, m).

@@ -325,6 +325,12 @@ pub enum IdentifyError {
 }
 
 /// One candidate block (or two together) on top of the fitted set `base`: ΔBIC, F-test,
+/// The change of the Bayesian information criterion n·ln(RSS/n) + k·ln n when k parameters
+/// take the residual sum of squares from `rss_base` to `rss` over n samples (negative: better).
+fn bic_change(n: f64, rss_base: f64, rss: f64, k: f64) -> f64 {
+    n * (rss / rss_base).ln() + k * n.ln()
+}
+
 /// held-out gain on the axes the block acts on, largest correlation with the residual of
 /// `base`, and whether it passes the gates among `tests` candidates.
 fn score(gs: &[Gram], base: &Fit, effects: &[Effect], tests: usize, o: &Options) -> Candidate {
@@ -334,7 +340,7 @@ fn score(gs: &[Gram], base: &Fit, effects: &[Effect], tests: usize, o: &Options)
     let f1 = fit(gs, &set);
     let k = effects.iter().map(|e| e.n_params()).sum::<usize>() as f64;
     let n = f1.n as f64;
-    let delta_bic = n * (f1.rss / base.rss).ln() + k * n.ln();
+    let delta_bic = bic_change(n, base.rss, f1.rss, k);
     let f = ((base.rss - f1.rss) / k) / (f1.rss / (n - set.len() as f64));
     let p_value = f_sf(f, k, n - set.len() as f64);
     let rss1_t = heldout_rss(gs, &f1.theta);
@@ -630,6 +636,15 @@ fn select(s: &Series, o: &Options) -> Report {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// ΔBIC by hand: 1000 samples, 3 parameters, RSS 200 → 180: 1000·ln 0.9 + 3·ln 1000
+    /// = −105.36 + 20.72 = −84.63; the penalty grows with k·ln n, not k + ln n.
+    #[test]
+    fn bic_change_is_the_likelihood_gain_plus_k_ln_n() {
+        let d = bic_change(1000.0, 200.0, 180.0, 3.0);
+        assert!((d - (-105.360_515_657_826_3 + 20.723_265_836_946_41)).abs() < 1e-9, "{d}");
+        assert!((bic_change(1000.0, 1.0, 1.0, 2.0) - 2.0 * 1000f64.ln()).abs() < 1e-12);
+    }
 
     /// Each gate alone rejects: a candidate that passes the other two fails when one of them
     /// fails, at its boundary (deleting any one gate makes this test fail).
