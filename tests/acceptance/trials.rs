@@ -107,6 +107,10 @@ fn excitation_matches_the_selections_f_statistic() {
     assert!((0.7..1.4).contains(&ratio), "F·k = {}, λ = {}", 2.0 * f, ex[0].lambda);
     assert!((ex[1].lambda / ex[0].lambda - 4.0).abs() < 1e-9 && ex[2].lambda == 0.0, "{ex:?}");
     assert!(ex[0].sufficient() && ex[0].heldout_share > 0.5, "{ex:?}");
+    // the share is E/(E + N) with the held-out energy E quadratic in the truth: from the share
+    // s at the truth, E/N = s/(1 − s), so twice the truth gives 4(E/N)/(4(E/N) + 1); none, 0
+    let en = ex[0].heldout_share / (1.0 - ex[0].heldout_share);
+    assert!((ex[1].heldout_share - 4.0 * en / (4.0 * en + 1.0)).abs() < 1e-9 && ex[2].heldout_share == 0.0, "{ex:?}");
 }
 
 /// Regression for the pair step: trial 228 of seed 1 (a fixture, as drawn then) hides a body offset, a world tilt and a
