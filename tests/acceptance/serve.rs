@@ -274,6 +274,28 @@ fn a_taken_port_is_refused_with_exit_2() {
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0, "nothing written");
 }
 
+/// Fig. 6 as declared (flown by flyarena's station) and with its vehicle flown from outside.
+fn fig6_builtin_and_external() -> (flyarena::scenario::Scenario, flyarena::scenario::Scenario) {
+    let path = super::root().join("scenarios/fig6-roll-pitch-offsets.yaml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let external_text = text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n");
+    assert_ne!(external_text, text);
+    (flyarena::scenario::Scenario::parse(&text, &path).unwrap(), flyarena::scenario::Scenario::parse(&external_text, &path).unwrap())
+}
+
+/// Serves `s` on a free port in a thread (`opts` with that port and a 30 s wait for the
+/// controller) while `script` (with the port and vehicle id 1, plus `args`) controls it.
+fn serve_with_client(s: flyarena::scenario::Scenario, opts: ServeOptions, script: &str, args: &[String]) -> (Value, flyarena::engine::RunOutput, flyarena::serve::ServeReport) {
+    let port = free_port();
+    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), ..opts };
+    let served = std::thread::spawn(move || serve(&s, &opts, RunOptions::default()));
+    let mut all = vec![port.to_string(), "1".into()];
+    all.extend_from_slice(args);
+    let got = client(script, &all, Duration::from_secs(180));
+    let (out, net) = served.join().unwrap().unwrap();
+    (got, out, net)
+}
+
 /// Lockstep with an external controller: a Python controller (tests only) replays, period by
 /// period, the radio frames flyarena's own station sent in Fig. 6, with duplicates and stale
 /// commands mixed in. The served flight is the in-process flight to the bit (so the bridge
@@ -282,12 +304,7 @@ fn a_taken_port_is_refused_with_exit_2() {
 /// R2 passes as in `run` (R1 is shown, not asserted: a replay reports no offset).
 #[test]
 fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
-    let path = super::root().join("scenarios/fig6-roll-pitch-offsets.yaml");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let builtin = flyarena::scenario::Scenario::parse(&text, &path).unwrap();
-    let external_text = text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n");
-    assert_ne!(external_text, text);
-    let external = flyarena::scenario::Scenario::parse(&external_text, &path).unwrap();
+    let (builtin, external) = fig6_builtin_and_external();
     let plain = run(&builtin, RunOptions::default());
     // the frames the built-in station sent: the trace's last sent frame at each radio tick
     // (50 Hz: every 20 ms, on Vicon ticks)
@@ -298,12 +315,9 @@ fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
     let dir = tmp("lockstep");
     let frames_path = dir.join("frames.json");
     std::fs::write(&frames_path, serde_json::to_string(&frames).unwrap()).unwrap();
-    let port = free_port();
-    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_secs(10)), ..ServeOptions::default() };
     assert!(python_has("json"), "python3 runs the controller");
-    let served = std::thread::spawn(move || serve(&external, &opts, RunOptions::default()));
-    let got = client("replay_controller.py", &[port.to_string(), "1".into(), frames_path.display().to_string()], Duration::from_secs(120));
-    let (served, net) = served.join().unwrap().unwrap();
+    let lockstep = ServeOptions { lockstep: Some(Duration::from_secs(10)), ..ServeOptions::default() };
+    let (got, served, net) = serve_with_client(external, lockstep, "replay_controller.py", &[frames_path.display().to_string()]);
     let (a, b) = (&served.vehicles[0], &plain.vehicles[0]);
     assert_eq!(a.trace.len(), b.trace.len());
     for (x, y) in a.trace.iter().zip(&b.trace) {
@@ -386,15 +400,9 @@ fn a_reference_controller_written_from_the_paper_flies_fig6_through_the_bridge()
     if !python_has("natnet") {
         return;
     }
-    let path = super::root().join("scenarios/fig6-roll-pitch-offsets.yaml");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let builtin = flyarena::scenario::Scenario::parse(&text, &path).unwrap();
-    let external = flyarena::scenario::Scenario::parse(&text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n"), &path).unwrap();
-    let port = free_port();
-    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_secs(10)), ..ServeOptions::default() };
-    let served = std::thread::spawn(move || serve(&external, &opts, RunOptions::default()));
-    let got = client("fig6_controller.py", &[port.to_string(), "1".into()], Duration::from_secs(180));
-    let (served, net) = served.join().unwrap().unwrap();
+    let (builtin, external) = fig6_builtin_and_external();
+    let lockstep = ServeOptions { lockstep: Some(Duration::from_secs(10)), ..ServeOptions::default() };
+    let (got, served, net) = serve_with_client(external, lockstep, "fig6_controller.py", &[]);
     let offset: Vec<f64> = got["offset_deg"].as_array().expect("the controller averaged the hover").iter().map(|x| x.as_f64().unwrap()).collect();
     assert!((offset[0] - 3.0).abs() < 0.1 && (offset[1] - 3.0).abs() < 0.1, "hover-averaged offset {offset:?}°");
     let k = net.commands[0].stats;
@@ -448,15 +456,8 @@ fn a_reference_controller_flies_fig6_in_real_time() {
     if !python_has("natnet") {
         return;
     }
-    let path = super::root().join("scenarios/fig6-roll-pitch-offsets.yaml");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let builtin = flyarena::scenario::Scenario::parse(&text, &path).unwrap();
-    let external = flyarena::scenario::Scenario::parse(&text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n"), &path).unwrap();
-    let port = free_port();
-    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), speed: 2.0, ..ServeOptions::default() };
-    let served = std::thread::spawn(move || serve(&external, &opts, RunOptions::default()));
-    let got = client("fig6_controller.py", &[port.to_string(), "1".into()], Duration::from_secs(180));
-    let (served, net) = served.join().unwrap().unwrap();
+    let (builtin, external) = fig6_builtin_and_external();
+    let (got, served, net) = serve_with_client(external, ServeOptions { speed: 2.0, ..ServeOptions::default() }, "fig6_controller.py", &[]);
     let k = net.commands[0].stats;
     let ticks = (served.duration.as_nanos() as u64).div_ceil(20_000_000);
     let requests = got["requests"].as_u64().unwrap();

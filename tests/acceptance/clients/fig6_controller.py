@@ -11,12 +11,13 @@ import socket
 import struct
 import sys
 
+import handshake
+
 from natnet.data_frame import DataFrame
 from natnet.packet_buffer import PacketBuffer
 from natnet.version import Version
 
 port, vehicle = int(sys.argv[1]), int(sys.argv[2])
-server = ("127.0.0.1", port)
 G = 9.81
 # the X3D and flyarena's default gains and radio (README, Scenario reference)
 MASS, T_MAX = 0.68, 24.0
@@ -118,19 +119,7 @@ def control(t, pos, vel, c_b_n):
     return tuple(pqr), max(0.0, min(T_MAX, -f_t))
 
 
-sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-sock.bind(("127.0.0.1", 0))
-sock.settimeout(0.1)
-for _ in range(300):  # NatNet connect until the server info comes back
-    sock.sendto(struct.pack("<HH", 0, 5) + b"Ping\0", server)
-    try:
-        data, _ = sock.recvfrom(65536)
-        if struct.unpack_from("<H", data)[0] == 1:
-            break
-    except socket.timeout:
-        pass
-else:
-    sys.exit("no server info")
+sock, server = handshake.connect(port)
 
 
 def send(seq, rates, thrust):

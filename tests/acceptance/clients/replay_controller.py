@@ -7,26 +7,12 @@ import json
 import socket
 import struct
 import sys
-import time
+
+import handshake
 
 port, vehicle, path = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 frames = json.load(open(path))
-server = ("127.0.0.1", port)
-sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-sock.bind(("127.0.0.1", 0))
-
-# wait for the server: NatNet's connect until its server info comes back
-sock.settimeout(0.1)
-for _ in range(300):
-    sock.sendto(struct.pack("<HH", 0, 5) + b"Ping\0", server)
-    try:
-        data, _ = sock.recvfrom(65536)
-        if struct.unpack_from("<H", data)[0] == 1:
-            break
-    except socket.timeout:
-        pass
-else:
-    sys.exit("no server info")
+sock, server = handshake.connect(port)
 
 
 def command(k):
