@@ -340,8 +340,8 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
     // the uncompensated counterpart R2 compares with is flown by flyarena's own station: an
     // external controller's uncompensated flight is not at hand
     let mut twin = load_for_run(&a.run)?;
-    for v in twin.vehicles.value.iter_mut() {
-        v.value.station = flyarena::scenario::StationKind::Builtin;
+    for v in twin.vehicle_cfgs_mut() {
+        v.station = flyarena::scenario::StationKind::Builtin;
     }
     let outcome = flyarena::run::evaluate(&twin, main, record);
     write_run(a.run, &s, outcome, elapsed)

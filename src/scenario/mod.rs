@@ -728,6 +728,11 @@ impl Scenario {
         self.vehicles.value.iter().map(|v| &v.value)
     }
 
+    /// The vehicles, to change before a run (e.g. who flies them).
+    pub fn vehicle_cfgs_mut(&mut self) -> impl ExactSizeIterator<Item = &mut VehicleCfg> {
+        self.vehicles.value.iter_mut().map(|v| &mut v.value)
+    }
+
     /// Vehicle `i` (panics when out of range, like indexing).
     pub fn vehicle(&self, i: usize) -> &VehicleCfg {
         &self.vehicles.value[i].value

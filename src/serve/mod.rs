@@ -115,7 +115,9 @@ pub struct ServeOptions {
     pub wait_for_client: Duration,
     /// Lockstep: each radio tick of an externally flown vehicle waits for its controller's
     /// command, at most this long (then the controller is taken as gone and its last frame is
-    /// held for the rest of the run). `None`: real time, paced by the wall clock.
+    /// held for the rest of the run). Requests are answered while a tick waits, so with no
+    /// externally flown vehicle a lockstep run goes as fast as it can and answers nothing until
+    /// it ends. `None`: real time, paced by the wall clock.
     pub lockstep: Option<Duration>,
 }
 
