@@ -489,3 +489,37 @@ fn r3_and_r4_do_not_apply_to_an_external_vehicle() {
     }
     assert!(report.rows.iter().any(|r| r.measured.contains("external controller")), "{}", report.table());
 }
+
+/// The README's example as a user runs it: `flyarena serve` (the binary) on Fig. 6 with its
+/// vehicle external, `--lockstep`, and the reference controller. Exit 0, and the summary's R2
+/// ratio is asserted against flyarena's own station flying uncompensated (not against an
+/// external vehicle that nobody flies, which would stay on the floor).
+#[test]
+fn the_readme_example_serves_fig6_to_the_reference_controller() {
+    if !python_has("natnet") {
+        return;
+    }
+    let dir = tmp("readme");
+    let text = std::fs::read_to_string(super::root().join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap();
+    let path = dir.join("fig6-external.yaml");
+    std::fs::write(&path, text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n")).unwrap();
+    let port = free_port();
+    let mut srv = Killed(
+        Command::new(env!("CARGO_BIN_EXE_flyarena"))
+            .arg("serve")
+            .arg(&path)
+            .args(["--lockstep", "--no-rrd", "-q", "--command-port", &port.to_string(), "--data-port", &free_port().to_string()])
+            .arg("--out")
+            .arg(dir.join("out"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    client("fig6_controller.py", &[port.to_string(), "1".into()], Duration::from_secs(180));
+    assert_eq!(srv.wait_for(Duration::from_secs(60)), 0);
+    let summary: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("out/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
+    let rows = summary["requirements"].as_array().unwrap();
+    let ratio = rows.iter().find(|r| r["id"] == "R2" && r["what"].as_str().unwrap().contains("uncompensated (0.36")).unwrap_or_else(|| panic!("{rows:?}"));
+    assert_eq!((ratio["pass"].as_bool(), ratio["asserted"].as_bool()), (Some(true), Some(true)), "{ratio}");
+}
