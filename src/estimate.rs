@@ -5,10 +5,12 @@
 //! a first-order low-pass filter (cut-off f_c) of the finite-difference velocity, in the mocap's
 //! NED frame. Δt_k is the difference of the frames' capture timestamps, so a dropped packet makes a
 //! longer, correctly scaled step instead of a velocity spike.
+#![warn(missing_docs)]
 
 use crate::clock::Nanos;
 use crate::frames::{MocapNav, Vec3};
 
+/// The station's velocity estimate (module doc).
 #[derive(Clone, Debug)]
 pub struct VelocityEstimator {
     cutoff_hz: f64,
@@ -17,10 +19,12 @@ pub struct VelocityEstimator {
 }
 
 impl VelocityEstimator {
+    /// A filter with this cut-off (Hz), at rest.
     pub fn new(cutoff_hz: f64) -> Self {
         VelocityEstimator { cutoff_hz, last: None, vel: Vec3::zeros() }
     }
 
+    /// The current estimate (m/s, mocap NED).
     pub fn velocity(&self) -> Vec3<MocapNav> {
         self.vel
     }

@@ -12,6 +12,8 @@
 //! requirements (R1–R5) · record (Rerun .rrd) · sweep (Monte Carlo, shards) · log (flight CSV)
 //! identify: flight log ─► residuals of the declared model ─► the effect it lacks ─► fragment ─► run
 //! run (a scenario end to end, used by all of the above) · output (whole files, contained names)
+//! serve: the engine paced by the wall clock (or in lockstep) ─► NatNet frames over UDP to a lab's
+//!   mocap client; an external controller's radio frames ─► radio (a vehicle with station: external)
 //! the `flyarena` binary (src/main.rs, src/cli.rs) is a thin command line over this library
 //! ```
 //!

@@ -48,6 +48,7 @@ use nalgebra::{Matrix3, Vector3};
 /// The estimate of C = R_off from gyro telemetry.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct GyroFit {
+    /// C itself.
     #[serde(skip)]
     pub rotation: Rot<MocapBody, Body>,
     /// ZYX angles of C (rad), comparable with the hover and straight-flight estimates.
@@ -58,6 +59,7 @@ pub struct GyroFit {
     pub gyro_bias: [f64; 3],
     /// RMS residual per component (rad per window).
     pub rms_residual: f64,
+    /// Windows fitted.
     pub windows: u64,
     /// The telemetry clock fitted against the Vicon clock, when the alignment estimates it.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -70,10 +72,12 @@ pub struct GyroFit {
 pub struct ClockFit {
     /// δ at the windows' mean time (s) and its 1σ.
     pub offset_s: f64,
+    /// 1σ of the offset (s).
     pub offset_sigma_s: f64,
     /// Drift (parts per million) and its 1σ; `None` when the windows span fewer than three time
     /// blocks (the drift is then not estimated: 0).
     pub drift_ppm: Option<f64>,
+    /// 1σ of the drift (ppm).
     pub drift_sigma_ppm: Option<f64>,
     /// The windows' mean time on the Vicon clock (s).
     pub t_mean_s: f64,
@@ -218,9 +222,11 @@ impl GyroAlignment {
         (-k..=k).map(move |i| Nanos(i * p))
     }
 
+    /// The length of one window (a multiple of both periods).
     pub fn window(&self) -> Nanos {
         self.window
     }
+    /// Windows paired so far.
     pub fn windows(&self) -> u64 {
         self.n
     }

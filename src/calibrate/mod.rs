@@ -10,6 +10,7 @@
 //! Yaw: while the yaw loop holds the measured heading at ψ_com = 0, the true heading is −ψ_off,
 //! so the track satisfies X_E = tan(−ψ_off)·X_N + X_E,0. Equation (9) gives the *course*
 //! tan⁻¹(S_xy/S_xx) of that track; in this convention ψ̂_off = −tan⁻¹(S_xy/S_xx).
+#![warn(missing_docs)]
 
 pub mod gyro;
 
@@ -31,6 +32,7 @@ pub enum Compensation {
 /// The current offset estimate (identity before calibration).
 #[derive(Clone, Copy, Debug)]
 pub struct OffsetEstimate {
+    /// The offset as Z-Y-X angles (rad): the rotation from the body FRD to the markers' frame.
     pub euler: Euler,
     rotation: Rot<MocapBody, Body>,
 }
@@ -42,10 +44,12 @@ impl Default for OffsetEstimate {
 }
 
 impl OffsetEstimate {
+    /// The estimate of these angles.
     pub fn from_euler(euler: Euler) -> Self {
         OffsetEstimate { euler, rotation: Rot::from_euler(euler) }
     }
 
+    /// R_off: markers' frame to body.
     pub fn rotation(&self) -> Rot<MocapBody, Body> {
         self.rotation
     }
@@ -72,11 +76,13 @@ pub struct HoverAverager {
 }
 
 impl HoverAverager {
+    /// One measured attitude taken in the hover window.
     pub fn add(&mut self, measured: Euler) {
         self.sum_roll += measured.roll;
         self.sum_pitch += measured.pitch;
         self.n += 1;
     }
+    /// Attitudes averaged so far.
     pub fn samples(&self) -> u64 {
         self.n
     }
@@ -89,11 +95,13 @@ impl HoverAverager {
 /// Result of the line fit X_E = slope·X_N + X_E,0.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LineFit {
+    /// dX_E/dX_N of the flown line.
     pub slope: f64,
     /// X̂_E,0 (m).
     pub x_e0: f64,
     /// ψ̂_off = −tan⁻¹(slope) (rad), see the module doc for the sign.
     pub psi_offset: f64,
+    /// Samples fitted.
     pub n: usize,
 }
 
@@ -149,6 +157,7 @@ impl Rls {
         Rls { origin: None, info: Matrix2::zeros(), info_y: Vector2::zeros(), state: None, min_spread_m, n: 0, min_x: f64::INFINITY, max_x: f64::NEG_INFINITY }
     }
 
+    /// One mocap position (m, mocap NED) of the straight flight.
     pub fn update(&mut self, north: f64, east: f64) {
         let x0 = *self.origin.get_or_insert(north);
         let phi = Vector2::new(north - x0, 1.0);
@@ -187,13 +196,19 @@ impl Rls {
 /// Equation (7): the flight is valid if the mean measured yaw and roll are within bounds.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Validity {
+    /// Mean measured yaw over the flight (rad).
     pub mean_yaw: f64,
+    /// Mean measured roll (rad).
     pub mean_roll: f64,
+    /// The bound on |mean yaw| (rad).
     pub eps_yaw: f64,
+    /// The bound on |mean roll| (rad).
     pub eps_roll: f64,
+    /// Both means within their bounds (and at least one sample).
     pub accepted: bool,
 }
 
+/// The running means of (7) during the straight flight.
 #[derive(Clone, Debug, Default)]
 pub struct ValidityCheck {
     sum_yaw: f64,
@@ -202,11 +217,13 @@ pub struct ValidityCheck {
 }
 
 impl ValidityCheck {
+    /// One measured attitude of the straight flight.
     pub fn add(&mut self, measured: Euler) {
         self.sum_yaw += wrap_pi(measured.yaw);
         self.sum_roll += measured.roll;
         self.n += 1;
     }
+    /// (7) with these bounds (rad).
     pub fn verdict(&self, eps_yaw: f64, eps_roll: f64) -> Validity {
         let n = self.n.max(1) as f64;
         let (mean_yaw, mean_roll) = (self.sum_yaw / n, self.sum_roll / n);

@@ -7,6 +7,7 @@
 //!
 //! The Vicon system runs this on the visible markers of each vehicle; flyarena also runs it on the
 //! template against the displaced markers *in body coordinates* to get the true mocap offset.
+#![warn(missing_docs)]
 
 use crate::frames::{Frame, Rot, Vec3};
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
@@ -14,7 +15,9 @@ use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 /// Result of a rigid fit: `y ≈ rotation·m + translation`.
 #[derive(Clone, Copy, Debug)]
 pub struct RigidFit<A: Frame, B: Frame> {
+    /// The rotation from the template's frame A to the observation's frame B.
     pub rotation: Rot<A, B>,
+    /// The template's origin in B (m).
     pub translation: Vec3<B>,
     /// Root-mean-square residual of the fit (m).
     pub rms_residual: f64,

@@ -7,6 +7,7 @@
 //! where (R_off, t_off) is the rigid fit of the template onto the b_i (see `physics-notes.md`).
 //! R_off, as `Rot<MocapBody, Body>`, is the *true offset* the calibration must recover; its Euler
 //! angles are what the measured roll, pitch and yaw exceed the true ones by at hover.
+#![warn(missing_docs)]
 
 use super::fit::rigid_fit;
 use crate::frames::{Body, Euler, MocapBody, Rot, Vec3};
@@ -43,7 +44,9 @@ pub fn patterns_confusable(a: &[Vec3<MocapBody>], b: &[Vec3<MocapBody>], tol_m: 
 /// A vehicle's markers: template and mounted positions.
 #[derive(Clone, Debug)]
 pub struct MarkerSet {
+    /// The stored template: where the mocap believes the markers are (m, MocapBody).
     pub template: Vec<Vec3<MocapBody>>,
+    /// Where they are on the vehicle (m, body FRD from the centre of mass).
     pub mounted: Vec<Vec3<Body>>,
 }
 

@@ -11,6 +11,7 @@
 //! The pose is the [rigid fit](fit::rigid_fit) of the *template* onto the visible y_i, so
 //! displaced markers produce the attitude offset by themselves, as in the arena. With fewer than
 //! three visible markers the vehicle is lost for that frame and no packet is sent.
+#![warn(missing_docs)]
 
 pub mod fit;
 pub mod markers;
@@ -26,19 +27,25 @@ use crate::vehicle::State;
 /// A time window during which one marker is invisible to all cameras.
 #[derive(Clone, Copy, Debug)]
 pub struct Occlusion {
+    /// The marker's index in the template.
     pub marker: usize,
+    /// Hidden from…
     pub from: Nanos,
+    /// …until (exclusive).
     pub to: Nanos,
 }
 
 /// The camera system's calibration error: the mocap world is Nav rotated and shifted.
 #[derive(Clone, Copy, Debug)]
 pub struct CameraError {
+    /// The mocap world's rotation against true NED.
     pub rotation: Rot<Nav, MocapNav>,
+    /// The true origin in the mocap world (m).
     pub translation: Vec3<MocapNav>,
 }
 
 impl CameraError {
+    /// A perfectly calibrated camera system.
     pub fn none() -> Self {
         CameraError { rotation: Rot::identity(), translation: Vec3::zeros() }
     }
@@ -59,11 +66,15 @@ pub struct MocapFrame {
     pub seq: u32,
     /// When the cameras exposed this frame.
     pub t_capture: Nanos,
+    /// The rigid body's origin (m, mocap NED).
     pub pos: Vec3<MocapNav>,
+    /// Its attitude: the template's frame in the mocap world.
     pub att: Rot<MocapBody, MocapNav>,
+    /// Markers seen (at least 3, or there is no frame).
     pub visible_markers: u8,
 }
 
+/// The camera system of one vehicle: marker observation, rigid fit, frame numbers.
 #[derive(Clone, Debug)]
 pub struct Mocap {
     markers: MarkerSet,
@@ -80,15 +91,19 @@ pub struct Mocap {
 }
 
 impl Mocap {
+    /// Cameras with this calibration error and marker noise (σ, m), seeing these markers except
+    /// during the occlusions.
     pub fn new(markers: MarkerSet, occlusions: Vec<Occlusion>, camera: CameraError, noise_m: f64, rng: Stream) -> Self {
         let n = markers.template.len();
         Mocap { markers, occlusions, camera, noise_m, rng, seq: 0, last_attitude: None, observed: vec![Vec3::zeros(); n], visible: vec![true; n] }
     }
 
+    /// The markers.
     pub fn markers(&self) -> &MarkerSet {
         &self.markers
     }
 
+    /// The calibration error.
     pub fn camera(&self) -> &CameraError {
         &self.camera
     }
