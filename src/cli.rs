@@ -355,7 +355,7 @@ fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Dur
     write_output(&json_path, &json)?;
     let mut log_paths = Vec::new();
     if let Some(base) = &a.log {
-        let period = 1.0 / s.mocap.rate_hz.value as f64;
+        let period = 1.0 / s.mocap.rate_hz() as f64;
         for v in &main.vehicles {
             let path = if main.vehicles.len() == 1 {
                 base.clone()
@@ -414,7 +414,7 @@ fn cmd_check(args: &[PathBuf]) -> i32 {
     let mut code = PASS;
     for p in args {
         match Scenario::load(p) {
-            Ok(s) => println!("{}: ok ({} vehicle(s), {} phase(s), {:.1} s)", p.display(), s.vehicle_cfgs().len(), s.plan.value.len(), s.run_time_s()),
+            Ok(s) => println!("{}: ok ({} vehicle(s), {} phase(s), {:.1} s)", p.display(), s.vehicle_cfgs().len(), s.plan().len(), s.run_time_s()),
             Err(e) => {
                 eprintln!("error: {e}");
                 code = BAD_INPUT;

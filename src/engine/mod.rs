@@ -229,8 +229,8 @@ impl Arena {
     /// Builds the arena of a validated scenario.
     pub fn new(s: &Scenario, opts: RunOptions) -> Arena {
         let physics = rate(PHYSICS_HZ);
-        let mocap_every = rate(s.mocap.rate_hz.value).ticks_of(physics).expect("validated");
-        let radio_every = rate(s.radio.rate_hz.value).ticks_of(physics).expect("validated");
+        let mocap_every = rate(s.mocap.rate_hz()).ticks_of(physics).expect("validated");
+        let radio_every = rate(s.radio.rate_hz()).ticks_of(physics).expect("validated");
         let ms = |x: f64| Nanos::from_secs_f64(x * 1e-3);
         let cam = &s.mocap.camera_error;
         let camera = CameraError {
@@ -238,40 +238,33 @@ impl Arena {
             translation: Vec3::from_array(cam.translation_mm.map(|x| x * 1e-3)),
         };
         let link = LinkParams { latency: ms(s.link.latency_ms), jitter: ms(s.link.jitter_ms), loss: s.link.loss.model() };
-        let outages: Vec<(Nanos, Option<Nanos>)> = s.link.outages.iter().map(|o| (Nanos::from_secs_f64(o.value.from_s), o.value.to_s.map(Nanos::from_secs_f64))).collect();
+        let outages: Vec<(Nanos, Option<Nanos>)> = s.link.outages().map(|o| (Nanos::from_secs_f64(o.from_s), o.to_s.map(Nanos::from_secs_f64))).collect();
         let tm = &s.telemetry;
         let telemetry = LinkParams { latency: ms(tm.latency_ms), jitter: ms(tm.jitter_ms), loss: tm.loss.model() };
-        let telemetry_every = rate(tm.rate_hz.value).ticks_of(physics).expect("validated") as u32;
-        let phases: Vec<Phase> = s.plan.value.iter().map(|p| p.to_phase()).collect();
+        let telemetry_every = rate(tm.rate_hz()).ticks_of(physics).expect("validated") as u32;
+        let phases: Vec<Phase> = s.plan().iter().map(|p| p.to_phase()).collect();
         let c = &s.controller;
         let cal = &s.calibration;
         let vehicles = s
-            .vehicles
-            .value
-            .iter()
+            .vehicle_cfgs()
             .enumerate()
-            .map(|(i, vs)| {
-                let v = &vs.value;
+            .map(|(i, v)| {
                 let params = s.vehicle_params(i);
-                let template = s.template(i).expect("validated");
+                let template = s.template(i);
                 let n = template.len();
-                let disp: Vec<Vec3<_>> = match &v.markers.displacement_mm {
-                    Some(d) => d.value.iter().map(|a| Vec3::from_array(a.map(|x| x * 1e-3))).collect(),
+                let disp: Vec<Vec3<_>> = match v.markers.displacement_mm() {
+                    Some(d) => d.iter().map(|a| Vec3::from_array(a.map(|x| x * 1e-3))).collect(),
                     None => vec![Vec3::zeros(); n],
                 };
                 let r = v.markers.rotation_deg;
                 let markers = MarkerSet::displaced(template, Euler::from_degrees(r[0], r[1], r[2]), &disp);
                 let truth = markers.true_offset().expect("validated");
-                let occlusions = v
-                    .markers
-                    .occlusions
-                    .iter()
-                    .map(|o| Occlusion { marker: o.value.marker as usize, from: Nanos::from_secs_f64(o.value.from_s), to: Nanos::from_secs_f64(o.value.to_s) })
-                    .collect();
+                let occlusions =
+                    v.markers.occlusions().map(|o| Occlusion { marker: o.marker as usize, from: Nanos::from_secs_f64(o.from_s), to: Nanos::from_secs_f64(o.to_s) }).collect();
                 let mocap = Mocap::new(markers, occlusions, camera, s.mocap.noise_mm * 1e-3, Stream::new(s.seed, Component::MocapNoise, i));
                 let thrust_max = s.radio.thrust_max_n.unwrap_or(params.thrust_max());
                 let radio = Radio::new(RadioParams {
-                    channels: s.radio.channels.value as usize,
+                    channels: s.radio.channels() as usize,
                     latency: ms(s.radio.latency_ms),
                     rate_scale_rad_s: s.radio.rate_scale_deg_s.to_radians(),
                     angle_scale_rad: s.radio.angle_scale_deg.to_radians(),
@@ -288,8 +281,8 @@ impl Arena {
                     eps_yaw: cal.validity_max_mean_yaw_deg.to_radians(),
                     eps_roll: cal.validity_max_mean_roll_deg.to_radians(),
                     rls_min_spread_m: cal.rls_min_spread_m,
-                    mocap_period: rate(s.mocap.rate_hz.value).period(),
-                    telemetry_period: rate(tm.rate_hz.value).period(),
+                    mocap_period: rate(s.mocap.rate_hz()).period(),
+                    telemetry_period: rate(tm.rate_hz()).period(),
                     estimate_telemetry_clock: tm.clock.estimate,
                 };
                 let fs = FailsafeSettings {
@@ -322,8 +315,8 @@ impl Arena {
                     imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
                     mocap,
                     mocap_latency: ms(s.mocap.latency_ms + u.mocap_delay_ms),
-                    log_delay_frames: (u.mocap_delay_ms * s.mocap.rate_hz.value as f64 / 1000.0).round() as usize,
-                    gyro_log_delay_frames: (u.gyro_delay_ms * s.mocap.rate_hz.value as f64 / 1000.0).round() as usize,
+                    log_delay_frames: (u.mocap_delay_ms * s.mocap.rate_hz() as f64 / 1000.0).round() as usize,
+                    gyro_log_delay_frames: (u.gyro_delay_ms * s.mocap.rate_hz() as f64 / 1000.0).round() as usize,
                     link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)).with_outages(outages.clone()),
                     downlink: Downlink::new(telemetry_every).with_clock(ms(tm.clock.offset_ms), tm.clock.drift_ppm),
                     telemetry: Link::new(telemetry, Stream::new(s.seed, Component::TelemetryLoss, i), Stream::new(s.seed, Component::TelemetryJitter, i)),

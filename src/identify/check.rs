@@ -20,12 +20,11 @@ pub fn check(r: &Report, req: &IdentifyReq, vehicle: &str) -> requirements::Repo
     let mut rows = Vec::new();
     let found: Vec<Effect> = r.effects.iter().map(|f| f.effect).collect();
     let names = |v: &[Effect]| if v.is_empty() { "nothing".to_string() } else { v.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ") };
-    let expected: Vec<Effect> = req.expect.iter().map(|e| e.value.effect).collect();
+    let expected: Vec<Effect> = req.expect().map(|e| e.effect).collect();
     if let Some(first) = expected.first() {
         rows.push(row("effect found first".into(), found.first().map_or("nothing".into(), |e| e.key().to_string()), first.key().into(), found.first() == Some(first)));
     }
-    for e in &req.expect {
-        let e = &e.value;
+    for e in req.expect() {
         let Some(f) = r.effect(e.effect) else {
             rows.push(row(format!("{} found", e.effect.key()), "not found".into(), "found".into(), false));
             continue;

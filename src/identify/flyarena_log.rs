@@ -98,7 +98,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
 pub fn run_and_log(s: &Scenario, vehicle: usize, source: &str) -> Result<(crate::engine::RunOutput, Series), InputError> {
     let out = crate::engine::run(s, crate::engine::RunOptions { trace: true, apply_calibration: None });
     let v = out.vehicles.get(vehicle).ok_or_else(|| InputError::log(source, format!("vehicle {vehicle} does not exist (the scenario has {})", out.vehicles.len())))?;
-    let text = crate::log::write_csv(v, 1.0 / s.mocap.rate_hz.value as f64);
+    let text = crate::log::write_csv(v, 1.0 / s.mocap.rate_hz() as f64);
     let log = crate::log::read_csv(&text, source)?;
     let series = series(&log, s, vehicle, source)?;
     Ok((out, series))

@@ -115,7 +115,7 @@ pub fn run(req: &Request) -> Result<Identified, InputError> {
         flyarena_log::run_and_log(&s, i, &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicle(i).name))?.1
     };
     let report = identify(&data, &opts)?;
-    let frag = fragment(&report, i, s.mocap.rate_hz.value, s.template(i).map_or(4, |t| t.len()));
+    let frag = fragment(&report, i, s.mocap.rate_hz(), s.template(i).len());
     // closed loop: the nominal scenario and the nominal scenario with the effects, same seed
     let (nominal, fed) = nominal_and_fed_back(&tree, i, &frag, &scen_path.display().to_string())?;
     let before = trajectory_error(&data, &flyarena_log::run_and_log(&nominal, i, "nominal")?.1);

@@ -62,8 +62,8 @@ pub struct Scenario {
     pub controller: ControllerCfg,
     #[serde(default)]
     pub calibration: CalibrationCfg,
-    pub vehicles: Spanned<Vec<Spanned<VehicleCfg>>>,
-    pub plan: Spanned<Vec<PhaseCfg>>,
+    pub(crate) vehicles: Spanned<Vec<Spanned<VehicleCfg>>>,
+    pub(crate) plan: Spanned<Vec<PhaseCfg>>,
     #[serde(default)]
     pub requirements: RequirementsCfg,
     /// Parameter variations for `flyarena sweep` (ignored by `run`).
@@ -139,12 +139,18 @@ impl VaryCfg {
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MocapCfg {
-    pub rate_hz: Spanned<u32>,
+    pub(crate) rate_hz: Spanned<u32>,
     #[serde(with = "ranges::latency_ms")]
     pub latency_ms: f64,
     #[serde(with = "ranges::noise_mm")]
     pub noise_mm: f64,
     pub camera_error: CameraErrorCfg,
+}
+impl MocapCfg {
+    /// Frames per second (divides the 1 kHz physics clock).
+    pub fn rate_hz(&self) -> u32 {
+        self.rate_hz.value
+    }
 }
 impl Default for MocapCfg {
     fn default() -> Self {
@@ -170,7 +176,13 @@ pub struct LinkCfg {
     pub jitter_ms: f64,
     pub loss: LossCfg,
     /// Total outages: no mocap packet gets through in [from_s, to_s) (`to_s` omitted: never again).
-    pub outages: Vec<Spanned<OutageCfg>>,
+    pub(crate) outages: Vec<Spanned<OutageCfg>>,
+}
+impl LinkCfg {
+    /// The declared outages, in the file's order.
+    pub fn outages(&self) -> impl ExactSizeIterator<Item = &OutageCfg> {
+        self.outages.iter().map(|o| &o.value)
+    }
 }
 impl Default for LinkCfg {
     fn default() -> Self {
@@ -191,13 +203,19 @@ pub struct OutageCfg {
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TelemetryCfg {
-    pub rate_hz: Spanned<u32>,
+    pub(crate) rate_hz: Spanned<u32>,
     #[serde(with = "ranges::latency_ms")]
     pub latency_ms: f64,
     #[serde(with = "ranges::latency_ms")]
     pub jitter_ms: f64,
     pub loss: LossCfg,
     pub clock: TelemetryClockCfg,
+}
+impl TelemetryCfg {
+    /// Telemetry frames per second (divides the 1 kHz physics clock).
+    pub fn rate_hz(&self) -> u32 {
+        self.rate_hz.value
+    }
 }
 impl Default for TelemetryCfg {
     fn default() -> Self {
@@ -253,8 +271,8 @@ impl LossCfg {
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RadioCfg {
-    pub rate_hz: Spanned<u32>,
-    pub channels: Spanned<u32>,
+    pub(crate) rate_hz: Spanned<u32>,
+    pub(crate) channels: Spanned<u32>,
     #[serde(with = "ranges::latency_ms")]
     pub latency_ms: f64,
     #[serde(with = "ranges::rate_scale_deg_s")]
@@ -265,6 +283,16 @@ pub struct RadioCfg {
     /// Thrust at count 255 (N); default: the vehicle's maximum thrust.
     #[serde(with = "ranges::thrust_n::opt")]
     pub thrust_max_n: Option<f64>,
+}
+impl RadioCfg {
+    /// PPM frames per second (divides the 1 kHz physics clock).
+    pub fn rate_hz(&self) -> u32 {
+        self.rate_hz.value
+    }
+    /// Channels per frame (4–12).
+    pub fn channels(&self) -> u32 {
+        self.channels.value
+    }
 }
 impl Default for RadioCfg {
     fn default() -> Self {
@@ -427,7 +455,7 @@ pub struct ModelCfg {
     pub preset: Preset,
     #[serde(with = "ranges::mass_kg::opt")]
     pub mass_kg: Option<f64>,
-    pub inertia_kg_m2: Option<Spanned<[f64; 3]>>,
+    pub(crate) inertia_kg_m2: Option<Spanned<[f64; 3]>>,
     #[serde(with = "ranges::arm_m::opt")]
     pub arm_m: Option<f64>,
     #[serde(with = "ranges::positive_coeff::opt")]
@@ -438,27 +466,69 @@ pub struct ModelCfg {
     pub motor_tau_s: Option<f64>,
     #[serde(with = "ranges::positive_coeff::opt")]
     pub rotor_speed_max_rad_s: Option<f64>,
-    pub rotor_drag_per_s: Option<Spanned<[f64; 2]>>,
-    pub rate_loop_gain_per_s: Option<Spanned<[f64; 3]>>,
-    pub rate_loop_integral_per_s2: Option<Spanned<[f64; 3]>>,
+    pub(crate) rotor_drag_per_s: Option<Spanned<[f64; 2]>>,
+    pub(crate) rate_loop_gain_per_s: Option<Spanned<[f64; 3]>>,
+    pub(crate) rate_loop_integral_per_s2: Option<Spanned<[f64; 3]>>,
     /// What the onboard controller tracks: `rate` (the presets) or `attitude`.
     pub onboard_mode: Option<crate::vehicle::OnboardMode>,
-    pub attitude_loop_gain_per_s: Option<Spanned<[f64; 3]>>,
+    pub(crate) attitude_loop_gain_per_s: Option<Spanned<[f64; 3]>>,
+}
+
+impl ModelCfg {
+    /// J_xx, J_yy, J_zz (kg·m²), if given (else the preset's).
+    pub fn inertia_kg_m2(&self) -> Option<[f64; 3]> {
+        self.inertia_kg_m2.as_ref().map(|x| x.value)
+    }
+    /// Rotor drag along body x and y (1/s), if given.
+    pub fn rotor_drag_per_s(&self) -> Option<[f64; 2]> {
+        self.rotor_drag_per_s.as_ref().map(|x| x.value)
+    }
+    /// The onboard rate loop's gains (1/s), if given.
+    pub fn rate_loop_gain_per_s(&self) -> Option<[f64; 3]> {
+        self.rate_loop_gain_per_s.as_ref().map(|x| x.value)
+    }
+    /// The onboard rate loop's integral gains (1/s²), if given.
+    pub fn rate_loop_integral_per_s2(&self) -> Option<[f64; 3]> {
+        self.rate_loop_integral_per_s2.as_ref().map(|x| x.value)
+    }
+    /// The onboard attitude loop's gains (1/s), if given.
+    pub fn attitude_loop_gain_per_s(&self) -> Option<[f64; 3]> {
+        self.attitude_loop_gain_per_s.as_ref().map(|x| x.value)
+    }
 }
 
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MarkersCfg {
     /// Built-in pattern number (default: the vehicle's index).
-    pub pattern: Option<Spanned<u32>>,
+    pub(crate) pattern: Option<Spanned<u32>>,
     /// Explicit template (m, body FRD), instead of a built-in pattern.
-    pub template_m: Option<Spanned<Vec<[f64; 3]>>>,
+    pub(crate) template_m: Option<Spanned<Vec<[f64; 3]>>>,
     /// Whole-frame rotation of the mounted markers about the body origin (deg: roll, pitch, yaw).
     #[serde(with = "ranges::small_angle_deg::arr")]
     pub rotation_deg: [f64; 3],
     /// Displacement of each marker (mm, body frame), one entry per marker.
-    pub displacement_mm: Option<Spanned<Vec<[f64; 3]>>>,
-    pub occlusions: Vec<Spanned<OcclusionCfg>>,
+    pub(crate) displacement_mm: Option<Spanned<Vec<[f64; 3]>>>,
+    pub(crate) occlusions: Vec<Spanned<OcclusionCfg>>,
+}
+
+impl MarkersCfg {
+    /// The built-in pattern number, if given.
+    pub fn pattern(&self) -> Option<u32> {
+        self.pattern.as_ref().map(|x| x.value)
+    }
+    /// The explicit template (m, body FRD), if given.
+    pub fn template_m(&self) -> Option<&[[f64; 3]]> {
+        self.template_m.as_ref().map(|x| x.value.as_slice())
+    }
+    /// Each marker's displacement (mm, body frame), if given.
+    pub fn displacement_mm(&self) -> Option<&[[f64; 3]]> {
+        self.displacement_mm.as_ref().map(|x| x.value.as_slice())
+    }
+    /// The occlusions, in the file's order.
+    pub fn occlusions(&self) -> impl ExactSizeIterator<Item = &OcclusionCfg> {
+        self.occlusions.iter().map(|o| &o.value)
+    }
 }
 
 #[derive(Debug, Deserialize, serde::Serialize)]
@@ -484,12 +554,19 @@ pub struct ImuCfg {
     pub accel_bias_m_s2: [f64; 3],
 }
 
+impl BatteryCfg {
+    /// Cells in series (1–12), if given.
+    pub fn cells(&self) -> Option<u32> {
+        self.cells.as_ref().map(|x| x.value)
+    }
+}
+
 /// The battery pack (see [`crate::vehicle::battery`]); each field overrides the preset's.
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BatteryCfg {
     /// Cells in series, 1–12.
-    pub cells: Option<Spanned<u32>>,
+    pub(crate) cells: Option<Spanned<u32>>,
     #[serde(with = "ranges::capacity_mah::opt")]
     pub capacity_mah: Option<f64>,
     /// Internal resistance of the pack and its wiring (Ω).
@@ -641,10 +718,17 @@ pub struct RequirementsCfg {
 #[serde(deny_unknown_fields)]
 pub struct IdentifyReq {
     /// The hidden effects, in the order they must be found; empty: nothing may be found.
-    pub expect: Vec<Spanned<ExpectedEffect>>,
+    pub(crate) expect: Vec<Spanned<ExpectedEffect>>,
     /// Each expected effect must cut the held-out RMSE of its best channel by this fraction.
     #[serde(default = "half_the_error", with = "ranges::ratio")]
     pub min_heldout_cut: f64,
+}
+
+impl IdentifyReq {
+    /// The hidden effects, in the order they must be found.
+    pub fn expect(&self) -> impl ExactSizeIterator<Item = &ExpectedEffect> {
+        self.expect.iter().map(|e| &e.value)
+    }
 }
 
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
@@ -733,6 +817,11 @@ impl Scenario {
         self.vehicles.value.iter_mut().map(|v| &mut v.value)
     }
 
+    /// The plan's phases, in order.
+    pub fn plan(&self) -> &[PhaseCfg] {
+        &self.plan.value
+    }
+
     /// Vehicle `i` (panics when out of range, like indexing).
     pub fn vehicle(&self, i: usize) -> &VehicleCfg {
         &self.vehicles.value[i].value
@@ -817,7 +906,7 @@ impl Scenario {
             if vehicles[..i].iter().any(|o| o.value.name == v.value.name) {
                 return err(v.referenced, format!("vehicle name `{}` is used twice; names must be unique", v.value.name));
             }
-            let t = self.template(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
+            let t = self.checked_template(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
             if let Some((j, _)) = templates.iter().find(|(_, o)| patterns_confusable(o, &t, 0.005)) {
                 return err(
                     v.referenced,
@@ -874,8 +963,14 @@ impl Scenario {
         Ok(())
     }
 
-    /// The marker template of vehicle `i`.
-    pub fn template(&self, i: usize) -> Result<Vec<Vec3<MocapBody>>, (serde_saphyr::Location, String)> {
+    /// The marker template of vehicle `i` (m, the markers' frame; checked when the scenario
+    /// was parsed).
+    pub fn template(&self, i: usize) -> Vec<Vec3<MocapBody>> {
+        self.checked_template(i).expect("checked when the scenario was parsed")
+    }
+
+    /// [`Scenario::template`], with the checks that parsing runs (where in the file).
+    fn checked_template(&self, i: usize) -> Result<Vec<Vec3<MocapBody>>, (serde_saphyr::Location, String)> {
         let m = &self.vehicles.value[i].value.markers;
         let t: Vec<Vec3<MocapBody>> = match (&m.template_m, &m.pattern) {
             (Some(_), Some(p)) => return Err((p.referenced, "give either `pattern` or `template_m`, not both".into())),

@@ -351,11 +351,7 @@ impl Server {
 pub fn rigid_bodies(s: &Scenario, up: Up) -> Vec<natnet::RigidBodyDef> {
     s.vehicle_cfgs()
         .enumerate()
-        .map(|(i, v)| natnet::RigidBodyDef {
-            name: v.name.clone(),
-            id: i as i32 + 1,
-            markers_m: s.template(i).expect("validated").into_iter().map(|m| up.body_vector(m)).collect(),
-        })
+        .map(|(i, v)| natnet::RigidBodyDef { name: v.name.clone(), id: i as i32 + 1, markers_m: s.template(i).into_iter().map(|m| up.body_vector(m)).collect() })
         .collect()
 }
 

@@ -188,7 +188,7 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
     for (i, b) in bodies.iter().enumerate() {
         assert_eq!((b[0].as_str().unwrap(), b[1].as_i64().unwrap()), (s.vehicle(i).name.as_str(), i as i64 + 1));
         let markers: Vec<[f32; 3]> = b[2].as_array().unwrap().iter().map(f32s::<3>).collect();
-        let expected: Vec<[f32; 3]> = s.template(i).unwrap().iter().map(|m| [m.x() as f32, -m.y() as f32, -m.z() as f32]).collect();
+        let expected: Vec<[f32; 3]> = s.template(i).iter().map(|m| [m.x() as f32, -m.y() as f32, -m.z() as f32]).collect();
         assert_eq!(markers, expected, "vehicle {i}'s marker template in Z-up");
     }
     let logs = [log_poses(&out.join("served-cf1.csv")), log_poses(&out.join("served-cf2.csv"))];
