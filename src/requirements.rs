@@ -224,41 +224,140 @@ pub fn needs_uncompensated(req: &RequirementsCfg) -> bool {
     req.hover_drift.is_some()
 }
 
-/// Machine-readable summary of one vehicle (angles in degrees for humans, as the YAML).
-pub fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> serde_json::Value {
+/// Machine-readable summary of one vehicle, as `out/<scenario>.json` holds it (angles in
+/// degrees, as the YAML; fields in alphabetical order, as the file has always listed them).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct VehicleSummary {
+    /// The offset the controller used at the end (°: roll, pitch, yaw).
+    pub applied_offset_deg: [f64; 3],
+    /// What the mocap-outage failsafe did.
+    pub failsafe: crate::engine::FailsafeReport,
+    /// The true position at the end (m, true NED).
+    pub final_position_m: crate::frames::Vec3<crate::frames::Nav>,
+    /// The gyro-telemetry alignment, when the plan flies `calibrate_gyro`.
+    pub gyro_alignment: Option<GyroSummary>,
+    /// m·g of the declared model (N).
+    pub hover_thrust_expected_n: f64,
+    /// The mean commanded thrust while hover-averaging (N).
+    pub hover_thrust_mean_n: Option<f64>,
+    /// The mocap link's counts.
+    pub link: crate::link::LinkStats,
+    /// The vehicle's name.
+    pub name: String,
+    /// (φ̄_m, θ̄_m) of the hover average (°).
+    pub roll_pitch_estimate_deg: Option<[f64; 2]>,
+    /// Attitudes averaged.
+    pub roll_pitch_samples: Option<u64>,
+    /// R2: the largest horizontal drift while yawing on the spot, compensated (m).
+    pub spin_max_deviation_m: Option<f64>,
+    /// The same, flown uncompensated (m).
+    pub spin_max_deviation_uncompensated_m: Option<f64>,
+    /// The telemetry link's counts.
+    pub telemetry_link: crate::link::LinkStats,
+    /// The markers' true offset (°: roll, pitch, yaw).
+    pub true_offset_deg: [f64; 3],
+    /// RMS misfit of a rotation to displaced markers (mm; 0 for a pure rotation).
+    pub true_offset_misfit_mm: f64,
+    /// The straight flight's check (7).
+    pub validity: Option<ValiditySummary>,
+    /// The straight flight's batch line fit (9).
+    pub yaw_ls: Option<LineSummary>,
+    /// The paper's yaw offset estimate (°).
+    pub yaw_offset_estimate_deg: Option<f64>,
+    /// The same fit by recursive least squares.
+    pub yaw_rls: Option<LineSummary>,
+}
+
+/// A straight-flight line fit in the summary.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct LineSummary {
+    /// Samples fitted.
+    pub n: usize,
+    /// ψ̂_off (°).
+    pub psi_offset_deg: f64,
+    /// X̂_E,0 (m).
+    pub x_e0_m: f64,
+}
+
+/// Check (7) in the summary.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct ValiditySummary {
+    /// Both means within their bounds.
+    pub accepted: bool,
+    /// Mean measured roll (°).
+    pub mean_roll_deg: f64,
+    /// Mean measured yaw (°).
+    pub mean_yaw_deg: f64,
+}
+
+/// The gyro alignment in the summary.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct GyroSummary {
+    /// The gyro bias (°/s, body).
+    pub gyro_bias_deg_s: [f64; 3],
+    /// The offset's Z-Y-X angles (°).
+    pub offset_deg: [f64; 3],
+    /// RMS residual per component (° per window).
+    pub rms_residual_deg: f64,
+    /// 1σ about body x, y, z (°).
+    pub sigma_deg: [f64; 3],
+    /// The telemetry clock, when fitted.
+    pub telemetry_clock: Option<ClockSummary>,
+    /// Windows fitted.
+    pub windows: u64,
+}
+
+/// The telemetry clock fit in the summary.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct ClockSummary {
+    /// The windows' mean time on the Vicon clock (s).
+    pub at_s: f64,
+    /// Drift (ppm), when the windows span enough time.
+    pub drift_ppm: Option<f64>,
+    /// Its 1σ (ppm).
+    pub drift_sigma_ppm: Option<f64>,
+    /// Offset at `at_s` (ms).
+    pub offset_ms: f64,
+    /// Its 1σ (ms).
+    pub offset_sigma_ms: f64,
+}
+
+/// The summary of one vehicle's run; `unc` is its uncompensated counterpart, if flown.
+pub fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> VehicleSummary {
     let c = &v.calibration;
-    serde_json::json!({
-        "name": v.name,
-        "true_offset_deg": v.truth.euler.to_degrees(),
-        "true_offset_misfit_mm": v.truth.rms_misfit_m * 1e3,
-        "roll_pitch_estimate_deg": c.roll_pitch.map(|(r, p, _)| [r.to_degrees(), p.to_degrees()]),
-        "roll_pitch_samples": c.roll_pitch.map(|x| x.2),
-        "yaw_offset_estimate_deg": c.yaw_offset.map(f64::to_degrees),
-        "yaw_ls": c.yaw_ls.map(|f| serde_json::json!({"psi_offset_deg": f.psi_offset.to_degrees(), "x_e0_m": f.x_e0, "n": f.n})),
-        "yaw_rls": c.yaw_rls.map(|f| serde_json::json!({"psi_offset_deg": f.psi_offset.to_degrees(), "x_e0_m": f.x_e0, "n": f.n})),
-        "validity": c.validity.map(|x| serde_json::json!({"mean_yaw_deg": x.mean_yaw.to_degrees(), "mean_roll_deg": x.mean_roll.to_degrees(), "accepted": x.accepted})),
-        "gyro_alignment": c.gyro.map(|g| serde_json::json!({
-            "offset_deg": g.euler.to_degrees(),
-            "sigma_deg": g.sigma.map(f64::to_degrees),
-            "gyro_bias_deg_s": g.gyro_bias.map(f64::to_degrees),
-            "rms_residual_deg": g.rms_residual.to_degrees(),
-            "windows": g.windows,
-            "telemetry_clock": g.clock.map(|k| serde_json::json!({
-                "offset_ms": k.offset_s * 1e3,
-                "offset_sigma_ms": k.offset_sigma_s * 1e3,
-                "drift_ppm": k.drift_ppm,
-                "drift_sigma_ppm": k.drift_sigma_ppm,
-                "at_s": k.t_mean_s,
-            })),
-        })),
-        "applied_offset_deg": c.applied.to_degrees(),
-        "spin_max_deviation_m": v.spin_max_deviation_m,
-        "spin_max_deviation_uncompensated_m": unc.and_then(|u| u.spin_max_deviation_m),
-        "hover_thrust_mean_n": v.hover_thrust_mean_n,
-        "hover_thrust_expected_n": v.params.hover_thrust(),
-        "link": v.link,
-        "failsafe": v.failsafe,
-        "telemetry_link": v.telemetry,
-        "final_position_m": v.final_pos,
-    })
+    let line = |f: &crate::calibrate::LineFit| LineSummary { n: f.n, psi_offset_deg: f.psi_offset.to_degrees(), x_e0_m: f.x_e0 };
+    VehicleSummary {
+        applied_offset_deg: c.applied.to_degrees(),
+        failsafe: v.failsafe,
+        final_position_m: v.final_pos,
+        gyro_alignment: c.gyro.map(|g| GyroSummary {
+            gyro_bias_deg_s: g.gyro_bias.map(f64::to_degrees),
+            offset_deg: g.euler.to_degrees(),
+            rms_residual_deg: g.rms_residual.to_degrees(),
+            sigma_deg: g.sigma.map(f64::to_degrees),
+            telemetry_clock: g.clock.map(|k| ClockSummary {
+                at_s: k.t_mean_s,
+                drift_ppm: k.drift_ppm,
+                drift_sigma_ppm: k.drift_sigma_ppm,
+                offset_ms: k.offset_s * 1e3,
+                offset_sigma_ms: k.offset_sigma_s * 1e3,
+            }),
+            windows: g.windows,
+        }),
+        hover_thrust_expected_n: v.params.hover_thrust(),
+        hover_thrust_mean_n: v.hover_thrust_mean_n,
+        link: v.link,
+        name: v.name.clone(),
+        roll_pitch_estimate_deg: c.roll_pitch.map(|(r, p, _)| [r.to_degrees(), p.to_degrees()]),
+        roll_pitch_samples: c.roll_pitch.map(|x| x.2),
+        spin_max_deviation_m: v.spin_max_deviation_m,
+        spin_max_deviation_uncompensated_m: unc.and_then(|u| u.spin_max_deviation_m),
+        telemetry_link: v.telemetry,
+        true_offset_deg: v.truth.euler.to_degrees(),
+        true_offset_misfit_mm: v.truth.rms_misfit_m * 1e3,
+        validity: c.validity.map(|x| ValiditySummary { accepted: x.accepted, mean_roll_deg: x.mean_roll.to_degrees(), mean_yaw_deg: x.mean_yaw.to_degrees() }),
+        yaw_ls: c.yaw_ls.as_ref().map(line),
+        yaw_offset_estimate_deg: c.yaw_offset.map(f64::to_degrees),
+        yaw_rls: c.yaw_rls.as_ref().map(line),
+    }
 }

@@ -41,8 +41,8 @@ pub struct Summary {
     pub passed: bool,
     /// The requirement rows, as in the table.
     pub requirements: Vec<Row>,
-    /// Per vehicle: calibration, errors and failsafe figures (see `requirements::vehicle_summary`).
-    pub vehicles: Vec<serde_json::Value>,
+    /// Per vehicle: calibration, errors, links and failsafe figures.
+    pub vehicles: Vec<requirements::VehicleSummary>,
 }
 
 /// Runs a scenario (and its uncompensated counterpart when R2 asks for it) and evaluates it.
