@@ -309,12 +309,12 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
     let elapsed = started.elapsed();
     if !a.run.quiet {
         println!(
-            "served {} NatNet frames ({} poses) to {} client(s){}; the latest tick was sent {:.1} ms late at most{}",
+            "served {} NatNet frames ({} poses) to {} client(s){}{}{}",
             net.frames,
             net.poses,
             net.clients.len(),
             if net.clients.is_empty() { "" } else { " " }.to_string() + &net.clients.join(", "),
-            net.max_lag_ms,
+            if a.lockstep { String::new() } else { format!("; the latest tick was sent {:.1} ms late at most", net.max_lag_ms) },
             if net.send_errors > 0 { format!("; {} datagrams could not be sent", net.send_errors) } else { String::new() }
         );
     }
