@@ -37,6 +37,10 @@
 //! | ground effect | c_g | force: −T/m·(r/4h)²·e_z (Cheeseman–Bennett, h ≥ r) |
 //! | lever arm, mocap origin → IMU | r (m, body) | accel_kin: ω̇_imu × e_j + ω_imu × (ω_imu × e_j) |
 //! | gyro delay vs accelerometer τ_g | τ_g (s) | gyro: −dω_imu/dt (the gyro reads ω(t − τ_g) ≈ ω − τ_g·ω̇) |
+//! | accelerometer turned against the gyro and the airframe ε | ε_x, ε_y (rad) | accel_kin: e_j × f_imu (the body offset's accel_kin column without its gyro column); force: e_j × f_m |
+//! | accelerometer z scale factor s_z | s_z (fraction) | accel_kin: f̂_z·e_z; force: f_m,z·e_z = −T/m·e_z (the channel's prediction, not the accelerometer: regressed on its own axis the residual's noise is the regressor's) |
+//! | thrust axis tilted against the accelerometer t | t_x, t_y (rad) | force: T/m·(e_y for t_x, −e_x for t_y) (thrust along exp(\[t\]×)·(−e_z)) |
+//! | mocap–IMU clock drift ρ | ρ (s/s) | accel_kin: (t − t̄)·df_imu/dt; gyro: (t − t̄)·dω_imu/dt (a delay τ_d + ρ·(t − t̄), t̄ the log's mid-time) |
 //!
 //! The lever arm: the mocap tracks the marker template's origin, the IMU sits at r from it. A
 //! rigid body's point r has the specific force of the tracked point plus ω̇×r + ω×(ω×r), so the
@@ -60,7 +64,7 @@ pub fn column_offsets() -> [usize; Effect::ALL.len() + 1] {
     }
     o
 }
-pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3 + 1;
+pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3 + 1 + 2 + 1 + 2 + 1;
 
 /// One regressor column: its index in the full design and its samples.
 pub type Column = (usize, Vec<f64>);
@@ -378,6 +382,11 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     });
 
     let m = &s.model;
+    // the clock drift's reference: the log's mid-time (the drift's delay there is τ_d)
+    let t_mid = match (s.t_s.first(), s.t_s.last()) {
+        (Some(a), Some(b)) => 0.5 * (a + b),
+        _ => 0.0,
+    };
     let offs = column_offsets();
     let col = |e: Effect, j: usize| offs[e as usize] + j;
     let empty3 = || [Vec::new(), Vec::new(), Vec::new()];
@@ -396,7 +405,18 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
             columns[c][a].push((col(Effect::WorldTilt, j), tilt_cols[j].iter().map(|v| v[a]).collect()));
         }
         columns[c][a].push((col(Effect::MocapDelay, 0), f_dot.iter().map(|v| v[a]).collect()));
+        columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * f_dot[i][a]).collect()));
         columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+        // the accelerometer's own frame: turned against the gyro's (the gyro carries the body
+        // offset), and its z scaled
+        for j in 0..2 {
+            columns[c][a].push((col(Effect::AccelMisalignment, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
+        }
+        // the z scale's regressor is the mocap's f̂_z: in flight it swings by metres per second
+        // squared against a noise of a few hundredths, so the errors-in-variables bias is small
+        if a == 2 {
+            columns[c][a].push((col(Effect::AccelScale, 0), f_hat.iter().map(|f| f[a]).collect()));
+        }
         // the IMU at r from the point the mocap tracks (body FRD): it feels the rotation's
         // acceleration ω̇×r + ω×(ω×r) that the tracked point does not (linear in r)
         for j in 0..3 {
@@ -410,6 +430,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
             columns[c][a].push((col(Effect::BodyOffset, j), gyro_s.iter().map(|w| unit(j).cross(w)[a]).collect()));
         }
         columns[c][a].push((col(Effect::MocapDelay, 0), omega_dot.iter().map(|v| v[a]).collect()));
+        columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * omega_dot[i][a]).collect()));
         columns[c][a].push((col(Effect::GyroBias, a), vec![1.0; n]));
         // the gyro's samples τ_g later than the accelerometer's: ω(t − τ_g) ≈ ω − τ_g·ω̇
         columns[c][a].push((col(Effect::GyroDelay, 0), omega_dot.iter().map(|v| -v[a]).collect()));
@@ -428,6 +449,23 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
                 })
                 .collect();
             columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+            if a == 2 {
+                columns[c][a].push((col(Effect::AccelScale, 0), predicted[c][a].clone()));
+            }
+            // the accelerometer turned by ε against the gyro and the airframe reads exp([ε]×)·f_m
+            for j in 0..2 {
+                let e_j = unit(j);
+                columns[c][a].push((
+                    col(Effect::AccelMisalignment, j),
+                    (0..n).map(|i| e_j.cross(&Vector3::new(-m.rotor_drag_per_s[0] * v_body[i].x, -m.rotor_drag_per_s[1] * v_body[i].y, -spec[i]))[a]).collect(),
+                ));
+            }
+            // thrust along exp([t]×)(−e_z) ≈ −e_z − t × e_z = (−t_y, t_x, −1)
+            match a {
+                0 => columns[c][a].push((col(Effect::ThrustTilt, 1), spec.iter().map(|x| -x).collect())),
+                1 => columns[c][a].push((col(Effect::ThrustTilt, 0), spec.clone())),
+                _ => {}
+            }
             for j in 0..3 {
                 columns[c][a].push((col(Effect::ConstantForce, j), nav_axes[j].iter().map(|v| v[a] / m.mass_kg).collect()));
             }

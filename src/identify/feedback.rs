@@ -99,6 +99,10 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
                 set.push((format!("{vi}.markers.displacement_mm"), json!(vec![d; n_markers])));
             }
             Effect::ThrustVoltage => set.push((format!("{vi}.undeclared.thrust_voltage_per_v"), json!(v[0].max(0.0)))),
+            // hypotheses the simulator has no counterpart for: said, not set
+            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift => {
+                lines.push(format!("# {} {:?} is not simulated: left out", f.effect.key(), v));
+            }
         }
     }
     lines.push(if set.is_empty() { "effects: {}".into() } else { "effects:".into() });

@@ -208,6 +208,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
             Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
             Effect::ThrustVoltage => undeclared.push(format!("thrust_voltage_per_v: {}", v[0])),
             Effect::GyroDelay => undeclared.push(format!("gyro_delay_ms: {}", v[0])),
+            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift => unreachable!("only simulated effects are hidden"),
         }
     }
     if !markers.is_empty() {
