@@ -312,11 +312,45 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
 
     // decimation keeps one row per σ (below); what is not differentiated is smoothed only there
     let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
-    let pos_s = smooth_vec3(&pos_nav, segs, &kernel);
-    let gyro_s = smooth_vec3_kept_and_neighbours(&gyro_raw, segs, &kernel, stride);
+    let x = smoothed(s, opt, &pos_nav, &att_body, &gyro_raw, height, stride);
+    let Channels { measured, predicted, columns } = channels(s, &x);
+    let has_force = x.thrust_s.is_some();
+    let has_vbat = s.vbat_v.is_some();
+    // yaw spread (for the identifiability note)
+    let yaws: Vec<f64> = (0..n).filter(|&i| ok[i]).map(|i| att_body[i].euler_angles().2).collect();
+    let yaw_spread_rad = if yaws.is_empty() {
+        0.0
+    } else {
+        let (sx, sy) = yaws.iter().fold((0.0, 0.0), |(x, y), a| (x + a.cos(), y + a.sin()));
+        let r = (sx * sx + sy * sy).sqrt() / yaws.len() as f64;
+        // circular standard deviation
+        (-2.0 * r.max(1e-12).ln()).sqrt()
+    };
+    // decimate to one sample per σ: the smoothing is the anti-alias filter, and neighbouring
+    // samples of a smoothed signal carry little new information but a lot of correlation
+    let keep: Vec<usize> = (0..n).step_by(stride).collect();
+    let pick = |v: &Vec<f64>| -> Vec<f64> { if v.is_empty() { Vec::new() } else { keep.iter().map(|&i| v[i]).collect() } };
+    let ok: Vec<bool> = keep.iter().map(|&i| ok[i]).collect();
+    let t: Vec<f64> = keep.iter().map(|&i| s.t_s[i]).collect();
+    let signals = if with_signals { lead_signals(s, &x).into_iter().map(|x| Signal { samples: pick(&x.samples), ..x }).collect() } else { Vec::new() };
+    let measured = measured.map(|c| c.map(|a| pick(&a)));
+    let predicted = predicted.map(|c| c.map(|a| pick(&a)));
+    let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));
+    Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad, outliers, signals }
+}
+
+/// Smooths and differentiates what the channels compare (the derivative filter at the top of
+/// this module), rotating into the body frame before smoothing where the IMU does.
+fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body: &[UnitQuaternion<f64>], gyro_raw: &[Vector3<f64>], height: Vec<f64>, stride: usize) -> Smoothed {
+    let n = s.len();
+    let kernel = gaussian_kernel(opt.smoothing_s / s.dt());
+    let segs = &s.segments;
+    let g = s.model.gravity_m_s2;
+    let pos_s = smooth_vec3(pos_nav, segs, &kernel);
+    let gyro_s = smooth_vec3_kept_and_neighbours(gyro_raw, segs, &kernel, stride);
     let accel_s = smooth_vec3_kept_and_neighbours(&s.accel_body, segs, &kernel, stride);
     // mocap body rates from neighbouring poses
-    let omega_s = smooth_vec3_kept(&body_rates(&att_body, &s.t_s, segs), segs, &kernel, stride);
+    let omega_s = smooth_vec3_kept(&body_rates(att_body, &s.t_s, segs), segs, &kernel, stride);
     let mut vel_nav = vec![Vector3::zeros(); n];
     let mut acc_nav = vec![Vector3::zeros(); n];
     for &(a, b) in segs {
@@ -358,7 +392,6 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     // body-frame images of the nav axes, K*(Rᵀe_j), smoothed after the rotation (exact: the
     // axes are constant); gravity's image and the world-tilt columns are multiples of them:
     // Rᵀ(−g·e_D) = −g·Rᵀe_D, g·e_D × e_N = g·e_E, g·e_D × e_E = −g·e_N
-    let unit = |j: usize| Vector3::from_fn(|r, _| if r == j { 1.0 } else { 0.0 });
     let nav_axes: [Vec<Vector3<f64>>; 3] = std::array::from_fn(|j| smooth_vec3_kept(&rot_t.iter().map(|r| r * unit(j)).collect::<Vec<_>>(), segs, &kernel, stride));
     let grav_body_s: Vec<Vector3<f64>> = nav_axes[2].iter().map(|v| -g * v).collect();
     let tilt_cols: [Vec<Vector3<f64>>; 2] = [nav_axes[1].iter().map(|v| g * v).collect(), nav_axes[0].iter().map(|v| -g * v).collect()];
@@ -381,6 +414,51 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
         o
     });
 
+    Smoothed { accel_s, gyro_s, omega_s, f_hat, f_dot, omega_dot, v_body, vel_nav, nav_axes, tilt_cols, centripetal, thrust_s, height }
+}
+
+/// The body-frame signals every channel and column is built from, at the log's rate (smoothed;
+/// the ones compared with the IMU filled only at the rows decimation keeps).
+struct Smoothed {
+    /// The accelerometer and the gyro (delay taken out), smoothed (m/s², rad/s).
+    accel_s: Vec<Vector3<f64>>,
+    gyro_s: Vec<Vector3<f64>>,
+    /// The mocap's body rates (rad/s).
+    omega_s: Vec<Vector3<f64>>,
+    /// The specific force the mocap implies, f̂ = Rᵀ(p̈ − g·e_D) (m/s²), and the IMU's own ḟ.
+    f_hat: Vec<Vector3<f64>>,
+    f_dot: Vec<Vector3<f64>>,
+    /// The gyro's derivative (rad/s²).
+    omega_dot: Vec<Vector3<f64>>,
+    /// Velocity in the body frame and in nav (m/s).
+    v_body: Vec<Vector3<f64>>,
+    vel_nav: Vec<Vector3<f64>>,
+    /// K*(Rᵀe_j) for the nav axes, and the world tilt's columns (multiples of them).
+    nav_axes: [Vec<Vector3<f64>>; 3],
+    tilt_cols: [Vec<Vector3<f64>>; 2],
+    /// K*(ω×(ω×e_j)): the lever arm's centripetal columns.
+    centripetal: [Vec<Vector3<f64>>; 3],
+    /// Collective thrust from the commands (N), if known.
+    thrust_s: Option<Vec<f64>>,
+    /// Height above the floor (m; infinite without a floor).
+    height: Vec<f64>,
+}
+
+/// Per channel and axis: what is measured, what the nominal model predicts, and the columns.
+struct Channels {
+    measured: [[Vec<f64>; 3]; 3],
+    predicted: [[Vec<f64>; 3]; 3],
+    columns: [[Vec<Column>; 3]; 3],
+}
+
+fn unit(j: usize) -> Vector3<f64> {
+    Vector3::from_fn(|r, _| if r == j { 1.0 } else { 0.0 })
+}
+
+/// The channels and the candidates' regressors (the table at the top of this module).
+fn channels(s: &Series, x: &Smoothed) -> Channels {
+    let n = s.len();
+    let Smoothed { accel_s, gyro_s, f_hat, f_dot, omega_dot, omega_s, v_body, nav_axes, tilt_cols, centripetal, thrust_s, height, .. } = x;
     let m = &s.model;
     // the clock drift's reference: the log's mid-time (the drift's delay there is τ_d)
     let t_mid = match (s.t_s.first(), s.t_s.last()) {
@@ -435,8 +513,6 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
         // the gyro's samples τ_g later than the accelerometer's: ω(t − τ_g) ≈ ω − τ_g·ω̇
         columns[c][a].push((col(Effect::GyroDelay, 0), omega_dot.iter().map(|v| -v[a]).collect()));
     }
-    let has_force = thrust_s.is_some();
-    let has_vbat = s.vbat_v.is_some();
     if let Some(thrust) = &thrust_s {
         let c = Channel::Force.index();
         let spec: Vec<f64> = thrust.iter().map(|t| t / m.mass_kg).collect();
@@ -481,22 +557,13 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
             }
         }
     }
-    // yaw spread (for the identifiability note)
-    let yaws: Vec<f64> = (0..n).filter(|&i| ok[i]).map(|i| att_body[i].euler_angles().2).collect();
-    let yaw_spread_rad = if yaws.is_empty() {
-        0.0
-    } else {
-        let (sx, sy) = yaws.iter().fold((0.0, 0.0), |(x, y), a| (x + a.cos(), y + a.sin()));
-        let r = (sx * sx + sy * sy).sqrt() / yaws.len() as f64;
-        // circular standard deviation
-        (-2.0 * r.max(1e-12).ln()).sqrt()
-    };
-    // decimate to one sample per σ: the smoothing is the anti-alias filter, and neighbouring
-    // samples of a smoothed signal carry little new information but a lot of correlation
-    let keep: Vec<usize> = (0..n).step_by(stride).collect();
-    let pick = |v: &Vec<f64>| -> Vec<f64> { if v.is_empty() { Vec::new() } else { keep.iter().map(|&i| v[i]).collect() } };
-    let ok: Vec<bool> = keep.iter().map(|&i| ok[i]).collect();
-    let t: Vec<f64> = keep.iter().map(|&i| s.t_s[i]).collect();
+    Channels { measured, predicted, columns }
+}
+
+/// The measured signals a leftover residual may follow (see [`Design::signals`]), at the log's
+/// rate.
+fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
+    let Smoothed { accel_s, gyro_s, omega_dot, v_body, vel_nav, thrust_s, height, .. } = x;
     // a signal that carries a channel's own measurement on an axis is no lead for that axis:
     // it correlates with the residual through the sensor's noise (and is the residual itself
     // when the prediction is flat)
@@ -504,39 +571,31 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let kf = Channel::Force.index();
     let kg = Channel::Gyro.index();
     let sig = |name: &'static str, v: Vec<f64>, excludes: Vec<(usize, usize)>| Signal { name, samples: v, excludes };
-    let signals = if with_signals {
-        let mut signals: Vec<Signal> = vec![
-            sig("time (s)", s.t_s.clone(), vec![]),
-            sig("speed (m/s)", vel_nav.iter().map(|v| v.norm()).collect(), vec![]),
-            sig("body velocity x (m/s)", v_body.iter().map(|v| v.x).collect(), vec![]),
-            sig("body velocity y (m/s)", v_body.iter().map(|v| v.y).collect(), vec![]),
-            sig("body velocity z (m/s)", v_body.iter().map(|v| v.z).collect(), vec![]),
-            sig("body rate norm (rad/s)", gyro_s.iter().map(|w| w.norm()).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]),
-            sig("body rate x (rad/s)", gyro_s.iter().map(|w| w.x).collect(), vec![(kg, 0)]),
-            sig("body rate y (rad/s)", gyro_s.iter().map(|w| w.y).collect(), vec![(kg, 1)]),
-            sig("body rate z (rad/s)", gyro_s.iter().map(|w| w.z).collect(), vec![(kg, 2)]),
-            sig("angular acceleration x (rad/s²)", omega_dot.iter().map(|w| w.x).collect(), vec![]),
-            sig("angular acceleration y (rad/s²)", omega_dot.iter().map(|w| w.y).collect(), vec![]),
-            sig("angular acceleration z (rad/s²)", omega_dot.iter().map(|w| w.z).collect(), vec![]),
-            sig("specific force x (m/s²)", accel_s.iter().map(|f| f.x).collect(), vec![(ka, 0), (kf, 0)]),
-            sig("specific force y (m/s²)", accel_s.iter().map(|f| f.y).collect(), vec![(ka, 1), (kf, 1)]),
-            sig("specific force z (m/s²)", accel_s.iter().map(|f| f.z).collect(), vec![(ka, 2), (kf, 2)]),
-            sig("height (m)", height.iter().map(|h| if h.is_finite() { *h } else { 0.0 }).collect(), vec![]),
-        ];
-        if let Some(t) = &thrust_s {
-            signals.push(sig("thrust (N)", t.clone(), vec![]));
-        }
-        if let Some(v) = &s.vbat_v {
-            signals.push(sig("battery (V)", v.clone(), vec![]));
-        }
-        signals.into_iter().map(|x| Signal { samples: pick(&x.samples), ..x }).collect()
-    } else {
-        Vec::new()
-    };
-    let measured = measured.map(|c| c.map(|a| pick(&a)));
-    let predicted = predicted.map(|c| c.map(|a| pick(&a)));
-    let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));
-    Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad, outliers, signals }
+    let mut signals: Vec<Signal> = vec![
+        sig("time (s)", s.t_s.clone(), vec![]),
+        sig("speed (m/s)", vel_nav.iter().map(|v| v.norm()).collect(), vec![]),
+        sig("body velocity x (m/s)", v_body.iter().map(|v| v.x).collect(), vec![]),
+        sig("body velocity y (m/s)", v_body.iter().map(|v| v.y).collect(), vec![]),
+        sig("body velocity z (m/s)", v_body.iter().map(|v| v.z).collect(), vec![]),
+        sig("body rate norm (rad/s)", gyro_s.iter().map(|w| w.norm()).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]),
+        sig("body rate x (rad/s)", gyro_s.iter().map(|w| w.x).collect(), vec![(kg, 0)]),
+        sig("body rate y (rad/s)", gyro_s.iter().map(|w| w.y).collect(), vec![(kg, 1)]),
+        sig("body rate z (rad/s)", gyro_s.iter().map(|w| w.z).collect(), vec![(kg, 2)]),
+        sig("angular acceleration x (rad/s²)", omega_dot.iter().map(|w| w.x).collect(), vec![]),
+        sig("angular acceleration y (rad/s²)", omega_dot.iter().map(|w| w.y).collect(), vec![]),
+        sig("angular acceleration z (rad/s²)", omega_dot.iter().map(|w| w.z).collect(), vec![]),
+        sig("specific force x (m/s²)", accel_s.iter().map(|f| f.x).collect(), vec![(ka, 0), (kf, 0)]),
+        sig("specific force y (m/s²)", accel_s.iter().map(|f| f.y).collect(), vec![(ka, 1), (kf, 1)]),
+        sig("specific force z (m/s²)", accel_s.iter().map(|f| f.z).collect(), vec![(ka, 2), (kf, 2)]),
+        sig("height (m)", height.iter().map(|h| if h.is_finite() { *h } else { 0.0 }).collect(), vec![]),
+    ];
+    if let Some(t) = &thrust_s {
+        signals.push(sig("thrust (N)", t.clone(), vec![]));
+    }
+    if let Some(v) = &s.vbat_v {
+        signals.push(sig("battery (V)", v.clone(), vec![]));
+    }
+    signals
 }
 
 #[cfg(test)]
