@@ -211,8 +211,10 @@ impl Plan {
         let Some(i) = self.phase_at(t) else {
             return match self.phases.last() {
                 Some(last) if t >= last.end => {
-                    let landed = matches!(last.phase, Phase::Land { .. });
-                    (hold(last.to, last.to_yaw, landed), Window::None)
+                    // on the floor after a landing, or after an idle (a rest after the landing):
+                    // the motors stay off; after any other phase the vehicle holds in the air
+                    let on_floor = matches!(last.phase, Phase::Land { .. } | Phase::Idle { .. });
+                    (hold(last.to, last.to_yaw, on_floor), Window::None)
                 }
                 _ => (hold(self.home, self.phases.first().map_or(0.0, |p| p.from_yaw), true), Window::None),
             };
@@ -404,5 +406,20 @@ mod tests {
         assert!((r.pos.z() + 1.0).abs() < 1e-6, "{:?}", r.pos);
         let (r, _) = plan.reference(Nanos::from_secs_f64(4.5));
         assert_eq!(r.pos, Vec3::new(0.0, 0.0, -1.0));
+    }
+
+    /// After the plan the motors stay off when it ends on the floor (a landing, or an idle after
+    /// it: before this, an idle after the landing turned them back on when the plan ended, and
+    /// the vehicle lifted off at the end of the log), and stay on when it ends in the air.
+    #[test]
+    fn the_motors_stay_off_after_a_plan_that_ends_on_the_floor() {
+        let after = |phases: &[Phase]| {
+            let plan = Plan::schedule(phases, Vec3::zeros(), 0.0);
+            plan.reference(plan.phases.last().unwrap().end + Nanos::from_millis(10)).0.motors_off
+        };
+        let up = Phase::Takeoff { altitude_m: 1.0, duration_s: 2.0 };
+        assert!(after(&[up.clone(), Phase::Land { duration_s: 1.0 }]));
+        assert!(after(&[up.clone(), Phase::Land { duration_s: 1.0 }, Phase::Idle { duration_s: 1.0 }]));
+        assert!(!after(&[up, Phase::Hover { duration_s: 1.0 }]));
     }
 }
