@@ -88,6 +88,25 @@ if sp:
               f"toward the flight in {a['toward_flight']} of {sp['flights']} (sign test p = {a['sign_test_p']:.3f})")
 
 print()
+print("| flight | after − before roll | after − before pitch | mean of the rests − flight roll | mean of the rests − flight pitch | mocap scatter at rest roll / pitch |")
+print("|---|---|---|---|---|---|")
+for item in d['reports']:
+    r = item['report']; name = names.get(item['flight'], item['flight'])
+    g = r.get('ground_agreement')
+    if not g:
+        continue
+    a = g.get('after_landing')
+    if not a:
+        sd = r['ground_check']['mocap_sd_deg']
+        print(f"| {name} | — (no rest after landing) | — | — | — | {sd[0]:.3f} / {sd[1]:.3f} |")
+        continue
+    ch = lambda t: f"{t['change_deg']:+.2f} ± {t['change_ci95_deg']:.2f}"
+    cell = lambda t: f"{t['bracket_difference_deg']:+.2f} ± {t['bracket_ci95_deg']:.2f}" + ('' if t['bracket_covers'] else ' ✗')
+    sd = r['ground_check']['mocap_sd_deg']
+    row = f"| {name} | {ch(a['roll'])} | {ch(a['pitch'])} | {cell(a['roll'])} | {cell(a['pitch'])} | {sd[0]:.3f} / {sd[1]:.3f} |"
+    print(re.sub(r'(?<![A-Za-z0-9])-(?=\d)', '−', row))
+
+print()
 print("what is left (final residual per channel axis; the measured signals it follows):")
 for item in d['reports']:
     r = item['report']; name = names.get(item['flight'], item['flight'])

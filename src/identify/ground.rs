@@ -6,6 +6,13 @@
 //! It assumes no accelerometer bias: a bias b reads as a tilt of b/g rad (0.1 m/s² ≈ 0.58°), and
 //! the check cannot tell them apart. It needs ≥ 0.5 s of rest (thrust zero, or within 1 cm of
 //! the floor without a thrust column).
+//!
+//! Two more readings of the same tilt bracket the flight: the spin-up ([`spin_up`]: motors on,
+//! still on the floor) and the rest after landing ([`tilt_after_landing`]: still again, motors
+//! off). The rests before and after tell how far the reference itself moves over one flight;
+//! their mean is the reference of a tilt that moves between them ([`LandedAxis`]). The mocap's
+//! own tilt scatter at rest ([`GroundCheck::mocap_sd_deg`]) tells a still pose that the
+//! cameras see badly.
 
 use super::series::Series;
 
@@ -17,6 +24,10 @@ pub struct GroundCheck {
     pub roll_se_deg: f64,
     pub pitch_se_deg: f64,
     pub samples: usize,
+    /// Standard deviation of the mocap's own tilt over these rows, roll and pitch (deg, per
+    /// sample): the still vehicle's pose scatter. Markers partly hidden on the floor scatter it
+    /// (and may bias it) where a clear view leaves a few thousandths of a degree.
+    pub mocap_sd_deg: [f64; 2],
 }
 
 /// The ground check as the accelerometer reads it, with no bias removed.
@@ -46,6 +57,55 @@ fn rest(s: &Series) -> Option<(usize, usize)> {
     Some((start, end))
 }
 
+/// The rest after landing: the trailing rows of the last segment where the vehicle sits still
+/// where it ended (within [`FLOOR_M`] of its last height; with a thrust column also motors off,
+/// under 1 % of the weight),
+/// from [`SETTLE_AFTER_LANDING_S`] after they begin (the rotors spin down, the legs settle) to the
+/// end, ≥ 0.5 s; only if it ended on the floor (its last height within [`LANDED_M`] of the rest
+/// before take-off, or [`FLOOR_M`] without a thrust column to say the motors are off) and left the
+/// floor in between. A landing spot may sit a centimetre or two off the take-off's.
+fn rest_after_landing(s: &Series) -> Option<(usize, usize)> {
+    let (before, before_end) = rest(s)?;
+    let floor = s.pos_mocap_nav[before..before_end].iter().map(|p| p.z).sum::<f64>() / (before_end - before) as f64;
+    let (seg_start, end) = *s.segments.last()?;
+    let last = s.pos_mocap_nav[end.checked_sub(1)?].z;
+    let landed = if s.thrust_n.is_some() { LANDED_M } else { FLOOR_M };
+    if (last - floor).abs() > landed {
+        return None;
+    }
+    // motors off: under 1 % of the weight (a thrust model with the rotors' lag decays toward
+    // zero without reaching it)
+    let off = 0.01 * s.model.mass_kg * s.model.gravity_m_s2;
+    let still = |i: usize| s.mocap_ok[i] && (s.pos_mocap_nav[i].z - last).abs() < FLOOR_M && s.thrust_n.as_ref().is_none_or(|t| t[i] < off);
+    let mut start = end;
+    while start > seg_start.max(before_end) && still(start - 1) {
+        start -= 1;
+    }
+    // it flew in between: a row off the floor (or with the motors on) before the trailing run
+    if !(before_end..start).any(|i| !still(i)) {
+        return None;
+    }
+    let start = start + (SETTLE_AFTER_LANDING_S / s.dt()).round() as usize;
+    if start >= end || ((end - start) as f64) * s.dt() < 0.5 {
+        return None;
+    }
+    Some((start, end))
+}
+
+/// The ground check again after landing, with `accel_bias_body` removed as for the rest before.
+pub fn tilt_after_landing(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
+    let (start, end) = rest_after_landing(s)?;
+    Some(tilt_over(s, start, end, accel_bias_body))
+}
+
+/// Still: within this height of where it ended (m); without a thrust column, also the landed
+/// tolerance.
+pub const FLOOR_M: f64 = 0.01;
+/// Landed: its last height within this of the rest before take-off (m), motors off.
+pub const LANDED_M: f64 = 0.05;
+/// Rows this long after landing are left out of the rest after it (s).
+pub const SETTLE_AFTER_LANDING_S: f64 = 0.5;
+
 /// The mocap yaw at rest (rad, circular mean), where the ground check was taken: a world tilt
 /// reads as a body tilt turned by it.
 pub fn rest_yaw(s: &Series) -> Option<f64> {
@@ -65,16 +125,32 @@ pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Opt
 fn tilt_over(s: &Series, start: usize, end: usize, accel_bias_body: &nalgebra::Vector3<f64>) -> GroundCheck {
     let g = s.model.gravity_m_s2;
     let mut rp: Vec<(f64, f64)> = Vec::with_capacity(end - start);
+    // the mocap's tilt alone: f̂'s direction, (y, −x)/|f̂| ≈ (roll, pitch) for small angles
+    let mut mocap: Vec<[f64; 2]> = Vec::with_capacity(end - start);
     for i in start..end {
         let f_hat = s.att_mocap[i].inverse_transform_vector(&nalgebra::Vector3::new(0.0, 0.0, -g));
         let f = s.accel_body[i] - accel_bias_body;
         let d = f_hat.cross(&f) / f_hat.norm_squared();
         rp.push((d.x, d.y));
+        let u = f_hat / f_hat.norm();
+        mocap.push([u.y, -u.x]);
     }
+    let mocap_sd_deg = [0, 1].map(|k| {
+        let m = mocap.len() as f64;
+        let mean = mocap.iter().map(|x| x[k]).sum::<f64>() / m;
+        (mocap.iter().map(|x| (x[k] - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt().to_degrees()
+    });
     let m = rp.len() as f64;
     let (mr, mp) = rp.iter().fold((0.0, 0.0), |a, x| (a.0 + x.0 / m, a.1 + x.1 / m));
     let (vr, vp) = rp.iter().fold((0.0, 0.0), |a, x| (a.0 + (x.0 - mr).powi(2) / (m - 1.0), a.1 + (x.1 - mp).powi(2) / (m - 1.0)));
-    GroundCheck { roll_deg: mr.to_degrees(), pitch_deg: mp.to_degrees(), roll_se_deg: (vr / m).sqrt().to_degrees(), pitch_se_deg: (vp / m).sqrt().to_degrees(), samples: rp.len() }
+    GroundCheck {
+        roll_deg: mr.to_degrees(),
+        pitch_deg: mp.to_degrees(),
+        roll_se_deg: (vr / m).sqrt().to_degrees(),
+        pitch_se_deg: (vp / m).sqrt().to_degrees(),
+        samples: rp.len(),
+        mocap_sd_deg,
+    }
 }
 
 /// The spin-up: the motors on, the vehicle still on the floor. Between the rest and the lift-off
@@ -160,6 +236,40 @@ pub struct GroundAgreement {
     /// The same comparison with the spin-up (motors on, still on the floor) as the ground check,
     /// when the log has one ([`spin_up`]).
     pub spin_up: Option<SpinUpAgreement>,
+    /// The rest after landing against the rest before and against the flight, when the log has
+    /// one ([`tilt_after_landing`]).
+    pub after_landing: Option<LandedAgreement>,
+}
+
+/// The rest after landing: a second ground check that brackets the flight with the first.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct LandedAgreement {
+    pub samples: usize,
+    pub roll: LandedAxis,
+    pub pitch: LandedAxis,
+}
+
+/// One axis of [`LandedAgreement`] (degrees at this edge).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct LandedAxis {
+    /// The tilt after landing with the fitted bias removed.
+    pub ground_corrected_deg: f64,
+    /// After − before: how far the accelerometer's tilt against the markers moved over the
+    /// flight (a bias that drifts as the IMU warms, a mount that creeps, markers bumped).
+    pub change_deg: f64,
+    /// 95 % half-width of the change (the two means' standard errors).
+    pub change_ci95_deg: f64,
+    /// After landing − flight frame tilt, with its 95 % half-width built as the rest's.
+    pub difference_deg: f64,
+    pub ci95_deg: f64,
+    pub covers: bool,
+    /// The two rests' mean − flight: the reference for a tilt that moves between the rests (a
+    /// monotonic drift puts the flight's average between them).
+    pub bracket_difference_deg: f64,
+    /// 95 % half-width: the two means' and the flight's scatter, plus half the change (the
+    /// flight's tilt may sit anywhere between the rests), plus the flight's widening.
+    pub bracket_ci95_deg: f64,
+    pub bracket_covers: bool,
 }
 
 /// The spin-up against the rest and against the flight.
@@ -205,9 +315,9 @@ pub struct FlightTilt {
     pub accel_bias_fitted: bool,
 }
 
-/// Builds the agreement from the raw ground check, the bias-corrected one, the flight's tilt and
-/// the spin-up (bias-corrected), if the log has one.
-pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt, spin: Option<&SpinUp>) -> GroundAgreement {
+/// Builds the agreement from the raw ground check, the bias-corrected one, the flight's tilt, and
+/// the spin-up and the rest after landing (both bias-corrected), where the log has them.
+pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt, spin: Option<&SpinUp>, landed: Option<&GroundCheck>) -> GroundAgreement {
     let FlightTilt { offset_rad, sd_rad, widen_rad, frame_fitted, accel_bias_fitted } = *flight;
     let axis = |k: usize| {
         let (g, gc, se) = if k == 0 { (raw.roll_deg, corrected.roll_deg, raw.roll_se_deg) } else { (raw.pitch_deg, corrected.pitch_deg, raw.pitch_se_deg) };
@@ -242,7 +352,30 @@ pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt
         };
         SpinUpAgreement { thrust_fraction: sp.thrust_fraction, duration_s: sp.duration_s, roll: spin_axis(0, &roll), pitch: spin_axis(1, &pitch) }
     });
-    GroundAgreement { roll, pitch, frame_fitted, accel_bias_fitted, spin_up }
+    let after_landing = landed.map(|l| {
+        let landed_axis = |k: usize, rest: &TiltAgreement| {
+            let (after, after_se, rest_se) = if k == 0 { (l.roll_deg, l.roll_se_deg, corrected.roll_se_deg) } else { (l.pitch_deg, l.pitch_se_deg, corrected.pitch_se_deg) };
+            let (sd_flight, widen) = (sd_rad[k].to_degrees(), widen_rad[k].to_degrees());
+            let difference = after - rest.flight_deg;
+            let ci95 = (Z * after_se).hypot(Z * sd_flight) + widen;
+            let change = after - rest.ground_corrected_deg;
+            let bracket = 0.5 * (after + rest.ground_corrected_deg) - rest.flight_deg;
+            let bracket_ci95 = (Z * 0.5 * after_se.hypot(rest_se)).hypot(Z * sd_flight) + 0.5 * change.abs() + widen;
+            LandedAxis {
+                ground_corrected_deg: after,
+                change_deg: change,
+                change_ci95_deg: Z * after_se.hypot(rest_se),
+                difference_deg: difference,
+                ci95_deg: ci95,
+                covers: difference.abs() <= ci95,
+                bracket_difference_deg: bracket,
+                bracket_ci95_deg: bracket_ci95,
+                bracket_covers: bracket.abs() <= bracket_ci95,
+            }
+        };
+        LandedAgreement { samples: l.samples, roll: landed_axis(0, &roll), pitch: landed_axis(1, &pitch) }
+    });
+    GroundAgreement { roll, pitch, frame_fitted, accel_bias_fitted, spin_up, after_landing }
 }
 
 /// Over several flights: is the rest or the spin-up the ground check a flight agrees with, per
@@ -290,6 +423,90 @@ pub fn spin_up_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreem
         }
     };
     Some(SpinUpSummary { flights: n, roll: axis(|a| &a.roll, |s| &s.roll), pitch: axis(|a| &a.pitch, |s| &s.pitch) })
+}
+
+/// Over several flights: the two rests that bracket each flight, against each other and
+/// against the flight (degrees). The reference of a flight is the mean of its rests where the
+/// log has both, else the rest before take-off.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LandedSummary {
+    /// Flights with a ground agreement, and those with a rest after landing too.
+    pub flights: usize,
+    pub with_both: usize,
+    pub roll: LandedAxisSummary,
+    pub pitch: LandedAxisSummary,
+}
+
+/// One axis of [`LandedSummary`].
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct LandedAxisSummary {
+    /// Median and largest |after − before| over the flights with both rests: the ground check's
+    /// own repeatability over one flight.
+    pub median_change_deg: f64,
+    pub max_change_deg: f64,
+    /// Over the flights with both rests: median |before − flight| and |mean of the rests − flight|.
+    pub median_before_deg: f64,
+    pub median_bracket_deg: f64,
+    /// Flights whose frame tilt lies between their two rests (their differences of opposite sign).
+    pub between: usize,
+    /// Over every flight, with its reference: median |reference − flight|, how many beyond 1°,
+    /// and how many of those the reference's interval covers.
+    pub median_reference_deg: f64,
+    pub beyond_1deg: usize,
+    pub beyond_1deg_covered: usize,
+}
+
+/// The summary over the agreements; `None` when fewer than 3 have a rest after landing.
+pub fn landed_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreement>) -> Option<LandedSummary> {
+    let all: Vec<&GroundAgreement> = agreements.into_iter().collect();
+    let both: Vec<(&GroundAgreement, &LandedAgreement)> = all.iter().filter_map(|a| Some((*a, a.after_landing.as_ref()?))).collect();
+    if both.len() < 3 {
+        return None;
+    }
+    let median = |v: Vec<f64>| super::consistency::median(v).unwrap_or(f64::NAN);
+    let axis = |pick: fn(&GroundAgreement) -> &TiltAgreement, pick_l: fn(&LandedAgreement) -> &LandedAxis| {
+        let reference = |a: &GroundAgreement| match &a.after_landing {
+            Some(l) => (pick_l(l).bracket_difference_deg, pick_l(l).bracket_covers),
+            None => (pick(a).difference_deg, pick(a).covers),
+        };
+        let beyond: Vec<(f64, bool)> = all.iter().map(|a| reference(a)).filter(|(d, _)| d.abs() > 1.0).collect();
+        LandedAxisSummary {
+            median_change_deg: median(both.iter().map(|(_, l)| pick_l(l).change_deg.abs()).collect()),
+            max_change_deg: both.iter().map(|(_, l)| pick_l(l).change_deg.abs()).fold(0.0, f64::max),
+            median_before_deg: median(both.iter().map(|(a, _)| pick(a).difference_deg.abs()).collect()),
+            median_bracket_deg: median(both.iter().map(|(_, l)| pick_l(l).bracket_difference_deg.abs()).collect()),
+            // before − flight and after − flight of opposite signs
+            between: both.iter().filter(|(a, l)| pick(a).difference_deg * pick_l(l).difference_deg < 0.0).count(),
+            median_reference_deg: median(all.iter().map(|a| reference(a).0.abs()).collect()),
+            beyond_1deg: beyond.len(),
+            beyond_1deg_covered: beyond.iter().filter(|(_, c)| *c).count(),
+        }
+    };
+    Some(LandedSummary { flights: all.len(), with_both: both.len(), roll: axis(|a| &a.roll, |l| &l.roll), pitch: axis(|a| &a.pitch, |l| &l.pitch) })
+}
+
+/// The summary as the multi-flight report prints it.
+pub fn render_landed_summary(s: &LandedSummary) -> String {
+    let mut t = format!(
+        "\nground check before take-off and after landing against the flight ({} of {} flights have both rests; the reference is their mean, else the rest before):\n",
+        s.with_both, s.flights
+    );
+    for (name, a) in [("roll", &s.roll), ("pitch", &s.pitch)] {
+        t += &format!(
+            "  {name:<5} the rests differ by a median {:.2}° (at most {:.2}°); median |difference| before {:.2}°, mean of the rests {:.2}°, the flight between the rests in {} of {}; over all {} flights {:.2}°, beyond 1°: {} ({} covered by its interval)\n",
+            a.median_change_deg,
+            a.max_change_deg,
+            a.median_before_deg,
+            a.median_bracket_deg,
+            a.between,
+            s.with_both,
+            s.flights,
+            a.median_reference_deg,
+            a.beyond_1deg,
+            a.beyond_1deg_covered
+        );
+    }
+    t
 }
 
 /// P(X ≥ k) for X ~ Binomial(n, ½).
@@ -452,7 +669,7 @@ mod tests {
     fn the_spin_up_agreement_compares_with_rest_and_flight() {
         let s = flight([0.4, -1.0], [0.0, 0.5], 0.9);
         let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, &Vector3::zeros()).unwrap());
-        let a = agreement(&raw, &raw, &tilt([0.4, -0.6]), Some(&sp));
+        let a = agreement(&raw, &raw, &tilt([0.4, -0.6]), Some(&sp), None);
         let su = a.spin_up.unwrap();
         assert!((su.pitch.change_deg - 0.5).abs() < 1e-3 && su.roll.change_deg.abs() < 1e-3, "{su:?}");
         assert!((su.pitch.difference_deg - 0.1).abs() < 1e-3 && (a.pitch.difference_deg + 0.4).abs() < 1e-3, "{a:?}");
@@ -460,7 +677,7 @@ mod tests {
         // the difference moves by the bias tilt
         let b = Vector3::new(0.0981, 0.0, 0.0);
         let (rc, spc) = (tilt_at_rest(&s, &b).unwrap(), spin_up(&s, &b).unwrap());
-        let ab = agreement(&raw, &rc, &tilt([0.4, -0.6]), Some(&spc));
+        let ab = agreement(&raw, &rc, &tilt([0.4, -0.6]), Some(&spc), None);
         let sb = ab.spin_up.unwrap();
         assert!((sb.pitch.change_deg - 0.5).abs() < 1e-3, "{sb:?}");
         assert!(
@@ -488,12 +705,100 @@ mod tests {
         let s = flight([0.0, 0.0], [0.0, 0.5], 0.9);
         let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, &Vector3::zeros()).unwrap());
         // flights at pitch 0.4 (toward: rest − flight = −0.4, change +0.5), and one at −0.4 (away)
-        let at = |p: f64| agreement(&raw, &raw, &tilt([0.0, p]), Some(&sp));
+        let at = |p: f64| agreement(&raw, &raw, &tilt([0.0, p]), Some(&sp), None);
         let v = [at(0.4), at(0.4), at(-0.4)];
         let sum = spin_up_summary(v.iter()).unwrap();
         assert_eq!((sum.flights, sum.pitch.toward_flight), (3, 2));
         assert!((sum.pitch.median_rest_deg - 0.4).abs() < 1e-3 && (sum.pitch.median_spin_up_deg - 0.1).abs() < 1e-3, "{sum:?}");
         assert!((sum.pitch.sign_test_p - 0.5).abs() < 1e-12);
         assert!(spin_up_summary(v[..2].iter()).is_none());
+    }
+
+    /// `flight` followed by a landing: from row 300 back on the floor (z = `end_z`, NED), motors
+    /// off, 100 rows whose accelerometer reads a frame tilt of `after_deg` (the rest before
+    /// keeps `before_deg`).
+    fn landed(before_deg: [f64; 2], after_deg: [f64; 2], end_z: f64) -> Series {
+        let mut s = flight(before_deg, [0.0; 2], 0.9);
+        let c = UnitQuaternion::from_euler_angles(after_deg[0].to_radians(), after_deg[1].to_radians(), 0.0);
+        for i in 0..100 {
+            s.t_s.push((300 + i) as f64 * 0.01);
+            s.pos_mocap_nav.push(Vector3::new(0.0, 0.0, end_z));
+            s.att_mocap.push(UnitQuaternion::identity());
+            s.mocap_ok.push(true);
+            s.gyro_body.push(Vector3::zeros());
+            s.accel_body.push(c.transform_vector(&Vector3::new(0.0, 0.0, -G)) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 });
+            s.thrust_n.as_mut().unwrap().push(0.0);
+        }
+        s.segments = vec![(0, 400)];
+        s
+    }
+
+    /// The rest after landing reads its own tilt over the rows from 0.5 s after the landing (50
+    /// of 100), wherever the landing spot is within 5 cm of the take-off's; the agreement's
+    /// bracket is the two rests' mean against the flight, its interval at least half their change.
+    #[test]
+    fn the_rest_after_landing_reads_its_own_tilt_and_brackets_the_flight() {
+        for end_z in [0.0, 0.02, -0.04] {
+            let s = landed([0.4, -1.0], [0.2, -0.4], end_z);
+            let after = tilt_after_landing(&s, &Vector3::zeros()).unwrap();
+            assert!((after.roll_deg - 0.2).abs() < 1e-3 && (after.pitch_deg + 0.4).abs() < 1e-3 && after.samples == 50, "{after:?}");
+        }
+        let s = landed([0.4, -1.0], [0.2, -0.4], 0.0);
+        let (raw, after) = (ground_check(&s).unwrap(), tilt_after_landing(&s, &Vector3::zeros()).unwrap());
+        let a = agreement(&raw, &raw, &tilt([0.3, -0.9]), None, Some(&after));
+        let l = a.after_landing.unwrap();
+        // after − before, after − flight, (before + after)/2 − flight
+        assert!((l.roll.change_deg + 0.2).abs() < 1e-3 && (l.pitch.change_deg - 0.6).abs() < 1e-3, "{l:?}");
+        assert!((l.roll.difference_deg + 0.1).abs() < 1e-3 && (l.pitch.difference_deg - 0.5).abs() < 1e-3, "{l:?}");
+        assert!(l.roll.bracket_difference_deg.abs() < 1e-3 && (l.pitch.bracket_difference_deg - 0.2).abs() < 1e-3, "{l:?}");
+        assert!(l.pitch.bracket_ci95_deg >= 0.3 && l.pitch.bracket_covers && !l.pitch.covers, "{l:?}");
+        // this flight sits between its rests (before − flight: +0.1 roll, −0.1 pitch; after −
+        // flight: −0.1, +0.5); one at pitch −1.2 does not in pitch (+0.2, +0.8; bracket +0.5)
+        let out = agreement(&raw, &raw, &tilt([0.3, -1.2]), None, Some(&after));
+        let b = [a, out, agreement(&raw, &raw, &tilt([1.9, -0.9]), None, None)];
+        assert!(landed_summary(b.iter()).is_none(), "fewer than 3 flights with both rests");
+        let b = [b[0], b[0], b[1], b[2]];
+        let sum = landed_summary(b.iter()).unwrap();
+        assert_eq!((sum.flights, sum.with_both, sum.roll.between, sum.pitch.between), (4, 3, 3, 2));
+        assert!((sum.pitch.median_change_deg - 0.6).abs() < 1e-3 && (sum.pitch.median_bracket_deg - 0.2).abs() < 1e-3, "{sum:?}");
+        // the flight without a rest after landing is judged by its rest before: 0.4 − 1.9
+        assert_eq!((sum.roll.beyond_1deg, sum.roll.beyond_1deg_covered), (1, 0));
+    }
+
+    /// No rest after landing when the log ends in the air, 6 cm off the take-off's floor, with
+    /// the motors on, after less than 0.5 s still (beyond the settling), or without a flight.
+    #[test]
+    fn no_rest_after_landing_unless_it_landed_and_stayed() {
+        assert!(tilt_after_landing(&landed([0.0; 2], [0.0; 2], -0.5), &Vector3::zeros()).is_none());
+        assert!(tilt_after_landing(&landed([0.0; 2], [0.0; 2], -0.06), &Vector3::zeros()).is_none());
+        let mut s = landed([0.0; 2], [0.0; 2], 0.0);
+        s.thrust_n.as_mut().unwrap()[399] = 1.0;
+        assert!(tilt_after_landing(&s, &Vector3::zeros()).is_none());
+        let s = landed([0.0; 2], [0.0; 2], 0.0).slice(0, 399);
+        assert!(tilt_after_landing(&s, &Vector3::zeros()).is_none(), "0.49 s still after the settling");
+        let s = landed([0.0; 2], [0.0; 2], 0.0).slice(0, 400);
+        assert!(tilt_after_landing(&s, &Vector3::zeros()).is_some());
+        // a log that never leaves the floor has no landing
+        let mut s = landed([0.0; 2], [0.0; 2], 0.0);
+        s.thrust_n = Some(vec![0.0; 400]);
+        s.pos_mocap_nav.iter_mut().for_each(|p| p.z = 0.0);
+        assert!(tilt_after_landing(&s, &Vector3::zeros()).is_none());
+    }
+
+    /// The mocap's own tilt scatter at rest, by hand: a pose rolled +0.1° and −0.1° on
+    /// alternate rows (pitch still) over m rows (m odd: one more +0.1°, mean 0.1°/m) has a
+    /// per-sample standard deviation of 0.1°·√((m − 1/m)/(m − 1)) in roll and 0 in pitch,
+    /// whatever the accelerometer reads; a still pose has 0.
+    #[test]
+    fn the_mocap_scatter_at_rest_is_the_poses_own() {
+        let mut s = flight([0.3, -0.2], [0.0; 2], 0.9);
+        assert_eq!(ground_check(&s).unwrap().mocap_sd_deg, [0.0, 0.0]);
+        for i in 0..100 {
+            s.att_mocap[i] = UnitQuaternion::from_euler_angles(if i % 2 == 0 { 0.1f64 } else { -0.1 }.to_radians(), 0.0, 0.0);
+        }
+        let g = ground_check(&s).unwrap();
+        let m = g.samples as f64;
+        assert_eq!(g.samples % 2, 1);
+        assert!((g.mocap_sd_deg[0] - 0.1 * ((m - 1.0 / m) / (m - 1.0)).sqrt()).abs() < 1e-6 && g.mocap_sd_deg[1].abs() < 1e-9, "{g:?}");
     }
 }

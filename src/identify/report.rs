@@ -117,6 +117,9 @@ pub fn render(r: &Report) -> String {
     }
     if let Some(a) = &r.ground_agreement {
         let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs the frame tilt, body offset + world tilt):");
+        if let Some(g) = &r.ground_check {
+            let _ = writeln!(s, "    the still vehicle's mocap tilt scatters {:.3}° roll, {:.3}° pitch per sample at rest", g.mocap_sd_deg[0], g.mocap_sd_deg[1]);
+        }
         for (name, t) in [("roll", &a.roll), ("pitch", &a.pitch)] {
             let _ = writeln!(
                 s,
@@ -145,6 +148,24 @@ pub fn render(r: &Report) -> String {
                     if t.covers { "(agree)" } else { "(DISAGREE)" }
                 );
             }
+        }
+    }
+    if let Some(l) = r.ground_agreement.as_ref().and_then(|a| a.after_landing.as_ref()) {
+        let _ = writeln!(s, "  rest after landing ({} samples) as the ground check, and the two rests' mean:", l.samples);
+        for (name, t) in [("roll", &l.roll), ("pitch", &l.pitch)] {
+            let _ = writeln!(
+                s,
+                "    {name:<5} after {:+.2} (after − before {:+.2} ± {:.2}); difference to the flight {:+.2} ± {:.2} {}; mean of the rests {:+.2} ± {:.2} {}",
+                t.ground_corrected_deg,
+                t.change_deg,
+                t.change_ci95_deg,
+                t.difference_deg,
+                t.ci95_deg,
+                if t.covers { "(agree)" } else { "(DISAGREE)" },
+                t.bracket_difference_deg,
+                t.bracket_ci95_deg,
+                if t.bracket_covers { "(agree)" } else { "(DISAGREE)" }
+            );
         }
     }
     for n in &r.notes {

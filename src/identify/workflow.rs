@@ -269,10 +269,15 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     if let Some(sp) = &spin_up {
         text += &super::ground::render_spin_up_summary(sp);
     }
+    let landed = super::ground::landed_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
+    if let Some(l) = &landed {
+        text += &super::ground::render_landed_summary(l);
+    }
     let json = json!({
         "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
         "consistency": consistency,
         "spin_up": spin_up,
+        "after_landing": landed,
         "excluded": excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e})).collect::<Vec<_>>(),
         "cross_validation": {
             "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),

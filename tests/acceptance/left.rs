@@ -116,7 +116,8 @@ fn what_is_left_invents_nothing_when_the_model_is_complete() {
 #[test]
 fn ground_and_flight_agree_when_nothing_moved() {
     for name in ["none", "world-tilt", "marker-offsets", "accel-bias", "lever-arm"] {
-        let s = scenario(&format!("identify-{name}.yaml"), |t| t);
+        // 2 s on the floor after the landing: a rest after it to compare with
+        let s = scenario(&format!("identify-{name}.yaml"), |t| t.replace("  - land: { duration_s: 3 }", "  - land: { duration_s: 3 }\n  - idle: { duration_s: 2 }"));
         let (_, series) = run_and_log(&s, 0, name).unwrap();
         let r = identify(&series, &Options::default()).unwrap();
         let a = r.ground_agreement.unwrap_or_else(|| panic!("{name}: no agreement"));
@@ -125,6 +126,12 @@ fn ground_and_flight_agree_when_nothing_moved() {
         // flyarena's take-off commands lift-off thrust at once: no spin-up on the floor to compare
         // with (ground::tests hold the spin-up on flights that have one)
         assert!(a.spin_up.is_none(), "{name}: {:?}", a.spin_up);
+        // the rest after landing agrees too, alone and as the bracket, and reads what the rest
+        // before read
+        let l = a.after_landing.unwrap_or_else(|| panic!("{name}: no rest after landing"));
+        for t in [&l.roll, &l.pitch] {
+            assert!(t.covers && t.bracket_covers && t.change_deg.abs() < 0.1, "{name}: {l:?}");
+        }
     }
 }
 

@@ -600,7 +600,7 @@ fn select(s: &Series, o: &Options) -> Report {
                 frame_fitted: selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt),
                 accel_bias_fitted: selected.contains(&Effect::AccelBias),
             };
-            super::ground::agreement(raw, &corrected, &flight, super::ground::spin_up(s, &tilt_bias).as_ref())
+            super::ground::agreement(raw, &corrected, &flight, super::ground::spin_up(s, &tilt_bias).as_ref(), super::ground::tilt_after_landing(s, &tilt_bias).as_ref())
         }),
         _ => None,
     };
