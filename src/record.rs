@@ -248,11 +248,21 @@ fn blueprint(vehicles: &[&str], plot_paths: &mut Vec<String>) -> Blueprint {
     .with_selection_panel(SelectionPanel::new().with_state(rerun::blueprint::components::PanelState::Collapsed))
 }
 
+/// One vehicle's recording: the 3D scene, the time plots, the calibration and the events, in
+/// that order (the order the stream is written in).
 fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOptions) -> Result<(), RecordError> {
-    let rec = r.rec;
-    let n = &v.name;
     let samples: Vec<&TraceSample> = v.trace.iter().step_by(opts.every.max(1)).collect();
     let cols = Columns::of(samples.iter().map(|s| s.t));
+    scene(r, v, unc, &samples, &cols)?;
+    time_plots(r, v, unc, opts, &samples, &cols)?;
+    calibration(r, v)?;
+    events(r, v)
+}
+
+/// The 3D scene: the true and the measured body frames side by side, the markers, the paths.
+fn scene(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, samples: &[&TraceSample], cols: &Columns) -> Result<(), RecordError> {
+    let rec = r.rec;
+    let n = &v.name;
 
     // 3D: true and measured body frames side by side
     axes(rec, &format!("world/{n}/true_body/axes"), 0.3, [[230, 50, 50], [50, 200, 50], [60, 90, 240]], "b")?;
@@ -298,21 +308,27 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
     if let Some(u) = unc.filter(|u| !u.trace.is_empty()) {
         path("uncompensated_path", u.trace.iter().map(|s| f32x3(s.pos)).collect(), UNCOMPENSATED_COLOR)?;
     }
+    Ok(())
+}
 
+/// Attitude (true, measured, compensated), the distance from the reference, the PPM channels and
+/// the link's health over time.
+fn time_plots(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOptions, samples: &[&TraceSample], cols: &Columns) -> Result<(), RecordError> {
+    let n = &v.name;
     // attitude: true, measured (raw mocap), compensated (what the controller used)
     for (axis, get) in [("roll", 0usize), ("pitch", 1), ("yaw", 2)] {
         let pick = |e: crate::frames::Euler| [e.roll, e.pitch, e.yaw][get].to_degrees();
         // pitch in darker shades of the same three colours
         let shade = |c: [u8; 3]| if get == 1 { c.map(|x| (x as f32 * 0.6) as u8) } else { c };
         let base = format!("plots/{n}/attitude/{axis}");
-        r.series(&format!("{base}/true"), &format!("{n} {axis} true"), shade(TRUE_COLOR), &cols, samples.iter().map(|s| pick(s.att_true)).collect())?;
-        r.sparse_series(&format!("{base}/measured"), &format!("{n} {axis} measured"), shade(MEASURED_COLOR), &samples, |s| s.att_measured.map(|a| pick(a.euler())))?;
-        r.sparse_series(&format!("{base}/compensated"), &format!("{n} {axis} compensated"), shade(COMPENSATED_COLOR), &samples, |s| s.att_compensated.map(pick))?;
+        r.series(&format!("{base}/true"), &format!("{n} {axis} true"), shade(TRUE_COLOR), cols, samples.iter().map(|s| pick(s.att_true)).collect())?;
+        r.sparse_series(&format!("{base}/measured"), &format!("{n} {axis} measured"), shade(MEASURED_COLOR), samples, |s| s.att_measured.map(|a| pick(a.euler())))?;
+        r.sparse_series(&format!("{base}/compensated"), &format!("{n} {axis} compensated"), shade(COMPENSATED_COLOR), samples, |s| s.att_compensated.map(pick))?;
     }
 
     // distance from the reference (the circling of Fig. 6), with and without compensation
     let dev = |s: &TraceSample| (s.pos - s.reference.assume_same_as::<crate::frames::Nav>()).horizontal_norm();
-    r.series(&format!("plots/{n}/position/deviation_m"), &format!("{n} compensated"), TRUE_COLOR, &cols, samples.iter().map(|s| dev(s)).collect())?;
+    r.series(&format!("plots/{n}/position/deviation_m"), &format!("{n} compensated"), TRUE_COLOR, cols, samples.iter().map(|s| dev(s)).collect())?;
     if let Some(u) = unc.filter(|u| !u.trace.is_empty()) {
         let us: Vec<&TraceSample> = u.trace.iter().step_by(opts.every.max(1)).collect();
         let ucols = Columns::of(us.iter().map(|s| s.t));
@@ -326,7 +342,7 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
     };
     for (k, ch) in names.iter().enumerate() {
         let color = [[230, 90, 90], [90, 200, 90], [90, 120, 230], [200, 200, 200]][k];
-        r.sparse_series(&format!("plots/{n}/ppm/{ch}"), &format!("{n} {ch}"), color, &samples, |s| s.ppm.map(|f| f.channels[k] as f64))?;
+        r.sparse_series(&format!("plots/{n}/ppm/{ch}"), &format!("{n} {ch}"), color, samples, |s| s.ppm.map(|f| f.channels[k] as f64))?;
     }
 
     // link monitoring
@@ -334,18 +350,23 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
         &format!("plots/{n}/link/missing_frames"),
         &format!("{n} mocap frames missing"),
         MEASURED_COLOR,
-        &cols,
+        cols,
         samples.iter().map(|s| s.link.missing_frames as f64).collect(),
     )?;
     r.series(
         &format!("plots/{n}/link/longest_gap_ms"),
         &format!("{n} longest gap (ms)"),
         UNCOMPENSATED_COLOR,
-        &cols,
+        cols,
         samples.iter().map(|s| s.link.longest_gap_ns as f64 * 1e-6).collect(),
     )?;
+    Ok(())
+}
 
-    // calibration: RLS sample by sample, the batch LS result, the gyro estimate and the truth
+/// The calibration: RLS sample by sample, the batch LS result, the hover average, the gyro
+/// estimate and the truth.
+fn calibration(r: &Rec, v: &VehicleRun) -> Result<(), RecordError> {
+    let n = &v.name;
     let cal = &v.calibration;
     if !v.rls_trace.is_empty() {
         let rc = Columns::of(v.rls_trace.iter().map(|s| s.t));
@@ -390,8 +411,13 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
         let at = phase_end(v, "calibrate_gyro").unwrap_or(end);
         r.series(&format!("plots/{n}/calibration/yaw_gyro_deg"), &format!("{n} yaw gyro"), [200, 90, 220], &Columns::of([at, end].into_iter()), vec![g.euler.yaw.to_degrees(); 2])?;
     }
+    Ok(())
+}
 
-    // events: phases, calibration results, link gaps
+/// The events: phases, calibration results, link gaps.
+fn events(r: &Rec, v: &VehicleRun) -> Result<(), RecordError> {
+    let n = &v.name;
+    let cal = &v.calibration;
     for (t, name) in &v.phases {
         r.event(*t, "INFO", format!("{n}: phase {name}"))?;
     }
