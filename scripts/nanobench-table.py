@@ -112,7 +112,7 @@ for item in d['reports']:
     r = item['report']; name = names.get(item['flight'], item['flight'])
     for l in r.get('left', []):
         if l['correlates']:
-            leads = ', '.join(f"{c['signal']} {c['r']:+.2f}" for c in l['correlates'])
+            leads = ', '.join(f"{c['signal']} {c['r']:+.2f}" + (' (floor)' if c.get('floor') else '') for c in l['correlates'])
             print(f"  {name}: {l['channel']}.{l['axis']} {l['rmse']:.3f} {l['unit']}: {leads}")
 
 print()

@@ -102,6 +102,10 @@ pub struct Signal {
     pub name: &'static str,
     pub samples: Vec<f64>,
     pub excludes: Vec<(usize, usize)>,
+    /// A measurement's own error rather than a state of the flight (the mocap attitude against
+    /// the gyro's integral): a residual that follows it has reached that measurement's floor,
+    /// which no effect of the vehicle removes.
+    pub floor: bool,
 }
 
 /// Poses this many robust standard deviations off the midpoint of their neighbours are glitches.
@@ -414,7 +418,8 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
         o
     });
 
-    Smoothed { accel_s, gyro_s, omega_s, f_hat, f_dot, omega_dot, v_body, vel_nav, nav_axes, tilt_cols, centripetal, thrust_s, height }
+    let attitude_gap = smooth_vec3_kept(&attitude_gap(s, att_body, gyro_raw), segs, &kernel, stride);
+    Smoothed { accel_s, gyro_s, omega_s, f_hat, f_dot, omega_dot, v_body, vel_nav, nav_axes, tilt_cols, centripetal, thrust_s, height, attitude_gap }
 }
 
 /// The body-frame signals every channel and column is built from, at the log's rate (smoothed;
@@ -442,6 +447,42 @@ struct Smoothed {
     thrust_s: Option<Vec<f64>>,
     /// Height above the floor (m; infinite without a floor).
     height: Vec<f64>,
+    /// The mocap attitude against the gyro's integral, high-passed (rad, body): a lead for the
+    /// mocap's own attitude error, which f̂ carries as −δθ × f.
+    attitude_gap: Vec<Vector3<f64>>,
+}
+
+/// Over this window the gyro's integral holds the attitude (s): the attitude gap is the
+/// integral of ω_mocap − ω_gyro less its moving average over it.
+pub const ATTITUDE_GAP_WINDOW_S: f64 = 0.5;
+
+/// δθ = ∫(ω_mocap − ω_gyro)dt, per segment, less its centred moving average over
+/// [`ATTITUDE_GAP_WINDOW_S`]: the mocap attitude's error at frequencies the gyro's integral
+/// holds (plus the gyro's own high-frequency error).
+fn attitude_gap(s: &Series, att_body: &[UnitQuaternion<f64>], gyro_raw: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+    let n = s.len();
+    let dt = s.dt();
+    let rates = body_rates(att_body, &s.t_s, &s.segments);
+    let half = (0.5 * ATTITUDE_GAP_WINDOW_S / dt).round() as usize;
+    let mut gap = vec![Vector3::zeros(); n];
+    for &(a, b) in &s.segments {
+        // the integral and its prefix sums over the segment
+        let mut cum = Vec::with_capacity(b - a);
+        let mut acc = Vector3::zeros();
+        for i in a..b {
+            acc += (rates[i] - gyro_raw[i]) * dt;
+            cum.push(acc);
+        }
+        let mut prefix = vec![Vector3::zeros(); cum.len() + 1];
+        for (k, c) in cum.iter().enumerate() {
+            prefix[k + 1] = prefix[k] + c;
+        }
+        for k in 0..cum.len() {
+            let (lo, hi) = (k.saturating_sub(half), (k + half + 1).min(cum.len()));
+            gap[a + k] = cum[k] - (prefix[hi] - prefix[lo]) / (hi - lo) as f64;
+        }
+    }
+    gap
 }
 
 /// Per channel and axis: what is measured, what the nominal model predicts, and the columns.
@@ -563,14 +604,14 @@ fn channels(s: &Series, x: &Smoothed) -> Channels {
 /// The measured signals a leftover residual may follow (see [`Design::signals`]), at the log's
 /// rate.
 fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
-    let Smoothed { accel_s, gyro_s, omega_dot, v_body, vel_nav, thrust_s, height, .. } = x;
+    let Smoothed { accel_s, gyro_s, omega_dot, v_body, vel_nav, thrust_s, height, attitude_gap, .. } = x;
     // a signal that carries a channel's own measurement on an axis is no lead for that axis:
     // it correlates with the residual through the sensor's noise (and is the residual itself
     // when the prediction is flat)
     let ka = Channel::AccelKin.index();
     let kf = Channel::Force.index();
     let kg = Channel::Gyro.index();
-    let sig = |name: &'static str, v: Vec<f64>, excludes: Vec<(usize, usize)>| Signal { name, samples: v, excludes };
+    let sig = |name: &'static str, v: Vec<f64>, excludes: Vec<(usize, usize)>| Signal { name, samples: v, excludes, floor: false };
     let mut signals: Vec<Signal> = vec![
         sig("time (s)", s.t_s.clone(), vec![]),
         sig("speed (m/s)", vel_nav.iter().map(|v| v.norm()).collect(), vec![]),
@@ -588,6 +629,11 @@ fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
         sig("specific force y (m/s²)", accel_s.iter().map(|f| f.y).collect(), vec![(ka, 1), (kf, 1)]),
         sig("specific force z (m/s²)", accel_s.iter().map(|f| f.z).collect(), vec![(ka, 2), (kf, 2)]),
         sig("height (m)", height.iter().map(|h| if h.is_finite() { *h } else { 0.0 }).collect(), vec![]),
+        // the mocap pose's own error: its attitude error reads in f̂ as −δθ × f (the residual
+        // gains (−g·δθ_y, g·δθ_x) in flight), and a pose's position and attitude errors come
+        // from the same markers; it carries the gyro's measurement, so it is no lead for the gyro
+        Signal { floor: true, ..sig("mocap attitude − gyro integral x (rad)", attitude_gap.iter().map(|v| v.x).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]) },
+        Signal { floor: true, ..sig("mocap attitude − gyro integral y (rad)", attitude_gap.iter().map(|v| v.y).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]) },
     ];
     if let Some(t) = &thrust_s {
         signals.push(sig("thrust (N)", t.clone(), vec![]));

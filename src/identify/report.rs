@@ -106,12 +106,16 @@ pub fn render(r: &Report) -> String {
     if !r.left.is_empty() {
         let _ = writeln!(s, "\n  what is left (final residual; leads: measured signals it follows, |r| ≥ 0.1 and significant at 1 % over all signals):");
         for l in &r.left {
-            let leads: Vec<String> = l.correlates.iter().map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
-            let verdict = match (l.structured, leads.is_empty()) {
-                (false, _) => "no structure left (white, follows no measured signal)".to_string(),
-                (true, true) => format!("structured (Ljung–Box p = {}), follows no measured signal", sig(l.ljung_box_p)),
+            let leads: Vec<String> = l.correlates.iter().filter(|c| !c.floor).map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
+            let floor: Vec<String> = l.correlates.iter().filter(|c| c.floor).map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
+            let mut verdict = match (l.structured, leads.is_empty()) {
+                (false, _) => "no structure left (white, follows no measured signal of the flight)".to_string(),
+                (true, true) => format!("structured (Ljung–Box p = {}), follows no measured signal of the flight", sig(l.ljung_box_p)),
                 (true, false) => format!("structured, follows {}", leads.join(", ")),
             };
+            if !floor.is_empty() {
+                verdict += &format!("; part of it is the mocap pose's own error (follows {})", floor.join(", "));
+            }
             let _ = writeln!(s, "    {}.{}: {} {} left; {verdict}", l.channel.name(), l.axis, sig(l.rmse), l.unit);
         }
     }

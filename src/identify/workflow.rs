@@ -225,7 +225,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             }
         }
         for l in r.left.iter().filter(|l| !l.correlates.is_empty()) {
-            let leads: Vec<String> = l.correlates.iter().map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
+            let leads: Vec<String> = l.correlates.iter().map(|c| format!("{} r = {:+.2}{}", c.signal, c.r, if c.floor { " (the mocap pose's own error)" } else { "" })).collect();
             text += &format!("    left on {}.{} ({:.3} {}): follows {}\n", l.channel.name(), l.axis, l.rmse, l.unit, leads.join(", "));
         }
         for n in &r.notes {

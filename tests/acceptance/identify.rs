@@ -391,6 +391,7 @@ fn nanobench_table_is_pinned() {
     let mut diffs = [Vec::new(), Vec::new()];
     let mut agreements = Vec::new();
     let mut rest_scatter = Vec::new();
+    let mut at_floor = Vec::new();
     for (name, offset, thrust, drag, lever, diff, rmse) in table {
         let s = map.read(&data.join(format!("nanobench/dataset/{name}.csv"))).unwrap();
         let r = identify(&s, &opts).unwrap();
@@ -407,10 +408,21 @@ fn nanobench_table_is_pinned() {
         }
         agreements.push(a);
         rest_scatter.push((name.to_string(), r.ground_check.unwrap().mocap_sd_deg[0]));
+        // the accel_kin x floor (README, *The Vicon attitude in flight*): the final residual
+        // follows the Vicon attitude's pitch gap with the sign of −g·δθ_y
+        let x = r.left.iter().find(|l| l.channel == flyarena::identify::Channel::AccelKin && l.axis == 'x').unwrap();
+        if x.correlates.iter().any(|c| c.floor && c.signal.ends_with("integral y (rad)") && (-0.6..=-0.19).contains(&c.r)) {
+            at_floor.push(name);
+        }
         let ak: Vec<f64> = r.errors.iter().filter(|e| e.channel == flyarena::identify::Channel::AccelKin).map(|e| e.rmse_after).collect();
         let got = (ak.iter().map(|x| x * x).sum::<f64>() / ak.len() as f64).sqrt();
         assert!((got / rmse - 1.0).abs() < 0.02, "{name}: accel_kin RMSE {got} vs {rmse}");
     }
+    assert_eq!(
+        at_floor,
+        ["B2_circle_fast_rep2", "B3_figure8_medium_rep2", "B5_helix_fast_rep1", "B7_oval_fast_rep1", "B8_star_medium_rep1", "B9_trefoil_fast_rep1"],
+        "accel_kin x at the Vicon attitude's floor"
+    );
     // the README's medians of |ground − bias tilt − flight|: 0.17° roll, 0.39° pitch
     for (k, want) in [(0, 0.17), (1, 0.39)] {
         diffs[k].sort_by(f64::total_cmp);

@@ -56,7 +56,7 @@ pub(super) fn leads(ls: &LeadSignals, c: usize, a: usize, residual: &[f64]) -> V
         // two-sided test of r = 0 (r·√n_eff ~ N(0, 1)), Bonferroni over the signals
         let p = crate::identify::stats::chi2_sf(rho * rho * n_eff, 1.0);
         if rho.abs() >= LEAD_MIN_CORR && p < 0.01 / d.signals.len() as f64 {
-            out.push(Correlate { signal: sg.name.to_string(), r: rho, n_eff });
+            out.push(Correlate { signal: sg.name.to_string(), r: rho, n_eff, floor: sg.floor });
         }
     }
     out.sort_by(|a, b| b.r.abs().total_cmp(&a.r.abs()));
@@ -102,7 +102,7 @@ pub(super) fn final_residuals(
             rmse: err.rmse_after,
             unit: err.unit.clone(),
             ljung_box_p: lb.p_value,
-            structured: !correlates.is_empty() || lb.p_value < 0.01,
+            structured: correlates.iter().any(|x| !x.floor) || lb.p_value < 0.01,
             correlates,
         });
         whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: lb });

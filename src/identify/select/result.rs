@@ -130,6 +130,8 @@ pub struct Correlate {
     pub r: f64,
     /// Bartlett's effective sample size (both series are autocorrelated).
     pub n_eff: f64,
+    /// The signal is a measurement's own error ([`Signal::floor`](crate::identify::design::Signal::floor)): following it is no lead for an effect.
+    pub floor: bool,
 }
 
 /// What is left on one channel axis once the effects are fitted: is the residual still
@@ -150,7 +152,8 @@ pub struct Left {
     /// Bonferroni-corrected over the signals (r·√n_eff against N(0, 1)), strongest first, at
     /// most [`LEAD_MAX`].
     pub correlates: Vec<Correlate>,
-    /// The residual is not noise: it follows a measured signal, or fails Ljung–Box at 1 %.
+    /// The residual is not noise: it follows a measured signal of the flight (not only a
+    /// measurement's own error), or fails Ljung–Box at 1 %.
     pub structured: bool,
 }
 
