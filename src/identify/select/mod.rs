@@ -188,6 +188,12 @@ fn available(d: &Design, e: Effect) -> bool {
     }
 }
 
+/// The whole tilt at rest (roll, pitch; rad): the frame part plus the tilt (b_y/g, −b_x/g) an
+/// accelerometer bias b implies (see [`rest_tilt`]).
+fn total_tilt(frame: [f64; 2], bias: &Vector3<f64>, g: f64) -> [f64; 2] {
+    [frame[0] + bias.y / g, frame[1] - bias.x / g]
+}
+
 /// The tilt at rest that the fitted model predicts, per axis (roll, pitch), in rad. The frame
 /// part is the body offset δ plus the world tilt τ as the vehicle sees it at its rest yaw ψ,
 /// (τ_x·cos ψ + τ_y·sin ψ, −τ_x·sin ψ + τ_y·cos ψ) (the `accel_kin` column Rᵀ(g·e_D × e_j) at a
@@ -195,12 +201,6 @@ fn available(d: &Design, e: Effect) -> bool {
 /// (b_y/g, −b_x/g), as [`super::ground`] derives. Returns (frame part, bias, standard deviation
 /// of the whole sum from the fit's covariance: offset and bias trade off in a hover, their sum
 /// does not).
-/// The whole tilt at rest (roll, pitch; rad): the frame part plus the tilt (b_y/g, −b_x/g) an
-/// accelerometer bias b implies (see [`rest_tilt`]).
-fn total_tilt(frame: [f64; 2], bias: &Vector3<f64>, g: f64) -> [f64; 2] {
-    [frame[0] + bias.y / g, frame[1] - bias.x / g]
-}
-
 fn rest_tilt(selected: &[Effect], fit: &Fit, corr: &Corrections, g: f64, yaw: f64) -> ([f64; 2], nalgebra::Vector3<f64>, [f64; 2]) {
     let has = |e: Effect| selected.contains(&e);
     let (c, s) = (yaw.cos(), yaw.sin());
@@ -324,13 +324,13 @@ pub enum IdentifyError {
     TooLittleClean { log: String, usable: usize, needed: usize, cuts: Vec<String> },
 }
 
-/// One candidate block (or two together) on top of the fitted set `base`: ΔBIC, F-test,
 /// The change of the Bayesian information criterion n·ln(RSS/n) + k·ln n when k parameters
 /// take the residual sum of squares from `rss_base` to `rss` over n samples (negative: better).
 fn bic_change(n: f64, rss_base: f64, rss: f64, k: f64) -> f64 {
     n * (rss / rss_base).ln() + k * n.ln()
 }
 
+/// One candidate block (or two together) on top of the fitted set `base`: ΔBIC, F-test,
 /// held-out gain on the axes the block acts on, largest correlation with the residual of
 /// `base`, and whether it passes the gates among `tests` candidates.
 fn score(gs: &[Gram], base: &Fit, effects: &[Effect], tests: usize, o: &Options) -> Candidate {
@@ -394,81 +394,90 @@ fn backward_worst(gs: &[Gram], selected: &[Effect], testable: &[Effect], tests: 
     worst
 }
 
-/// The selection on a gated flight.
-fn select(s: &Series, o: &Options) -> Report {
-    let mut corr = Corrections::default();
-    let mut selected: Vec<Effect> = Vec::new();
-    let mut steps = Vec::new();
-    let mut notes = Vec::new();
-    let mut final_candidates = Vec::new();
-    let nominal = refine(s, o, &mut corr, &[], 0);
-    let usable = nominal.train.iter().filter(|x| **x).count();
-    let too_few = usable < MIN_TRAIN_SAMPLES;
-    if too_few {
-        notes.push(format!(
-            "only {usable} usable training samples (airborne above {} m, away from gaps and edges; decimated): at least {MIN_TRAIN_SAMPLES} are needed to select effects, so none were tried",
-            o.design.min_height_m
-        ));
-    }
-    if nominal.design.outliers > 0 {
-        notes.push(format!(
-            "{} mocap glitches (a pose more than {} robust σ, and 1 mm or 0.5°, off the midpoint of its neighbours) were left out with ±{} ms around each",
-            nominal.design.outliers,
-            super::design::GLITCH_SIGMAS,
-            (3.0 * o.design.smoothing_s * 1e3).round()
-        ));
-    }
-    let mut state = nominal;
-    let mut state_corr = corr;
-    let mut removed: Vec<Removal> = Vec::new();
-    if !too_few {
+/// The search's state: the selected set, fitted at its folded corrections, and what the steps
+/// and backward checks did so far.
+struct Search {
+    selected: Vec<Effect>,
+    state: Problem,
+    corr: Corrections,
+    steps: Vec<Step>,
+    removed: Vec<Removal>,
+    /// The candidates of the step that found none passing (the last forward step).
+    final_candidates: Vec<Candidate>,
+}
+
+impl Search {
+    /// Fits the forced effects (those with columns in the data) without testing them.
+    fn force(&mut self, s: &Series, o: &Options, notes: &mut Vec<String>) {
         for e in &o.forced {
-            if available(&state.design, *e) && !selected.contains(e) {
-                selected.push(*e);
+            if available(&self.state.design, *e) && !self.selected.contains(e) {
+                self.selected.push(*e);
             }
         }
-        if !selected.is_empty() {
-            state = refine(s, o, &mut state_corr, &selected, o.refine_iterations);
-            notes.push(format!("fitted without testing (forced): {}", selected.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")));
+        if !self.selected.is_empty() {
+            self.refit(s, o);
+            notes.push(format!("fitted without testing (forced): {}", self.selected.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")));
         }
     }
-    loop {
-        if too_few {
-            break;
-        }
-        // backward check, once after every step: an effect that joined early may be explained
-        // by the ones that joined after it (a constant force taken first for a force-channel
-        // offset that an accelerometer bias and a thrust scale explain once both are in). Each
-        // linear effect must still pass the gates that let it in, now on top of all the
-        // others; the worst that fails leaves for good (it cannot re-enter, so the selection
-        // terminates), and the forward steps go on from the smaller model. Corrections (rotations,
-        // delay, lever arm) are folded into the trajectory and are not re-tested; nor is a pair
-        // that joined together (each alone fails by construction) or a forced effect.
-        // (every pass of the loop after the first follows a step)
-        if !steps.is_empty() {
-            let in_pair = |e: Effect| steps.iter().any(|st: &Step| st.together_with.is_some() && (st.added == e || st.together_with == Some(e)));
-            let testable: Vec<Effect> = selected.iter().copied().filter(|e| !e.is_correction() && !o.forced.contains(e) && !in_pair(*e)).collect();
-            let outside = pool_of(o, &state.design, &selected, &removed).len();
-            if let Some(w) = backward_worst(&state.grams, &selected, &testable, outside + 1, o) {
-                selected.retain(|x| *x != w.effect);
-                let mut c2 = state_corr;
-                state = refine(s, o, &mut c2, &selected, o.refine_iterations);
-                state_corr = c2;
-                removed.push(Removal { after_step: steps.len(), check: w });
+
+    /// Refits the selected set from the current corrections.
+    fn refit(&mut self, s: &Series, o: &Options) {
+        let mut c2 = self.corr;
+        self.state = refine(s, o, &mut c2, &self.selected, o.refine_iterations);
+        self.corr = c2;
+    }
+
+    /// Forward steps, each followed by the backward check, until no candidate passes, none is
+    /// left or `max_steps` is reached.
+    fn run(&mut self, s: &Series, o: &Options, notes: &mut Vec<String>) {
+        loop {
+            // (every pass of the loop after the first follows a step)
+            if !self.steps.is_empty() {
+                self.backward(s, o);
+            }
+            if self.steps.len() >= o.max_steps {
+                notes.push(format!("stopped after {} steps (max_steps)", o.max_steps));
+                break;
+            }
+            if !self.forward(s, o) {
+                break;
             }
         }
-        if steps.len() >= o.max_steps {
-            notes.push(format!("stopped after {} steps (max_steps)", o.max_steps));
-            break;
+    }
+
+    /// The backward check, once after every step: an effect that joined early may be explained
+    /// by the ones that joined after it (a constant force taken first for a force-channel
+    /// offset that an accelerometer bias and a thrust scale explain once both are in). Each
+    /// linear effect must still pass the gates that let it in, now on top of all the others;
+    /// the worst that fails leaves for good (it cannot re-enter, so the selection terminates),
+    /// and the forward steps go on from the smaller model. Corrections (rotations, delay, lever
+    /// arm) are folded into the trajectory and are not re-tested; nor is a pair that joined
+    /// together (each alone fails by construction) or a forced effect.
+    fn backward(&mut self, s: &Series, o: &Options) {
+        let steps = &self.steps;
+        let in_pair = |e: Effect| steps.iter().any(|st: &Step| st.together_with.is_some() && (st.added == e || st.together_with == Some(e)));
+        let testable: Vec<Effect> = self.selected.iter().copied().filter(|e| !e.is_correction() && !o.forced.contains(e) && !in_pair(*e)).collect();
+        let outside = pool_of(o, &self.state.design, &self.selected, &self.removed).len();
+        if let Some(w) = backward_worst(&self.state.grams, &self.selected, &testable, outside + 1, o) {
+            self.selected.retain(|x| *x != w.effect);
+            self.refit(s, o);
+            self.removed.push(Removal { after_step: self.steps.len(), check: w });
         }
-        let pool = pool_of(o, &state.design, &selected, &removed);
+    }
+
+    /// One forward step: the candidate (or pair) that passes the gates with the lowest ΔBIC
+    /// joins. False when none is left or none passes (its candidates are then kept as the
+    /// final ones).
+    fn forward(&mut self, s: &Series, o: &Options) -> bool {
+        let pool = pool_of(o, &self.state.design, &self.selected, &self.removed);
         if pool.is_empty() {
-            break;
+            return false;
         }
+        let state = &self.state;
         // the noise model for the tests comes from the residual of the largest model (S and
         // every candidate): an AR fitted to a residual that still holds an effect would model
         // the effect as noise and whiten it away
-        let mut full: Vec<Effect> = selected.clone();
+        let mut full: Vec<Effect> = self.selected.clone();
         full.extend(&pool);
         let grams_test = {
             let white: Vec<Ar> = active(&state.design).iter().map(|_| Ar::white(1.0)).collect();
@@ -502,8 +511,8 @@ fn select(s: &Series, o: &Options) -> Report {
             (Some(s1), _) => (s1, None),
             (None, Some((b, p))) => (p, Some(b)),
             (None, None) => {
-                final_candidates = cands;
-                break;
+                self.final_candidates = cands;
+                return false;
             }
         };
         let mut unident = Vec::new();
@@ -513,13 +522,12 @@ fn select(s: &Series, o: &Options) -> Report {
                 unident.push((c.effect, rho));
             }
         }
-        selected.push(best.effect);
-        selected.extend(partner);
-        let mut c2 = state_corr;
-        state = refine(s, o, &mut c2, &selected, o.refine_iterations);
-        state_corr = c2;
-        let params = selected.iter().flat_map(|e| params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &state_corr)).collect();
-        steps.push(Step {
+        self.selected.push(best.effect);
+        self.selected.extend(partner);
+        self.refit(s, o);
+        let (fit, corr) = (&self.state.fit, &self.corr);
+        let params = self.selected.iter().flat_map(|e| params_of(*e, &fit.theta, &fit.cov, &fit.set, corr)).collect();
+        self.steps.push(Step {
             added: best.effect,
             together_with: partner,
             delta_bic: best.delta_bic,
@@ -529,84 +537,109 @@ fn select(s: &Series, o: &Options) -> Report {
             not_identifiable_from: unident,
             params,
         });
-    }
-    let steps_kept = |st: &&Step| !removed.iter().any(|r| r.check.effect == st.added);
-    // identifiability of the two frame effects, whatever was selected
-    let yaw_spread_deg = state.design.yaw_spread_rad.to_degrees();
-    let mut not_identifiable: Vec<(Effect, Effect, f64)> =
-        steps.iter().filter(steps_kept).flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho))).collect();
-    let flagged = |a: Effect, b: Effect| {
-        steps.iter().any(|st: &Step| (st.added == a && st.not_identifiable_from.iter().any(|x| x.0 == b)) || (st.added == b && st.not_identifiable_from.iter().any(|x| x.0 == a)))
-    };
-    if (selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt)) && !flagged(Effect::BodyOffset, Effect::WorldTilt) {
-        let rho = canonical_corr(&state.grams, &[], &set_of(&[Effect::WorldTilt]), &set_of(&[Effect::BodyOffset]));
-        if rho > 0.99 {
-            // the one not selected (if both were, the pair is still named)
-            let (a, b) = if selected.contains(&Effect::BodyOffset) { (Effect::BodyOffset, Effect::WorldTilt) } else { (Effect::WorldTilt, Effect::BodyOffset) };
-            not_identifiable.push((a, b, rho));
-            notes.push(format!(
-                "mocap world tilt and body offset roll/pitch are not identifiable apart in this flight (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): they differ only through yaw changes, body rates and accelerations other than gravity"
-            ));
-        }
-    }
-    for st in steps.iter().filter(steps_kept) {
-        for (e, rho) in &st.not_identifiable_from {
-            notes.push(format!(
-                "{} was chosen over {} by ΔBIC, but this flight cannot tell them apart (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): not identifiable; fly yaw turns, circles and accelerations to separate them",
-                st.added.key(),
-                e.key()
-            ));
-        }
+        true
     }
 
-    // a mocap that leads the IMU is no latency: a clock offset between the streams, or a delay
-    // of the gyro alone (which shares the mocap delay's gyro column and is not searched)
-    if selected.contains(&Effect::MocapDelay) && state_corr.mocap_delay_s < 0.0 && !selected.contains(&Effect::GyroDelay) {
+    /// The step that added an effect the backward check did not remove later.
+    fn kept(&self, st: &Step) -> bool {
+        !self.removed.iter().any(|r| r.check.effect == st.added)
+    }
+
+    /// The step that added `e` (and was kept) named `c` as not identifiable from it.
+    fn named_at_step(&self, e: Effect, c: Effect) -> bool {
+        self.steps.iter().filter(|st| self.kept(st)).any(|st| st.added == e && st.not_identifiable_from.iter().any(|x| x.0 == c))
+    }
+
+    /// The pairs the data cannot tell apart, with a note for each: those the kept steps named,
+    /// and the two frame effects whatever was selected.
+    fn identifiability(&self, yaw_spread_deg: f64, notes: &mut Vec<String>) -> Vec<(Effect, Effect, f64)> {
+        let (steps, selected, state) = (&self.steps, &self.selected, &self.state);
+        let mut not_identifiable: Vec<(Effect, Effect, f64)> =
+            steps.iter().filter(|st| self.kept(st)).flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho))).collect();
+        let flagged = |a: Effect, b: Effect| {
+            steps
+                .iter()
+                .any(|st: &Step| (st.added == a && st.not_identifiable_from.iter().any(|x| x.0 == b)) || (st.added == b && st.not_identifiable_from.iter().any(|x| x.0 == a)))
+        };
+        if (selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt)) && !flagged(Effect::BodyOffset, Effect::WorldTilt) {
+            let rho = canonical_corr(&state.grams, &[], &set_of(&[Effect::WorldTilt]), &set_of(&[Effect::BodyOffset]));
+            if rho > 0.99 {
+                // the one not selected (if both were, the pair is still named)
+                let (a, b) = if selected.contains(&Effect::BodyOffset) { (Effect::BodyOffset, Effect::WorldTilt) } else { (Effect::WorldTilt, Effect::BodyOffset) };
+                not_identifiable.push((a, b, rho));
+                notes.push(format!(
+                    "mocap world tilt and body offset roll/pitch are not identifiable apart in this flight (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): they differ only through yaw changes, body rates and accelerations other than gravity"
+                ));
+            }
+        }
+        for st in steps.iter().filter(|st| self.kept(st)) {
+            for (e, rho) in &st.not_identifiable_from {
+                notes.push(format!(
+                    "{} was chosen over {} by ΔBIC, but this flight cannot tell them apart (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): not identifiable; fly yaw turns, circles and accelerations to separate them",
+                    st.added.key(),
+                    e.key()
+                ));
+            }
+        }
+        // a mocap that leads the IMU is no latency: a clock offset between the streams, or a
+        // delay of the gyro alone (which shares the mocap delay's gyro column and is not searched)
+        if selected.contains(&Effect::MocapDelay) && self.corr.mocap_delay_s < 0.0 && !selected.contains(&Effect::GyroDelay) {
+            notes.push(format!(
+                "the mocap delay came out negative ({:.1} ms: the mocap leads the IMU): a clock offset between the streams, or a delay of the gyro alone against the accelerometer, which `--with gyro_delay` tests",
+                self.corr.mocap_delay_s * 1e3
+            ));
+        }
+        not_identifiable
+    }
+}
+
+/// Notes on the nominal fit's data (too few usable samples, glitches left out); true when
+/// there are too few samples to select anything.
+fn gate_notes(nominal: &Problem, o: &Options, notes: &mut Vec<String>) -> bool {
+    let usable = nominal.train.iter().filter(|x| **x).count();
+    let too_few = usable < MIN_TRAIN_SAMPLES;
+    if too_few {
         notes.push(format!(
-            "the mocap delay came out negative ({:.1} ms: the mocap leads the IMU): a clock offset between the streams, or a delay of the gyro alone against the accelerometer, which `--with gyro_delay` tests",
-            state_corr.mocap_delay_s * 1e3
+            "only {usable} usable training samples (airborne above {} m, away from gaps and edges; decimated): at least {MIN_TRAIN_SAMPLES} are needed to select effects, so none were tried",
+            o.design.min_height_m
         ));
     }
+    if nominal.design.outliers > 0 {
+        notes.push(format!(
+            "{} mocap glitches (a pose more than {} robust σ, and 1 mm or 0.5°, off the midpoint of its neighbours) were left out with ±{} ms around each",
+            nominal.design.outliers,
+            super::design::GLITCH_SIGMAS,
+            (3.0 * o.design.smoothing_s * 1e3).round()
+        ));
+    }
+    too_few
+}
+
+/// The selection on a gated flight.
+fn select(s: &Series, o: &Options) -> Report {
+    let mut notes = Vec::new();
+    let mut corr = Corrections::default();
+    let nominal = refine(s, o, &mut corr, &[], 0);
+    let too_few = gate_notes(&nominal, o, &mut notes);
+    let mut search = Search { selected: Vec::new(), state: nominal, corr, steps: Vec::new(), removed: Vec::new(), final_candidates: Vec::new() };
+    if !too_few {
+        search.force(s, o, &mut notes);
+        search.run(s, o, &mut notes);
+    }
+    let yaw_spread_deg = search.state.design.yaw_spread_rad.to_degrees();
+    let mut not_identifiable = search.identifiability(yaw_spread_deg, &mut notes);
 
     // errors before (nominal, no corrections) → after, on the held-out part
     let nominal_design = build(s, &Corrections::default(), &o.design);
-    let d = &state.design;
+    let (state, corr, selected) = (&search.state, search.corr, &search.selected);
     // the same design with the measured signals, for the leads of what is left
-    let with_signals = super::design::build_with_signals(s, &state_corr, &o.design);
+    let with_signals = super::design::build_with_signals(s, &corr, &o.design);
     let lead_sigs = lead_signals(&with_signals);
-    let (errors, whiteness, left) = final_residuals(d, &state.fit.theta, &state.test, &nominal_design, &lead_sigs, o.max_ar_order);
+    let (errors, whiteness, left) = final_residuals(&state.design, &state.fit.theta, &state.test, &nominal_design, &lead_sigs, o.max_ar_order);
     let mut effects: Vec<Found> =
-        selected.iter().map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &state_corr) }).collect();
-    let g = s.model.gravity_m_s2;
-    let rest_yaw = super::ground::rest_yaw(s).unwrap_or(0.0);
-    let (tilt_offset, tilt_bias, tilt_sd) = rest_tilt(&selected, &state.fit, &state_corr, g, rest_yaw);
-    let tilt_total = total_tilt(tilt_offset, &tilt_bias, g);
-    let mut tilt_widen = [0.0f64; 2];
-    if !too_few {
-        let fin = widen::Final { s, o, state: &state, corr: state_corr, selected: &selected, g, rest_yaw };
-        let named_at_step = |e: Effect, c: Effect| steps.iter().filter(steps_kept).any(|st| st.added == e && st.not_identifiable_from.iter().any(|x| x.0 == c));
-        widen::swaps(&fin, named_at_step, tilt_total, yaw_spread_deg, &mut not_identifiable, &mut effects, &mut tilt_widen, &mut notes);
-        widen::half_supported(&fin, &final_candidates, tilt_sd, &mut effects, &mut tilt_widen, &mut notes);
-    }
-    // the widening is an extra half-width beyond the fit's own
-    let tilt_widen = [0, 1].map(|k| (tilt_widen[k] - Z_975 * tilt_sd[k]).max(0.0));
-    let ground_check = super::ground::ground_check(s);
-    let ground_agreement = match (&ground_check, too_few) {
-        (Some(raw), false) => super::ground::tilt_at_rest(s, &tilt_bias).map(|corrected| {
-            let flight = super::ground::FlightTilt {
-                offset_rad: tilt_offset,
-                sd_rad: tilt_sd,
-                widen_rad: tilt_widen,
-                frame_fitted: selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt),
-                accel_bias_fitted: selected.contains(&Effect::AccelBias),
-            };
-            super::ground::agreement(raw, &corrected, &flight, super::ground::spin_up(s, &tilt_bias).as_ref(), super::ground::tilt_after_landing(s, &tilt_bias).as_ref())
-        }),
-        _ => None,
-    };
-    if let Some(a) = &ground_agreement {
-        notes.extend(super::ground::agreement_notes(a));
-    }
+        selected.iter().map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &corr) }).collect();
+    let (ground_check, ground_agreement) =
+        if too_few { (super::ground::ground_check(s), None) } else { ground(s, o, &search, yaw_spread_deg, &mut not_identifiable, &mut effects, &mut notes) };
     Report {
         source: s.source.clone(),
         samples: s.len(),
@@ -614,9 +647,9 @@ fn select(s: &Series, o: &Options) -> Report {
         heldout_samples: state.test.iter().filter(|x| **x).count(),
         model: s.model.clone(),
         options: o.clone(),
-        steps,
-        final_candidates,
-        removed,
+        final_candidates: search.final_candidates,
+        removed: search.removed,
+        steps: search.steps,
         effects,
         errors,
         whiteness,
@@ -628,9 +661,50 @@ fn select(s: &Series, o: &Options) -> Report {
         repairs: s.repairs.clone(),
         data_quality: super::quality::DataQuality::default(),
         not_identifiable,
-        corrections: state_corr,
-        theta: state.fit.theta.clone(),
+        corrections: corr,
+        theta: search.state.fit.theta.clone(),
     }
+}
+
+/// The tilt at rest the selected model predicts, widened where the flight cannot tell two
+/// models apart, against the ground check (before take-off, during the spin-up, after landing).
+fn ground(
+    s: &Series,
+    o: &Options,
+    search: &Search,
+    yaw_spread_deg: f64,
+    not_identifiable: &mut Vec<(Effect, Effect, f64)>,
+    effects: &mut [Found],
+    notes: &mut Vec<String>,
+) -> (Option<super::ground::GroundCheck>, Option<super::ground::GroundAgreement>) {
+    let (state, selected) = (&search.state, &search.selected);
+    let g = s.model.gravity_m_s2;
+    let rest_yaw = super::ground::rest_yaw(s).unwrap_or(0.0);
+    let (tilt_offset, tilt_bias, tilt_sd) = rest_tilt(selected, &state.fit, &search.corr, g, rest_yaw);
+    let tilt_total = total_tilt(tilt_offset, &tilt_bias, g);
+    let mut tilt_widen = [0.0f64; 2];
+    let fin = widen::Final { s, o, state, corr: search.corr, selected, g, rest_yaw };
+    widen::swaps(&fin, |e, c| search.named_at_step(e, c), tilt_total, yaw_spread_deg, not_identifiable, effects, &mut tilt_widen, notes);
+    widen::half_supported(&fin, &search.final_candidates, tilt_sd, effects, &mut tilt_widen, notes);
+    // the widening is an extra half-width beyond the fit's own
+    let tilt_widen = [0, 1].map(|k| (tilt_widen[k] - Z_975 * tilt_sd[k]).max(0.0));
+    let ground_check = super::ground::ground_check(s);
+    let ground_agreement = ground_check.as_ref().and_then(|raw| {
+        super::ground::tilt_at_rest(s, &tilt_bias).map(|corrected| {
+            let flight = super::ground::FlightTilt {
+                offset_rad: tilt_offset,
+                sd_rad: tilt_sd,
+                widen_rad: tilt_widen,
+                frame_fitted: selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt),
+                accel_bias_fitted: selected.contains(&Effect::AccelBias),
+            };
+            super::ground::agreement(raw, &corrected, &flight, super::ground::spin_up(s, &tilt_bias).as_ref(), super::ground::tilt_after_landing(s, &tilt_bias).as_ref())
+        })
+    });
+    if let Some(a) = &ground_agreement {
+        notes.extend(super::ground::agreement_notes(a));
+    }
+    (ground_check, ground_agreement)
 }
 
 #[cfg(test)]
