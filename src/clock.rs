@@ -12,7 +12,6 @@
 //! assert_eq!(vicon.ticks_of(physics), Some(5)); // a Vicon frame every 5 physics steps
 //! assert_eq!(Rate::from_hz(400).unwrap().ticks_of(physics), None); // 400 Hz does not divide 1 kHz
 //! ```
-#![warn(missing_docs)]
 
 use serde::Serialize;
 use std::fmt;

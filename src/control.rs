@@ -23,7 +23,6 @@
 //! attitude-mode vehicle needs (φ_com, θ_com and the heading rate ψ̇_com, the third row of (3)
 //! before T_w⁻¹); the radio sends the one the vehicle's [`crate::vehicle::OnboardMode`] tracks. In
 //! attitude mode (3)'s roll and pitch rows and (4) run onboard, on the vehicle's own angles.
-#![warn(missing_docs)]
 
 use crate::frames::{Body, Euler, MocapNav, Rot, Vec3, t_w_inv, t_w_inv_sc, wrap_pi};
 use crate::vehicle::params::GRAVITY;

@@ -4,7 +4,6 @@
 //! finds them), so neither depends on the other for it. The regressors are in
 //! `identify::design`; the simulated counterparts in `scenario` fields (see
 //! `identify::trials` for the table).
-#![warn(missing_docs)]
 
 /// The residual channels: three axes each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

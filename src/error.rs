@@ -4,7 +4,6 @@
 //! still matches on the stage. Every message names the file, and the line and column where
 //! the defect has them. The command line prints the message and exits with
 //! [`Error::exit_code`].
-#![warn(missing_docs)]
 
 use std::path::PathBuf;
 

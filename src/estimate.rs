@@ -5,7 +5,6 @@
 //! a first-order low-pass filter (cut-off f_c) of the finite-difference velocity, in the mocap's
 //! NED frame. Δt_k is the difference of the frames' capture timestamps, so a dropped packet makes a
 //! longer, correctly scaled step instead of a velocity spike.
-#![warn(missing_docs)]
 
 use crate::clock::Nanos;
 use crate::frames::{MocapNav, Vec3};

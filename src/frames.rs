@@ -39,7 +39,6 @@
 //! let thrust_axis = Vec3::<Body>::new(0.0, 0.0, -1.0);
 //! let _ = measured.apply(thrust_axis); // the mocap attitude does not accept true-body vectors
 //! ```
-#![warn(missing_docs)]
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use serde::Serialize;

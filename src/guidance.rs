@@ -5,7 +5,6 @@
 //! Motion profiles are trapezoidal in velocity (position, velocity and acceleration feed-forward
 //! continuous in position and velocity); yaw moves at constant rate with its rate as feed-forward.
 //! Positions are relative to the vehicle's home on the floor (NED, so altitude h is D = −h).
-#![warn(missing_docs)]
 
 use crate::clock::Nanos;
 use crate::control::{LateralMode, Reference};

@@ -13,7 +13,6 @@
 //! The receiver monitors the link from the sequence numbers alone, as in the arena: packets
 //! received, frames missing (lost on the link or never sent because the vehicle was not seen), the
 //! longest run of missing frames and the longest time between two deliveries.
-#![warn(missing_docs)]
 
 use crate::clock::Nanos;
 use crate::rng::Stream;

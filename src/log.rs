@@ -21,7 +21,6 @@
 //! Repairs, each reported in [`FlightLog::repairs`]: a last line cut short (no newline, too few
 //! cells) is dropped; a row repeating the previous timestamp exactly is dropped; a gap longer
 //! than 3 × the median sampling interval splits the log into segments.
-#![warn(missing_docs)]
 
 use crate::engine::VehicleRun;
 use std::fmt::Write as _;

@@ -5,7 +5,6 @@
 //!   ([`install_interrupt_handler`]) removes the temporary files being written.
 //! - [`check_file_name`] is the rule for names that become file names (a scenario's `name`, a
 //!   vehicle's `name`): a scenario from someone else must not write outside `--out`.
-#![warn(missing_docs)]
 
 use std::io::Write;
 use std::path::PathBuf;

@@ -14,7 +14,6 @@
 //! vehicle's maximum collective thrust, 24.0 N for the X3D: 0.094 N a count).
 //! The transmitter samples the controller's latest command every frame (zero-order hold until the
 //! next frame); the receiver decodes the frame `latency` after it was sampled.
-#![warn(missing_docs)]
 
 use crate::clock::Nanos;
 use crate::control::ControlOutput;

@@ -51,8 +51,10 @@ impl Default for RecordOptions {
     }
 }
 
+/// Why a recording could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum RecordError {
+    /// The Rerun SDK failed.
     #[error("rerun: {0}")]
     Rerun(String),
 }
@@ -498,7 +500,9 @@ fn phase_end(v: &VehicleRun, name: &str) -> Option<Nanos> {
 
 /// The data recording of an `.rrd` file, decoded (for tests and tools).
 pub struct Decoded {
+    /// The recording's id, if it has one.
     pub recording_id: Option<String>,
+    /// Its chunks.
     pub chunks: Vec<rerun::log::Chunk>,
 }
 

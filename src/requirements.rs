@@ -12,7 +12,6 @@
 //!   reduce and the ratio is reported as not applicable (the absolute bound still applies).
 //! * **R3 least squares = recursive least squares**: |ψ̂_LS − ψ̂_RLS| and |X̂_E0,LS − X̂_E0,RLS|.
 //! * **R4 validity check**: equation (7) gives the verdict the scenario expects.
-#![warn(missing_docs)]
 
 use crate::engine::{RunOutput, VehicleRun};
 use crate::scenario::{RequirementsCfg, Verdict};

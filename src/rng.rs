@@ -14,7 +14,6 @@
 //! let mut other = Stream::new(7, Component::LinkLoss, 0);
 //! assert_ne!(Stream::new(7, Component::MocapNoise, 0).next_u64(), other.next_u64());
 //! ```
-#![warn(missing_docs)]
 
 /// The random consumers in the arena. The discriminant is part of the seed derivation: never
 /// renumber, only append.

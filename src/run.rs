@@ -12,7 +12,6 @@
 //! let summary = outcome.summary(&s);
 //! assert_eq!(summary.scenario, "fig7-no-offsets");
 //! ```
-#![warn(missing_docs)]
 
 use crate::engine::{RunOptions, RunOutput, run};
 use crate::requirements::{self, Report, Row};

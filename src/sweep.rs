@@ -14,7 +14,6 @@
 //!
 //! The variations are applied to the YAML tree, which is then parsed and validated like any
 //! scenario, so a variation that leaves the allowed range is reported like a bad scenario.
-#![warn(missing_docs)]
 
 use crate::rng::{Component, Stream};
 use crate::run::run_scenario;

@@ -10,7 +10,6 @@
 //! Yaw: while the yaw loop holds the measured heading at ψ_com = 0, the true heading is −ψ_off,
 //! so the track satisfies X_E = tan(−ψ_off)·X_N + X_E,0. Equation (9) gives the *course*
 //! tan⁻¹(S_xy/S_xx) of that track; in this convention ψ̂_off = −tan⁻¹(S_xy/S_xx).
-#![warn(missing_docs)]
 
 pub mod gyro;
 

@@ -21,7 +21,6 @@
 //! Random draws come from one stream per component and vehicle ([`crate::rng`]), so a run is a
 //! pure function of the scenario and its seed: bit-identical trajectories whatever the thread
 //! count (the engine is single-threaded per run; fleets and sweeps never share a stream).
-#![warn(missing_docs)]
 
 pub mod station;
 

@@ -15,6 +15,8 @@ pub fn effect_cut(r: &Report, e: Effect) -> Option<f64> {
     e.channels().iter().filter_map(|c| heldout_cut(r, *c)).max_by(f64::total_cmp)
 }
 
+/// R5 for one vehicle: the rows of its `identify` requirement (effects found, parameters within
+/// their limits, the held-out cut, nothing invented) checked against a report.
 pub fn check(r: &Report, req: &IdentifyReq, vehicle: &str) -> requirements::Report {
     let row = |what: String, measured: String, limit: String, pass: bool| Row { vehicle: vehicle.to_string(), id: "R5", what, measured, limit, pass, asserted: true };
     let mut rows = Vec::new();

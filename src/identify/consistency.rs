@@ -40,6 +40,7 @@ pub const AGREE_P: f64 = 0.05;
 /// One axis of the body offset inside one mounting.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AxisAgreement {
+    /// "roll", "pitch" or "yaw".
     pub axis: &'static str,
     /// Flights that entered the test (index into the flights).
     pub flights: Vec<usize>,
@@ -47,15 +48,20 @@ pub struct AxisAgreement {
     pub mean_deg: f64,
     /// Largest minus smallest offset (deg).
     pub spread_deg: f64,
+    /// χ² of the offsets about their weighted mean, Σ (x_i − x̄)²/σ_i².
     pub chi2: f64,
+    /// Degrees of freedom of the χ² (flights − 1).
     pub dof: usize,
+    /// P(χ²_dof ≥ chi2): the chance of a spread this large if every flight has the same offset.
     pub p: f64,
+    /// p ≥ [`AGREE_P`]: the offsets agree within their intervals.
     pub agree: bool,
 }
 
 /// One mounting: a group of flights whose ground tilts link.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Mounting {
+    /// Its flights (indices into [`Consistency::flights`]).
     pub flights: Vec<usize>,
     /// Largest ground-tilt distance between two of its flights (deg).
     pub ground_spread_deg: f64,
@@ -68,23 +74,30 @@ pub struct Mounting {
 /// The consistency report of a cross-validation.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Consistency {
+    /// Two flights share a mounting when their ground tilts are closer than this (deg).
     pub link_deg: f64,
+    /// The flights, by source name, in input order.
     pub flights: Vec<String>,
+    /// The mountings of two or more flights.
     pub mountings: Vec<Mounting>,
     /// Median accel_kin cut over ordered pairs inside one mounting, and the number of pairs
     /// (flights with too few samples to fit are neither model nor test).
     pub within_cut: Option<f64>,
+    /// Ordered pairs inside one mounting that entered [`Consistency::within_cut`].
     pub within_pairs: usize,
     /// Median over ordered pairs in different mountings (flights of no mounting excluded).
     pub across_cut: Option<f64>,
+    /// Ordered pairs that entered [`Consistency::across_cut`].
     pub across_pairs: usize,
     /// The body offset's own share of the cut (with it minus without it), medians inside one
     /// mounting and across mountings, over the same pairs.
     pub within_offset_gain: Option<f64>,
+    /// The offset's own share across mountings (see [`Consistency::within_offset_gain`]).
     pub across_offset_gain: Option<f64>,
     /// Pairs in which the offset makes the other flight's error worse (gain < 0), inside one
     /// mounting and across mountings.
     pub within_offset_worse: usize,
+    /// Pairs across mountings in which the offset makes the other flight's error worse.
     pub across_offset_worse: usize,
 }
 

@@ -64,6 +64,7 @@ pub fn column_offsets() -> [usize; Effect::ALL.len() + 1] {
     }
     o
 }
+/// Number of columns of the full design: every candidate's parameters, in [`column_offsets`] order.
 pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3 + 1 + 2 + 1 + 2 + 1;
 
 /// One regressor column: its index in the full design and its samples.
@@ -72,16 +73,22 @@ pub type Column = (usize, Vec<f64>);
 /// The built problem at one set of corrections: per channel and axis the measured signal, the
 /// nominal prediction, and every candidate column; `ok` marks usable samples.
 pub struct Design {
+    /// Samples (after decimation).
     pub n: usize,
     /// Sample times (s), after decimation.
     pub t: Vec<f64>,
+    /// The sample is usable: airborne above `min_height_m`, away from gaps, glitches and the
+    /// filter's edges.
     pub ok: Vec<bool>,
     /// \[channel\]\[axis\] → samples
     pub measured: [[Vec<f64>; 3]; 3],
+    /// \[channel\]\[axis\] → what the nominal model predicts for the measured samples.
     pub predicted: [[Vec<f64>; 3]; 3],
     /// \[channel\]\[axis\] → (column, samples) for the columns that touch it
     pub columns: [[Vec<Column>; 3]; 3],
+    /// The log has a thrust (commands or motor) column: the force channel exists.
     pub has_force: bool,
+    /// The log has the battery voltage: the thrust–voltage effect has a column.
     pub has_vbat: bool,
     /// Circular standard deviation of the yaw over the usable samples (rad).
     pub yaw_spread_rad: f64,
@@ -99,8 +106,11 @@ pub struct Design {
 /// it is no lead for because it carries their own measurement.
 #[derive(Clone, Debug)]
 pub struct Signal {
+    /// Name with its unit, as the report prints it.
     pub name: &'static str,
+    /// Samples at the design's (decimated) times.
     pub samples: Vec<f64>,
+    /// Channel axes (channel index, axis) this signal is no lead for.
     pub excludes: Vec<(usize, usize)>,
     /// A measurement's own error rather than a state of the flight (the mocap attitude against
     /// the gyro's integral): a residual that follows it has reached that measurement's floor,
@@ -141,6 +151,7 @@ pub fn glitches(s: &Series) -> Vec<usize> {
 }
 
 impl Design {
+    /// Measured − predicted on channel `c`, axis `a`: the residual of the nominal model.
     pub fn residual(&self, c: usize, a: usize) -> Vec<f64> {
         self.measured[c][a].iter().zip(&self.predicted[c][a]).map(|(m, p)| m - p).collect()
     }
@@ -251,6 +262,8 @@ impl Default for DesignOptions {
     }
 }
 
+/// Builds the design of a flight at the given corrections (no lead signals; see
+/// [`build_with_signals`]).
 pub fn build(s: &Series, corr: &Corrections, opt: &DesignOptions) -> Design {
     build_inner(s, corr, opt, false)
 }

@@ -2,7 +2,6 @@
 //! flyarena log with its scenario, a scenario with an effects fragment. Every variant names the
 //! file, and the line and column where the defect has one; nothing here is a number made from
 //! bad data (the data-quality gate's own verdict is [`IdentifyError`]).
-#![warn(missing_docs)]
 
 use super::select::IdentifyError;
 use crate::log::LogError;

@@ -131,11 +131,16 @@ pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, I
 /// difference (m) and of the attitude difference angle (deg), over the rows both saw.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct TrajectoryError {
+    /// RMS of the mocap position difference (m).
     pub position_rmse_m: f64,
+    /// RMS of the attitude difference angle (deg).
     pub attitude_rmse_deg: f64,
+    /// Rows both flights saw.
     pub samples: usize,
 }
 
+/// The [`TrajectoryError`] between a measured flight and its simulated twin, row by row over the
+/// rows both have.
 pub fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
     let n = data.len().min(sim.len());
     let (mut sp, mut sa, mut k) = (0.0, 0.0, 0usize);

@@ -16,13 +16,19 @@
 
 use super::series::Series;
 
+/// The tilt the accelerometer reads against the markers while the vehicle rests on the floor before
+/// take-off (roll and pitch of the measured gravity in the mocap body frame, deg).
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct GroundCheck {
+    /// Roll of the accelerometer's frame against the mocap body frame (deg).
     pub roll_deg: f64,
+    /// Pitch of the accelerometer's frame against the mocap body frame (deg).
     pub pitch_deg: f64,
     /// Standard error of the mean, from the sample scatter (deg).
     pub roll_se_deg: f64,
+    /// Standard error of the pitch mean (deg).
     pub pitch_se_deg: f64,
+    /// Rows averaged.
     pub samples: usize,
     /// Standard deviation of the mocap's own tilt over these rows, roll and pitch (deg, per
     /// sample): the still vehicle's pose scatter. Markers partly hidden on the floor scatter it
@@ -166,6 +172,7 @@ pub struct SpinUp {
     pub check: GroundCheck,
     /// Mean thrust over the rows, as a fraction of the weight m·g.
     pub thrust_fraction: f64,
+    /// Length of the spin-up rows (s).
     pub duration_s: f64,
 }
 
@@ -228,10 +235,13 @@ pub struct TiltAgreement {
 /// against the frame tilt (equivalently ground against frame tilt + b/g).
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct GroundAgreement {
+    /// Roll: ground − bias tilt against the flight's frame tilt.
     pub roll: TiltAgreement,
+    /// Pitch: ground − bias tilt against the flight's frame tilt.
     pub pitch: TiltAgreement,
     /// A body offset or a world tilt was selected (or forced).
     pub frame_fitted: bool,
+    /// An accelerometer bias was selected (its tilt b/g is removed from the ground check).
     pub accel_bias_fitted: bool,
     /// The same comparison with the spin-up (motors on, still on the floor) as the ground check,
     /// when the log has one ([`spin_up`]).
@@ -244,8 +254,11 @@ pub struct GroundAgreement {
 /// The rest after landing: a second ground check that brackets the flight with the first.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct LandedAgreement {
+    /// Rows averaged after landing.
     pub samples: usize,
+    /// Roll after landing.
     pub roll: LandedAxis,
+    /// Pitch after landing.
     pub pitch: LandedAxis,
 }
 
@@ -261,7 +274,9 @@ pub struct LandedAxis {
     pub change_ci95_deg: f64,
     /// After landing − flight frame tilt, with its 95 % half-width built as the rest's.
     pub difference_deg: f64,
+    /// 95 % half-width of the difference.
     pub ci95_deg: f64,
+    /// The interval covers zero: the rest after landing agrees with the flight.
     pub covers: bool,
     /// The two rests' mean − flight: the reference for a tilt that moves between the rests (a
     /// monotonic drift puts the flight's average between them).
@@ -269,6 +284,7 @@ pub struct LandedAxis {
     /// 95 % half-width: the two means' and the flight's scatter, plus half the change (the
     /// flight's tilt may sit anywhere between the rests), plus the flight's widening.
     pub bracket_ci95_deg: f64,
+    /// The bracket's interval covers zero.
     pub bracket_covers: bool,
 }
 
@@ -277,8 +293,11 @@ pub struct LandedAxis {
 pub struct SpinUpAgreement {
     /// Mean thrust over the spin-up as a fraction of the weight.
     pub thrust_fraction: f64,
+    /// Length of the spin-up rows (s).
     pub duration_s: f64,
+    /// Roll during the spin-up.
     pub roll: SpinUpAxis,
+    /// Pitch during the spin-up.
     pub pitch: SpinUpAxis,
 }
 
@@ -295,6 +314,7 @@ pub struct SpinUpAxis {
     pub difference_deg: f64,
     /// 95 % half-width of that difference, built as the rest's.
     pub ci95_deg: f64,
+    /// The interval covers zero: the spin-up agrees with the flight.
     pub covers: bool,
 }
 
@@ -311,7 +331,9 @@ pub struct FlightTilt {
     pub sd_rad: [f64; 2],
     /// Extra half-width from models the flight cannot tell apart (rad).
     pub widen_rad: [f64; 2],
+    /// A body offset or a world tilt was fitted.
     pub frame_fitted: bool,
+    /// An accelerometer bias was fitted.
     pub accel_bias_fitted: bool,
 }
 
@@ -385,8 +407,11 @@ pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt
 /// change is unrelated to the flight").
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct SpinUpSummary {
+    /// Flights with a spin-up.
     pub flights: usize,
+    /// Roll over the flights.
     pub roll: SpinUpAxisSummary,
+    /// Pitch over the flights.
     pub pitch: SpinUpAxisSummary,
 }
 
@@ -432,8 +457,11 @@ pub fn spin_up_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreem
 pub struct LandedSummary {
     /// Flights with a ground agreement, and those with a rest after landing too.
     pub flights: usize,
+    /// Flights with both rests.
     pub with_both: usize,
+    /// Roll over the flights.
     pub roll: LandedAxisSummary,
+    /// Pitch over the flights.
     pub pitch: LandedAxisSummary,
 }
 
@@ -443,16 +471,20 @@ pub struct LandedAxisSummary {
     /// Median and largest |after − before| over the flights with both rests: the ground check's
     /// own repeatability over one flight.
     pub median_change_deg: f64,
+    /// Largest |after − before|.
     pub max_change_deg: f64,
     /// Over the flights with both rests: median |before − flight| and |mean of the rests − flight|.
     pub median_before_deg: f64,
+    /// Median |mean of the two rests − flight|.
     pub median_bracket_deg: f64,
     /// Flights whose frame tilt lies between their two rests (their differences of opposite sign).
     pub between: usize,
     /// Over every flight, with its reference: median |reference − flight|, how many beyond 1°,
     /// and how many of those the reference's interval covers.
     pub median_reference_deg: f64,
+    /// Flights whose |reference − flight| exceeds 1°.
     pub beyond_1deg: usize,
+    /// Of those, the ones whose interval covers the difference.
     pub beyond_1deg_covered: usize,
 }
 

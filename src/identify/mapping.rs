@@ -26,7 +26,6 @@
 //! any other empty or non-numeric cell is an error naming its line and column. Timestamps must
 //! increase; a repeated timestamp is dropped and a gap longer than 3 × the median interval
 //! splits the log into segments, both reported.
-#![warn(missing_docs)]
 
 use super::error::InputError;
 use super::series::{NominalModel, Series};

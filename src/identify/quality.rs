@@ -76,12 +76,16 @@ impl Default for QualityOptions {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum QualityChannel {
+    /// The accelerometer.
     Accel,
+    /// The gyro.
     Gyro,
+    /// The mocap pose.
     Mocap,
 }
 
 impl QualityChannel {
+    /// The name used in reports and JSON.
     pub fn name(self) -> &'static str {
         match self {
             QualityChannel::Accel => "accel",
@@ -102,9 +106,11 @@ enum Kind {
 /// One stretch of the log that was cut out.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Cut {
+    /// The measurement cut.
     pub channel: QualityChannel,
     /// Seconds from the log's first sample (the margin included).
     pub from_s: f64,
+    /// End of the stretch, seconds from the log's first sample (the margin included).
     pub to_s: f64,
     /// Flagged samples inside the stretch.
     pub flagged: usize,
@@ -117,9 +123,11 @@ pub struct Cut {
 /// What the gate did to one log.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct DataQuality {
+    /// The stretches cut, in time order.
     pub cuts: Vec<Cut>,
     /// Rows taken out of the log (the union of the stretches).
     pub rows_cut: usize,
+    /// Rows in the log.
     pub rows: usize,
 }
 

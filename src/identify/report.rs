@@ -24,6 +24,8 @@ pub fn param_text(p: &super::select::Param, num: impl Fn(f64) -> String) -> Stri
         .to_string()
 }
 
+/// The report as the terminal shows it: steps, effects with their intervals, errors before and
+/// after, what is left, the ground check and the notes.
 pub fn render(r: &Report) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "identify: {}", r.source);

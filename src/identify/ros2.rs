@@ -35,10 +35,14 @@ use std::fmt::Write as _;
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Topics {
+    /// The pose topic (`geometry_msgs/PoseStamped`).
     pub pose: String,
+    /// The IMU topic (`sensor_msgs/Imu`).
     pub imu: String,
+    /// The motor commands topic, if logged.
     #[serde(default)]
     pub motors: Option<String>,
+    /// The battery topic (`sensor_msgs/BatteryState`), if logged.
     #[serde(default)]
     pub battery: Option<String>,
 }

@@ -7,7 +7,9 @@ use nalgebra::{UnitQuaternion, Vector3};
 /// What the nominal (declared) model knows about the vehicle.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct NominalModel {
+    /// Vehicle name (the scenario's, or the mapping's).
     pub vehicle: String,
+    /// Declared mass (kg).
     pub mass_kg: f64,
     /// Declared rotor drag, specific force −k·v along body x and y (1/s).
     pub rotor_drag_per_s: [f64; 2],
@@ -15,6 +17,7 @@ pub struct NominalModel {
     pub rotor_radius_m: f64,
     /// Reference battery voltage for the thrust–voltage regressor (V).
     pub vbat_ref_v: f64,
+    /// Gravity (m/s²).
     pub gravity_m_s2: f64,
     /// Relative 1σ accuracy of the thrust the model predicts from the commands, as a systematic
     /// (one factor for the whole flight). Propagated into every interval (see
@@ -27,7 +30,9 @@ pub struct NominalModel {
 /// One flight, resampled to nothing: samples as logged, each with a validity flag.
 #[derive(Clone, Debug)]
 pub struct Series {
+    /// Where the flight came from (file name).
     pub source: String,
+    /// Sample times (s).
     pub t_s: Vec<f64>,
     /// Mocap position in the mocap world, NED (m).
     pub pos_mocap_nav: Vec<Vector3<f64>>,
@@ -45,15 +50,18 @@ pub struct Series {
     pub vbat_v: Option<Vec<f64>>,
     /// Row ranges [start, end) between gaps.
     pub segments: Vec<(usize, usize)>,
+    /// What the declared model knows.
     pub model: NominalModel,
     /// What the readers repaired.
     pub repairs: Vec<String>,
 }
 
 impl Series {
+    /// Number of rows.
     pub fn len(&self) -> usize {
         self.t_s.len()
     }
+    /// No rows.
     pub fn is_empty(&self) -> bool {
         self.t_s.is_empty()
     }
@@ -171,11 +179,15 @@ pub fn gyro_advanced(s: &Series, delay_s: f64, ok: &mut [bool]) -> Vec<Vector3<f
 /// position, sampled at the IMU times. `ok` is false where the delay reaches outside a segment
 /// or a pose was missing.
 pub struct Corrected {
+    /// Corrected mocap position, nav NED (m).
     pub pos_nav: Vec<Vector3<f64>>,
+    /// Corrected attitude: true body → nav.
     pub att_body: Vec<UnitQuaternion<f64>>,
+    /// The row's corrected pose is usable.
     pub ok: Vec<bool>,
 }
 
+/// Applies the corrections (body offset, world tilt, mocap delay, lever arm) to the mocap stream.
 pub fn correct(s: &Series, c: &Corrections) -> Corrected {
     let n = s.len();
     let dt = s.dt();

@@ -140,6 +140,7 @@ pub const Z_995: f64 = 2.575_829_303_548_901;
 /// An AR(p) model of a residual: e_k = Σ a_i·e_{k−i} + σ·w_k.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Ar {
+    /// Coefficients a_1..a_p.
     pub a: Vec<f64>,
     /// Innovation standard deviation.
     pub sigma: f64,
@@ -157,6 +158,7 @@ fn full_windows(ok: &[bool], p: usize) -> impl Iterator<Item = bool> + '_ {
 }
 
 impl Ar {
+    /// AR(0): white noise of standard deviation `sigma`.
     pub fn white(sigma: f64) -> Ar {
         Ar { a: Vec::new(), sigma, marginal_var: sigma * sigma }
     }
@@ -203,6 +205,7 @@ impl Ar {
         }
         best.map(|b| b.1).unwrap_or(Ar::white(1.0))
     }
+    /// The order p.
     pub fn order(&self) -> usize {
         self.a.len()
     }
@@ -297,12 +300,18 @@ pub fn effective_n(n: usize, rx: &[f64], ry: &[f64]) -> f64 {
 /// The Ljung–Box portmanteau test: Q = n(n+2)·Σ_{k=1..h} ρ_k²/(n−k), compared with χ²(h − fitted).
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct LjungBox {
+    /// The statistic Q.
     pub q: f64,
+    /// Lags h summed over.
     pub lags: usize,
+    /// Degrees of freedom h − fitted.
     pub dof: usize,
+    /// P(χ²_dof ≥ Q): small when the series is not white.
     pub p_value: f64,
 }
 
+/// Ljung–Box of `x` over `lags` lags, with `fitted` parameters (an AR's order) taken from the
+/// degrees of freedom.
 pub fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
     let (r, n) = autocorrelation(x, lags);
     let n = n as f64;

@@ -55,8 +55,11 @@ pub fn simulated() -> Vec<Effect> {
 /// One drawn trial.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Trial {
+    /// Trial number within the batch.
     pub index: u64,
+    /// Seed of the flight's scenario (drawn from the batch seed and the index).
     pub seed: u64,
+    /// Vehicle preset flown.
     pub preset: &'static str,
     /// The plan pieces, in words.
     pub plan: Vec<String>,
@@ -229,9 +232,13 @@ pub fn draw(seed: u64, index: u64) -> Trial {
 /// What happened to one hidden effect.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct HiddenOutcome {
+    /// The effect hidden.
     pub effect: Effect,
+    /// Its true parameters, in the report's units.
     pub truth: Vec<f64>,
+    /// How well the flight excites it.
     pub excitation: Excitation,
+    /// Selected by `identify`.
     pub found: bool,
     /// Named not identifiable from a selected effect.
     pub flagged: bool,
@@ -244,7 +251,9 @@ pub struct HiddenOutcome {
 /// One trial, identified and scored.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Outcome {
+    /// The trial as drawn.
     pub trial: Trial,
+    /// Each hidden effect's outcome.
     pub hidden: Vec<HiddenOutcome>,
     /// Selected effects that were not hidden, and whether each is flagged.
     pub extra: Vec<(Effect, bool)>,
@@ -302,31 +311,42 @@ pub fn run_many(seed: u64, count: u64, o: &Options) -> Vec<Outcome> {
 /// Per-effect scores over a set of outcomes.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct EffectScore {
+    /// Trials that hid the effect.
     pub hidden: usize,
     /// Hidden where the excitation suffices (decided before the outcome).
     pub excited: usize,
+    /// Found where excited.
     pub found_excited: usize,
+    /// Missed where excited.
     pub missed_excited: usize,
+    /// Hidden and named not identifiable from a selected effect.
     pub flagged: usize,
+    /// Found, excited or not.
     pub found_all: usize,
     /// Selected without being hidden (and not flagged).
     pub invented: usize,
+    /// Parameters of found effects with an interval.
     pub params: usize,
     /// Parameters of found effects the report calls not identifiable (no interval claimed).
     pub unidentifiable_params: usize,
+    /// Intervals that contain the truth.
     pub covered: usize,
+    /// Intervals that miss the truth by more than three half-widths (confidently wrong).
     pub confidently_wrong: usize,
 }
 
 impl EffectScore {
+    /// found_excited / (found_excited + missed_excited).
     pub fn recall_excited(&self) -> Option<f64> {
         let d = self.found_excited + self.missed_excited;
         (d > 0).then(|| self.found_excited as f64 / d as f64)
     }
+    /// found_all / (found_all + invented).
     pub fn precision(&self) -> Option<f64> {
         let d = self.found_all + self.invented;
         (d > 0).then(|| self.found_all as f64 / d as f64)
     }
+    /// covered / params: the 95 % intervals' measured coverage.
     pub fn coverage(&self) -> Option<f64> {
         (self.params > 0).then(|| self.covered as f64 / self.params as f64)
     }

@@ -9,13 +9,20 @@ use crate::scenario::Scenario;
 use serde_json::{Value, json};
 use std::path::Path;
 
+/// One identification, with everything the CLI writes.
 pub struct Identified {
+    /// The report.
     pub report: super::Report,
     /// R5, when the scenario declares it.
     pub requirements: Option<crate::requirements::Report>,
+    /// The report as text.
     pub text: String,
+    /// The report as JSON.
     pub json: Value,
+    /// The scenario fragment that adds the found effects (`--feedback`).
     pub fragment: String,
+    /// Closed-loop error of the nominal and of the corrected simulation against the flight, when it
+    /// was flown from a scenario.
     pub closed_loop: Option<(TrajectoryError, TrajectoryError)>,
     /// Residuals before and after, for the recording.
     pub residuals: Vec<super::select::ResidualSeries>,
@@ -49,14 +56,25 @@ pub enum Source<'a> {
     /// A scenario, flown here; its undeclared effects are the hidden truth.
     Scenario(&'a Path),
     /// A flyarena flight log (`run --log`) with the scenario it was flown from.
-    FlyarenaLog { log: &'a Path, scenario: &'a Path },
+    FlyarenaLog {
+        /// The log.
+        log: &'a Path,
+        /// The scenario it was flown from.
+        scenario: &'a Path,
+    },
     /// Another tool's log (CSV, or a ROS 2 bag) through a mapping.
-    Mapped { log: &'a Path, mapping: &'a Path },
+    Mapped {
+        /// The log.
+        log: &'a Path,
+        /// The mapping that reads it.
+        mapping: &'a Path,
+    },
 }
 
 /// One identification: the source and its options (what `flyarena identify` takes).
 #[derive(Clone, Debug)]
 pub struct Request<'a> {
+    /// What to read.
     pub source: Source<'a>,
     /// The scenario's vehicle by name (the first when `None`; not used for a mapped log).
     pub vehicle: Option<&'a str>,
@@ -137,15 +155,20 @@ pub fn run(req: &Request) -> Result<Identified, InputError> {
 /// Several logs through one mapping: each identified, then every flight's model evaluated on
 /// every other flight (cross-validation), per channel.
 pub struct CrossValidated {
+    /// Each flight's report, by flight name.
     pub reports: Vec<(String, super::Report)>,
     /// [fitted on][evaluated on] → cut of the accel_kin and force errors (None: channel missing)
     pub cross: Vec<Vec<(Option<f64>, Option<f64>)>>,
     /// Mountings from the ground check, the body offsets' agreement inside each, and transfer.
     pub consistency: super::consistency::Consistency,
+    /// The cross-validation as text.
     pub text: String,
+    /// The cross-validation as JSON.
     pub json: Value,
 }
 
+/// Identifies every log through one mapping, then evaluates each flight's model on every other
+/// flight and checks the offsets' consistency per mounting.
 pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<CrossValidated, InputError> {
     use super::design::Channel;
     use super::select::{channel_cut, evaluate};

@@ -7,7 +7,6 @@
 //!
 //! The Vicon system runs this on the visible markers of each vehicle; flyarena also runs it on the
 //! template against the displaced markers *in body coordinates* to get the true mocap offset.
-#![warn(missing_docs)]
 
 use crate::frames::{Frame, Rot, Vec3};
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};

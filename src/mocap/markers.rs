@@ -7,7 +7,6 @@
 //! where (R_off, t_off) is the rigid fit of the template onto the b_i (see `physics-notes.md`).
 //! R_off, as `Rot<MocapBody, Body>`, is the *true offset* the calibration must recover; its Euler
 //! angles are what the measured roll, pitch and yaw exceed the true ones by at hover.
-#![warn(missing_docs)]
 
 use super::fit::rigid_fit;
 use crate::frames::{Body, Euler, MocapBody, Rot, Vec3};

@@ -6,17 +6,37 @@ use std::path::PathBuf;
 /// Where in a scenario file something is.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct Span {
+    /// Line, from 1.
     pub line: u32,
+    /// Column, from 1.
     pub column: u32,
 }
 
 /// A scenario that cannot be run, with everything needed to fix it.
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
+    /// The file cannot be read.
     #[error("cannot read {file}: {source}")]
-    Io { file: PathBuf, source: std::io::Error },
+    Io {
+        /// The file.
+        file: PathBuf,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
+    /// The file is read but not a valid scenario.
     #[error("{}", render(file, span, path, message, snippet))]
-    Invalid { file: PathBuf, span: Option<Span>, path: String, message: String, snippet: String },
+    Invalid {
+        /// The file.
+        file: PathBuf,
+        /// Where in it, when the parser knows.
+        span: Option<Span>,
+        /// The field path (`vehicles[0].markers.rotation_deg`).
+        path: String,
+        /// What is wrong and what is allowed.
+        message: String,
+        /// The lines around the span, marked.
+        snippet: String,
+    },
 }
 
 fn render(file: &std::path::Path, span: &Option<Span>, path: &str, message: &str, snippet: &str) -> String {

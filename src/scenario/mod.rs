@@ -37,33 +37,44 @@ fn d_seed() -> u64 {
     1
 }
 
+/// A scenario as written in its YAML file, validated (ranges, plan, vehicles): what [`crate::run`]
+/// flies. Read it with [`Scenario::load`] or [`Scenario::parse`].
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
     /// Becomes file names (`out/<name>.json`): a safe name, see [`crate::output::check_file_name`].
     #[serde(deserialize_with = "file_name")]
     pub name: String,
+    /// Free text, shown in reports.
     #[serde(default)]
     pub description: String,
+    /// Seed of every random stream of the run (noise, loss, jitter).
     #[serde(default = "d_seed")]
     pub seed: u64,
     /// Run time (s); default: the end of the plan plus 1 s.
     #[serde(default, with = "ranges::duration_s::opt")]
     pub duration_s: Option<f64>,
+    /// The motion-capture system.
     #[serde(default)]
     pub mocap: MocapCfg,
+    /// The mocap → station network link.
     #[serde(default)]
     pub link: LinkCfg,
+    /// The station → vehicle PPM radio.
     #[serde(default)]
     pub radio: RadioCfg,
+    /// The vehicle → station body-rate telemetry.
     #[serde(default)]
     pub telemetry: TelemetryCfg,
+    /// The station's cascaded controller.
     #[serde(default)]
     pub controller: ControllerCfg,
+    /// The paper's calibration and its validity check (7).
     #[serde(default)]
     pub calibration: CalibrationCfg,
     pub(crate) vehicles: Spanned<Vec<Spanned<VehicleCfg>>>,
     pub(crate) plan: Spanned<Vec<PhaseCfg>>,
+    /// R1–R5: what this scenario's run must meet.
     #[serde(default)]
     pub requirements: RequirementsCfg,
     /// Parameter variations for `flyarena sweep` (ignored by `run`).
@@ -81,6 +92,7 @@ pub struct SweepCfg {
     /// Seed of the sweep: run i draws its parameters and its scenario seed from (seed, i).
     #[serde(default = "d_seed")]
     pub seed: u64,
+    /// The varied fields.
     pub vary: Vec<VaryCfg>,
 }
 fn d_runs() -> u32 {
@@ -93,11 +105,15 @@ fn d_runs() -> u32 {
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct VaryCfg {
+    /// Path into the scenario.
     pub field: String,
+    /// Uniform on [lo, hi].
     #[serde(default)]
     pub uniform: Option<[f64; 2]>,
+    /// Normal with [mean, standard deviation].
     #[serde(default)]
     pub normal: Option<[f64; 2]>,
+    /// Every value in turn (grids of several fields multiply).
     #[serde(default)]
     pub grid: Option<Vec<f64>>,
 }
@@ -105,8 +121,11 @@ pub struct VaryCfg {
 /// A checked [`VaryCfg`].
 #[derive(Debug, Clone, PartialEq)]
 pub enum Variation {
+    /// Uniform on [lo, hi].
     Uniform(f64, f64),
+    /// Normal with mean and standard deviation.
     Normal(f64, f64),
+    /// Every value in turn.
     Grid(Vec<f64>),
 }
 
@@ -114,7 +133,9 @@ pub enum Variation {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("`{field}`: {problem}")]
 pub struct VaryError {
+    /// The `vary` entry's field path.
     pub field: String,
+    /// What is wrong with it.
     pub problem: &'static str,
 }
 
@@ -136,14 +157,19 @@ impl VaryCfg {
     }
 }
 
+/// `mocap:` — the Vicon system: frame rate, latency, marker noise and the camera calibration's
+/// error.
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MocapCfg {
     pub(crate) rate_hz: Spanned<u32>,
+    /// From the exposure to the packet leaving the Vicon PC (ms).
     #[serde(with = "ranges::latency_ms")]
     pub latency_ms: f64,
+    /// Standard deviation of each marker's position, per axis (mm).
     #[serde(with = "ranges::noise_mm")]
     pub noise_mm: f64,
+    /// The mocap world against true NED.
     pub camera_error: CameraErrorCfg,
 }
 impl MocapCfg {
@@ -158,22 +184,29 @@ impl Default for MocapCfg {
     }
 }
 
+/// `mocap.camera_error:` — the mocap world frame against true NED.
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CameraErrorCfg {
+    /// Rotation of the mocap world (deg: roll, pitch, yaw).
     #[serde(with = "ranges::small_angle_deg::arr")]
     pub rotation_deg: [f64; 3],
+    /// Shift of the mocap world (mm).
     #[serde(with = "ranges::offset_mm::arr")]
     pub translation_mm: [f64; 3],
 }
 
+/// `link:` — the mocap → station UDP link.
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LinkCfg {
+    /// Constant latency (ms).
     #[serde(with = "ranges::latency_ms")]
     pub latency_ms: f64,
+    /// Uniform jitter added to the latency, up to this (ms).
     #[serde(with = "ranges::latency_ms")]
     pub jitter_ms: f64,
+    /// Packet loss.
     pub loss: LossCfg,
     /// Total outages: no mocap packet gets through in [from_s, to_s) (`to_s` omitted: never again).
     pub(crate) outages: Vec<Spanned<OutageCfg>>,
@@ -190,11 +223,14 @@ impl Default for LinkCfg {
     }
 }
 
+/// A total outage of the mocap link.
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutageCfg {
+    /// Start (s, run time).
     #[serde(with = "ranges::time_s")]
     pub from_s: f64,
+    /// End (s, run time); `None`: never again.
     #[serde(default, with = "ranges::time_s::opt")]
     pub to_s: Option<f64>,
 }
@@ -204,11 +240,15 @@ pub struct OutageCfg {
 #[serde(deny_unknown_fields, default)]
 pub struct TelemetryCfg {
     pub(crate) rate_hz: Spanned<u32>,
+    /// Constant latency (ms).
     #[serde(with = "ranges::latency_ms")]
     pub latency_ms: f64,
+    /// Uniform jitter added to the latency, up to this (ms).
     #[serde(with = "ranges::latency_ms")]
     pub jitter_ms: f64,
+    /// Packet loss.
     pub loss: LossCfg,
+    /// The vehicle clock that stamps the packets.
     pub clock: TelemetryClockCfg,
 }
 impl TelemetryCfg {
@@ -228,8 +268,10 @@ impl Default for TelemetryCfg {
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TelemetryClockCfg {
+    /// Offset of the vehicle clock at t = 0 (ms).
     #[serde(with = "ranges::clock_offset_ms")]
     pub offset_ms: f64,
+    /// Drift of the vehicle clock (parts per million).
     #[serde(with = "ranges::clock_drift_ppm")]
     pub drift_ppm: f64,
     /// The station fits the offset and drift with the gyro alignment instead of assuming the
@@ -237,18 +279,24 @@ pub struct TelemetryClockCfg {
     pub estimate: bool,
 }
 
+/// Packet loss of a link: independent, or bursty (Gilbert–Elliott).
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum LossCfg {
     /// `bernoulli: 0.1`: each packet lost with this probability.
     Bernoulli(#[serde(with = "ranges::probability")] f64),
+    /// A two-state Markov chain of Good and Bad, each with its own loss probability.
     GilbertElliott {
+        /// Per packet, P(Good → Bad).
         #[serde(with = "ranges::probability")]
         p_good_to_bad: f64,
+        /// Per packet, P(Bad → Good).
         #[serde(with = "ranges::probability")]
         p_bad_to_good: f64,
+        /// Loss probability in Good (default 0).
         #[serde(default, with = "ranges::probability")]
         loss_good: f64,
+        /// Loss probability in Bad (default 1).
         #[serde(default = "all_lost", with = "ranges::probability")]
         loss_bad: f64,
     },
@@ -259,6 +307,7 @@ fn all_lost() -> f64 {
 }
 
 impl LossCfg {
+    /// The link's loss model.
     pub fn model(&self) -> crate::link::LossModel {
         use crate::link::LossModel;
         match *self {
@@ -268,13 +317,16 @@ impl LossCfg {
     }
 }
 
+/// `radio:` — the PPM radio: frame rate, channels, latency and the count scales.
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RadioCfg {
     pub(crate) rate_hz: Spanned<u32>,
     pub(crate) channels: Spanned<u32>,
+    /// From the station's send to the receiver's decode (ms).
     #[serde(with = "ranges::latency_ms")]
     pub latency_ms: f64,
+    /// Rate channels: °/s per count (128 is zero rate).
     #[serde(with = "ranges::rate_scale_deg_s")]
     pub rate_scale_deg_s: f64,
     /// Attitude mode's roll and pitch channels (° per count; 128 is level).
@@ -300,19 +352,26 @@ impl Default for RadioCfg {
     }
 }
 
+/// `controller:` — the station's cascaded controller (2)–(6), its tilt limit and failsafe.
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ControllerCfg {
+    /// Position gains K_X per nav axis (1/s).
     #[serde(with = "ranges::gain_per_s::arr")]
     pub k_x: [f64; 3],
+    /// Velocity gains K_V per nav axis (1/s).
     #[serde(with = "ranges::gain_per_s::arr")]
     pub k_v: [f64; 3],
+    /// Attitude gains per body axis (1/s).
     #[serde(with = "ranges::gain_per_s::arr")]
     pub k_att: [f64; 3],
+    /// Largest commanded tilt (deg).
     #[serde(with = "ranges::tilt_deg")]
     pub max_tilt_deg: f64,
+    /// Low-pass on the differentiated position (Hz).
     #[serde(with = "ranges::cutoff_hz")]
     pub velocity_cutoff_hz: f64,
+    /// How the calibrated offset is removed from the mocap attitude.
     pub compensation: Compensation,
     /// No mocap pose for this long → failsafe (level, slow descent).
     #[serde(with = "ranges::timeout_ms")]
@@ -340,15 +399,19 @@ impl Default for ControllerCfg {
     }
 }
 
+/// `calibration:` — whether the estimates are used, the validity check (7) and the RLS start.
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CalibrationCfg {
     /// Use the estimates in the controller as soon as they are available.
     pub apply: bool,
+    /// ε_ψ of (7): largest |mean yaw| of the validity check (deg).
     #[serde(with = "ranges::tol_deg")]
     pub validity_max_mean_yaw_deg: f64,
+    /// ε_φ of (7): largest |mean roll| of the validity check (deg).
     #[serde(with = "ranges::tol_deg")]
     pub validity_max_mean_roll_deg: f64,
+    /// Spread of X_N before the RLS recursion starts (m).
     #[serde(with = "ranges::spread_m")]
     pub rls_min_spread_m: f64,
 }
@@ -358,6 +421,8 @@ impl Default for CalibrationCfg {
     }
 }
 
+/// One vehicle of `vehicles:` — its name, home, model, markers, IMU, disturbance, battery and
+/// undeclared effects.
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct VehicleCfg {
@@ -367,14 +432,19 @@ pub struct VehicleCfg {
     /// Home on the floor, North and East (m).
     #[serde(default, with = "ranges::position_m::arr")]
     pub home_m: [f64; 2],
+    /// Initial heading (deg).
     #[serde(default, with = "ranges::yaw_angle_deg")]
     pub yaw0_deg: f64,
+    /// The vehicle model (a preset and overrides).
     #[serde(default)]
     pub model: ModelCfg,
+    /// The marker pattern and how it is mounted.
     #[serde(default)]
     pub markers: MarkersCfg,
+    /// IMU noise and bias.
     #[serde(default)]
     pub imu: ImuCfg,
+    /// Constant external force and torque.
     #[serde(default)]
     pub disturbance: DisturbanceCfg,
     /// The flight battery (declared); the preset's pack where a field is not given.
@@ -441,29 +511,40 @@ impl Default for UndeclaredCfg {
     }
 }
 
+/// The vehicle presets.
 #[derive(Debug, Deserialize, serde::Serialize, Clone, Copy, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Preset {
+    /// The paper's Ascending Technologies X3D.
     #[default]
     X3d,
+    /// The Crazyflie 2.1 of the NanoBench flights.
     Crazyflie21,
 }
 
+/// `model:` — a preset and the parameters that override it.
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ModelCfg {
+    /// The preset whose parameters are the defaults.
     pub preset: Preset,
+    /// Mass (kg).
     #[serde(with = "ranges::mass_kg::opt")]
     pub mass_kg: Option<f64>,
     pub(crate) inertia_kg_m2: Option<Spanned<[f64; 3]>>,
+    /// Arm length, centre to rotor (m).
     #[serde(with = "ranges::arm_m::opt")]
     pub arm_m: Option<f64>,
+    /// Thrust coefficient k_T (T = k_T·ω², N·s²).
     #[serde(with = "ranges::positive_coeff::opt")]
     pub k_thrust: Option<f64>,
+    /// Torque coefficient over thrust (m).
     #[serde(with = "ranges::positive_coeff::opt")]
     pub k_torque_m: Option<f64>,
+    /// Motor time constant (s).
     #[serde(with = "ranges::time_constant_s::opt")]
     pub motor_tau_s: Option<f64>,
+    /// Rotor speed limit (rad/s).
     #[serde(with = "ranges::positive_coeff::opt")]
     pub rotor_speed_max_rad_s: Option<f64>,
     pub(crate) rotor_drag_per_s: Option<Spanned<[f64; 2]>>,
@@ -497,6 +578,7 @@ impl ModelCfg {
     }
 }
 
+/// `markers:` — the pattern, the frame's mounting errors and the occlusions.
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MarkersCfg {
@@ -531,25 +613,34 @@ impl MarkersCfg {
     }
 }
 
+/// One marker hidden from the cameras over a time window.
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct OcclusionCfg {
+    /// Marker index in the pattern.
     pub marker: u32,
+    /// Start (s, run time).
     #[serde(with = "ranges::time_s")]
     pub from_s: f64,
+    /// End (s, run time).
     #[serde(with = "ranges::time_s")]
     pub to_s: f64,
 }
 
+/// `imu:` — the onboard IMU's noise and constant bias.
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ImuCfg {
+    /// Gyro white-noise standard deviation per axis (°/s).
     #[serde(with = "ranges::gyro_noise_deg_s")]
     pub gyro_noise_deg_s: f64,
+    /// Accelerometer white-noise standard deviation per axis (m/s²).
     #[serde(with = "ranges::accel_noise")]
     pub accel_noise_m_s2: f64,
+    /// Constant gyro bias, body (°/s).
     #[serde(with = "ranges::gyro_bias_deg_s::arr")]
     pub gyro_bias_deg_s: [f64; 3],
+    /// Constant accelerometer bias, body (m/s²).
     #[serde(with = "ranges::accel_m_s2_signed::arr")]
     pub accel_bias_m_s2: [f64; 3],
 }
@@ -567,6 +658,7 @@ impl BatteryCfg {
 pub struct BatteryCfg {
     /// Cells in series, 1–12.
     pub(crate) cells: Option<Spanned<u32>>,
+    /// Capacity (mAh).
     #[serde(with = "ranges::capacity_mah::opt")]
     pub capacity_mah: Option<f64>,
     /// Internal resistance of the pack and its wiring (Ω).
@@ -577,6 +669,7 @@ pub struct BatteryCfg {
     pub charge_start: Option<f64>,
 }
 
+/// `disturbance:` — constant external force and torque.
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DisturbanceCfg {
@@ -588,68 +681,100 @@ pub struct DisturbanceCfg {
     pub torque_nm: [f64; 3],
 }
 
+/// One phase of the flight plan (README, *Scenario reference*).
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum PhaseCfg {
+    /// Motors off on the floor (a rest before take-off or after landing).
     Idle {
+        /// Length (s).
         #[serde(with = "ranges::duration_s")]
         duration_s: f64,
     },
+    /// Climb to an altitude.
     Takeoff {
+        /// Height above the floor (m).
         #[serde(with = "ranges::altitude_m")]
         altitude_m: f64,
+        /// Length (s).
         #[serde(with = "ranges::duration_s")]
         duration_s: f64,
     },
+    /// Hold the position.
     Hover {
+        /// Length (s).
         #[serde(with = "ranges::duration_s")]
         duration_s: f64,
     },
+    /// The paper's roll/pitch calibration: hover and average the attitude.
     CalibrateRollPitch {
+        /// Hover before averaging (s).
         #[serde(default = "settle_hover_s", with = "ranges::settle_s")]
         settle_s: f64,
+        /// Averaging time (s).
         #[serde(with = "ranges::duration_s")]
         average_s: f64,
     },
+    /// The paper's yaw calibration: a straight flight along North (8)–(9).
     CalibrateYaw {
+        /// Hover before the flight (s).
         #[serde(default = "settle_short_s", with = "ranges::settle_s")]
         settle_s: f64,
+        /// Length of the straight flight (m).
         #[serde(with = "ranges::distance_m")]
         distance_m: f64,
+        /// Cruise speed (m/s).
         #[serde(with = "ranges::speed_m_s")]
         speed_m_s: f64,
+        /// Acceleration limit (m/s²).
         #[serde(default = "gentle_accel_m_s2", with = "ranges::accel_m_s2")]
         accel_m_s2: f64,
     },
+    /// A yaw turn in hover (R2's drift).
     YawSpin {
+        /// Hover before the spin (s).
         #[serde(default = "settle_hover_s", with = "ranges::settle_s")]
         settle_s: f64,
+        /// Angle turned (deg).
         #[serde(with = "ranges::spin_deg")]
         angle_deg: f64,
+        /// Length (s).
         #[serde(with = "ranges::duration_s")]
         duration_s: f64,
     },
+    /// Horizontal circles for the gyro alignment's yaw.
     CalibrateGyro {
+        /// Hover before the circles (s).
         #[serde(default = "settle_short_s", with = "ranges::settle_s")]
         settle_s: f64,
+        /// Circle radius (m).
         #[serde(default = "circle_radius_m", with = "ranges::radius_m")]
         radius_m: f64,
+        /// Period of one turn (s).
         #[serde(default = "circle_period_s", with = "ranges::period_s")]
         period_s: f64,
+        /// Number of turns.
         #[serde(default = "circle_turns", with = "ranges::turns")]
         turns: f64,
     },
+    /// Fly to a point.
     Waypoint {
+        /// Target North, East, Down, relative to home (m).
         #[serde(with = "ranges::position_m::arr")]
         pos_m: [f64; 3],
+        /// Cruise speed (m/s).
         #[serde(with = "ranges::speed_m_s")]
         speed_m_s: f64,
+        /// Acceleration limit (m/s²).
         #[serde(default = "gentle_accel_m_s2", with = "ranges::accel_m_s2")]
         accel_m_s2: f64,
+        /// Hold at the point (s).
         #[serde(default, with = "ranges::settle_s")]
         hold_s: f64,
     },
+    /// Descend to the floor and stop the motors.
     Land {
+        /// Length (s).
         #[serde(with = "ranges::duration_s")]
         duration_s: f64,
     },
@@ -683,6 +808,7 @@ fn half_the_error() -> f64 {
 }
 
 impl PhaseCfg {
+    /// The plan's phase in SI units (radians inside).
     pub fn to_phase(&self) -> Phase {
         match *self {
             PhaseCfg::Takeoff { altitude_m, duration_s } => Phase::Takeoff { altitude_m, duration_s },
@@ -698,6 +824,7 @@ impl PhaseCfg {
     }
 }
 
+/// `requirements:` — the rows R1–R5 this scenario asserts.
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RequirementsCfg {
@@ -731,9 +858,11 @@ impl IdentifyReq {
     }
 }
 
+/// One effect R5 expects `identify` to find.
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ExpectedEffect {
+    /// The effect.
     pub effect: crate::effects::Effect,
     /// The true parameter values, in the units `identify` reports them in.
     pub values: Vec<f64>,
@@ -741,6 +870,7 @@ pub struct ExpectedEffect {
     pub tolerance: Vec<f64>,
 }
 
+/// R1: the calibrated offsets against the truth.
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct OffsetsReq {
@@ -761,11 +891,14 @@ impl Default for OffsetsReq {
     }
 }
 
+/// R2: the hover drift during the yaw spin with the calibration against without.
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct HoverDriftReq {
+    /// Largest ratio of the compensated drift to the uncompensated.
     #[serde(with = "ranges::ratio")]
     pub max_ratio: f64,
+    /// Largest compensated drift (m).
     #[serde(with = "ranges::tol_m")]
     pub max_m: f64,
 }
@@ -775,11 +908,14 @@ impl Default for HoverDriftReq {
     }
 }
 
+/// R3: least squares against recursive least squares.
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct LsRlsReq {
+    /// Largest |LS − RLS| of the yaw (rad).
     #[serde(with = "ranges::tol_rad")]
     pub yaw_tol_rad: f64,
+    /// Largest |LS − RLS| of x_e0 (m).
     #[serde(with = "ranges::tol_m")]
     pub x_e0_tol_m: f64,
 }
@@ -789,16 +925,21 @@ impl Default for LsRlsReq {
     }
 }
 
+/// The validity check's verdict.
 #[derive(Debug, Deserialize, serde::Serialize, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
+    /// The estimate is accepted.
     Accept,
+    /// The estimate is rejected.
     Reject,
 }
 
+/// R4: the verdict the validity check (7) must give.
 #[derive(Debug, Deserialize, serde::Serialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ValidityReq {
+    /// The expected verdict.
     pub expect: Verdict,
 }
 

@@ -5,18 +5,51 @@
 /// Why a field path cannot be set.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum PatchError {
+    /// The path is empty.
     #[error("empty field path")]
     Empty,
+    /// A bracket does not hold an index.
     #[error("`{path}`: `[{index}` is not an index")]
-    NotAnIndex { path: String, index: String },
+    NotAnIndex {
+        /// The whole path.
+        path: String,
+        /// What the bracket holds.
+        index: String,
+    },
+    /// An index into something that is not a list.
     #[error("`{path}`: not a list before [{index}]")]
-    NotAList { path: String, index: usize },
+    NotAList {
+        /// The whole path.
+        path: String,
+        /// The index.
+        index: usize,
+    },
+    /// An index past the list's end.
     #[error("`{path}`: index {index} is outside the list (length {len})")]
-    OutsideList { path: String, index: usize, len: usize },
+    OutsideList {
+        /// The whole path.
+        path: String,
+        /// The index.
+        index: usize,
+        /// The list's length.
+        len: usize,
+    },
+    /// A key into something that is not a mapping.
     #[error("`{path}`: `{key}` is not inside a mapping")]
-    NotAMapping { path: String, key: String },
+    NotAMapping {
+        /// The whole path.
+        path: String,
+        /// The key.
+        key: String,
+    },
+    /// A key the scenario does not write (its default cannot be patched inside).
     #[error("`{path}`: `{key}` is not set in the scenario; write it out to vary inside it")]
-    NotSet { path: String, key: String },
+    NotSet {
+        /// The whole path.
+        path: String,
+        /// The key.
+        key: String,
+    },
 }
 
 /// Sets the number at `path` (`a.b[2].c`) in a YAML/JSON tree; the containers must exist, a

@@ -12,10 +12,15 @@ fn fmt_bound(x: f64) -> String {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{}", (format!("{value} {unit} is outside the allowed range {}{}, {}]", if *open_lo { "(" } else { "[" }, fmt_bound(*lo), fmt_bound(*hi))).replace("  ", " "))]
 pub struct OutOfRange {
+    /// The value given.
     pub value: f64,
+    /// Lower bound.
     pub lo: f64,
+    /// Upper bound.
     pub hi: f64,
+    /// The lower bound is excluded.
     pub open_lo: bool,
+    /// Unit of the value.
     pub unit: String,
 }
 
@@ -28,22 +33,31 @@ pub fn check(v: f64, lo: f64, hi: f64, open_lo: bool, unit: &str) -> Result<f64,
 macro_rules! ranged {
     ($($name:ident: $lo:expr, $hi:expr, $open:expr, $unit:expr;)*) => {
         $(
+            #[doc = concat!("The range of `", stringify!($name), "` (", $unit, ") and its serde functions.")]
             pub mod $name {
                 use super::*;
+                /// Lower bound.
                 pub const LO: f64 = $lo;
+                /// Upper bound.
                 pub const HI: f64 = $hi;
+                /// The lower bound is excluded.
                 pub const OPEN_LO: bool = $open;
+                /// Writes the value as it is.
                 pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
                     v.serialize(s)
                 }
+                /// Reads a value and checks its range.
                 pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
                     check(f64::deserialize(d)?, $lo, $hi, $open, $unit).map_err(D::Error::custom)
                 }
+                /// An optional value.
                 pub mod opt {
                     use super::*;
+                    /// Writes the value as it is.
                     pub fn serialize<S: Serializer>(v: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
                         v.serialize(s)
                     }
+                    /// Reads a value, if given, and checks its range.
                     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
                         Option::<f64>::deserialize(d)?
                             .map(|v| check(v, $lo, $hi, $open, $unit))
@@ -54,12 +68,14 @@ macro_rules! ranged {
                 /// Fixed-size arrays (`[f64; 2]`, `[f64; 3]`): every element in range.
                 pub mod arr {
                     use super::*;
+                    /// Writes the values as they are.
                     pub fn serialize<S: Serializer, const N: usize>(v: &[f64; N], s: S) -> Result<S::Ok, S::Error>
                     where
                         [f64; N]: Serialize,
                     {
                         v.serialize(s)
                     }
+                    /// Reads the values and checks each one's range.
                     pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error>
                     where
                         [f64; N]: Deserialize<'de>,

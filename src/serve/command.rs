@@ -18,7 +18,6 @@
 //! happened ([`CommandStats`]): a sequence number equal to the last applied one is a duplicate,
 //! a smaller one arrived out of order, both are dropped; a jump counts the numbers skipped as
 //! missing; a radio tick without a new command re-sends the held frame.
-#![warn(missing_docs)]
 
 use crate::radio::{MAX_CHANNELS, PpmFrame};
 use crate::vehicle::TelemetryFrame;

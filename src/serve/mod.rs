@@ -35,7 +35,6 @@
 //! its host's data port (libmotioncapture binds the data port from the server info). Multicast:
 //! frames go to the group and data port once. The model definition names each rigid body after
 //! its vehicle, with id = 1 + its index in the fleet, and lists its marker template.
-#![warn(missing_docs)]
 
 pub mod command;
 pub mod natnet;

@@ -23,7 +23,6 @@
 //! u32, timecode sub-frame u32; timestamp f64 (s); camera mid-exposure, camera data received
 //! and transmit timestamps u64 (ticks of the clock frequency in the server info); frame params
 //! u16 (bit 1: the tracked model list changed); end-of-data tag u32 = 0.
-#![warn(missing_docs)]
 
 use std::net::Ipv4Addr;
 

@@ -46,10 +46,13 @@ pub enum OnboardMode {
 /// An attitude command as the receiver decodes it (rad, rad/s; collective thrust in N).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AttitudeCommand {
+    /// Roll command φ_com (rad).
     pub roll: f64,
+    /// Pitch command θ_com (rad).
     pub pitch: f64,
     /// Heading rate ψ̇_com (an Euler rate, rad/s).
     pub yaw_rate: f64,
+    /// Collective thrust (N).
     pub thrust_n: f64,
 }
 

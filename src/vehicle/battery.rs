@@ -33,6 +33,7 @@ pub struct BatteryParams {
     pub capacity_ah: f64,
     /// Open-circuit voltage of a full and of an empty cell (V).
     pub v_full_cell: f64,
+    /// Open-circuit voltage of an empty cell (V).
     pub v_empty_cell: f64,
     /// Internal resistance of the pack and its wiring, R (Ω).
     pub resistance_ohm: f64,
@@ -85,6 +86,7 @@ impl Battery {
         let drawn_ah = (1.0 - p.charge_start) * p.capacity_ah;
         Battery { p, drawn_ah, voltage_v: p.open_circuit_v(drawn_ah) }
     }
+    /// The pack's parameters.
     pub fn params(&self) -> &BatteryParams {
         &self.p
     }

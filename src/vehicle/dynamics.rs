@@ -32,12 +32,18 @@ use super::params::{GRAVITY, VehicleParams};
 use crate::frames::{Body, Nav, Rot, Vec3};
 use nalgebra::{Quaternion, UnitQuaternion};
 
+/// The rigid body's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct State {
+    /// Position of the centre of mass, nav NED (m).
     pub pos: Vec3<Nav>,
+    /// Velocity, nav NED (m/s).
     pub vel: Vec3<Nav>,
+    /// Attitude, body → nav.
     pub att: Rot<Body, Nav>,
+    /// Angular rate, body FRD (rad/s).
     pub omega: Vec3<Body>,
+    /// Rotor speeds (rad/s), in the layout's order.
     pub rotor_speed: [f64; 4],
 }
 
@@ -45,10 +51,13 @@ pub struct State {
 /// body frame (a bent rotor, N·m).
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct Disturbance {
+    /// Force in the nav frame (N).
     pub force_nav_n: [f64; 3],
+    /// Torque in the body frame (N·m).
     pub torque_body_nm: [f64; 3],
 }
 
+/// The quadrotor's rigid-body dynamics with first-order rotors and the floor (see the module doc).
 #[derive(Clone, Debug)]
 pub struct X3d {
     p: VehicleParams,
@@ -129,12 +138,15 @@ impl X3d {
         X3d { p, disturbance, state, on_ground: false, half_step_decay: (f64::NAN, f64::NAN) }
     }
 
+    /// The vehicle's parameters.
     pub fn params(&self) -> &VehicleParams {
         &self.p
     }
+    /// The current state.
     pub fn state(&self) -> &State {
         &self.state
     }
+    /// The vehicle rests on the floor.
     pub fn on_ground(&self) -> bool {
         self.on_ground
     }

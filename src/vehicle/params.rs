@@ -38,6 +38,7 @@ pub struct VehicleParams {
     pub rotor_speed_max: f64,
     /// Rotor drag: specific force −k·v along body x and y, (1/s). Zero in the nominal X3D.
     pub rotor_drag_per_s: [f64; 2],
+    /// Where the rotors sit and which way they spin.
     pub layout: RotorLayout,
     /// Gain of the onboard rate loop per body axis (1/s): τ = J·K_ω·(ω_cmd − ω_gyro).
     pub rate_loop_gain_per_s: [f64; 3],
@@ -88,6 +89,7 @@ impl ImuRange {
     }
 }
 
+/// Standard gravity used throughout (m/s²).
 pub const GRAVITY: f64 = 9.81;
 
 /// Rotor radius of the X3D preset's 8-inch propellers (m).
@@ -109,14 +111,18 @@ pub const CRAZYFLIE21_ROTOR_RADIUS_M: f64 = 0.0235;
 /// refits it from the data.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct PwmThrustMap {
+    /// Quadratic coefficient a (grams-force, all four motors).
     pub a_g: f64,
+    /// Coefficient b of the PWM·voltage term (grams-force per volt).
     pub b_g_per_v: f64,
+    /// Constant c (grams-force).
     pub c_g: f64,
     /// The voltage the thrust–voltage effect is referred to (V).
     pub vbat_ref_v: f64,
 }
 
 impl PwmThrustMap {
+    /// The stand fit of the Crazyflie 2.1 with stock propellers.
     pub fn crazyflie21() -> Self {
         PwmThrustMap { a_g: 35.407_020_21, b_g_per_v: 5.922_264_62, c_g: -0.075_526_67, vbat_ref_v: 3.7 }
     }
@@ -131,6 +137,7 @@ impl PwmThrustMap {
 }
 
 impl VehicleParams {
+    /// The Ascending Technologies X3D of the paper.
     pub fn x3d() -> Self {
         VehicleParams {
             mass_kg: 0.68,

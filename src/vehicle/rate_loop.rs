@@ -24,16 +24,20 @@ use crate::frames::{Body, Vec3};
 /// What the vehicle's radio receiver holds: body-rate and thrust commands in SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RateCommand {
+    /// Commanded body rates (rad/s).
     pub rates: Vec3<Body>,
+    /// Commanded collective thrust (N).
     pub thrust_n: f64,
 }
 
 impl RateCommand {
+    /// Zero rates and zero thrust.
     pub fn idle() -> Self {
         RateCommand { rates: Vec3::zeros(), thrust_n: 0.0 }
     }
 }
 
+/// The onboard rate loop: the mixer and the per-axis gains (see the module doc).
 #[derive(Clone, Debug)]
 pub struct RateLoop {
     inertia: [f64; 3],

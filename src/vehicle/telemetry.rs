@@ -18,10 +18,12 @@ use crate::frames::{Body, Vec3};
 /// One telemetry packet.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TelemetryFrame {
+    /// Sequence number, one per packet.
     pub seq: u32,
     /// The averaging interval [t0, t1) on the vehicle's clock: the arena's, unless the scenario
     /// gives the telemetry clock an offset or a drift ([`Downlink::with_clock`]).
     pub t0: Nanos,
+    /// End of the averaging interval.
     pub t1: Nanos,
     /// Mean gyro reading over the interval (rad/s, body frame).
     pub gyro_mean: Vec3<Body>,

@@ -53,14 +53,19 @@ pub fn channel_cut(errors: &[AxisError], c: Channel) -> Option<f64> {
 /// The residual of one channel axis over the usable (decimated) samples, before (nominal, no
 /// corrections) and after (the report's effects), for plotting.
 pub struct ResidualSeries {
+    /// The channel.
     pub channel: Channel,
+    /// The axis: 'x', 'y' or 'z'.
     pub axis: char,
     /// Seconds from the first sample of the log.
     pub t_s: Vec<f64>,
+    /// The residual of the nominal model.
     pub before: Vec<f64>,
+    /// The residual with the report's effects.
     pub after: Vec<f64>,
 }
 
+/// The residuals of every channel axis before and after the report's effects, on the gated flight.
 pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSeries> {
     let s = &gated(s, o);
     let before = build(s, &Corrections::default(), &o.design);

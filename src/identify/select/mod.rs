@@ -73,8 +73,11 @@ use left::*;
 pub use left::{LEAD_MAX, LEAD_MIN_CORR};
 pub use result::*;
 
+/// The method's settings: design, data-quality gate, gates of the selection, held-out split and
+/// noise models.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Options {
+    /// How the channels are built (smoothing, minimum height).
     pub design: DesignOptions,
     /// The data-quality gate run before anything is fitted.
     pub quality: super::quality::QualityOptions,
@@ -82,10 +85,15 @@ pub struct Options {
     pub alpha: f64,
     /// A candidate must cut the held-out error on the channel axes it acts on by this fraction.
     pub min_heldout_gain: f64,
+    /// Largest AR order of the noise models (chosen by BIC per channel axis).
     pub max_ar_order: usize,
+    /// Length of a held-out block (s).
     pub block_s: f64,
+    /// Every this-many-th block is held out.
     pub holdout_every: usize,
+    /// Most forward steps.
     pub max_steps: usize,
+    /// Re-linearisations of the corrections (rotations, delays, lever arm) per fit.
     pub refine_iterations: usize,
     /// Bandwidth of the Newey–West covariance (decimated samples).
     pub hac_lags: usize,
@@ -321,7 +329,16 @@ pub enum IdentifyError {
         "{log}: only {usable} usable training samples remain after the data-quality gate ({needed} needed), so nothing is identified; what was cut:\n  {}",
         cuts.join("\n  ")
     )]
-    TooLittleClean { log: String, usable: usize, needed: usize, cuts: Vec<String> },
+    TooLittleClean {
+        /// The log's source name.
+        log: String,
+        /// Usable training samples left.
+        usable: usize,
+        /// Usable training samples needed ([`MIN_TRAIN_SAMPLES`]).
+        needed: usize,
+        /// What the gate cut, one line per stretch.
+        cuts: Vec<String>,
+    },
 }
 
 /// The change of the Bayesian information criterion n·ln(RSS/n) + k·ln n when k parameters

@@ -1,8 +1,6 @@
 //! What the selection reports: the estimates with their intervals, each step's scoreboard,
 //! the held-out errors, the whiteness and what is left of the residual.
 
-#![warn(missing_docs)]
-
 use super::*;
 
 /// One parameter, in the reported unit.
