@@ -57,6 +57,35 @@ pub struct Series {
 }
 
 impl Series {
+    /// The same samples, bit for bit (times, poses, IMU, thrust, battery), whatever the source's
+    /// name: a log copied under another name. The readers' repairs and the model are not
+    /// compared.
+    pub fn same_samples(&self, other: &Series) -> bool {
+        fn same(a: impl IntoIterator<Item = f64>, b: impl IntoIterator<Item = f64>) -> bool {
+            a.into_iter().map(f64::to_bits).eq(b.into_iter().map(f64::to_bits))
+        }
+        fn v3(v: &[Vector3<f64>]) -> impl Iterator<Item = f64> + '_ {
+            v.iter().flat_map(|x| [x.x, x.y, x.z])
+        }
+        fn q4(v: &[UnitQuaternion<f64>]) -> impl Iterator<Item = f64> + '_ {
+            v.iter().flat_map(|q| [q.w, q.i, q.j, q.k])
+        }
+        let opt = |a: &Option<Vec<f64>>, b: &Option<Vec<f64>>| match (a, b) {
+            (Some(a), Some(b)) => same(a.iter().copied(), b.iter().copied()),
+            (None, None) => true,
+            _ => false,
+        };
+        same(self.t_s.iter().copied(), other.t_s.iter().copied())
+            && same(v3(&self.pos_mocap_nav), v3(&other.pos_mocap_nav))
+            && same(q4(&self.att_mocap), q4(&other.att_mocap))
+            && self.mocap_ok == other.mocap_ok
+            && same(v3(&self.gyro_body), v3(&other.gyro_body))
+            && same(v3(&self.accel_body), v3(&other.accel_body))
+            && opt(&self.thrust_n, &other.thrust_n)
+            && opt(&self.vbat_v, &other.vbat_v)
+            && self.segments == other.segments
+    }
+
     /// Number of rows.
     pub fn len(&self) -> usize {
         self.t_s.len()

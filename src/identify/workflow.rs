@@ -183,8 +183,18 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     let mut reports: Vec<(String, super::Report)> = Vec::new();
     let mut kept = Vec::new();
     let mut excluded: Vec<(String, String)> = Vec::new();
+    // a log given twice (the same samples under another name: published datasets hold such
+    // copies) would agree with itself and count twice in the consistency and the cross-validation
+    let mut read: Vec<(String, super::Series)> = Vec::new();
     for (p, s) in inputs.iter().zip(series) {
         let name = p.file_stem().map_or_else(|| p.display().to_string(), |x| x.to_string_lossy().into_owned());
+        if let Some((first, _)) = read.iter().find(|(_, r)| r.same_samples(&s)) {
+            excluded.push((name, format!("the same samples as {first} (a copy of that log): counted once")));
+            continue;
+        }
+        read.push((name, s));
+    }
+    for (name, s) in read {
         match identify(&s, &opts) {
             Ok(r) => {
                 reports.push((name, r));

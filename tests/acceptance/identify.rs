@@ -677,3 +677,37 @@ fn the_hypotheses_tested_on_real_flights_are_found_at_their_truth_and_not_invent
         }
     }
 }
+
+/// A log given twice (the same samples under another name: 21 of the 90 further flights of the
+/// published NanoBench set are byte-identical copies of another) is identified once: the copy is
+/// left out, naming the log it copies, so that it cannot agree with itself in the consistency
+/// test or the cross-validation. A log that differs in one sample is a flight of its own.
+#[test]
+fn a_copied_log_counts_once_in_the_cross_validation() {
+    let Some(data) = super::shared_data() else { return };
+    let dir = std::env::temp_dir().join(format!("flyarena-copies-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let src = data.join("nanobench/dataset/B8_star_medium_rep1.csv");
+    let text = std::fs::read_to_string(&src).unwrap();
+    let copy = dir.join("B8_copy.csv");
+    std::fs::write(&copy, &text).unwrap();
+    // the same flight with one IMU value changed in its last digit
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header.iter().position(|h| *h == "imu_acc_x").unwrap();
+    let mut row: Vec<String> = lines[500].split(',').map(String::from).collect();
+    row[col] = format!("{}1", row[col]);
+    lines[500] = row.join(",");
+    let edited = dir.join("B8_edited.csv");
+    std::fs::write(&edited, lines.join("\n") + "\n").unwrap();
+    let inputs = [src.as_path(), copy.as_path(), edited.as_path()];
+    let cv = flyarena::identify::workflow::run_many(&inputs, &super::root().join("mappings/nanobench.yaml"), None, &[Effect::BodyOffset]).unwrap();
+    let names: Vec<&str> = cv.reports.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["B8_star_medium_rep1", "B8_edited"]);
+    let excluded = cv.json["excluded"].as_array().unwrap();
+    assert_eq!(excluded.len(), 1, "{excluded:?}");
+    assert_eq!(excluded[0]["flight"], "B8_copy");
+    assert!(excluded[0]["reason"].as_str().unwrap().contains("the same samples as B8_star_medium_rep1"), "{excluded:?}");
+    assert!(cv.text.contains("B8_copy: left out, the same samples as B8_star_medium_rep1"), "{}", cv.text);
+    std::fs::remove_dir_all(&dir).ok();
+}
