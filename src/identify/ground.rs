@@ -101,8 +101,44 @@ fn rest_after_landing(s: &Series) -> Option<(usize, usize)> {
 /// The ground check again after landing, with `accel_bias_body` removed as for the rest before.
 pub fn tilt_after_landing(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
     let (start, end) = rest_after_landing(s)?;
+    let (start, end) = still_accel(s, start, end)?;
     Some(tilt_over(s, start, end, accel_bias_body))
 }
+
+/// A still vehicle's accelerometer reads the same specific force row after row, its noise aside.
+/// An IMU stream that ramps or jumps while the markers sit still (a logger that extrapolates a
+/// dead sensor: the last 0.2 s of B6 linear ramp 2 drift by 0.1 g, and a published NanoBench
+/// flight ramps to 4 g after landing) is no rest, and its
+/// tilt would be a number made of corrupted samples. Keeps the longest run of rows within
+/// `max(`[`REST_ACCEL_TOL_M_S2`]`, 8·σ)` of the rows' component-wise median on every axis, σ the
+/// sample-to-sample noise (median |first difference|·1.4826/√2, largest axis: a ramp or a step
+/// does not inflate it); `None` when under 0.5 s remain.
+fn still_accel(s: &Series, start: usize, end: usize) -> Option<(usize, usize)> {
+    let f = &s.accel_body[start..end];
+    if f.len() < 2 {
+        return None;
+    }
+    let median = |v: Vec<f64>| super::consistency::median(v).unwrap_or(0.0);
+    let mid = nalgebra::Vector3::from_fn(|k, _| median(f.iter().map(|x| x[k]).collect()));
+    let sigma = (0..3).map(|k| median(f.windows(2).map(|w| (w[1][k] - w[0][k]).abs()).collect()) * 1.4826 / std::f64::consts::SQRT_2).fold(0.0, f64::max);
+    let tol = REST_ACCEL_TOL_M_S2.max(8.0 * sigma);
+    let (mut best, mut run_start) = ((0, 0), 0);
+    for i in 0..=f.len() {
+        if i == f.len() || (f[i] - mid).amax() > tol {
+            if i - run_start > best.1 - best.0 {
+                best = (run_start, i);
+            }
+            run_start = i + 1;
+        }
+    }
+    ((best.1 - best.0) as f64 * s.dt() >= 0.5).then_some((start + best.0, start + best.1))
+}
+
+/// Rows of a rest whose specific force strays further than this from the rest's median (on any
+/// axis, m/s²) are not still: 0.01 g, 0.6° of tilt, which a vehicle sitting on the floor does
+/// not turn by; 10–20 times the Crazyflie's sample-to-sample noise at rest (σ 0.005–0.01 m/s²
+/// on the NanoBench flights), and a noisier IMU widens it to 8 σ.
+pub const REST_ACCEL_TOL_M_S2: f64 = 0.098;
 
 /// Still: within this height of where it ended (m); without a thrust column, also the landed
 /// tolerance.
@@ -124,6 +160,7 @@ pub fn rest_yaw(s: &Series) -> Option<f64> {
 /// every sample first: δ = f̂ × (f − b) / |f̂|².
 pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
     let (start, end) = rest(s)?;
+    let (start, end) = still_accel(s, start, end)?;
     Some(tilt_over(s, start, end, accel_bias_body))
 }
 
@@ -763,6 +800,32 @@ mod tests {
         }
         s.segments = vec![(0, 400)];
         s
+    }
+
+    /// A rest whose accelerometer ramps while the markers sit still (as every NanoBench log's
+    /// last 0.2–0.3 s do: the logger extrapolates past the sensor's last sample) is read over its
+    /// still rows only: a ramp of 0.05 m/s² per row from row 60 of the rest's 0..81 is read over
+    /// rows 0..64, where it stays within the tolerance max(0.098, 8σ) = 0.168 m/s² (σ = 0.021
+    /// m/s² from the ±0.01 alternation). The three ramp rows inside it leak
+    /// (0.05 + 0.10 + 0.15)/64/g rad = 0.027° into pitch (f_x reads as −pitch); all 21 ramp rows
+    /// would move it by 0.76°. A ramp over the whole rest leaves no still run of 0.5 s: no
+    /// ground check.
+    #[test]
+    fn a_rest_whose_accelerometer_ramps_is_read_over_its_still_rows() {
+        let clean = ground_check(&flight([0.4, -1.0], [0.0; 2], 0.9)).unwrap();
+        assert_eq!(clean.samples, 81);
+        let mut s = flight([0.4, -1.0], [0.0; 2], 0.9);
+        for i in 60..100 {
+            s.accel_body[i].x += 0.05 * (i - 60) as f64;
+        }
+        let rest = ground_check(&s).unwrap();
+        assert_eq!(rest.samples, 64, "{rest:?}");
+        let leak = (0.30 / 64.0 / G).to_degrees();
+        assert!((rest.roll_deg - 0.4).abs() < 1e-3 && (rest.pitch_deg - (-1.0 - leak)).abs() < 1e-3, "{rest:?}");
+        for i in 0..100 {
+            s.accel_body[i].x += 0.05 * i as f64;
+        }
+        assert!(ground_check(&s).is_none());
     }
 
     /// The rest after landing reads its own tilt over the rows from 0.5 s after the landing (50
