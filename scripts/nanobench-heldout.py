@@ -96,6 +96,19 @@ def main():
               f"over {len(both)}; their mean against the flight: median {median(ref):.2f}, covered "
               f"{sum(1 for b in both if b['bracket_covers'])}")
 
+    c = d.get('consistency')
+    if c:
+        several = [m for m in c['mountings'] if len(m['flights']) > 1]
+        axes = [a for m in several for a in m['axes'] if a['axis'] != 'yaw']
+        print(f"\nmountings (every flight of the run, --skip or not; ground tilts all within {c['link_deg']}° of each other): "
+              f"{len(several)} of several flights, the largest of {max((len(m['flights']) for m in several), default=0)}; "
+              f"roll/pitch offsets agree within their intervals on {sum(1 for a in axes if a['agree'])} of {len(axes)} axes")
+        pct = lambda x: 'n/a' if x is None else f"{100 * x:.0f} %"
+        pts = lambda x: 'n/a' if x is None else f"{100 * x:+.0f} points"
+        print(f"  transfer of the accel_kin cut: {pct(c['within_cut'])} inside a mounting ({c['within_pairs']} pairs), "
+              f"{pct(c['across_cut'])} across ({c['across_pairs']}); the offset's own share {pts(c['within_offset_gain'])} inside "
+              f"(worse in {c['within_offset_worse']}), {pts(c['across_offset_gain'])} across (worse in {c['across_offset_worse']})")
+
     if by_time:
         # the flights in the order they were flown (the log's first time stamp), with the
         # ground tilt and the body offset: whether a mounting is a run of consecutive flights

@@ -6,9 +6,11 @@
 //! The ground check (see [`super::ground`]) reads the tilt between the accelerometer and the
 //! markers at rest, independently of the flight fit. Two flights belong to one mounting when
 //! their ground tilts (roll, pitch) are within `link_deg` of each other, and a mounting is a
-//! connected group of such links (single linkage: the groups do not depend on the order of the
-//! flights, but a chain of close flights can join two distant ones, so each group reports its
-//! largest ground distance). The default 0.5° is about the ground tilt that an accelerometer
+//! group of flights *every two* of which are (complete linkage: the groups do not depend on the
+//! order of the flights, and each reports its largest ground distance). Connected links (single
+//! linkage) chained 55 of 69 held-out NanoBench flights into one group spanning 2.7°, whose
+//! offsets then disagreed: the ground tilt there jumps between a few states from one flight to
+//! the next, and a chain of close flights joined them all. The default 0.5° is about the ground tilt that an accelerometer
 //! offset change of 0.085 m/s² (8.7 mg, a turn-on-to-turn-on repeatability of MEMS
 //! accelerometers) produces: closer than that, the ground check cannot tell two mountings
 //! apart. Flights without a ground check are in no group.
@@ -101,36 +103,36 @@ pub struct Consistency {
     pub across_offset_worse: usize,
 }
 
-/// Connected groups of points closer than `link` (Euclidean), each sorted, ordered by their
-/// first member; `None` points are in no group.
+/// Groups of points every two of which are closer than `link` (Euclidean): complete linkage.
+/// From single points, the two groups whose farthest members are nearest merge while that
+/// distance is under `link` (a tie goes to the lower indices). Each group sorted, the groups
+/// ordered by their first member; `None` points are in no group. Unlike connected links (single
+/// linkage), a chain of close points cannot join two distant ones, however many flights there
+/// are.
 pub fn link_groups(points: &[Option<(f64, f64)>], link: f64) -> Vec<Vec<usize>> {
-    let n = points.len();
-    let mut group: Vec<Option<usize>> = vec![None; n];
-    let mut groups: Vec<Vec<usize>> = Vec::new();
-    for start in 0..n {
-        if points[start].is_none() || group[start].is_some() {
-            continue;
-        }
-        let id = groups.len();
-        group[start] = Some(id);
-        let mut members = vec![start];
-        let mut k = 0;
-        while k < members.len() {
-            let a = points[members[k]].expect("members have points");
-            for j in 0..n {
-                if group[j].is_none()
-                    && let Some(b) = points[j]
-                    && (a.0 - b.0).hypot(a.1 - b.1) < link
-                {
-                    group[j] = Some(id);
-                    members.push(j);
+    let d = |i: usize, j: usize| match (points[i], points[j]) {
+        (Some(a), Some(b)) => (a.0 - b.0).hypot(a.1 - b.1),
+        _ => f64::INFINITY,
+    };
+    let mut groups: Vec<Vec<usize>> = (0..points.len()).filter(|&i| points[i].is_some()).map(|i| vec![i]).collect();
+    loop {
+        let mut best: Option<(f64, usize, usize)> = None;
+        for a in 0..groups.len() {
+            for b in a + 1..groups.len() {
+                let far = groups[a].iter().flat_map(|&i| groups[b].iter().map(move |&j| d(i, j))).fold(0.0, f64::max);
+                if far < link && best.is_none_or(|(x, _, _)| far < x) {
+                    best = Some((far, a, b));
                 }
             }
-            k += 1;
         }
-        members.sort_unstable();
-        groups.push(members);
+        let Some((_, a, b)) = best else { break };
+        let moved = groups.remove(b);
+        groups[a].extend(moved);
     }
+    for g in &mut groups {
+        g.sort_unstable();
+    }
+    groups.sort_by_key(|g| g[0]);
     groups
 }
 
@@ -262,7 +264,7 @@ pub fn consistency(reports: &[(String, Report)], cross: &[Vec<Option<f64>>], off
 
 /// The consistency as text (one block per mounting, then the transfer).
 pub fn render(c: &Consistency) -> String {
-    let mut t = format!("\nconsistency across flights (one mounting: ground tilts linked within {:.2}°):\n", c.link_deg);
+    let mut t = format!("\nconsistency across flights (one mounting: flights whose ground tilts are all within {:.2}° of each other):\n", c.link_deg);
     for (k, m) in c.mountings.iter().enumerate() {
         let names: Vec<&str> = m.flights.iter().map(|&i| c.flights[i].as_str()).collect();
         t += &format!("  mounting {}: {} (ground spread {:.2}°)\n", k + 1, names.join(", "), m.ground_spread_deg);
@@ -314,14 +316,22 @@ mod tests {
     /// Five points by hand: A–B 0.3 apart, B–C 0.4 (so C joins A through B, although A–C is
     /// 0.7), D alone at 2, E without a point.
     #[test]
-    fn groups_are_the_connected_links_in_any_order() {
+    fn groups_hold_points_all_within_the_link_in_any_order() {
+        // 0.7 apart, 0 and 2 cannot share a group though each is within 0.5 of 1: 1 joins 0
+        // (0.3 away) rather than 2 (0.4 away)
         let pts = [Some((0.0, 0.0)), Some((0.3, 0.0)), Some((0.7, 0.0)), Some((2.0, 2.0)), None];
-        assert_eq!(link_groups(&pts, 0.5), vec![vec![0, 1, 2], vec![3]]);
+        assert_eq!(link_groups(&pts, 0.5), vec![vec![0, 1], vec![2], vec![3]]);
         // reversed input: the same groups, renumbered
         let rev: Vec<_> = pts.iter().rev().copied().collect();
-        assert_eq!(link_groups(&rev, 0.5), vec![vec![1], vec![2, 3, 4]]);
+        assert_eq!(link_groups(&rev, 0.5), vec![vec![1], vec![2], vec![3, 4]]);
         // a link must be closer than the threshold
         assert_eq!(link_groups(&pts[..2], 0.3), vec![vec![0], vec![1]]);
+        // a chain of close points (0.35, 0.45, 0.4 apart) is two groups, not one
+        let chain = [Some((0.0, 0.0)), Some((0.35, 0.0)), Some((0.8, 0.0)), Some((1.2, 0.0))];
+        assert_eq!(link_groups(&chain, 0.5), vec![vec![0, 1], vec![2, 3]]);
+        // the whole group within the link: three points pairwise 0.4 apart are one
+        let tri = [Some((0.0, 0.0)), Some((0.4, 0.0)), Some((0.2, 0.3464))];
+        assert_eq!(link_groups(&tri, 0.5), vec![vec![0, 1, 2]]);
     }
 
     /// Two values 1.0 ± 0.196 and 2.0 ± 0.392 (σ = 0.1, 0.2): x̄ = (1/0.01 + 2/0.04)/(1/0.01 +

@@ -464,10 +464,10 @@ fn nanobench_table_is_pinned() {
 }
 
 /// Consistency across the real flights (README, *Consistency across flights*): the ground
-/// tilts link into two mountings of several flights; inside each the body offsets agree within
-/// their intervals (χ², p ≥ 0.05, every axis), one flight's offset lowers every other's
-/// accel_kin error in its mounting, and across mountings it makes it worse in a third of the
-/// pairs. The medians are the README's.
+/// tilts group (all within 0.5° of each other) into three mountings of several flights; inside
+/// each the body offsets agree within their intervals (χ², p ≥ 0.05, every axis), one flight's
+/// offset lowers every other's accel_kin error in its mounting, and across mountings it makes it
+/// worse in 18 of 62 pairs. The medians are the README's.
 #[test]
 fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     let Some(data) = super::shared_data() else { return };
@@ -480,8 +480,9 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     let got: Vec<Vec<&str>> = c.mountings.iter().map(|m| m.flights.iter().map(|&i| c.flights[i].as_str()).collect()).collect();
     #[rustfmt::skip]
     let want = [
-        vec!["B10_lissajous_fast_rep1", "B2_circle_slow_rep2", "B5_helix_fast_rep1", "B7_oval_fast_rep1", "B8_star_medium_rep1"],
+        vec!["B10_lissajous_fast_rep1", "B7_oval_fast_rep1"],
         vec!["B2_circle_fast_rep2", "B3_figure8_medium_rep2"],
+        vec!["B2_circle_slow_rep2", "B5_helix_fast_rep1", "B8_star_medium_rep1"],
         vec!["B6_linear_ramp_rep1", "B9_trefoil_fast_rep1"],
         vec!["B6_linear_ramp_rep2"],
     ];
@@ -491,15 +492,15 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
             assert!(a.agree, "mounting {:?}: {} p {}", m.flights, a.axis, a.p);
         }
     }
-    assert_eq!(c.mountings[0].axes.len() + c.mountings[1].axes.len(), 6, "roll, pitch and yaw in both mountings of several flights");
-    assert_eq!((c.within_pairs, c.across_pairs), (22, 50));
+    assert_eq!(c.mountings[..3].iter().map(|m| m.axes.len()).sum::<usize>(), 9, "roll, pitch and yaw in the three mountings of several flights");
+    assert_eq!((c.within_pairs, c.across_pairs), (10, 62));
     assert_eq!(c.within_offset_worse, 0, "inside a mounting one flight's offset never makes another worse");
-    assert_eq!(c.across_offset_worse, 18, "across mountings it does, in 18 of 50 pairs (README)");
+    assert_eq!(c.across_offset_worse, 18, "across mountings it does, in 18 of 62 pairs (README)");
     let near = |what: &str, got: Option<f64>, want: f64| assert!((got.unwrap() - want).abs() < 0.01, "{what}: {got:?} (README {want})");
-    near("within cut", c.within_cut, 0.34);
-    near("across cut", c.across_cut, 0.15);
-    near("within offset gain", c.within_offset_gain, 0.32);
-    near("across offset gain", c.across_offset_gain, 0.13);
+    near("within cut", c.within_cut, 0.35);
+    near("across cut", c.across_cut, 0.20);
+    near("within offset gain", c.within_offset_gain, 0.33);
+    near("across offset gain", c.across_offset_gain, 0.17);
 }
 
 /// Regression: a log cut to start in the air had its floor at the first pose, so every sample
