@@ -1,14 +1,18 @@
 #!/usr/bin/env bash
 # A deterministic mutation sample of the modules issue 14 names, affordable on 2 cores.
 #
-#   scripts/mutants.sh 0 30     # shard 0 of 30: every 30th mutant (round-robin), ~1/30 of ~2,800
+#   scripts/mutants.sh 12 90     # shard 12 of 90: every 90th mutant (round-robin), ~47 of ~4,200
 #
-# Each mutant costs an incremental release build of the crate and the test suite (~2 min here),
-# so the whole set (~2,800) is a multi-day job on one machine; shards of a round-robin split are
-# representative samples that can be run one after another (or on several machines) and their
-# outcomes added. The tree is mutated in place (cargo-mutants restores it): do not edit while it
-# runs. Results: mutants.out/{caught,missed,unviable,timeout}.txt; survivors go to
-# mutants-survivors.txt with a reason each (equivalent, or accepted and why).
+# Two stages, so that a mutant costs seconds rather than minutes:
+#  1. `cargo mutants` with the `mutants` profile (Cargo.toml: this crate at opt-level 1,
+#     incremental, no debug info; the dependencies optimised) against the library's unit tests;
+#  2. every mutant they miss is applied by hand and the whole suite (`cargo test`, the acceptance
+#     tests with the real flights included) is run against it: a mutant the suite catches is
+#     caught, one it misses is a survivor.
+# The tree is mutated in place (cargo-mutants and stage 2 restore it): do not edit while it
+# runs. Results: mutants.out/{caught,missed,unviable,timeout}.txt for stage 1,
+# mutants.out/suite.txt for stage 2 (caught/missed per mutant, `scripts/mutants-stage2.py`). Survivors go to
+# scripts/mutants-survivors.txt with a reason each (equivalent, or accepted and why).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shard="${1:-0}"
@@ -23,4 +27,7 @@ for f in "${files[@]}"; do
         args+=(--file "$f")
     fi
 done
-cargo mutants --in-place --profile release --timeout 240 "${args[@]}" --shard "$shard/$of" --sharding round-robin
+# stage 1 (exit 2 means "some mutants were missed", which stage 2 decides)
+cargo mutants --in-place --profile mutants --timeout 300 "${args[@]}" --shard "$shard/$of" --sharding round-robin -- --lib || [ $? -eq 2 ]
+# stage 2: the whole suite against each mutant stage 1 missed
+python3 scripts/mutants-stage2.py mutants.out

@@ -1,0 +1,28 @@
+#!/usr/bin/env python3
+"""Stage 2 of scripts/mutants.sh: every mutant that the unit tests missed (stage 1, cargo
+mutants' outcomes.json) is applied to the tree, the whole suite is run against it, and the tree
+is restored. Prints and appends to OUT/suite.txt one line per mutant: caught|missed <TAB> name.
+
+    python3 scripts/mutants-stage2.py mutants.out
+"""
+import json, os, subprocess, sys
+
+out = sys.argv[1]
+d = json.load(open(os.path.join(out, 'outcomes.json')))
+with open(os.path.join(out, 'suite.txt'), 'w') as log:
+    for o in d['outcomes']:
+        if o.get('summary') != 'MissedMutant':
+            continue
+        name = o['scenario']['Mutant']['name']
+        diff = os.path.join(out, o['diff_path'])
+        # cargo-mutants' diffs name the mutant, not the file, on their +++ line
+        target = o['scenario']['Mutant']['file']
+        subprocess.run(['patch', '-s', target, diff], check=True)
+        try:
+            ok = subprocess.run(['cargo', 'test', '--profile', 'mutants'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode == 0
+        finally:
+            subprocess.run(['patch', '-s', '-R', target, diff], check=True)
+        line = f"{'missed' if ok else 'caught'}\t{name}"
+        print(line, flush=True)
+        log.write(line + '\n')
+        log.flush()
