@@ -219,9 +219,50 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
                 .collect()
         })
         .collect();
-    let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.0}%", 100.0 * v));
+    let mut text = per_flight_text(&reports, &excluded);
+    text += &cross_tables(&reports, &cross);
+    let accel_cross: Vec<Vec<Option<f64>>> = cross.iter().map(|row| row.iter().map(|c| c.0).collect()).collect();
+    // the body offset's own share: each model again without its offset
+    let offset_gain: Vec<Vec<Option<f64>>> = reports
+        .iter()
+        .zip(&accel_cross)
+        .map(|((_, r), row)| {
+            let bare = super::consistency::without_body_offset(r);
+            series.iter().zip(row).map(|(s, with)| Some(with.as_ref()? - channel_cut(&evaluate(s, &opts, bare.as_ref()?), Channel::AccelKin)?)).collect()
+        })
+        .collect();
+    let consistency = super::consistency::consistency(&reports, &accel_cross, &offset_gain, super::consistency::LINK_DEG);
+    text += &super::consistency::render(&consistency);
+    let spin_up = super::ground::spin_up_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
+    if let Some(sp) = &spin_up {
+        text += &super::ground::render_spin_up_summary(sp);
+    }
+    let landed = super::ground::landed_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
+    if let Some(l) = &landed {
+        text += &super::ground::render_landed_summary(l);
+    }
+    let json = json!({
+        "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
+        "consistency": consistency,
+        "spin_up": spin_up,
+        "after_landing": landed,
+        "excluded": excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e})).collect::<Vec<_>>(),
+        "cross_validation": {
+            "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),
+            "accel_kin_cut": cross.iter().map(|row| row.iter().map(|c| c.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            "force_cut": cross.iter().map(|row| row.iter().map(|c| c.1).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        }
+    });
+    Ok(CrossValidated { reports, cross, consistency, text, json })
+}
+
+/// The per-flight block of a cross-validation: each flight's held-out cuts, effects, ground
+/// checks, leads and notes, then the flights left out and why.
+fn per_flight_text(reports: &[(String, super::Report)], excluded: &[(String, String)]) -> String {
+    use super::design::Channel;
+    use super::select::channel_cut;
     let mut text = String::from("per flight (held-out error cut per channel; effects with 95 % intervals):\n");
-    for (name, r) in &reports {
+    for (name, r) in reports {
         let cuts: Vec<String> = Channel::ALL.iter().map(|c| format!("{} {}", c.name(), pct(channel_cut(&r.errors, *c)))).collect();
         text += &format!("\n  {name}: {}\n", cuts.join(", "));
         for f in &r.effects {
@@ -265,16 +306,28 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             text += &format!("    note: {n}\n");
         }
     }
-    for (name, e) in &excluded {
+    for (name, e) in excluded {
         text += &format!("\n  {name}: left out, {e}\n");
     }
+    text
+}
+
+/// Percent of a cut, or a dash where the channel is missing.
+fn pct(x: Option<f64>) -> String {
+    x.map_or("—".to_string(), |v| format!("{:.0}%", 100.0 * v))
+}
+
+/// The two cross-validation tables (accel_kin, force): the cut when the model fitted on the
+/// row's flight is used on the column's flight.
+fn cross_tables(reports: &[(String, super::Report)], cross: &[Vec<(Option<f64>, Option<f64>)>]) -> String {
+    let mut text = String::new();
     for (k, title) in [(0, "accel_kin (mocap vs IMU: marker offset, tilt, delay)"), (1, "force (IMU vs force model: thrust, drag, wind)")] {
         text += &format!("\ncross-validation, {title}: error cut when the model fitted on the row's flight is used on the column's flight\n");
         // flight names cut to 12 characters (not bytes: a name may be any UTF-8)
         let short = |n: &str| n.chars().take(12).collect::<String>();
         let w = reports.iter().map(|(n, _)| short(n).chars().count()).max().unwrap_or(8).max(14);
         text += &format!("  {:<w$}", "fitted on \\ on");
-        for (n, _) in &reports {
+        for (n, _) in reports {
             text += &format!(" {:>12}", short(n));
         }
         text.push('\n');
@@ -286,37 +339,5 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             text.push('\n');
         }
     }
-    let accel_cross: Vec<Vec<Option<f64>>> = cross.iter().map(|row| row.iter().map(|c| c.0).collect()).collect();
-    // the body offset's own share: each model again without its offset
-    let offset_gain: Vec<Vec<Option<f64>>> = reports
-        .iter()
-        .zip(&accel_cross)
-        .map(|((_, r), row)| {
-            let bare = super::consistency::without_body_offset(r);
-            series.iter().zip(row).map(|(s, with)| Some(with.as_ref()? - channel_cut(&evaluate(s, &opts, bare.as_ref()?), Channel::AccelKin)?)).collect()
-        })
-        .collect();
-    let consistency = super::consistency::consistency(&reports, &accel_cross, &offset_gain, super::consistency::LINK_DEG);
-    text += &super::consistency::render(&consistency);
-    let spin_up = super::ground::spin_up_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
-    if let Some(sp) = &spin_up {
-        text += &super::ground::render_spin_up_summary(sp);
-    }
-    let landed = super::ground::landed_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
-    if let Some(l) = &landed {
-        text += &super::ground::render_landed_summary(l);
-    }
-    let json = json!({
-        "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
-        "consistency": consistency,
-        "spin_up": spin_up,
-        "after_landing": landed,
-        "excluded": excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e})).collect::<Vec<_>>(),
-        "cross_validation": {
-            "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),
-            "accel_kin_cut": cross.iter().map(|row| row.iter().map(|c| c.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
-            "force_cut": cross.iter().map(|row| row.iter().map(|c| c.1).collect::<Vec<_>>()).collect::<Vec<_>>(),
-        }
-    });
-    Ok(CrossValidated { reports, cross, consistency, text, json })
+    text
 }
