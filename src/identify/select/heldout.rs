@@ -87,3 +87,25 @@ pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSerie
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// RMSE and the NRMSE fit by hand: y = (1, 2, 3, 4) has mean 2.5 and ‖y − ȳ‖ = √5; a
+    /// residual (1, 1, 1, 1) is RMSE 1 and fit 100·(1 − 2/√5) = 10.56 %, one of (0.5, 0, 0, 0.5)
+    /// RMSE √(0.5/4) = 0.354 and fit 100·(1 − √0.5/√5) = 68.38 %. Only the samples `idx` count.
+    #[test]
+    fn the_errors_are_the_rmse_and_the_nrmse_fit_by_hand() {
+        let y = [1.0, 2.0, 3.0, 4.0, 100.0];
+        let (before, after) = ([1.0, 1.0, 1.0, 1.0, 50.0], [0.5, 0.0, 0.0, 0.5, 50.0]);
+        let e = axis_error(Channel::AccelKin, 1, &y, &before, &after, &[0, 1, 2, 3]);
+        assert_eq!((e.axis, e.samples), ('y', 4));
+        assert!((e.rmse_before - 1.0).abs() < 1e-15 && (e.rmse_after - 0.125f64.sqrt()).abs() < 1e-15, "{e:?}");
+        let want = |r2: f64| 100.0 * (1.0 - (r2 / 5.0f64).sqrt());
+        assert!((e.fit_before_pct.unwrap() - want(4.0)).abs() < 1e-12 && (e.fit_after_pct.unwrap() - want(0.5)).abs() < 1e-12, "{e:?}");
+        // a flat signal has no fit to speak of
+        let flat = axis_error(Channel::AccelKin, 0, &[2.0; 4], &before, &after, &[0, 1, 2, 3]);
+        assert!(flat.fit_before_pct.is_none() && flat.fit_after_pct.is_none());
+    }
+}
