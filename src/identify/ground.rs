@@ -623,14 +623,32 @@ pub fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
                 t.difference_deg, t.ci95_deg
             ));
         } else if !t.covers {
-            notes.push(format!(
+            let mut note = format!(
                 "ground check and flight disagree in {name}: the ground reads {:.2}°{}, the flight {:.2}° (difference {:.2} ± {:.2}°): the markers or the IMU board moved between rest and flight, or the flight holds an effect the candidate library lacks",
                 t.ground_deg,
                 if t.bias_tilt_deg != 0.0 { format!(" ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg) } else { String::new() },
                 t.flight_deg,
                 t.difference_deg,
                 t.ci95_deg
-            ));
+            );
+            // the other references, where they agree: the next lead for this flight
+            let spin = a.spin_up.as_ref().map(|s| if name == "roll" { &s.roll } else { &s.pitch });
+            let landed = a.after_landing.as_ref().map(|l| if name == "roll" { &l.roll } else { &l.pitch });
+            // the spin-up counts only where it moved significantly from the rest, toward the
+            // flight, and lands within its interval of it (a wide interval alone agrees with anything)
+            let toward = |s: &&SpinUpAxis| s.covers && s.change_deg.abs() > s.change_ci95_deg && s.change_deg * t.difference_deg < 0.0;
+            if let Some(sp) = spin.filter(toward) {
+                note += &format!(
+                    "; the spin-up (motors on, still on the floor) moved {:+.2} ± {:.2}° from the rest toward the flight and agrees with it ({:+.2} ± {:.2}°): consistent with a tilt the spinning rotors add, which the flight carries too (rectified vibration, a mount that bends under thrust) and a rest with the motors off cannot see",
+                    sp.change_deg, sp.change_ci95_deg, sp.difference_deg, sp.ci95_deg
+                );
+            } else if let Some(l) = landed.filter(|l| l.bracket_covers) {
+                note += &format!(
+                    "; the mean of the rests before and after the flight agrees with it ({:+.2} ± {:.2}°): the tilt at rest moved during the flight",
+                    l.bracket_difference_deg, l.bracket_ci95_deg
+                );
+            }
+            notes.push(note);
         }
     }
     notes
@@ -741,6 +759,16 @@ mod tests {
         let a = agreement(&raw, &raw, &tilt([0.4, -0.6]), Some(&sp), None);
         let su = a.spin_up.unwrap();
         assert!((su.pitch.change_deg - 0.5).abs() < 1e-3 && su.roll.change_deg.abs() < 1e-3, "{su:?}");
+        // the report names the reference that agrees where the rest does not: a flight at the
+        // spin-up's pitch disagrees with the rest by 0.5° and agrees with the spin-up
+        let notes = agreement_notes(&agreement(&raw, &raw, &tilt([0.4, -0.5]), Some(&sp), None));
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].contains("disagree in pitch")
+                && notes[0].contains("the spin-up (motors on, still on the floor) moved +0.50 ±")
+                && notes[0].contains("agrees with it (+0.00 ±"),
+            "{notes:?}"
+        );
         assert!((su.pitch.difference_deg - 0.1).abs() < 1e-3 && (a.pitch.difference_deg + 0.4).abs() < 1e-3, "{a:?}");
         // with a bias removed from both checks the change is the same (the bias cancels) and
         // the difference moves by the bias tilt
@@ -849,6 +877,11 @@ mod tests {
         assert!(l.pitch.bracket_ci95_deg >= 0.3 && l.pitch.bracket_covers && !l.pitch.covers, "{l:?}");
         // this flight sits between its rests (before − flight: +0.1 roll, −0.1 pitch; after −
         // flight: −0.1, +0.5); one at pitch −1.2 does not in pitch (+0.2, +0.8; bracket +0.5)
+        // a flight at pitch −0.6 disagrees with the rest before (−0.4) and agrees with the
+        // mean of the two rests (−0.1 ± at least 0.3): the report says so
+        let notes = agreement_notes(&agreement(&raw, &raw, &tilt([0.4, -0.6]), None, Some(&after)));
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(notes[0].contains("disagree in pitch") && notes[0].contains("the mean of the rests before and after the flight agrees with it (-0.10 ±"), "{notes:?}");
         let out = agreement(&raw, &raw, &tilt([0.3, -1.2]), None, Some(&after));
         let b = [a, out, agreement(&raw, &raw, &tilt([1.9, -0.9]), None, None)];
         assert!(landed_summary(b.iter()).is_none(), "fewer than 3 flights with both rests");
