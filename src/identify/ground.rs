@@ -124,7 +124,8 @@ fn still_accel(s: &Series, start: usize, end: usize) -> Option<(usize, usize)> {
     let tol = REST_ACCEL_TOL_M_S2.max(8.0 * sigma);
     let (mut best, mut run_start) = ((0, 0), 0);
     for i in 0..=f.len() {
-        if i == f.len() || (f[i] - mid).amax() > tol {
+        // (a non-finite reading is not still either)
+        if i == f.len() || !(f[i] - mid).iter().all(|d| d.abs() <= tol) {
             if i - run_start > best.1 - best.0 {
                 best = (run_start, i);
             }
@@ -854,6 +855,11 @@ mod tests {
             s.accel_body[i].x += 0.05 * i as f64;
         }
         assert!(ground_check(&s).is_none());
+        // a non-finite reading is not still: the rest is read after it (rows 11..81)
+        let mut s = flight([0.4, -1.0], [0.0; 2], 0.9);
+        s.accel_body[10].y = f64::NAN;
+        let rest = ground_check(&s).unwrap();
+        assert!(rest.samples == 70 && (rest.roll_deg - 0.4).abs() < 1e-3, "{rest:?}");
     }
 
     /// The rest after landing reads its own tilt over the rows from 0.5 s after the landing (50
