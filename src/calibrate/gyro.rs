@@ -741,6 +741,11 @@ mod tests {
     /// mocap attitudes at 200 Hz (arriving 12 ms late) and telemetry at 100 Hz stamped by a
     /// clock t_v = t + offset + drift·t; returns the alignment's fit.
     fn fly(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, seconds: i64) -> (GyroAlignment, Option<GyroFit>) {
+        fly_with_gap(g, c, offset, drift_ppm, seconds, 0..0)
+    }
+
+    /// [`fly`] with the telemetry frames that end in `lost_ms` lost on the link.
+    fn fly_with_gap(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, seconds: i64, lost_ms: std::ops::Range<i64>) -> (GyroAlignment, Option<GyroFit>) {
         let mut g = g;
         let omega = |t: f64| Vec3::<Body>::new(0.6 * (3.0 * t).cos() * (1.0 + 0.5 * (0.7 * t).sin()), 0.5 * (2.0 * t).sin(), 0.2 + 0.3 * (1.3 * t).sin());
         let stamp = |t: Nanos| Nanos(t.0 + offset.0 + (t.0 as f64 * drift_ppm * 1e-6).round() as i64);
@@ -760,7 +765,9 @@ mod tests {
             }
             if (ms + 1) % 10 == 0 {
                 let (t0, t1) = (Nanos::from_millis(ms - 9), Nanos::from_millis(ms + 1));
-                g.add_telemetry(&TelemetryFrame { seq, t0: stamp(t0), t1: stamp(t1), gyro_mean: gyro_sum * 0.1 });
+                if !lost_ms.contains(&(ms + 1)) {
+                    g.add_telemetry(&TelemetryFrame { seq, t0: stamp(t0), t1: stamp(t1), gyro_mean: gyro_sum * 0.1 });
+                }
                 seq += 1;
                 gyro_sum = Vec3::zeros();
             }
@@ -822,6 +829,19 @@ mod tests {
         // likewise a drift beyond the searched range
         let (_, beyond) = fly(gyro().estimate_clock(ClockSearch { max_drift_ppm: 100.0, ..ClockSearch::default() }), c, Nanos::ZERO, 300.0, 16);
         assert!(beyond.is_none(), "{beyond:?}");
+    }
+
+    /// Every window of the clock search's grid is either paired or dropped: with 0.1 s of
+    /// telemetry lost, some windows are dropped (those whose span at some candidate offset
+    /// reaches into the gap, at least 100/40 of them), and paired + dropped is the gapless
+    /// flight's count.
+    #[test]
+    fn a_window_is_paired_or_dropped() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
+        let (whole, _) = fly(gyro().estimate_clock(ClockSearch::default()), c, Nanos::ZERO, 0.0, 8);
+        let (gap, _) = fly_with_gap(gyro().estimate_clock(ClockSearch::default()), c, Nanos::ZERO, 0.0, 8, 4000..4100);
+        assert!(gap.dropped() >= 3 && gap.dropped() < 20, "{} windows, {} dropped", gap.windows(), gap.dropped());
+        assert_eq!(gap.windows() + gap.dropped(), whole.windows() + whole.dropped(), "{} + {} against {} + {}", gap.windows(), gap.dropped(), whole.windows(), whole.dropped());
     }
 
     /// The partial-frame integral against closed forms: ω(s) = s (means −½, ½, 3/2) integrates
