@@ -88,8 +88,7 @@ pub(super) fn final_residuals(
         let ok: Vec<bool> = d.ok.clone();
         let raw: Vec<f64> = (0..d.n).map(|i| if ok[i] { after[i] } else { f64::NAN }).collect();
         let (r, n) = autocorrelation(&raw, 50);
-        let bound = Z_995 / (n.max(1) as f64).sqrt();
-        let outside = r.iter().filter(|x| x.abs() > bound).count() as f64 / r.len() as f64;
+        let outside = outside_99(&r, n);
         let ar = Ar::fit(&after, &ok, max_ar_order);
         let mut w = Vec::new();
         ar.whiten(&after, &ok, &mut w);
@@ -108,4 +107,25 @@ pub(super) fn final_residuals(
         whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: lb });
     }
     (errors, whiteness, left)
+}
+
+/// The fraction of the autocorrelations `r` (of a series with `n` usable samples) outside the
+/// 99 % band of white noise, ±z₀.₉₉₅/√n.
+fn outside_99(r: &[f64], n: usize) -> f64 {
+    let bound = Z_995 / (n.max(1) as f64).sqrt();
+    r.iter().filter(|x| x.abs() > bound).count() as f64 / r.len() as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The 99 % band by hand: with 100 samples it is ±2.5758/10 = ±0.258, so of the lags
+    /// (0.5, 0.25, −0.3, 0.01) two lie outside; with 10,000 samples (±0.0258) three do.
+    #[test]
+    fn the_white_noise_band_narrows_with_the_samples() {
+        let r = [0.5, 0.25, -0.3, 0.01];
+        assert_eq!(outside_99(&r, 100), 0.5);
+        assert_eq!(outside_99(&r, 10_000), 0.75);
+    }
 }
