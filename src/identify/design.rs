@@ -367,7 +367,8 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
     let gyro_s = smooth_vec3_kept_and_neighbours(gyro_raw, segs, &kernel, stride);
     let accel_s = smooth_vec3_kept_and_neighbours(&s.accel_body, segs, &kernel, stride);
     // mocap body rates from neighbouring poses
-    let omega_s = smooth_vec3_kept(&body_rates(att_body, &s.t_s, segs), segs, &kernel, stride);
+    let rates = body_rates(att_body, &s.t_s, segs);
+    let omega_s = smooth_vec3_kept(&rates, segs, &kernel, stride);
     let mut vel_nav = vec![Vector3::zeros(); n];
     let mut acc_nav = vec![Vector3::zeros(); n];
     for &(a, b) in segs {
@@ -431,7 +432,7 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
         o
     });
 
-    let attitude_gap = smooth_vec3_kept(&attitude_gap(s, att_body, gyro_raw), segs, &kernel, stride);
+    let attitude_gap = smooth_vec3_kept(&attitude_gap(s, &rates, gyro_raw), segs, &kernel, stride);
     Smoothed { accel_s, gyro_s, omega_s, f_hat, f_dot, omega_dot, v_body, vel_nav, nav_axes, tilt_cols, centripetal, thrust_s, height, attitude_gap }
 }
 
@@ -469,13 +470,12 @@ struct Smoothed {
 /// integral of ω_mocap − ω_gyro less its moving average over it.
 pub const ATTITUDE_GAP_WINDOW_S: f64 = 0.5;
 
-/// δθ = ∫(ω_mocap − ω_gyro)dt, per segment, less its centred moving average over
+/// δθ = ∫(ω_mocap − ω_gyro)dt (ω_mocap: `rates`, from neighbouring poses), per segment, less its centred moving average over
 /// [`ATTITUDE_GAP_WINDOW_S`]: the mocap attitude's error at frequencies the gyro's integral
 /// holds (plus the gyro's own high-frequency error).
-fn attitude_gap(s: &Series, att_body: &[UnitQuaternion<f64>], gyro_raw: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+fn attitude_gap(s: &Series, rates: &[Vector3<f64>], gyro_raw: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
     let n = s.len();
     let dt = s.dt();
-    let rates = body_rates(att_body, &s.t_s, &s.segments);
     let half = (0.5 * ATTITUDE_GAP_WINDOW_S / dt).round() as usize;
     let mut gap = vec![Vector3::zeros(); n];
     for &(a, b) in &s.segments {
