@@ -329,6 +329,9 @@ mod tests {
         // a chain of close points (0.35, 0.45, 0.4 apart) is two groups, not one
         let chain = [Some((0.0, 0.0)), Some((0.35, 0.0)), Some((0.8, 0.0)), Some((1.2, 0.0))];
         assert_eq!(link_groups(&chain, 0.5), vec![vec![0, 1], vec![2, 3]]);
+        // only distances count: the same points moved by (5, −3) group alike
+        let moved: Vec<_> = chain.iter().map(|p| p.map(|(x, y)| (x + 5.0, y - 3.0))).collect();
+        assert_eq!(link_groups(&moved, 0.5), vec![vec![0, 1], vec![2, 3]]);
         // the whole group within the link: three points pairwise 0.4 apart are one
         let tri = [Some((0.0, 0.0)), Some((0.4, 0.0)), Some((0.2, 0.3464))];
         assert_eq!(link_groups(&tri, 0.5), vec![vec![0, 1, 2]]);
