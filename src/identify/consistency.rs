@@ -332,6 +332,9 @@ mod tests {
         // only distances count: the same points moved by (5, −3) group alike
         let moved: Vec<_> = chain.iter().map(|p| p.map(|(x, y)| (x + 5.0, y - 3.0))).collect();
         assert_eq!(link_groups(&moved, 0.5), vec![vec![0, 1], vec![2, 3]]);
+        // a tie goes to the lower indices: 1 is as close to 0 as to 2
+        let tie = [Some((0.0, 0.0)), Some((1.0, 0.0)), Some((2.0, 0.0))];
+        assert_eq!(link_groups(&tie, 1.5), vec![vec![0, 1], vec![2]]);
         // the whole group within the link: three points pairwise 0.4 apart are one
         let tri = [Some((0.0, 0.0)), Some((0.4, 0.0)), Some((0.2, 0.3464))];
         assert_eq!(link_groups(&tri, 0.5), vec![vec![0, 1, 2]]);

@@ -114,10 +114,8 @@ pub fn tilt_after_landing(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) 
 /// sample-to-sample noise (median |first difference|·1.4826/√2, largest axis: a ramp or a step
 /// does not inflate it); `None` when under 0.5 s remain.
 fn still_accel(s: &Series, start: usize, end: usize) -> Option<(usize, usize)> {
+    // (fewer than 2 rows are no 0.5 s run: None below)
     let f = &s.accel_body[start..end];
-    if f.len() < 2 {
-        return None;
-    }
     let median = |v: Vec<f64>| super::consistency::median(v).unwrap_or(0.0);
     let mid = nalgebra::Vector3::from_fn(|k, _| median(f.iter().map(|x| x[k]).collect()));
     let sigma = (0..3).map(|k| median(f.windows(2).map(|w| (w[1][k] - w[0][k]).abs()).collect()) * 1.4826 / std::f64::consts::SQRT_2).fold(0.0, f64::max);
