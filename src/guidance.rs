@@ -66,7 +66,7 @@ pub fn trapezoid(dist: f64, vmax: f64, amax: f64, t: f64) -> (f64, f64, f64) {
 }
 
 /// Duration of [`trapezoid`] (s).
-pub fn trapezoid_duration(dist: f64, vmax: f64, amax: f64) -> f64 {
+fn trapezoid_duration(dist: f64, vmax: f64, amax: f64) -> f64 {
     if dist <= 0.0 {
         return 0.0;
     }
@@ -173,7 +173,7 @@ impl Plan {
     }
 
     /// Index of the phase active at `t` (`None` before the first or after the last).
-    pub fn phase_at(&self, t: Nanos) -> Option<usize> {
+    pub(crate) fn phase_at(&self, t: Nanos) -> Option<usize> {
         self.phases.iter().position(|p| t >= p.start && t < p.end)
     }
 

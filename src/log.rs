@@ -51,7 +51,7 @@ pub const COLUMNS: [&str; 21] = [
 ];
 
 /// The columns a log may lack (they read as empty cells).
-pub const OPTIONAL: [&str; 1] = ["vbat_v"];
+const OPTIONAL: [&str; 1] = ["vbat_v"];
 
 /// Writes the log of one vehicle (the run must have been made with `trace: true`).
 pub fn write_csv(v: &VehicleRun, mocap_period_s: f64) -> String {
@@ -248,7 +248,7 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
 }
 
 /// The median interval between increasing timestamps (s); `None` for fewer than two.
-pub fn median_interval(t: &[f64]) -> Option<f64> {
+pub(crate) fn median_interval(t: &[f64]) -> Option<f64> {
     let mut dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
     dt.sort_by(f64::total_cmp);
     dt.get(dt.len() / 2).copied()
@@ -256,7 +256,7 @@ pub fn median_interval(t: &[f64]) -> Option<f64> {
 
 /// Row ranges [start, end) between gaps longer than 3 × the median interval, each gap reported
 /// in `repairs` (flyarena's logs and mapped logs alike).
-pub fn split_at_gaps(t: &[f64], repairs: &mut Vec<String>) -> Vec<(usize, usize)> {
+pub(crate) fn split_at_gaps(t: &[f64], repairs: &mut Vec<String>) -> Vec<(usize, usize)> {
     let n = t.len();
     let Some(median) = median_interval(t) else { return vec![(0, n)] };
     let mut segments = Vec::new();

@@ -10,7 +10,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 /// Interrupted by SIGINT or SIGTERM (128 + 2, the shell's convention).
-pub const INTERRUPTED: i32 = 130;
+const INTERRUPTED: i32 = 130;
 
 /// Temporary files being written right now: an interrupt removes them, so a killed run leaves
 /// each output either as it was or complete (the rename is atomic), and no debris.

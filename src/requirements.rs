@@ -219,7 +219,7 @@ pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&R
 }
 
 /// Does the scenario need the uncompensated counterpart run?
-pub fn needs_uncompensated(req: &RequirementsCfg) -> bool {
+pub(crate) fn needs_uncompensated(req: &RequirementsCfg) -> bool {
     req.hover_drift.is_some()
 }
 
@@ -322,7 +322,7 @@ pub struct ClockSummary {
 }
 
 /// The summary of one vehicle's run; `unc` is its uncompensated counterpart, if flown.
-pub fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> VehicleSummary {
+pub(crate) fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> VehicleSummary {
     let c = &v.calibration;
     let line = |f: &crate::calibrate::LineFit| LineSummary { n: f.n, psi_offset_deg: f.psi_offset.to_degrees(), x_e0_m: f.x_e0 };
     VehicleSummary {

@@ -35,7 +35,7 @@ use super::select::{MIN_TRAIN_SAMPLES, Report};
 use super::stats::{Z_975, chi2_sf};
 
 /// Ground tilts closer than this (deg) are one mounting, by default.
-pub const LINK_DEG: f64 = 0.5;
+pub(crate) const LINK_DEG: f64 = 0.5;
 /// Offsets agree inside a mounting when the χ² test gives p at least this.
 pub const AGREE_P: f64 = 0.05;
 
@@ -109,7 +109,7 @@ pub struct Consistency {
 /// ordered by their first member; `None` points are in no group. Unlike connected links (single
 /// linkage), a chain of close points cannot join two distant ones, however many flights there
 /// are.
-pub fn link_groups(points: &[Option<(f64, f64)>], link: f64) -> Vec<Vec<usize>> {
+fn link_groups(points: &[Option<(f64, f64)>], link: f64) -> Vec<Vec<usize>> {
     let d = |i: usize, j: usize| match (points[i], points[j]) {
         (Some(a), Some(b)) => (a.0 - b.0).hypot(a.1 - b.1),
         _ => f64::INFINITY,
@@ -152,7 +152,7 @@ pub fn agreement(axis: &'static str, values: &[(usize, f64, f64)]) -> Option<Axi
 
 /// The report's model without its body offset (the correction set to identity and its linear
 /// columns to zero); `None` when it has none.
-pub fn without_body_offset(r: &Report) -> Option<Report> {
+pub(crate) fn without_body_offset(r: &Report) -> Option<Report> {
     r.effect(Effect::BodyOffset)?;
     let mut bare = r.clone();
     bare.corrections.body_offset = nalgebra::UnitQuaternion::identity();

@@ -119,7 +119,7 @@ pub struct Signal {
 }
 
 /// Poses this many robust standard deviations off the midpoint of their neighbours are glitches.
-pub const GLITCH_SIGMAS: f64 = 20.0;
+pub(crate) const GLITCH_SIGMAS: f64 = 20.0;
 
 /// Rows whose pose jumps away from the midpoint of its neighbours and back.
 pub fn glitches(s: &Series) -> Vec<usize> {

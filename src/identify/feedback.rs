@@ -49,7 +49,7 @@ fn remove(tree: &mut Value, path: &[&str]) {
 
 /// The scenario as the declared model sees it: marker offsets, camera error, disturbance, IMU
 /// biases and `undeclared` of vehicle `i` removed.
-pub fn nominal_tree(tree: &Value, i: usize) -> Value {
+fn nominal_tree(tree: &Value, i: usize) -> Value {
     let mut t = tree.clone();
     remove(&mut t, &["mocap", "camera_error"]);
     if let Some(v) = t.get_mut("vehicles").and_then(|v| v.get_mut(i)) {
@@ -141,7 +141,7 @@ pub struct TrajectoryError {
 
 /// The [`TrajectoryError`] between a measured flight and its simulated twin, row by row over the
 /// rows both have.
-pub fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
+pub(crate) fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
     let n = data.len().min(sim.len());
     let (mut sp, mut sa, mut k) = (0.0, 0.0, 0usize);
     for i in 0..n {
@@ -156,7 +156,7 @@ pub fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
 }
 
 /// The scenario with its undeclared effects removed, and with the fragment applied to that.
-pub fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str, name: &str) -> Result<(Scenario, Scenario), InputError> {
+pub(crate) fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str, name: &str) -> Result<(Scenario, Scenario), InputError> {
     let nominal = nominal_tree(scenario_src, i);
     let frag: Fragment = serde_saphyr::from_str(fragment_text).map_err(|e| InputError::invalid("fragment", e))?;
     let mut fed = nominal.clone();

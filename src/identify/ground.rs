@@ -554,7 +554,7 @@ pub fn landed_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreeme
 }
 
 /// The summary as the multi-flight report prints it.
-pub fn render_landed_summary(s: &LandedSummary) -> String {
+pub(crate) fn render_landed_summary(s: &LandedSummary) -> String {
     let mut t = format!(
         "\nground check before take-off and after landing against the flight ({} of {} flights have both rests; the reference is their mean, else the rest before):\n",
         s.with_both, s.flights
@@ -591,7 +591,7 @@ fn binomial_upper_tail(n: usize, k: usize) -> f64 {
 }
 
 /// The summary as the multi-flight report prints it.
-pub fn render_spin_up_summary(s: &SpinUpSummary) -> String {
+pub(crate) fn render_spin_up_summary(s: &SpinUpSummary) -> String {
     let mut t = format!("\nground check at rest and at spin-up (motors on, still on the floor) against the flight, {} flights:\n", s.flights);
     for (name, a) in [("roll", &s.roll), ("pitch", &s.pitch)] {
         t += &format!(
@@ -613,7 +613,7 @@ pub fn render_spin_up_summary(s: &SpinUpSummary) -> String {
 
 /// The report's notes on a ground agreement: a difference beyond 1° that the flight's interval
 /// covers (the flight cannot pin its tilt down), or a disagreement.
-pub fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
+pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
     let mut notes = Vec::new();
     for (name, t) in [("roll", &a.roll), ("pitch", &a.pitch)] {
         if t.difference_deg.abs() > 1.0 && t.covers {

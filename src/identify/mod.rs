@@ -48,7 +48,7 @@ pub mod report;
 pub mod ros2;
 pub mod select;
 pub mod series;
-pub mod stats;
+pub(crate) mod stats;
 pub mod trials;
 pub mod workflow;
 

@@ -137,7 +137,7 @@ impl DataQuality {
         self.cuts.iter().filter(|c| !c.at_floor)
     }
     /// One line per stretch, for messages.
-    pub fn describe(&self) -> Vec<String> {
+    pub(crate) fn describe(&self) -> Vec<String> {
         self.cuts
             .iter()
             .map(|c| format!("{} {:.2}–{:.2} s: {}{}", c.channel.name(), c.from_s, c.to_s, c.reason, if c.at_floor { " (at the floor: touchdown or contact)" } else { "" }))

@@ -18,7 +18,7 @@ fn pct(x: Option<f64>) -> String {
 
 /// One parameter as printed: "name value ± half-width unit", or "name value unit (not
 /// identifiable)" when the flight cannot back an interval; `num` formats the numbers.
-pub fn param_text(p: &super::select::Param, num: impl Fn(f64) -> String) -> String {
+pub(crate) fn param_text(p: &super::select::Param, num: impl Fn(f64) -> String) -> String {
     if p.identifiable { format!("{} {} ± {} {}", p.name, num(p.value), num(p.ci95), p.unit) } else { format!("{} {} {} (not identifiable)", p.name, num(p.value), p.unit) }
         .trim_end()
         .to_string()

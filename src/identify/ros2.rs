@@ -48,7 +48,7 @@ pub struct Topics {
 }
 
 /// An MCAP file starts with these magic bytes.
-pub const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+pub(crate) const MAGIC: &[u8] = b"\x89MCAP0\r\n";
 
 /// A little CDR (XCDR1) reader: primitives aligned to their size from the start of the payload
 /// (after the 4-byte encapsulation header), in the byte order the header names.

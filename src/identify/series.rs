@@ -60,7 +60,7 @@ impl Series {
     /// The same samples, bit for bit (times, poses, IMU, thrust, battery), whatever the source's
     /// name: a log copied under another name. The readers' repairs and the model are not
     /// compared.
-    pub fn same_samples(&self, other: &Series) -> bool {
+    pub(crate) fn same_samples(&self, other: &Series) -> bool {
         fn same(a: impl IntoIterator<Item = f64>, b: impl IntoIterator<Item = f64>) -> bool {
             a.into_iter().map(f64::to_bits).eq(b.into_iter().map(f64::to_bits))
         }
@@ -123,7 +123,7 @@ impl Series {
 /// lowest point (largest z) while the motors are off; without a thrust column, the lowest point
 /// of the first half second of the first segment (a log is taken to start at rest). None for a
 /// log that starts in the air with the motors on.
-pub fn floor_z(s: &Series, pos_nav: &[Vector3<f64>]) -> Option<f64> {
+pub(crate) fn floor_z(s: &Series, pos_nav: &[Vector3<f64>]) -> Option<f64> {
     let n = s.len();
     match &s.thrust_n {
         Some(t) => (0..n).filter(|&i| t[i] == 0.0).map(|i| pos_nav[i].z).reduce(f64::max),
@@ -187,7 +187,7 @@ fn shifted(i: usize, shift: f64, a: usize, b: usize) -> Option<(usize, usize, f6
 /// The gyro with a delay τ (s) taken out: row i reads the stream at t_i + τ (linear
 /// interpolation inside the row's segment), and `ok[i]` turns false where that reaches outside
 /// it. τ = 0 returns the stream itself.
-pub fn gyro_advanced(s: &Series, delay_s: f64, ok: &mut [bool]) -> Vec<Vector3<f64>> {
+pub(crate) fn gyro_advanced(s: &Series, delay_s: f64, ok: &mut [bool]) -> Vec<Vector3<f64>> {
     if delay_s == 0.0 {
         return s.gyro_body.clone();
     }
@@ -217,7 +217,7 @@ pub struct Corrected {
 }
 
 /// Applies the corrections (body offset, world tilt, mocap delay, lever arm) to the mocap stream.
-pub fn correct(s: &Series, c: &Corrections) -> Corrected {
+pub(crate) fn correct(s: &Series, c: &Corrections) -> Corrected {
     let n = s.len();
     let dt = s.dt();
     let shift = c.mocap_delay_s / dt;

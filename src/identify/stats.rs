@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, DVector};
 
 /// ln Γ(x) for x > 0 (Lanczos, g = 7, 9 terms; relative error < 1e-14).
-pub fn ln_gamma(x: f64) -> f64 {
+fn ln_gamma(x: f64) -> f64 {
     const G: [f64; 9] = [
         0.999_999_999_999_809_9,
         676.520_368_121_885_1,
@@ -55,7 +55,7 @@ fn lentz_step(c: &mut f64, d: &mut f64, a: f64, b: f64) -> f64 {
 }
 
 /// Regularised incomplete beta I_x(a, b) (continued fraction, Numerical Recipes §6.4).
-pub fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
+fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }
@@ -84,7 +84,7 @@ pub fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
 }
 
 /// Regularised lower incomplete gamma P(a, x).
-pub fn incomplete_gamma(a: f64, x: f64) -> f64 {
+fn incomplete_gamma(a: f64, x: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }
@@ -119,7 +119,7 @@ pub fn incomplete_gamma(a: f64, x: f64) -> f64 {
 }
 
 /// P(F > f) for F ~ F(d1, d2).
-pub fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
+pub(crate) fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
     if f <= 0.0 {
         return 1.0;
     }
@@ -127,19 +127,19 @@ pub fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
 }
 
 /// P(X > q) for X ~ χ²(k).
-pub fn chi2_sf(q: f64, k: f64) -> f64 {
+pub(crate) fn chi2_sf(q: f64, k: f64) -> f64 {
     1.0 - incomplete_gamma(k / 2.0, q / 2.0)
 }
 
 /// The 97.5 % quantile of the standard normal (95 % two-sided intervals; the prewhitened
 /// problems have thousands of degrees of freedom, where Student's t equals it to 1e-3).
-pub const Z_975: f64 = 1.959_963_984_540_054;
+pub(crate) const Z_975: f64 = 1.959_963_984_540_054;
 /// The 99.5 % quantile (99 % bounds of an autocorrelation).
-pub const Z_995: f64 = 2.575_829_303_548_901;
+pub(crate) const Z_995: f64 = 2.575_829_303_548_901;
 
 /// An AR(p) model of a residual: e_k = Σ a_i·e_{k−i} + σ·w_k.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Ar {
+pub(crate) struct Ar {
     /// Coefficients a_1..a_p.
     pub a: Vec<f64>,
     /// Innovation standard deviation.
@@ -229,7 +229,7 @@ impl Ar {
 
 /// Solves G·x = b for a symmetric positive (semi)definite G: Cholesky, or a pseudo-inverse
 /// when G is singular. None if nothing finite comes out.
-pub fn solve_spd(g: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
+pub(crate) fn solve_spd(g: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
     if g.nrows() == 0 {
         return Some(DVector::zeros(0));
     }
@@ -249,7 +249,7 @@ pub fn solve_spd(g: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
 }
 
 /// Inverse of a symmetric positive definite matrix (pseudo-inverse if singular).
-pub fn inverse_spd(g: &DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn inverse_spd(g: &DMatrix<f64>) -> DMatrix<f64> {
     if let Some(c) = g.clone().cholesky() {
         return c.inverse();
     }
@@ -292,7 +292,7 @@ pub fn autocorrelation(x: &[f64], max_lag: usize) -> (Vec<f64>, usize) {
 /// Bartlett's effective sample size of n pairs whose series have the autocorrelations rx, ry
 /// (lags 1..): n / (1 + 2·Σ ρ_x(k)·ρ_y(k)), clamped to [2, n]. Under it the Pearson correlation
 /// of two independent autocorrelated series is approximately N(0, 1/n_eff).
-pub fn effective_n(n: usize, rx: &[f64], ry: &[f64]) -> f64 {
+pub(crate) fn effective_n(n: usize, rx: &[f64], ry: &[f64]) -> f64 {
     let inflation: f64 = 1.0 + 2.0 * rx.iter().zip(ry).map(|(a, b)| a * b).sum::<f64>();
     (n as f64 / inflation.max(1e-9)).clamp(2.0, n as f64)
 }
@@ -312,7 +312,7 @@ pub struct LjungBox {
 
 /// Ljung–Box of `x` over `lags` lags, with `fitted` parameters (an AR's order) taken from the
 /// degrees of freedom.
-pub fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
+pub(crate) fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
     let (r, n) = autocorrelation(x, lags);
     let n = n as f64;
     let q = n * (n + 2.0) * r.iter().enumerate().map(|(k, rk)| rk * rk / (n - (k + 1) as f64)).sum::<f64>();

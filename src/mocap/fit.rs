@@ -162,7 +162,7 @@ fn polar_rotation(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
 }
 
 /// Kabsch by the SVD (any H).
-pub fn kabsch_svd(h: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+fn kabsch_svd(h: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     let svd = h.svd(true, true);
     let (u, v_t) = (svd.u?, svd.v_t?);
     let v = v_t.transpose();

@@ -66,7 +66,7 @@ impl ScenarioError {
 /// The dotted path (`vehicles[1].markers.rotation_deg`) of the YAML node at `line`:`column` of a
 /// block-style document, reconstructed from indentation. Flow collections report the key that
 /// holds them.
-pub fn yaml_path_at(src: &str, line: u32, column: u32) -> String {
+pub(crate) fn yaml_path_at(src: &str, line: u32, column: u32) -> String {
     // stack of (indent, segment); list items push "[i]" segments at the indent of their dash
     let mut stack: Vec<(usize, String)> = Vec::new();
     let mut counters: Vec<(usize, usize)> = Vec::new(); // (indent of '-', items seen)
@@ -160,7 +160,7 @@ fn join(stack: &[(usize, String)]) -> String {
 }
 
 /// Levenshtein distance, for "did you mean" suggestions.
-pub fn edit_distance(a: &str, b: &str) -> usize {
+pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut prev: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.chars().enumerate() {
@@ -174,7 +174,7 @@ pub fn edit_distance(a: &str, b: &str) -> usize {
 }
 
 /// Appends "did you mean `x`?" to serde's unknown-field/variant messages when a close name exists.
-pub fn with_suggestion(message: &str) -> String {
+pub(crate) fn with_suggestion(message: &str) -> String {
     let Some(rest) = message.split("unknown field `").nth(1).or_else(|| message.split("unknown variant `").nth(1)) else {
         return message.to_string();
     };

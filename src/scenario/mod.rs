@@ -809,7 +809,7 @@ fn half_the_error() -> f64 {
 
 impl PhaseCfg {
     /// The plan's phase in SI units (radians inside).
-    pub fn to_phase(&self) -> Phase {
+    pub(crate) fn to_phase(&self) -> Phase {
         match *self {
             PhaseCfg::Takeoff { altitude_m, duration_s } => Phase::Takeoff { altitude_m, duration_s },
             PhaseCfg::Hover { duration_s } => Phase::Hover { duration_s },

@@ -23,15 +23,15 @@ use crate::radio::{MAX_CHANNELS, PpmFrame};
 use crate::vehicle::TelemetryFrame;
 
 /// Version of the packets.
-pub const VERSION: u8 = 1;
+pub(crate) const VERSION: u8 = 1;
 /// A command's magic.
-pub const COMMAND: [u8; 4] = *b"FACM";
+pub(crate) const COMMAND: [u8; 4] = *b"FACM";
 /// A request's magic.
-pub const REQUEST: [u8; 4] = *b"FARQ";
+const REQUEST: [u8; 4] = *b"FARQ";
 /// A telemetry packet's magic.
-pub const TELEMETRY: [u8; 4] = *b"FATM";
+const TELEMETRY: [u8; 4] = *b"FATM";
 /// An offset report's magic.
-pub const OFFSET: [u8; 4] = *b"FAOF";
+pub(crate) const OFFSET: [u8; 4] = *b"FAOF";
 
 /// Writes an offset report: the marker offset (roll, pitch, yaw, rad) a controller estimated.
 pub fn offset(vehicle_id: u8, roll_pitch_yaw: [f64; 3]) -> Vec<u8> {
@@ -46,7 +46,7 @@ pub fn offset(vehicle_id: u8, roll_pitch_yaw: [f64; 3]) -> Vec<u8> {
 
 /// Reads an offset report: the vehicle id and (roll, pitch, yaw) in rad. `None` unless it is
 /// 32 bytes of version 1 with a finite roll and pitch (yaw may be NaN: not estimated).
-pub fn parse_offset(b: &[u8]) -> Option<(u8, [f64; 3])> {
+pub(crate) fn parse_offset(b: &[u8]) -> Option<(u8, [f64; 3])> {
     if b.len() != 32 || b[0..4] != OFFSET || b[4] != VERSION {
         return None;
     }
@@ -163,7 +163,7 @@ pub struct CommandStats {
 
 /// The receiver side of one vehicle's commands: which to apply, and the counts.
 #[derive(Clone, Debug, Default)]
-pub struct Receiver {
+pub(crate) struct Receiver {
     last: Option<u32>,
     fresh: bool,
     /// The counts so far.
@@ -201,7 +201,7 @@ impl Receiver {
     }
 
     /// A radio tick: counts a held frame when no command came since the previous tick.
-    pub fn radio_tick(&mut self) {
+    pub(crate) fn radio_tick(&mut self) {
         if !std::mem::take(&mut self.fresh) {
             self.stats.held += 1;
         }

@@ -68,7 +68,7 @@ impl Up {
     }
 
     /// A vector of the rigid body's (marker) frame in this convention (m).
-    pub fn body_vector(self, p: Vec3<MocapBody>) -> [f32; 3] {
+    fn body_vector(self, p: Vec3<MocapBody>) -> [f32; 3] {
         self.vector(p.to_array())
     }
 
@@ -347,7 +347,7 @@ impl Server {
 }
 
 /// The rigid-body definitions of a scenario's fleet in the convention `up`.
-pub fn rigid_bodies(s: &Scenario, up: Up) -> Vec<natnet::RigidBodyDef> {
+fn rigid_bodies(s: &Scenario, up: Up) -> Vec<natnet::RigidBodyDef> {
     s.vehicle_cfgs()
         .enumerate()
         .map(|(i, v)| natnet::RigidBodyDef { name: v.name.clone(), id: i as i32 + 1, markers_m: s.template(i).into_iter().map(|m| up.body_vector(m)).collect() })

@@ -29,7 +29,7 @@ use std::net::Ipv4Addr;
 /// Client → server: ask for the server info.
 pub const NAT_CONNECT: u16 = 0;
 /// Server → client: the server info.
-pub const NAT_SERVERINFO: u16 = 1;
+const NAT_SERVERINFO: u16 = 1;
 /// Client → server: a text command.
 pub const NAT_REQUEST: u16 = 2;
 /// Server → client: the result of a text command.
@@ -37,11 +37,11 @@ pub const NAT_RESPONSE: u16 = 3;
 /// Client → server: ask for the model definitions.
 pub const NAT_REQUEST_MODELDEF: u16 = 4;
 /// Server → client: the model definitions.
-pub const NAT_MODELDEF: u16 = 5;
+const NAT_MODELDEF: u16 = 5;
 /// Client → server: ask for the latest frame.
 pub const NAT_REQUEST_FRAMEOFDATA: u16 = 6;
 /// Server → client: one frame of mocap data.
-pub const NAT_FRAMEOFDATA: u16 = 7;
+const NAT_FRAMEOFDATA: u16 = 7;
 /// Client → server: the client goes away.
 pub const NAT_DISCONNECT: u16 = 9;
 /// Client → server: the client is still there (unicast).
@@ -50,7 +50,7 @@ pub const NAT_KEEPALIVE: u16 = 10;
 pub const NAT_UNRECOGNIZED_REQUEST: u16 = 100;
 
 /// The NatNet version flyarena speaks (major, minor, build, revision).
-pub const VERSION: [u8; 4] = [3, 1, 0, 0];
+pub(crate) const VERSION: [u8; 4] = [3, 1, 0, 0];
 /// Ticks per second of every timestamp flyarena sends: nanoseconds of simulated time.
 pub const CLOCK_HZ: u64 = 1_000_000_000;
 
@@ -91,7 +91,7 @@ pub struct Frame {
 
 /// A rigid body's definition.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RigidBodyDef {
+pub(crate) struct RigidBodyDef {
     /// Name (the scenario's vehicle name).
     pub name: String,
     /// Id, as in the frames.
@@ -120,7 +120,7 @@ pub enum Request {
 }
 
 /// Reads a client's packet. `None` when it is shorter than its header or its payload.
-pub fn parse_request(packet: &[u8]) -> Option<Request> {
+pub(crate) fn parse_request(packet: &[u8]) -> Option<Request> {
     let id = u16::from_le_bytes(packet.get(0..2)?.try_into().ok()?);
     let n = u16::from_le_bytes(packet.get(2..4)?.try_into().ok()?) as usize;
     let payload = packet.get(4..4 + n)?;
@@ -197,7 +197,7 @@ impl Packet {
 
 /// The server info (reply to [`Request::Connect`]): application name, versions, the timestamps'
 /// clock, and where the data goes (the data port; the multicast group, if any).
-pub fn server_info(app_name: &str, app_version: [u8; 4], data_port: u16, multicast: Option<Ipv4Addr>) -> Vec<u8> {
+pub(crate) fn server_info(app_name: &str, app_version: [u8; 4], data_port: u16, multicast: Option<Ipv4Addr>) -> Vec<u8> {
     let mut name = [0u8; 256];
     let b = app_name.as_bytes();
     let n = b.len().min(255);
@@ -209,7 +209,7 @@ pub fn server_info(app_name: &str, app_version: [u8; 4], data_port: u16, multica
 
 /// The model definitions (reply to [`Request::ModelDef`]): one rigid body per definition, no
 /// parent, zero offset.
-pub fn model_def(bodies: &[RigidBodyDef]) -> Vec<u8> {
+pub(crate) fn model_def(bodies: &[RigidBodyDef]) -> Vec<u8> {
     let mut p = Packet::new(NAT_MODELDEF);
     p.u32(bodies.len() as u32);
     for b in bodies {
