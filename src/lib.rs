@@ -45,9 +45,12 @@
 //!
 //! ## A run, end to end
 //!
+//! The types a user starts from are re-exported at the top: [`Scenario`], [`engine::run`]'s
+//! [`RunOptions`], [`run_scenario`] (with the requirements), [`Sweep`], [`identify()`] and its
+//! [`IdentifyReport`], the frames and (feature `record`) [`encode_recording`].
+//!
 //! ```
-//! use flyarena::engine::{RunOptions, run};
-//! use flyarena::scenario::Scenario;
+//! use flyarena::{RunOptions, Scenario, engine::run};
 //! let yaml = "
 //! name: doc
 //! vehicles:
@@ -103,3 +106,14 @@ pub mod sweep;
 pub mod vehicle;
 
 pub use error::{Error, Result};
+
+// The types a user starts from, one `use flyarena::…` away (the modules hold the rest):
+// a scenario and its run, a sweep, identify's report, the frames, the recording.
+pub use engine::{RunOptions, RunOutput};
+pub use frames::{Body, MocapBody, MocapNav, Nav, Rot, Vec3};
+pub use identify::{Effect, Options as IdentifyOptions, Report as IdentifyReport, identify};
+#[cfg(feature = "record")]
+pub use record::{RecordOptions, encode as encode_recording};
+pub use run::{Outcome, run_scenario};
+pub use scenario::Scenario;
+pub use sweep::{Sweep, SweepOutput};
