@@ -146,6 +146,16 @@ impl<const N: usize> Stream<N> {
     fn new() -> Self {
         Stream { t: Vec::new(), v: Vec::new() }
     }
+    /// Appends a decoded message; a value that is not finite is an error.
+    fn push(&mut self, m: Result<(i128, [f64; N]), CdrError>) -> Result<(), CdrError> {
+        let (t, v) = m?;
+        if !v.iter().all(|x| x.is_finite()) {
+            return Err("a value is not finite".into());
+        }
+        self.t.push(t);
+        self.v.push(v);
+        Ok(())
+    }
     /// Sorted by stamp (stable: messages with one stamp keep their order).
     fn sorted(mut self) -> Self {
         let mut idx: Vec<usize> = (0..self.t.len()).collect();
@@ -167,180 +177,238 @@ pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<
     if !bytes.starts_with(MAGIC) {
         return Err(InputError::log(file, "not an MCAP file (no MCAP magic bytes)"));
     }
-    let mut pose = Stream::<7>::new();
-    let mut imu = Stream::<6>::new();
-    let mut motors: Stream<8> = Stream::new();
-    let mut n_motors: Option<usize> = None;
-    let mut battery = Stream::<1>::new();
-    let stream = mcap::MessageStream::new(bytes).map_err(|e| InputError::log(file, e.to_string()))?;
-    for (k, m) in stream.enumerate() {
-        let m = m.map_err(|e| InputError::log(file, format!("record {k}: {e}")))?;
-        let topic = m.channel.topic.as_str();
-        let which = [Some(&topics.pose), Some(&topics.imu), topics.motors.as_ref(), topics.battery.as_ref()].iter().position(|t| t.is_some_and(|t| t == topic));
-        let Some(which) = which else { continue };
-        let schema = m.channel.schema.as_ref().map_or("", |s| s.name.as_str());
-        if m.channel.message_encoding != "cdr" {
-            return Err(InputError::log(file, format!("topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.channel.message_encoding)));
-        }
-        let at = |e: CdrError| InputError::Message { file: file.to_string(), topic: topic.to_string(), sequence: m.sequence, schema: schema.to_string(), reason: e.to_string() };
-        let mut c = Cdr::new(&m.data).map_err(at)?;
-        let finite = |v: &[f64]| if v.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(at("a value is not finite".into())) };
-        match which {
-            0 => {
-                // the two differ only by the transform's child_frame_id after the header
-                let transform = schema_is(schema, "geometry_msgs/msg/TransformStamped");
-                if !transform && !schema_is(schema, "geometry_msgs/msg/PoseStamped") {
-                    return Err(at("the pose topic must be geometry_msgs/msg/PoseStamped or TransformStamped".into()));
-                }
-                let t = c.header().map_err(at)?;
-                if transform {
-                    c.string().map_err(at)?;
-                }
-                let p = c.f64s::<7>().map_err(at)?;
-                finite(&p)?;
-                pose.t.push(t);
-                pose.v.push(p);
+    let streams = Streams::read(bytes, topics, file)?;
+    Ok(streams.join(topics))
+}
+
+/// The four topics' messages, decoded (stamps in ns).
+struct Streams {
+    pose: Stream<7>,
+    imu: Stream<6>,
+    motors: Stream<8>,
+    /// The number of motor values per message, the same in every message.
+    n_motors: Option<usize>,
+    battery: Stream<1>,
+}
+
+impl Streams {
+    /// Decodes every message on the four topics; a topic named but empty is an error.
+    fn read(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError> {
+        let mut s = Streams { pose: Stream::new(), imu: Stream::new(), motors: Stream::new(), n_motors: None, battery: Stream::new() };
+        let stream = mcap::MessageStream::new(bytes).map_err(|e| InputError::log(file, e.to_string()))?;
+        for (k, m) in stream.enumerate() {
+            let m = m.map_err(|e| InputError::log(file, format!("record {k}: {e}")))?;
+            let topic = m.channel.topic.as_str();
+            let which = [Some(&topics.pose), Some(&topics.imu), topics.motors.as_ref(), topics.battery.as_ref()].iter().position(|t| t.is_some_and(|t| t == topic));
+            let Some(which) = which else { continue };
+            let schema = m.channel.schema.as_ref().map_or("", |s| s.name.as_str());
+            if m.channel.message_encoding != "cdr" {
+                return Err(InputError::log(file, format!("topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.channel.message_encoding)));
             }
-            1 => {
-                if !schema_is(schema, "sensor_msgs/msg/Imu") {
-                    return Err(at("the imu topic must be sensor_msgs/msg/Imu".into()));
+            let at =
+                |e: CdrError| InputError::Message { file: file.to_string(), topic: topic.to_string(), sequence: m.sequence, schema: schema.to_string(), reason: e.to_string() };
+            let mut c = Cdr::new(&m.data).map_err(at)?;
+            match which {
+                0 => s.pose.push(pose_message(&mut c, schema)).map_err(at)?,
+                1 => s.imu.push(imu_message(&mut c, schema)).map_err(at)?,
+                2 => {
+                    let (n, v) = motors_message(&mut c, schema, s.n_motors).map_err(at)?;
+                    s.n_motors = Some(n);
+                    s.motors.push(Ok((m.log_time as i128, v))).map_err(at)?;
                 }
-                let t = c.header().map_err(at)?;
-                c.f64s::<4>().map_err(at)?; // orientation
-                c.f64s::<9>().map_err(at)?;
-                let w = c.f64s::<3>().map_err(at)?;
-                c.f64s::<9>().map_err(at)?;
-                let a = c.f64s::<3>().map_err(at)?;
-                let v = [w[0], w[1], w[2], a[0], a[1], a[2]];
-                finite(&v)?;
-                imu.t.push(t);
-                imu.v.push(v);
-            }
-            2 => {
-                if !schema_is(schema, "std_msgs/msg/Float64MultiArray") {
-                    return Err(at("the motors topic must be std_msgs/msg/Float64MultiArray".into()));
-                }
-                let dims = c.u32().map_err(at)?;
-                for _ in 0..dims {
-                    c.string().map_err(at)?;
-                    c.u32().map_err(at)?;
-                    c.u32().map_err(at)?;
-                }
-                c.u32().map_err(at)?; // data_offset
-                let n = c.u32().map_err(at)? as usize;
-                if n == 0 || n > 8 {
-                    return Err(at(format!("{n} motor values; 1 to 8 expected").into()));
-                }
-                if n_motors.is_some_and(|m| m != n) {
-                    return Err(at(format!("{n} motor values where earlier messages had {}", n_motors.unwrap_or(0)).into()));
-                }
-                n_motors = Some(n);
-                let mut v = [0.0; 8];
-                for x in v.iter_mut().take(n) {
-                    *x = c.f64().map_err(at)?;
-                }
-                finite(&v)?;
-                motors.t.push(m.log_time as i128);
-                motors.v.push(v);
-            }
-            _ => {
-                if !schema_is(schema, "sensor_msgs/msg/BatteryState") {
-                    return Err(at("the battery topic must be sensor_msgs/msg/BatteryState".into()));
-                }
-                let t = c.header().map_err(at)?;
-                let v = [c.f32().map_err(at)?];
-                finite(&v)?;
-                battery.t.push(t);
-                battery.v.push(v);
+                _ => s.battery.push(battery_message(&mut c, schema)).map_err(at)?,
             }
         }
-    }
-    for (topic, n) in [(Some(&topics.pose), pose.t.len()), (Some(&topics.imu), imu.t.len()), (topics.motors.as_ref(), motors.t.len()), (topics.battery.as_ref(), battery.t.len())] {
-        if let Some(topic) = topic
-            && n == 0
+        for (topic, n) in
+            [(Some(&topics.pose), s.pose.t.len()), (Some(&topics.imu), s.imu.t.len()), (topics.motors.as_ref(), s.motors.t.len()), (topics.battery.as_ref(), s.battery.t.len())]
         {
-            return Err(InputError::log(file, format!("no message on topic `{topic}`")));
+            if let Some(topic) = topic
+                && n == 0
+            {
+                return Err(InputError::log(file, format!("no message on topic `{topic}`")));
+            }
         }
+        Ok(Streams { pose: s.pose.sorted(), imu: s.imu.sorted(), motors: s.motors.sorted(), n_motors: s.n_motors, battery: s.battery.sorted() })
     }
-    let (pose, imu, motors, battery) = (pose.sorted(), imu.sorted(), motors.sorted(), battery.sorted());
-    // two poses further apart than 1.5 median intervals have a dropped frame between them:
-    // nothing is interpolated across it
-    let reach = {
-        let mut d: Vec<i128> = pose.t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0).collect();
-        d.sort_unstable();
-        d.get(d.len() / 2).map_or(0, |m| 3 * m / 2)
-    };
-    let mut csv = String::from("t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az");
-    for i in 0..n_motors.unwrap_or(0) {
-        let _ = write!(csv, ",m{}", i + 1);
-    }
-    if topics.battery.is_some() {
-        csv.push_str(",vbat");
-    }
-    csv.push('\n');
-    let mut repairs = Vec::new();
-    let (mut skipped, mut p, mut mo, mut ba) = (0usize, 0usize, 0usize, 0usize);
-    let t0 = imu.t[0];
-    for (t, v) in imu.t.iter().zip(&imu.v) {
-        // the last motor and battery values at or before t
-        while mo < motors.t.len() && motors.t[mo] <= *t {
-            mo += 1;
-        }
-        while ba < battery.t.len() && battery.t[ba] <= *t {
-            ba += 1;
-        }
-        if (topics.motors.is_some() && mo == 0) || (topics.battery.is_some() && ba == 0) {
-            skipped += 1;
-            continue;
-        }
-        // the first pose after t (p), and the one before
-        while p < pose.t.len() && pose.t[p] <= *t {
-            p += 1;
-        }
-        let _ = write!(csv, "{}", (*t - t0) as f64 * 1e-9);
-        let exact = p > 0 && pose.t[p - 1] == *t;
-        if exact {
-            for x in &pose.v[p - 1] {
-                let _ = write!(csv, ",{x}");
-            }
-        } else if p > 0 && p < pose.t.len() && pose.t[p] - pose.t[p - 1] <= reach {
-            let (a, b) = (&pose.v[p - 1], &pose.v[p]);
-            let f = (*t - pose.t[p - 1]) as f64 / (pose.t[p] - pose.t[p - 1]) as f64;
-            for k in 0..3 {
-                let _ = write!(csv, ",{}", a[k] * (1.0 - f) + b[k] * f);
-            }
-            // nlerp on the shorter arc
-            let sign = if (3..7).map(|k| a[k] * b[k]).sum::<f64>() < 0.0 { -1.0 } else { 1.0 };
-            let q: Vec<f64> = (3..7).map(|k| a[k] * (1.0 - f) + sign * b[k] * f).collect();
-            let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-            for x in q {
-                let _ = write!(csv, ",{}", x / norm);
-            }
-        } else {
-            csv.push_str(",,,,,,,");
-        }
-        for x in v {
-            let _ = write!(csv, ",{x}");
-        }
-        if let Some(n) = n_motors {
-            for x in &motors.v[mo - 1][..n] {
-                let _ = write!(csv, ",{x}");
-            }
+
+    /// One CSV row per IMU message: the pose at its stamp (interpolated, or empty across a
+    /// dropped frame), the last motor and battery values at or before it. Returns the CSV and the
+    /// repairs made.
+    fn join(&self, topics: &Topics) -> (String, Vec<String>) {
+        let (pose, imu, motors, battery) = (&self.pose, &self.imu, &self.motors, &self.battery);
+        // two poses further apart than 1.5 median intervals have a dropped frame between them:
+        // nothing is interpolated across it
+        let reach = {
+            let mut d: Vec<i128> = pose.t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0).collect();
+            d.sort_unstable();
+            d.get(d.len() / 2).map_or(0, |m| 3 * m / 2)
+        };
+        let mut csv = String::from("t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az");
+        for i in 0..self.n_motors.unwrap_or(0) {
+            let _ = write!(csv, ",m{}", i + 1);
         }
         if topics.battery.is_some() {
-            let _ = write!(csv, ",{}", battery.v[ba - 1][0]);
+            csv.push_str(",vbat");
         }
         csv.push('\n');
+        let mut repairs = Vec::new();
+        let (mut skipped, mut p, mut mo, mut ba) = (0usize, 0usize, 0usize, 0usize);
+        let t0 = imu.t[0];
+        for (t, v) in imu.t.iter().zip(&imu.v) {
+            // the last motor and battery values at or before t
+            while mo < motors.t.len() && motors.t[mo] <= *t {
+                mo += 1;
+            }
+            while ba < battery.t.len() && battery.t[ba] <= *t {
+                ba += 1;
+            }
+            if (topics.motors.is_some() && mo == 0) || (topics.battery.is_some() && ba == 0) {
+                skipped += 1;
+                continue;
+            }
+            // the first pose after t (p), and the one before
+            while p < pose.t.len() && pose.t[p] <= *t {
+                p += 1;
+            }
+            let _ = write!(csv, "{}", (*t - t0) as f64 * 1e-9);
+            if p > 0 && pose.t[p - 1] == *t {
+                for x in &pose.v[p - 1] {
+                    let _ = write!(csv, ",{x}");
+                }
+            } else if p > 0 && p < pose.t.len() && pose.t[p] - pose.t[p - 1] <= reach {
+                let f = (*t - pose.t[p - 1]) as f64 / (pose.t[p] - pose.t[p - 1]) as f64;
+                for x in interpolate_pose(&pose.v[p - 1], &pose.v[p], f) {
+                    let _ = write!(csv, ",{x}");
+                }
+            } else {
+                csv.push_str(",,,,,,,");
+            }
+            for x in v {
+                let _ = write!(csv, ",{x}");
+            }
+            if let Some(n) = self.n_motors {
+                for x in &motors.v[mo - 1][..n] {
+                    let _ = write!(csv, ",{x}");
+                }
+            }
+            if topics.battery.is_some() {
+                let _ = write!(csv, ",{}", battery.v[ba - 1][0]);
+            }
+            csv.push('\n');
+        }
+        if skipped > 0 {
+            repairs.push(format!("{skipped} IMU messages before the first motor or battery message were left out"));
+        }
+        (csv, repairs)
     }
-    if skipped > 0 {
-        repairs.push(format!("{skipped} IMU messages before the first motor or battery message were left out"));
+}
+
+/// The pose a fraction `f` of the way from `a` to `b` (position, quaternion x, y, z, w):
+/// position linear, attitude by nlerp on the shorter arc.
+fn interpolate_pose(a: &[f64; 7], b: &[f64; 7], f: f64) -> [f64; 7] {
+    let mut out = [0.0; 7];
+    for k in 0..3 {
+        out[k] = a[k] * (1.0 - f) + b[k] * f;
     }
-    Ok((csv, repairs))
+    let sign = if (3..7).map(|k| a[k] * b[k]).sum::<f64>() < 0.0 { -1.0 } else { 1.0 };
+    for k in 3..7 {
+        out[k] = a[k] * (1.0 - f) + sign * b[k] * f;
+    }
+    let norm = out[3..].iter().map(|x| x * x).sum::<f64>().sqrt();
+    for x in &mut out[3..] {
+        *x /= norm;
+    }
+    out
+}
+
+/// A geometry_msgs PoseStamped or TransformStamped: its stamp and (position, quaternion x, y, z, w).
+fn pose_message(c: &mut Cdr, schema: &str) -> Result<(i128, [f64; 7]), CdrError> {
+    // the two differ only by the transform's child_frame_id after the header
+    let transform = schema_is(schema, "geometry_msgs/msg/TransformStamped");
+    if !transform && !schema_is(schema, "geometry_msgs/msg/PoseStamped") {
+        return Err("the pose topic must be geometry_msgs/msg/PoseStamped or TransformStamped".into());
+    }
+    let t = c.header()?;
+    if transform {
+        c.string()?;
+    }
+    Ok((t, c.f64s::<7>()?))
+}
+
+/// A sensor_msgs Imu: its stamp and (angular velocity, linear acceleration).
+fn imu_message(c: &mut Cdr, schema: &str) -> Result<(i128, [f64; 6]), CdrError> {
+    if !schema_is(schema, "sensor_msgs/msg/Imu") {
+        return Err("the imu topic must be sensor_msgs/msg/Imu".into());
+    }
+    let t = c.header()?;
+    c.f64s::<4>()?; // orientation
+    c.f64s::<9>()?;
+    let w = c.f64s::<3>()?;
+    c.f64s::<9>()?;
+    let a = c.f64s::<3>()?;
+    Ok((t, [w[0], w[1], w[2], a[0], a[1], a[2]]))
+}
+
+/// A std_msgs Float64MultiArray of 1 to 8 motor values, as many as earlier messages had
+/// (`n_before`): their number and the values (zero beyond it). It has no stamp: the caller takes
+/// the log time.
+fn motors_message(c: &mut Cdr, schema: &str, n_before: Option<usize>) -> Result<(usize, [f64; 8]), CdrError> {
+    if !schema_is(schema, "std_msgs/msg/Float64MultiArray") {
+        return Err("the motors topic must be std_msgs/msg/Float64MultiArray".into());
+    }
+    let dims = c.u32()?;
+    for _ in 0..dims {
+        c.string()?;
+        c.u32()?;
+        c.u32()?;
+    }
+    c.u32()?; // data_offset
+    let n = c.u32()? as usize;
+    if n == 0 || n > 8 {
+        return Err(format!("{n} motor values; 1 to 8 expected").into());
+    }
+    if n_before.is_some_and(|m| m != n) {
+        return Err(format!("{n} motor values where earlier messages had {}", n_before.unwrap_or(0)).into());
+    }
+    let mut v = [0.0; 8];
+    for x in v.iter_mut().take(n) {
+        *x = c.f64()?;
+    }
+    Ok((n, v))
+}
+
+/// A sensor_msgs BatteryState: its stamp and voltage (V).
+fn battery_message(c: &mut Cdr, schema: &str) -> Result<(i128, [f64; 1]), CdrError> {
+    if !schema_is(schema, "sensor_msgs/msg/BatteryState") {
+        return Err("the battery topic must be sensor_msgs/msg/BatteryState".into());
+    }
+    let t = c.header()?;
+    Ok((t, [c.f32()?]))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pose between two samples whose quaternions lie on opposite hemispheres (q and −q are
+    /// one attitude): position halfway, attitude halfway along the shorter arc. From the identity
+    /// to −(90° about z), the shorter arc's middle is 45° about z, (0, 0, sin 22.5°, cos 22.5°);
+    /// the longer arc would give 135° about −z.
+    #[test]
+    fn a_pose_is_interpolated_on_the_shorter_arc() {
+        let h = std::f64::consts::FRAC_PI_4; // half of 90°
+        let a = [0.0, 2.0, -1.0, 0.0, 0.0, 0.0, 1.0];
+        let b = [1.0, 4.0, -1.0, 0.0, 0.0, -h.sin(), -h.cos()];
+        let m = interpolate_pose(&a, &b, 0.5);
+        let want = [0.5, 3.0, -1.0, 0.0, 0.0, (h / 2.0).sin(), (h / 2.0).cos()];
+        for k in 0..7 {
+            assert!((m[k] - want[k]).abs() < 1e-12, "{m:?}");
+        }
+        // a quarter of the way, nlerp (not slerp): 2·atan2(f·sin 45°, (1 − f) + f·cos 45°) = 21.6°
+        let q = interpolate_pose(&a, &b, 0.25);
+        let want = 2.0 * (0.25 * h.sin()).atan2(0.75 + 0.25 * h.cos());
+        assert!((2.0 * q[5].atan2(q[6]) - want).abs() < 1e-12 && q[3] == 0.0 && q[4] == 0.0, "{q:?}");
+    }
 
     /// CDR by hand: little endian header, a Header (sec 7, nanosec 5, frame "ab"), then a
     /// float64 aligned to 8 from the payload start: 4 + 4 + 4 (length) + 3 ("ab\0") = 15 → pad
