@@ -28,6 +28,18 @@ pub(crate) fn param_text(p: &super::select::Param, num: impl Fn(f64) -> String) 
 /// after, what is left, the ground check and the notes.
 pub fn render(r: &Report) -> String {
     let mut s = String::new();
+    render_steps(&mut s, r);
+    render_fit(&mut s, r);
+    render_left(&mut s, r);
+    render_ground(&mut s, r);
+    for n in &r.notes {
+        let _ = writeln!(s, "\n  note: {n}");
+    }
+    s
+}
+
+/// The header (samples, split, nominal model, repairs) and the selection, step by step.
+fn render_steps(s: &mut String, r: &Report) {
     let _ = writeln!(s, "identify: {}", r.source);
     let _ = writeln!(
         s,
@@ -74,6 +86,10 @@ pub fn render(r: &Report) -> String {
             );
         }
     }
+}
+
+/// The effects found with their intervals, the held-out errors and the final whiteness.
+fn render_fit(s: &mut String, r: &Report) {
     if !r.effects.is_empty() {
         let _ = writeln!(s, "\n  effects found (least squares, 95 % Newey–West intervals):");
         for f in &r.effects {
@@ -105,6 +121,10 @@ pub fn render(r: &Report) -> String {
     for c in cells {
         let _ = writeln!(s, "    {c}");
     }
+}
+
+/// What is left: per channel axis, structure, leads and the floor.
+fn render_left(s: &mut String, r: &Report) {
     if !r.left.is_empty() {
         let _ = writeln!(s, "\n  what is left (final residual; leads: measured signals it follows, |r| ≥ 0.1 and significant at 1 % over all signals):");
         for l in &r.left {
@@ -121,6 +141,10 @@ pub fn render(r: &Report) -> String {
             let _ = writeln!(s, "    {}.{}: {} {} left; {verdict}", l.channel.name(), l.axis, sig(l.rmse), l.unit);
         }
     }
+}
+
+/// The ground check against the flight: at rest, at spin-up and after landing.
+fn render_ground(s: &mut String, r: &Report) {
     if let Some(a) = &r.ground_agreement {
         let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs the frame tilt, body offset + world tilt):");
         if let Some(g) = &r.ground_check {
@@ -174,8 +198,4 @@ pub fn render(r: &Report) -> String {
             );
         }
     }
-    for n in &r.notes {
-        let _ = writeln!(s, "\n  note: {n}");
-    }
-    s
 }
