@@ -217,6 +217,18 @@ fn unit_factor(file: &str, what: &str, unit: &str, allowed: &[(&str, f64)]) -> R
 }
 
 /// The SI factors of a mapping's units (time, position, gyro, accelerometer, Euler angles).
+/// The header's index of each column the mapping names.
+struct ColumnIndex {
+    time: usize,
+    pos: Vec<usize>,
+    /// Four quaternion or three Euler columns.
+    att: Vec<usize>,
+    gyro: Vec<usize>,
+    accel: Vec<usize>,
+    motors: Vec<usize>,
+    battery: Option<usize>,
+}
+
 struct Factors {
     time: f64,
     pos: f64,
@@ -308,11 +320,9 @@ impl Mapping {
         }
     }
 
-    /// Reads a CSV log's text (`file` names it in errors and the report) through the mapping.
-    pub fn read_str(&self, text: &str, file: &str) -> Result<Series, InputError> {
-        let Factors { time: time_f, pos: pos_f, gyro: gyro_f, acc: acc_f, euler: euler_f } = self.factors("the mapping")?;
-        let mut lines = text.lines();
-        let header: Vec<&str> = lines.next().ok_or_else(|| InputError::log(file, "the log is empty"))?.split(',').map(str::trim).collect();
+    /// The header's index of every column the mapping names; a name the header lacks is an
+    /// error that suggests the closest header name.
+    fn column_index(&self, header: &[&str], file: &str) -> Result<ColumnIndex, InputError> {
         let find = |name: &str| -> Result<usize, InputError> {
             header.iter().position(|h| *h == name).ok_or_else(|| {
                 let close = header.iter().map(|h| (crate::scenario::error::edit_distance(name, h), *h)).filter(|(d, _)| *d <= 3).min().map(|x| x.1);
@@ -323,29 +333,34 @@ impl Mapping {
                 )
             })
         };
-        let ti = find(&self.time.column)?;
-        let pi: Vec<usize> = self.position.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
-        let att = &self.attitude;
-        let att_names: Vec<&String> = match (&att.columns, &att.euler) {
+        let att_names: Vec<&String> = match (&self.attitude.columns, &self.attitude.euler) {
             (Some(q), _) => q.iter().collect(),
             (None, Some(e)) => e.iter().collect(),
             (None, None) => return Err(InputError::invalid("the mapping", "it has no attitude columns")),
         };
-        let qi: Vec<usize> = att_names.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
-        let gi: Vec<usize> = self.gyro.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
-        let ai: Vec<usize> = self.accel.columns.iter().map(|c| find(c)).collect::<Result<_, _>>()?;
-        let mi: Vec<usize> = self.motors.as_ref().map_or(Ok(Vec::new()), |m| m.columns.iter().map(|c| find(c)).collect())?;
-        let bi = self.battery.as_ref().map(|b| find(&b.column)).transpose()?;
-        let flip = |v: Vector3<f64>| Vector3::new(v.x, -v.y, -v.z);
-        let q_flip = UnitQuaternion::from_quaternion(Quaternion::new(0.0, 1.0, 0.0, 0.0));
+        let many = |cols: &[String]| cols.iter().map(|c| find(c)).collect::<Result<Vec<usize>, _>>();
+        Ok(ColumnIndex {
+            time: find(&self.time.column)?,
+            pos: many(&self.position.columns)?,
+            att: att_names.iter().map(|c| find(c)).collect::<Result<_, _>>()?,
+            gyro: many(&self.gyro.columns)?,
+            accel: many(&self.accel.columns)?,
+            motors: self.motors.as_ref().map_or(Ok(Vec::new()), |m| many(&m.columns))?,
+            battery: self.battery.as_ref().map(|b| find(&b.column)).transpose()?,
+        })
+    }
+
+    /// An empty series with the nominal model of the mapping's vehicle preset, and the preset's
+    /// PWM thrust map (none for the x3d preset, which then cannot take motor columns).
+    fn empty_series(&self, file: &str, cols: &ColumnIndex) -> Result<(Series, Option<PwmThrustMap>), InputError> {
         let (params, map) = match self.vehicle {
             VehiclePreset::Crazyflie21 => (VehicleParams::crazyflie21(), Some(PwmThrustMap::crazyflie21())),
             VehiclePreset::X3d => (VehicleParams::x3d(), None),
         };
-        if !mi.is_empty() && map.is_none() {
+        if !cols.motors.is_empty() && map.is_none() {
             return Err(InputError::invalid("the mapping", "the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`"));
         }
-        let mut s = Series {
+        let s = Series {
             source: file.to_string(),
             t_s: Vec::new(),
             pos_mocap_nav: Vec::new(),
@@ -353,8 +368,8 @@ impl Mapping {
             mocap_ok: Vec::new(),
             gyro_body: Vec::new(),
             accel_body: Vec::new(),
-            thrust_n: (!mi.is_empty()).then(Vec::new),
-            vbat_v: bi.map(|_| Vec::new()),
+            thrust_n: (!cols.motors.is_empty()).then(Vec::new),
+            vbat_v: cols.battery.map(|_| Vec::new()),
             segments: Vec::new(),
             model: NominalModel {
                 vehicle: format!("{:?} preset", self.vehicle).to_lowercase(),
@@ -372,6 +387,50 @@ impl Mapping {
             },
             repairs: Vec::new(),
         };
+        Ok((s, map))
+    }
+
+    /// One row's pose cells (position, then the quaternion or Euler angles, in the mapping's
+    /// units and axes) as the mocap position (m, NED) and attitude (FRD body to NED). A
+    /// quaternion whose norm is off 1 by more than 1 % is an error (a wrong `order`, most likely).
+    fn pose(&self, p: &[f64], euler_f: Option<f64>, pos_f: f64, file: &str, lineno: usize) -> Result<(Vector3<f64>, UnitQuaternion<f64>), InputError> {
+        let flip = |v: Vector3<f64>| Vector3::new(v.x, -v.y, -v.z);
+        let q_flip = UnitQuaternion::from_quaternion(Quaternion::new(0.0, 1.0, 0.0, 0.0));
+        let mut pos = Vector3::new(p[0], p[1], p[2]) * pos_f;
+        let mut q = match (self.attitude.order, euler_f) {
+            (Some(order), _) => {
+                let (w, x, y, z) = match order {
+                    QuatOrder::Xyzw => (p[6], p[3], p[4], p[5]),
+                    QuatOrder::Wxyz => (p[3], p[4], p[5], p[6]),
+                };
+                let norm = (w * w + x * x + y * y + z * z).sqrt();
+                if (norm - 1.0).abs() > 0.01 {
+                    return Err(InputError::row(file, lineno, format!("the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`")));
+                }
+                UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
+            }
+            (None, Some(f)) => UnitQuaternion::from_euler_angles(p[3] * f, p[4] * f, p[5] * f),
+            (None, None) => unreachable!("checked when the mapping was parsed"),
+        };
+        if self.world == WorldUp::ZUp {
+            pos = flip(pos);
+            q = q_flip * q;
+        }
+        if self.body == BodyAxes::Flu {
+            q *= q_flip;
+        }
+        Ok((pos, q))
+    }
+
+    /// Reads a CSV log's text (`file` names it in errors and the report) through the mapping.
+    pub fn read_str(&self, text: &str, file: &str) -> Result<Series, InputError> {
+        let Factors { time: time_f, pos: pos_f, gyro: gyro_f, acc: acc_f, euler: euler_f } = self.factors("the mapping")?;
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().ok_or_else(|| InputError::log(file, "the log is empty"))?.split(',').map(str::trim).collect();
+        let cols = self.column_index(&header, file)?;
+        let ColumnIndex { time: ti, pos: pi, att: qi, gyro: gi, accel: ai, motors: mi, battery: bi } = &cols;
+        let (mut s, map) = self.empty_series(file, &cols)?;
+        let flip = |v: Vector3<f64>| Vector3::new(v.x, -v.y, -v.z);
         let mut last_pose = (Vector3::zeros(), UnitQuaternion::identity());
         for (k, line) in lines.enumerate() {
             let lineno = k + 2;
@@ -391,7 +450,7 @@ impl Mapping {
                     message: format!("`{}` is not a finite number", cells[i].trim()),
                 })
             };
-            let t = need(ti)? * time_f;
+            let t = need(*ti)? * time_f;
             if let Some(&prev) = s.t_s.last() {
                 if t < prev {
                     return Err(InputError::row(file, lineno, format!("time goes backwards ({t} s after {prev} s)")));
@@ -401,34 +460,10 @@ impl Mapping {
                     continue;
                 }
             }
-            let pose: Option<Vec<f64>> = pi.iter().chain(&qi).map(|&i| num(i)).collect();
+            let pose: Option<Vec<f64>> = pi.iter().chain(qi).map(|&i| num(i)).collect();
             let seen = pose.is_some();
             if let Some(p) = pose {
-                let pos = Vector3::new(p[0], p[1], p[2]) * pos_f;
-                let mut q = match (att.order, euler_f) {
-                    (Some(order), _) => {
-                        let (w, x, y, z) = match order {
-                            QuatOrder::Xyzw => (p[6], p[3], p[4], p[5]),
-                            QuatOrder::Wxyz => (p[3], p[4], p[5], p[6]),
-                        };
-                        let norm = (w * w + x * x + y * y + z * z).sqrt();
-                        if (norm - 1.0).abs() > 0.01 {
-                            return Err(InputError::row(file, lineno, format!("the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`")));
-                        }
-                        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
-                    }
-                    (None, Some(f)) => UnitQuaternion::from_euler_angles(p[3] * f, p[4] * f, p[5] * f),
-                    (None, None) => unreachable!("checked when the mapping was parsed"),
-                };
-                let mut pos = pos;
-                if self.world == WorldUp::ZUp {
-                    pos = flip(pos);
-                    q = q_flip * q;
-                }
-                if self.body == BodyAxes::Flu {
-                    q *= q_flip;
-                }
-                last_pose = (pos, q);
+                last_pose = self.pose(&p, euler_f, pos_f, file, lineno)?;
             }
             let body = |v: Vector3<f64>| if self.body == BodyAxes::Flu { flip(v) } else { v };
             let gyro = body(Vector3::new(need(gi[0])?, need(gi[1])?, need(gi[2])?) * gyro_f);
@@ -437,7 +472,7 @@ impl Mapping {
             if let (Some(th), Some(map)) = (s.thrust_n.as_mut(), map) {
                 let v = vbat.unwrap_or(map.vbat_ref_v);
                 let mut total = 0.0;
-                for &i in &mi {
+                for &i in mi {
                     total += map.thrust_n(need(i)?, v);
                 }
                 // the map is per motor for four motors
