@@ -97,6 +97,15 @@ pub fn draw(seed: u64, index: u64) -> Trial {
     let run_seed = d.0.next_u64() % 1_000_000;
     let cf = d.0.uniform() < 0.5;
     let preset = if cf { "crazyflie21" } else { "x3d" };
+    let mut hidden = draw_hidden(&mut d, cf);
+    let (plan, words) = draw_plan(&mut d, cf, &mut hidden);
+    let yaml = trial_yaml(index, run_seed, preset, &plan, &hidden);
+    Trial { index, seed: run_seed, preset, plan: words, hidden, yaml }
+}
+
+/// The hidden effects of a trial: 0–3 distinct simulated ones, with values drawn in ranges a
+/// flight of that vehicle can show (`cf`: the Crazyflie, else the X3D), sorted by effect.
+fn draw_hidden(d: &mut Draw, cf: bool) -> Vec<(Effect, Vec<f64>)> {
     let weight = if cf { 0.034 * 9.81 } else { 0.68 * 9.81 };
     // hidden effects: 0–3 distinct ones
     let count = d.pick(4);
@@ -121,7 +130,14 @@ pub fn draw(seed: u64, index: u64) -> Trial {
         hidden.push((e, v));
     }
     hidden.sort_by_key(|h| h.0);
-    // the plan
+    hidden
+}
+
+/// The flight plan of a trial (YAML plan items) and its description in words: take-off, 3–5
+/// pieces (a tour, a figure-8, gyro circles, a yaw turn, a short excursion), in a quarter of the
+/// flights a low hover (and, when fewer than three effects are hidden, in half of those a ground
+/// effect added to `hidden`), landing.
+fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (Vec<String>, Vec<String>) {
     let alt = r(d.u(0.8, 1.5), 2);
     let mut plan = vec!["idle: { duration_s: 1 }".to_string(), format!("takeoff: {{ altitude_m: {alt}, duration_s: 3 }}"), "hover: { duration_s: 2 }".to_string()];
     let mut words = Vec::new();
@@ -186,13 +202,19 @@ pub fn draw(seed: u64, index: u64) -> Trial {
         }
     }
     plan.push("land: { duration_s: 3 }".to_string());
+    (plan, words)
+}
+
+/// The trial's scenario: the preset, the hidden effects written where the simulation applies
+/// them (markers, camera, IMU, undeclared, disturbance), the plan.
+fn trial_yaml(index: u64, run_seed: u64, preset: &str, plan: &[String], hidden: &[(Effect, Vec<f64>)]) -> String {
     let mut vehicle = vec![format!("name: v"), format!("model: {{ preset: {preset} }}")];
     let mut imu = vec!["gyro_noise_deg_s: 0.3".to_string(), "accel_noise_m_s2: 0.05".to_string()];
     let mut undeclared = Vec::new();
     let mut camera = String::new();
     let mut markers = Vec::new();
     let list = |v: &[f64]| format!("[{}]", v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "));
-    for (e, v) in &hidden {
+    for (e, v) in hidden {
         match e {
             Effect::BodyOffset => markers.push(format!("rotation_deg: {}", list(v))),
             // the mocap tracks the markers' origin, displaced by d = −r from the IMU (at the
@@ -221,12 +243,11 @@ pub fn draw(seed: u64, index: u64) -> Trial {
     if !undeclared.is_empty() {
         vehicle.push(format!("undeclared: {{ {} }}", undeclared.join(", ")));
     }
-    let yaml = format!(
+    format!(
         "name: trial-{index}\nseed: {run_seed}\nmocap: {{ noise_mm: 0.1{camera} }}\ncalibration: {{ apply: false }}\nvehicles:\n  - {{ {} }}\nplan:\n{}\n",
         vehicle.join(", "),
         plan.iter().map(|p| format!("  - {p}")).collect::<Vec<_>>().join("\n")
-    );
-    Trial { index, seed: run_seed, preset, plan: words, hidden, yaml }
+    )
 }
 
 /// What happened to one hidden effect.
