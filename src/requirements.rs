@@ -14,7 +14,7 @@
 //! * **R4 validity check**: equation (7) gives the verdict the scenario expects.
 
 use crate::engine::{RunOutput, VehicleRun};
-use crate::scenario::{RequirementsCfg, Verdict};
+use crate::scenario::{HoverDriftReq, LsRlsReq, OffsetsReq, RequirementsCfg, ValidityReq, Verdict};
 use std::fmt::Write as _;
 
 /// One requirement check, as the table shows it.
@@ -108,114 +108,147 @@ fn deg(x: f64) -> String {
 pub fn evaluate(req: &RequirementsCfg, run: &RunOutput, uncompensated: Option<&RunOutput>) -> Report {
     let mut rows = Vec::new();
     for (i, v) in run.vehicles.iter().enumerate() {
-        let row = |id: &'static str, what: String, measured: String, limit: String, pass: bool| Row { vehicle: v.name.clone(), id, what, measured, limit, pass, asserted: true };
-        let shown = |id: &'static str, what: String, measured: String, limit: String| Row { vehicle: v.name.clone(), id, what, measured, limit, pass: true, asserted: false };
+        let mut out = Rows { vehicle: &v.name, rows: &mut rows };
         if let Some(r) = &req.offsets {
-            let tol = r.roll_pitch_tol_deg.to_radians();
-            match v.calibration.roll_pitch {
-                Some((roll, pitch, _)) => {
-                    for (name, est, truth) in [("roll", roll, v.truth.euler.roll), ("pitch", pitch, v.truth.euler.pitch)] {
-                        let err = (est - truth).abs();
-                        rows.push(row("R1", format!("{name} offset |est − truth| (est {}, truth {})", deg(est), deg(truth)), deg(err), format!("≤ {}", deg(tol)), err <= tol));
-                    }
-                }
-                None if v.external => rows.push(shown("R1", "roll/pitch offsets".into(), "the external controller reported no offset (FAOF)".into(), format!("≤ {}", deg(tol)))),
-                None => rows.push(row("R1", "roll/pitch offsets".into(), "not calibrated (no calibrate_roll_pitch phase)".into(), format!("≤ {}", deg(tol)), false)),
-            }
-            // a yaw row exists for each yaw method the plan flies
-            let flies = |phase: &str| v.phases.iter().any(|(_, name)| *name == phase);
-            let truth = v.truth.euler.yaw;
-            if flies("calibrate_yaw") {
-                let est = v.calibration.yaw_offset;
-                let what = match est {
-                    Some(e) => format!("yaw offset, straight flight (8)–(9) (est {}, truth {})", deg(e), deg(truth)),
-                    None => "yaw offset, straight flight (8)–(9)".into(),
-                };
-                let err = est.map(|e| crate::frames::wrap_pi(e - truth).abs());
-                let measured = err.map_or("no estimate (flight too short to fit)".into(), deg);
-                match r.yaw_straight_flight_tol_deg {
-                    Some(t) => {
-                        let tol = t.to_radians();
-                        rows.push(row("R1", what, measured, format!("≤ {}", deg(tol)), err.is_some_and(|e| e <= tol)));
-                    }
-                    None => rows.push(shown("R1", what, measured, "none: unobservable in rate mode (README)".into())),
-                }
-            }
-            if flies("calibrate_gyro") {
-                let tol = r.yaw_tol_deg.to_radians();
-                match &v.calibration.gyro {
-                    Some(g) => {
-                        let err = crate::frames::wrap_pi(g.euler.yaw - truth).abs();
-                        let what = format!("yaw offset, gyro telemetry (est {} ± {} 1σ, truth {})", deg(g.euler.yaw), deg(g.sigma[2]), deg(truth));
-                        rows.push(row("R1", what, deg(err), format!("≤ {}", deg(tol)), err <= tol));
-                    }
-                    None if v.external => {
-                        rows.push(shown("R1", "yaw offset, gyro telemetry".into(), "the external controller flies it: no built-in gyro fit".into(), format!("≤ {}", deg(tol))))
-                    }
-                    None => rows.push(row("R1", "yaw offset, gyro telemetry".into(), "no estimate (rotation about two axes needed)".into(), format!("≤ {}", deg(tol)), false)),
-                }
-            }
+            offsets(r, v, &mut out);
         }
         if let Some(r) = &req.hover_drift {
-            let comp = v.spin_max_deviation_m;
-            let unc = uncompensated.and_then(|u| u.vehicles.get(i)).and_then(|u| u.spin_max_deviation_m);
-            match (comp, unc) {
-                (Some(c), Some(u)) => {
-                    rows.push(row("R2", "max drift while yawing, compensated".into(), format!("{:.4} m", c), format!("≤ {:.4} m", r.max_m), c <= r.max_m));
-                    if u > r.max_m {
-                        let ratio = c / u;
-                        rows.push(row(
-                            "R2",
-                            format!("drift compensated / uncompensated ({:.4} m)", u),
-                            format!("{:.2} %", 100.0 * ratio),
-                            format!("≤ {:.0} %", 100.0 * r.max_ratio),
-                            ratio <= r.max_ratio,
-                        ));
-                    } else {
-                        rows.push(shown(
-                            "R2",
-                            "drift compensated / uncompensated".into(),
-                            format!("n/a: uncompensated {:.4} m is already within the bound", u),
-                            format!("≤ {:.0} %", 100.0 * r.max_ratio),
-                        ));
-                    }
-                }
-                _ => rows.push(row("R2", "max drift while yawing".into(), "no yaw_spin phase".into(), format!("≤ {:.4} m", r.max_m), false)),
-            }
+            hover_drift(r, v, uncompensated.and_then(|u| u.vehicles.get(i)), &mut out);
         }
         if let Some(r) = &req.ls_equals_rls {
-            match (&v.calibration.yaw_ls, &v.calibration.yaw_rls) {
-                (Some(ls), Some(rls)) => {
-                    let dpsi = (ls.psi_offset - rls.psi_offset).abs();
-                    let dx = (ls.x_e0 - rls.x_e0).abs();
-                    rows.push(row("R3", format!("|ψ_LS − ψ_RLS| over {} samples", ls.n), format!("{dpsi:.1e} rad"), format!("≤ {:.0e} rad", r.yaw_tol_rad), dpsi <= r.yaw_tol_rad));
-                    rows.push(row("R3", "|X_E0,LS − X_E0,RLS|".into(), format!("{dx:.1e} m"), format!("≤ {:.0e} m", r.x_e0_tol_m), dx <= r.x_e0_tol_m));
-                }
-                _ if v.external => {
-                    rows.push(shown("R3", "LS = RLS".into(), "n/a: an external controller flies it (its fits are its own)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad)))
-                }
-                _ => rows.push(row("R3", "LS = RLS".into(), "no yaw fit (no calibrate_yaw phase, or too short)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad), false)),
-            }
+            ls_equals_rls(r, v, &mut out);
         }
         if let Some(r) = &req.validity {
-            let want = r.expect == Verdict::Accept;
-            match &v.calibration.validity {
-                Some(val) => rows.push(row(
-                    "R4",
-                    format!("validity (7): mean ψ {}, mean φ {}", deg(val.mean_yaw), deg(val.mean_roll)),
-                    (if val.accepted { "accepted" } else { "rejected" }).into(),
-                    (if want { "accept" } else { "reject" }).into(),
-                    val.accepted == want,
-                )),
-                None if v.external => rows.push(shown("R4", "validity (7)".into(), "n/a: an external controller flies it".into(), (if want { "accept" } else { "reject" }).into())),
-                None => rows.push(row("R4", "validity (7)".into(), "no yaw flight".into(), (if want { "accept" } else { "reject" }).into(), false)),
-            }
+            validity(r, v, &mut out);
         }
         if v.any_nan {
-            rows.push(row("sim", "state stays finite".into(), "NaN or infinity in the state".into(), "finite".into(), false));
+            out.row("sim", "state stays finite".into(), "NaN or infinity in the state".into(), "finite".into(), false);
         }
     }
     Report { rows }
+}
+
+/// The rows of one vehicle as they are written.
+struct Rows<'a> {
+    vehicle: &'a str,
+    rows: &'a mut Vec<Row>,
+}
+
+impl Rows<'_> {
+    /// An asserted row: `pass` decides.
+    fn row(&mut self, id: &'static str, what: String, measured: String, limit: String, pass: bool) {
+        self.rows.push(Row { vehicle: self.vehicle.to_string(), id, what, measured, limit, pass, asserted: true });
+    }
+    /// A row shown but not asserted (its result column says why).
+    fn shown(&mut self, id: &'static str, what: String, measured: String, limit: String) {
+        self.rows.push(Row { vehicle: self.vehicle.to_string(), id, what, measured, limit, pass: true, asserted: false });
+    }
+}
+
+/// R1: the roll/pitch offsets of the hover average, and a yaw row for each yaw method the plan
+/// flies (the straight flight (8)–(9), the gyro telemetry).
+fn offsets(r: &OffsetsReq, v: &VehicleRun, out: &mut Rows) {
+    let tol = r.roll_pitch_tol_deg.to_radians();
+    match v.calibration.roll_pitch {
+        Some((roll, pitch, _)) => {
+            for (name, est, truth) in [("roll", roll, v.truth.euler.roll), ("pitch", pitch, v.truth.euler.pitch)] {
+                let err = (est - truth).abs();
+                out.row("R1", format!("{name} offset |est − truth| (est {}, truth {})", deg(est), deg(truth)), deg(err), format!("≤ {}", deg(tol)), err <= tol);
+            }
+        }
+        None if v.external => out.shown("R1", "roll/pitch offsets".into(), "the external controller reported no offset (FAOF)".into(), format!("≤ {}", deg(tol))),
+        None => out.row("R1", "roll/pitch offsets".into(), "not calibrated (no calibrate_roll_pitch phase)".into(), format!("≤ {}", deg(tol)), false),
+    }
+    // a yaw row exists for each yaw method the plan flies
+    let flies = |phase: &str| v.phases.iter().any(|(_, name)| *name == phase);
+    let truth = v.truth.euler.yaw;
+    if flies("calibrate_yaw") {
+        let est = v.calibration.yaw_offset;
+        let what = match est {
+            Some(e) => format!("yaw offset, straight flight (8)–(9) (est {}, truth {})", deg(e), deg(truth)),
+            None => "yaw offset, straight flight (8)–(9)".into(),
+        };
+        let err = est.map(|e| crate::frames::wrap_pi(e - truth).abs());
+        let measured = err.map_or("no estimate (flight too short to fit)".into(), deg);
+        match r.yaw_straight_flight_tol_deg {
+            Some(t) => {
+                let tol = t.to_radians();
+                out.row("R1", what, measured, format!("≤ {}", deg(tol)), err.is_some_and(|e| e <= tol));
+            }
+            None => out.shown("R1", what, measured, "none: unobservable in rate mode (README)".into()),
+        }
+    }
+    if flies("calibrate_gyro") {
+        let tol = r.yaw_tol_deg.to_radians();
+        match &v.calibration.gyro {
+            Some(g) => {
+                let err = crate::frames::wrap_pi(g.euler.yaw - truth).abs();
+                let what = format!("yaw offset, gyro telemetry (est {} ± {} 1σ, truth {})", deg(g.euler.yaw), deg(g.sigma[2]), deg(truth));
+                out.row("R1", what, deg(err), format!("≤ {}", deg(tol)), err <= tol);
+            }
+            None if v.external => out.shown("R1", "yaw offset, gyro telemetry".into(), "the external controller flies it: no built-in gyro fit".into(), format!("≤ {}", deg(tol))),
+            None => out.row("R1", "yaw offset, gyro telemetry".into(), "no estimate (rotation about two axes needed)".into(), format!("≤ {}", deg(tol)), false),
+        }
+    }
+}
+
+/// R2: the drift while yawing, compensated, and against the uncompensated twin's (`unc`).
+fn hover_drift(r: &HoverDriftReq, v: &VehicleRun, unc: Option<&VehicleRun>, out: &mut Rows) {
+    let comp = v.spin_max_deviation_m;
+    let unc = unc.and_then(|u| u.spin_max_deviation_m);
+    match (comp, unc) {
+        (Some(c), Some(u)) => {
+            out.row("R2", "max drift while yawing, compensated".into(), format!("{:.4} m", c), format!("≤ {:.4} m", r.max_m), c <= r.max_m);
+            if u > r.max_m {
+                let ratio = c / u;
+                out.row(
+                    "R2",
+                    format!("drift compensated / uncompensated ({:.4} m)", u),
+                    format!("{:.2} %", 100.0 * ratio),
+                    format!("≤ {:.0} %", 100.0 * r.max_ratio),
+                    ratio <= r.max_ratio,
+                );
+            } else {
+                out.shown(
+                    "R2",
+                    "drift compensated / uncompensated".into(),
+                    format!("n/a: uncompensated {:.4} m is already within the bound", u),
+                    format!("≤ {:.0} %", 100.0 * r.max_ratio),
+                );
+            }
+        }
+        _ => out.row("R2", "max drift while yawing".into(), "no yaw_spin phase".into(), format!("≤ {:.4} m", r.max_m), false),
+    }
+}
+
+/// R3: the batch least squares and the recursive one agree on the yaw flight.
+fn ls_equals_rls(r: &LsRlsReq, v: &VehicleRun, out: &mut Rows) {
+    match (&v.calibration.yaw_ls, &v.calibration.yaw_rls) {
+        (Some(ls), Some(rls)) => {
+            let dpsi = (ls.psi_offset - rls.psi_offset).abs();
+            let dx = (ls.x_e0 - rls.x_e0).abs();
+            out.row("R3", format!("|ψ_LS − ψ_RLS| over {} samples", ls.n), format!("{dpsi:.1e} rad"), format!("≤ {:.0e} rad", r.yaw_tol_rad), dpsi <= r.yaw_tol_rad);
+            out.row("R3", "|X_E0,LS − X_E0,RLS|".into(), format!("{dx:.1e} m"), format!("≤ {:.0e} m", r.x_e0_tol_m), dx <= r.x_e0_tol_m);
+        }
+        _ if v.external => out.shown("R3", "LS = RLS".into(), "n/a: an external controller flies it (its fits are its own)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad)),
+        _ => out.row("R3", "LS = RLS".into(), "no yaw fit (no calibrate_yaw phase, or too short)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad), false),
+    }
+}
+
+/// R4: the validity check (7) accepts or rejects as expected.
+fn validity(r: &ValidityReq, v: &VehicleRun, out: &mut Rows) {
+    let want = r.expect == Verdict::Accept;
+    match &v.calibration.validity {
+        Some(val) => out.row(
+            "R4",
+            format!("validity (7): mean ψ {}, mean φ {}", deg(val.mean_yaw), deg(val.mean_roll)),
+            (if val.accepted { "accepted" } else { "rejected" }).into(),
+            (if want { "accept" } else { "reject" }).into(),
+            val.accepted == want,
+        ),
+        None if v.external => out.shown("R4", "validity (7)".into(), "n/a: an external controller flies it".into(), (if want { "accept" } else { "reject" }).into()),
+        None => out.row("R4", "validity (7)".into(), "no yaw flight".into(), (if want { "accept" } else { "reject" }).into(), false),
+    }
 }
 
 /// Does the scenario need the uncompensated counterpart run?
