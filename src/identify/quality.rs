@@ -251,16 +251,22 @@ fn reason(group: &[&Flag], s: &Series, o: &QualityOptions) -> String {
 /// The flagged samples, in row order per channel.
 /// `floor` is the log's floor (NED z, m), for telling the air from the ground.
 fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64, floor: Option<f64>) -> Vec<Flag> {
-    let n = s.len();
     let mut flags = Vec::new();
-    if n < 3 {
+    if s.len() < 3 {
         return flags;
     }
-    let dt = s.dt();
+    flag_full_scale(s, o, &mut flags);
+    let jump = flag_jumps(s, o, &mut flags);
+    flag_disagreements(s, o, smoothing_s, &jump, &mut flags);
+    flag_stuck(s, o, min_height_m, floor, &mut flags);
+    flags.sort_by_key(|f| (f.channel, f.row));
+    flags
+}
+
+/// IMU samples at or beyond `full_scale_fraction` of the sensor's range (saturated).
+fn flag_full_scale(s: &Series, o: &QualityOptions, flags: &mut Vec<Flag>) {
     let r = &s.model.imu_range;
-    let g = s.model.gravity_m_s2;
-    // full scale
-    for i in 0..n {
+    for i in 0..s.len() {
         let a = s.accel_body[i].amax();
         if a >= o.full_scale_fraction * r.accel_m_s2 {
             flags.push(Flag { row: i, channel: QualityChannel::Accel, kind: Kind::FullScale, value: a });
@@ -270,9 +276,14 @@ fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64, flo
             flags.push(Flag { row: i, channel: QualityChannel::Gyro, kind: Kind::FullScale, value: w });
         }
     }
-    // mocap jumps between consecutive seen frames of a segment
+}
+
+/// Mocap jumps between consecutive seen frames of a segment: a step faster than `max_speed_m_s`
+/// or a turn faster than 1.5 × the gyro's range (+2°). Returns the rows that jumped.
+fn flag_jumps(s: &Series, o: &QualityOptions, flags: &mut Vec<Flag>) -> Vec<bool> {
+    let r = &s.model.imu_range;
     let max_turn = |dt: f64| 1.5 * r.gyro_rad_s * dt + 2f64.to_radians();
-    let mut jump = vec![false; n];
+    let mut jump = vec![false; s.len()];
     for &(a, b) in &s.segments {
         for i in a + 1..b {
             if !(s.mocap_ok[i] && s.mocap_ok[i - 1]) {
@@ -288,8 +299,13 @@ fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64, flo
             }
         }
     }
-    // IMU against the smoothed mocap, where every pose in the filter's reach is seen, clean
-    // (no glitch, no jump) and inside the segment
+    jump
+}
+
+/// The IMU against the smoothed mocap (f̂ = Rᵀ(p̈ − g·e_D), the mocap body rates), where every
+/// pose in the filter's reach is seen, clean (no glitch, no jump) and inside the segment.
+fn flag_disagreements(s: &Series, o: &QualityOptions, smoothing_s: f64, jump: &[bool], flags: &mut Vec<Flag>) {
+    let (n, dt, g) = (s.len(), s.dt(), s.model.gravity_m_s2);
     let kernel = gaussian_kernel(smoothing_s / dt);
     let reach = kernel.len() / 2 + 2;
     let mut clean: Vec<bool> = (0..n).map(|i| s.mocap_ok[i] && !jump[i]).collect();
@@ -328,7 +344,12 @@ fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64, flo
             flags.push(Flag { row: i, channel: QualityChannel::Gyro, kind: Kind::Disagrees, value: dw });
         }
     }
-    // stuck readings: runs of bit-identical samples
+}
+
+/// Stuck readings: runs of bit-identical IMU samples in the air, and a frozen mocap pose while
+/// the gyro turns by more than 2°, each at least `stuck_s` (and 5 samples) long.
+fn flag_stuck(s: &Series, o: &QualityOptions, min_height_m: f64, floor: Option<f64>, flags: &mut Vec<Flag>) {
+    let dt = s.dt();
     let min_run = ((o.stuck_s / dt).round() as usize).max(5);
     let same3 = |a: &Vector3<f64>, b: &Vector3<f64>| (0..3).all(|j| a[j].to_bits() == b[j].to_bits());
     // an airborne IMU always shakes by more than its resolution (rotor vibration, noise): a
@@ -356,8 +377,6 @@ fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64, flo
             }
         }
     }
-    flags.sort_by_key(|f| (f.channel, f.row));
-    flags
 }
 
 /// Maximal runs [a, b) of rows inside a segment in which every row after the first satisfies
