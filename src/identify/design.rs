@@ -511,107 +511,143 @@ fn unit(j: usize) -> Vector3<f64> {
 
 /// The channels and the candidates' regressors (the table at the top of this module).
 fn channels(s: &Series, x: &Smoothed) -> Channels {
-    let n = s.len();
-    let Smoothed { accel_s, gyro_s, f_hat, f_dot, omega_dot, omega_s, v_body, nav_axes, tilt_cols, centripetal, thrust_s, height, .. } = x;
-    let m = &s.model;
-    // the clock drift's reference: the log's mid-time (the drift's delay there is τ_d)
-    let t_mid = match (s.t_s.first(), s.t_s.last()) {
-        (Some(a), Some(b)) => 0.5 * (a + b),
-        _ => 0.0,
-    };
-    let offs = column_offsets();
-    let col = |e: Effect, j: usize| offs[e as usize] + j;
     let empty3 = || [Vec::new(), Vec::new(), Vec::new()];
-    let mut measured = [empty3(), empty3(), empty3()];
-    let mut predicted = [empty3(), empty3(), empty3()];
-    let mut columns: [[Vec<Column>; 3]; 3] = Default::default();
+    let mut ch = Channels { measured: [empty3(), empty3(), empty3()], predicted: [empty3(), empty3(), empty3()], columns: Default::default() };
+    let cols = Cols::new(s);
     for a in 0..3 {
-        // accel_kin
-        let c = Channel::AccelKin.index();
-        measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
-        predicted[c][a] = f_hat.iter().map(|v| v[a]).collect();
-        for j in 0..3 {
-            columns[c][a].push((col(Effect::BodyOffset, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
-        }
-        for j in 0..2 {
-            columns[c][a].push((col(Effect::WorldTilt, j), tilt_cols[j].iter().map(|v| v[a]).collect()));
-        }
-        columns[c][a].push((col(Effect::MocapDelay, 0), f_dot.iter().map(|v| v[a]).collect()));
-        columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * f_dot[i][a]).collect()));
-        columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
-        // the accelerometer's own frame: turned against the gyro's (the gyro carries the body
-        // offset), and its z scaled
-        for j in 0..2 {
-            columns[c][a].push((col(Effect::AccelMisalignment, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
-        }
-        // the z scale's regressor is the mocap's f̂_z: in flight it swings by metres per second
-        // squared against a noise of a few hundredths, so the errors-in-variables bias is small
-        if a == 2 {
-            columns[c][a].push((col(Effect::AccelScale, 0), f_hat.iter().map(|f| f[a]).collect()));
-        }
-        // the IMU at r from the point the mocap tracks (body FRD): it feels the rotation's
-        // acceleration ω̇×r + ω×(ω×r) that the tracked point does not (linear in r)
-        for j in 0..3 {
-            columns[c][a].push((col(Effect::LeverArm, j), (0..n).map(|i| (omega_dot[i].cross(&unit(j)) + centripetal[j][i])[a]).collect()));
-        }
-        // gyro
-        let c = Channel::Gyro.index();
-        measured[c][a] = gyro_s.iter().map(|v| v[a]).collect();
-        predicted[c][a] = omega_s.iter().map(|v| v[a]).collect();
-        for j in 0..3 {
-            columns[c][a].push((col(Effect::BodyOffset, j), gyro_s.iter().map(|w| unit(j).cross(w)[a]).collect()));
-        }
-        columns[c][a].push((col(Effect::MocapDelay, 0), omega_dot.iter().map(|v| v[a]).collect()));
-        columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * omega_dot[i][a]).collect()));
-        columns[c][a].push((col(Effect::GyroBias, a), vec![1.0; n]));
-        // the gyro's samples τ_g later than the accelerometer's: ω(t − τ_g) ≈ ω − τ_g·ω̇
-        columns[c][a].push((col(Effect::GyroDelay, 0), omega_dot.iter().map(|v| -v[a]).collect()));
+        accel_kin_axis(s, x, &cols, a, &mut ch);
+        gyro_axis(s, x, &cols, a, &mut ch);
     }
-    if let Some(thrust) = &thrust_s {
-        let c = Channel::Force.index();
-        let spec: Vec<f64> = thrust.iter().map(|t| t / m.mass_kg).collect();
+    if let Some(thrust) = &x.thrust_s {
         for a in 0..3 {
-            measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
-            predicted[c][a] = (0..n)
-                .map(|i| match a {
-                    2 => -spec[i],
-                    _ => -m.rotor_drag_per_s[a] * v_body[i][a],
-                })
-                .collect();
-            columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
-            if a == 2 {
-                columns[c][a].push((col(Effect::AccelScale, 0), predicted[c][a].clone()));
-            }
-            // the accelerometer turned by ε against the gyro and the airframe reads exp([ε]×)·f_m
-            for j in 0..2 {
-                let e_j = unit(j);
-                columns[c][a].push((
-                    col(Effect::AccelMisalignment, j),
-                    (0..n).map(|i| e_j.cross(&Vector3::new(-m.rotor_drag_per_s[0] * v_body[i].x, -m.rotor_drag_per_s[1] * v_body[i].y, -spec[i]))[a]).collect(),
-                ));
-            }
-            // thrust along exp([t]×)(−e_z) ≈ −e_z − t × e_z = (−t_y, t_x, −1)
-            match a {
-                0 => columns[c][a].push((col(Effect::ThrustTilt, 1), spec.iter().map(|x| -x).collect())),
-                1 => columns[c][a].push((col(Effect::ThrustTilt, 0), spec.clone())),
-                _ => {}
-            }
-            for j in 0..3 {
-                columns[c][a].push((col(Effect::ConstantForce, j), nav_axes[j].iter().map(|v| v[a] / m.mass_kg).collect()));
-            }
-            if a < 2 {
-                columns[c][a].push((col(Effect::RotorDrag, a), v_body.iter().map(|v| -v[a]).collect()));
-            } else {
-                columns[c][a].push((col(Effect::ThrustScale, 0), spec.iter().map(|x| -x).collect()));
-                if let Some(vb) = &s.vbat_v {
-                    columns[c][a].push((col(Effect::ThrustVoltage, 0), (0..n).map(|i| -spec[i] * (vb[i] - m.vbat_ref_v)).collect()));
-                }
-                let r = m.rotor_radius_m;
-                columns[c][a].push((col(Effect::GroundEffect, 0), (0..n).map(|i| -spec[i] * (r / (4.0 * height[i].max(r))).powi(2)).collect()));
-            }
+            force_axis(s, x, thrust, &cols, a, &mut ch);
         }
     }
-    Channels { measured, predicted, columns }
+    ch
+}
+
+/// Where each effect's parameters sit among all columns, and the clock drift's reference time.
+struct Cols {
+    offsets: [usize; Effect::ALL.len() + 1],
+    /// The log's mid-time (s): the drift's delay there is τ_d.
+    t_mid: f64,
+}
+
+impl Cols {
+    fn new(s: &Series) -> Cols {
+        let t_mid = match (s.t_s.first(), s.t_s.last()) {
+            (Some(a), Some(b)) => 0.5 * (a + b),
+            _ => 0.0,
+        };
+        Cols { offsets: column_offsets(), t_mid }
+    }
+    /// The column of parameter `j` of effect `e`.
+    fn of(&self, e: Effect, j: usize) -> usize {
+        self.offsets[e as usize] + j
+    }
+}
+
+/// accel_kin, axis `a`: the accelerometer against the mocap's f̂ = Rᵀ(p̈ − g·e_D), and the
+/// columns of the frame, delay, bias, misalignment, z-scale and lever-arm effects.
+fn accel_kin_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Channels) {
+    let n = s.len();
+    let Smoothed { accel_s, f_hat, f_dot, omega_dot, tilt_cols, centripetal, .. } = x;
+    let (col, t_mid) = (|e: Effect, j: usize| cols.of(e, j), cols.t_mid);
+    let c = Channel::AccelKin.index();
+    ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
+    ch.predicted[c][a] = f_hat.iter().map(|v| v[a]).collect();
+    for j in 0..3 {
+        ch.columns[c][a].push((col(Effect::BodyOffset, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
+    }
+    for j in 0..2 {
+        ch.columns[c][a].push((col(Effect::WorldTilt, j), tilt_cols[j].iter().map(|v| v[a]).collect()));
+    }
+    ch.columns[c][a].push((col(Effect::MocapDelay, 0), f_dot.iter().map(|v| v[a]).collect()));
+    ch.columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * f_dot[i][a]).collect()));
+    ch.columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+    // the accelerometer's own frame: turned against the gyro's (the gyro carries the body
+    // offset), and its z scaled
+    for j in 0..2 {
+        ch.columns[c][a].push((col(Effect::AccelMisalignment, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
+    }
+    // the z scale's regressor is the mocap's f̂_z: in flight it swings by metres per second
+    // squared against a noise of a few hundredths, so the errors-in-variables bias is small
+    if a == 2 {
+        ch.columns[c][a].push((col(Effect::AccelScale, 0), f_hat.iter().map(|f| f[a]).collect()));
+    }
+    // the IMU at r from the point the mocap tracks (body FRD): it feels the rotation's
+    // acceleration ω̇×r + ω×(ω×r) that the tracked point does not (linear in r)
+    for j in 0..3 {
+        ch.columns[c][a].push((col(Effect::LeverArm, j), (0..n).map(|i| (omega_dot[i].cross(&unit(j)) + centripetal[j][i])[a]).collect()));
+    }
+}
+
+/// gyro, axis `a`: the gyro against the mocap's body rates, and the columns of the frame,
+/// delay, bias and gyro-delay effects.
+fn gyro_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Channels) {
+    let n = s.len();
+    let Smoothed { gyro_s, omega_dot, omega_s, .. } = x;
+    let (col, t_mid) = (|e: Effect, j: usize| cols.of(e, j), cols.t_mid);
+    let c = Channel::Gyro.index();
+    ch.measured[c][a] = gyro_s.iter().map(|v| v[a]).collect();
+    ch.predicted[c][a] = omega_s.iter().map(|v| v[a]).collect();
+    for j in 0..3 {
+        ch.columns[c][a].push((col(Effect::BodyOffset, j), gyro_s.iter().map(|w| unit(j).cross(w)[a]).collect()));
+    }
+    ch.columns[c][a].push((col(Effect::MocapDelay, 0), omega_dot.iter().map(|v| v[a]).collect()));
+    ch.columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * omega_dot[i][a]).collect()));
+    ch.columns[c][a].push((col(Effect::GyroBias, a), vec![1.0; n]));
+    // the gyro's samples τ_g later than the accelerometer's: ω(t − τ_g) ≈ ω − τ_g·ω̇
+    ch.columns[c][a].push((col(Effect::GyroDelay, 0), omega_dot.iter().map(|v| -v[a]).collect()));
+}
+
+/// force, axis `a`: the accelerometer against the nominal force model (thrust −T/m along z, rotor
+/// drag −k·v on x and y), and the columns of the force effects.
+fn force_axis(s: &Series, x: &Smoothed, thrust: &[f64], cols: &Cols, a: usize, ch: &mut Channels) {
+    let n = s.len();
+    let m = &s.model;
+    let Smoothed { accel_s, v_body, nav_axes, height, .. } = x;
+    let col = |e: Effect, j: usize| cols.of(e, j);
+    let c = Channel::Force.index();
+    let spec: Vec<f64> = thrust.iter().map(|t| t / m.mass_kg).collect();
+    ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
+    ch.predicted[c][a] = (0..n)
+        .map(|i| match a {
+            2 => -spec[i],
+            _ => -m.rotor_drag_per_s[a] * v_body[i][a],
+        })
+        .collect();
+    ch.columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+    if a == 2 {
+        ch.columns[c][a].push((col(Effect::AccelScale, 0), ch.predicted[c][a].clone()));
+    }
+    // the accelerometer turned by ε against the gyro and the airframe reads exp([ε]×)·f_m
+    for j in 0..2 {
+        let e_j = unit(j);
+        ch.columns[c][a].push((
+            col(Effect::AccelMisalignment, j),
+            (0..n).map(|i| e_j.cross(&Vector3::new(-m.rotor_drag_per_s[0] * v_body[i].x, -m.rotor_drag_per_s[1] * v_body[i].y, -spec[i]))[a]).collect(),
+        ));
+    }
+    // thrust along exp([t]×)(−e_z) ≈ −e_z − t × e_z = (−t_y, t_x, −1)
+    match a {
+        0 => ch.columns[c][a].push((col(Effect::ThrustTilt, 1), spec.iter().map(|x| -x).collect())),
+        1 => ch.columns[c][a].push((col(Effect::ThrustTilt, 0), spec.clone())),
+        _ => {}
+    }
+    for j in 0..3 {
+        ch.columns[c][a].push((col(Effect::ConstantForce, j), nav_axes[j].iter().map(|v| v[a] / m.mass_kg).collect()));
+    }
+    if a < 2 {
+        ch.columns[c][a].push((col(Effect::RotorDrag, a), v_body.iter().map(|v| -v[a]).collect()));
+    } else {
+        ch.columns[c][a].push((col(Effect::ThrustScale, 0), spec.iter().map(|x| -x).collect()));
+        if let Some(vb) = &s.vbat_v {
+            ch.columns[c][a].push((col(Effect::ThrustVoltage, 0), (0..n).map(|i| -spec[i] * (vb[i] - m.vbat_ref_v)).collect()));
+        }
+        let r = m.rotor_radius_m;
+        ch.columns[c][a].push((col(Effect::GroundEffect, 0), (0..n).map(|i| -spec[i] * (r / (4.0 * height[i].max(r))).powi(2)).collect()));
+    }
 }
 
 /// The measured signals a leftover residual may follow (see [`Design::signals`]), at the log's
