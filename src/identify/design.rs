@@ -295,54 +295,14 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let outliers = glitches.len();
     // the gyro with its delay against the accelerometer taken out (rows it cannot reach are out)
     let gyro_raw = super::series::gyro_advanced(s, corr.gyro_delay_s, &mut pose_ok);
-    let segs = &s.segments;
-    let g = s.model.gravity_m_s2;
-
-    // mask: inside a segment by more than the filter reach, every pose in reach valid
-    let mut ok = vec![false; n];
-    for &(a, b) in segs {
-        let reach = h + 2;
-        if b - a <= 2 * reach {
-            continue;
-        }
-        // running count of bad poses
-        for i in a + reach..b - reach {
-            ok[i] = (i - reach..=i + reach).all(|k| pose_ok[k]);
-        }
-    }
-    // the floor: the lowest point (largest NED z) while the motors are off; without a thrust
-    // column, the lowest point of the first half second (a log is taken to start at rest). A
-    // log that starts in the air with the motors on has no floor: nothing is masked for height
-    // and the ground-effect regressor is zero.
-    let floor_z = super::series::floor_z(s, &pos_nav);
-    let height: Vec<f64> = pos_nav.iter().map(|p| floor_z.map_or(f64::INFINITY, |f| f - p.z)).collect();
-    for i in 0..n {
-        if height[i] < opt.min_height_m {
-            ok[i] = false;
-        }
-        if let Some(t) = &s.thrust_n
-            && t[i] < 0.25 * s.model.mass_kg * g
-        {
-            ok[i] = false;
-        }
-    }
-
+    let (ok, height) = usable_rows(s, opt, &pos_nav, &pose_ok, h + 2);
     // decimation keeps one row per σ (below); what is not differentiated is smoothed only there
     let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
     let x = smoothed(s, opt, &pos_nav, &att_body, &gyro_raw, height, stride);
     let Channels { measured, predicted, columns } = channels(s, &x);
     let has_force = x.thrust_s.is_some();
     let has_vbat = s.vbat_v.is_some();
-    // yaw spread (for the identifiability note)
-    let yaws: Vec<f64> = (0..n).filter(|&i| ok[i]).map(|i| att_body[i].euler_angles().2).collect();
-    let yaw_spread_rad = if yaws.is_empty() {
-        0.0
-    } else {
-        let (sx, sy) = yaws.iter().fold((0.0, 0.0), |(x, y), a| (x + a.cos(), y + a.sin()));
-        let r = (sx * sx + sy * sy).sqrt() / yaws.len() as f64;
-        // circular standard deviation
-        (-2.0 * r.max(1e-12).ln()).sqrt()
-    };
+    let yaw_spread_rad = yaw_spread(&att_body, &ok);
     // decimate to one sample per σ: the smoothing is the anti-alias filter, and neighbouring
     // samples of a smoothed signal carry little new information but a lot of correlation
     let keep: Vec<usize> = (0..n).step_by(stride).collect();
@@ -354,6 +314,53 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let predicted = predicted.map(|c| c.map(|a| pick(&a)));
     let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));
     Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad, outliers, signals }
+}
+
+/// The rows a fit may use: inside a segment by more than `reach` (the filter's), every pose in
+/// reach valid (`pose_ok`), at least `min_height_m` over the floor and, with a thrust column,
+/// the motors at a quarter of the weight or more. Also returns each row's height over the floor
+/// (m; infinite without a floor).
+fn usable_rows(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], pose_ok: &[bool], reach: usize) -> (Vec<bool>, Vec<f64>) {
+    let n = s.len();
+    let g = s.model.gravity_m_s2;
+    let mut ok = vec![false; n];
+    for &(a, b) in &s.segments {
+        if b - a <= 2 * reach {
+            continue;
+        }
+        for i in a + reach..b - reach {
+            ok[i] = (i - reach..=i + reach).all(|k| pose_ok[k]);
+        }
+    }
+    // the floor: the lowest point (largest NED z) while the motors are off; without a thrust
+    // column, the lowest point of the first half second (a log is taken to start at rest). A
+    // log that starts in the air with the motors on has no floor: nothing is masked for height
+    // and the ground-effect regressor is zero.
+    let floor_z = super::series::floor_z(s, pos_nav);
+    let height: Vec<f64> = pos_nav.iter().map(|p| floor_z.map_or(f64::INFINITY, |f| f - p.z)).collect();
+    for i in 0..n {
+        if height[i] < opt.min_height_m {
+            ok[i] = false;
+        }
+        if let Some(t) = &s.thrust_n
+            && t[i] < 0.25 * s.model.mass_kg * g
+        {
+            ok[i] = false;
+        }
+    }
+    (ok, height)
+}
+
+/// The circular standard deviation of the yaw (rad) over the usable rows (for the
+/// identifiability note): √(−2 ln R), R the mean resultant length.
+fn yaw_spread(att_body: &[UnitQuaternion<f64>], ok: &[bool]) -> f64 {
+    let yaws: Vec<f64> = (0..ok.len()).filter(|&i| ok[i]).map(|i| att_body[i].euler_angles().2).collect();
+    if yaws.is_empty() {
+        return 0.0;
+    }
+    let (sx, sy) = yaws.iter().fold((0.0, 0.0), |(x, y), a| (x + a.cos(), y + a.sin()));
+    let r = (sx * sx + sy * sy).sqrt() / yaws.len() as f64;
+    (-2.0 * r.max(1e-12).ln()).sqrt()
 }
 
 /// Smooths and differentiates what the channels compare (the derivative filter at the top of
