@@ -1043,63 +1043,75 @@ impl Scenario {
             return err(self.plan.referenced, "the plan is empty: give at least one phase (e.g. `- takeoff: {altitude_m: 1, duration_s: 3}`)".into());
         }
         let mut templates: Vec<(usize, Vec<Vec3<MocapBody>>)> = Vec::new();
-        for (i, v) in vehicles.iter().enumerate() {
-            if vehicles[..i].iter().any(|o| o.value.name == v.value.name) {
-                return err(v.referenced, format!("vehicle name `{}` is used twice; names must be unique", v.value.name));
+        for i in 0..vehicles.len() {
+            self.validate_vehicle(i, &mut templates, src, file)?;
+        }
+        Ok(())
+    }
+
+    /// The checks of vehicle `i` against itself and the vehicles before it (`templates`: their
+    /// marker templates, to which its own is added): a unique name, a marker pattern the mocap
+    /// can tell apart, one displacement per marker, occlusions of markers that exist, undeclared
+    /// delays in whole mocap frames, and thrust to spare over its weight.
+    fn validate_vehicle(&self, i: usize, templates: &mut Vec<(usize, Vec<Vec3<MocapBody>>)>, src: &str, file: &Path) -> Result<(), ScenarioError> {
+        let err = |loc: serde_saphyr::Location, msg: String| Err(Self::invalid(src, file, loc, msg));
+        let vehicles = &self.vehicles.value;
+        let v = &vehicles[i];
+        if vehicles[..i].iter().any(|o| o.value.name == v.value.name) {
+            return err(v.referenced, format!("vehicle name `{}` is used twice; names must be unique", v.value.name));
+        }
+        let t = self.checked_template(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
+        if let Some((j, _)) = templates.iter().find(|(_, o)| patterns_confusable(o, &t, 0.005)) {
+            return err(
+                v.referenced,
+                format!(
+                    "vehicle `{}` has the same marker pattern as vehicle `{}` (pairwise distances within 5 mm): the mocap could not tell them apart; give each a different `markers.pattern` (0–{}) or `template_m`",
+                    v.value.name,
+                    vehicles[*j].value.name,
+                    BUILTIN_PATTERNS - 1
+                ),
+            );
+        }
+        templates.push((i, t.clone()));
+        let m = &v.value.markers;
+        if let Some(d) = &m.displacement_mm
+            && d.value.len() != t.len()
+        {
+            return err(d.referenced, format!("{} displacements for {} markers: give one [x, y, z] (mm) per marker", d.value.len(), t.len()));
+        }
+        if let Some(d) = &m.displacement_mm {
+            for x in d.value.iter().flatten() {
+                ranges::check(*x, -200.0, 200.0, false, "mm").map_err(|e| Self::invalid(src, file, d.referenced, e.to_string()))?;
             }
-            let t = self.checked_template(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
-            if let Some((j, _)) = templates.iter().find(|(_, o)| patterns_confusable(o, &t, 0.005)) {
-                return err(
-                    v.referenced,
-                    format!(
-                        "vehicle `{}` has the same marker pattern as vehicle `{}` (pairwise distances within 5 mm): the mocap could not tell them apart; give each a different `markers.pattern` (0–{}) or `template_m`",
-                        v.value.name,
-                        vehicles[*j].value.name,
-                        BUILTIN_PATTERNS - 1
-                    ),
-                );
+        }
+        for o in &m.occlusions {
+            if o.value.marker as usize >= t.len() {
+                return err(o.referenced, format!("marker {} does not exist: markers are numbered 0–{}", o.value.marker, t.len() - 1));
             }
-            templates.push((i, t.clone()));
-            let m = &v.value.markers;
-            if let Some(d) = &m.displacement_mm
-                && d.value.len() != t.len()
-            {
-                return err(d.referenced, format!("{} displacements for {} markers: give one [x, y, z] (mm) per marker", d.value.len(), t.len()));
+            if o.value.to_s <= o.value.from_s {
+                return err(o.referenced, format!("occlusion ends ({} s) before it starts ({} s)", o.value.to_s, o.value.from_s));
             }
-            if let Some(d) = &m.displacement_mm {
-                for x in d.value.iter().flatten() {
-                    ranges::check(*x, -200.0, 200.0, false, "mm").map_err(|e| Self::invalid(src, file, d.referenced, e.to_string()))?;
-                }
+        }
+        let u = &v.value.undeclared;
+        let period_ms = 1000.0 / self.mocap.rate_hz.value as f64;
+        for (field, delay) in [("mocap_delay_ms", u.mocap_delay_ms), ("gyro_delay_ms", u.gyro_delay_ms)] {
+            let frames = delay / period_ms;
+            if (frames - frames.round()).abs() > 1e-9 {
+                return err(v.referenced, format!("vehicle `{}`: undeclared.{field} {delay} is not a multiple of the mocap period {period_ms} ms", v.value.name));
             }
-            for o in &m.occlusions {
-                if o.value.marker as usize >= t.len() {
-                    return err(o.referenced, format!("marker {} does not exist: markers are numbered 0–{}", o.value.marker, t.len() - 1));
-                }
-                if o.value.to_s <= o.value.from_s {
-                    return err(o.referenced, format!("occlusion ends ({} s) before it starts ({} s)", o.value.to_s, o.value.from_s));
-                }
-            }
-            let u = &v.value.undeclared;
-            let period_ms = 1000.0 / self.mocap.rate_hz.value as f64;
-            for (field, delay) in [("mocap_delay_ms", u.mocap_delay_ms), ("gyro_delay_ms", u.gyro_delay_ms)] {
-                let frames = delay / period_ms;
-                if (frames - frames.round()).abs() > 1e-9 {
-                    return err(v.referenced, format!("vehicle `{}`: undeclared.{field} {delay} is not a multiple of the mocap period {period_ms} ms", v.value.name));
-                }
-            }
-            let p = self.checked_vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
-            let t_max = self.radio.thrust_max_n.unwrap_or(p.thrust_max()).min(p.thrust_max());
-            if t_max <= p.hover_thrust() * 1.1 {
-                return err(
-                    v.referenced,
-                    format!(
-                        "vehicle `{}`: maximum thrust {:.2} N is not above its hover thrust m·g = {:.2} N with a 10 % margin; it cannot fly (raise rotor_speed_max_rad_s, k_thrust or radio.thrust_max_n, or lower mass_kg)",
-                        v.value.name,
-                        t_max,
-                        p.hover_thrust()
-                    ),
-                );
-            }
+        }
+        let p = self.checked_vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
+        let t_max = self.radio.thrust_max_n.unwrap_or(p.thrust_max()).min(p.thrust_max());
+        if t_max <= p.hover_thrust() * 1.1 {
+            return err(
+                v.referenced,
+                format!(
+                    "vehicle `{}`: maximum thrust {:.2} N is not above its hover thrust m·g = {:.2} N with a 10 % margin; it cannot fly (raise rotor_speed_max_rad_s, k_thrust or radio.thrust_max_n, or lower mass_kg)",
+                    v.value.name,
+                    t_max,
+                    p.hover_thrust()
+                ),
+            );
         }
         Ok(())
     }
