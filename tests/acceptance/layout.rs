@@ -93,3 +93,103 @@ fn the_cycle_finder_finds_a_cycle() {
     edge(&mut g, "c", "a");
     assert_eq!(find_cycle(&g), Some(vec!["a".into(), "b".into(), "c".into(), "a".into()]));
 }
+
+/// The length in lines of every function in `text` (from its `fn` line to its closing brace;
+/// braces in comments, strings and char literals do not count), with its name.
+fn function_lengths(text: &str) -> Vec<(String, usize)> {
+    let lines: Vec<&str> = text.lines().collect();
+    // a line's code: comments, strings and char literals blanked
+    let code = |l: &str| -> String {
+        let mut out = String::new();
+        let mut chars = l.chars().peekable();
+        while let Some(c) = chars.next() {
+            match c {
+                '/' if chars.peek() == Some(&'/') => break,
+                '"' => {
+                    while let Some(d) = chars.next() {
+                        match d {
+                            '\\' => {
+                                chars.next();
+                            }
+                            '"' => break,
+                            _ => {}
+                        }
+                    }
+                }
+                '\'' if matches!(chars.clone().nth(1), Some('\'')) => {
+                    chars.nth(1);
+                }
+                _ => out.push(c),
+            }
+        }
+        out
+    };
+    let mut out = Vec::new();
+    for (i, l) in lines.iter().enumerate() {
+        let t = l.trim_start();
+        let Some(at) = t.find("fn ") else { continue };
+        let head = &t[..at];
+        if t.starts_with("//") || !(head.is_empty() || head.split_whitespace().all(|w| w.starts_with("pub") || w == "const" || w == "async" || w == "unsafe")) {
+            continue;
+        }
+        let name: String = t[at + 3..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        let (mut depth, mut started) = (0i32, false);
+        for (j, l2) in lines.iter().enumerate().skip(i) {
+            let c = code(l2);
+            for ch in c.chars() {
+                match ch {
+                    '{' => {
+                        depth += 1;
+                        started = true;
+                    }
+                    '}' => depth -= 1,
+                    _ => {}
+                }
+            }
+            if started && depth == 0 {
+                out.push((name.clone(), j - i + 1));
+                break;
+            }
+            if !started && c.trim_end().ends_with(';') {
+                break; // a declaration without a body
+            }
+        }
+    }
+    out
+}
+
+/// No function of the library or the binary is longer than 100 lines (issue 18: a long function
+/// holds several jobs; ripgrep keeps under 1 % of its functions above 80 lines).
+#[test]
+fn no_function_is_longer_than_100_lines() {
+    let mut files = Vec::new();
+    let mut stack = vec![super::root().join("src")];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                files.push(p);
+            }
+        }
+    }
+    let (mut total, mut long) = (0, Vec::new());
+    for f in &files {
+        for (name, n) in function_lengths(&std::fs::read_to_string(f).unwrap()) {
+            total += 1;
+            if n > 100 {
+                long.push(format!("{}: {name} ({n} lines)", f.display()));
+            }
+        }
+    }
+    assert!(total > 500, "the scan finds the functions: {total}");
+    assert!(long.is_empty(), "functions over 100 lines:\n{}", long.join("\n"));
+}
+
+/// The length scan by hand: a body with braces in a string, a char and a comment.
+#[test]
+fn function_lengths_skip_braces_in_strings_and_comments() {
+    let text = "fn a() {\n    let s = \"{ {\"; // }\n    let c = '{';\n}\npub(crate) fn b(x: u8) -> u8 {\n    x\n}\nfn c();\n";
+    assert_eq!(function_lengths(text), vec![("a".to_string(), 4), ("b".to_string(), 3)]);
+}
