@@ -24,6 +24,25 @@ def sign_test_p(n, k):
     return sum(math.comb(n, i) for i in range(k, n + 1)) / 2 ** n
 
 
+def mann_whitney_greater(a, b):
+    """One-sided P(a tends to be larger than b): normal approximation, ties averaged (as identify)."""
+    pooled = sorted([(x, 1) for x in a] + [(x, 0) for x in b])
+    n, ra, ties, i = len(pooled), 0.0, 0.0, 0
+    while i < n:
+        j = i
+        while j + 1 < n and pooled[j + 1][0] == pooled[i][0]:
+            j += 1
+        t = j - i + 1
+        ties += t ** 3 - t
+        ra += ((i + j) / 2 + 1) * sum(g for _, g in pooled[i:j + 1])
+        i = j + 1
+    na, nb = len(a), len(b)
+    u = ra - na * (na + 1) / 2
+    var = na * nb / 12 * ((n + 1) - ties / (n * (n - 1)))
+    z = (u - na * nb / 2) / math.sqrt(var)
+    return 0.5 * math.erfc(z / math.sqrt(2))
+
+
 def main():
     args = sys.argv[1:]
     skip = set()
@@ -95,6 +114,14 @@ def main():
         print(f"        rests before and after: differ by a median {median([abs(b['change_deg']) for b in both]):.2f} "
               f"over {len(both)}; their mean against the flight: median {median(ref):.2f}, covered "
               f"{sum(1 for b in both if b['bracket_covers'])}")
+        # split by the still pose's scatter at rest (identify's rest_pose_scatters)
+        lo = [a[ax] for _, a in ag if not a['rest_pose_scatters']]
+        hi = [a[ax] for _, a in ag if a['rest_pose_scatters']]
+        lb = [t for t in lo if abs(t['difference_deg']) > 1]
+        print(f"        still pose at rest: median {median([abs(t['difference_deg']) for t in lo]):.2f} over {len(lo)}, "
+              f"beyond 1°: {len(lb)} ({sum(1 for t in lb if t['covers'])} covered); scattering (roll above 0.02°): "
+              f"median {median([abs(t['difference_deg']) for t in hi]):.2f} over {len(hi)}; "
+              f"Mann–Whitney p = {mann_whitney_greater([abs(t['difference_deg']) for t in hi], [abs(t['difference_deg']) for t in lo]):.1g}")
 
     c = d.get('consistency')
     if c:

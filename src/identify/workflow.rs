@@ -241,11 +241,16 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     if let Some(l) = &landed {
         text += &super::ground::render_landed_summary(l);
     }
+    let rest_pose = super::ground::rest_pose_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
+    if let Some(rp) = &rest_pose {
+        text += &super::ground::render_rest_pose_summary(rp);
+    }
     let json = json!({
         "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
         "consistency": consistency,
         "spin_up": spin_up,
         "after_landing": landed,
+        "rest_pose": rest_pose,
         "excluded": excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e})).collect::<Vec<_>>(),
         "cross_validation": {
             "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),

@@ -461,6 +461,15 @@ fn nanobench_table_is_pinned() {
     ] {
         assert!((got - want).abs() < 0.01, "{got} vs {want}: {l:?}");
     }
+    // split by the still pose's scatter (README, *A still pose that scatters*): the three
+    // flights above 0.02° against the six below; below it the medians are 0.09° roll and 0.27°
+    // pitch, with B9's roll (not covered) the one beyond 1°
+    let rp = flyarena::identify::ground::rest_pose_summary(agreements.iter()).unwrap();
+    assert_eq!((rp.scattering, rp.still, rp.roll.still_beyond_1deg, rp.roll.still_beyond_1deg_covered, rp.pitch.still_beyond_1deg), (3, 6, 1, 0, 0), "{rp:?}");
+    for (got, want) in [(rp.roll.median_still_deg, 0.09), (rp.pitch.median_still_deg, 0.27), (rp.roll.median_scattering_deg, 0.56), (rp.pitch.median_scattering_deg, 0.54)] {
+        assert!((got - want).abs() < 0.01, "{got} vs {want}: {rp:?}");
+    }
+    assert!((rp.roll.mann_whitney_p - 0.061).abs() < 0.001, "{rp:?}");
 }
 
 /// Consistency across the real flights (README, *Consistency across flights*): the ground
