@@ -401,6 +401,10 @@ mod tests {
         // x = 0.9 > 3/7: the symmetric branch; I_0.2(2, 3) = 1 − 0.8⁴ − 4·0.2·0.8³ = 0.1808, direct
         assert!((incomplete_beta(2.0, 3.0, 0.9) - 0.9963).abs() < 1e-13, "{}", incomplete_beta(2.0, 3.0, 0.9));
         assert!((incomplete_beta(2.0, 3.0, 0.2) - 0.1808).abs() < 1e-13);
+        // the lower tail to full relative precision, which only the series keeps (1 − Q loses
+        // it): P(10, 1) = e⁻¹·Σ 1/(10 + n)! = 1.1142547833872068e-7, P(3, 0.5) = 0.014387677966970687
+        assert!((incomplete_gamma(10.0, 1.0) / 1.114_254_783_387_206_8e-7 - 1.0).abs() < 1e-12, "{}", incomplete_gamma(10.0, 1.0));
+        assert!((incomplete_gamma(3.0, 0.5) / 0.014_387_677_966_970_687 - 1.0).abs() < 1e-12);
         // F(2, 2): P(F > f) = 1/(1 + f); f = 0.25 puts x = 2/(2 + 0.5) = 0.8 above (1 + 1)/(1 + 1 + 2) = 0.5
         for f in [0.25, 4.0] {
             assert!((f_sf(f, 2.0, 2.0) - 1.0 / (1.0 + f)).abs() < 1e-13, "{f}");
