@@ -230,6 +230,12 @@ fn excitation_share_discounts_what_the_other_hidden_effects_explain() {
     assert_eq!(alone.lambda.to_bits(), beside.lambda.to_bits());
     assert!(alone.heldout_share > 0.95, "{alone:?}");
     assert!(beside.heldout_share < 0.5, "{beside:?}");
+    // λ conditions on every candidate: the Schur complement G_CC − G_CO·G_OO⁻¹·G_OC is at most
+    // G_CC, so with thrust voltage the only candidate (nothing to condition on) λ can only grow,
+    // and here, where the thrust scale takes most of it, it grows ninefold (457 → 4259)
+    let only = Options { candidates: vec![ThrustVoltage], forced: vec![], ..Options::default() };
+    let marginal = excitation(&series, &only, std::slice::from_ref(&tv))[0];
+    assert!(alone.lambda < 0.5 * marginal.lambda, "conditional λ {} against marginal {}", alone.lambda, marginal.lambda);
 }
 
 /// Trial 168 of seed 1 (a fixture): a ground effect (c_g 1.238) on the `x3d`, hovering 4 s at
