@@ -695,8 +695,7 @@ fn the_hypotheses_tested_on_real_flights_are_found_at_their_truth_and_not_invent
 #[test]
 fn a_copied_log_counts_once_in_the_cross_validation() {
     let Some(data) = super::shared_data() else { return };
-    let dir = std::env::temp_dir().join(format!("flyarena-copies-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = super::Scratch::new("copies");
     let src = data.join("nanobench/dataset/B8_star_medium_rep1.csv");
     let text = std::fs::read_to_string(&src).unwrap();
     let copy = dir.join("B8_copy.csv");

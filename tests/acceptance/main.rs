@@ -27,6 +27,46 @@ use flyarena::scenario::Scenario;
 static ALLOCATOR: alloc::Counting = alloc::Counting;
 use std::path::{Path, PathBuf};
 
+/// A scratch directory under the system's temp dir (`flyarena-<name>-<pid>`), removed when the
+/// test that made it ends, unless it ends by a panic (then it stays for a look).
+pub struct Scratch(PathBuf);
+
+impl Scratch {
+    /// An empty directory, created.
+    pub fn new(name: &str) -> Scratch {
+        let s = Scratch::absent(name);
+        std::fs::create_dir_all(&s.0).unwrap();
+        s
+    }
+    /// A path that does not exist yet (for a command that must create it).
+    pub fn absent(name: &str) -> Scratch {
+        let d = std::env::temp_dir().join(format!("flyarena-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        Scratch(d)
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
 /// The checkout being tested. Read at run time (cargo sets it for `cargo test`): the compile-time
 /// `env!` value goes stale when a shared `CARGO_TARGET_DIR` holds a build from another clone
 /// whose sources are not newer, and the tests then read that other clone's files.

@@ -382,8 +382,7 @@ pub(crate) mod ros2_fuzz {
     }
 
     fn read(bytes: &[u8]) -> Result<flyarena::identify::Series, flyarena::identify::InputError> {
-        let d = std::env::temp_dir().join(format!("flyarena-ros2-fuzz-{}-{:?}", std::process::id(), std::thread::current().id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let d = super::super::Scratch::new(&format!("ros2-fuzz-{:?}", std::thread::current().id()));
         let p = d.join("fuzz.mcap");
         std::fs::write(&p, bytes).unwrap();
         mapping().read(&p)

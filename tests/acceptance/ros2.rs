@@ -3,7 +3,7 @@
 
 use flyarena::identify::mapping::Mapping;
 use flyarena::identify::{Effect, Options, identify};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 /// Writes `flight` (a NanoBench CSV) as a bag with `scripts/nanobench-to-mcap.py`. Without
@@ -21,10 +21,8 @@ fn bag_of(flight: &Path, out: &Path) -> Option<()> {
     Some(())
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("flyarena-ros2-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> super::Scratch {
+    super::Scratch::new(&format!("ros2-{name}"))
 }
 
 /// A NanoBench flight as a ROS 2 bag gives the CSV route's report: the same rows, the same
@@ -123,7 +121,8 @@ fn broken_bags_are_errors_not_numbers() {
 #[test]
 fn poses_are_interpolated_onto_the_imu_clock_and_not_across_a_dropped_frame() {
     let bytes = super::props::ros2_fuzz::bag_with(2, 5_000_000, &[202]);
-    let p = tmp("interp").join("i.mcap");
+    let d = tmp("interp");
+    let p = d.join("i.mcap");
     std::fs::write(&p, bytes).unwrap();
     let s = super::props::ros2_fuzz::mapping().read(&p).unwrap();
     assert_eq!(s.len(), 400);

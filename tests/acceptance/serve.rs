@@ -15,11 +15,8 @@ fn fixture() -> PathBuf {
     super::root().join("tests/acceptance/fixtures/serve-hover.yaml")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("flyarena-serve-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> super::Scratch {
+    super::Scratch::new(&format!("serve-{name}"))
 }
 
 /// A port nobody listens on now (the OS's choice of a free one).
@@ -265,7 +262,7 @@ fn a_taken_port_is_refused_with_exit_2() {
         .arg(fixture())
         .args(["--command-port", &port.to_string(), "--wait-s", "0"])
         .arg("--out")
-        .arg(&out)
+        .arg(&*out)
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));

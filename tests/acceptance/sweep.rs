@@ -30,8 +30,7 @@ fn results_do_not_depend_on_threads_or_shards() {
 /// Through the CLI: 3 shards merged give the same files, byte for byte, as one unsharded sweep.
 #[test]
 fn merged_shards_equal_the_unsharded_sweep_byte_for_byte() {
-    let d = std::env::temp_dir().join(format!("flyarena-sweep-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
+    let d = super::Scratch::absent("sweep");
     let (whole, parts, merged) = (d.join("whole"), d.join("parts"), d.join("merged"));
     let sc = scenario();
     let sc = sc.to_str().unwrap();
@@ -71,8 +70,7 @@ fn longer_hovers_calibrate_better() {
 
 #[test]
 fn bad_sweeps_are_rejected_before_running() {
-    let d = std::env::temp_dir().join(format!("flyarena-badsweep-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    let d = super::Scratch::new("badsweep");
     let good = std::fs::read_to_string(scenario()).unwrap();
     let cases = [
         (good.replace("field: \"mocap.noise_mm\"", "field: \"mocap.nosie.mm\""), "`nosie` is not set"),
@@ -94,9 +92,7 @@ fn bad_sweeps_are_rejected_before_running() {
 /// skips a line cut by the kill, computes the rest, and removes the journal at the end.
 #[test]
 fn an_interrupted_sweep_resumes_without_redoing_finished_runs() {
-    let d = std::env::temp_dir().join(format!("flyarena-resume-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
+    let d = super::Scratch::new("resume");
     let s = Sweep::load(&scenario()).unwrap();
     let fresh = s.run(12, None, &|| {}).unwrap();
     let journal = d.join("sweep-hover-duration.sweep.journal.jsonl");
@@ -131,8 +127,7 @@ fn an_interrupted_sweep_resumes_without_redoing_finished_runs() {
 #[cfg(unix)]
 #[test]
 fn an_interrupted_sweep_exits_130_and_resumes() {
-    let d = std::env::temp_dir().join(format!("flyarena-sigint-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
+    let d = super::Scratch::absent("sigint");
     let sc = scenario();
     let args = ["sweep", sc.to_str().unwrap(), "--runs", "300", "--out", d.to_str().unwrap(), "-q"];
     let mut child = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).stderr(std::process::Stdio::piped()).spawn().unwrap();

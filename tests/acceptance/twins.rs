@@ -155,8 +155,7 @@ fn identify_twin(name: &str, edit: impl Fn(String) -> String) -> Report {
     let text = std::fs::read_to_string(super::root().join(format!("scenarios/identify-{name}.yaml"))).unwrap();
     let edited = edit(text.clone());
     assert_ne!(edited, text, "the twin must change the scenario");
-    let dir = std::env::temp_dir().join(format!("flyarena-twin-{}-{}", std::process::id(), edited.len()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = super::Scratch::new(&format!("twin-{}", edited.len()));
     let path = dir.join(format!("twin-{name}.yaml"));
     std::fs::write(&path, edited).unwrap();
     let done = flyarena::identify::workflow::run(&flyarena::identify::workflow::Request::new(flyarena::identify::workflow::Source::Scenario(&path))).unwrap();
