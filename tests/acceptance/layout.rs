@@ -174,17 +174,20 @@ fn no_function_is_longer_than_100_lines() {
             }
         }
     }
-    let (mut total, mut long) = (0, Vec::new());
+    let (mut total, mut over_80, mut long) = (0, 0, Vec::new());
     for f in &files {
         for (name, n) in function_lengths(&std::fs::read_to_string(f).unwrap()) {
             total += 1;
+            over_80 += usize::from(n > 80);
             if n > 100 {
                 long.push(format!("{}: {name} ({n} lines)", f.display()));
             }
         }
     }
+    eprintln!("{over_80} of {total} functions are over 80 lines");
     assert!(total > 500, "the scan finds the functions: {total}");
     assert!(long.is_empty(), "functions over 100 lines:\n{}", long.join("\n"));
+    assert!(100 * over_80 <= total, "{over_80} of {total} functions over 80 lines: more than 1 %");
 }
 
 /// The length scan by hand: a body with braces in a string, a char and a comment.
