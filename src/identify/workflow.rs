@@ -174,39 +174,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     use super::select::{channel_cut, evaluate};
     let map = super::mapping::Mapping::load(mapping)?;
     let opts = options(forced, smoothing_ms, Some(&map));
-    let mut series = Vec::new();
-    for p in inputs {
-        series.push(map.read(p)?);
-    }
-    // a flight the data-quality gate rejects is left out of the table and the cross-validation,
-    // and said so; the others go on
-    let mut reports: Vec<(String, super::Report)> = Vec::new();
-    let mut kept = Vec::new();
-    let mut excluded: Vec<(String, String)> = Vec::new();
-    // a log given twice (the same samples under another name: published datasets hold such
-    // copies) would agree with itself and count twice in the consistency and the cross-validation
-    let mut read: Vec<(String, super::Series)> = Vec::new();
-    for (p, s) in inputs.iter().zip(series) {
-        let name = p.file_stem().map_or_else(|| p.display().to_string(), |x| x.to_string_lossy().into_owned());
-        if let Some((first, _)) = read.iter().find(|(_, r)| r.same_samples(&s)) {
-            excluded.push((name, format!("the same samples as {first} (a copy of that log): counted once")));
-            continue;
-        }
-        read.push((name, s));
-    }
-    for (name, s) in read {
-        match identify(&s, &opts) {
-            Ok(r) => {
-                reports.push((name, r));
-                kept.push(s);
-            }
-            Err(e) => excluded.push((name, e.to_string())),
-        }
-    }
-    if reports.is_empty() {
-        return Err(InputError::NoFlightPasses(excluded.into_iter().map(|(_, e)| e).collect()));
-    }
-    let series = kept;
+    let (reports, series, excluded) = identify_each(inputs, &map, &opts)?;
     let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports
         .iter()
         .map(|(_, r)| {
@@ -233,18 +201,13 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
         .collect();
     let consistency = super::consistency::consistency(&reports, &accel_cross, &offset_gain, super::consistency::LINK_DEG);
     text += &super::consistency::render(&consistency);
-    let spin_up = super::ground::spin_up_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
-    if let Some(sp) = &spin_up {
-        text += &super::ground::render_spin_up_summary(sp);
-    }
-    let landed = super::ground::landed_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
-    if let Some(l) = &landed {
-        text += &super::ground::render_landed_summary(l);
-    }
-    let rest_pose = super::ground::rest_pose_summary(reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref()));
-    if let Some(rp) = &rest_pose {
-        text += &super::ground::render_rest_pose_summary(rp);
-    }
+    let agreements = || reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref());
+    let spin_up = super::ground::spin_up_summary(agreements());
+    let landed = super::ground::landed_summary(agreements());
+    let rest_pose = super::ground::rest_pose_summary(agreements());
+    text += &spin_up.as_ref().map_or(String::new(), super::ground::render_spin_up_summary);
+    text += &landed.as_ref().map_or(String::new(), super::ground::render_landed_summary);
+    text += &rest_pose.as_ref().map_or(String::new(), super::ground::render_rest_pose_summary);
     let json = json!({
         "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
         "consistency": consistency,
@@ -259,6 +222,44 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
         }
     });
     Ok(CrossValidated { reports, cross, consistency, text, json })
+}
+
+/// Reads and identifies every log: the reports and series of the flights identified (in input
+/// order), and the flights left out with the reason — a copy of an earlier log (the same
+/// samples under another name: published datasets hold such copies, which would agree with
+/// themselves and count twice) or one the data-quality gate rejects. An error only when no
+/// flight is left.
+#[allow(clippy::type_complexity)]
+fn identify_each(
+    inputs: &[&Path],
+    map: &super::mapping::Mapping,
+    opts: &super::Options,
+) -> Result<(Vec<(String, super::Report)>, Vec<super::Series>, Vec<(String, String)>), InputError> {
+    let mut read: Vec<(String, super::Series)> = Vec::new();
+    let mut excluded: Vec<(String, String)> = Vec::new();
+    for p in inputs {
+        let s = map.read(p)?;
+        let name = p.file_stem().map_or_else(|| p.display().to_string(), |x| x.to_string_lossy().into_owned());
+        if let Some((first, _)) = read.iter().find(|(_, r)| r.same_samples(&s)) {
+            excluded.push((name, format!("the same samples as {first} (a copy of that log): counted once")));
+            continue;
+        }
+        read.push((name, s));
+    }
+    let (mut reports, mut kept) = (Vec::new(), Vec::new());
+    for (name, s) in read {
+        match identify(&s, opts) {
+            Ok(r) => {
+                reports.push((name, r));
+                kept.push(s);
+            }
+            Err(e) => excluded.push((name, e.to_string())),
+        }
+    }
+    if reports.is_empty() {
+        return Err(InputError::NoFlightPasses(excluded.into_iter().map(|(_, e)| e).collect()));
+    }
+    Ok((reports, kept, excluded))
 }
 
 /// The per-flight block of a cross-validation: each flight's held-out cuts, effects, ground
