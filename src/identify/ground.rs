@@ -694,9 +694,7 @@ pub(crate) fn mann_whitney_greater(a: &[f64], b: &[f64]) -> f64 {
 /// The summary as the multi-flight report prints it.
 pub(crate) fn render_rest_pose_summary(s: &RestPoseSummary) -> String {
     let mut t = format!(
-        "
-ground check against the flight where the still pose scatters at rest (roll above {STILL_POSE_SD_DEG}° per sample: {} flights) and where it does not ({} flights):
-",
+        "\nground check against the flight where the still pose scatters at rest (roll above {STILL_POSE_SD_DEG}° per sample: {} flights) and where it does not ({} flights):\n",
         s.scattering, s.still
     );
     for (name, a) in [("roll", &s.roll), ("pitch", &s.pitch)] {
