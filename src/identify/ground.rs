@@ -605,7 +605,7 @@ pub(crate) fn render_landed_summary(s: &LandedSummary) -> String {
 /// ([`GroundAgreement::rest_pose_scatters`]) disagree with the ground check more than the
 /// others? Per axis, the median |rest − bias tilt − flight| of each group, the flights beyond 1°
 /// (and how many of them their interval covers), and the one-sided Mann–Whitney p of "the
-/// scattering flights' differences are larger" ([`mann_whitney_greater`]).
+/// scattering flights' differences are larger" (normal approximation, ties averaged).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct RestPoseSummary {
     /// Flights whose still pose scatters.
