@@ -101,7 +101,7 @@ pub(super) fn final_residuals(
             rmse: err.rmse_after,
             unit: err.unit.clone(),
             ljung_box_p: lb.p_value,
-            structured: correlates.iter().any(|x| !x.floor) || lb.p_value < 0.01,
+            structured: structured(&correlates, lb.p_value),
             correlates,
         });
         whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: lb });
@@ -116,9 +116,27 @@ fn outside_99(r: &[f64], n: usize) -> f64 {
     r.iter().filter(|x| x.abs() > bound).count() as f64 / r.len() as f64
 }
 
+/// Is a final residual still structured? It follows a measured signal of the flight (a lead; a
+/// signal of the mocap's own error, a floor, is none), or its prewhitened residual fails
+/// Ljung–Box at 1 %.
+fn structured(correlates: &[Correlate], ljung_box_p: f64) -> bool {
+    correlates.iter().any(|x| !x.floor) || ljung_box_p < 0.01
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The verdict by hand: a lead makes a residual structured whatever Ljung–Box says, a
+    /// floor does not, and without a lead Ljung–Box decides at 1 %.
+    #[test]
+    fn a_residual_is_structured_by_a_lead_or_by_ljung_box() {
+        let c = |floor: bool| Correlate { signal: "s".into(), r: 0.3, n_eff: 100.0, floor };
+        assert!(structured(&[c(false)], 0.9));
+        assert!(!structured(&[c(true)], 0.9));
+        assert!(!structured(&[], 0.011) && !structured(&[], 0.01));
+        assert!(structured(&[], 0.009) && structured(&[c(true)], 0.001));
+    }
 
     /// The 99 % band by hand: with 100 samples it is ±2.5758/10 = ±0.258, so of the lags
     /// (0.5, 0.25, −0.3, 0.01) two lie outside; with 10,000 samples (±0.0258) three do.
