@@ -224,17 +224,15 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     Ok(CrossValidated { reports, cross, consistency, text, json })
 }
 
+/// Values by flight name.
+type Named<T> = Vec<(String, T)>;
+
 /// Reads and identifies every log: the reports and series of the flights identified (in input
 /// order), and the flights left out with the reason — a copy of an earlier log (the same
 /// samples under another name: published datasets hold such copies, which would agree with
 /// themselves and count twice) or one the data-quality gate rejects. An error only when no
 /// flight is left.
-#[allow(clippy::type_complexity)]
-fn identify_each(
-    inputs: &[&Path],
-    map: &super::mapping::Mapping,
-    opts: &super::Options,
-) -> Result<(Vec<(String, super::Report)>, Vec<super::Series>, Vec<(String, String)>), InputError> {
+fn identify_each(inputs: &[&Path], map: &super::mapping::Mapping, opts: &super::Options) -> Result<(Named<super::Report>, Vec<super::Series>, Named<String>), InputError> {
     let mut read: Vec<(String, super::Series)> = Vec::new();
     let mut excluded: Vec<(String, String)> = Vec::new();
     for p in inputs {
