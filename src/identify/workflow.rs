@@ -174,7 +174,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     use super::select::{channel_cut, evaluate};
     let map = super::mapping::Mapping::load(mapping)?;
     let opts = options(forced, smoothing_ms, Some(&map));
-    let (reports, series, excluded) = identify_each(inputs, &map, &opts)?;
+    let Each { reports, series, excluded } = identify_each(inputs, &map, &opts)?;
     let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports
         .iter()
         .map(|(_, r)| {
@@ -224,15 +224,20 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     Ok(CrossValidated { reports, cross, consistency, text, json })
 }
 
-/// Values by flight name.
-type Named<T> = Vec<(String, T)>;
+/// The logs of a multi-flight run, identified: reports and series of the flights kept (in input
+/// order), and the flights left out with the reason.
+struct Each {
+    reports: Vec<(String, super::Report)>,
+    series: Vec<super::Series>,
+    excluded: Vec<(String, String)>,
+}
 
 /// Reads and identifies every log: the reports and series of the flights identified (in input
 /// order), and the flights left out with the reason — a copy of an earlier log (the same
 /// samples under another name: published datasets hold such copies, which would agree with
 /// themselves and count twice) or one the data-quality gate rejects. An error only when no
 /// flight is left.
-fn identify_each(inputs: &[&Path], map: &super::mapping::Mapping, opts: &super::Options) -> Result<(Named<super::Report>, Vec<super::Series>, Named<String>), InputError> {
+fn identify_each(inputs: &[&Path], map: &super::mapping::Mapping, opts: &super::Options) -> Result<Each, InputError> {
     let mut read: Vec<(String, super::Series)> = Vec::new();
     let mut excluded: Vec<(String, String)> = Vec::new();
     for p in inputs {
@@ -257,7 +262,7 @@ fn identify_each(inputs: &[&Path], map: &super::mapping::Mapping, opts: &super::
     if reports.is_empty() {
         return Err(InputError::NoFlightPasses(excluded.into_iter().map(|(_, e)| e).collect()));
     }
-    Ok((reports, kept, excluded))
+    Ok(Each { reports, series: kept, excluded })
 }
 
 /// The per-flight block of a cross-validation: each flight's held-out cuts, effects, ground
