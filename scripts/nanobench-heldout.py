@@ -75,6 +75,13 @@ def main():
     print('  ' + ', '.join(f"{k} {v}" for k, v in sorted(counts.items(), key=lambda kv: -kv[1])))
     frame = sum(1 for _, r in fitted if any(e['effect'] in ('body_offset', 'world_tilt') for e in r['effects']))
     print(f"  a frame effect (body offset or world tilt): {frame} of {len(fitted)}")
+    cf = [(r, {p['name']: p['value'] for e in r['effects'] if e['effect'] == 'constant_force' for p in e['params']})
+          for _, r in fitted if any(e['effect'] == 'constant_force' for e in r['effects'])]
+    if cf:
+        tied = sum(1 for r, _ in cf if any('constant_force' in t[:2] and 'accel_bias' in t[:2] for t in r.get('not_identifiable') or []))
+        ne = [v for _, p in cf for k, v in p.items() if k in ('north', 'east')]
+        print(f"  constant_force: down median {median([p['down'] for _, p in cf]):+.4f} N, north/east within "
+              f"{min(ne):+.4f}..{max(ne):+.4f} N; not identifiable from accel_bias in {tied} of {len(cf)}")
 
     def rms(r, key, channel):
         v = [e[key] for e in r['errors'] if e['channel'] == channel]
