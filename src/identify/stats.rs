@@ -430,6 +430,21 @@ mod tests {
         assert!((ljung_box(&with_hole, 2, 0).q - 12.0).abs() < 1e-12);
     }
 
+    /// A singular Gram matrix (two identical columns, one independent: [[1, 1, 0], [1, 1, 0],
+    /// [0, 0, 4]]) has no Cholesky factor; its Moore–Penrose pseudo-inverse is
+    /// [[¼, ¼, 0], [¼, ¼, 0], [0, 0, ¼]] (the eigenvalue 2 along (1, 1, 0)/√2 inverts to ½,
+    /// i.e. ¼ per entry, and the 4 to ¼). A non-finite entry gives zeros rather than NaN.
+    #[test]
+    fn a_singular_gram_matrix_gets_its_pseudo_inverse() {
+        let g = DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 4.0]);
+        let want = DMatrix::from_row_slice(3, 3, &[0.25, 0.25, 0.0, 0.25, 0.25, 0.0, 0.0, 0.0, 0.25]);
+        assert!((inverse_spd(&g) - want).amax() < 1e-12, "{}", inverse_spd(&g));
+        let spd = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 2.0]);
+        assert!((inverse_spd(&spd) - DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 2.0]) / 3.0).amax() < 1e-12);
+        let bad = DMatrix::from_row_slice(2, 2, &[f64::NAN, 0.0, 0.0, 1.0]);
+        assert_eq!(inverse_spd(&bad), DMatrix::zeros(2, 2));
+    }
+
     /// Ten samples per coefficient or no fit: with `max_order` 8 an AR needs 10·(8 + 1) = 90
     /// usable rows (each with its 8 predecessors). A strongly coloured AR(2) of 97 samples (89
     /// rows, one short) is modelled as white noise with σ the RMS of those rows; of 98 samples
