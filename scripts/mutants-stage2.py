@@ -8,7 +8,11 @@ is restored. Prints and appends to OUT/suite.txt one line per mutant: caught|mis
 import json, os, subprocess, sys
 
 TIMEOUT_S = 600  # the whole suite takes ~80 s with the mutants profile
+# a property test that fails under a mutant writes its seed here: it belongs to the mutant, not
+# to the suite, so the file is put back after every mutant
+REGRESSIONS = 'tests/proptest-regressions/props.txt'
 out = sys.argv[1]
+kept = open(REGRESSIONS).read() if os.path.exists(REGRESSIONS) else None
 d = json.load(open(os.path.join(out, 'outcomes.json')))
 with open(os.path.join(out, 'suite.txt'), 'w') as log:
     for o in d['outcomes']:
@@ -24,6 +28,8 @@ with open(os.path.join(out, 'suite.txt'), 'w') as log:
             rc = subprocess.run(['timeout', str(TIMEOUT_S), 'cargo', 'test', '--profile', 'mutants'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode
         finally:
             subprocess.run(['patch', '-s', '-R', target, diff], check=True)
+            if kept is not None:
+                open(REGRESSIONS, 'w').write(kept)
         verdict = 'timeout' if rc == 124 else 'missed' if rc == 0 else 'caught'
         line = f"{verdict}\t{name}"
         print(line, flush=True)
