@@ -433,12 +433,19 @@ mod tests {
     /// A singular Gram matrix (two identical columns, one independent: [[1, 1, 0], [1, 1, 0],
     /// [0, 0, 4]]) has no Cholesky factor; its Moore–Penrose pseudo-inverse is
     /// [[¼, ¼, 0], [¼, ¼, 0], [0, 0, ¼]] (the eigenvalue 2 along (1, 1, 0)/√2 inverts to ½,
-    /// i.e. ¼ per entry, and the 4 to ¼). A non-finite entry gives zeros rather than NaN.
+    /// i.e. ¼ per entry, and the 4 to ¼), also when rounding leaves it slightly indefinite. A
+    /// non-finite entry gives zeros rather than NaN.
     #[test]
     fn a_singular_gram_matrix_gets_its_pseudo_inverse() {
         let g = DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 4.0]);
         let want = DMatrix::from_row_slice(3, 3, &[0.25, 0.25, 0.0, 0.25, 0.25, 0.0, 0.0, 0.0, 0.25]);
-        assert!((inverse_spd(&g) - want).amax() < 1e-12, "{}", inverse_spd(&g));
+        assert!((inverse_spd(&g) - &want).amax() < 1e-12, "{}", inverse_spd(&g));
+        // rounding may leave such a matrix a hair indefinite (eigenvalue −1e-12 along
+        // (1, −1, 0)/√2): the cut-off is relative (1e-12 of the largest singular value, 4), so
+        // that direction is dropped too, not inverted to 1e12
+        let h = 0.5e-12;
+        let g = DMatrix::from_row_slice(3, 3, &[1.0 - h, 1.0 + h, 0.0, 1.0 + h, 1.0 - h, 0.0, 0.0, 0.0, 4.0]);
+        assert!((inverse_spd(&g) - &want).amax() < 1e-9, "{}", inverse_spd(&g));
         let spd = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 2.0]);
         assert!((inverse_spd(&spd) - DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 2.0]) / 3.0).amax() < 1e-12);
         let bad = DMatrix::from_row_slice(2, 2, &[f64::NAN, 0.0, 0.0, 1.0]);
