@@ -129,6 +129,17 @@ mod tests {
     use super::*;
     use crate::vehicle::params::GRAVITY;
 
+    /// The declared thrust model's reference voltage is the pack's nominal one, 3.7 V per Li-ion
+    /// cell: 11.1 V for the X3D's three cells, 3.7 V for the Crazyflie's one; and it lies
+    /// between the empty and the full pack.
+    #[test]
+    fn the_reference_voltage_is_the_nominal_pack_voltage() {
+        for (p, want) in [(BatteryParams::x3d(), 11.1), (BatteryParams::crazyflie21(), 3.7)] {
+            assert!((p.v_ref - want).abs() < 1e-12 && (p.v_ref - 3.7 * p.cells as f64).abs() < 1e-12, "{p:?}");
+            assert!(p.cells as f64 * p.v_empty_cell < p.v_ref && p.v_ref < p.cells as f64 * p.v_full_cell);
+        }
+    }
+
     /// Closed forms: V_oc is n·v_full full and n·v_empty empty; with no load V = V_oc; the
     /// terminal voltage solves V = V_oc − R·P_e/V (checked by substitution); past the maximum
     /// power V_oc²/(4R) it stays at V_oc/2.
