@@ -526,8 +526,10 @@ fn channels(s: &Series, x: &Smoothed) -> Channels {
         gyro_axis(s, x, &cols, a, &mut ch);
     }
     if let Some(thrust) = &x.thrust_s {
+        // the nominal specific thrust T/m (m/s²), shared by the three axes
+        let spec: Vec<f64> = thrust.iter().map(|t| t / s.model.mass_kg).collect();
         for a in 0..3 {
-            force_axis(s, x, thrust, &cols, a, &mut ch);
+            force_axis(s, x, &spec, &cols, a, &mut ch);
         }
     }
     ch
@@ -609,14 +611,13 @@ fn gyro_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Channels)
 }
 
 /// force, axis `a`: the accelerometer against the nominal force model (thrust −T/m along z, rotor
-/// drag −k·v on x and y), and the columns of the force effects.
-fn force_axis(s: &Series, x: &Smoothed, thrust: &[f64], cols: &Cols, a: usize, ch: &mut Channels) {
+/// drag −k·v on x and y; `spec` is T/m), and the columns of the force effects.
+fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch: &mut Channels) {
     let n = s.len();
     let m = &s.model;
     let Smoothed { accel_s, v_body, nav_axes, height, .. } = x;
     let col = |e: Effect, j: usize| cols.of(e, j);
     let c = Channel::Force.index();
-    let spec: Vec<f64> = thrust.iter().map(|t| t / m.mass_kg).collect();
     ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
     ch.predicted[c][a] = (0..n)
         .map(|i| match a {
@@ -639,7 +640,7 @@ fn force_axis(s: &Series, x: &Smoothed, thrust: &[f64], cols: &Cols, a: usize, c
     // thrust along exp([t]×)(−e_z) ≈ −e_z − t × e_z = (−t_y, t_x, −1)
     match a {
         0 => ch.columns[c][a].push((col(Effect::ThrustTilt, 1), spec.iter().map(|x| -x).collect())),
-        1 => ch.columns[c][a].push((col(Effect::ThrustTilt, 0), spec.clone())),
+        1 => ch.columns[c][a].push((col(Effect::ThrustTilt, 0), spec.to_vec())),
         _ => {}
     }
     for j in 0..3 {
