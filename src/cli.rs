@@ -187,7 +187,7 @@ struct IdentifyArgs {
     #[arg(long, value_name = "MAPPING.yaml")]
     mapping: Option<PathBuf>,
     /// Fit these effects without testing them (e.g. body_offset), select the rest. The hypotheses
-    /// gyro_delay, accel_misalignment, accel_scale, thrust_tilt and clock_drift are not searched:
+    /// gyro_delay, accel_misalignment, accel_scale, thrust_tilt, clock_drift and imu_offset are not searched:
     /// they are fitted only when named here
     #[arg(long = "with", value_name = "EFFECT,...", value_delimiter = ',', value_parser = parse_effect)]
     forced: Vec<flyarena::identify::Effect>,

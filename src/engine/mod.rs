@@ -464,6 +464,7 @@ impl VehicleLoop {
             accel_noise_m_s2: v.imu.accel_noise_m_s2,
             gyro_bias_rad_s: v.imu.gyro_bias_deg_s.map(f64::to_radians),
             accel_bias_m_s2: v.imu.accel_bias_m_s2,
+            position_m: v.imu.position_mm.map(|x| x * 1e-3),
         };
         // the truth: the declared parameters with the undeclared effects added
         let u = &v.undeclared;
@@ -562,7 +563,11 @@ impl VehicleLoop {
             self.spin_max = Some(self.spin_max.map_or(dev, |m: f64| m.max(dev)));
         }
         let s = *self.x3d.state();
-        let imu = self.imu.sample(s.omega, self.x3d.specific_force());
+        let mut f = self.x3d.specific_force();
+        if let Some(r) = self.imu.position() {
+            f = f + crate::vehicle::imu::lever_arm_specific_force(s.omega, self.x3d.angular_acceleration(), r);
+        }
+        let imu = self.imu.sample(s.omega, f);
         let rates = match held {
             Received::Rates(c) => c,
             Received::Attitude(a) => self.attitude_loop.rate_command(&a, &s.att, imu.gyro),

@@ -41,16 +41,18 @@
 //! | accelerometer z scale factor s_z | s_z (fraction) | accel_kin: f̂_z·e_z; force: f_m,z·e_z = −T/m·e_z (the channel's prediction, not the accelerometer: regressed on its own axis the residual's noise is the regressor's) |
 //! | thrust axis tilted against the accelerometer t | t_x, t_y (rad) | force: T/m·(e_y for t_x, −e_x for t_y) (thrust along exp(\[t\]×)·(−e_z)) |
 //! | mocap–IMU clock drift ρ | ρ (s/s) | accel_kin: (t − t̄)·df_imu/dt; gyro: (t − t̄)·dω_imu/dt (a delay τ_d + ρ·(t − t̄), t̄ the log's mid-time) |
+//! | lever arm, centre of mass → IMU r_c | r_c (m, body) | force: ω̇_imu × e_j + ω_imu × (ω_imu × e_j) |
 //!
 //! The lever arm: the mocap tracks the marker template's origin, the IMU sits at r from it. A
 //! rigid body's point r has the specific force of the tracked point plus ω̇×r + ω×(ω×r), so the
 //! accelerometer reads that much more than the mocap implies. Like the rotations and the delay
 //! it is then folded into the [`Corrections`]: the corrected trajectory is the IMU's point
 //! (p + R·r), whose velocity is also what the drag columns see. Only the difference IMU − tracked
-//! point is seen by `accel_kin`; the force channel (IMU against thrust) would see the IMU's
-//! offset from the centre of mass instead, which the library does not model. In flyarena's
-//! simulator the IMU sits at the centre of mass, so uniformly displaced markers d are a lever
-//! arm r = −d.
+//! point is seen by `accel_kin`. The force channel compares the IMU with the force model, which
+//! gives the centre of mass's specific force, so it sees the IMU's offset r_c from the centre of
+//! mass instead, with the same columns (`imu_offset`, additive: exact in r_c at the measured ω).
+//! In flyarena's simulator the IMU sits at `imu.position_mm` = r_c from the centre of mass and
+//! the markers' origin at `markers.displacement_mm` = d, so the lever arm is r = r_c − d.
 
 use super::series::{Corrected, Corrections, Series, correct};
 pub use crate::effects::{Channel, Effect};
@@ -65,7 +67,7 @@ pub fn column_offsets() -> [usize; Effect::ALL.len() + 1] {
     o
 }
 /// Number of columns of the full design: every candidate's parameters, in [`column_offsets`] order.
-pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3 + 1 + 2 + 1 + 2 + 1;
+pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3 + 1 + 2 + 1 + 2 + 1 + 3;
 
 /// One regressor column: its index in the full design and its samples.
 pub type Column = (usize, Vec<f64>);
@@ -615,7 +617,7 @@ fn gyro_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Channels)
 fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch: &mut Channels) {
     let n = s.len();
     let m = &s.model;
-    let Smoothed { accel_s, v_body, nav_axes, height, .. } = x;
+    let Smoothed { accel_s, v_body, nav_axes, height, omega_dot, centripetal, .. } = x;
     let col = |e: Effect, j: usize| cols.of(e, j);
     let c = Channel::Force.index();
     ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
@@ -645,6 +647,11 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
     }
     for j in 0..3 {
         ch.columns[c][a].push((col(Effect::ConstantForce, j), nav_axes[j].iter().map(|v| v[a] / m.mass_kg).collect()));
+    }
+    // the IMU at r from the centre of mass (body FRD): it feels ω̇×r + ω×(ω×r) that the force
+    // model's centre-of-mass acceleration lacks (linear in r)
+    for j in 0..3 {
+        ch.columns[c][a].push((col(Effect::ImuOffset, j), (0..n).map(|i| (omega_dot[i].cross(&unit(j)) + centripetal[j][i])[a]).collect()));
     }
     if a < 2 {
         ch.columns[c][a].push((col(Effect::RotorDrag, a), v_body.iter().map(|v| -v[a]).collect()));

@@ -53,8 +53,15 @@ fn nominal_tree(tree: &Value, i: usize) -> Value {
     let mut t = tree.clone();
     remove(&mut t, &["mocap", "camera_error"]);
     if let Some(v) = t.get_mut("vehicles").and_then(|v| v.get_mut(i)) {
-        for path in [&["markers", "rotation_deg"][..], &["markers", "displacement_mm"], &["disturbance"], &["undeclared"], &["imu", "gyro_bias_deg_s"], &["imu", "accel_bias_m_s2"]]
-        {
+        for path in [
+            &["markers", "rotation_deg"][..],
+            &["markers", "displacement_mm"],
+            &["disturbance"],
+            &["undeclared"],
+            &["imu", "gyro_bias_deg_s"],
+            &["imu", "accel_bias_m_s2"],
+            &["imu", "position_mm"],
+        ] {
             remove(v, path);
         }
     }
@@ -94,10 +101,13 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
             Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(round4(1.0 + f.params[0].value)))),
             Effect::GroundEffect => set.push((format!("{vi}.undeclared.ground_effect"), json!(v[0].max(0.0)))),
             Effect::LeverArm => {
-                // markers displaced by d make the mocap track the point d: r = −d for each marker
-                let d: Vec<f64> = v.iter().map(|x| -x).collect();
+                // markers displaced by d from the centre of mass make the mocap track the point
+                // d, and the IMU sits at r_c from it: r = r_c − d, so d = r_c − r for each marker
+                let r_c = r.effect(Effect::ImuOffset).map_or(vec![0.0; 3], |c| c.params.iter().map(|p| round4(p.value)).collect());
+                let d: Vec<f64> = v.iter().zip(&r_c).map(|(x, c)| round4(c - x)).collect();
                 set.push((format!("{vi}.markers.displacement_mm"), json!(vec![d; n_markers])));
             }
+            Effect::ImuOffset => set.push((format!("{vi}.imu.position_mm"), json!(v))),
             Effect::ThrustVoltage => set.push((format!("{vi}.undeclared.thrust_voltage_per_v"), json!(v[0].max(0.0)))),
             // hypotheses the simulator has no counterpart for: said, not set
             Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift => {

@@ -233,7 +233,7 @@ fn trial_yaml(index: u64, run_seed: u64, preset: &str, plan: &[String], hidden: 
             Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
             Effect::ThrustVoltage => undeclared.push(format!("thrust_voltage_per_v: {}", v[0])),
             Effect::GyroDelay => undeclared.push(format!("gyro_delay_ms: {}", v[0])),
-            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift => unreachable!("only simulated effects are hidden"),
+            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift | Effect::ImuOffset => unreachable!("only simulated effects are hidden"),
         }
     }
     if !markers.is_empty() {

@@ -627,7 +627,7 @@ pub struct OcclusionCfg {
     pub to_s: f64,
 }
 
-/// `imu:` — the onboard IMU's noise and constant bias.
+/// `imu:` — the onboard IMU's noise, constant bias and position.
 #[derive(Debug, Default, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ImuCfg {
@@ -643,6 +643,10 @@ pub struct ImuCfg {
     /// Constant accelerometer bias, body (m/s²).
     #[serde(with = "ranges::accel_m_s2_signed::arr")]
     pub accel_bias_m_s2: [f64; 3],
+    /// The IMU's position from the centre of mass, body FRD (mm): it reads the specific force
+    /// of that point, f + ω̇×r + ω×(ω×r) ([`crate::vehicle::imu`]).
+    #[serde(with = "ranges::offset_mm::arr")]
+    pub position_mm: [f64; 3],
 }
 
 impl BatteryCfg {

@@ -186,6 +186,20 @@ impl X3d {
         )
     }
 
+    /// Angular acceleration ω̇ = J⁻¹·(τ_rotors + τ_ext − ω × J·ω) now, body FRD (rad/s²): the
+    /// derivative at the current state and rotor speeds (zero on the floor, which holds the body).
+    pub fn angular_acceleration(&self) -> Vec3<Body> {
+        if self.on_ground {
+            return Vec3::zeros();
+        }
+        let (pos, vel, omega) = (self.state.pos.raw(), self.state.vel.raw(), self.state.omega.raw());
+        let q = self.state.att.quaternion().coords;
+        #[rustfmt::skip]
+        let s: Flat = [pos.x, pos.y, pos.z, vel.x, vel.y, vel.z, q[0], q[1], q[2], q[3], omega.x, omega.y, omega.z];
+        let d = self.deriv(&s, &self.state.rotor_speed);
+        Vec3::new(d[W], d[W + 1], d[W + 2])
+    }
+
     /// The rigid body's time derivative (the equations at the top of this module) with the rotors
     /// at `rotor` (rad/s).
     #[inline(always)]
@@ -292,6 +306,26 @@ mod tests {
         let w = x.hover_rotor_speed();
         x.state.rotor_speed = [w; 4];
         x
+    }
+
+    /// ω̇ = J⁻¹(τ − ω×Jω) by hand: left rotor at 1.1·Ω and right at 0.9·Ω roll the body at
+    /// l·k·Ω²·(1.21 − 0.81)/J_x; equal rotors and ω = (1, 0, 3) rad/s give the gyroscopic
+    /// ω̇_y = 3·(J_z − J_x)/J_y alone; on the floor ω̇ = 0.
+    #[test]
+    fn angular_acceleration_is_the_torque_over_the_inertia_by_hand() {
+        let mut x = hovering();
+        let (w, p) = (x.hover_rotor_speed(), x.params().clone());
+        x.state.rotor_speed = [w, 0.9 * w, w, 1.1 * w];
+        let want = p.arm_m * p.k_thrust * w * w * (1.21 - 0.81) / p.inertia_kg_m2[0];
+        let a = x.angular_acceleration();
+        assert!((a.x() - want).abs() < 1e-9 * want && a.y().abs() < 1e-12, "{a:?} for {want}");
+        x.state.rotor_speed = [w; 4];
+        x.state.omega = Vec3::new(1.0, 0.0, 3.0);
+        let j = p.inertia_kg_m2;
+        let a = x.angular_acceleration();
+        assert!(a.x().abs() < 1e-12 && (a.y() - 3.0 * (j[2] - j[0]) / j[1]).abs() < 1e-9 && a.z().abs() < 1e-12, "{a:?}");
+        let floor = X3d::on_floor(p, Disturbance::default(), Vec3::zeros(), 0.0);
+        assert_eq!(floor.angular_acceleration(), Vec3::zeros());
     }
 
     #[test]

@@ -234,6 +234,12 @@ fn every_command_has_help_version_and_completions() {
         assert_eq!(code, 0, "{cmd}: {err}");
         assert!(out.contains("Usage: flyarena") && out.contains(cmd), "{cmd}: {out}");
     }
+    // `identify --help` names every hypothesis that is fitted only with --with
+    let (_, help, _) = flyarena(&["identify", "--help"], &d);
+    let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
+    for e in flyarena::identify::Effect::ALL.iter().filter(|e| !e.searched()) {
+        assert!(help.contains(e.key()), "identify --help does not name the hypothesis {}: {help}", e.key());
+    }
     let (code, out, _) = flyarena(&["--version"], &d);
     assert_eq!((code, out.trim()), (0, format!("flyarena {}", env!("CARGO_PKG_VERSION")).as_str()));
     for shell in ["bash", "zsh", "fish"] {
