@@ -142,6 +142,10 @@ def main():
         print(f"  transfer of the accel_kin cut: {pct(c['within_cut'])} inside a mounting ({c['within_pairs']} pairs), "
               f"{pct(c['across_cut'])} across ({c['across_pairs']}); the offset's own share {pts(c['within_offset_gain'])} inside "
               f"(worse in {c['within_offset_worse']}), {pts(c['across_offset_gain'])} across (worse in {c['across_offset_worse']})")
+        if 'mounting_pairs' in c:
+            print(f"  the mounting's own part (the offset against the other flights' mean offset): {pts(c['within_mounting_gain'])} inside "
+                  f"(worse in {c['within_mounting_worse']} of {c['mounting_pairs'][0]}), {pts(c['across_mounting_gain'])} across "
+                  f"(worse in {c['across_mounting_worse']} of {c['mounting_pairs'][1]})")
 
     if by_time:
         # the flights in the order they were flown (the log's first time stamp), with the

@@ -28,7 +28,13 @@
 //! model transfers partly everywhere (a lever arm, a delay are properties of the vehicle), so
 //! the offset's own share is measured too: the cut of i's model minus the cut of i's model
 //! without its body offset, on flight j. Inside a mounting it should be positive (one flight's
-//! offset lowers another's error); across mountings it should not.
+//! offset lowers another's error); across mountings it need not be negative, because a part of
+//! every offset may be common to all mountings (an IMU board tilted against the marker plane
+//! the same way whatever the markers do). So the mounting's own part is measured as well: the
+//! cut of i's model minus the cut of i's model with the *fleet's* offset in place of its own,
+//! the mean rotation vector of the other fitted flights' offsets (flight j left out of that
+//! mean, so that j's own offset cannot help). Inside a mounting it should be positive, across
+//! mountings negative: i's offset beats the fleet's only where i and j share the markers.
 
 use super::design::Effect;
 use super::select::{MIN_TRAIN_SAMPLES, Report};
@@ -101,6 +107,27 @@ pub struct Consistency {
     pub within_offset_worse: usize,
     /// Pairs across mountings in which the offset makes the other flight's error worse.
     pub across_offset_worse: usize,
+    /// The mounting's own part of the offset: the cut with i's offset minus the cut with the
+    /// fleet's mean offset (flight j left out of the mean), medians inside one mounting and across.
+    pub within_mounting_gain: Option<f64>,
+    /// The mounting's own part across mountings (see [`Consistency::within_mounting_gain`]).
+    pub across_mounting_gain: Option<f64>,
+    /// Pairs inside one mounting in which i's offset does worse than the fleet's.
+    pub within_mounting_worse: usize,
+    /// Pairs across mountings in which i's offset does worse than the fleet's.
+    pub across_mounting_worse: usize,
+    /// Pairs that entered the mounting's own part, inside one mounting and across.
+    pub mounting_pairs: (usize, usize),
+}
+
+/// The transfer matrices of a cross-validation, indexed `[i][j]`: model of flight i on flight j.
+pub struct Transfer<'a> {
+    /// The cut of j's accel_kin error by i's model.
+    pub cut: &'a [Vec<Option<f64>>],
+    /// Cut with i's body offset minus cut without it.
+    pub offset_gain: &'a [Vec<Option<f64>>],
+    /// Cut with i's body offset minus cut with the fleet's mean offset (j left out of the mean).
+    pub mounting_gain: &'a [Vec<Option<f64>>],
 }
 
 /// Groups of points every two of which are closer than `link` (Euclidean): complete linkage.
@@ -166,6 +193,30 @@ pub(crate) fn without_body_offset(r: &Report) -> Option<Report> {
     Some(bare)
 }
 
+/// The report's model with `offset` (mocap → body) in place of its body offset (the correction
+/// set to it and the offset's linear columns to zero); `None` when it has none.
+pub(crate) fn with_body_offset(r: &Report, offset: nalgebra::UnitQuaternion<f64>) -> Option<Report> {
+    let mut m = without_body_offset(r)?;
+    m.corrections.body_offset = offset;
+    Some(m)
+}
+
+/// The fleet's body offset seen from flight `j`: the mean rotation vector of the fitted body
+/// offsets of every flight but `j` (small rotations: the mean of the vectors is the rotation
+/// nearest to all of them to second order); `None` when no other flight has one.
+pub(crate) fn fleet_offset_without(reports: &[(String, Report)], j: usize) -> Option<nalgebra::UnitQuaternion<f64>> {
+    let v: Vec<nalgebra::Vector3<f64>> = reports
+        .iter()
+        .enumerate()
+        .filter(|(k, (_, r))| *k != j && fitted(r) && r.effect(Effect::BodyOffset).is_some())
+        .map(|(_, (_, r))| r.corrections.body_offset.scaled_axis())
+        .collect();
+    if v.is_empty() {
+        return None;
+    }
+    Some(nalgebra::UnitQuaternion::from_scaled_axis(v.iter().sum::<nalgebra::Vector3<f64>>() / v.len() as f64))
+}
+
 /// Whether a parameter enters the χ²: identifiable, with a finite interval (a parameter the
 /// flight cannot tell from another effect's claims none, and would weigh in with a made-up one).
 fn has_interval(p: &super::select::Param) -> bool {
@@ -188,9 +239,9 @@ pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
 }
 
 /// The consistency of flights `reports` (name, report) with their accel_kin cross-validation
-/// cuts `cross[i][j]` (model of i on flight j) and the body offset's share of them
-/// `offset_gain[i][j]` (cut with i's offset minus cut without it).
-pub fn consistency(reports: &[(String, Report)], cross: &[Vec<Option<f64>>], offset_gain: &[Vec<Option<f64>>], link_deg: f64) -> Consistency {
+/// matrices (see [`Transfer`]).
+pub fn consistency(reports: &[(String, Report)], t: &Transfer, link_deg: f64) -> Consistency {
+    let (cross, offset_gain) = (t.cut, t.offset_gain);
     let ground: Vec<Option<(f64, f64)>> = reports.iter().map(|(_, r)| r.ground_check.map(|g| (g.roll_deg, g.pitch_deg))).collect();
     let groups = link_groups(&ground, link_deg);
     let mut of = vec![None; reports.len()];
@@ -234,6 +285,7 @@ pub fn consistency(reports: &[(String, Report)], cross: &[Vec<Option<f64>>], off
         })
         .collect();
     let (mut within, mut across, mut within_gain, mut across_gain) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut within_m, mut across_m) = (Vec::new(), Vec::new());
     for (i, row) in cross.iter().enumerate() {
         for (j, cut) in row.iter().enumerate() {
             if !fitted(&reports[i].1) || !fitted(&reports[j].1) {
@@ -241,9 +293,11 @@ pub fn consistency(reports: &[(String, Report)], cross: &[Vec<Option<f64>>], off
             }
             if let (true, Some(c), Some(gi), Some(gj)) = (i != j, cut, of[i], of[j]) {
                 let gain = offset_gain.get(i).and_then(|r| r.get(j)).copied().flatten();
-                let (cuts, gains) = if gi == gj { (&mut within, &mut within_gain) } else { (&mut across, &mut across_gain) };
+                let mounting = t.mounting_gain.get(i).and_then(|r| r.get(j)).copied().flatten();
+                let (cuts, gains, own) = if gi == gj { (&mut within, &mut within_gain, &mut within_m) } else { (&mut across, &mut across_gain, &mut across_m) };
                 cuts.push(*c);
                 gains.extend(gain);
+                own.extend(mounting);
             }
         }
     }
@@ -259,6 +313,11 @@ pub fn consistency(reports: &[(String, Report)], cross: &[Vec<Option<f64>>], off
         across_offset_worse: across_gain.iter().filter(|g| **g < 0.0).count(),
         within_offset_gain: median(within_gain),
         across_offset_gain: median(across_gain),
+        within_mounting_worse: within_m.iter().filter(|g| **g < 0.0).count(),
+        across_mounting_worse: across_m.iter().filter(|g| **g < 0.0).count(),
+        mounting_pairs: (within_m.len(), across_m.len()),
+        within_mounting_gain: median(within_m),
+        across_mounting_gain: median(across_m),
     }
 }
 
@@ -305,6 +364,15 @@ pub fn render(c: &Consistency) -> String {
         pp(c.across_offset_gain),
         c.across_offset_worse,
         c.across_pairs
+    );
+    t += &format!(
+        "  the mounting's own part of the offset (with it minus with the other flights' mean offset): median {} in one mounting (worse in {} of {} pairs), {} across mountings (worse in {} of {})\n",
+        pp(c.within_mounting_gain),
+        c.within_mounting_worse,
+        c.mounting_pairs.0,
+        pp(c.across_mounting_gain),
+        c.across_mounting_worse,
+        c.mounting_pairs.1
     );
     t
 }

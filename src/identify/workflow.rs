@@ -199,7 +199,25 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             series.iter().zip(row).map(|(s, with)| Some(with.as_ref()? - channel_cut(&evaluate(s, &opts, bare.as_ref()?), Channel::AccelKin)?)).collect()
         })
         .collect();
-    let consistency = super::consistency::consistency(&reports, &accel_cross, &offset_gain, super::consistency::LINK_DEG);
+    // the mounting's own part: each model again with the fleet's mean offset (j left out)
+    let fleet: Vec<_> = (0..series.len()).map(|j| super::consistency::fleet_offset_without(&reports, j)).collect();
+    let mounting_gain: Vec<Vec<Option<f64>>> = reports
+        .iter()
+        .zip(&accel_cross)
+        .map(|((_, r), row)| {
+            series
+                .iter()
+                .zip(row)
+                .zip(&fleet)
+                .map(|((s, with), q)| {
+                    let m = super::consistency::with_body_offset(r, (*q)?)?;
+                    Some(with.as_ref()? - channel_cut(&evaluate(s, &opts, &m), Channel::AccelKin)?)
+                })
+                .collect()
+        })
+        .collect();
+    let transfer = super::consistency::Transfer { cut: &accel_cross, offset_gain: &offset_gain, mounting_gain: &mounting_gain };
+    let consistency = super::consistency::consistency(&reports, &transfer, super::consistency::LINK_DEG);
     text += &super::consistency::render(&consistency);
     let agreements = || reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref());
     let spin_up = super::ground::spin_up_summary(agreements());

@@ -447,7 +447,10 @@ impl Search {
     /// Forward steps, each followed by the backward check, until no candidate passes, none is
     /// left or `max_steps` is reached.
     fn run(&mut self, s: &Series, o: &Options, notes: &mut Vec<String>) {
-        loop {
+        // every pass but the last adds a step, so max_steps + 1 passes are all there can be: the
+        // bound makes termination hold by construction, not only by the steps' count (a pass
+        // that added nothing and went on would otherwise spin for ever)
+        for _ in 0..=o.max_steps {
             // (every pass of the loop after the first follows a step)
             if !self.steps.is_empty() {
                 self.backward(s, o);
