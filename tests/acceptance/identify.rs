@@ -704,8 +704,9 @@ fn the_hypotheses_tested_on_real_flights_are_found_at_their_truth_and_not_invent
 /// `imu.position_mm` (it reads f + ω̇×r + ω×(ω×r) there; the markers stay centred on the centre
 /// of mass): forced, it comes out at its truth within its interval, and the lever arm that the
 /// selection adds in the accelerometer-against-mocap channel is the same point (r = r_c − d with
-/// d = 0); on the flight with the IMU at the centre both cover zero. A sign error in either
-/// column, or the simulator's centripetal term left out, fails here.
+/// d = 0); on the flight with the IMU at the centre both cover zero. Not fitted, the report's
+/// note names `--with imu_offset` on the first flight and not on the second. A sign error in
+/// either column, or the simulator's centripetal term left out, fails here.
 #[test]
 fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
     let truth = [25.0, -20.0, 30.0];
@@ -715,6 +716,10 @@ fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
         flyarena::scenario::patch::set_in(&mut tree, "vehicles[0].imu.position_mm", serde_json::json!(want), true).unwrap();
         let s = Scenario::parse(&serde_json::to_string(&tree).unwrap(), Path::new("none.yaml")).unwrap();
         let (_, series) = run_and_log(&s, 0, label).unwrap();
+        // not fitted, the report names it where the force residual shows its signature
+        let plain = identify(&series, &Options::default()).unwrap();
+        let named = plain.notes.iter().any(|n| n.contains("`--with imu_offset`"));
+        assert_eq!(named, want != [0.0; 3], "{label}: {:?}", plain.notes);
         let r = identify(&series, &forced).unwrap();
         let text = flyarena::identify::report::render(&r);
         let f = r.effect(Effect::ImuOffset).unwrap_or_else(|| panic!("not fitted\n{text}"));
