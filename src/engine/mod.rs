@@ -565,7 +565,7 @@ impl VehicleLoop {
         let s = *self.x3d.state();
         let mut f = self.x3d.specific_force();
         if let Some(r) = self.imu.position() {
-            f = f + crate::vehicle::imu::lever_arm_specific_force(s.omega, self.x3d.angular_acceleration(), r);
+            f += crate::vehicle::imu::lever_arm_specific_force(s.omega, self.x3d.angular_acceleration(), r);
         }
         let imu = self.imu.sample(s.omega, f);
         let rates = match held {

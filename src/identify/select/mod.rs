@@ -656,7 +656,7 @@ fn select(s: &Series, o: &Options) -> Report {
     let with_signals = super::design::build_with_signals(s, &corr, &o.design);
     let lead_sigs = lead_signals(&with_signals);
     let (errors, whiteness, left) = final_residuals(&state.design, &state.fit.theta, &state.test, &nominal_design, &lead_sigs, o.max_ar_order);
-    notes.extend(hypothesis_hints(&left, &selected));
+    notes.extend(hypothesis_hints(&left, selected));
     let mut effects: Vec<Found> =
         selected.iter().map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &corr) }).collect();
     let (ground_check, ground_agreement) =
