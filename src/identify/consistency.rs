@@ -34,7 +34,8 @@
 //! cut of i's model minus the cut of i's model with the *fleet's* offset in place of its own,
 //! the mean rotation vector of the other fitted flights' offsets (flight j left out of that
 //! mean, so that j's own offset cannot help). Inside a mounting it should be positive, across
-//! mountings negative: i's offset beats the fleet's only where i and j share the markers.
+//! mountings not: i's offset beats the fleet's only where i and j share the markers (across
+//! mountings that are really one marker state split by the link, about zero).
 
 use super::design::Effect;
 use super::select::{MIN_TRAIN_SAMPLES, Report};
