@@ -148,7 +148,7 @@ impl Effect {
         }
     }
     /// Parameter names and the factor from the internal SI/radian value to the reported unit.
-    pub fn params(self) -> &'static [(&'static str, &'static str, f64)] {
+    pub const fn params(self) -> &'static [(&'static str, &'static str, f64)] {
         const DEG: f64 = 180.0 / std::f64::consts::PI;
         match self {
             Effect::BodyOffset => &[("roll", "deg", DEG), ("pitch", "deg", DEG), ("yaw", "deg", DEG)],
@@ -174,7 +174,7 @@ impl Effect {
         }
     }
     /// How many parameters it has.
-    pub fn n_params(self) -> usize {
+    pub const fn n_params(self) -> usize {
         self.params().len()
     }
     /// The residual channels it acts on.

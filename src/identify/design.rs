@@ -66,8 +66,17 @@ pub fn column_offsets() -> [usize; Effect::ALL.len() + 1] {
     }
     o
 }
-/// Number of columns of the full design: every candidate's parameters, in [`column_offsets`] order.
-pub const N_COLUMNS: usize = 3 + 2 + 1 + 3 + 3 + 2 + 3 + 1 + 1 + 1 + 3 + 1 + 2 + 1 + 2 + 1 + 3;
+/// Number of columns of the full design: every candidate's parameters, in [`column_offsets`] order
+/// (computed from [`Effect::params`], so that a new effect cannot leave it behind).
+pub const N_COLUMNS: usize = {
+    let mut n = 0;
+    let mut i = 0;
+    while i < Effect::ALL.len() {
+        n += Effect::ALL[i].n_params();
+        i += 1;
+    }
+    n
+};
 
 /// One regressor column: its index in the full design and its samples.
 pub type Column = (usize, Vec<f64>);
