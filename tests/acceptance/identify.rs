@@ -521,6 +521,18 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     assert_eq!((c.within_mounting_worse, c.across_mounting_worse), (0, 36), "{}", flyarena::identify::consistency::render(c));
     near("within mounting gain", c.within_mounting_gain, 0.30);
     near("across mounting gain", c.across_mounting_gain, -0.15);
+    // the block the command prints (README, *Consistency across flights*), line by line
+    for line in [
+        "  mounting 2: B2_circle_fast_rep2, B3_figure8_medium_rep2 (ground spread 0.24°)",
+        "    body offset roll  mean +1.80°, spread 0.13° over 2 flights, χ² 0.8 on 1 dof, p 0.37: agree within their intervals",
+        "    B6_linear_ramp_rep1 left out: 94 usable samples, 200 needed: nothing was fitted",
+        "    one flight: nothing to compare it with",
+        "  transfer (accel_kin error cut of one flight's model on another): median 35 % over 10 pairs in one mounting, 20 % over 62 pairs across mountings",
+        "  the body offset's own share of that cut (with it minus without it): median +33 points in one mounting (worse in 0 of 10 pairs), +17 points across mountings (worse in 18 of 62)",
+        "  the mounting's own part of the offset (with it minus with the other flights' mean offset): median +30 points in one mounting (worse in 0 of 10 pairs), -15 points across mountings (worse in 36 of 62)",
+    ] {
+        assert!(cv.text.lines().any(|l| l == line), "missing {line:?} in\n{}", cv.text);
+    }
 }
 
 /// Regression: a log cut to start in the air had its floor at the first pose, so every sample
