@@ -735,6 +735,8 @@ fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
         let r = identify(&series, &forced).unwrap();
         let text = flyarena::identify::report::render(&r);
         let f = r.effect(Effect::ImuOffset).unwrap_or_else(|| panic!("not fitted\n{text}"));
+        // the README quotes this line (`-- --nocapture`)
+        eprintln!("{label}: imu_offset {}", f.params.iter().map(|p| format!("{:.1} ± {:.1}", p.value, p.ci95)).collect::<Vec<_>>().join(" / "));
         for (p, w) in f.params.iter().zip(want) {
             assert!(p.identifiable && (p.value - w).abs() <= p.ci95, "{label}: imu_offset {}: {} ± {} mm (truth {w})\n{text}", p.name, p.value, p.ci95);
             assert!(p.ci95 < 10.0, "{label}: imu_offset {}: interval ±{} mm too wide to test", p.name, p.ci95);
