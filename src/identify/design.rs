@@ -444,6 +444,9 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
     // high-frequency content)
     let centripetal: [Vec<Vector3<f64>>; 3] =
         std::array::from_fn(|j| smooth_vec3_kept(&gyro_raw.iter().map(|w| w.cross(&w.cross(&unit(j)))).collect::<Vec<_>>(), segs, &kernel, stride));
+    // a rigid body's point at e_j from another feels ω̇×e_j + ω×(ω×e_j) more: the columns of
+    // both lever arms (the IMU against the tracked point, and against the centre of mass)
+    let rigid_point: [Vec<Vector3<f64>>; 3] = std::array::from_fn(|j| (0..n).map(|i| omega_dot[i].cross(&unit(j)) + centripetal[j][i]).collect());
     let thrust_s = s.thrust_n.as_ref().map(|t| {
         let mut o = vec![0.0; n];
         smooth_into(t, segs, &kernel, &mut o);
@@ -451,7 +454,7 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
     });
 
     let attitude_gap = smooth_vec3_kept(&attitude_gap(s, &rates, gyro_raw), segs, &kernel, stride);
-    Smoothed { accel_s, gyro_s, omega_s, f_hat, f_dot, omega_dot, v_body, vel_nav, nav_axes, tilt_cols, centripetal, thrust_s, height, attitude_gap }
+    Smoothed { accel_s, gyro_s, omega_s, f_hat, f_dot, omega_dot, v_body, vel_nav, nav_axes, tilt_cols, rigid_point, thrust_s, height, attitude_gap }
 }
 
 /// The body-frame signals every channel and column is built from, at the log's rate (smoothed;
@@ -473,8 +476,8 @@ struct Smoothed {
     /// K*(Rᵀe_j) for the nav axes, and the world tilt's columns (multiples of them).
     nav_axes: [Vec<Vector3<f64>>; 3],
     tilt_cols: [Vec<Vector3<f64>>; 2],
-    /// K*(ω×(ω×e_j)): the lever arm's centripetal columns.
-    centripetal: [Vec<Vector3<f64>>; 3],
+    /// ω̇×e_j + K*(ω×(ω×e_j)): the lever arms' columns (per unit of r along e_j, m/s² per m).
+    rigid_point: [Vec<Vector3<f64>>; 3],
     /// Collective thrust from the commands (N), if known.
     thrust_s: Option<Vec<f64>>,
     /// Height above the floor (m; infinite without a floor).
@@ -571,7 +574,7 @@ impl Cols {
 /// columns of the frame, delay, bias, misalignment, z-scale and lever-arm effects.
 fn accel_kin_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Channels) {
     let n = s.len();
-    let Smoothed { accel_s, f_hat, f_dot, omega_dot, tilt_cols, centripetal, .. } = x;
+    let Smoothed { accel_s, f_hat, f_dot, tilt_cols, rigid_point, .. } = x;
     let (col, t_mid) = (|e: Effect, j: usize| cols.of(e, j), cols.t_mid);
     let c = Channel::AccelKin.index();
     ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
@@ -598,7 +601,7 @@ fn accel_kin_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Chan
     // the IMU at r from the point the mocap tracks (body FRD): it feels the rotation's
     // acceleration ω̇×r + ω×(ω×r) that the tracked point does not (linear in r)
     for j in 0..3 {
-        ch.columns[c][a].push((col(Effect::LeverArm, j), (0..n).map(|i| (omega_dot[i].cross(&unit(j)) + centripetal[j][i])[a]).collect()));
+        ch.columns[c][a].push((col(Effect::LeverArm, j), rigid_point[j].iter().map(|v| v[a]).collect()));
     }
 }
 
@@ -626,7 +629,7 @@ fn gyro_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Channels)
 fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch: &mut Channels) {
     let n = s.len();
     let m = &s.model;
-    let Smoothed { accel_s, v_body, nav_axes, height, omega_dot, centripetal, .. } = x;
+    let Smoothed { accel_s, v_body, nav_axes, height, rigid_point, .. } = x;
     let col = |e: Effect, j: usize| cols.of(e, j);
     let c = Channel::Force.index();
     ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
@@ -660,7 +663,7 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
     // the IMU at r from the centre of mass (body FRD): it feels ω̇×r + ω×(ω×r) that the force
     // model's centre-of-mass acceleration lacks (linear in r)
     for j in 0..3 {
-        ch.columns[c][a].push((col(Effect::ImuOffset, j), (0..n).map(|i| (omega_dot[i].cross(&unit(j)) + centripetal[j][i])[a]).collect()));
+        ch.columns[c][a].push((col(Effect::ImuOffset, j), rigid_point[j].iter().map(|v| v[a]).collect()));
     }
     if a < 2 {
         ch.columns[c][a].push((col(Effect::RotorDrag, a), v_body.iter().map(|v| -v[a]).collect()));
