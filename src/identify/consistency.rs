@@ -194,14 +194,6 @@ pub(crate) fn without_body_offset(r: &Report) -> Option<Report> {
     Some(bare)
 }
 
-/// The report's model with `offset` (mocap → body) in place of its body offset (the correction
-/// set to it and the offset's linear columns to zero); `None` when it has none.
-pub(crate) fn with_body_offset(r: &Report, offset: nalgebra::UnitQuaternion<f64>) -> Option<Report> {
-    let mut m = without_body_offset(r)?;
-    m.corrections.body_offset = offset;
-    Some(m)
-}
-
 /// The fleet's body offset seen from flight `j`: the mean rotation vector of the fitted body
 /// offsets of every flight but `j` (small rotations: the mean of the vectors is the rotation
 /// nearest to all of them to second order); `None` when no other flight has one.

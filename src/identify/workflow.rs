@@ -190,32 +190,28 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     let mut text = per_flight_text(&reports, &excluded);
     text += &cross_tables(&reports, &cross);
     let accel_cross: Vec<Vec<Option<f64>>> = cross.iter().map(|row| row.iter().map(|c| c.0).collect()).collect();
+    // i's accel_kin cut on flight j minus the cut with i's body offset replaced by `offset(j)`
+    let gain = |offset: &dyn Fn(usize) -> Option<nalgebra::UnitQuaternion<f64>>| -> Vec<Vec<Option<f64>>> {
+        reports
+            .iter()
+            .zip(&accel_cross)
+            .map(|((_, r), row)| {
+                let mut alt = super::consistency::without_body_offset(r);
+                (0..series.len())
+                    .map(|j| {
+                        let alt = alt.as_mut()?;
+                        alt.corrections.body_offset = offset(j)?;
+                        Some(row[j]? - channel_cut(&evaluate(&series[j], &opts, alt), Channel::AccelKin)?)
+                    })
+                    .collect()
+            })
+            .collect()
+    };
     // the body offset's own share: each model again without its offset
-    let offset_gain: Vec<Vec<Option<f64>>> = reports
-        .iter()
-        .zip(&accel_cross)
-        .map(|((_, r), row)| {
-            let bare = super::consistency::without_body_offset(r);
-            series.iter().zip(row).map(|(s, with)| Some(with.as_ref()? - channel_cut(&evaluate(s, &opts, bare.as_ref()?), Channel::AccelKin)?)).collect()
-        })
-        .collect();
+    let offset_gain = gain(&|_| Some(nalgebra::UnitQuaternion::identity()));
     // the mounting's own part: each model again with the fleet's mean offset (j left out)
     let fleet: Vec<_> = (0..series.len()).map(|j| super::consistency::fleet_offset_without(&reports, j)).collect();
-    let mounting_gain: Vec<Vec<Option<f64>>> = reports
-        .iter()
-        .zip(&accel_cross)
-        .map(|((_, r), row)| {
-            series
-                .iter()
-                .zip(row)
-                .zip(&fleet)
-                .map(|((s, with), q)| {
-                    let m = super::consistency::with_body_offset(r, (*q)?)?;
-                    Some(with.as_ref()? - channel_cut(&evaluate(s, &opts, &m), Channel::AccelKin)?)
-                })
-                .collect()
-        })
-        .collect();
+    let mounting_gain = gain(&|j| fleet[j]);
     let transfer = super::consistency::Transfer { cut: &accel_cross, offset_gain: &offset_gain, mounting_gain: &mounting_gain };
     let consistency = super::consistency::consistency(&reports, &transfer, super::consistency::LINK_DEG);
     text += &super::consistency::render(&consistency);
