@@ -786,7 +786,6 @@ fn the_fragment_places_the_imu_and_the_markers_apart() {
     for marker in frag["effects"]["vehicles[0].markers.displacement_mm"].as_array().unwrap() {
         near(marker, [-10.0, 5.0, -30.0], 2.0);
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A log given twice (the same samples under another name: 21 of the 90 further flights of the
@@ -819,5 +818,4 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
     assert_eq!(excluded[0]["flight"], "B8_copy");
     assert!(excluded[0]["reason"].as_str().unwrap().contains("the same samples as B8_star_medium_rep1"), "{excluded:?}");
     assert!(cv.text.contains("B8_copy: left out, the same samples as B8_star_medium_rep1"), "{}", cv.text);
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -159,7 +159,6 @@ fn identify_twin(name: &str, edit: impl Fn(String) -> String) -> Report {
     let path = dir.join(format!("twin-{name}.yaml"));
     std::fs::write(&path, edited).unwrap();
     let done = flyarena::identify::workflow::run(&flyarena::identify::workflow::Request::new(flyarena::identify::workflow::Source::Scenario(&path))).unwrap();
-    std::fs::remove_dir_all(&dir).unwrap();
     done.requirements.expect("R5 declared")
 }
 
