@@ -869,6 +869,27 @@ mod tests {
         assert_eq!(gap.windows() + gap.dropped(), whole.windows() + whole.dropped(), "{} + {} against {} + {}", gap.windows(), gap.dropped(), whole.windows(), whole.dropped());
     }
 
+    /// A frame that arrives after a newer one (a jittery link reorders them) is waited for: the
+    /// attitude between frame times is the slerp of the *nearest* frames, so nothing is
+    /// interpolated until every nearer frame has had [`NEIGHBOUR_PERIODS`] periods to arrive.
+    /// Frames 0, 5, 15 ms are in and 10 ms is late: at 7 ms there is no answer yet (the slerp of
+    /// 5 and 15 ms would give 14° instead of the truth); once 10 and 20 ms are in, it is the
+    /// slerp of 10° and 12° at s = (7 − 5)/(10 − 5) = 0.4: 10.8°.
+    #[test]
+    fn interpolation_waits_for_a_frame_that_arrives_late() {
+        let mut g = GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(100));
+        let yaw = |deg: f64| Rot::<MocapBody, MocapNav>::from_euler(Euler::from_degrees(0.0, 0.0, deg));
+        for (ms, deg) in [(0, 0.0), (5, 10.0), (15, 30.0)] {
+            g.add_mocap(Nanos::from_millis(ms), yaw(deg));
+        }
+        assert!(g.mocap_interp(Nanos::from_millis(7)).is_none(), "interpolated across a frame still on its way");
+        for (ms, deg) in [(10, 12.0), (20, 40.0)] {
+            g.add_mocap(Nanos::from_millis(ms), yaw(deg));
+        }
+        let a = g.mocap_interp(Nanos::from_millis(7)).expect("every nearer frame is in");
+        assert!((a.euler().yaw.to_degrees() - 10.8).abs() < 1e-9, "{}°", a.euler().yaw.to_degrees());
+    }
+
     /// The partial-frame integral against closed forms: ω(s) = s (means −½, ½, 3/2) integrates
     /// to x²/2, ω(s) = s² (means 1/3, 1/3, 7/3) to x³/3; a whole frame gives its mean.
     #[test]
