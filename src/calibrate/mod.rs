@@ -252,6 +252,21 @@ pub fn tls_course(north: &[f64], east: &[f64]) -> Option<f64> {
 mod tests {
     use super::*;
 
+    /// Sec. IV.A by hand: the offsets are the plain means of the measured roll and pitch over
+    /// the hover, (1° + 3° + 8°)/3 = 4° and (−2° + 4° + 1°)/3 = 1°; yaw does not enter; before
+    /// the first sample there is no estimate (not a zero one).
+    #[test]
+    fn the_hover_average_is_the_mean_roll_and_pitch() {
+        let mut h = HoverAverager::default();
+        assert_eq!(h.mean(), None);
+        for (r, p, y) in [(1.0, -2.0, 30.0), (3.0, 4.0, -170.0), (8.0, 1.0, 90.0)] {
+            h.add(Euler::from_degrees(r, p, y));
+        }
+        let (roll, pitch) = h.mean().expect("three samples");
+        assert_eq!(h.samples(), 3);
+        assert!((roll.to_degrees() - 4.0).abs() < 1e-12 && (pitch.to_degrees() - 1.0).abs() < 1e-12, "{}°, {}°", roll.to_degrees(), pitch.to_degrees());
+    }
+
     #[test]
     fn ls_recovers_the_heading_of_a_straight_track() {
         // true heading −ψ_off = −2°: the measured heading 0 hides it
