@@ -202,6 +202,9 @@ mod tests {
         l.send(Nanos(0), 0, 7);
         assert_eq!(l.receive(Nanos::from_millis(19)), None);
         assert_eq!(l.receive(Nanos::from_millis(20)), Some(7));
+        // the receiver's counts: one sent and delivered, nothing lost, stale or missing
+        let st = *l.stats();
+        assert_eq!((st.sent, st.received, st.lost_on_link, st.stale, st.missing_frames), (1, 1, 0, 0, 0), "{st:?}");
     }
 
     /// An outage on top of random loss: every packet sent in [10 s, 12 s) is lost, and outside

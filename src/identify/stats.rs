@@ -405,6 +405,12 @@ mod tests {
         // it): P(10, 1) = e⁻¹·Σ 1/(10 + n)! = 1.1142547833872068e-7, P(3, 0.5) = 0.014387677966970687
         assert!((incomplete_gamma(10.0, 1.0) / 1.114_254_783_387_206_8e-7 - 1.0).abs() < 1e-12, "{}", incomplete_gamma(10.0, 1.0));
         assert!((incomplete_gamma(3.0, 0.5) / 0.014_387_677_966_970_687 - 1.0).abs() < 1e-12);
+        // χ²(1), the leads' test: P(X > q) = erfc(√(q/2)). Near q = 0 (a weak correlation, p
+        // near 1) only the series converges in 1000 terms: the continued fraction at a = ½,
+        // x = 10⁻⁶ gives P = 0.94 instead of 0.0011
+        for (q, erfc) in [(2e-6, 0.998_871_621_209_030_7), (0.01, 0.920_344_325_445_942)] {
+            assert!((chi2_sf(q, 1.0) - erfc).abs() < 1e-13, "{q}: {}", chi2_sf(q, 1.0));
+        }
         // F(2, 2): P(F > f) = 1/(1 + f); f = 0.25 puts x = 2/(2 + 0.5) = 0.8 above (1 + 1)/(1 + 1 + 2) = 0.5
         for f in [0.25, 4.0] {
             assert!((f_sf(f, 2.0, 2.0) - 1.0 / (1.0 + f)).abs() < 1e-13, "{f}");

@@ -160,4 +160,23 @@ mod tests {
         let p_ideal = cam.to_mocap(truth.pos + truth.att.apply(off.translation));
         assert!((f.pos - p_ideal).norm() < 1e-12);
     }
+
+    /// An occlusion hides its marker over [from, to): the frame at `from` sees 3 markers, the one
+    /// at `to` all 4 again. Two markers hidden at once leave 2: no frame, but the frame number
+    /// still advances (the receiver sees the gap).
+    #[test]
+    fn an_occlusion_hides_its_marker_from_its_start_until_before_its_end() {
+        let ms = MarkerSet::displaced(builtin_pattern(0).to_vec(), Euler::from_degrees(0.0, 0.0, 0.0), &[Vec3::zeros(); 4]);
+        let hide = |marker, from, to| Occlusion { marker, from: Nanos::from_millis(from), to: Nanos::from_millis(to) };
+        let mut m = Mocap::new(ms, vec![hide(1, 100, 200), hide(2, 300, 310)], CameraError::none(), 0.0, Stream::new(1, Component::MocapNoise, 0));
+        let truth = State { pos: Vec3::new(0.0, 0.0, -1.0), vel: Vec3::zeros(), att: Rot::identity(), omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
+        let seen = |m: &mut Mocap, ms: i64| m.capture(Nanos::from_millis(ms), &truth).map(|f| (f.seq, f.visible_markers));
+        assert_eq!(seen(&mut m, 95), Some((0, 4)));
+        assert_eq!(seen(&mut m, 100), Some((1, 3)));
+        assert_eq!(seen(&mut m, 195), Some((2, 3)));
+        assert_eq!(seen(&mut m, 200), Some((3, 4)));
+        let mut two = Mocap::new(m.markers().clone(), vec![hide(1, 0, 10), hide(2, 0, 10)], CameraError::none(), 0.0, Stream::new(1, Component::MocapNoise, 0));
+        assert_eq!(seen(&mut two, 5), None);
+        assert_eq!(seen(&mut two, 10), Some((1, 4)));
+    }
 }

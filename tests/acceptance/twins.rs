@@ -136,6 +136,18 @@ fn r3_fails_when_the_recursion_disagrees_with_the_batch() {
         let r = flyarena::requirements::evaluate(&s.requirements, &main, out.uncompensated.as_ref());
         only_failing(&r, "R3", prefix);
     }
+    // a flight without the yaw fits fails R3 (nothing to compare is not agreement); only when
+    // an external controller flies it is the row shown and not asserted (its fits are its own)
+    let mut main = out.main.clone();
+    let cal = &mut main.vehicles[0].calibration;
+    (cal.yaw_ls, cal.yaw_rls) = (None, None);
+    let r3 = |main: &flyarena::engine::RunOutput| {
+        let r = flyarena::requirements::evaluate(&s.requirements, main, out.uncompensated.as_ref());
+        rows(&r, "R3", "LS = RLS").iter().map(|row| (row.pass, row.asserted)).collect::<Vec<_>>()
+    };
+    assert_eq!(r3(&main), vec![(false, true)]);
+    main.vehicles[0].external = true;
+    assert_eq!(r3(&main), vec![(true, false)]);
 }
 
 /// R4 (7): each half rejects on its own. The flight's mean yaw and mean roll are each a

@@ -411,6 +411,12 @@ fn backward_worst(gs: &[Gram], selected: &[Effect], testable: &[Effect], tests: 
     worst
 }
 
+/// Whether `e` joined the model as one of a pair: each alone fails the held-out gate by
+/// construction, so neither is re-tested by the backward check.
+fn joined_as_pair(steps: &[Step], e: Effect) -> bool {
+    steps.iter().any(|st| st.together_with.is_some() && (st.added == e || st.together_with == Some(e)))
+}
+
 /// The search's state: the selected set, fitted at its folded corrections, and what the steps
 /// and backward checks did so far.
 struct Search {
@@ -474,9 +480,7 @@ impl Search {
     /// arm) are folded into the trajectory and are not re-tested; nor is a pair that joined
     /// together (each alone fails by construction) or a forced effect.
     fn backward(&mut self, s: &Series, o: &Options) {
-        let steps = &self.steps;
-        let in_pair = |e: Effect| steps.iter().any(|st: &Step| st.together_with.is_some() && (st.added == e || st.together_with == Some(e)));
-        let testable: Vec<Effect> = self.selected.iter().copied().filter(|e| !e.is_correction() && !o.forced.contains(e) && !in_pair(*e)).collect();
+        let testable: Vec<Effect> = self.selected.iter().copied().filter(|e| !e.is_correction() && !o.forced.contains(e) && !joined_as_pair(&self.steps, *e)).collect();
         let outside = pool_of(o, &self.state.design, &self.selected, &self.removed).len();
         if let Some(w) = backward_worst(&self.state.grams, &self.selected, &testable, outside + 1, o) {
             self.selected.retain(|x| *x != w.effect);
@@ -762,6 +766,27 @@ mod tests {
     /// that explains nothing, a thrust against voltage that explains a little (0.02·x) and a
     /// ground effect that explains y well (0.5·x). The ground effect passes; of the two that
     /// fail, the one with the larger ΔBIC (the thrust scale, which fits only noise) leaves.
+    /// A step that added a body offset together with a world tilt, then a single ground
+    /// effect: the pair's two effects are spared the backward check, the single is not, and an
+    /// effect that never joined is not a pair's.
+    #[test]
+    fn only_the_effects_of_a_pair_step_count_as_joined_in_a_pair() {
+        let step = |added, together_with| Step {
+            added,
+            together_with,
+            delta_bic: 0.0,
+            p_value: 0.0,
+            heldout_gain: 0.0,
+            candidates: vec![],
+            not_identifiable_from: vec![],
+            params: vec![],
+        };
+        let steps = [step(Effect::BodyOffset, Some(Effect::WorldTilt)), step(Effect::GroundEffect, None)];
+        let joined: Vec<bool> = [Effect::BodyOffset, Effect::WorldTilt, Effect::GroundEffect, Effect::ThrustScale].iter().map(|e| joined_as_pair(&steps, *e)).collect();
+        assert_eq!(joined, [true, true, false, false]);
+        assert!(!joined_as_pair(&steps[1..], Effect::GroundEffect), "a single step is no pair");
+    }
+
     #[test]
     fn the_backward_check_removes_the_least_supported_failure() {
         let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
