@@ -162,7 +162,7 @@ mod tests {
     }
 
     /// An occlusion hides its marker over [from, to): the frame at `from` sees 3 markers, the one
-    /// at `to` all 4 again. Two markers hidden at once leave 2: no frame, but the frame number
+    /// at `to` all 4 again; a second occlusion hides its own marker in its own window. Two markers hidden at once leave 2: no frame, but the frame number
     /// still advances (the receiver sees the gap).
     #[test]
     fn an_occlusion_hides_its_marker_from_its_start_until_before_its_end() {
@@ -175,6 +175,7 @@ mod tests {
         assert_eq!(seen(&mut m, 100), Some((1, 3)));
         assert_eq!(seen(&mut m, 195), Some((2, 3)));
         assert_eq!(seen(&mut m, 200), Some((3, 4)));
+        assert_eq!(seen(&mut m, 305), Some((4, 3)), "the second occlusion, of another marker");
         let mut two = Mocap::new(m.markers().clone(), vec![hide(1, 0, 10), hide(2, 0, 10)], CameraError::none(), 0.0, Stream::new(1, Component::MocapNoise, 0));
         assert_eq!(seen(&mut two, 5), None);
         assert_eq!(seen(&mut two, 10), Some((1, 4)));

@@ -120,7 +120,8 @@ fn r2_fails_without_the_calibration() {
 
 /// R3 both rows: LS and RLS see the same samples and agree to rounding, so no scenario makes
 /// them differ short of a bug. The twin is the flown run with the recursion's result moved by
-/// 2·10⁻⁹ (rad, then m), just beyond the 10⁻⁹ limits: each row must fail on its own.
+/// 2·10⁻⁹ (rad, then m), just beyond the 10⁻⁹ limits: each row must fail on its own. A flight
+/// without the yaw fits fails the row too, unless an external controller flies it.
 #[test]
 fn r3_fails_when_the_recursion_disagrees_with_the_batch() {
     let s = super::inline(&std::fs::read_to_string(super::root().join("scenarios/yaw-offset.yaml")).unwrap());
