@@ -666,19 +666,15 @@ pub(crate) fn mann_whitney_greater(a: &[f64], b: &[f64]) -> f64 {
     let (na, nb) = (a.len() as f64, b.len() as f64);
     let mut pooled: Vec<(f64, bool)> = a.iter().map(|x| (*x, true)).chain(b.iter().map(|x| (*x, false))).collect();
     pooled.sort_by(|x, y| x.0.total_cmp(&y.0));
-    let n = pooled.len();
     let (mut rank_a, mut ties) = (0.0, 0.0);
-    let mut i = 0;
-    while i < n {
-        let mut j = i;
-        while j + 1 < n && pooled[j + 1].0 == pooled[i].0 {
-            j += 1;
-        }
-        let rank = (i + j) as f64 / 2.0 + 1.0;
-        let t = (j - i + 1) as f64;
+    // each run of equal values shares the mean of its ranks: start + 1 ..= start + t
+    let mut start = 0usize;
+    for run in pooled.chunk_by(|x, y| x.0 == y.0) {
+        let t = run.len() as f64;
+        let rank = start as f64 + (t + 1.0) / 2.0;
         ties += t * t * t - t;
-        rank_a += rank * pooled[i..=j].iter().filter(|p| p.1).count() as f64;
-        i = j + 1;
+        rank_a += rank * run.iter().filter(|p| p.1).count() as f64;
+        start += run.len();
     }
     let u = rank_a - na * (na + 1.0) / 2.0;
     let nn = na + nb;
@@ -1010,7 +1006,19 @@ mod tests {
         assert!((sum.roll.median_still_deg - 0.15).abs() < 2e-3 && (sum.roll.median_scattering_deg - 0.8).abs() < 2e-3, "{sum:?}");
         // every scattering difference above every still one: U = 6, mean 3, variance 3, z = √3
         assert!((sum.roll.mann_whitney_p - 0.041_632).abs() < 1e-5, "{sum:?}");
+        // the block the multi-flight report prints
+        let text = render_rest_pose_summary(&sum);
+        assert!(text.contains("(roll above 0.02° per sample: 3 flights) and where it does not (2 flights):"), "{text}");
+        assert!(
+            text.contains(
+                "roll  median |difference| still 0.15° (beyond 1°: 0, 0 covered), scattering 0.80° (beyond 1°: 1); Mann–Whitney p = 0.042: a pose the cameras see badly at rest"
+            ),
+            "{text}"
+        );
         assert!(rest_pose_summary(v[1..].iter()).is_none(), "one still flight is too few");
+        // two in each group is enough, one scattering flight is too few
+        assert!(rest_pose_summary(v[..4].iter()).is_some_and(|s| (s.still, s.scattering) == (2, 2)));
+        assert!(rest_pose_summary(v[..3].iter()).is_none(), "one scattering flight is too few");
     }
 
     /// `flight` followed by a landing: from row 300 back on the floor (z = `end_z`, NED), motors
