@@ -17,6 +17,7 @@ conservative for today's suite.
 import argparse
 import math
 import os
+import random
 
 Z95 = 1.959963984540054
 
@@ -55,12 +56,13 @@ def clopper_pearson_lower(k, n, alpha=0.05):
     return lo
 
 
-def coverage(n, p, draws=20000, seed=14):
+DRAWS = 20000
+
+
+def coverage(n, p, draws=DRAWS, seed=14):
     """How often the two intervals contain the truth p when k ~ Binomial(n, p): the Wilson
     two-sided 95 % interval should contain it about 95 % of the time, the one-sided lower bound
     should lie below it at least 95 % of the time (it is exact, hence conservative)."""
-    import random
-
     rng = random.Random(seed)
     cp = {}
     inside = below = 0
@@ -103,7 +105,7 @@ def main():
     if a.coverage:
         for p in (0.90, 0.93):
             w, c = coverage(n, p)
-            print(f"coverage at n = {n}, p = {p:.2f} (20,000 draws): Wilson {100 * w:.1f} %, one-sided lower bound {100 * c:.1f} %")
+            print(f"coverage at n = {n}, p = {p:.2f} ({DRAWS:,} draws): Wilson {100 * w:.1f} %, one-sided lower bound {100 * c:.1f} %")
 
 
 if __name__ == "__main__":
