@@ -4,6 +4,7 @@
     python3 scripts/mutants-score.py            # every shard
     python3 scripts/mutants-score.py --from 13  # shards 13 on
     python3 scripts/mutants-score.py --coverage # the intervals' coverage, measured by simulation
+    python3 scripts/mutants-score.py --from 24 --alpha 0.025  # look 1 of scripts/mutants-plan.md
 
 A shard is a deterministic round-robin sample (every 90th mutant of the issue-14 list), so the
 viable mutants of the shards together are a sample of the population's viable mutants. Printed:
@@ -81,6 +82,7 @@ def main():
     ap.add_argument("--from", dest="first", type=int, default=None, help="first shard to include")
     ap.add_argument("--to", dest="last", type=int, default=None, help="last shard to include")
     ap.add_argument("--table", default=os.path.join(os.path.dirname(__file__), "mutants-shards.tsv"))
+    ap.add_argument("--alpha", type=float, default=0.05, help="one-sided level of the lower bound (scripts/mutants-plan.md spends 0.05 over repeated looks)")
     ap.add_argument("--coverage", action="store_true", help="measure the intervals' coverage at the pooled sample size")
     a = ap.parse_args()
     rows = []
@@ -100,7 +102,7 @@ def main():
     now = sum(r[4] for r in rows)
     lo, hi = wilson(k, n)
     print(f"shards {rows[0][0]}-{rows[-1][0]} ({len(rows)} shards, {m} mutants, {n} viable)")
-    print(f"caught at measurement: {k} of {n} = {100 * k / n:.1f} % (Wilson 95 %: {100 * lo:.1f}-{100 * hi:.1f} %; one-sided 95 % lower bound, Clopper-Pearson: {100 * clopper_pearson_lower(k, n):.1f} %)")
+    print(f"caught at measurement: {k} of {n} = {100 * k / n:.1f} % (Wilson 95 %: {100 * lo:.1f}-{100 * hi:.1f} %; one-sided {100 * (1 - a.alpha):g} % lower bound, Clopper-Pearson: {100 * clopper_pearson_lower(k, n, a.alpha):.1f} %)")
     print(f"caught now: {now} of {n} = {100 * now / n:.1f} %")
     if a.coverage:
         for p in (0.90, 0.93):
