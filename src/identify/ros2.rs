@@ -434,6 +434,47 @@ mod tests {
         assert!(Cdr::new(&[0, 1]).is_err());
     }
 
+    /// Motors and battery hold their last value; an IMU row before the first of either is left
+    /// out and counted in the repairs. IMU every 5 ms from 0, poses every 10 ms, battery from
+    /// 0 ms, the motors from 10 ms: the rows at 0 and 5 ms go, the row at 15 ms has the motors
+    /// of 10 ms and the pose halfway between 10 and 20 ms, and time still counts from the first
+    /// IMU stamp. With the motors from 0 ms nothing goes and no repair is said.
+    #[test]
+    fn imu_rows_before_the_first_motor_or_battery_message_are_left_out_and_said() {
+        let ms = 1_000_000i128;
+        let stream = |stamps: &[i128], f: &dyn Fn(usize) -> f64| {
+            let mut s = Stream::<7>::new();
+            for (i, t) in stamps.iter().enumerate() {
+                s.push(Ok((t * ms, [f(i), 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]))).unwrap();
+            }
+            s
+        };
+        let streams = |motors_from: i128| {
+            let pose = stream(&[0, 10, 20, 30], &|i| i as f64);
+            let imu = stream(&[0, 5, 10, 15, 20, 25], &|_| 0.0);
+            let motors = stream(&[motors_from, 20], &|i| 100.0 + i as f64);
+            let battery = stream(&[0], &|_| 11.1);
+            let six = |s: Stream<7>| Stream { t: s.t, v: s.v.iter().map(|v| [v[0], v[1], v[2], v[3], v[4], v[5]]).collect() };
+            let eight = |s: Stream<7>| Stream { t: s.t, v: s.v.iter().map(|v| [v[0]; 8]).collect() };
+            let one = |s: Stream<7>| Stream { t: s.t, v: s.v.iter().map(|v| [v[0]]).collect() };
+            Streams { pose, imu: six(imu), motors: eight(motors), n_motors: Some(1), battery: one(battery) }
+        };
+        let topics = Topics { pose: "/p".into(), imu: "/i".into(), motors: Some("/m".into()), battery: Some("/b".into()) };
+        let (csv, repairs) = streams(10).join(&topics);
+        assert_eq!(repairs, ["2 IMU messages before the first motor or battery message were left out"]);
+        let rows: Vec<&str> = csv.lines().collect();
+        assert_eq!(rows[0], "t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az,m1,vbat");
+        assert_eq!(rows.len(), 1 + 4, "{csv}");
+        assert!(rows[1].starts_with("0.01,1,0,0,0,0,0,1,"), "{}", rows[1]);
+        let f: Vec<&str> = rows[2].split(',').collect();
+        assert!((f[0].parse::<f64>().unwrap() - 0.015).abs() < 1e-12 && f[1] == "1.5", "{}", rows[2]);
+        assert!(rows[2].ends_with(",100,11.1"), "{}", rows[2]);
+        assert!(rows[3].ends_with(",101,11.1"), "{}", rows[3]);
+        let (csv, repairs) = streams(0).join(&topics);
+        assert!(repairs.is_empty(), "{repairs:?}");
+        assert_eq!(csv.lines().count(), 1 + 6);
+    }
+
     #[test]
     fn a_file_that_is_not_mcap_is_named() {
         let t = Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None };
