@@ -736,6 +736,47 @@ fn ground(
 mod tests {
     use super::*;
 
+    /// The rest tilt of the ground agreement by hand: the frame's roll and pitch are the body
+    /// offset's plus the world tilt turned by the yaw, (t_x·c + t_y·s, −t_x·s + t_y·c), and their
+    /// standard deviations are the delta method over the columns they sum: roll over
+    /// (o_x, w_x·c, w_y·s, b_y/g), pitch over (o_y, −w_x·s, w_y·c, −b_x/g), with the covariances'
+    /// cross terms. Every column has its own variance, so a gradient that picks the wrong column
+    /// (b_x for roll's b_y) or drops one changes the result.
+    #[test]
+    fn rest_tilt_is_the_frame_sum_and_its_delta_method_spread() {
+        let (g, yaw) = (9.81, 0.3_f64);
+        let (c, s) = (yaw.cos(), yaw.sin());
+        let selected = [Effect::BodyOffset, Effect::WorldTilt, Effect::AccelBias];
+        let set = set_of(&selected);
+        let (o, w, b) = (cols_of(Effect::BodyOffset), cols_of(Effect::WorldTilt), cols_of(Effect::AccelBias));
+        let at = |j: usize| set.iter().position(|x| *x == j).unwrap();
+        let var = |j: usize| 1e-4 * (1.0 + at(j) as f64);
+        let mut cov = DMatrix::from_fn(set.len(), set.len(), |p, q| if p == q { 1e-4 * (1.0 + p as f64) } else { 0.0 });
+        let (k1, k2) = (3e-5, -2e-5);
+        cov[(at(o.start), at(b.start + 1))] = k1;
+        cov[(at(b.start + 1), at(o.start))] = k1;
+        cov[(at(o.start + 1), at(b.start))] = k2;
+        cov[(at(b.start), at(o.start + 1))] = k2;
+        let mut theta = vec![0.0; N_COLUMNS];
+        theta[b.start..b.end].copy_from_slice(&[0.05, -0.07, 0.11]);
+        let fit = Fit { set: set.clone(), theta: theta.clone(), theta_w: theta, rss: 1.0, n: 100, cov };
+        let corr = Corrections {
+            body_offset: UnitQuaternion::from_euler_angles(0.01, -0.02, 0.5),
+            world_tilt: UnitQuaternion::from_euler_angles(0.003, 0.004, 0.0),
+            ..Corrections::default()
+        };
+        let (frame, bias, sd) = rest_tilt(&selected, &fit, &corr, g, yaw);
+        assert!((frame[0] - (0.01 + 0.003 * c + 0.004 * s)).abs() < 1e-12, "{frame:?}");
+        assert!((frame[1] - (-0.02 - 0.003 * s + 0.004 * c)).abs() < 1e-12, "{frame:?}");
+        assert_eq!(bias, Vector3::new(0.05, -0.07, 0.11));
+        let roll = var(o.start) + c * c * var(w.start) + s * s * var(w.start + 1) + var(b.start + 1) / (g * g) + 2.0 * k1 / g;
+        let pitch = var(o.start + 1) + s * s * var(w.start) + c * c * var(w.start + 1) + var(b.start) / (g * g) - 2.0 * k2 / g;
+        assert!((sd[0] - roll.sqrt()).abs() < 1e-15 && (sd[1] - pitch.sqrt()).abs() < 1e-15, "{sd:?} against {} {}", roll.sqrt(), pitch.sqrt());
+        // none of the effects selected: no frame and no bias, whatever the corrections hold
+        let (frame, bias, _) = rest_tilt(&[], &fit, &corr, g, yaw);
+        assert_eq!((frame, bias), ([0.0, 0.0], Vector3::zeros()));
+    }
+
     /// ΔBIC by hand: 1000 samples, 3 parameters, RSS 200 → 180: 1000·ln 0.9 + 3·ln 1000
     /// = −105.36 + 20.72 = −84.63; the penalty grows with k·ln n, not k + ln n.
     #[test]
