@@ -27,17 +27,34 @@ pub(super) fn axis_error(ch: Channel, a: usize, y: &[f64], before: &[f64], after
 /// The error of another flight's model on this flight: the nominal model and the nominal model
 /// with `r`'s corrections and parameters, on every usable sample of `s` (nothing is refitted).
 pub fn evaluate(s: &Series, o: &Options, r: &Report) -> Vec<AxisError> {
-    let s = &gated(s, o);
+    let (after, rows, paired) = paired_residuals(&gated(s, o), o, r);
+    paired.iter().map(|p| axis_error(Channel::ALL[p.c], p.a, &after.measured[p.c][p.a], &p.before, &p.after, &rows)).collect()
+}
+
+/// One channel axis's residuals before (the nominal model) and after (`r`'s corrections and
+/// parameters).
+struct Paired {
+    c: usize,
+    a: usize,
+    before: Vec<f64>,
+    after: Vec<f64>,
+}
+
+/// The design of the (gated) flight `s` with `r`'s corrections, the rows usable before and
+/// after, and the paired residuals of every channel axis it has.
+fn paired_residuals(s: &Series, o: &Options, r: &Report) -> (Design, Vec<usize>, Vec<Paired>) {
     let before = build(s, &Corrections::default(), &o.design);
     let after = build(s, &r.corrections, &o.design);
-    let mut out = Vec::new();
-    for (c, a) in active(&after) {
-        let rb = before.residual(c, a);
-        let ra = residual_of(&after, c, a, &r.theta);
-        let idx: Vec<usize> = (0..after.n).filter(|&i| after.ok[i] && before.ok[i]).collect();
-        out.push(axis_error(Channel::ALL[c], a, &after.measured[c][a], &rb, &ra, &idx));
-    }
-    out
+    let rows = usable_in_both(&before.ok, &after.ok);
+    let paired = active(&after).into_iter().map(|(c, a)| Paired { c, a, before: before.residual(c, a), after: residual_of(&after, c, a, &r.theta) }).collect();
+    (after, rows, paired)
+}
+
+/// The rows usable in both designs: a correction moves the usable window (a delay reaches past a
+/// segment's end, a glitch moves with the delay), and a row only one model can use compares
+/// nothing.
+fn usable_in_both(before_ok: &[bool], after_ok: &[bool]) -> Vec<usize> {
+    (0..after_ok.len().min(before_ok.len())).filter(|&i| after_ok[i] && before_ok[i]).collect()
 }
 
 /// 1 − ‖after‖/‖before‖ over the axes of one channel.
@@ -68,22 +85,16 @@ pub struct ResidualSeries {
 /// The residuals of every channel axis before and after the report's effects, on the gated flight.
 pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSeries> {
     let s = &gated(s, o);
-    let before = build(s, &Corrections::default(), &o.design);
-    let after = build(s, &r.corrections, &o.design);
     let t0 = s.t_s.first().copied().unwrap_or(0.0);
-    active(&after)
-        .into_iter()
-        .map(|(c, a)| {
-            let rb = before.residual(c, a);
-            let ra = residual_of(&after, c, a, &r.theta);
-            let idx: Vec<usize> = (0..after.n).filter(|&i| after.ok[i] && before.ok[i]).collect();
-            ResidualSeries {
-                channel: Channel::ALL[c],
-                axis: AXES[a],
-                t_s: idx.iter().map(|&i| after.t[i] - t0).collect(),
-                before: idx.iter().map(|&i| rb[i]).collect(),
-                after: idx.iter().map(|&i| ra[i]).collect(),
-            }
+    let (after, rows, paired) = paired_residuals(s, o, r);
+    paired
+        .iter()
+        .map(|p| ResidualSeries {
+            channel: Channel::ALL[p.c],
+            axis: AXES[p.a],
+            t_s: rows.iter().map(|&i| after.t[i] - t0).collect(),
+            before: rows.iter().map(|&i| p.before[i]).collect(),
+            after: rows.iter().map(|&i| p.after[i]).collect(),
         })
         .collect()
 }
@@ -91,6 +102,17 @@ pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSerie
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A row counts only where both models can use it: one usable in one design only is left
+    /// out, whichever of the two it is.
+    #[test]
+    fn only_rows_usable_before_and_after_are_compared() {
+        let before = [true, true, false, true, false];
+        let after = [true, false, true, true, false];
+        assert_eq!(usable_in_both(&before, &after), [0, 3]);
+        assert_eq!(usable_in_both(&after, &before), [0, 3]);
+        assert!(usable_in_both(&[false; 3], &[true; 3]).is_empty());
+    }
 
     /// RMSE and the NRMSE fit by hand: y = (1, 2, 3, 4) has mean 2.5 and ‖y − ȳ‖ = √5; a
     /// residual (1, 1, 1, 1) is RMSE 1 and fit 100·(1 − 2/√5) = 10.56 %, one of (0.5, 0, 0, 0.5)
