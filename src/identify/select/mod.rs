@@ -396,9 +396,11 @@ fn pool_of(o: &Options, d: &Design, selected: &[Effect], removed: &[Removal]) ->
 }
 
 /// The backward check's verdict on the selected set: each `testable` effect is scored on top
-/// of every other selected one (`tests` candidates for the Bonferroni level); of those that
-/// fail a gate, the one with the largest ΔBIC (the least support) leaves. None when all pass.
-fn backward_worst(gs: &[Gram], selected: &[Effect], testable: &[Effect], tests: usize, o: &Options) -> Option<Candidate> {
+/// of every other selected one, as one of `outside + 1` candidates for the Bonferroni level
+/// (the `outside` ones a forward step would try now, and itself); of those that fail a gate,
+/// the one with the largest ΔBIC (the least support) leaves. None when all pass.
+fn backward_worst(gs: &[Gram], selected: &[Effect], testable: &[Effect], outside: usize, o: &Options) -> Option<Candidate> {
+    let tests = outside + 1;
     let mut worst: Option<Candidate> = None;
     for e in testable {
         let rest: Vec<Effect> = selected.iter().copied().filter(|x| x != e).collect();
@@ -482,7 +484,7 @@ impl Search {
     fn backward(&mut self, s: &Series, o: &Options) {
         let testable: Vec<Effect> = self.selected.iter().copied().filter(|e| !e.is_correction() && !o.forced.contains(e) && !joined_as_pair(&self.steps, *e)).collect();
         let outside = pool_of(o, &self.state.design, &self.selected, &self.removed).len();
-        if let Some(w) = backward_worst(&self.state.grams, &self.selected, &testable, outside + 1, o) {
+        if let Some(w) = backward_worst(&self.state.grams, &self.selected, &testable, outside, o) {
             self.selected.retain(|x| *x != w.effect);
             self.refit(s, o);
             self.removed.push(Removal { after_step: self.steps.len(), check: w });
@@ -828,19 +830,19 @@ mod tests {
         assert!(!joined_as_pair(&steps[1..], Effect::GroundEffect), "a single step is no pair");
     }
 
-    #[test]
-    fn the_backward_check_removes_the_least_supported_failure() {
-        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
-        let n = 3000;
+    /// A uniform draw on [−0.5, 0.5) from a xorshift state (the tests' own, reproducible).
+    fn uniform(state: &mut u64) -> f64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        (*state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+
+    /// The normal equations of y = Σ β_j·x_j + 0.1·u over 3000 rows of the three columns
+    /// `cols` (x_j and u uniform on [−0.5, 0.5)); every third row is held out, the rest are the
+    /// whitened and the raw training part alike (white noise needs no prewhitening).
+    fn synthetic_gram(cols: [usize; 3], beta: [f64; 3]) -> Gram {
         let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut unif = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
-        let xs: Vec<[f64; 3]> = (0..n).map(|_| [unif(), unif(), unif()]).collect();
-        let ys: Vec<f64> = xs.iter().map(|x| 0.02 * x[1] + 0.5 * x[2] + 0.1 * unif()).collect();
         let mut g = Gram {
             cols: cols.to_vec(),
             g_w: DMatrix::zeros(3, 3),
@@ -855,9 +857,11 @@ mod tests {
             b_r: DVector::zeros(3),
             w_r: 1.0,
         };
-        for (i, (x, y)) in xs.iter().zip(&ys).enumerate() {
-            let xv = DVector::from_row_slice(x);
-            let (gm, bv) = (&xv * xv.transpose(), &xv * *y);
+        for i in 0..3000 {
+            let x = [uniform(&mut state), uniform(&mut state), uniform(&mut state)];
+            let y = beta[0] * x[0] + beta[1] * x[1] + beta[2] * x[2] + 0.1 * uniform(&mut state);
+            let xv = DVector::from_row_slice(&x);
+            let (gm, bv) = (&xv * xv.transpose(), &xv * y);
             if i % 3 == 2 {
                 g.g_t += gm;
                 g.b_t += bv;
@@ -872,7 +876,13 @@ mod tests {
                 g.b_r += bv;
             }
         }
-        let gs = [g];
+        g
+    }
+
+    #[test]
+    fn the_backward_check_removes_the_least_supported_failure() {
+        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let gs = [synthetic_gram(cols, [0.0, 0.02, 0.5])];
         let selected = [Effect::ThrustScale, Effect::ThrustVoltage, Effect::GroundEffect];
         let o = Options::default();
         let scores: Vec<Candidate> = selected
@@ -884,10 +894,30 @@ mod tests {
             .collect();
         assert!(!scores[0].passed && !scores[1].passed && scores[2].passed, "{scores:#?}");
         assert!(scores[0].delta_bic > scores[1].delta_bic, "{scores:#?}");
-        let w = backward_worst(&gs, &selected, &selected, 1, &o).expect("two fail");
+        let w = backward_worst(&gs, &selected, &selected, 0, &o).expect("two fail");
         assert_eq!(w.effect, Effect::ThrustScale);
         // nothing to remove when every testable effect passes
-        assert!(backward_worst(&gs, &selected, &[Effect::GroundEffect], 1, &o).is_none());
+        assert!(backward_worst(&gs, &selected, &[Effect::GroundEffect], 0, &o).is_none());
+    }
+
+    /// The backward check's Bonferroni level: an effect re-tested on top of the others competes
+    /// with the `outside` candidates a forward step would try now and with itself, so it must
+    /// reach p < α/(outside + 1). A weak voltage term (β = 0.008 against a noise of 0.029 over
+    /// 2000 training rows: p = 6.1·10⁻⁴, so k = 16 at α = 0.01) with the held-out gate off: for
+    /// the k with α/(k + 1) < p < α/k, it stays when k − 1 candidates are outside and leaves
+    /// when k are.
+    #[test]
+    fn the_backward_check_tests_at_alpha_over_the_outside_candidates_and_itself() {
+        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let gs = [synthetic_gram(cols, [0.0, 0.008, 0.5])];
+        let selected = [Effect::ThrustVoltage, Effect::GroundEffect];
+        let o = Options { min_heldout_gain: f64::NEG_INFINITY, ..Options::default() };
+        let c = score(&gs, &fit(&gs, &set_of(&[Effect::GroundEffect])), &[Effect::ThrustVoltage], 1, &o);
+        let k = (o.alpha / c.p_value).floor() as usize;
+        assert!(c.delta_bic < 0.0 && (2..50).contains(&k) && c.p_value < o.alpha / k as f64, "{c:?}, k = {k}");
+        let leaves = |outside: usize| backward_worst(&gs, &selected, &[Effect::ThrustVoltage], outside, &o).map(|w| w.effect);
+        assert_eq!(leaves(k - 1), None, "p = {} < α/{k}", c.p_value);
+        assert_eq!(leaves(k), Some(Effect::ThrustVoltage), "p = {} > α/{}", c.p_value, k + 1);
     }
 
     /// The multiplicative reparameterisation by hand: a thrust scale a = −0.2 and an additive
