@@ -219,7 +219,7 @@ fn has_interval(p: &super::select::Param) -> bool {
 /// Whether the flight had enough usable samples for a fit (a flight without is neither a model
 /// nor a test of one).
 fn fitted(r: &Report) -> bool {
-    r.train_samples >= MIN_TRAIN_SAMPLES
+    super::select::enough_to_select(r.train_samples)
 }
 
 pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {

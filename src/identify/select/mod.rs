@@ -127,6 +127,13 @@ const AXES: [char; 3] = ['x', 'y', 'z'];
 /// Fewer usable (decimated) training samples than this and no effect is tried.
 pub const MIN_TRAIN_SAMPLES: usize = 200;
 
+/// Whether `train_samples` usable (decimated) training samples are enough to select effects:
+/// [`MIN_TRAIN_SAMPLES`] or more. The one boundary the selection, the too-little-clean error
+/// and the consistency check share.
+pub(crate) fn enough_to_select(train_samples: usize) -> bool {
+    train_samples >= MIN_TRAIN_SAMPLES
+}
+
 /// Folds the linear increments of the correction effects into the corrections; zeroes them.
 fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
     for e in selected {
@@ -296,7 +303,7 @@ fn passes_gates(p_value: f64, delta_bic: f64, heldout_gain: f64, o: &Options, ca
 pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
     let (clean, quality) = super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m);
     let mut report = select(&clean, o);
-    if report.train_samples < MIN_TRAIN_SAMPLES && quality.corrupted().next().is_some() {
+    if !enough_to_select(report.train_samples) && quality.corrupted().next().is_some() {
         return Err(IdentifyError::TooLittleClean { log: s.source.clone(), usable: report.train_samples, needed: MIN_TRAIN_SAMPLES, cuts: quality.describe() });
     }
     if !quality.cuts.is_empty() {
@@ -623,7 +630,7 @@ impl Search {
 /// there are too few samples to select anything.
 fn gate_notes(nominal: &Problem, o: &Options, notes: &mut Vec<String>) -> bool {
     let usable = nominal.train.iter().filter(|x| **x).count();
-    let too_few = usable < MIN_TRAIN_SAMPLES;
+    let too_few = !enough_to_select(usable);
     if too_few {
         notes.push(format!(
             "only {usable} usable training samples (airborne above {} m, away from gaps and edges; decimated): at least {MIN_TRAIN_SAMPLES} are needed to select effects, so none were tried",
@@ -877,6 +884,13 @@ mod tests {
             }
         }
         g
+    }
+
+    /// The boundary by hand: 199 usable training samples are too few, 200 enough.
+    #[test]
+    fn two_hundred_training_samples_are_enough_to_select() {
+        assert!(!enough_to_select(199) && enough_to_select(200) && enough_to_select(201));
+        assert!(!enough_to_select(0));
     }
 
     #[test]
