@@ -75,23 +75,23 @@ pub(super) fn swaps(
             let (ao, ab, asd) = rest_tilt(&alt, &alt_state.fit, &alt_corr, fin.g, fin.rest_yaw);
             let alt_total = total_tilt(ao, &ab, fin.g);
             for k in 0..2 {
-                tilt_widen[k] = tilt_widen[k].max(covering(alt_total[k] - tilt_total[k], Z_975 * asd[k]));
+                tilt_widen[k] = tilt_widen[k].max(covering(tilt_total[k], alt_total[k], Z_975 * asd[k]));
             }
             for f in effects.iter_mut().filter(|f| f.effect != e) {
                 let alt_params = params_of(f.effect, &alt_state.fit.theta, &alt_state.fit.cov, &alt_state.fit.set, &alt_corr);
                 for (p, q) in f.params.iter_mut().zip(alt_params) {
-                    p.ci95 = p.ci95.max(covering(q.value - p.value, q.ci95));
+                    p.ci95 = p.ci95.max(covering(p.value, q.value, q.ci95));
                 }
             }
         }
     }
 }
 
-/// The half-width an interval around an estimate needs to contain an interval of half-width
-/// `half_width` around an alternative estimate `shift` away: |shift| + half_width, the
-/// smallest that covers both the estimate and the alternative's whole interval.
-fn covering(shift: f64, half_width: f64) -> f64 {
-    shift.abs() + half_width
+/// The half-width an interval around `estimate` needs to contain the interval of half-width
+/// `half_width` around `alternative`: |alternative − estimate| + half_width, the smallest that
+/// covers both the estimate and the alternative's whole interval.
+fn covering(estimate: f64, alternative: f64, half_width: f64) -> f64 {
+    (alternative - estimate).abs() + half_width
 }
 
 /// A candidate of a last round of `m` the data half-supports: it failed (the held-out gate), yet
@@ -126,18 +126,17 @@ pub(super) fn half_supported(fin: &Final, final_candidates: &[Candidate], tilt_s
         let (alt_offset, alt_bias, _) = rest_tilt(&with_c, &af, &ac, fin.g, fin.rest_yaw);
         let alt_total = total_tilt(alt_offset, &alt_bias, fin.g);
         for k in 0..2 {
-            tilt_widen[k] = tilt_widen[k].max(covering(alt_total[k] - base_total[k], Z_975 * tilt_sd[k]));
+            tilt_widen[k] = tilt_widen[k].max(covering(base_total[k], alt_total[k], Z_975 * tilt_sd[k]));
         }
         let mut moved = Vec::new();
         for f in effects.iter_mut() {
             let base = params_of(f.effect, &bt, &bf.cov, &bf.set, &bc);
             let alt = params_of(f.effect, &at, &af.cov, &af.set, &ac);
             for ((p, b), a) in f.params.iter_mut().zip(base).zip(alt) {
-                let shift = (a.value - b.value).abs();
-                if shift > p.ci95 {
+                if (a.value - b.value).abs() > p.ci95 {
                     moved.push(format!("{} {} {:+.3} {}", f.effect.key(), p.name, a.value - b.value, p.unit));
                 }
-                p.ci95 = covering(shift, p.ci95);
+                p.ci95 = covering(b.value, a.value, p.ci95);
             }
         }
         if !moved.is_empty() {
@@ -163,11 +162,11 @@ mod tests {
     fn a_widened_interval_covers_the_alternative_interval_and_no_more() {
         let (b, h) = (1.0, 0.2);
         for a in [1.3, 0.7] {
-            let w = covering(a - b, h);
+            let w = covering(b, a, h);
             assert!((w - 0.5).abs() < 1e-15, "{w}");
             assert!(b - w <= a - h + 1e-15 && a + h <= b + w + 1e-15, "{a} ± {h} not inside {b} ± {w}");
         }
-        assert_eq!(covering(0.0, h), h, "no shift: the interval itself");
+        assert_eq!(covering(b, b, h), h, "no shift: the interval itself");
     }
 
     /// By hand, α = 0.01 over 10 candidates (Bonferroni 0.001): p = 0.0005 with ΔBIC −3 that
