@@ -60,10 +60,10 @@ def clopper_pearson_lower(k, n, alpha=0.05):
 DRAWS = 20000
 
 
-def coverage(n, p, draws=DRAWS, seed=14):
+def coverage(n, p, alpha=0.05, draws=DRAWS, seed=14):
     """How often the two intervals contain the truth p when k ~ Binomial(n, p): the Wilson
     two-sided 95 % interval should contain it about 95 % of the time, the one-sided lower bound
-    should lie below it at least 95 % of the time (it is exact, hence conservative)."""
+    should lie below it at least 1 - alpha of the time (it is exact, hence conservative)."""
     rng = random.Random(seed)
     cp = {}
     inside = below = 0
@@ -72,7 +72,7 @@ def coverage(n, p, draws=DRAWS, seed=14):
         lo, hi = wilson(k, n)
         inside += lo <= p <= hi
         if k not in cp:
-            cp[k] = clopper_pearson_lower(k, n)
+            cp[k] = clopper_pearson_lower(k, n, alpha)
         below += cp[k] <= p
     return inside / draws, below / draws
 
@@ -106,8 +106,8 @@ def main():
     print(f"caught now: {now} of {n} = {100 * now / n:.1f} %")
     if a.coverage:
         for p in (0.90, 0.93):
-            w, c = coverage(n, p)
-            print(f"coverage at n = {n}, p = {p:.2f} ({DRAWS:,} draws): Wilson {100 * w:.1f} %, one-sided lower bound {100 * c:.1f} %")
+            w, c = coverage(n, p, a.alpha)
+            print(f"coverage at n = {n}, p = {p:.2f} ({DRAWS:,} draws): Wilson {100 * w:.1f} %, one-sided {100 * (1 - a.alpha):g} % lower bound {100 * c:.1f} %")
 
 
 if __name__ == "__main__":
