@@ -721,7 +721,7 @@ fn ground(
     widen::swaps(&fin, |e, c| search.named_at_step(e, c), tilt_total, yaw_spread_deg, not_identifiable, effects, &mut tilt_widen, notes);
     widen::half_supported(&fin, &search.final_candidates, tilt_sd, effects, &mut tilt_widen, notes);
     // the widening is an extra half-width beyond the fit's own
-    let tilt_widen = [0, 1].map(|k| (tilt_widen[k] - Z_975 * tilt_sd[k]).max(0.0));
+    let tilt_widen = [0, 1].map(|k| widen::beyond_own(tilt_widen[k], Z_975 * tilt_sd[k]));
     let ground_check = super::ground::ground_check(s);
     let ground_agreement = ground_check.as_ref().and_then(|raw| {
         super::ground::tilt_at_rest(s, &tilt_bias).map(|corrected| {

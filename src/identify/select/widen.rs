@@ -94,6 +94,12 @@ fn covering(estimate: f64, alternative: f64, half_width: f64) -> f64 {
     (alternative - estimate).abs() + half_width
 }
 
+/// What a widened half-width `covering` adds beyond the fit's own half-width `own`:
+/// covering − own, and nothing when the fit's own interval already covers the alternatives.
+pub(super) fn beyond_own(covering: f64, own: f64) -> f64 {
+    (covering - own).max(0.0)
+}
+
 /// A candidate of a last round of `m` the data half-supports: it failed (the held-out gate), yet
 /// it lowers BIC and passes the F-test at the Bonferroni level α/m.
 fn is_half_supported(c: &Candidate, alpha: f64, m: usize) -> bool {
@@ -158,6 +164,7 @@ mod tests {
 
     /// The widened interval b ± w contains the alternative's interval a ± h, for a on either
     /// side of b, and no smaller w does: b = 1.0, a = 1.3 or 0.7, h = 0.2 give w = 0.5.
+    /// Beyond the fit's own 0.2 that adds 0.3.
     #[test]
     fn a_widened_interval_covers_the_alternative_interval_and_no_more() {
         let (b, h) = (1.0, 0.2);
@@ -167,6 +174,9 @@ mod tests {
             assert!(b - w <= a - h + 1e-15 && a + h <= b + w + 1e-15, "{a} ± {h} not inside {b} ± {w}");
         }
         assert_eq!(covering(b, b, h), h, "no shift: the interval itself");
+        // what it adds to the fit's own 0.2: 0.3; an own interval of 0.6 already covers
+        assert!((beyond_own(covering(b, 1.3, h), h) - 0.3).abs() < 1e-15);
+        assert_eq!(beyond_own(0.5, 0.6), 0.0);
     }
 
     /// By hand, α = 0.01 over 10 candidates (Bonferroni 0.001): p = 0.0005 with ΔBIC −3 that
