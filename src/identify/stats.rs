@@ -417,6 +417,17 @@ mod tests {
         }
     }
 
+    /// The autocorrelation at its smallest samples, by hand: (1, 3) has mean 2, Σ(x − x̄)² = 2
+    /// and lag-1 product (1 − 2)(3 − 2) = −1, so ρ₁ = −0.5 and ρ₂ = 0 (no pair); one finite
+    /// sample or none has no variance and gives zeros; a NaN between them is skipped.
+    #[test]
+    fn the_autocorrelation_of_two_samples_by_hand() {
+        assert_eq!(autocorrelation(&[1.0, 3.0], 2), (vec![-0.5, 0.0], 2));
+        assert_eq!(autocorrelation(&[1.0, f64::NAN, 3.0], 2), (vec![0.0, -0.5], 2));
+        assert_eq!(autocorrelation(&[1.0], 2), (vec![0.0, 0.0], 1));
+        assert_eq!(autocorrelation(&[], 1), (vec![0.0], 0));
+    }
+
     /// Ljung–Box by hand: x = (1, −1, 1, −1, 1, −1) has mean 0, ρ₁ = −5/6, ρ₂ = 4/6, so
     /// Q(2) = 6·8·((25/36)/5 + (16/36)/4) = 12 and p = P(χ²(2) > 12) = e^{−6}; with one fitted
     /// parameter the degrees of freedom drop to 1: p = P(χ²(1) > 12) = 5.320055e-4 (tabulated).

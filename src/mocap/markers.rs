@@ -82,6 +82,18 @@ impl MarkerSet {
 mod tests {
     use super::*;
 
+    /// The signature by hand: a square of side 0.1 m has four sides and two diagonals,
+    /// (0.1, 0.1, 0.1, 0.1, 0.1·√2, 0.1·√2), each pair once and no marker against itself.
+    #[test]
+    fn the_signature_is_each_pairwise_distance_once_sorted() {
+        let square = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.1, 0.1, 0.0), Vec3::new(0.0, 0.1, 0.0)];
+        let d = 0.1 * 2f64.sqrt();
+        let want = [0.1, 0.1, 0.1, 0.1, d, d];
+        let got = pattern_signature(&square);
+        assert_eq!(got.len(), want.len(), "{got:?}");
+        assert!(got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-15), "{got:?}");
+    }
+
     #[test]
     fn a_whole_frame_rotation_is_the_offset() {
         let t = builtin_pattern(0).to_vec();
