@@ -43,14 +43,17 @@ pub fn ground_check(s: &Series) -> Option<GroundCheck> {
 
 /// The rest before take-off: rows [start, end) inside the first segment, ≥ 0.5 s.
 fn rest(s: &Series) -> Option<(usize, usize)> {
-    let z0 = s.pos_mocap_nav.first()?.z;
+    // the log's first pose (without a thrust column, resting is staying at its height)
+    let z0 = s.pos_mocap_nav[s.mocap_ok.iter().position(|ok| *ok)?].z;
     let resting = |i: usize| match &s.thrust_n {
         Some(t) => t[i] == 0.0,
         None => (s.pos_mocap_nav[i].z - z0).abs() < 0.01,
     };
     // the rest before take-off, inside the first segment (the data-quality gate may have cut
-    // its start or its end)
-    let (start, seg_end) = *s.segments.first()?;
+    // its start or its end), from its first pose: a log whose mocap starts a frame after its
+    // IMU (a stream that is late against the IMU) still rests from there
+    let (first, seg_end) = *s.segments.first()?;
+    let start = (first..seg_end).find(|&i| s.mocap_ok[i])?;
     if start > 0 && !resting(start) {
         return None;
     }

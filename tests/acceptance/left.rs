@@ -19,6 +19,23 @@ fn scenario(file: &str, edit: impl Fn(String) -> String) -> Scenario {
     Scenario::parse(&edit(text), std::path::Path::new(file)).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// A log whose mocap starts a frame after its IMU (a stream late against the IMU, or a first
+/// frame the cameras missed) rests from its first pose: the ground check is the same, one
+/// sample fewer. It used to end the rest at the missing first pose and report no ground
+/// check at all.
+#[test]
+fn a_rest_begins_at_the_first_pose() {
+    let s = scenario("identify-accel-bias.yaml", |t| t);
+    let (_, series) = run_and_log(&s, 0, "bias").unwrap();
+    let full = ground::ground_check(&series).expect("the flight starts at rest");
+    let mut late = series.clone();
+    late.mocap_ok[0] = false;
+    late.pos_mocap_nav[0] = Vector3::new(f64::NAN, f64::NAN, f64::NAN);
+    let from_second = ground::ground_check(&late).expect("the rest begins at the first pose");
+    assert_eq!(from_second.samples + 1, full.samples);
+    assert!((from_second.roll_deg - full.roll_deg).abs() < 0.01 && (from_second.pitch_deg - full.pitch_deg).abs() < 0.01, "{from_second:?} vs {full:?}");
+}
+
 /// Markers turned by (1.5°, −1.0°) and an accelerometer bias b = (0.15, −0.10, 0.20) m/s²: at
 /// rest the ground check reads roll 1.5 + b_y/g = 0.916°, pitch −1.0 − b_x/g = −1.876°, and
 /// (1.5, −1.0) once b is removed. The flight fits both, and the agreement compares like with

@@ -314,3 +314,32 @@ fn a_half_supported_delay_widens_the_body_offset_yaw() {
     let offset = &o.hidden.iter().find(|h| h.effect == BodyOffset).unwrap().estimates;
     assert!((offset[2].0 - 2.09).abs() <= offset[2].1, "body offset yaw {:?} for 2.09", offset[2]);
 }
+
+/// The same flight's rest, against the fit: the half-supported delay widens the ground
+/// agreement's interval by what the alternative moves the tilt at rest, |Δ(frame roll + b_y/g)|
+/// (`widen::half_supported`), and without the delay among the candidates nothing is widened.
+/// The note gives the alternative's body-offset roll as +0.021°; the bias moves too little to
+/// be listed, so the roll interval grows by 0.021° (0.0208° measured: 0.0708° against 0.0500°).
+/// The flight's mocap starts a frame after its IMU (the undeclared 5 ms delay), which until
+/// session 20 cost it its rest and the whole ground agreement.
+#[test]
+fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
+    use flyarena::identify::Effect::*;
+    let t = fixture(3, 20, "x3d", vec![(BodyOffset, vec![-2.748, -1.582, 2.09]), (MocapDelay, vec![5.0]), (AccelBias, vec![0.2373, 0.057, 0.2207])]);
+    let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("trial-3-20.yaml")).unwrap();
+    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "trial 20").unwrap();
+    let agreement = |o: &Options| {
+        let r = flyarena::identify::identify(&series, o).unwrap();
+        let a = r.ground_agreement.expect("the flight starts at rest");
+        ([a.roll.ci95_deg, a.pitch.ci95_deg], r.notes)
+    };
+    let (with, notes) = agreement(&Options::default());
+    assert!(notes.iter().any(|n| n.starts_with("mocap_delay is significant") && n.contains("body_offset roll +0.021 deg")), "{notes:?}");
+    let mut without_delay = Options::default();
+    without_delay.candidates.retain(|e| *e != MocapDelay);
+    let (own, notes) = agreement(&without_delay);
+    assert!(notes.iter().all(|n| !n.contains("significant in the fit")), "{notes:?}");
+    let widen = [with[0] - own[0], with[1] - own[1]];
+    assert!((widen[0] - 0.021).abs() < 0.002, "roll widened by {widen:?} for the alternative's 0.021°");
+    assert!((0.0..widen[0]).contains(&widen[1]), "pitch widened by {widen:?}: the delay moves the roll");
+}
