@@ -94,3 +94,18 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both margins must hold, each at its boundary: λ ≥ 40 and a held-out share ≥ 0.3.
+    #[test]
+    fn sufficient_needs_both_the_noncentrality_and_the_heldout_share() {
+        let ex = |lambda, heldout_share| Excitation { lambda, heldout_share }.sufficient();
+        assert!(ex(40.0, 0.3) && ex(1e3, 0.9));
+        assert!(!ex(39.9, 0.9), "too little noncentrality");
+        assert!(!ex(1e3, 0.29), "too small a share of the held-out error");
+        assert!(!ex(0.0, 0.0));
+    }
+}
