@@ -771,6 +771,11 @@ mod tests {
 
     /// [`fly`] with the telemetry frames that end in `lost_ms` lost on the link.
     fn fly_with_gap(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, seconds: i64, lost_ms: std::ops::Range<i64>) -> (GyroAlignment, Option<GyroFit>) {
+        fly_for(g, c, offset, drift_ppm, seconds * 1000, lost_ms)
+    }
+
+    /// [`fly_with_gap`] for `duration_ms` milliseconds.
+    fn fly_for(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, duration_ms: i64, lost_ms: std::ops::Range<i64>) -> (GyroAlignment, Option<GyroFit>) {
         let mut g = g;
         let omega = |t: f64| Vec3::<Body>::new(0.6 * (3.0 * t).cos() * (1.0 + 0.5 * (0.7 * t).sin()), 0.5 * (2.0 * t).sin(), 0.2 + 0.3 * (1.3 * t).sin());
         let stamp = |t: Nanos| Nanos(t.0 + offset.0 + (t.0 as f64 * drift_ppm * 1e-6).round() as i64);
@@ -778,7 +783,7 @@ mod tests {
         let (mut seq, mut gyro_sum) = (0, Vec3::<Body>::zeros());
         let mut mocap_queue = std::collections::VecDeque::new();
         let fine = 20;
-        for ms in 0..seconds * 1000 {
+        for ms in 0..duration_ms {
             let t = Nanos::from_millis(ms);
             if ms % 5 == 0 {
                 mocap_queue.push_back((t, (att * c).assume_frames::<MocapBody, MocapNav>()));
@@ -854,6 +859,30 @@ mod tests {
         // likewise a drift beyond the searched range
         let (_, beyond) = fly(gyro().estimate_clock(ClockSearch { max_drift_ppm: 100.0, ..ClockSearch::default() }), c, Nanos::ZERO, 300.0, 16);
         assert!(beyond.is_none(), "{beyond:?}");
+    }
+
+    /// The clock search fits from ten windows on, as the plain alignment does (`fit` needs
+    /// n ≥ 10): flown until exactly 10 windows of 40 ms are paired, it gives a fit (offset 0 to
+    /// 10 µs, a hundredth of the search step: noise-free, what is left is the second-order error
+    /// of composing a window from 10 ms means, not the interval's 0.15 µs; C within 0.01°); one
+    /// window less, none.
+    #[test]
+    fn the_clock_search_fits_from_ten_windows() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
+        let flown = |windows: u64| {
+            (100..2000)
+                .step_by(10)
+                .map(|ms| fly_for(gyro().estimate_clock(ClockSearch::default()), c, Nanos::ZERO, 0.0, ms, 0..0))
+                .find(|(g, _)| g.windows() == windows)
+                .unwrap_or_else(|| panic!("no flight with {windows} windows"))
+        };
+        let (g, fit) = flown(10);
+        let fit = fit.unwrap_or_else(|| panic!("no fit from {} windows ({} dropped)", g.windows(), g.dropped()));
+        let k = fit.clock.unwrap();
+        assert!(k.offset_s.abs() < 1e-5, "{k:?}");
+        assert!((fit.rotation.inverse() * c).angle().to_degrees() < 0.01, "{:?}", fit.euler.to_degrees());
+        let (_, fit) = flown(9);
+        assert!(fit.is_none(), "{fit:?}");
     }
 
     /// Every window of the clock search's grid is either paired or dropped: with 0.1 s of
