@@ -120,8 +120,7 @@ fn r2_fails_without_the_calibration() {
 
 /// R3 both rows: LS and RLS see the same samples and agree to rounding, so no scenario makes
 /// them differ short of a bug. The twin is the flown run with the recursion's result moved by
-/// 2·10⁻⁹ (rad, then m), just beyond the 10⁻⁹ limits: each row must fail on its own. A flight
-/// without the yaw fits fails the row too, unless an external controller flies it.
+/// 2·10⁻⁹ (rad, then m), just beyond the 10⁻⁹ limits: each row must fail on its own.
 #[test]
 fn r3_fails_when_the_recursion_disagrees_with_the_batch() {
     let s = super::inline(&std::fs::read_to_string(super::root().join("scenarios/yaw-offset.yaml")).unwrap());
@@ -137,18 +136,27 @@ fn r3_fails_when_the_recursion_disagrees_with_the_batch() {
         let r = flyarena::requirements::evaluate(&s.requirements, &main, out.uncompensated.as_ref());
         only_failing(&r, "R3", prefix);
     }
-    // a flight without the yaw fits fails R3 (nothing to compare is not agreement); only when
-    // an external controller flies it is the row shown and not asserted (its fits are its own)
+}
+
+/// R3 and R4 on a flight without the straight flight's fits (nothing to compare is not
+/// agreement, no check is not an accepted check): each row fails. Only when an external
+/// controller flies the vehicle are they shown and not asserted (its fits are its own).
+#[test]
+fn r3_and_r4_fail_without_the_yaw_fits_unless_flown_externally() {
+    let s = super::inline(&std::fs::read_to_string(super::root().join("scenarios/yaw-offset.yaml")).unwrap());
+    let out = run_scenario(&s, false);
     let mut main = out.main.clone();
     let cal = &mut main.vehicles[0].calibration;
-    (cal.yaw_ls, cal.yaw_rls) = (None, None);
-    let r3 = |main: &flyarena::engine::RunOutput| {
+    (cal.yaw_ls, cal.yaw_rls, cal.validity) = (None, None, None);
+    let rows_of = |main: &flyarena::engine::RunOutput, id: &str, prefix: &str| {
         let r = flyarena::requirements::evaluate(&s.requirements, main, out.uncompensated.as_ref());
-        rows(&r, "R3", "LS = RLS").iter().map(|row| (row.pass, row.asserted)).collect::<Vec<_>>()
+        rows(&r, id, prefix).iter().map(|row| (row.pass, row.asserted)).collect::<Vec<_>>()
     };
-    assert_eq!(r3(&main), vec![(false, true)]);
+    assert_eq!(rows_of(&main, "R3", "LS = RLS"), vec![(false, true)]);
+    assert_eq!(rows_of(&main, "R4", "validity"), vec![(false, true)]);
     main.vehicles[0].external = true;
-    assert_eq!(r3(&main), vec![(true, false)]);
+    assert_eq!(rows_of(&main, "R3", "LS = RLS"), vec![(true, false)]);
+    assert_eq!(rows_of(&main, "R4", "validity"), vec![(true, false)]);
 }
 
 /// R4 (7): each half rejects on its own. The flight's mean yaw and mean roll are each a
