@@ -171,6 +171,7 @@ fn offsets(r: &OffsetsReq, v: &VehicleRun, out: &mut Rows) {
         let err = est.map(|e| crate::frames::wrap_pi(e - truth).abs());
         let measured = err.map_or("no estimate (flight too short to fit)".into(), deg);
         match r.yaw_straight_flight_tol_deg {
+            Some(t) if err.is_none() && v.external => out.shown("R1", what, "the external controller reported no yaw offset (FAOF)".into(), format!("≤ {}", deg(t.to_radians()))),
             Some(t) => {
                 let tol = t.to_radians();
                 out.row("R1", what, measured, format!("≤ {}", deg(tol)), err.is_some_and(|e| e <= tol));
