@@ -138,7 +138,7 @@ fn r3_fails_when_the_recursion_disagrees_with_the_batch() {
     }
 }
 
-/// R1 (each row), R3 and R4 on a flight whose estimates are missing (no estimate is not a
+/// R1 (each row), R2, R3 and R4 on a flight whose estimates are missing (no estimate is not a
 /// small error, nothing to compare is not agreement, no check is not an accepted check): each
 /// row fails. Only when an external controller flies the vehicle, and reported no offsets, are
 /// they shown and not asserted (its fits are its own). The straight-flight yaw row is given a
@@ -158,6 +158,12 @@ fn rows_without_their_estimates_fail_unless_flown_externally() {
         named.iter().map(|(id, prefix)| rows(&r, id, prefix).iter().map(|row| (row.pass, row.asserted)).collect::<Vec<_>>()).collect::<Vec<_>>()
     };
     assert_eq!(rows_of(&main), vec![vec![(false, true)]; 5]);
+    // R2 without a spin to measure fails too (an external controller does not change that: R2 is
+    // measured on the flown path)
+    let mut unspun = out.main.clone();
+    unspun.vehicles[0].spin_max_deviation_m = None;
+    let r = flyarena::requirements::evaluate(&s.requirements, &unspun, out.uncompensated.as_ref());
+    assert_eq!(rows(&r, "R2", "").iter().map(|row| (row.pass, row.asserted)).collect::<Vec<_>>(), vec![(false, true)], "{}", r.table());
     main.vehicles[0].external = true;
     assert_eq!(rows_of(&main), vec![vec![(true, false)]; 5]);
 }
