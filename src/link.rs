@@ -264,6 +264,24 @@ mod tests {
         assert!(st.longest_missing_run >= 20, "bursty loss makes long runs: {}", st.longest_missing_run);
     }
 
+    /// With jitter, a packet arrives after latency + U(0, jitter): one packet at a time (so
+    /// none is stale), polled every 0.1 ms, each is delivered no sooner than 20 ms and no later
+    /// than 20 + 5 ms after it was sent, and the delays spread over most of that range.
+    #[test]
+    fn jitter_delays_each_packet_by_the_latency_plus_up_to_the_jitter() {
+        let mut l = link(LossModel::NONE, 5);
+        let (mut lo, mut hi) = (i64::MAX, i64::MIN);
+        for s in 0..200u32 {
+            let sent = Nanos::from_millis(100 * s as i64);
+            l.send(sent, s, s);
+            let delay = (0..300).map(|k| sent + Nanos::from_micros(100 * k)).find(|t| l.receive(*t) == Some(s)).map(|t| (t - sent).0);
+            let delay = delay.unwrap_or_else(|| panic!("packet {s} not delivered within 30 ms"));
+            (lo, hi) = (lo.min(delay), hi.max(delay));
+        }
+        assert!(lo >= Nanos::from_millis(20).0 && hi <= Nanos::from_millis(25).0, "delays {lo}..{hi} ns");
+        assert!(hi - lo > Nanos::from_millis(4).0, "delays {lo}..{hi} ns: the jitter should spread them");
+    }
+
     #[test]
     fn jitter_reorders_and_stale_packets_are_dropped() {
         let mut l = link(LossModel::NONE, 30);

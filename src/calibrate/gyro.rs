@@ -885,6 +885,20 @@ mod tests {
         assert!(fit.is_none(), "{fit:?}");
     }
 
+    /// A minimum within 1.5 steps of the searched range's edge is not a minimum (the clock could
+    /// lie beyond it): with a 20 ms range and 1 ms steps, a clock 18.6 ms ahead is no fit, one
+    /// 18.0 ms ahead is fitted (18.0 ms within its interval).
+    #[test]
+    fn a_clock_within_one_and_a_half_steps_of_the_range_edge_is_not_fitted() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
+        let search = ClockSearch { max_offset: Nanos::from_millis(20), ..ClockSearch::default() };
+        let (_, inside) = fly(gyro().estimate_clock(search), c, Nanos::from_micros(18_000), 0.0, 16);
+        let k = inside.unwrap().clock.unwrap();
+        assert!((k.offset_s - 0.018).abs() < 3.0 * k.offset_sigma_s + 1e-6, "{k:?}");
+        let (_, edge) = fly(gyro().estimate_clock(search), c, Nanos::from_micros(18_600), 0.0, 16);
+        assert!(edge.is_none(), "{edge:?}");
+    }
+
     /// Every window of the clock search's grid is either paired or dropped: with 0.1 s of
     /// telemetry lost, some windows are dropped (those whose span at some candidate offset
     /// reaches into the gap, at least 100/40 of them), and paired + dropped is the gapless

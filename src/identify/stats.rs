@@ -374,6 +374,10 @@ mod tests {
         // Γ(5) = 24, Γ(1/2) = √π
         assert!((ln_gamma(5.0) - 24f64.ln()).abs() < 1e-13);
         assert!((ln_gamma(0.5) - std::f64::consts::PI.sqrt().ln()).abs() < 1e-13);
+        // below 1/2 by the reflection Γ(x)·Γ(1 − x) = π / sin(πx): Γ(1/4) = 3.625609908221908,
+        // Γ(1/10) = 9.513507698668732 (tabulated)
+        assert!((ln_gamma(0.25) - 3.625_609_908_221_908f64.ln()).abs() < 1e-13);
+        assert!((ln_gamma(0.1) - 9.513_507_698_668_732f64.ln()).abs() < 1e-13);
         // χ²(1): P(X > 3.841459) = 0.05; χ²(10): P(X > 23.209251) = 0.01
         assert!((chi2_sf(3.841_459, 1.0) - 0.05).abs() < 1e-6);
         assert!((chi2_sf(23.209_251, 10.0) - 0.01).abs() < 1e-6);

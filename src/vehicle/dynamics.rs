@@ -328,6 +328,21 @@ mod tests {
         assert_eq!(floor.angular_acceleration(), Vec3::zeros());
     }
 
+    /// The disturbance torque τ_ext (body frame) adds to the rotors' on every axis with its
+    /// sign: equal rotors, ω = 0, τ_ext = (0.01, −0.02, 0.003) N·m give ω̇ = τ_ext,i / J_i.
+    #[test]
+    fn a_disturbance_torque_accelerates_each_body_axis_by_itself() {
+        let mut x = hovering();
+        let tau = [0.01, -0.02, 0.003];
+        x.disturbance.torque_body_nm = tau;
+        let j = x.params().inertia_kg_m2;
+        let a = x.angular_acceleration().to_array();
+        for i in 0..3 {
+            let want = tau[i] / j[i];
+            assert!((a[i] - want).abs() < 1e-9 * want.abs(), "axis {i}: {a:?}, want {want}");
+        }
+    }
+
     #[test]
     fn hover_rotor_speed_holds_altitude_and_thrust_equals_weight() {
         let mut x = hovering();

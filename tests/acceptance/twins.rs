@@ -118,6 +118,15 @@ fn r2_fails_without_the_calibration() {
     assert!(r2.iter().all(|row| !row.pass), "{}", r.table());
 }
 
+/// The uncompensated twin run (what R2's ratio compares with) is flown only when the scenario
+/// asks for R2: a scenario without it is flown once.
+#[test]
+fn only_r2_flies_the_uncompensated_twin() {
+    let base = "name: once\nvehicles:\n  - name: v\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n";
+    assert!(run_scenario(&super::inline(&format!("{base}requirements:\n  offsets: {{ roll_pitch_tol_deg: 0.1 }}\n")), false).uncompensated.is_none());
+    assert!(run_scenario(&super::inline(&format!("{base}requirements:\n  hover_drift: {{ max_m: 0.03 }}\n")), false).uncompensated.is_some());
+}
+
 /// R3 both rows: LS and RLS see the same samples and agree to rounding, so no scenario makes
 /// them differ short of a bug. The twin is the flown run with the recursion's result moved by
 /// 2·10⁻⁹ (rad, then m), just beyond the 10⁻⁹ limits: each row must fail on its own.
