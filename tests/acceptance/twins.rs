@@ -19,6 +19,11 @@ fn rows<'a>(r: &'a Report, id: &str, prefix: &str) -> Vec<&'a flyarena::requirem
     v
 }
 
+/// Each such row's (pass, asserted).
+fn verdicts(r: &Report, id: &str, prefix: &str) -> Vec<(bool, bool)> {
+    rows(r, id, prefix).iter().map(|row| (row.pass, row.asserted)).collect()
+}
+
 fn only_failing(r: &Report, id: &str, prefix: &str) {
     for row in &r.rows {
         let named = row.id == id && row.what.starts_with(prefix);
@@ -164,7 +169,7 @@ fn rows_without_their_estimates_fail_unless_flown_externally() {
     let named = [("R1", "roll/pitch"), ("R1", "yaw offset, straight"), ("R1", "yaw offset, gyro"), ("R3", "LS = RLS"), ("R4", "validity")];
     let rows_of = |main: &flyarena::engine::RunOutput| {
         let r = flyarena::requirements::evaluate(&s.requirements, main, out.uncompensated.as_ref());
-        named.iter().map(|(id, prefix)| rows(&r, id, prefix).iter().map(|row| (row.pass, row.asserted)).collect::<Vec<_>>()).collect::<Vec<_>>()
+        named.iter().map(|(id, prefix)| verdicts(&r, id, prefix)).collect::<Vec<_>>()
     };
     assert_eq!(rows_of(&main), vec![vec![(false, true)]; 5]);
     // R2 without a spin to measure fails too (an external controller does not change that: R2 is
@@ -172,7 +177,7 @@ fn rows_without_their_estimates_fail_unless_flown_externally() {
     let mut unspun = out.main.clone();
     unspun.vehicles[0].spin_max_deviation_m = None;
     let r = flyarena::requirements::evaluate(&s.requirements, &unspun, out.uncompensated.as_ref());
-    assert_eq!(rows(&r, "R2", "").iter().map(|row| (row.pass, row.asserted)).collect::<Vec<_>>(), vec![(false, true)], "{}", r.table());
+    assert_eq!(verdicts(&r, "R2", ""), vec![(false, true)], "{}", r.table());
     main.vehicles[0].external = true;
     assert_eq!(rows_of(&main), vec![vec![(true, false)]; 5]);
 }
