@@ -568,7 +568,12 @@ fn cmd_identify(a: IdentifyArgs) -> Result<i32, Error> {
             println!("{verdict}: {} of {} requirement checks passed", req.rows.iter().filter(|r| r.pass).count(), req.rows.len());
             Ok(if req.passed() { PASS } else { FAIL })
         }
-        None => Ok(PASS),
+        None => {
+            if a.quiet {
+                println!("{}: {}", input.display(), flyarena::identify::report::verdict(&done.report));
+            }
+            Ok(PASS)
+        }
     }
 }
 

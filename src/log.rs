@@ -155,9 +155,12 @@ fn closest<'a>(bad: &str, candidates: &[&'a str]) -> Option<&'a str> {
 }
 
 /// Reads a log written by [`write_csv`] (columns may come in any order; extra columns are
-/// ignored). `file` is used in messages.
+/// ignored, a row with more non-empty cells than the header has columns is an error, a UTF-8
+/// byte-order mark before the header is skipped). `file` is used in messages.
 pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
     let f = || file.to_string();
+    // a byte-order mark before the header (a spreadsheet's UTF-8 export) is no part of it
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines: Vec<&str> = text.split('\n').collect();
     // a file that ends with a newline has an empty last piece
     let ends_cleanly = text.ends_with('\n');
@@ -195,6 +198,11 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
                 repairs.push(format!("line {lineno}: the last line is cut short ({} of {} cells, no newline) and was dropped", cells.len(), names.len()));
                 break;
             }
+            return Err(LogError::Row { file: f(), line: lineno, message: format!("{} cells for {} columns", cells.len(), names.len()) });
+        }
+        // cells beyond the header's columns belong to no column: only empty ones (a trailing
+        // comma) are allowed
+        if cells[names.len()..].iter().any(|c| !c.trim().is_empty()) {
             return Err(LogError::Row { file: f(), line: lineno, message: format!("{} cells for {} columns", cells.len(), names.len()) });
         }
         let mut row = [None; COLUMNS.len()];

@@ -423,10 +423,20 @@ impl Mapping {
     }
 
     /// Reads a CSV log's text (`file` names it in errors and the report) through the mapping.
+    ///
+    /// A pose cell that is empty or `NaN` is a mocap dropout (the row's pose was not seen); any
+    /// other cell that is not a finite number is an error, as is a row with more or fewer cells
+    /// than the header (empty cells after the last column, a trailing comma, are allowed). A
+    /// last line cut short without its newline (a log whose writer stopped) is dropped and
+    /// reported among the repairs, and a UTF-8 byte-order mark before the header is skipped.
     pub fn read_str(&self, text: &str, file: &str) -> Result<Series, InputError> {
         let Factors { time: time_f, pos: pos_f, gyro: gyro_f, acc: acc_f, euler: euler_f } = self.factors("the mapping")?;
-        let mut lines = text.lines();
-        let header: Vec<&str> = lines.next().ok_or_else(|| InputError::log(file, "the log is empty"))?.split(',').map(str::trim).collect();
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let all: Vec<&str> = text.lines().collect();
+        let last_data = all.iter().rposition(|l| !l.trim().is_empty());
+        let cut_at_end = !text.ends_with('\n');
+        let mut lines = all.iter().copied();
+        let header: Vec<&str> = lines.next().filter(|h| !h.trim().is_empty()).ok_or_else(|| InputError::log(file, "the log is empty"))?.split(',').map(str::trim).collect();
         let cols = self.column_index(&header, file)?;
         let ColumnIndex { time: ti, pos: pi, att: qi, gyro: gi, accel: ai, motors: mi, battery: bi } = &cols;
         let (mut s, map) = self.empty_series(file, &cols)?;
@@ -438,10 +448,27 @@ impl Mapping {
                 continue;
             }
             let cells: Vec<&str> = line.split(',').collect();
-            if cells.len() < header.len() {
+            if cells.len() < header.len() && cut_at_end && last_data == Some(k + 1) {
+                s.repairs.push(format!("line {lineno}: the last line is cut short ({} of {} cells, no newline) and was dropped", cells.len(), header.len()));
+                break;
+            }
+            if cells.len() < header.len() || cells[header.len()..].iter().any(|c| !c.trim().is_empty()) {
                 return Err(InputError::row(file, lineno, format!("{} cells for {} columns", cells.len(), header.len())));
             }
             let num = |i: usize| -> Option<f64> { cells[i].trim().parse::<f64>().ok().filter(|x| x.is_finite()) };
+            // a pose cell: a finite number, or a dropout (empty or NaN)
+            let pose_cell = |i: usize| -> Result<Option<f64>, InputError> {
+                let c = cells[i].trim();
+                if c.is_empty() || c.eq_ignore_ascii_case("nan") {
+                    return Ok(None);
+                }
+                num(i).map(Some).ok_or_else(|| InputError::Row {
+                    file: file.to_string(),
+                    line: lineno,
+                    column: Some(header[i].to_string()),
+                    message: format!("`{c}` is neither a finite number nor a dropout (an empty cell or NaN)"),
+                })
+            };
             let need = |i: usize| -> Result<f64, InputError> {
                 num(i).ok_or_else(|| InputError::Row {
                     file: file.to_string(),
@@ -460,7 +487,7 @@ impl Mapping {
                     continue;
                 }
             }
-            let pose: Option<Vec<f64>> = pi.iter().chain(qi).map(|&i| num(i)).collect();
+            let pose: Option<Vec<f64>> = pi.iter().chain(qi).map(|&i| pose_cell(i)).collect::<Result<Vec<_>, _>>()?.into_iter().collect();
             let seen = pose.is_some();
             if let Some(p) = pose {
                 last_pose = self.pose(&p, euler_f, pos_f, file, lineno)?;
@@ -489,7 +516,10 @@ impl Mapping {
             s.accel_body.push(acc);
         }
         if s.t_s.len() < 2 {
-            return Err(InputError::log(file, "fewer than two rows"));
+            let repeats = s.repairs.iter().filter(|r| r.contains("repeats the time")).count();
+            let why =
+                if repeats > 0 { format!("fewer than two rows with distinct times ({repeats} rows repeat the time of the row before)") } else { "fewer than two rows".to_string() };
+            return Err(InputError::log(file, why));
         }
         s.segments = crate::log::split_at_gaps(&s.t_s, &mut s.repairs);
         Ok(s)

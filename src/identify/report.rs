@@ -38,6 +38,20 @@ pub fn render(r: &Report) -> String {
     s
 }
 
+/// The report in one line, what `identify --quiet` prints: the effects fitted (selected or
+/// named by `--with`), or that none passed the tests, or that the flight had too few usable
+/// samples to try any.
+pub fn verdict(r: &Report) -> String {
+    if !super::select::enough_to_select(r.train_samples) {
+        return format!("nothing identified: {} usable training samples, {} needed", r.train_samples, super::select::MIN_TRAIN_SAMPLES);
+    }
+    if r.effects.is_empty() {
+        return "no effect found: the nominal model explains the data".to_string();
+    }
+    let names: Vec<&str> = r.effects.iter().map(|f| f.name.as_str()).collect();
+    format!("{} effect{} found: {}", names.len(), if names.len() == 1 { "" } else { "s" }, names.join("; "))
+}
+
 /// The header (samples, split, nominal model, repairs) and the selection, step by step.
 fn render_steps(s: &mut String, r: &Report) {
     let _ = writeln!(s, "identify: {}", r.source);
@@ -49,7 +63,14 @@ fn render_steps(s: &mut String, r: &Report) {
     for rep in &r.repairs {
         let _ = writeln!(s, "  repaired: {rep}");
     }
-    if r.steps.is_empty() {
+    if !super::select::enough_to_select(r.train_samples) {
+        let _ = writeln!(
+            s,
+            "\n  too few usable samples to select effects ({} for training, {} needed): none were tried, and what follows is the nominal model's",
+            r.train_samples,
+            super::select::MIN_TRAIN_SAMPLES
+        );
+    } else if r.steps.is_empty() {
         let _ = writeln!(s, "\n  no effect passes the tests: the nominal model explains the data");
     }
     for (k, st) in r.steps.iter().enumerate() {
@@ -97,6 +118,11 @@ fn render_fit(s: &mut String, r: &Report) {
             let _ = writeln!(s, "    {:<34} {}", f.name, ps.join(", "));
         }
     }
+    if r.train_samples + r.heldout_samples == 0 {
+        // every figure below would be of no sample at all
+        let _ = writeln!(s, "\n  no usable sample (airborne, away from gaps and edges): no error, whiteness or residual to show");
+        return;
+    }
     let _ = writeln!(s, "\n  held-out error, nominal → with the effects:");
     let _ = writeln!(s, "    {:<11} {:>4} {:>12} {:>12} {:>8} {:>10} {:>10}", "channel", "axis", "RMSE before", "RMSE after", "unit", "fit before", "fit after");
     for e in &r.errors {
@@ -105,8 +131,8 @@ fn render_fit(s: &mut String, r: &Report) {
             "    {:<11} {:>4} {:>12} {:>12} {:>8} {:>10} {:>10}",
             e.channel.name(),
             e.axis,
-            sig(e.rmse_before),
-            sig(e.rmse_after),
+            if e.samples == 0 { "—".to_string() } else { sig(e.rmse_before) },
+            if e.samples == 0 { "—".to_string() } else { sig(e.rmse_after) },
             e.unit,
             pct(e.fit_before_pct),
             pct(e.fit_after_pct)
@@ -125,7 +151,7 @@ fn render_fit(s: &mut String, r: &Report) {
 
 /// What is left: per channel axis, structure, leads and the floor.
 fn render_left(s: &mut String, r: &Report) {
-    if !r.left.is_empty() {
+    if !r.left.is_empty() && r.train_samples + r.heldout_samples > 0 {
         let _ = writeln!(s, "\n  what is left (final residual; leads: measured signals it follows, |r| ≥ 0.1 and significant at 1 % over all signals):");
         for l in &r.left {
             let leads: Vec<String> = l.correlates.iter().filter(|c| !c.floor).map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();

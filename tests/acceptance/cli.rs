@@ -149,13 +149,14 @@ fn identify_exit_codes_outputs_and_the_fragment_round_trip() {
     assert!(err.contains("`magic`") && err.contains("body_offset"), "{err}");
 }
 
-/// Regression: the cross-validation table cut flight names at 12 bytes and panicked inside a
-/// multi-byte character. Two synthetic logs through a mapping, one with such a name.
-#[test]
-fn cross_validation_with_non_ascii_flight_names() {
-    let d = tmp("crossval");
+/// The mapping of [`circling_log`].
+const CIRCLING_MAPPING: &str = "vehicle: crazyflie21\ntime: { column: t }\nposition: { columns: [px, py, pz], unit: m }\nattitude: { columns: [qw, qx, qy, qz], order: wxyz }\nworld: z_up\nbody: flu\ngyro: { columns: [gx, gy, gz], unit: rad/s }\naccel: { columns: [ax, ay, az], unit: g }\n";
+
+/// A synthetic log of another tool, `rows` rows at 100 Hz: half a second on the ground, then
+/// up to 1 m while circling.
+fn circling_log(rows: usize) -> String {
     let mut csv = String::from("t,px,py,pz,qw,qx,qy,qz,gx,gy,gz,ax,ay,az\n");
-    for k in 0..600 {
+    for k in 0..rows {
         let t = k as f64 * 0.01;
         let z = if k < 50 { 0.0 } else { (t - 0.5).min(1.0) };
         // level, circling at 0.3 m and 2 rad/s: the accelerometer reads the centripetal
@@ -165,13 +166,38 @@ fn cross_validation_with_non_ascii_flight_names() {
         let (ax, ay) = (-1.2 * (2.0 * t).cos() / 9.81 + wob, -1.2 * (2.0 * t).sin() / 9.81 - wob);
         csv += &format!("{t},{},{},{z},1,0,0,0,{wob},{},{},{ax},{ay},{}\n", 0.3 * (2.0 * t).cos(), 0.3 * (2.0 * t).sin(), -wob, 0.5 * wob, 1.0 + wob);
     }
+    csv
+}
+
+/// `identify --quiet` on a log prints one line, its verdict: the effects found, or, for a flight
+/// too short to try any, that nothing was identified and why (not "the nominal model explains
+/// the data", which a flight without a usable sample cannot show).
+#[test]
+fn identify_quiet_prints_a_logs_verdict() {
+    let d = tmp("quiet");
+    std::fs::write(d.join("m.yaml"), CIRCLING_MAPPING).unwrap();
+    std::fs::write(d.join("short.csv"), circling_log(10)).unwrap();
+    std::fs::write(d.join("c.csv"), circling_log(1500)).unwrap();
+    let (code, out, err) = flyarena(&["identify", "short.csv", "--mapping", "m.yaml", "--out", "o", "--no-rrd", "-q"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert_eq!(out, "short.csv: nothing identified: 0 usable training samples, 200 needed\n");
+    let (code, out, err) = flyarena(&["identify", "short.csv", "--mapping", "m.yaml", "--out", "o", "--no-rrd"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("too few usable samples to select effects (0 for training, 200 needed)") && !out.contains("explains the data") && !out.contains("p=1.00"), "{out}");
+    let (code, out, err) = flyarena(&["identify", "c.csv", "--mapping", "m.yaml", "--out", "o", "--no-rrd", "-q"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.lines().count() == 1 && out.starts_with("c.csv: ") && out.contains("found"), "{out}");
+}
+
+/// Regression: the cross-validation table cut flight names at 12 bytes and panicked inside a
+/// multi-byte character. Two synthetic logs through a mapping, one with such a name.
+#[test]
+fn cross_validation_with_non_ascii_flight_names() {
+    let d = tmp("crossval");
+    let csv = circling_log(600);
     std::fs::write(d.join("aéééééééé.csv"), &csv).unwrap();
     std::fs::write(d.join("b.csv"), &csv).unwrap();
-    std::fs::write(
-        d.join("m.yaml"),
-        "vehicle: crazyflie21\ntime: { column: t }\nposition: { columns: [px, py, pz], unit: m }\nattitude: { columns: [qw, qx, qy, qz], order: wxyz }\nworld: z_up\nbody: flu\ngyro: { columns: [gx, gy, gz], unit: rad/s }\naccel: { columns: [ax, ay, az], unit: g }\n",
-    )
-    .unwrap();
+    std::fs::write(d.join("m.yaml"), CIRCLING_MAPPING).unwrap();
     let (code, out, err) = flyarena(&["identify", "aéééééééé.csv", "b.csv", "--mapping", "m.yaml", "--out", "o"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("cross-validation") && out.contains("aéééééééé"), "{out}");

@@ -243,6 +243,45 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     assert!((s2.att_mocap[0].angle_to(&q)) < 1e-12);
 }
 
+/// What a mapped log's cells may hold. A pose cell that is empty or `NaN` is a mocap dropout
+/// (the row's pose is not seen); text or an infinity there is corrupted and an error naming
+/// line and column, never a dropout. A row with cells beyond the header's columns is an error
+/// unless they are empty (a trailing comma). A byte-order mark before the header is skipped,
+/// a last line cut short without its newline is dropped as a repair (the same as mid-file is
+/// an error), and a log whose rows all repeat one time says so.
+#[test]
+fn mapped_log_cells_are_numbers_dropouts_or_located_errors() {
+    let m = Mapping::parse(&mapping_src("z_down", "frd"), Path::new("m.yaml")).unwrap();
+    let row = |t: u32, x: &str| format!("{t},{x},2,3,1,0,0,0,0,0,0,0,0,1,0,0,0,0,3.7");
+    let log = |mid: &str| format!("{CSV_HEADER}\n{}\n{}\n{}\n", row(0, "1"), mid, row(20, "1"));
+    for dropout in ["", "NaN", "nan", " NaN "] {
+        let s = m.read_str(&log(&row(10, dropout)), "log.csv").unwrap_or_else(|e| panic!("`{dropout}`: {e}"));
+        assert_eq!(s.mocap_ok, [true, false, true], "`{dropout}`");
+    }
+    for corrupt in ["abc", "inf", "-inf", "1e400", "1,5"] {
+        let text = log(&row(10, corrupt));
+        let e = m.read_str(&text, "log.csv").unwrap_err().to_string();
+        if corrupt == "1,5" {
+            assert_eq!(e, "log.csv:3: 20 cells for 19 columns", "`{corrupt}`");
+        } else {
+            assert!(e.starts_with("log.csv:3: column `x`:") && e.contains(&format!("`{corrupt}`")) && e.contains("dropout"), "`{corrupt}`: {e}");
+        }
+    }
+    // a trailing comma on every row, and a byte-order mark
+    let trailing = log(&row(10, "1")).replace('\n', ",\n");
+    assert_eq!(m.read_str(&trailing, "log.csv").unwrap().t_s.len(), 3);
+    assert_eq!(m.read_str(&format!("\u{feff}{}", log(&row(10, "1"))), "log.csv").unwrap().t_s.len(), 3);
+    // cut short: at the end without a newline it is a repair; mid-file, or with its newline, an error
+    let cut = format!("{CSV_HEADER}\n{}\n{}\n0,1,2", row(0, "1"), row(10, "1"));
+    let s = m.read_str(&cut, "log.csv").unwrap();
+    assert_eq!(s.t_s.len(), 2);
+    assert!(s.repairs.iter().any(|r| r.starts_with("line 4: the last line is cut short (3 of 19 cells")), "{:?}", s.repairs);
+    assert_eq!(m.read_str(&format!("{cut}\n"), "log.csv").unwrap_err().to_string(), "log.csv:4: 3 cells for 19 columns");
+    assert_eq!(m.read_str(&log("10,1,2"), "log.csv").unwrap_err().to_string(), "log.csv:3: 3 cells for 19 columns");
+    let frozen = format!("{CSV_HEADER}\n{}\n{}\n{}\n", row(0, "1"), row(0, "1"), row(0, "1"));
+    assert_eq!(m.read_str(&frozen, "log.csv").unwrap_err().to_string(), "log.csv: fewer than two rows with distinct times (2 rows repeat the time of the row before)");
+}
+
 #[test]
 fn mapping_errors_name_what_to_fix() {
     let m = Mapping::parse(&mapping_src("z_up", "flu"), Path::new("m.yaml")).unwrap();
@@ -342,6 +381,9 @@ fn nanobench_flights() {
         if r.effects.is_empty() {
             // the one short hop (B6 ramp 1) has too little airborne data, and says so
             assert!(r.notes.iter().any(|n| n.contains("usable training samples")), "{}: {:?}", f.display(), r.notes);
+            assert_eq!(flyarena::identify::report::verdict(&r), "nothing identified: 94 usable training samples, 200 needed");
+            let text = flyarena::identify::report::render(&r);
+            assert!(text.contains("too few usable samples to select effects (94 for training, 200 needed)") && !text.contains("explains the data"), "{text}");
             continue;
         }
         usable += 1;
