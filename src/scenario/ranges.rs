@@ -4,13 +4,21 @@
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer, de::Error};
 
+/// A value or bound as an error message shows it: ±∞ as such, and a number far from 1 (10⁹ or
+/// more, or under 10⁻⁴) in exponent form, so that 1e308 is not printed with 308 digits.
 fn fmt_bound(x: f64) -> String {
-    if x.is_infinite() { if x > 0.0 { "∞".into() } else { "−∞".into() } } else { format!("{x}") }
+    if x.is_infinite() {
+        if x > 0.0 { "∞".into() } else { "−∞".into() }
+    } else if x != 0.0 && (x.abs() >= 1e9 || x.abs() < 1e-4) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
 }
 
 /// A number outside its documented range (or not finite).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{}", (format!("{value} {unit} is outside the allowed range {}{}, {}]", if *open_lo { "(" } else { "[" }, fmt_bound(*lo), fmt_bound(*hi))).replace("  ", " "))]
+#[error("{}", (format!("{} {unit} is outside the allowed range {}{}, {}]", fmt_bound(*value), if *open_lo { "(" } else { "[" }, fmt_bound(*lo), fmt_bound(*hi))).replace("  ", " "))]
 pub struct OutOfRange {
     /// The value given.
     pub value: f64,
@@ -146,4 +154,25 @@ ranged! {
     capacity_mah: 0.0, 100000.0, true, "mA·h";
     resistance_ohm: 0.0, 10.0, false, "Ω";
     charge: 0.0, 1.0, true, "";
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The messages by hand: open and closed lower bounds, no unit, and the values no plain
+    /// decimal should print (infinities, NaN, and numbers far from 1 in exponent form).
+    #[test]
+    fn out_of_range_messages_show_the_value_and_the_range() {
+        let msg = |v: f64, lo: f64, hi: f64, open: bool, unit: &str| check(v, lo, hi, open, unit).unwrap_err().to_string();
+        assert_eq!(msg(-20.0, 0.0, 3600.0, true, "s"), "-20 s is outside the allowed range (0, 3600]");
+        assert_eq!(msg(1.5, 0.0, 1.0, false, ""), "1.5 is outside the allowed range [0, 1]");
+        assert_eq!(msg(1e308, 0.0, 20.0, false, "mm"), "1e308 mm is outside the allowed range [0, 20]");
+        assert_eq!(msg(2e-7, 1e-6, 1.0, false, "s"), "2e-7 s is outside the allowed range [1e-6, 1]");
+        assert_eq!(msg(f64::INFINITY, 0.0, f64::INFINITY, false, "m"), "∞ m is outside the allowed range [0, ∞]");
+        assert_eq!(msg(f64::NAN, f64::NEG_INFINITY, 5.0, false, "m"), "NaN m is outside the allowed range [−∞, 5]");
+        assert_eq!(msg(0.0, 0.0, 1.0, true, "m"), "0 m is outside the allowed range (0, 1]");
+        assert_eq!(check(0.0, 0.0, 1.0, false, "m"), Ok(0.0));
+        assert_eq!(check(1.0, 0.0, 1.0, true, "m"), Ok(1.0));
+    }
 }
