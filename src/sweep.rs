@@ -375,27 +375,106 @@ impl Journal {
     }
 }
 
-/// Merges shard outputs into the output of the whole sweep.
+/// The shard `[K, N]` of an output, as merge names it (a whole sweep is shard 1 of 1).
+fn shard_of(p: &SweepOutput) -> [u64; 2] {
+    p.shard.unwrap_or([1, 1])
+}
+
+/// Checks that a shard file holds what `flyarena sweep --shard` writes before its rows are
+/// trusted: a valid `[K, N]`, a grid flag per field, and per row a run of this shard, one value
+/// per field, one entry per metric and per requirement, and no "passed" beside a failed
+/// requirement. A file edited by hand or cut and patched gives an error, never a summary.
+fn check_part(p: &SweepOutput) -> Result<(), SweepError> {
+    let [k, n] = shard_of(p);
+    let bad = |m: String| Err(SweepError::Merge(format!("shard {k} of {n} of `{}`: {m}", p.scenario)));
+    if !(1..=n).contains(&k) {
+        return bad(format!("shard {k} of {n} is no shard (1 ≤ K ≤ N)"));
+    }
+    if p.grid.len() != p.fields.len() {
+        return bad(format!("{} grid flags for {} fields", p.grid.len(), p.fields.len()));
+    }
+    for r in &p.rows {
+        let (run, lens) = (r.run, (r.params.len(), r.metrics.len(), r.requirements.len()));
+        if run >= p.runs || run % n != k - 1 {
+            return bad(format!("run {run} is not one of this shard's (the runs i < {} with i mod {n} = {})", p.runs, k - 1));
+        }
+        if lens != (p.fields.len(), METRICS.len(), REQUIREMENTS.len()) {
+            return bad(format!(
+                "run {run} ({}) has {} values, {} metrics and {} requirement flags; a row has {}, {} and {}",
+                r.vehicle,
+                lens.0,
+                lens.1,
+                lens.2,
+                p.fields.len(),
+                METRICS.len(),
+                REQUIREMENTS.len()
+            ));
+        }
+        if r.passed && r.requirements.contains(&Some(false)) {
+            return bad(format!("run {run} ({}) passed with a failed requirement", r.vehicle));
+        }
+    }
+    Ok(())
+}
+
+/// Merges shard outputs into the output of the whole sweep: shards of one sweep (scenario,
+/// seed, runs, fields and grid alike), split the same way, each once, together every run; a
+/// grid point's rows hold its grid values (the same values, the same point), and run i flew
+/// grid point i mod G. What merge cannot check without the scenario (a grid value or a seed
+/// edited consistently) it takes as written.
 pub fn merge(parts: Vec<SweepOutput>) -> Result<SweepOutput, SweepError> {
     let first = parts.first().ok_or_else(|| SweepError::Merge("no shard files given".into()))?;
     let (scenario, seed, runs, fields, grid) = (first.scenario.clone(), first.sweep_seed, first.runs, first.fields.clone(), first.grid.clone());
+    let split = shard_of(first)[1];
+    let mut shards = std::collections::BTreeSet::new();
     for p in &parts {
-        if (p.scenario.as_str(), p.sweep_seed, p.runs, &p.fields) != (scenario.as_str(), seed, runs, &fields) {
-            return Err(SweepError::Merge(format!(
-                "shard {:?} of `{}` (seed {}, {} runs) does not belong with `{scenario}` (seed {seed}, {runs} runs)",
-                p.shard, p.scenario, p.sweep_seed, p.runs
-            )));
+        check_part(p)?;
+        let [k, n] = shard_of(p);
+        let differs = [
+            (p.scenario != scenario, format!("scenario `{}`, not `{scenario}`", p.scenario)),
+            (p.sweep_seed != seed, format!("sweep seed {}, not {seed}", p.sweep_seed)),
+            (p.runs != runs, format!("{} runs, not {runs}", p.runs)),
+            (p.fields != fields || p.grid != grid, format!("varied fields {:?}, not {fields:?}", p.fields)),
+            (n != split, format!("a split into {n} shards, not {split}")),
+        ];
+        if let Some((_, why)) = differs.iter().find(|d| d.0) {
+            return Err(SweepError::Merge(format!("shard {k} of {n} does not belong with shard {} of {split} of `{scenario}`: {why}", shard_of(first)[0])));
+        }
+        if !shards.insert(k) {
+            return Err(SweepError::Merge(format!("shard {k} of {n} is given twice")));
         }
     }
     let mut rows: Vec<SweepRow> = parts.into_iter().flat_map(|p| p.rows).collect();
     rows.sort_by(|a, b| (a.run, &a.vehicle).cmp(&(b.run, &b.vehicle)));
+    let mut points: BTreeMap<u64, Vec<u64>> = BTreeMap::new();
+    for r in &rows {
+        let values: Vec<u64> = r.params.iter().zip(&grid).filter(|(_, g)| **g).map(|(v, _)| v.to_bits()).collect();
+        let clash = match points.get(&r.grid_point) {
+            Some(v) => *v != values,
+            None => points.values().any(|v| *v == values),
+        };
+        if clash {
+            return Err(SweepError::Merge(format!(
+                "run {} ({}): grid point {} and its grid values do not match the other rows' (one grid point, one set of values)",
+                r.run, r.vehicle, r.grid_point
+            )));
+        }
+        points.entry(r.grid_point).or_insert(values);
+    }
+    // run i flies grid point i mod G (G grid points, the first grid varying fastest): G is the
+    // largest point + 1 when every point was flown, and any number above the runs otherwise
+    let g = rows.iter().map(|r| r.grid_point).max().map_or(1, |m| m + 1);
+    if let Some(r) = rows.iter().find(|r| r.grid_point != r.run % g) {
+        return Err(SweepError::Merge(format!("run {} ({}) flew grid point {}, but run i flies grid point i mod {g}", r.run, r.vehicle, r.grid_point)));
+    }
     let mut seen = std::collections::BTreeSet::new();
     for r in &rows {
         if !seen.insert((r.run, r.vehicle.clone())) {
-            return Err(SweepError::Merge(format!("run {} ({}) appears in two shards", r.run, r.vehicle)));
+            return Err(SweepError::Merge(format!("run {} ({}) appears twice", r.run, r.vehicle)));
         }
     }
-    let missing: Vec<u64> = (0..runs).filter(|i| !rows.iter().any(|r| r.run == *i)).take(5).collect();
+    let flown: std::collections::BTreeSet<u64> = rows.iter().map(|r| r.run).collect();
+    let missing: Vec<u64> = (0..runs).filter(|i| !flown.contains(i)).take(5).collect();
     if !missing.is_empty() {
         return Err(SweepError::Merge(format!("runs missing, e.g. {missing:?}: a shard is absent")));
     }

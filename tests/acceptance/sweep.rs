@@ -1,7 +1,7 @@
 //! Sweeps: independent of thread count and sharding, bit for bit; bad specs rejected clearly.
 
 use super::root;
-use flyarena::sweep::{Sweep, merge};
+use flyarena::sweep::{Sweep, SweepOutput, merge};
 use std::process::Command;
 
 fn scenario() -> std::path::PathBuf {
@@ -25,6 +25,66 @@ fn results_do_not_depend_on_threads_or_shards() {
     // every run has its own seed and its own draws
     let seeds: std::collections::BTreeSet<u64> = one.rows.iter().map(|r| r.seed).collect();
     assert_eq!(seeds.len(), 16);
+}
+
+/// Shard files edited by hand, cut and patched, or of another split are errors naming what is
+/// wrong, never a summary. Before, a row without its metrics or requirement flags panicked
+/// (exit 101), and a row with too few values, a shard of another split, a made-up grid point
+/// or a "passed" beside a failed requirement was merged into the summary.
+#[test]
+fn tampered_shards_are_errors_not_summaries() {
+    let s = Sweep::load(&scenario()).unwrap();
+    // 8 runs over the scenario's 4 grid points: each point flown twice, once per shard
+    let parts: Vec<SweepOutput> = (0..2).map(|k| s.run(8, Some((k, 2)), &|| {}).unwrap()).collect();
+    assert!(merge(parts.clone()).is_ok());
+    type Edit = fn(&mut Vec<SweepOutput>);
+    let cases: [(Edit, &str); 15] = [
+        (|p| p[1].rows[0].metrics.clear(), "run 1 (x3d) has 4 values, 0 metrics and 4 requirement flags; a row has 4, 7 and 4"),
+        (|p| p[1].rows[0].requirements.truncate(1), "1 requirement flags"),
+        (|p| p[0].rows[1].params.truncate(1), "run 2 (x3d) has 1 values"),
+        (
+            |p| {
+                p[1].grid.pop();
+            },
+            "3 grid flags for 4 fields",
+        ),
+        (|p| p[1].shard = Some([3, 2]), "shard 3 of 2 is no shard"),
+        (|p| p[1].shard = Some([2, 3]), "run 3 is not one of this shard's (the runs i < 8 with i mod 3 = 1)"),
+        (|p| p[1].runs = 9, "shard 2 of 2 does not belong with shard 1 of 2 of `sweep-hover-duration`: 9 runs, not 8"),
+        (|p| p[1].sweep_seed += 1, "sweep seed"),
+        (|p| p[1].fields[0] = "mocap.latency_ms".into(), "varied fields"),
+        (|p| p[1] = p[0].clone(), "shard 1 of 2 is given twice"),
+        (
+            |p| {
+                let row = p[1].rows[0].clone();
+                p[1].rows.push(row);
+            },
+            "run 1 (x3d) appears twice",
+        ),
+        (
+            |p| {
+                p[1].rows[0].requirements[0] = Some(false);
+                p[1].rows[0].passed = true;
+            },
+            "run 1 (x3d) passed with a failed requirement",
+        ),
+        (
+            // both rows of grid point 1 renumbered alike: their values agree, their number does not
+            |p| {
+                p[1].rows[0].grid_point = 99;
+                p[1].rows[2].grid_point = 99;
+            },
+            "run 1 (x3d) flew grid point 99, but run i flies grid point i mod 100",
+        ),
+        (|p| p[1].rows[2].params[0] += 0.25, "grid point 1 and its grid values do not match the other rows'"),
+        (|p| p[0].rows[0].grid_point = 1, "grid point 1 and its grid values do not match"),
+    ];
+    for (edit, want) in cases {
+        let mut p = parts.clone();
+        edit(&mut p);
+        let e = merge(p).unwrap_err().to_string();
+        assert!(e.starts_with("merge: ") && e.contains(want), "{e}\n  wanted: {want}");
+    }
 }
 
 /// Through the CLI: 3 shards merged give the same files, byte for byte, as one unsharded sweep.
