@@ -83,7 +83,7 @@ impl InputError {
         InputError::Io { file: file.to_string(), source }
     }
     pub(crate) fn invalid(file: impl Display, message: impl Display) -> Self {
-        InputError::Invalid { file: file.to_string(), message: message.to_string() }
+        InputError::Invalid { file: file.to_string(), message: crate::scenario::error::for_authors(&message.to_string()) }
     }
     pub(crate) fn log(file: impl Display, message: impl Display) -> Self {
         InputError::Log { file: file.to_string(), message: message.to_string() }

@@ -129,12 +129,25 @@ pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, I
     let frag: Fragment = serde_saphyr::from_str(&fsrc).map_err(|e| InputError::invalid(fragment.display(), e))?;
     // the scenario is checked as a whole, with its positions, before the fragment touches it
     Scenario::parse(&src, scenario)?;
-    let mut tree: Value = serde_saphyr::from_str(&src).map_err(|e| InputError::invalid(scenario.display(), e))?;
-    for (path, v) in frag.effects {
-        set_in(&mut tree, &path, v, true).map_err(|e| InputError::invalid(fragment.display(), e))?;
+    let base: Value = serde_saphyr::from_str(&src).map_err(|e| InputError::invalid(scenario.display(), e))?;
+    let mut tree = base.clone();
+    for (path, v) in &frag.effects {
+        set_in(&mut tree, path, v.clone(), true).map_err(|e| InputError::invalid(fragment.display(), e))?;
     }
-    let text = serde_json::to_string(&tree).expect("a JSON tree serialises");
-    Ok(Scenario::parse(&text, Path::new(&format!("{} + {}", scenario.display(), fragment.display())))?)
+    let merged = |t: &Value| Scenario::parse(&serde_json::to_string(t).expect("a JSON tree serialises"), Path::new(&format!("{} + {}", scenario.display(), fragment.display())));
+    merged(&tree).or_else(|whole| {
+        // the merged tree's positions are in no file the user has: name the fragment's entry
+        // (and its line) after which the scenario stops being valid
+        let mut t = base;
+        for (path, v) in &frag.effects {
+            set_in(&mut t, path, v.clone(), true).map_err(|e| InputError::invalid(fragment.display(), e))?;
+            if let Err(crate::scenario::ScenarioError::Invalid { message, .. }) = merged(&t) {
+                let line = fsrc.lines().position(|l| l.trim_start().starts_with(path.as_str())).map_or(String::new(), |k| format!(":{}", k + 1));
+                return Err(InputError::invalid(format!("{}{line}", fragment.display()), format!("`{path}`: {message}")));
+            }
+        }
+        Err(whole.into())
+    })
 }
 
 /// Closed-loop distance between two flights of the same plan: RMS of the mocap position

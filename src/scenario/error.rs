@@ -173,6 +173,16 @@ pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
     prev[b.len()]
 }
 
+/// A YAML parser's message with the advice meant for programmers (serde-saphyr's API options:
+/// `DuplicateKeyPolicy`, `from_str_multiple`, `ignore_binary_tag_for_string`) replaced by what
+/// the file's author can do.
+pub(crate) fn for_authors(message: &str) -> String {
+    message
+        .replace(", set DuplicateKeyPolicy in Options if acceptable", " (a key may appear once)")
+        .replace("multiple YAML documents detected; use from_str_multiple or from_str_multiple_with_options", "more than one YAML document (a second `---`): the file holds one")
+        .replace(" If you just use !!binary for documentation/annotation, set ignore_binary_tag_for_string in Options", "")
+}
+
 /// Appends "did you mean `x`?" to serde's unknown-field/variant messages when a close name exists.
 pub(crate) fn with_suggestion(message: &str) -> String {
     let Some(rest) = message.split("unknown field `").nth(1).or_else(|| message.split("unknown variant `").nth(1)) else {
@@ -222,6 +232,17 @@ mod tests {
         let y = "name: f\nvehicles:\n  - { name: v0, home_m: [0, 0] }\n  - { name: v1, home_m: [1, 0] }\n";
         assert_eq!(yaml_path_at(y, 4, 5), "vehicles[1]");
         assert_eq!(yaml_path_at(y, 4, 15), "vehicles[1].name");
+    }
+
+    /// The parser's advice to programmers is replaced, its own words kept.
+    #[test]
+    fn parser_messages_speak_to_the_files_author() {
+        assert_eq!(for_authors("duplicate mapping key: seed, set DuplicateKeyPolicy in Options if acceptable"), "duplicate mapping key: seed (a key may appear once)");
+        assert_eq!(
+            for_authors("multiple YAML documents detected; use from_str_multiple or from_str_multiple_with_options"),
+            "more than one YAML document (a second `---`): the file holds one"
+        );
+        assert_eq!(for_authors("unknown field `x`"), "unknown field `x`");
     }
 
     #[test]

@@ -984,18 +984,12 @@ impl Scenario {
             let loc = e.location();
             let span = loc.filter(|l| l.line() > 0).map(|l| Span { line: l.line() as u32, column: l.column() as u32 });
             let path = span.as_ref().map(|s| error::yaml_path_at(src, s.line, s.column)).unwrap_or_default();
-            let full = e.to_string();
+            let full = error::for_authors(&e.to_string());
             // serde-saphyr renders "error: line L column C: MESSAGE\n --> snippet"; keep both parts
             let (head, snippet) = full.split_once('\n').unwrap_or((&full, ""));
             let message = head.split_once(": ").map(|x| x.1).unwrap_or(head);
             let message = message.split_once(": ").filter(|(a, _)| a.starts_with("column") || a.contains(" column ")).map_or(message, |x| x.1);
-            ScenarioError::Invalid {
-                file: file.to_path_buf(),
-                span,
-                path,
-                message: error::with_suggestion(message.split(", set DuplicateKeyPolicy").next().unwrap_or(message)),
-                snippet: snippet.to_string(),
-            }
+            ScenarioError::Invalid { file: file.to_path_buf(), span, path, message: error::with_suggestion(message), snippet: snippet.to_string() }
         })?;
         s.validate(src, file)?;
         Ok(s)

@@ -144,6 +144,16 @@ fn identify_exit_codes_outputs_and_the_fragment_round_trip() {
     let (code, _, err) = flyarena(&["run", none.to_str().unwrap(), "--effects", "frag.yaml", "--no-rrd"], &d);
     assert_eq!(code, 2);
     assert!(err.contains("thrust_scale") && err.contains("1.5"), "{err}");
+    // a wrong value is named at the fragment's entry and line, not in the merged tree no file holds
+    std::fs::write(d.join("frag.yaml"), "effects:\n  vehicles[0].disturbance.force_n: [0.1, 0, 0]\n  vehicles[0].undeclared.thrust_scale: x\n").unwrap();
+    let (code, _, err) = flyarena(&["run", none.to_str().unwrap(), "--effects", "frag.yaml", "--no-rrd"], &d);
+    assert_eq!(code, 2);
+    assert_eq!(err.trim(), "error: frag.yaml:3: `vehicles[0].undeclared.thrust_scale`: invalid floating point");
+    // the YAML parser's advice to programmers does not reach the file's author
+    std::fs::write(d.join("frag.yaml"), "effects:\n  vehicles[0].undeclared.thrust_scale: 1.1\n  vehicles[0].undeclared.thrust_scale: 1.2\n").unwrap();
+    let (code, _, err) = flyarena(&["run", none.to_str().unwrap(), "--effects", "frag.yaml", "--no-rrd"], &d);
+    assert_eq!(code, 2);
+    assert!(err.contains("duplicate mapping key") && err.contains("(a key may appear once)") && !err.contains("DuplicateKeyPolicy"), "{err}");
     let (code, _, err) = flyarena(&["identify", "a.csv", "--mapping", "m.yaml", "--with", "magic"], &d);
     assert_eq!(code, 2);
     assert!(err.contains("`magic`") && err.contains("body_offset"), "{err}");
