@@ -297,8 +297,15 @@ impl Sweep {
 }
 
 /// Reads a journal: the rows of every completed run, if the header matches. Lines that do not
-/// parse (a line cut by a kill) are skipped; a journal of another sweep gives nothing.
-fn read_journal(path: &Path, header: &JournalHeader) -> std::collections::BTreeMap<u64, Vec<SweepRow>> {
+/// parse (a line cut by a kill) or do not hold one run of this sweep as `run_one` writes it (one
+/// value per varied field, metric and requirement; a run of this shard) are skipped, and those
+/// runs flown again; a journal of another sweep gives nothing.
+fn read_journal(path: &Path, header: &JournalHeader, fields: usize) -> std::collections::BTreeMap<u64, Vec<SweepRow>> {
+    let mine = |r: &SweepRow| {
+        r.run < header.runs
+            && header.shard.is_none_or(|[k, n]| n > 0 && r.run % n == k.wrapping_sub(1))
+            && (r.params.len(), r.metrics.len(), r.requirements.len()) == (fields, METRICS.len(), REQUIREMENTS.len())
+    };
     let mut done = std::collections::BTreeMap::new();
     let Ok(text) = std::fs::read_to_string(path) else { return done };
     let mut lines = text.lines();
@@ -308,6 +315,7 @@ fn read_journal(path: &Path, header: &JournalHeader) -> std::collections::BTreeM
     for line in lines {
         if let Ok(rows) = serde_json::from_str::<Vec<SweepRow>>(line)
             && let Some(first) = rows.first()
+            && rows.iter().all(|r| r.run == first.run && mine(r))
         {
             done.insert(first.run, rows);
         }
@@ -334,7 +342,7 @@ impl Journal {
             Some((k, n)) => out.join(format!("{}.sweep.shard-{}-of-{n}.journal.jsonl", sweep.name(), k + 1)),
         };
         let header = sweep.journal_header(runs, shard);
-        let done = read_journal(&path, &header);
+        let done = read_journal(&path, &header, sweep.variations.len());
         let file = (|| -> std::io::Result<std::fs::File> {
             std::fs::create_dir_all(out)?;
             if done.is_empty() {

@@ -164,6 +164,14 @@ fn an_interrupted_sweep_resumes_without_redoing_finished_runs() {
         }
         text += &(serde_json::to_string(&rows).unwrap() + "\n");
     }
+    // lines no run of this sweep writes: run 8 without its metrics (a summary would have
+    // indexed them and panicked) and a run beyond the sweep's 12; both are flown again
+    let mut bad: Vec<_> = fresh.rows.iter().filter(|r| r.run == 8).cloned().collect();
+    bad[0].metrics.clear();
+    text += &(serde_json::to_string(&bad).unwrap() + "\n");
+    bad[0].metrics = fresh.rows[0].metrics.clone();
+    bad[0].run = 20;
+    text += &(serde_json::to_string(&bad).unwrap() + "\n");
     text += "[{\"run\":7,\"se"; // cut by the kill
     std::fs::write(&journal, text).unwrap();
     let (code, out, err) = flyarena(&["sweep", scenario().to_str().unwrap(), "--runs", "12", "--out", d.to_str().unwrap()]);
