@@ -278,6 +278,21 @@ mod tests {
         assert!((tls_course(&north, &east).unwrap() + psi_off).abs() < 1e-12);
     }
 
+    /// No line from what determines none: fewer than two points, one X_N repeated, or X_N and
+    /// X_E of different lengths (a fit over the shorter one would pair the wrong samples; shard
+    /// 41's `||` as `&&` returned a line for 3 north and 2 east samples).
+    #[test]
+    fn ls_refuses_what_determines_no_line() {
+        assert_eq!(batch_ls(&[], &[]), None);
+        assert_eq!(batch_ls(&[1.0], &[2.0]), None);
+        assert_eq!(batch_ls(&[1.0, 1.0, 1.0], &[0.0, 1.0, 2.0]), None);
+        assert_eq!(batch_ls(&[0.0, 1.0, 2.0], &[0.0, 1.0]), None);
+        assert_eq!(batch_ls(&[0.0, 1.0], &[0.0, 1.0, 2.0]), None);
+        // two distinct points make a line: slope 1 through the origin, ψ̂_off = −45°
+        let fit = batch_ls(&[0.0, 1.0], &[0.0, 1.0]).unwrap();
+        assert!((fit.slope - 1.0).abs() < 1e-15 && fit.x_e0.abs() < 1e-15 && (fit.psi_offset + std::f64::consts::FRAC_PI_4).abs() < 1e-15 && fit.n == 2);
+    }
+
     #[test]
     fn validity_rejects_a_yawed_flight() {
         let mut v = ValidityCheck::default();
