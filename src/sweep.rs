@@ -109,6 +109,15 @@ pub struct SweepOutput {
     pub rows: Vec<SweepRow>,
 }
 
+/// What a patched scenario's error says, without the position and the source lines, which are
+/// in a JSON tree no file holds.
+fn invalid_message(e: &ScenarioError) -> String {
+    match e {
+        ScenarioError::Invalid { message, .. } => message.clone(),
+        other => other.to_string(),
+    }
+}
+
 /// The plan of a sweep: the YAML tree and the checked variations.
 pub struct Sweep {
     name: String,
@@ -135,10 +144,25 @@ impl Sweep {
         let tree: serde_json::Value = serde_saphyr::from_str(&src).map_err(|e| spec(e.to_string()))?;
         let text_hash = src.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3));
         let sweep = Sweep { name: scenario.name.clone(), text_hash, tree, cfg, variations, file: file.clone() };
-        // every field must exist before anything runs
+        // every field must exist, once, and take the values its variation reaches, before
+        // anything runs: a uniform's two ends (the fields' ranges are intervals), every grid
+        // value, a normal's mean (its tails can still fall outside: that run's error names them)
         for (k, v) in sweep.cfg.vary.iter().enumerate() {
+            if let Some(j) = sweep.cfg.vary[..k].iter().position(|w| w.field == v.field) {
+                return Err(spec(format!("vary[{j}] and vary[{k}] both vary `{}`: vary each field once", v.field)));
+            }
             let mut t = sweep.tree.clone();
             set_path(&mut t, &v.field, 0.0).map_err(|m| spec(format!("vary[{k}]: {m}")))?;
+            let reached = match &sweep.variations[k] {
+                Variation::Uniform(lo, hi) => vec![*lo, *hi],
+                Variation::Normal(m, _) => vec![*m],
+                Variation::Grid(g) => g.clone(),
+            };
+            for x in reached {
+                set_path(&mut t, &v.field, x).map_err(|m| spec(format!("vary[{k}]: {m}")))?;
+                Scenario::parse(&serde_json::to_string(&t).expect("a JSON tree serialises"), path)
+                    .map_err(|e| spec(format!("vary[{k}]: `{}` = {x}: {}", v.field, invalid_message(&e))))?;
+            }
         }
         Ok(sweep)
     }
@@ -187,7 +211,11 @@ impl Sweep {
         t["seed"] = serde_json::json!(seed);
         // YAML is a superset of JSON: the varied tree goes through the same parser and checks
         let text = serde_json::to_string(&t).expect("a JSON tree serialises");
-        let s = Scenario::parse(&text, Path::new(&format!("{} (run {i})", self.file))).map_err(|e| SweepError::Run { run: i, message: e.to_string() })?;
+        let s = Scenario::parse(&text, Path::new(&self.file)).map_err(|e| {
+            // the varied tree's positions are in no file: name the run's values instead
+            let values: Vec<String> = self.cfg.vary.iter().zip(&params).map(|(v, x)| format!("{} = {x}", v.field)).collect();
+            SweepError::Run { run: i, message: format!("{} ({}): {}", self.file, values.join(", "), invalid_message(&e)) }
+        })?;
         Ok((s, params, grid_point))
     }
 

@@ -989,7 +989,9 @@ impl Scenario {
             let (head, snippet) = full.split_once('\n').unwrap_or((&full, ""));
             let message = head.split_once(": ").map(|x| x.1).unwrap_or(head);
             let message = message.split_once(": ").filter(|(a, _)| a.starts_with("column") || a.contains(" column ")).map_or(message, |x| x.1);
-            ScenarioError::Invalid { file: file.to_path_buf(), span, path, message: error::with_suggestion(message), snippet: snippet.to_string() }
+            // the snippet's header names the parser's `<input>`: name the file
+            let snippet = snippet.replacen("--> <input>:", &format!("--> {}:", file.display()), 1);
+            ScenarioError::Invalid { file: file.to_path_buf(), span, path, message: error::with_suggestion(message), snippet }
         })?;
         s.validate(src, file)?;
         Ok(s)
