@@ -335,6 +335,22 @@ fn an_integrating_rate_loop_removes_the_yaw_stand_off() {
     assert!(val.accepted);
 }
 
+/// The run summary's telemetry clock in its units, against the truth of `gyro-clock.yaml` (15 ms
+/// ahead, 100 ppm fast): the offset at the windows' mean time within 1 ms of 15 ms + 100 ppm of
+/// that time, its σ of a fraction of a millisecond (the mean σ over 40 seeds is 0.21 ms: a
+/// second read as ms, or ms as s, is off by 10³), the drift within 4σ of 100 ppm.
+#[test]
+fn the_summary_states_the_telemetry_clock_in_ms_and_ppm() {
+    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/gyro-clock.yaml")).unwrap();
+    let summary = flyarena::run::run_scenario(&s, false).summary(&s);
+    let c = summary.vehicles[0].gyro_alignment.as_ref().and_then(|g| g.telemetry_clock).expect("the clock is fitted");
+    let truth_ms = 15.0 + 100e-6 * c.at_s * 1e3;
+    assert!(c.at_s > 1.0 && (c.offset_ms - truth_ms).abs() < 1.0, "{c:?} against {truth_ms} ms");
+    assert!((0.02..1.0).contains(&c.offset_sigma_ms), "{c:?}");
+    let (drift, sd) = (c.drift_ppm.unwrap(), c.drift_sigma_ppm.unwrap());
+    assert!(sd > 0.0 && (drift - 100.0).abs() < 4.0 * sd, "{c:?}");
+}
+
 /// The gyro alignment on an unsynchronised telemetry clock (`scenarios/gyro-clock.yaml`, offset
 /// 0–20 ms, drift ±100 ppm): over 40 seeds the fitted yaw stays within 0.05° of the markers' 4°,
 /// and the 95 % intervals of the yaw and of the clock offset at the windows' mean time cover the
