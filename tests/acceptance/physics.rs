@@ -335,15 +335,25 @@ fn an_integrating_rate_loop_removes_the_yaw_stand_off() {
     assert!(val.accepted);
 }
 
-/// The run summary's telemetry clock in its units, against the truth of `gyro-clock.yaml` (15 ms
-/// ahead, 100 ppm fast): the offset at the windows' mean time within 1 ms of 15 ms + 100 ppm of
-/// that time, its σ of a fraction of a millisecond (the mean σ over 40 seeds is 0.21 ms: a
-/// second read as ms, or ms as s, is off by 10³), the drift within 4σ of 100 ppm.
+/// The run summary in its units, against the truth `gyro-clock.yaml` declares (markers rotated
+/// 1°, −0.5°, 4°; gyro bias 0.1, −0.1, 0.2 °/s; telemetry clock 15 ms ahead and 100 ppm fast).
+/// Each bound is far tighter than a unit slip (10³ between s and ms, 57 between rad and deg):
+/// the offsets within 0.1° and the bias within 0.02 °/s of the truth; the gyro fit's σ and
+/// residual a few hundredths of a degree (0.03° measured); the clock offset at the windows' mean
+/// time within 1 ms of 15 ms + 100 ppm of that time, its σ a fraction of a millisecond (0.21 ms
+/// is the mean over 40 seeds), the drift within 4σ of 100 ppm.
 #[test]
-fn the_summary_states_the_telemetry_clock_in_ms_and_ppm() {
+fn the_run_summary_states_each_quantity_in_its_unit() {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/gyro-clock.yaml")).unwrap();
     let summary = flyarena::run::run_scenario(&s, false).summary(&s);
-    let c = summary.vehicles[0].gyro_alignment.as_ref().and_then(|g| g.telemetry_clock).expect("the clock is fitted");
+    let v = &summary.vehicles[0];
+    let near = |got: &[f64], want: &[f64], tol: f64| got.iter().zip(want).all(|(g, w)| (g - w).abs() < tol);
+    let rp = v.roll_pitch_estimate_deg.unwrap();
+    assert!(near(&rp, &[1.0, -0.5], 0.1), "{rp:?}");
+    let g = v.gyro_alignment.as_ref().expect("the gyro alignment ran");
+    assert!(near(&g.offset_deg, &[1.0, -0.5, 4.0], 0.1) && near(&g.gyro_bias_deg_s, &[0.1, -0.1, 0.2], 0.02), "{g:?}");
+    assert!(g.sigma_deg.iter().chain([&g.rms_residual_deg]).all(|x| (0.005..0.2).contains(x)), "{g:?}");
+    let c = g.telemetry_clock.expect("the clock is fitted");
     let truth_ms = 15.0 + 100e-6 * c.at_s * 1e3;
     assert!(c.at_s > 1.0 && (c.offset_ms - truth_ms).abs() < 1.0, "{c:?} against {truth_ms} ms");
     assert!((0.02..1.0).contains(&c.offset_sigma_ms), "{c:?}");
