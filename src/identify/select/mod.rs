@@ -750,7 +750,9 @@ mod tests {
     /// standard deviations are the delta method over the columns they sum: roll over
     /// (o_x, w_x·c, w_y·s, b_y/g), pitch over (o_y, −w_x·s, w_y·c, −b_x/g), with the covariances'
     /// cross terms. Every column has its own variance, so a gradient that picks the wrong column
-    /// (b_x for roll's b_y) or drops one changes the result.
+    /// (b_x for roll's b_y) or drops one changes the result; the covariances of pitch's w_x and
+    /// of roll's w_y with the offset give each world-tilt gradient's sign a cross term (shard 44:
+    /// −s as s survived, the variances alone square it away).
     #[test]
     fn rest_tilt_is_the_frame_sum_and_its_delta_method_spread() {
         let (g, yaw) = (9.81, 0.3_f64);
@@ -766,6 +768,11 @@ mod tests {
         cov[(at(b.start + 1), at(o.start))] = k1;
         cov[(at(o.start + 1), at(b.start))] = k2;
         cov[(at(b.start), at(o.start + 1))] = k2;
+        let (k3, k4) = (1.5e-5, -2.5e-5);
+        cov[(at(o.start + 1), at(w.start))] = k3;
+        cov[(at(w.start), at(o.start + 1))] = k3;
+        cov[(at(o.start), at(w.start + 1))] = k4;
+        cov[(at(w.start + 1), at(o.start))] = k4;
         let mut theta = vec![0.0; N_COLUMNS];
         theta[b.start..b.end].copy_from_slice(&[0.05, -0.07, 0.11]);
         let fit = Fit { set: set.clone(), theta: theta.clone(), theta_w: theta, rss: 1.0, n: 100, cov };
@@ -778,8 +785,8 @@ mod tests {
         assert!((frame[0] - (0.01 + 0.003 * c + 0.004 * s)).abs() < 1e-12, "{frame:?}");
         assert!((frame[1] - (-0.02 - 0.003 * s + 0.004 * c)).abs() < 1e-12, "{frame:?}");
         assert_eq!(bias, Vector3::new(0.05, -0.07, 0.11));
-        let roll = var(o.start) + c * c * var(w.start) + s * s * var(w.start + 1) + var(b.start + 1) / (g * g) + 2.0 * k1 / g;
-        let pitch = var(o.start + 1) + s * s * var(w.start) + c * c * var(w.start + 1) + var(b.start) / (g * g) - 2.0 * k2 / g;
+        let roll = var(o.start) + c * c * var(w.start) + s * s * var(w.start + 1) + var(b.start + 1) / (g * g) + 2.0 * k1 / g + 2.0 * k4 * s;
+        let pitch = var(o.start + 1) + s * s * var(w.start) + c * c * var(w.start + 1) + var(b.start) / (g * g) - 2.0 * k2 / g - 2.0 * k3 * s;
         assert!((sd[0] - roll.sqrt()).abs() < 1e-15 && (sd[1] - pitch.sqrt()).abs() < 1e-15, "{sd:?} against {} {}", roll.sqrt(), pitch.sqrt());
         // none of the effects selected: no frame and no bias, whatever the corrections hold
         let (frame, bias, _) = rest_tilt(&[], &fit, &corr, g, yaw);
