@@ -237,6 +237,32 @@ struct Factors {
     euler: Option<f64>,
 }
 
+/// A mapped log's pose cell (`column` of line `lineno`): a finite number, or a dropout (`None`:
+/// empty or `NaN`); anything else is corrupted, an error naming line and column.
+fn pose_cell(cell: &str, column: &str, file: &str, lineno: usize) -> Result<Option<f64>, InputError> {
+    let c = cell.trim();
+    if c.is_empty() || c.eq_ignore_ascii_case("nan") {
+        return Ok(None);
+    }
+    c.parse::<f64>().ok().filter(|x| x.is_finite()).map(Some).ok_or_else(|| InputError::Row {
+        file: file.to_string(),
+        line: lineno,
+        column: Some(column.to_string()),
+        message: format!("`{c}` is neither a finite number nor a dropout (an empty cell or NaN)"),
+    })
+}
+
+/// The error of a log with fewer than two rows left: saying so, and how many rows repeated the
+/// time of the row before (a log whose clock stood still).
+fn too_few_rows(file: &str, repairs: &[String]) -> InputError {
+    let repeats = repairs.iter().filter(|r| r.contains("repeats the time")).count();
+    if repeats > 0 {
+        InputError::log(file, format!("fewer than two rows with distinct times ({repeats} rows repeat the time of the row before)"))
+    } else {
+        InputError::log(file, "fewer than two rows")
+    }
+}
+
 impl Mapping {
     /// Reads and checks a mapping file.
     pub fn load(path: &Path) -> Result<Mapping, InputError> {
@@ -456,19 +482,6 @@ impl Mapping {
                 return Err(InputError::row(file, lineno, format!("{} cells for {} columns", cells.len(), header.len())));
             }
             let num = |i: usize| -> Option<f64> { cells[i].trim().parse::<f64>().ok().filter(|x| x.is_finite()) };
-            // a pose cell: a finite number, or a dropout (empty or NaN)
-            let pose_cell = |i: usize| -> Result<Option<f64>, InputError> {
-                let c = cells[i].trim();
-                if c.is_empty() || c.eq_ignore_ascii_case("nan") {
-                    return Ok(None);
-                }
-                num(i).map(Some).ok_or_else(|| InputError::Row {
-                    file: file.to_string(),
-                    line: lineno,
-                    column: Some(header[i].to_string()),
-                    message: format!("`{c}` is neither a finite number nor a dropout (an empty cell or NaN)"),
-                })
-            };
             let need = |i: usize| -> Result<f64, InputError> {
                 num(i).ok_or_else(|| InputError::Row {
                     file: file.to_string(),
@@ -487,7 +500,7 @@ impl Mapping {
                     continue;
                 }
             }
-            let pose: Option<Vec<f64>> = pi.iter().chain(qi).map(|&i| pose_cell(i)).collect::<Result<Vec<_>, _>>()?.into_iter().collect();
+            let pose: Option<Vec<f64>> = pi.iter().chain(qi).map(|&i| pose_cell(cells[i], header[i], file, lineno)).collect::<Result<Vec<_>, _>>()?.into_iter().collect();
             let seen = pose.is_some();
             if let Some(p) = pose {
                 last_pose = self.pose(&p, euler_f, pos_f, file, lineno)?;
@@ -516,10 +529,7 @@ impl Mapping {
             s.accel_body.push(acc);
         }
         if s.t_s.len() < 2 {
-            let repeats = s.repairs.iter().filter(|r| r.contains("repeats the time")).count();
-            let why =
-                if repeats > 0 { format!("fewer than two rows with distinct times ({repeats} rows repeat the time of the row before)") } else { "fewer than two rows".to_string() };
-            return Err(InputError::log(file, why));
+            return Err(too_few_rows(file, &s.repairs));
         }
         s.segments = crate::log::split_at_gaps(&s.t_s, &mut s.repairs);
         Ok(s)
