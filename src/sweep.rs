@@ -159,9 +159,24 @@ impl Sweep {
                 Variation::Grid(g) => g.clone(),
             };
             for x in reached {
-                set_path(&mut t, &v.field, x).map_err(|m| spec(format!("vary[{k}]: {m}")))?;
-                Scenario::parse(&serde_json::to_string(&t).expect("a JSON tree serialises"), path)
-                    .map_err(|e| spec(format!("vary[{k}]: `{}` = {x}: {}", v.field, invalid_message(&e))))?;
+                let mut check = |x: f64| -> Result<(), SweepError> {
+                    set_path(&mut t, &v.field, x).map_err(|m| spec(format!("vary[{k}]: {m}")))?;
+                    Scenario::parse(&serde_json::to_string(&t).expect("a JSON tree serialises"), path)
+                        .map(drop)
+                        .map_err(|e| spec(format!("vary[{k}]: `{}` = {x}: {}", v.field, invalid_message(&e))))
+                };
+                if let Err(e) = check(x) {
+                    // a uniform never draws its upper end, and its lower end with probability
+                    // 2⁻⁵³: an end exactly on an open bound ((0, 3600] s) is fine one ulp inside
+                    let inside = match sweep.variations[k] {
+                        Variation::Uniform(lo, _) if x == lo => Some(lo.next_up()),
+                        Variation::Uniform(_, hi) if x == hi => Some(hi.next_down()),
+                        _ => None,
+                    };
+                    if inside.is_none_or(|y| check(y).is_err()) {
+                        return Err(e);
+                    }
+                }
             }
         }
         Ok(sweep)

@@ -161,6 +161,11 @@ fn bad_sweeps_are_rejected_before_running() {
         assert_eq!(code, 2, "case {k}: {out}{err}");
         assert!(err.contains(want) && !err.contains("<input>"), "case {k}: {err}");
     }
+    // a uniform whose lower end is an open bound (average_s in (0, 3600] s) never draws it
+    // (probability 2⁻⁵³): accepted, as it ran before the load checks
+    let open_end = good.replace("grid: [0.5, 1, 2, 4]", "uniform: [0, 4]");
+    std::fs::write(d.join("open-end.yaml"), open_end).unwrap();
+    assert!(Sweep::load(&d.join("open-end.yaml")).is_ok());
 }
 
 /// A sweep killed part way leaves its journal; the same command again reuses every finished run
