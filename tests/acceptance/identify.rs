@@ -388,6 +388,8 @@ fn nanobench_flights() {
         }
         usable += 1;
         let name = f.file_name().unwrap().to_string_lossy();
+        // the report shows what is left of a flight it fitted (`> 0` as `<` hid it on every flight)
+        assert!(flyarena::identify::report::render(&r).contains("\n  what is left (final residual"), "{name}");
         // rotor drag of a Crazyflie: found in every flight, 0.3–0.5 1/s
         let k = r.param(Effect::RotorDrag, "k_x").unwrap_or_else(|| panic!("{name}: no rotor drag"));
         assert!((0.3..0.5).contains(&k), "{name}: k_x {k}");
