@@ -109,15 +109,6 @@ pub struct SweepOutput {
     pub rows: Vec<SweepRow>,
 }
 
-/// What a patched scenario's error says, without the position and the source lines, which are
-/// in a JSON tree no file holds.
-fn invalid_message(e: &ScenarioError) -> String {
-    match e {
-        ScenarioError::Invalid { message, .. } => message.clone(),
-        other => other.to_string(),
-    }
-}
-
 /// The plan of a sweep: the YAML tree and the checked variations.
 pub struct Sweep {
     name: String,
@@ -163,7 +154,7 @@ impl Sweep {
                     set_path(&mut t, &v.field, x).map_err(|m| spec(format!("vary[{k}]: {m}")))?;
                     Scenario::parse(&serde_json::to_string(&t).expect("a JSON tree serialises"), path)
                         .map(drop)
-                        .map_err(|e| spec(format!("vary[{k}]: `{}` = {x}: {}", v.field, invalid_message(&e))))
+                        .map_err(|e| spec(format!("vary[{k}]: `{}` = {x}: {}", v.field, e.what())))
                 };
                 if let Err(e) = check(x) {
                     // a uniform never draws its upper end, and its lower end with probability
@@ -229,7 +220,7 @@ impl Sweep {
         let s = Scenario::parse(&text, Path::new(&self.file)).map_err(|e| {
             // the varied tree's positions are in no file: name the run's values instead
             let values: Vec<String> = self.cfg.vary.iter().zip(&params).map(|(v, x)| format!("{} = {x}", v.field)).collect();
-            SweepError::Run { run: i, message: format!("{} ({}): {}", self.file, values.join(", "), invalid_message(&e)) }
+            SweepError::Run { run: i, message: format!("{} ({}): {}", self.file, values.join(", "), e.what()) }
         })?;
         Ok((s, params, grid_point))
     }

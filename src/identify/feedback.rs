@@ -141,7 +141,8 @@ pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, I
         let mut t = base;
         for (path, v) in &frag.effects {
             set_in(&mut t, path, v.clone(), true).map_err(|e| InputError::invalid(fragment.display(), e))?;
-            if let Err(crate::scenario::ScenarioError::Invalid { message, .. }) = merged(&t) {
+            if let Err(e) = merged(&t) {
+                let message = e.what();
                 let line = fsrc.lines().position(|l| l.trim_start().starts_with(path.as_str())).map_or(String::new(), |k| format!(":{}", k + 1));
                 return Err(InputError::invalid(format!("{}{line}", fragment.display()), format!("`{path}`: {message}")));
             }

@@ -54,6 +54,15 @@ fn render(file: &std::path::Path, span: &Option<Span>, path: &str, message: &str
 }
 
 impl ScenarioError {
+    /// What is wrong, without the file, position and source lines: for a scenario patched in
+    /// memory (a sweep's run, an effects fragment), whose positions are in no file.
+    pub fn what(&self) -> String {
+        match self {
+            ScenarioError::Invalid { message, .. } => message.clone(),
+            ScenarioError::Io { .. } => self.to_string(),
+        }
+    }
+
     /// The message without the source snippet (for one-line summaries and snapshots).
     pub fn headline(&self) -> String {
         match self {
