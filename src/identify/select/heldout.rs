@@ -133,5 +133,12 @@ mod tests {
         // fit, 100·(1 − 1/2) = 50 % for a residual of 0.5 (shard 44's `1e-9 + √n` gave none)
         let e = axis_error(Channel::Gyro, 2, &[1.0, -1.0, 1.0, -1.0], &before, &[0.5; 4], &[0, 1, 2, 3]);
         assert!((e.fit_after_pct.unwrap() - 50.0).abs() < 1e-12 && (e.rmse_after - 0.5).abs() < 1e-15, "{e:?}");
+        // the threshold grows with √n: over n = 4 it is 2e-9, so a spread of 1e-9 (y = ±5e-10)
+        // has no fit and one of 3e-9 (y = ±1.5e-9) has one (shard 45's `1e-9 / √n`, 5e-10, gave
+        // the first a fit)
+        let alt = |h: f64| [h, -h, h, -h];
+        let thin = axis_error(Channel::Gyro, 0, &alt(5e-10), &before, &[0.5; 4], &[0, 1, 2, 3]);
+        let thick = axis_error(Channel::Gyro, 0, &alt(1.5e-9), &before, &[0.5; 4], &[0, 1, 2, 3]);
+        assert!(thin.fit_after_pct.is_none() && thick.fit_after_pct.is_some(), "{thin:?} {thick:?}");
     }
 }
