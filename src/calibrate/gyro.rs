@@ -899,6 +899,23 @@ mod tests {
         assert!(edge.is_none(), "{edge:?}");
     }
 
+    /// The pooled moments need the four grid nodes around each block's offset (the cubic through
+    /// them): with a 20 ms range and 1 ms steps (nodes −20, −19, ..., 20 ms) an offset is pooled
+    /// from −19 ms to 19 ms and not beyond either end (shard 46: the node count's `− 1` as `+ 1`
+    /// extrapolated up to two steps past the last node).
+    #[test]
+    fn the_pooled_moments_stop_one_step_inside_the_grid() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
+        let search = ClockSearch { max_offset: Nanos::from_millis(20), ..ClockSearch::default() };
+        let (g, _) = fly(gyro().estimate_clock(search), c, Nanos::ZERO, 0.0, 6);
+        let n: u64 = g.blocks.iter().map(|b| b.n).sum();
+        assert!(!g.blocks.is_empty() && g.blocks.iter().all(|b| b.per_offset.len() == 41), "{} blocks", g.blocks.len());
+        let t_mean = g.blocks.iter().map(|b| b.sum_t).sum::<f64>() / n as f64;
+        let pooled = |ms: f64| g.pooled(&search, t_mean, ms * 1e-3, 0.0).is_some();
+        assert!(pooled(-18.99) && pooled(0.0) && pooled(18.99));
+        assert!(!pooled(-19.01) && !pooled(19.01) && !pooled(20.5) && !pooled(-20.5));
+    }
+
     /// Every window of the clock search's grid is either paired or dropped: with 0.1 s of
     /// telemetry lost, some windows are dropped (those whose span at some candidate offset
     /// reaches into the gap, at least 100/40 of them), and paired + dropped is the gapless

@@ -393,7 +393,10 @@ fn nanobench_flights() {
         // nor when as many samples are held out as trained on (`train + heldout == 0` as `-`)
         let even = flyarena::identify::Report { heldout_samples: r.train_samples, ..r.clone() };
         let text = flyarena::identify::report::render(&even);
-        assert!(text.contains("\n  held-out error, nominal → with the effects") && text.contains("\n  what is left (final residual") && !text.contains("no usable sample"), "{name}");
+        assert!(
+            text.contains("\n  held-out error, nominal → with the effects") && text.contains("\n  what is left (final residual") && !text.contains("no usable sample"),
+            "{name}"
+        );
         // rotor drag of a Crazyflie: found in every flight, 0.3–0.5 1/s
         let k = r.param(Effect::RotorDrag, "k_x").unwrap_or_else(|| panic!("{name}: no rotor drag"));
         assert!((0.3..0.5).contains(&k), "{name}: k_x {k}");

@@ -359,6 +359,23 @@ fn the_run_summary_states_each_quantity_in_its_unit() {
     assert!((0.02..1.0).contains(&c.offset_sigma_ms), "{c:?}");
     let (drift, sd) = (c.drift_ppm.unwrap(), c.drift_sigma_ppm.unwrap());
     assert!(sd > 0.0 && (drift - 100.0).abs() < 4.0 * sd, "{c:?}");
+    // the markers only rotate (1°, −0.5°, 4°): the truth is a rigid displacement, no misfit
+    assert!(near(&v.true_offset_deg, &[1.0, -0.5, 4.0], 1e-9) && v.true_offset_misfit_mm.abs() < 1e-9, "{:?} {}", v.true_offset_deg, v.true_offset_misfit_mm);
+}
+
+/// The summary's marker misfit is the truth's rigid-fit residual in mm. displaced-markers.yaml
+/// moves two markers by (0, 6, −4) and (0, 0, 5) mm: no rigid motion maps the template onto them,
+/// so the misfit is above 0, and at most the RMS displacement √((36 + 16 + 25)/4) = 4.39 mm (the
+/// identity's residual: the best rigid fit does no worse). Shard 46 found `· 1e3` as `+ 1e3`
+/// unread (and `/ 1e3` would give 0.004 mm).
+#[test]
+fn the_run_summary_states_the_markers_misfit_in_mm() {
+    use flyarena::{Body, Vec3};
+    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/displaced-markers.yaml")).unwrap();
+    let got = flyarena::run::run_scenario(&s, false).summary(&s).vehicles[0].true_offset_misfit_mm;
+    let d: [Vec3<Body>; 4] = [Vec3::new(0.0, 0.006, -0.004), Vec3::zeros(), Vec3::new(0.0, 0.0, 0.005), Vec3::zeros()];
+    let truth = flyarena::mocap::MarkerSet::displaced(flyarena::mocap::builtin_pattern(0).to_vec(), flyarena::frames::Euler::ZERO, &d).true_offset().unwrap();
+    assert!((got - truth.rms_misfit_m * 1e3).abs() < 1e-12 && got > 0.0 && got <= (77.0f64 / 4.0).sqrt() + 1e-12, "{got} mm against {} m", truth.rms_misfit_m);
 }
 
 /// The gyro alignment on an unsynchronised telemetry clock (`scenarios/gyro-clock.yaml`, offset

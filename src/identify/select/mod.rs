@@ -527,7 +527,7 @@ impl Search {
         // significant alone but fail the held-out gate: such pairs are tried together, at a
         // Bonferroni level over the singles and these pairs, and win only with a lower ΔBIC
         // than every passing single
-        let near: Vec<Effect> = cands.iter().filter(|c| !c.passed && c.p_value < o.alpha / pool.len() as f64 && c.delta_bic < 0.0).map(|c| c.effect).collect();
+        let near = pair_candidates(&cands, o.alpha);
         let n_pairs = near.len() * near.len().saturating_sub(1) / 2;
         let mut pair: Option<(Effect, Candidate)> = None;
         for (i, a) in near.iter().enumerate() {
@@ -624,6 +624,14 @@ impl Search {
         }
         not_identifiable
     }
+}
+
+/// The candidates of a round that are tried in pairs: each failed its gates, yet alone is
+/// significant at the Bonferroni level α/m over the round's m candidates and pays for its
+/// parameters (ΔBIC < 0).
+fn pair_candidates(cands: &[Candidate], alpha: f64) -> Vec<Effect> {
+    let level = alpha / cands.len() as f64;
+    cands.iter().filter(|c| !c.passed && c.p_value < level && c.delta_bic < 0.0).map(|c| c.effect).collect()
 }
 
 /// Notes on the nominal fit's data (too few usable samples, glitches left out); true when
@@ -927,6 +935,24 @@ mod tests {
     /// 2000 training rows: p = 6.1·10⁻⁴, so k = 16 at α = 0.01) with the held-out gate off: for
     /// the k with α/(k + 1) < p < α/k, it stays when k − 1 candidates are outside and leaves
     /// when k are.
+    /// Pairs are tried among the round's failures that alone are significant at α/m and have
+    /// ΔBIC < 0: with α = 0.01 and m = 5 candidates the level is 0.002, so p = 0.0015 is in and
+    /// p = 0.0025 is out (shard 46: α/m as α % m, which is α, took it in); a passed candidate
+    /// and a failure with ΔBIC ≥ 0 are out at any p.
+    #[test]
+    fn pairs_are_tried_among_failures_significant_at_alpha_over_the_candidates() {
+        let c = |effect: Effect, passed: bool, p_value: f64, delta_bic: f64| Candidate { effect, delta_bic, f: 10.0, p_value, heldout_gain: -0.01, max_corr: 0.3, passed };
+        let cands = [
+            c(Effect::BodyOffset, false, 0.0015, -3.0),
+            c(Effect::WorldTilt, false, 0.0025, -3.0),
+            c(Effect::RotorDrag, true, 1e-9, -50.0),
+            c(Effect::GyroDelay, false, 1e-9, 0.0),
+            c(Effect::AccelBias, false, 1e-9, -0.5),
+        ];
+        assert_eq!(pair_candidates(&cands, 0.01), [Effect::BodyOffset, Effect::AccelBias]);
+        assert_eq!(pair_candidates(&cands[..2], 0.01), [Effect::BodyOffset, Effect::WorldTilt], "m = 2: the level is 0.005");
+    }
+
     #[test]
     fn the_backward_check_tests_at_alpha_over_the_outside_candidates_and_itself() {
         let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
