@@ -303,6 +303,9 @@ mod tests {
         let mut ok = ValidityCheck::default();
         ok.add(Euler::from_degrees(0.2, 0.0, -0.3));
         assert!(ok.verdict(1f64.to_radians(), 1f64.to_radians()).accepted);
+        // no sample is no verdict to accept, though its means read 0 (shard 48: n > 0 as >= 0)
+        let none = ValidityCheck::default().verdict(1f64.to_radians(), 1f64.to_radians());
+        assert!(!none.accepted && none.mean_yaw == 0.0 && none.mean_roll == 0.0, "{none:?}");
     }
 
     #[test]

@@ -295,4 +295,20 @@ mod tests {
             assert!(rigid_fit(&bent, &y, &[true; 3]).is_some(), "{dir:?} bent");
         }
     }
+
+    /// The collinearity test is on λ₂ (m²), not on c₂ (m⁴): markers (±a, 0, 0) and (0, h, 0)
+    /// have the spread diag(2a², 2h²/3, 0), so c₂/tr = λ₁λ₂/(λ₁ + λ₂). With a = 0.1 m
+    /// (λ₁ = 0.02 m²), a height giving λ₂ = 3e-8 m² (h = 0.21 mm) passes the 1e-8 m² bound
+    /// (c₂/tr = 3.0e-8) and one giving λ₂ = 3e-9 m² does not; the product c₂ = λ₁λ₂ = 6e-10
+    /// would refuse both (shard 48: `c₂ / tr` as `c₂ % tr`, which is c₂ below tr).
+    #[test]
+    fn the_collinearity_bound_is_on_the_second_spread_eigenvalue() {
+        let fits = |lambda2: f64| {
+            let h = (1.5 * lambda2).sqrt();
+            let m = [Vec3::<Body>::new(-0.1, 0.0, 0.0), Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.0, h, 0.0)];
+            let y: Vec<Vec3<Nav>> = m.iter().map(|p| p.assume_same_as()).collect();
+            rigid_fit(&m, &y, &[true; 3]).is_some()
+        };
+        assert!(fits(3e-8) && !fits(3e-9));
+    }
 }

@@ -113,6 +113,25 @@ fn excitation_matches_the_selections_f_statistic() {
     assert!((ex[1].heldout_share - 4.0 * en / (4.0 * en + 1.0)).abs() < 1e-9 && ex[2].heldout_share == 0.0, "{ex:?}");
 }
 
+/// The excitation takes a truth in the report's units (here deg/s) and computes λ from its SI
+/// value, as the selection's F statistic sees it: on the gyro-bias flight (the bias hidden,
+/// found at the first step) F·k and λ agree (1.02) as on the rotor-drag flight, whose factor is 1 and
+/// cannot tell a lost conversion (shard 48: `v / f` as `v % f`, which leaves 1.0 deg/s at 1.0).
+#[test]
+fn excitation_reads_the_truth_in_the_reported_units() {
+    use flyarena::identify::Effect::GyroBias;
+    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/identify-gyro-bias.yaml")).unwrap();
+    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "gyro").unwrap();
+    let o = Options::default();
+    let r = flyarena::identify::identify(&series, &o).unwrap();
+    let step = &r.steps[0];
+    assert_eq!(step.added, GyroBias);
+    let f = step.candidates.iter().find(|c| c.effect == GyroBias).unwrap().f;
+    let ex = flyarena::identify::select::excitation(&series, &o, &[(GyroBias, vec![1.0, -0.6, 0.8])]);
+    let ratio = 3.0 * f / ex[0].lambda;
+    assert!((0.7..1.4).contains(&ratio), "F·k = {}, λ = {}", 3.0 * f, ex[0].lambda);
+}
+
 /// Regression for the pair step: trial 228 of seed 1 (a fixture, as drawn then) hides a body offset, a world tilt and a
 /// constant force. Alone, the body offset extrapolated so badly to the held-out blocks (its
 /// error grew 3.7×) that it failed the held-out gate, and an accelerometer bias got in instead
