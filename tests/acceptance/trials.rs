@@ -88,6 +88,19 @@ fn a_confounded_mix_is_flagged_not_answered_with_confidence() {
     }
 }
 
+/// The F statistic with which `effect` joins at the first step of identify on a scenario's
+/// flight (default options), and the excitation of each truth on that flight.
+fn first_step_f_and_excitation(scenario: &str, effect: Effect, truths: &[(Effect, Vec<f64>)]) -> (f64, Vec<flyarena::identify::select::Excitation>) {
+    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios").join(scenario)).unwrap();
+    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, scenario).unwrap();
+    let o = Options::default();
+    let r = flyarena::identify::identify(&series, &o).unwrap();
+    let step = &r.steps[0];
+    assert_eq!(step.added, effect, "{scenario}");
+    let f = step.candidates.iter().find(|c| c.effect == effect).unwrap().f;
+    (f, flyarena::identify::select::excitation(&series, &o, truths))
+}
+
 /// The excitation's noncentrality against the F statistic the selection computes: for a block
 /// of k parameters, E[F] = 1 + λ/k, so on the rotor-drag flight (drag alone hidden, first step)
 /// F·k and λ must agree to within the difference of their noise models; doubling the truth
@@ -95,14 +108,7 @@ fn a_confounded_mix_is_flagged_not_answered_with_confidence() {
 #[test]
 fn excitation_matches_the_selections_f_statistic() {
     use flyarena::identify::Effect::RotorDrag;
-    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/identify-rotor-drag.yaml")).unwrap();
-    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "drag").unwrap();
-    let o = Options::default();
-    let r = flyarena::identify::identify(&series, &o).unwrap();
-    let step = &r.steps[0];
-    assert_eq!(step.added, RotorDrag);
-    let f = step.candidates.iter().find(|c| c.effect == RotorDrag).unwrap().f;
-    let ex = flyarena::identify::select::excitation(&series, &o, &[(RotorDrag, vec![0.35, 0.35]), (RotorDrag, vec![0.7, 0.7]), (RotorDrag, vec![0.0, 0.0])]);
+    let (f, ex) = first_step_f_and_excitation("identify-rotor-drag.yaml", RotorDrag, &[(RotorDrag, vec![0.35, 0.35]), (RotorDrag, vec![0.7, 0.7]), (RotorDrag, vec![0.0, 0.0])]);
     let ratio = 2.0 * f / ex[0].lambda;
     assert!((0.7..1.4).contains(&ratio), "F·k = {}, λ = {}", 2.0 * f, ex[0].lambda);
     assert!((ex[1].lambda / ex[0].lambda - 4.0).abs() < 1e-9 && ex[2].lambda == 0.0, "{ex:?}");
@@ -120,14 +126,7 @@ fn excitation_matches_the_selections_f_statistic() {
 #[test]
 fn excitation_reads_the_truth_in_the_reported_units() {
     use flyarena::identify::Effect::GyroBias;
-    let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/identify-gyro-bias.yaml")).unwrap();
-    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "gyro").unwrap();
-    let o = Options::default();
-    let r = flyarena::identify::identify(&series, &o).unwrap();
-    let step = &r.steps[0];
-    assert_eq!(step.added, GyroBias);
-    let f = step.candidates.iter().find(|c| c.effect == GyroBias).unwrap().f;
-    let ex = flyarena::identify::select::excitation(&series, &o, &[(GyroBias, vec![1.0, -0.6, 0.8])]);
+    let (f, ex) = first_step_f_and_excitation("identify-gyro-bias.yaml", GyroBias, &[(GyroBias, vec![1.0, -0.6, 0.8])]);
     let ratio = 3.0 * f / ex[0].lambda;
     assert!((0.7..1.4).contains(&ratio), "F·k = {}, λ = {}", 3.0 * f, ex[0].lambda);
 }
