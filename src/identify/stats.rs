@@ -324,6 +324,14 @@ pub(crate) fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
 mod tests {
     use super::*;
 
+    /// A constant series has no variance to normalise by: its autocorrelations are 0, not 0/0
+    /// (shard 50: `var > 0` as `>= 0` returned NaN).
+    #[test]
+    fn the_autocorrelation_of_a_constant_is_zero() {
+        let (r, n) = autocorrelation(&[3.0; 10], 3);
+        assert!(n == 10 && r == [0.0; 3], "{r:?}");
+    }
+
     /// The AR order chosen by BIC does not depend on the series' unit: an AR(2) in metres and the
     /// same series in micrometres (where the residual sum of squares far exceeds the sample
     /// count) get the same order and the same coefficients, and σ scales with the unit.

@@ -296,6 +296,23 @@ mod tests {
         }
     }
 
+    /// One sign for the output whichever path found it: a guess given as −q (w < 0; the same
+    /// rotation) is refined to −q, and the fit turns it to w ≥ 0, as the Kabsch path gives
+    /// (shard 50: `w < 0` as `w == 0` kept the guess's sign).
+    #[test]
+    fn the_fitted_quaternion_has_w_at_least_zero_whatever_the_guess() {
+        let r: Rot<Body, Nav> = Rot::from_euler(Euler::from_degrees(10.0, -20.0, 30.0));
+        let m: Vec<Vec3<Body>> = crate::mocap::builtin_pattern(0).iter().map(|p| p.assume_same_as()).collect();
+        let y: Vec<Vec3<Nav>> = m.iter().map(|p| r.apply(*p)).collect();
+        let flipped: Rot<Body, Nav> = Rot::from_quaternion(UnitQuaternion::new_unchecked(-r.quaternion().into_inner()));
+        let kabsch = rigid_fit(&m, &y, &[true; 4]).unwrap().rotation;
+        let near = rigid_fit_near(&m, &y, &[true; 4], Some(flipped)).unwrap().rotation;
+        assert!(r.quaternion().w > 0.0 && flipped.quaternion().w < 0.0);
+        for q in [kabsch.quaternion(), near.quaternion()] {
+            assert!(q.w > 0.0 && (q.into_inner() - r.quaternion().into_inner()).norm() < 1e-12, "{q:?} against {:?}", r.quaternion());
+        }
+    }
+
     /// The collinearity test is on λ₂ (m²), not on c₂ (m⁴): markers (±a, 0, 0) and (0, h, 0)
     /// have the spread diag(2a², 2h²/3, 0), so c₂/tr = λ₁λ₂/(λ₁ + λ₂). With a = 0.1 m
     /// (λ₁ = 0.02 m²), a height giving λ₂ = 3e-8 m² (h = 0.21 mm) passes the 1e-8 m² bound

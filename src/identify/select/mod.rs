@@ -354,6 +354,13 @@ fn bic_change(n: f64, rss_base: f64, rss: f64, k: f64) -> f64 {
     n * (rss / rss_base).ln() + k * n.ln()
 }
 
+/// The nested-model F-test of k added parameters: F = ((RSS₀ − RSS₁)/k) / (RSS₁/(n − p)) with p
+/// the parameters of the larger model, and its p-value P(F(k, n − p) > F).
+fn f_test(rss_base: f64, rss: f64, k: f64, n: f64, p: f64) -> (f64, f64) {
+    let f = ((rss_base - rss) / k) / (rss / (n - p));
+    (f, f_sf(f, k, n - p))
+}
+
 /// One candidate block (or two together) on top of the fitted set `base`: ΔBIC, F-test,
 /// held-out gain on the axes the block acts on, largest correlation with the residual of
 /// `base`, and whether it passes the gates among `tests` candidates.
@@ -365,8 +372,7 @@ fn score(gs: &[Gram], base: &Fit, effects: &[Effect], tests: usize, o: &Options)
     let k = effects.iter().map(|e| e.n_params()).sum::<usize>() as f64;
     let n = f1.n as f64;
     let delta_bic = bic_change(n, base.rss, f1.rss, k);
-    let f = ((base.rss - f1.rss) / k) / (f1.rss / (n - set.len() as f64));
-    let p_value = f_sf(f, k, n - set.len() as f64);
+    let (f, p_value) = f_test(base.rss, f1.rss, k, n, set.len() as f64);
     let rss1_t = heldout_rss(gs, &f1.theta);
     let (mut e0, mut e1) = (0.0, 0.0);
     let block = set_of(effects);
@@ -803,6 +809,16 @@ mod tests {
 
     /// ΔBIC by hand: 1000 samples, 3 parameters, RSS 200 → 180: 1000·ln 0.9 + 3·ln 1000
     /// = −105.36 + 20.72 = −84.63; the penalty grows with k·ln n, not k + ln n.
+    /// The F-test by hand: RSS 120 → 100 with k = 2 added of p = 4, n = 54: F = (20/2)/(100/50)
+    /// = 5, and F(2, d₂)'s survival function is (1 + 2x/d₂)^(−d₂/2), so p = 1.2^−25 = 0.01048
+    /// (shard 50: the denominator's n − p as n + p gave F = 5.8 and survived the suite).
+    #[test]
+    fn the_f_test_is_the_nested_models_by_hand() {
+        let (f, p) = f_test(120.0, 100.0, 2.0, 54.0, 4.0);
+        assert!((f - 5.0).abs() < 1e-12, "{f}");
+        assert!((p - 1.2f64.powi(-25)).abs() < 1e-9, "{p} against {}", 1.2f64.powi(-25));
+    }
+
     #[test]
     fn bic_change_is_the_likelihood_gain_plus_k_ln_n() {
         let d = bic_change(1000.0, 200.0, 180.0, 3.0);
