@@ -642,6 +642,19 @@ mod tests {
     use super::*;
     use crate::frames::Nav;
 
+    /// A window is the shortest multiple of both periods at least `min_window` long: for 4 ms
+    /// mocap and 6 ms telemetry frames the multiples are 12 ms apart (lcm = 4·6/gcd(4, 6)), so
+    /// 1 ms gives 12 ms and 13 ms gives 24 ms, with 2 and 4 telemetry frames (shard 51: gcd's
+    /// `b == 0` as `!=` returned its first argument, right for 5 and 10 ms, and made the lcm 6).
+    #[test]
+    fn a_window_is_the_shortest_common_multiple_of_both_periods() {
+        for (min_ms, want_ms, frames) in [(1, 12, 2), (12, 12, 2), (13, 24, 4)] {
+            let g = GyroAlignment::new(Nanos::from_millis(4), Nanos::from_millis(6), Nanos::from_millis(min_ms));
+            assert_eq!((g.window(), g.frames_per_window), (Nanos::from_millis(want_ms), frames), "min {min_ms} ms");
+        }
+        assert_eq!((gcd(4, 6), gcd(6, 4), gcd(7, 0)), (2, 2, 7));
+    }
+
     /// Rotation vectors about two axes, mapped through a known C, recover C exactly and the bias.
     #[test]
     fn recovers_a_known_rotation_and_bias_from_exact_pairs() {

@@ -306,6 +306,16 @@ mod tests {
         // no sample is no verdict to accept, though its means read 0 (shard 48: n > 0 as >= 0)
         let none = ValidityCheck::default().verdict(1f64.to_radians(), 1f64.to_radians());
         assert!(!none.accepted && none.mean_yaw == 0.0 && none.mean_roll == 0.0, "{none:?}");
+        // (7)'s inequalities are strict: a mean exactly at its bound fails (four samples of
+        // 0.5 rad average to 0.5 exactly; shard 51: the yaw's `<` as `<=` accepted it)
+        for (yaw, roll) in [(0.5, 0.0), (0.0, 0.5)] {
+            let mut edge = ValidityCheck::default();
+            for _ in 0..4 {
+                edge.add(Euler::new(roll, 0.0, yaw));
+            }
+            let v = edge.verdict(0.5, 0.5);
+            assert!(!v.accepted && v.mean_yaw == yaw && v.mean_roll == roll, "{v:?}");
+        }
     }
 
     #[test]

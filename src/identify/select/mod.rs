@@ -534,11 +534,11 @@ impl Search {
         // Bonferroni level over the singles and these pairs, and win only with a lower ΔBIC
         // than every passing single
         let near = pair_candidates(&cands, o.alpha);
-        let n_pairs = near.len() * near.len().saturating_sub(1) / 2;
+        let tests = tests_with_pairs(pool.len(), near.len());
         let mut pair: Option<(Effect, Candidate)> = None;
         for (i, a) in near.iter().enumerate() {
             for b in &near[i + 1..] {
-                let c = score(&[*a, *b], pool.len() + n_pairs);
+                let c = score(&[*a, *b], tests);
                 if c.passed && pair.as_ref().is_none_or(|(_, p)| c.delta_bic < p.delta_bic) {
                     pair = Some((*b, c));
                 }
@@ -638,6 +638,12 @@ impl Search {
 fn pair_candidates(cands: &[Candidate], alpha: f64) -> Vec<Effect> {
     let level = alpha / cands.len() as f64;
     cands.iter().filter(|c| !c.passed && c.p_value < level && c.delta_bic < 0.0).map(|c| c.effect).collect()
+}
+
+/// The number of tests a pair is judged among (its Bonferroni count): the round's m singles and
+/// the r(r − 1)/2 pairs of its r pair candidates.
+fn tests_with_pairs(singles: usize, near: usize) -> usize {
+    singles + near * near.saturating_sub(1) / 2
 }
 
 /// Notes on the nominal fit's data (too few usable samples, glitches left out); true when
@@ -967,6 +973,10 @@ mod tests {
         ];
         assert_eq!(pair_candidates(&cands, 0.01), [Effect::BodyOffset, Effect::AccelBias]);
         assert_eq!(pair_candidates(&cands[..2], 0.01), [Effect::BodyOffset, Effect::WorldTilt], "m = 2: the level is 0.005");
+        // a pair is judged among the m singles and the r(r − 1)/2 pairs of r candidates (shard
+        // 51: the count's `/ 2` as `% 2`, always 0, judged pairs among the singles alone)
+        let counts: Vec<usize> = (0..5).map(|r| tests_with_pairs(10, r)).collect();
+        assert_eq!(counts, [10, 10, 11, 13, 16]);
     }
 
     #[test]
