@@ -813,8 +813,6 @@ mod tests {
         assert_eq!((frame, bias), ([0.0, 0.0], Vector3::zeros()));
     }
 
-    /// ΔBIC by hand: 1000 samples, 3 parameters, RSS 200 → 180: 1000·ln 0.9 + 3·ln 1000
-    /// = −105.36 + 20.72 = −84.63; the penalty grows with k·ln n, not k + ln n.
     /// The F-test by hand: RSS 120 → 100 with k = 2 added of p = 4, n = 54: F = (20/2)/(100/50)
     /// = 5, and F(2, d₂)'s survival function is (1 + 2x/d₂)^(−d₂/2), so p = 1.2^−25 = 0.01048
     /// (shard 50: the denominator's n − p as n + p gave F = 5.8 and survived the suite).
@@ -825,6 +823,8 @@ mod tests {
         assert!((p - 1.2f64.powi(-25)).abs() < 1e-9, "{p} against {}", 1.2f64.powi(-25));
     }
 
+    /// ΔBIC by hand: 1000 samples, 3 parameters, RSS 200 → 180: 1000·ln 0.9 + 3·ln 1000
+    /// = −105.36 + 20.72 = −84.63; the penalty grows with k·ln n, not k + ln n.
     #[test]
     fn bic_change_is_the_likelihood_gain_plus_k_ln_n() {
         let d = bic_change(1000.0, 200.0, 180.0, 3.0);
@@ -951,12 +951,6 @@ mod tests {
         assert!(backward_worst(&gs, &selected, &[Effect::GroundEffect], 0, &o).is_none());
     }
 
-    /// The backward check's Bonferroni level: an effect re-tested on top of the others competes
-    /// with the `outside` candidates a forward step would try now and with itself, so it must
-    /// reach p < α/(outside + 1). A weak voltage term (β = 0.008 against a noise of 0.029 over
-    /// 2000 training rows: p = 6.1·10⁻⁴, so k = 16 at α = 0.01) with the held-out gate off: for
-    /// the k with α/(k + 1) < p < α/k, it stays when k − 1 candidates are outside and leaves
-    /// when k are.
     /// Pairs are tried among the round's failures that alone are significant at α/m and have
     /// ΔBIC < 0: with α = 0.01 and m = 5 candidates the level is 0.002, so p = 0.0015 is in and
     /// p = 0.0025 is out (shard 46: α/m as α % m, which is α, took it in); a passed candidate
@@ -979,6 +973,12 @@ mod tests {
         assert_eq!(counts, [10, 10, 11, 13, 16]);
     }
 
+    /// The backward check's Bonferroni level: an effect re-tested on top of the others competes
+    /// with the `outside` candidates a forward step would try now and with itself, so it must
+    /// reach p < α/(outside + 1). A weak voltage term (β = 0.008 against a noise of 0.029 over
+    /// 2000 training rows: p = 6.1·10⁻⁴, so k = 16 at α = 0.01) with the held-out gate off: for
+    /// the k with α/(k + 1) < p < α/k, it stays when k − 1 candidates are outside and leaves
+    /// when k are.
     #[test]
     fn the_backward_check_tests_at_alpha_over_the_outside_candidates_and_itself() {
         let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
