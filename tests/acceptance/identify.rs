@@ -280,6 +280,9 @@ fn mapped_log_cells_are_numbers_dropouts_or_located_errors() {
     assert_eq!(m.read_str(&log("10,1,2"), "log.csv").unwrap_err().to_string(), "log.csv:3: 3 cells for 19 columns");
     let frozen = format!("{CSV_HEADER}\n{}\n{}\n{}\n", row(0, "1"), row(0, "1"), row(0, "1"));
     assert_eq!(m.read_str(&frozen, "log.csv").unwrap_err().to_string(), "log.csv: fewer than two rows with distinct times (2 rows repeat the time of the row before)");
+    // one row and no repeat is just too few (`repeats > 0` as `>= 0` said "0 rows repeat")
+    let single = format!("{CSV_HEADER}\n{}\n", row(0, "1"));
+    assert_eq!(m.read_str(&single, "log.csv").unwrap_err().to_string(), "log.csv: fewer than two rows");
 }
 
 #[test]
