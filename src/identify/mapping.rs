@@ -237,6 +237,11 @@ struct Factors {
     euler: Option<f64>,
 }
 
+/// A cell's value when it is a finite number.
+fn finite(cell: &str) -> Option<f64> {
+    cell.trim().parse::<f64>().ok().filter(|x| x.is_finite())
+}
+
 /// A mapped log's pose cell (`column` of line `lineno`): a finite number, or a dropout (`None`:
 /// empty or `NaN`); anything else is corrupted, an error naming line and column.
 fn pose_cell(cell: &str, column: &str, file: &str, lineno: usize) -> Result<Option<f64>, InputError> {
@@ -244,7 +249,7 @@ fn pose_cell(cell: &str, column: &str, file: &str, lineno: usize) -> Result<Opti
     if c.is_empty() || c.eq_ignore_ascii_case("nan") {
         return Ok(None);
     }
-    c.parse::<f64>().ok().filter(|x| x.is_finite()).map(Some).ok_or_else(|| InputError::Row {
+    finite(c).map(Some).ok_or_else(|| InputError::Row {
         file: file.to_string(),
         line: lineno,
         column: Some(column.to_string()),
@@ -481,7 +486,7 @@ impl Mapping {
             if cells.len() < header.len() || cells[header.len()..].iter().any(|c| !c.trim().is_empty()) {
                 return Err(InputError::row(file, lineno, format!("{} cells for {} columns", cells.len(), header.len())));
             }
-            let num = |i: usize| -> Option<f64> { cells[i].trim().parse::<f64>().ok().filter(|x| x.is_finite()) };
+            let num = |i: usize| finite(cells[i]);
             let need = |i: usize| -> Result<f64, InputError> {
                 num(i).ok_or_else(|| InputError::Row {
                     file: file.to_string(),
