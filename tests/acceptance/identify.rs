@@ -400,6 +400,16 @@ fn nanobench_flights() {
             text.contains("\n  held-out error, nominal → with the effects") && text.contains("\n  what is left (final residual") && !text.contains("no usable sample"),
             "{name}"
         );
+        // nor when nothing is held out, or nothing trained on (`+` as `*` in either guard): the
+        // whiteness and what is left are of the samples there are
+        for (train, heldout) in [(r.train_samples, 0), (0, r.train_samples)] {
+            let one_sided = flyarena::identify::Report { train_samples: train, heldout_samples: heldout, ..r.clone() };
+            let text = flyarena::identify::report::render(&one_sided);
+            assert!(
+                text.contains("\n  final residual whiteness") && text.contains("\n  what is left (final residual") && !text.contains("no usable sample"),
+                "{name}: train {train}, held out {heldout}"
+            );
+        }
         // rotor drag of a Crazyflie: found in every flight, 0.3–0.5 1/s
         let k = r.param(Effect::RotorDrag, "k_x").unwrap_or_else(|| panic!("{name}: no rotor drag"));
         assert!((0.3..0.5).contains(&k), "{name}: k_x {k}");
