@@ -5,6 +5,7 @@
     python3 scripts/mutants-score.py --from 13  # shards 13 on
     python3 scripts/mutants-score.py --coverage # the intervals' coverage, measured by simulation
     python3 scripts/mutants-score.py --from 24 --alpha 0.025  # look 1 of scripts/mutants-plan.md
+    python3 scripts/mutants-score.py --census DIR [--survivors]  # scripts/mutants-census.sh's count
 
 A shard is a deterministic round-robin sample (every 90th mutant of the issue-14 list), so the
 viable mutants of the shards together are a sample of the population's viable mutants. Printed:
@@ -77,14 +78,52 @@ def coverage(n, p, alpha=0.05, draws=DRAWS, seed=14):
     return inside / draws, below / draws
 
 
+SHARDS = 90
+
+
+def census(d, survivors=False):
+    """The census of scripts/mutants-census.sh in d: per finished shard, stage 1's verdicts
+    (caught, missed, unviable, timeout) and stage 2's for each mutant stage 1 missed. Viable is
+    every mutant that built; caught is caught by stage 1 or by the whole suite in stage 2; a
+    timeout counts as not caught (a conservative reading). Until all 90 shards are done the
+    counts are progress, not the score."""
+    commit = open(os.path.join(d, "COMMIT"), encoding="utf-8").read().strip()
+    done, m, unviable, caught, left = [], 0, 0, 0, []
+    for k in range(SHARDS):
+        s = os.path.join(d, "shards", str(k))
+        if not os.path.exists(os.path.join(s, "DONE")):
+            continue
+        read = lambda f: [x.strip() for x in open(os.path.join(s, f), encoding="utf-8") if x.strip()] if os.path.exists(os.path.join(s, f)) else []
+        c, miss, u, t = read("caught.txt"), read("missed.txt"), read("unviable.txt"), read("timeout.txt")
+        verdicts = dict(reversed(x.split("\t", 1)) for x in read("suite.txt"))
+        if sorted(verdicts) != sorted(miss):
+            raise SystemExit(f"{s}: stage 2 judged {len(verdicts)} mutants, stage 1 missed {len(miss)}")
+        done.append(k)
+        m += len(c) + len(miss) + len(u) + len(t)
+        unviable += len(u)
+        caught += len(c) + sum(v == "caught" for v in verdicts.values())
+        left += [f"{k}\tstage 1 timeout\t{x}" for x in t] + [f"{k}\t{v}\t{x}" for x, v in verdicts.items() if v != "caught"]
+    n = m - unviable
+    print(f"census of {commit}: {len(done)} of {SHARDS} shards done, {m} mutants, {n} viable")
+    if n:
+        state = "the score: every mutant of the list" if len(done) == SHARDS else "progress, not the score: the census decides when all shards are done"
+        print(f"caught: {caught} of {n} = {100 * caught / n:.1f} % ({state})")
+    if survivors:
+        print("\n".join(left))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--census", metavar="DIR", help="count the census of scripts/mutants-census.sh in DIR instead of the shards table")
+    ap.add_argument("--survivors", action="store_true", help="with --census: list the viable mutants not caught")
     ap.add_argument("--from", dest="first", type=int, default=None, help="first shard to include")
     ap.add_argument("--to", dest="last", type=int, default=None, help="last shard to include")
     ap.add_argument("--table", default=os.path.join(os.path.dirname(__file__), "mutants-shards.tsv"))
     ap.add_argument("--alpha", type=float, default=0.05, help="one-sided level of the lower bound (scripts/mutants-plan.md spends 0.05 over repeated looks)")
     ap.add_argument("--coverage", action="store_true", help="measure the intervals' coverage at the pooled sample size")
     a = ap.parse_args()
+    if a.census:
+        return census(a.census, a.survivors)
     rows = []
     for line in open(a.table, encoding="utf-8"):
         if line.startswith("#") or line.startswith("shard") or not line.strip():
