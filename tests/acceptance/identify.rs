@@ -410,6 +410,12 @@ fn nanobench_flights() {
                 "{name}: train {train}, held out {heldout}"
             );
         }
+        // and no "what is left" header over nothing left, nor over no sample at all (the
+        // guard's `&&` as `||`, `> 0` as `>= 0`)
+        let nothing_left = flyarena::identify::report::render(&flyarena::identify::Report { left: Vec::new(), ..r.clone() });
+        assert!(!nothing_left.contains("what is left") && nothing_left.contains("\n  final residual whiteness"), "{name}");
+        let no_sample = flyarena::identify::report::render(&flyarena::identify::Report { train_samples: 0, heldout_samples: 0, ..r.clone() });
+        assert!(!no_sample.contains("what is left") && no_sample.contains("no usable sample"), "{name}");
         // rotor drag of a Crazyflie: found in every flight, 0.3–0.5 1/s
         let k = r.param(Effect::RotorDrag, "k_x").unwrap_or_else(|| panic!("{name}: no rotor drag"));
         assert!((0.3..0.5).contains(&k), "{name}: k_x {k}");
