@@ -544,15 +544,9 @@ impl Search {
                 }
             }
         }
-        let best_single = cands.iter().filter(|c| c.passed).min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic)).cloned();
-        let (best, partner) = match (best_single, pair) {
-            (Some(s1), Some((b, p))) if p.delta_bic < s1.delta_bic => (p, Some(b)),
-            (Some(s1), _) => (s1, None),
-            (None, Some((b, p))) => (p, Some(b)),
-            (None, None) => {
-                self.final_candidates = cands;
-                return false;
-            }
+        let Some((best, partner)) = round_winner(&cands, pair) else {
+            self.final_candidates = cands;
+            return false;
         };
         let mut unident = Vec::new();
         for c in cands.iter().filter(|c| c.effect != best.effect && c.passed) {
@@ -638,6 +632,19 @@ impl Search {
 fn pair_candidates(cands: &[Candidate], alpha: f64) -> Vec<Effect> {
     let level = alpha / cands.len() as f64;
     cands.iter().filter(|c| !c.passed && c.p_value < level && c.delta_bic < 0.0).map(|c| c.effect).collect()
+}
+
+/// A round's winner: the passing pair (its scoreboard and the partner that joins with its first
+/// effect) when its ΔBIC is strictly lower than every passing single's, else the passing single
+/// with the lowest ΔBIC; None when nothing passed.
+fn round_winner(cands: &[Candidate], pair: Option<(Effect, Candidate)>) -> Option<(Candidate, Option<Effect>)> {
+    let best_single = cands.iter().filter(|c| c.passed).min_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic)).cloned();
+    match (best_single, pair) {
+        (Some(s1), Some((b, p))) if p.delta_bic < s1.delta_bic => Some((p, Some(b))),
+        (Some(s1), _) => Some((s1, None)),
+        (None, Some((b, p))) => Some((p, Some(b))),
+        (None, None) => None,
+    }
 }
 
 /// The number of tests a pair is judged among (its Bonferroni count): the round's m singles and
@@ -971,6 +978,24 @@ mod tests {
         // 51: the count's `/ 2` as `% 2`, always 0, judged pairs among the singles alone)
         let counts: Vec<usize> = (0..5).map(|r| tests_with_pairs(10, r)).collect();
         assert_eq!(counts, [10, 10, 11, 13, 16]);
+    }
+
+    /// A round's winner by hand: of the passing singles (ΔBIC −10 and −20; a failure at −30 does
+    /// not count) the one at −20, unless a passing pair is strictly lower (shard 52: the pair's
+    /// `<` as `==` let a pair win only when it tied); with no single passing, the pair; with
+    /// nothing passing, none.
+    #[test]
+    fn a_pair_wins_a_round_only_strictly_below_every_passing_single() {
+        let c = |effect: Effect, passed: bool, delta_bic: f64| Candidate { effect, delta_bic, f: 10.0, p_value: 1e-6, heldout_gain: 0.1, max_corr: 0.3, passed };
+        let singles = [c(Effect::RotorDrag, true, -10.0), c(Effect::GyroDelay, true, -20.0), c(Effect::AccelBias, false, -30.0)];
+        let pair = |delta_bic: f64| Some((Effect::WorldTilt, c(Effect::BodyOffset, true, delta_bic)));
+        let winner = |cands: &[Candidate], pair| round_winner(cands, pair).map(|(w, partner)| (w.effect, w.delta_bic, partner));
+        assert_eq!(winner(&singles, None), Some((Effect::GyroDelay, -20.0, None)));
+        assert_eq!(winner(&singles, pair(-25.0)), Some((Effect::BodyOffset, -25.0, Some(Effect::WorldTilt))));
+        assert_eq!(winner(&singles, pair(-20.0)), Some((Effect::GyroDelay, -20.0, None)), "a tie goes to the single");
+        assert_eq!(winner(&singles, pair(-15.0)), Some((Effect::GyroDelay, -20.0, None)));
+        assert_eq!(winner(&singles[2..], pair(-5.0)), Some((Effect::BodyOffset, -5.0, Some(Effect::WorldTilt))));
+        assert_eq!(winner(&singles[2..], None), None);
     }
 
     /// The backward check's Bonferroni level: an effect re-tested on top of the others competes
