@@ -243,6 +243,19 @@ mod tests {
         assert!((st.lost_on_link as f64 - (1520.0 + 400.0)).abs() < 105.0, "{}", st.lost_on_link);
     }
 
+    /// The Gilbert–Elliott chain's stationary loss by hand: the bad state's share is
+    /// gb/(gb + bg), so gb = bg = 0.1 with losses 0.02 and 0.5 loses (0.02 + 0.5)/2 = 0.26; a
+    /// chain that never leaves the bad state (bg = 0) loses 0.5; one that never moves stays in
+    /// the good state it starts in and loses 0.02.
+    #[test]
+    fn the_mean_loss_is_the_chains_stationary_mix() {
+        let ge = |gb: f64, bg: f64| LossModel::GilbertElliott { p_good_to_bad: gb, p_bad_to_good: bg, loss_good: 0.02, loss_bad: 0.5 }.mean_loss();
+        assert!((ge(0.1, 0.1) - 0.26).abs() < 1e-15, "{}", ge(0.1, 0.1));
+        assert!((ge(0.1, 0.0) - 0.5).abs() < 1e-15, "{}", ge(0.1, 0.0));
+        assert_eq!(ge(0.0, 0.0), 0.02);
+        assert_eq!(LossModel::Bernoulli { p: 0.3 }.mean_loss(), 0.3);
+    }
+
     #[test]
     fn gilbert_elliott_mean_loss_and_bursts() {
         // 10 % mean loss in bursts of mean length 5 frames
