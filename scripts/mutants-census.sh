@@ -9,7 +9,8 @@
 # own build cache in DIR/target (a census never waits on, nor disturbs, the user's builds), and
 # per shard DIR/shards/K: stage 1's mutants.out with stage 2's suite.txt, and DONE once both
 # stages finished. Run again, it skips the shards marked DONE and reruns from its start a shard
-# that was cut short; it refuses a COMMIT other than the one the census began with.
+# that was cut short; it refuses a COMMIT other than the one the census began with. The real
+# flights are read from FLYARENA_DATA (default: the clone's ../shared/data).
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 dir="$(realpath -m "${1:?usage: scripts/mutants-census.sh DIR [COMMIT]}")"
@@ -30,6 +31,8 @@ else
     echo "$commit" > "$dir/COMMIT"
 fi
 export CARGO_TARGET_DIR="$dir/target"
+# the tree lies elsewhere, so the real flights are found where the clone finds them
+export FLYARENA_DATA="${FLYARENA_DATA:-$here/../shared/data}"
 mkdir -p "$dir/shards"
 for k in $(seq 0 89); do
     [ -e "$dir/shards/$k/DONE" ] && continue
