@@ -180,6 +180,12 @@ fn rows_without_their_estimates_fail_unless_flown_externally() {
     assert_eq!(verdicts(&r, "R2", ""), vec![(false, true)], "{}", r.table());
     main.vehicles[0].external = true;
     assert_eq!(rows_of(&main), vec![vec![(true, false)]; 5]);
+    // an external controller that did report its straight-flight estimate is held to it (the
+    // guard `err.is_none() && external` without its first half showed it unasserted)
+    let mut reported = out.main.clone();
+    reported.vehicles[0].external = true;
+    let r = flyarena::requirements::evaluate(&s.requirements, &reported, out.uncompensated.as_ref());
+    assert_eq!(verdicts(&r, "R1", "yaw offset, straight"), vec![(true, true)], "{}", r.table());
 }
 
 /// R4 (7): each half rejects on its own. The flight's mean yaw and mean roll are each a
