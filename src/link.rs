@@ -207,6 +207,21 @@ mod tests {
         assert_eq!((st.sent, st.received, st.lost_on_link, st.stale, st.missing_frames), (1, 1, 0, 0, 0), "{st:?}");
     }
 
+    /// The receiver's counts by hand: frames 0, 1 and 5 sent at 0, 5 and 30 ms arrive 20 ms
+    /// later, at 20, 25 and 50 ms, so the gaps between deliveries are 5 and 25 ms (the longest
+    /// 25 ms), and 2, 3 and 4 are missing (one run of 3). Shard 55: `now − prev` as `now + prev`
+    /// passed the tests, which bounded the longest gap only from below.
+    #[test]
+    fn the_longest_gap_and_missing_run_by_hand() {
+        let mut l = link(LossModel::NONE, 0);
+        for (seq, sent_ms) in [(0u32, 0i64), (1, 5), (5, 30)] {
+            l.send(Nanos::from_millis(sent_ms), seq, seq);
+            assert_eq!(l.receive(Nanos::from_millis(sent_ms + 20)), Some(seq));
+        }
+        let st = *l.stats();
+        assert_eq!((st.longest_gap_ns, st.missing_frames, st.longest_missing_run, st.received), (25_000_000, 3, 3, 3), "{st:?}");
+    }
+
     /// An outage on top of random loss: every packet sent in [10 s, 12 s) is lost, and outside
     /// it the link loses exactly the packets the same link without the outage loses (the loss
     /// model keeps drawing through the outage, so the outage does not shift later draws); the
