@@ -140,5 +140,9 @@ mod tests {
         let thin = axis_error(Channel::Gyro, 0, &alt(5e-10), &before, &[0.5; 4], &[0, 1, 2, 3]);
         let thick = axis_error(Channel::Gyro, 0, &alt(1.5e-9), &before, &[0.5; 4], &[0, 1, 2, 3]);
         assert!(thin.fit_after_pct.is_none() && thick.fit_after_pct.is_some(), "{thin:?} {thick:?}");
+        // and the bound is strict: a spread of exactly 2e-9 (y = ±1e-9: √(4·(1e-9)²) is 2e-9 to
+        // the bit, as is 1e-9·√4) has none (shard 56: `>` as `>=` gave it one)
+        let edge = axis_error(Channel::Gyro, 0, &alt(1e-9), &before, &[0.5; 4], &[0, 1, 2, 3]);
+        assert!(edge.fit_after_pct.is_none(), "{edge:?}");
     }
 }
