@@ -358,7 +358,9 @@ fn the_run_summary_states_each_quantity_in_its_unit() {
     assert!(c.at_s > 1.0 && (c.offset_ms - truth_ms).abs() < 1.0, "{c:?} against {truth_ms} ms");
     assert!((0.02..1.0).contains(&c.offset_sigma_ms), "{c:?}");
     let (drift, sd) = (c.drift_ppm.unwrap(), c.drift_sigma_ppm.unwrap());
-    assert!(sd > 0.0 && (drift - 100.0).abs() < 4.0 * sd, "{c:?}");
+    // and it is measured: its 1σ is under a quarter of the 100 ppm (shard 57: `· 1e6` as `+ 1e6`
+    // gave ~1e6 ppm, inside every lower bound)
+    assert!(sd > 0.0 && sd < 25.0 && (drift - 100.0).abs() < 4.0 * sd, "{c:?}");
     // the markers only rotate (1°, −0.5°, 4°): the truth is a rigid displacement, no misfit
     assert!(near(&v.true_offset_deg, &[1.0, -0.5, 4.0], 1e-9) && v.true_offset_misfit_mm.abs() < 1e-9, "{:?} {}", v.true_offset_deg, v.true_offset_misfit_mm);
 }
