@@ -6,6 +6,7 @@
     python3 scripts/mutants-score.py --coverage # the intervals' coverage, measured by simulation
     python3 scripts/mutants-score.py --from 24 --alpha 0.025  # look 1 of scripts/mutants-plan.md
     python3 scripts/mutants-score.py --census DIR [--survivors]  # scripts/mutants-census.sh's count
+    python3 scripts/mutants-score.py --bound-at 0.923 1410 --alpha 0.00078125  # a look projected
 
 A shard is a deterministic round-robin sample (every 90th mutant of the issue-14 list), so the
 viable mutants of the shards together are a sample of the population's viable mutants. Printed:
@@ -116,6 +117,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--census", metavar="DIR", help="count the census of scripts/mutants-census.sh in DIR instead of the shards table")
     ap.add_argument("--survivors", action="store_true", help="with --census: list the viable mutants not caught")
+    ap.add_argument("--bound-at", nargs=2, type=float, metavar=("P", "N"), help="the one-sided lower bound (at --alpha) of round(P·N) caught of N: a later look projected at the rate P")
     ap.add_argument("--from", dest="first", type=int, default=None, help="first shard to include")
     ap.add_argument("--to", dest="last", type=int, default=None, help="last shard to include")
     ap.add_argument("--table", default=os.path.join(os.path.dirname(__file__), "mutants-shards.tsv"))
@@ -124,6 +126,10 @@ def main():
     a = ap.parse_args()
     if a.census:
         return census(a.census, a.survivors)
+    if a.bound_at:
+        p, n = a.bound_at[0], int(a.bound_at[1])
+        k = round(p * n)
+        return print(f"{k} of {n} ({100 * p:g} %): one-sided {100 * (1 - a.alpha):g} % lower bound {100 * clopper_pearson_lower(k, n, a.alpha):.2f} %")
     rows = []
     for line in open(a.table, encoding="utf-8"):
         if line.startswith("#") or line.startswith("shard") or not line.strip():
