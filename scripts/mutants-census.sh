@@ -2,30 +2,44 @@
 # The census of issue 14's mutation score: every mutant of the list, all 90 shards of
 # scripts/mutants.sh, against one suite (one commit), so the score has no sampling error.
 #
-#   scripts/mutants-census.sh DIR [COMMIT]      # ~27 h on 2 cores; restartable
-#   python3 scripts/mutants-score.py --census DIR
+#   scripts/mutants-census.sh DIR [COMMIT]      # ~17 h on 2 cores, across sessions; restartable
+#   python3 scripts/mutants-score.py --census [--survivors]
 #
-# DIR must lie outside the clone. It receives a clone of COMMIT (default HEAD) in DIR/tree, its
-# own build cache in DIR/target (a census never waits on, nor disturbs, the user's builds), and
-# per shard DIR/shards/K: stage 1's mutants.out with stage 2's suite.txt, and DONE once both
-# stages finished. Run again, it skips the shards marked DONE and reruns from its start a shard
-# that was cut short; it refuses a COMMIT other than the one the census began with. The real
-# flights are read from FLYARENA_DATA (default: the clone's ../shared/data).
+# The census's results live in the clone, in scripts/mutants-census.tsv (committed, one row per
+# mutant; its first line names the commit and the cargo-mutants version): a machine's caches
+# do not outlive a session, so a finished shard counts only once it is in that table. A shard
+# enters the table whole, after both stages finished; run again (on any machine), the census
+# skips the shards the table holds and starts the others from their beginning. It refuses a
+# COMMIT or a cargo-mutants version other than the table's (one census, one suite, one list).
+#
+# DIR is scratch and must lie outside the clone: a clone of COMMIT (DIR/tree), its own build
+# cache (DIR/target: a census never waits on, nor disturbs, the user's builds) and per shard
+# DIR/shards/K (cargo mutants' mutants.out with stage 2's suite.txt and the shard's log). The
+# suite runs as CI runs it (CI=true, snapshots never written, the Python clients of .ci/run
+# installed, so no test skips for want of one); the real flights are read from FLYARENA_DATA
+# (default: the clone's ../shared/data).
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 dir="$(realpath -m "${1:?usage: scripts/mutants-census.sh DIR [COMMIT]}")"
 case "$dir/" in
 "$here"/*) echo "mutants-census: $dir is inside the clone ($here); name a folder outside it" >&2; exit 2 ;;
 esac
-mkdir -p "$dir"
+table="$here/scripts/mutants-census.tsv"
 commit="$(git -C "$here" rev-parse --verify "${2:-HEAD}^{commit}")"
-if [ -e "$dir/COMMIT" ]; then
-    if [ "$(cat "$dir/COMMIT")" != "$commit" ]; then
-        echo "mutants-census: $dir holds the census of $(cat "$dir/COMMIT"), not of $commit: one census, one suite" >&2
+version="$(cargo mutants --version)"
+head="# census of $commit ($version)"
+if [ -e "$table" ]; then
+    if [ "$(head -n 1 "$table")" != "$head" ]; then
+        echo "mutants-census: $table holds '$(head -n 1 "$table")', not '$head': one census, one suite, one mutant list" >&2
         exit 2
     fi
 else
-    rm -rf "$dir/tree"
+    printf '%s\n%s\n' "$head" "# shard	verdict	stage	mutant	first failing test (scripts/mutants-score.py --census counts it)" > "$table"
+fi
+mkdir -p "$dir"
+if [ "$(cat "$dir/COMMIT" 2> /dev/null)" != "$commit" ]; then
+    # scratch of another census (or none): start it afresh
+    rm -rf "$dir/tree" "$dir/shards" "$dir/COMMIT"
     git clone -q --no-checkout "$here" "$dir/tree"
     git -C "$dir/tree" checkout -q "$commit"
     echo "$commit" > "$dir/COMMIT"
@@ -33,17 +47,29 @@ fi
 export CARGO_TARGET_DIR="$dir/target"
 # the tree lies elsewhere, so the real flights are found where the clone finds them
 export FLYARENA_DATA="${FLYARENA_DATA:-$here/../shared/data}"
+export CI=true INSTA_UPDATE=no
+eval "$(grep '^PY_CLIENTS=' "$dir/tree/.ci/run")"
+# shellcheck disable=SC2086  # the list is words
+python3 -m pip install --quiet --disable-pip-version-check $PY_CLIENTS \
+  || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages $PY_CLIENTS
 mkdir -p "$dir/shards"
 for k in $(seq 0 89); do
-    [ -e "$dir/shards/$k/DONE" ] && continue
+    if cut -f 1 "$table" | grep -qx "$k"; then continue; fi
     # a shard cut short left the tree mutated and its outcomes partial: restore, start it again
     git -C "$dir/tree" checkout -q -- .
-    rm -rf "$dir/tree/mutants.out" "$dir/shards/$k"
+    git -C "$dir/tree" clean -q -fdx
+    rm -rf "$dir/shards/$k"
     echo "census shard $k of 90: start $(date -u +%FT%TZ)"
     "$dir/tree/scripts/mutants.sh" "$k" 90 > "$dir/shards/$k.log" 2>&1
     mv "$dir/tree/mutants.out" "$dir/shards/$k"
     mv "$dir/shards/$k.log" "$dir/shards/$k/shard.log"
-    touch "$dir/shards/$k/DONE"
+    # both stages restore every file they mutate: a tree that differs from COMMIT now is a fault
+    if [ -n "$(git -C "$dir/tree" status --porcelain)" ]; then
+        echo "mutants-census: shard $k left the tree changed:" >&2
+        git -C "$dir/tree" status --porcelain >&2
+        exit 1
+    fi
+    python3 "$here/scripts/mutants-score.py" --census-add "$dir/shards/$k" "$k" "$table"
     echo "census shard $k of 90: done $(date -u +%FT%TZ)"
 done
-python3 "$here/scripts/mutants-score.py" --census "$dir"
+python3 "$here/scripts/mutants-score.py" --census "$table"

@@ -5,7 +5,7 @@
     python3 scripts/mutants-score.py --from 13  # shards 13 on
     python3 scripts/mutants-score.py --coverage # the intervals' coverage, measured by simulation
     python3 scripts/mutants-score.py --from 24 --alpha 0.025  # look 1 of scripts/mutants-plan.md
-    python3 scripts/mutants-score.py --census DIR [--survivors]  # scripts/mutants-census.sh's count
+    python3 scripts/mutants-score.py --census [--survivors]  # scripts/mutants-census.tsv's count
     python3 scripts/mutants-score.py --bound-at 0.923 1410 --alpha 0.00078125  # a look projected
 
 A shard is a deterministic round-robin sample (every 90th mutant of the issue-14 list), so the
@@ -18,6 +18,7 @@ older suite underestimates what today's suite catches: the at-measurement figure
 conservative for today's suite.
 """
 import argparse
+import json
 import math
 import os
 import random
@@ -80,43 +81,82 @@ def coverage(n, p, alpha=0.05, draws=DRAWS, seed=14):
 
 
 SHARDS = 90
+CENSUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "mutants-census.tsv")
+STAGE1 = {"CaughtMutant": "caught", "MissedMutant": "missed", "Unviable": "unviable", "Timeout": "timeout"}
 
 
-def census(d, survivors=False):
-    """The census of scripts/mutants-census.sh in d: per finished shard, stage 1's verdicts
-    (caught, missed, unviable, timeout) and stage 2's for each mutant stage 1 missed. Viable is
-    every mutant that built; caught is caught by stage 1 or by the whole suite in stage 2; a
-    timeout counts as not caught (a conservative reading). Until all 90 shards are done the
-    counts are progress, not the score."""
-    commit = open(os.path.join(d, "COMMIT"), encoding="utf-8").read().strip()
-    done, m, unviable, caught, left = [], 0, 0, 0, []
-    for k in range(SHARDS):
-        s = os.path.join(d, "shards", str(k))
-        if not os.path.exists(os.path.join(s, "DONE")):
+def census_rows(shard_dir, k):
+    """One finished shard of scripts/mutants-census.sh as rows of scripts/mutants-census.tsv:
+    shard, verdict (caught, missed, timeout, unviable), the stage that gave it (1: the unit
+    tests in cargo mutants; 2: the whole suite, scripts/mutants-stage2.py, for each mutant stage
+    1 missed), the mutant, and for a caught mutant the first failing test (or "-")."""
+    d = json.load(open(os.path.join(shard_dir, "outcomes.json"), encoding="utf-8"))
+    stage2 = {}
+    path = os.path.join(shard_dir, "suite.txt")
+    for line in open(path, encoding="utf-8") if os.path.exists(path) else []:
+        if line.strip():
+            verdict, name, failing = line.rstrip("\n").split("\t")
+            stage2[name] = (verdict, failing)
+    rows = []
+    for o in d["outcomes"]:
+        if o["scenario"] == "Baseline":
+            if o["summary"] != "Success":
+                raise SystemExit(f"{shard_dir}: stage 1's baseline did not pass ({o['summary']})")
             continue
-        read = lambda f: [x.strip() for x in open(os.path.join(s, f), encoding="utf-8") if x.strip()] if os.path.exists(os.path.join(s, f)) else []
-        c, miss, u, t = read("caught.txt"), read("missed.txt"), read("unviable.txt"), read("timeout.txt")
-        verdicts = dict(reversed(x.split("\t", 1)) for x in read("suite.txt"))
-        if sorted(verdicts) != sorted(miss):
-            raise SystemExit(f"{s}: stage 2 judged {len(verdicts)} mutants, stage 1 missed {len(miss)}")
-        done.append(k)
-        m += len(c) + len(miss) + len(u) + len(t)
-        unviable += len(u)
-        caught += len(c) + sum(v == "caught" for v in verdicts.values())
-        left += [f"{k}\tstage 1 timeout\t{x}" for x in t] + [f"{k}\t{v}\t{x}" for x, v in verdicts.items() if v != "caught"]
+        name = o["scenario"]["Mutant"]["name"]
+        if o["summary"] not in STAGE1 or "\t" in name:
+            raise SystemExit(f"{shard_dir}: {name}: unexpected outcome {o['summary']}")
+        verdict, stage, failing = STAGE1[o["summary"]], 1, "-"
+        if verdict == "missed":
+            if name not in stage2:
+                raise SystemExit(f"{shard_dir}: {name}: stage 1 missed it and stage 2 has no verdict")
+            (verdict, failing), stage = stage2.pop(name), 2
+        rows.append(f"{k}\t{verdict}\t{stage}\t{name}\t{failing}")
+    if stage2:
+        raise SystemExit(f"{shard_dir}: stage 2 judged mutants stage 1 did not miss: {sorted(stage2)}")
+    if not rows:
+        raise SystemExit(f"{shard_dir}: no mutant")
+    return rows
+
+
+def census_add(shard_dir, k, table):
+    """Append a finished shard's rows to the census table in one replace (a shard is in the
+    table whole or not at all); a shard already there is refused."""
+    lines = open(table, encoding="utf-8").read().splitlines()
+    if any(x.split("\t", 1)[0] == str(k) for x in lines if not x.startswith("#")):
+        raise SystemExit(f"{table}: shard {k} is there already")
+    tmp = table + ".tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines + census_rows(shard_dir, k)) + "\n")
+    os.replace(tmp, table)
+
+
+def census(table, survivors=False):
+    """The census table's count: viable is every mutant that built; caught is caught by stage
+    1 or by the whole suite in stage 2; a timeout counts as not caught (a conservative reading).
+    Until all 90 shards are in, the counts are progress, not the score."""
+    head = [x for x in open(table, encoding="utf-8").read().splitlines() if x.startswith("# census of ")]
+    rows = [x.split("\t") for x in open(table, encoding="utf-8").read().splitlines() if x and not x.startswith("#")]
+    if len(head) != 1 or any(len(r) != 5 or r[1] not in STAGE1.values() or r[2] not in "12" for r in rows):
+        raise SystemExit(f"{table}: not a census table (one '# census of' line, rows of five columns)")
+    done = sorted({int(r[0]) for r in rows})
+    m, unviable = len(rows), sum(r[1] == "unviable" for r in rows)
+    caught = sum(r[1] == "caught" for r in rows)
     n = m - unviable
-    print(f"census of {commit}: {len(done)} of {SHARDS} shards done, {m} mutants, {n} viable")
+    print(f"{head[0][2:]}: {len(done)} of {SHARDS} shards done, {m} mutants, {n} viable")
     if n:
-        state = "the score: every mutant of the list" if len(done) == SHARDS else "progress, not the score: the census decides when all shards are done"
+        state = "the score: every mutant of the list" if done == list(range(SHARDS)) else "progress, not the score: the census decides when all shards are done"
         print(f"caught: {caught} of {n} = {100 * caught / n:.1f} % ({state})")
+        print(f"by stage: {sum(r[1] == 'caught' and r[2] == '1' for r in rows)} by the unit tests, {sum(r[1] == 'caught' and r[2] == '2' for r in rows)} by the whole suite; not caught: {sum(r[1] == 'missed' for r in rows)} missed, {sum(r[1] == 'timeout' for r in rows)} timeouts")
     if survivors:
-        print("\n".join(left))
+        print("\n".join(f"{r[0]}\t{r[1]}\t{r[3]}" for r in rows if r[1] in ("missed", "timeout")))
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--census", metavar="DIR", help="count the census of scripts/mutants-census.sh in DIR instead of the shards table")
+    ap.add_argument("--census", nargs="?", const=CENSUS, metavar="TABLE", help="count the census (scripts/mutants-census.tsv unless TABLE) instead of the shards table")
     ap.add_argument("--survivors", action="store_true", help="with --census: list the viable mutants not caught")
+    ap.add_argument("--census-add", nargs=3, metavar=("SHARD_DIR", "K", "TABLE"), help="append finished shard K (scripts/mutants-census.sh) to the census TABLE")
     ap.add_argument("--bound-at", nargs=2, type=float, metavar=("P", "N"), help="the one-sided lower bound (at --alpha) of round(P·N) caught of N: a later look projected at the rate P")
     ap.add_argument("--from", dest="first", type=int, default=None, help="first shard to include")
     ap.add_argument("--to", dest="last", type=int, default=None, help="last shard to include")
@@ -124,6 +164,8 @@ def main():
     ap.add_argument("--alpha", type=float, default=0.05, help="one-sided level of the lower bound (scripts/mutants-plan.md spends 0.05 over repeated looks)")
     ap.add_argument("--coverage", action="store_true", help="measure the intervals' coverage at the pooled sample size")
     a = ap.parse_args()
+    if a.census_add:
+        return census_add(a.census_add[0], int(a.census_add[1]), a.census_add[2])
     if a.census:
         return census(a.census, a.survivors)
     if a.bound_at:
