@@ -89,7 +89,8 @@ def census_rows(shard_dir, k):
     """One finished shard of scripts/mutants-census.sh as rows of scripts/mutants-census.tsv:
     shard, verdict (caught, missed, timeout, unviable), the stage that gave it (1: the unit
     tests in cargo mutants; 2: the whole suite, scripts/mutants-stage2.py, for each mutant stage
-    1 missed), the mutant, and for a caught mutant the first failing test (or "-")."""
+    1 missed), the mutant, and for a caught mutant the first failing test (confirmed alone),
+    for a missed one the tests that failed in the suite but passed alone (or "-")."""
     d = json.load(open(os.path.join(shard_dir, "outcomes.json"), encoding="utf-8"))
     stage2 = {}
     path = os.path.join(shard_dir, "suite.txt")
@@ -147,7 +148,7 @@ def census(table, survivors=False):
     if n:
         state = "the score: every mutant of the list" if done == list(range(SHARDS)) else "progress, not the score: the census decides when all shards are done"
         print(f"caught: {caught} of {n} = {100 * caught / n:.1f} % ({state})")
-        print(f"by stage: {sum(r[1] == 'caught' and r[2] == '1' for r in rows)} by the unit tests, {sum(r[1] == 'caught' and r[2] == '2' for r in rows)} by the whole suite; not caught: {sum(r[1] == 'missed' for r in rows)} missed, {sum(r[1] == 'timeout' for r in rows)} timeouts")
+        print(f"by stage: {sum(r[1] == 'caught' and r[2] == '1' for r in rows)} by the unit tests, {sum(r[1] == 'caught' and r[2] == '2' for r in rows)} by the whole suite; not caught: {sum(r[1] == 'missed' for r in rows)} missed ({sum(r[4].startswith('unconfirmed') for r in rows)} of them failed a test that then passed alone), {sum(r[1] == 'timeout' for r in rows)} timeouts")
     if survivors:
         print("\n".join(f"{r[0]}\t{r[1]}\t{r[3]}" for r in rows if r[1] in ("missed", "timeout")))
 

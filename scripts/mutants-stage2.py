@@ -6,7 +6,13 @@ caught|missed|timeout <TAB> name <TAB> the first failing test (for a caught muta
 
 Before the first mutant the suite runs once on the tree as it is (the baseline): if it fails,
 every verdict would read "caught" whatever the mutant does (real flights missing, a client not
-installed, a flaky test), so stage 2 stops there with exit 1 and writes no verdict.
+installed), so stage 2 stops there with exit 1 and writes no verdict.
+
+A failure is confirmed before it counts: the first failing test is run again alone, the mutant
+still applied. A test that fails in the suite and passes alone failed for something else than
+the mutant (a flaky test: census shard 0 under ec82c47 counted `<` as `<=` on a 1e-15 stopping
+step caught by a network test); the suite then runs once more, and a mutant with no confirmed
+failure after that is missed, its line saying which test failed unconfirmed.
 
     python3 scripts/mutants-stage2.py mutants.out [--every K] [--quick FILTER]
 
@@ -34,18 +40,50 @@ FAILED = re.compile(r'^\s*FAIL \[[^]]*\] (?:\([^)]*\) )?(\S+(?: \S+)?)\s*$|^test
 
 
 def run(*cmd):
-    """(exit code, first failing test or '-') of cmd under the time limit."""
+    """(exit code, first failing test or '-', cmd) of cmd under the time limit."""
     p = subprocess.run(['timeout', str(TIMEOUT_S), *cmd], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, errors='replace')
     m = FAILED.search(p.stdout)
-    return p.returncode, (m.group(1) or m.group(2)) if m else '-'
+    return p.returncode, (m.group(1) or m.group(2)) if m else '-', cmd
 
 
 def suite(*extra):
-    """The suite (or the part `extra` selects) against the tree as it is: (0, '-') when it passes."""
+    """The suite (or the part `extra` selects) against the tree as it is: (0, '-', cmd) when it
+    passes, else the exit code, the first failing test and the command that ran it."""
     if not NEXTEST:
         return run('cargo', 'test', '--profile', 'mutants', *extra)
     rc = run('cargo', 'nextest', 'run', '--cargo-profile', 'mutants', '--fail-fast', *extra)
     return run('cargo', 'test', '--profile', 'mutants', '--doc') if rc[0] == 0 and not extra else rc
+
+
+def fails_alone(failing, cmd):
+    """Whether the test `failing` (as `cmd`'s report named it) fails again when run alone; a
+    failure that names no test (the tests did not build) is confirmed by the suite failing again."""
+    if failing == '-':
+        return run(*cmd)[0] not in (0, 124)
+    if cmd[:3] == ('cargo', 'nextest', 'run'):
+        binary, _, test = failing.partition(' ')
+        return run('cargo', 'nextest', 'run', '--cargo-profile', 'mutants', '-E', f'binary_id({binary}) & test(={test})')[0] not in (0, 124)
+    # libtest: the exact name; a doc test by its name as a filter (rustdoc's merged doc tests
+    # do not answer to --exact)
+    exact = () if re.search(r' - .*\(line \d+\)$', failing) else ('--exact',)
+    return run(*cmd, '--', *exact, failing)[0] not in (0, 124)
+
+
+def judge(quick):
+    """The mutant applied now: 'caught', 'missed' or 'timeout', and what the line says of it."""
+    unconfirmed = []
+    for _ in range(2):
+        rc, failing, cmd = suite('--test', 'acceptance', quick) if quick else (0, '-', ())
+        if rc == 0:
+            rc, failing, cmd = suite()
+        if rc == 124:
+            return 'timeout', '-'
+        if rc == 0:
+            break
+        if fails_alone(failing, cmd):
+            return 'caught', failing
+        unconfirmed.append(failing)
+    return 'missed', f"unconfirmed: {', '.join(unconfirmed)} failed in the suite and passed alone" if unconfirmed else '-'
 
 
 out = sys.argv[1]
@@ -55,7 +93,7 @@ kept = open(REGRESSIONS).read() if os.path.exists(REGRESSIONS) else None
 d = json.load(open(os.path.join(out, 'outcomes.json')))
 missed = [o for o in d['outcomes'] if o.get('summary') == 'MissedMutant']
 if missed:
-    rc, failing = suite()
+    rc, failing, _ = suite()
     if rc != 0:
         sys.exit(f"stage 2: the suite fails without a mutant (exit {rc}, {failing}): no verdict is written")
     print(f"stage 2: the suite passes without a mutant; {len(missed[::every])} to judge", flush=True)
@@ -68,15 +106,12 @@ with open(os.path.join(out, 'suite.txt'), 'w') as log:
         subprocess.run(['patch', '-s', target, diff], check=True)
         try:
             # a mutant that makes a loop endless is a timeout (cargo mutants counts those apart)
-            rc, failing = suite('--test', 'acceptance', quick) if quick else (0, '-')
-            if rc == 0:
-                rc, failing = suite()
+            verdict, said = judge(quick)
         finally:
             subprocess.run(['patch', '-s', '-R', target, diff], check=True)
             if kept is not None:
                 open(REGRESSIONS, 'w').write(kept)
-        verdict = 'timeout' if rc == 124 else 'missed' if rc == 0 else 'caught'
-        line = f"{verdict}\t{name}\t{failing if verdict == 'caught' else '-'}"
+        line = f"{verdict}\t{name}\t{said}"
         print(line, flush=True)
         log.write(line + '\n')
         log.flush()

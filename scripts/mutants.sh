@@ -11,7 +11,7 @@
 #     caught, one it misses is a survivor.
 # The tree is mutated in place (cargo-mutants and stage 2 restore it): do not edit while it
 # runs. Results: mutants.out/{caught,missed,unviable,timeout}.txt for stage 1,
-# mutants.out/suite.txt for stage 2 (verdict, mutant and the first failing test per mutant, after a baseline
+# mutants.out/suite.txt for stage 2 (verdict, mutant and the first failing test, confirmed alone, after a baseline
 # run of the unmutated suite: `scripts/mutants-stage2.py`). Survivors go to
 # scripts/mutants-survivors.txt with a reason each (equivalent, or accepted and why).
 set -euo pipefail
