@@ -963,6 +963,42 @@ mod tests {
         assert!((a.euler().yaw.to_degrees() - 10.8).abs() < 1e-9, "{}°", a.euler().yaw.to_degrees());
     }
 
+    /// The clock search pairs a window only once the mocap is [`NEIGHBOUR_PERIODS`] periods past
+    /// its end, so a window-end frame that a jittery link delivers after two newer ones still
+    /// counts: the first window is [40, 80] ms, its frames arrive …, 75, 85, 90, 80, 95 ms, and it
+    /// is paired (one window, none dropped). Census shard 0 (the ec82c47 run): the wait
+    /// `period · 3` as `period + 3` (3 ns) tried it at 90 ms, before frame 80 was in, and
+    /// dropped it.
+    #[test]
+    fn the_clock_search_waits_for_a_window_end_frame_that_arrives_late() {
+        let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(3), ..ClockSearch::default() });
+        for seq in 0..20 {
+            let t0 = Nanos::from_millis(10 * seq as i64);
+            g.add_telemetry(&TelemetryFrame { seq, t0, t1: t0 + Nanos::from_millis(10), gyro_mean: Vec3::zeros() });
+        }
+        let frames = (0..=75).step_by(5).chain([85, 90, 80, 95]);
+        for ms in frames {
+            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+        }
+        assert_eq!((g.windows(), g.dropped()), (1, 0), "(paired, dropped)");
+    }
+
+    /// Each extra parameter of a fit (the clock search's offset and drift) is one degree of
+    /// freedom fewer: on the same moments of n windows, the variance with two extra parameters
+    /// is (3n − 6)/(3n − 8) times the variance with none (n = 10: 24/22). Census shard 0
+    /// (ec82c47): the `− extra` as `+ extra` gave (3n − 6)/(3n − 4).
+    #[test]
+    fn extra_parameters_take_degrees_of_freedom() {
+        // a 13 ms clock offset the plain alignment ignores leaves residuals to scale
+        let (g, _) = fly_for(gyro(), Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0)), Nanos::from_millis(13), 0.0, 600, 0..0);
+        let n = g.windows() as f64;
+        let m = Moments { n, sum_m: g.sum_m, sum_b: g.sum_b, sum_mb: g.sum_mb, sum_mm: g.sum_mm, sum_bb: g.sum_bb };
+        let ((_, rss, none), (_, _, two)) = (g.fit(&m, 0).unwrap(), g.fit(&m, 2).unwrap());
+        assert!(rss > 0.0 && (10.0..20.0).contains(&n), "rss {rss}, {n} windows");
+        let ratio = two[(0, 0)] / none[(0, 0)];
+        assert!((ratio - (3.0 * n - 6.0) / (3.0 * n - 8.0)).abs() < 1e-12, "{ratio} from {n} windows");
+    }
+
     /// The partial-frame integral against closed forms: ω(s) = s (means −½, ½, 3/2) integrates
     /// to x²/2, ω(s) = s² (means 1/3, 1/3, 7/3) to x³/3; a whole frame gives its mean.
     #[test]

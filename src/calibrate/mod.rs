@@ -37,8 +37,10 @@ pub struct OffsetEstimate {
 }
 
 impl Default for OffsetEstimate {
+    /// No offset (written out rather than by `from_euler`: a `from_euler` that returned
+    /// `Default::default()` made the two call each other for ever, census shard 0's timeout).
     fn default() -> Self {
-        Self::from_euler(Euler::ZERO)
+        OffsetEstimate { euler: Euler::ZERO, rotation: Rot::identity() }
     }
 }
 
@@ -321,13 +323,17 @@ mod tests {
     #[test]
     fn compensation_removes_a_known_offset_exactly() {
         let off = OffsetEstimate::from_euler(Euler::from_degrees(3.0, -2.0, 5.0));
+        // the markers' offset built apart from the estimate (an estimate whose rotation ignored
+        // its angles would otherwise compensate its own identity)
+        let r_off: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(3.0, -2.0, 5.0));
+        assert!((off.rotation().inverse() * r_off).angle() < 1e-15 && r_off.angle() > 0.1);
         let truth: Rot<Body, MocapNav> = Rot::from_euler(Euler::new(0.1, 0.2, -1.0));
-        let measured = truth * off.rotation();
+        let measured = truth * r_off;
         let back = off.compensate(measured, Compensation::Rotation);
         assert!((back.inverse() * truth).angle() < 1e-12);
         // the paper's subtraction is exact at level attitude and close for small angles
         let level: Rot<Body, MocapNav> = Rot::from_euler(Euler::new(0.0, 0.0, 0.7));
-        let e = off.compensate(level * off.rotation(), Compensation::Euler);
+        let e = off.compensate(level * r_off, Compensation::Euler);
         assert!((e.inverse() * level).angle() < 1e-12);
     }
 }

@@ -324,6 +324,15 @@ pub(crate) fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
 mod tests {
     use super::*;
 
+    /// The Lentz guard by hand: zero and anything smaller in size than 10⁻³⁰⁰ (either sign)
+    /// becomes 10⁻³⁰⁰, anything else passes unchanged. Census shard 0 (ec82c47): `|v| < tiny`
+    /// as `|v| == tiny` let an exact zero through, to be divided by.
+    #[test]
+    fn the_lentz_guard_by_hand() {
+        assert_eq!([0.0, -0.0, 1e-310, -5e-301].map(lentz_guard), [LENTZ_TINY; 4]);
+        assert_eq!([LENTZ_TINY, -LENTZ_TINY, 0.5, -2.0].map(lentz_guard), [LENTZ_TINY, -LENTZ_TINY, 0.5, -2.0]);
+    }
+
     /// A constant series has no variance to normalise by: its autocorrelations are 0, not 0/0
     /// (shard 50: `var > 0` as `>= 0` returned NaN).
     #[test]

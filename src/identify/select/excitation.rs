@@ -89,15 +89,27 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             let no = partners.len();
             let schur_t = g_t.view((0, 0), (k, k)).into_owned() - g_t.view((0, k), (k, no)) * inverse_spd(&g_t.view((k, k), (no, no)).into_owned()) * g_t.view((k, 0), (no, k));
             let energy = (theta.transpose() * schur_t * &theta)[(0, 0)].max(0.0);
-            let heldout_share = if energy + noise > 0.0 { energy / (energy + noise) } else { 0.0 };
-            Excitation { lambda, heldout_share }
+            Excitation { lambda, heldout_share: share(energy, noise) }
         })
         .collect()
+}
+
+/// The effect's share E/(E + N) of the held-out energy (0 when both are 0).
+fn share(energy: f64, noise: f64) -> f64 {
+    if energy + noise > 0.0 { energy / (energy + noise) } else { 0.0 }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// E/(E + N) by hand on both sides of E = N and at the ends: 1/(1 + 3) = 0.25, 3/(3 + 1) =
+    /// 0.75, an effect with no residual left 1, nothing at all 0. Census shard 0 (ec82c47): the
+    /// guard's `E + N` as `E − N` (0 whenever E < N) and as `E·N` (0 when N = 0) went unseen.
+    #[test]
+    fn the_heldout_share_by_hand() {
+        assert_eq!([share(1.0, 3.0), share(3.0, 1.0), share(2.0, 0.0), share(0.0, 0.0), share(0.0, 2.0)], [0.25, 0.75, 1.0, 0.0, 0.0]);
+    }
 
     /// Both margins must hold, each at its boundary: λ ≥ 40 and a held-out share ≥ 0.3.
     #[test]

@@ -1018,6 +1018,48 @@ mod tests {
         assert_eq!(leaves(k), Some(Effect::ThrustVoltage), "p = {} > α/{}", c.p_value, k + 1);
     }
 
+    /// Which effects a log can test: the thrust–voltage effect needs the thrust and the battery
+    /// voltage, a force-channel effect the thrust, a rate or acceleration effect neither. Census
+    /// shard 0 (ec82c47): without the voltage arm a log with thrust and no battery voltage
+    /// offered it.
+    #[test]
+    fn an_effect_is_available_only_with_the_columns_it_needs() {
+        let design = |has_force: bool, has_vbat: bool| Design {
+            n: 0,
+            t: Vec::new(),
+            ok: Vec::new(),
+            measured: Default::default(),
+            predicted: Default::default(),
+            columns: Default::default(),
+            has_force,
+            has_vbat,
+            yaw_spread_rad: 0.0,
+            outliers: 0,
+            signals: Vec::new(),
+        };
+        let offers = |has_force, has_vbat, e| available(&design(has_force, has_vbat), e);
+        assert!(offers(true, true, Effect::ThrustVoltage));
+        assert!(!offers(true, false, Effect::ThrustVoltage) && !offers(false, true, Effect::ThrustVoltage));
+        assert!(offers(true, false, Effect::ThrustScale) && !offers(false, false, Effect::ThrustScale));
+        assert!(offers(false, false, Effect::GyroDelay));
+    }
+
+    /// A candidate's correlation with the residual, from the Gram sums by hand: on the base set
+    /// {ground effect} alone (column 2, θ = b₂/g₂₂) the residual's square is yy − b₂²/g₂₂ and its
+    /// product with the voltage column (1) is b₁ − g₁₂·b₂/g₂₂; `max_corr` is |that| over
+    /// √(g₁₁·rr). Census shard 0 (ec82c47): `b − G·θ` as `b + G·θ` went unseen.
+    #[test]
+    fn a_candidates_correlation_with_the_residual_by_hand() {
+        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let gs = [synthetic_gram(cols, [0.0, 0.02, 0.5])];
+        let (g, b, yy) = (&gs[0].g_w, &gs[0].b_w, gs[0].yy_w);
+        let theta = b[2] / g[(2, 2)];
+        let (rr, xr) = (yy - b[2] * theta, b[1] - g[(1, 2)] * theta);
+        let by_hand = xr.abs() / (g[(1, 1)] * rr).sqrt();
+        let c = score(&gs, &fit(&gs, &set_of(&[Effect::GroundEffect])), &[Effect::ThrustVoltage], 1, &Options::default());
+        assert!(by_hand > 0.05 && (c.max_corr - by_hand).abs() < 1e-12 * by_hand, "{} against {by_hand} by hand", c.max_corr);
+    }
+
     /// The multiplicative reparameterisation by hand: a thrust scale a = −0.2 and an additive
     /// voltage coefficient b = 0.08 give c = b/(1 + a) = 0.1; with var a = 4·10⁻⁶,
     /// var b = 9·10⁻⁶ and cov(a, b) = 3·10⁻⁶, var c = (9 − 2·0.1·3 + 0.01·4)·10⁻⁶/0.64
