@@ -14,6 +14,13 @@ the mutant (a flaky test: census shard 0 under ec82c47 counted `<` as `<=` on a 
 step caught by a network test); the suite then runs once more, and a mutant with no confirmed
 failure after that is missed, its line saying which test failed unconfirmed.
 
+A stage-1 "unviable" whose build log holds no rustc error (`error[E`) failed at the link, a
+fault of incremental compilation (rust-lang/rust#81280: census shard 0 under 54ef21a had three,
+which the ec82c47 run had built and counted caught): it is built again without incremental
+compilation and judged like a missed mutant (its line says "rebuilt without incremental"), and
+stays unviable only if that build fails too. Likewise a failure that names no test is
+confirmed only by a non-incremental rebuild failing again.
+
     python3 scripts/mutants-stage2.py mutants.out [--every K] [--quick FILTER]
 
 --every K runs a deterministic sample: every K-th missed mutant, from the first (for a large
@@ -39,27 +46,30 @@ NEXTEST = shutil.which('cargo-nextest') is not None
 FAILED = re.compile(r'^\s*FAIL \[[^]]*\] (?:\([^)]*\) )?(\S+(?: \S+)?)\s*$|^test (\S.*?) \.\.\. FAILED\s*$', re.M)
 
 
-def run(*cmd):
+def run(*cmd, incremental=True):
     """(exit code, first failing test or '-', cmd) of cmd under the time limit."""
-    p = subprocess.run(['timeout', str(TIMEOUT_S), *cmd], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, errors='replace')
+    env = None if incremental else {**os.environ, 'CARGO_INCREMENTAL': '0'}
+    p = subprocess.run(['timeout', str(TIMEOUT_S), *cmd], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, errors='replace', env=env)
     m = FAILED.search(p.stdout)
     return p.returncode, (m.group(1) or m.group(2)) if m else '-', cmd
 
 
-def suite(*extra):
+def suite(*extra, incremental=True):
     """The suite (or the part `extra` selects) against the tree as it is: (0, '-', cmd) when it
     passes, else the exit code, the first failing test and the command that ran it."""
     if not NEXTEST:
-        return run('cargo', 'test', '--profile', 'mutants', *extra)
-    rc = run('cargo', 'nextest', 'run', '--cargo-profile', 'mutants', '--fail-fast', *extra)
-    return run('cargo', 'test', '--profile', 'mutants', '--doc') if rc[0] == 0 and not extra else rc
+        return run('cargo', 'test', '--profile', 'mutants', *extra, incremental=incremental)
+    rc = run('cargo', 'nextest', 'run', '--cargo-profile', 'mutants', '--fail-fast', *extra, incremental=incremental)
+    return run('cargo', 'test', '--profile', 'mutants', '--doc', incremental=incremental) if rc[0] == 0 and not extra else rc
 
 
 def fails_alone(failing, cmd):
     """Whether the test `failing` (as `cmd`'s report named it) fails again when run alone; a
-    failure that names no test (the tests did not build) is confirmed by the suite failing again."""
+    failure that names no test (the tests did not build) is confirmed by the suite failing again
+    when built without incremental compilation, whose link failures (rust-lang/rust#81280) are
+    no catch."""
     if failing == '-':
-        return run(*cmd)[0] not in (0, 124)
+        return run(*cmd, incremental=False)[0] not in (0, 124)
     if cmd[:3] == ('cargo', 'nextest', 'run'):
         binary, _, test = failing.partition(' ')
         return run('cargo', 'nextest', 'run', '--cargo-profile', 'mutants', '-E', f'binary_id({binary}) & test(={test})')[0] not in (0, 124)
@@ -69,13 +79,13 @@ def fails_alone(failing, cmd):
     return run(*cmd, '--', *exact, failing)[0] not in (0, 124)
 
 
-def judge(quick):
+def judge(quick, incremental=True):
     """The mutant applied now: 'caught', 'missed' or 'timeout', and what the line says of it."""
     unconfirmed = []
     for _ in range(2):
-        rc, failing, cmd = suite('--test', 'acceptance', quick) if quick else (0, '-', ())
+        rc, failing, cmd = suite('--test', 'acceptance', quick, incremental=incremental) if quick else (0, '-', ())
         if rc == 0:
-            rc, failing, cmd = suite()
+            rc, failing, cmd = suite(incremental=incremental)
         if rc == 124:
             return 'timeout', '-'
         if rc == 0:
@@ -92,13 +102,23 @@ every, quick = int(opt('--every', '1')), opt('--quick', None)
 kept = open(REGRESSIONS).read() if os.path.exists(REGRESSIONS) else None
 d = json.load(open(os.path.join(out, 'outcomes.json')))
 missed = [o for o in d['outcomes'] if o.get('summary') == 'MissedMutant']
-if missed:
+
+
+def link_fault(o):
+    """A stage-1 "unviable" whose build failed without a rustc error (no `error[E`): a link
+    failure of incremental compilation (rust-lang/rust#81280), not a mutant that cannot build."""
+    return o.get('summary') == 'Unviable' and 'error[E' not in open(os.path.join(out, o['log_path']), errors='replace').read()
+
+
+# judged again, built without incremental compilation: unviable only if that build fails too
+rebuilt = [o for o in d['outcomes'] if link_fault(o)]
+if missed or rebuilt:
     rc, failing, _ = suite()
     if rc != 0:
         sys.exit(f"stage 2: the suite fails without a mutant (exit {rc}, {failing}): no verdict is written")
-    print(f"stage 2: the suite passes without a mutant; {len(missed[::every])} to judge", flush=True)
+    print(f"stage 2: the suite passes without a mutant; {len(missed[::every])} to judge, {len(rebuilt)} unviable by a link failure to rebuild", flush=True)
 with open(os.path.join(out, 'suite.txt'), 'w') as log:
-    for o in missed[::every]:
+    for o in missed[::every] + rebuilt:
         name = o['scenario']['Mutant']['name']
         diff = os.path.join(out, o['diff_path'])
         # cargo-mutants' diffs name the mutant, not the file, on their +++ line
@@ -106,7 +126,12 @@ with open(os.path.join(out, 'suite.txt'), 'w') as log:
         subprocess.run(['patch', '-s', target, diff], check=True)
         try:
             # a mutant that makes a loop endless is a timeout (cargo mutants counts those apart)
-            verdict, said = judge(quick)
+            if o in rebuilt:
+                rc, _, _ = run('cargo', 'test', '--profile', 'mutants', '--no-run', incremental=False)
+                verdict, said = ('unviable', 'rebuilt without incremental: it does not build') if rc != 0 else judge(quick, incremental=False)
+                said = said if rc != 0 else f"rebuilt without incremental; {said}"
+            else:
+                verdict, said = judge(quick)
         finally:
             subprocess.run(['patch', '-s', '-R', target, diff], check=True)
             if kept is not None:
