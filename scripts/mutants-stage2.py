@@ -63,20 +63,21 @@ def suite(*extra, incremental=True):
     return run('cargo', 'test', '--profile', 'mutants', '--doc', incremental=incremental) if rc[0] == 0 and not extra else rc
 
 
-def fails_alone(failing, cmd):
-    """Whether the test `failing` (as `cmd`'s report named it) fails again when run alone; a
-    failure that names no test (the tests did not build) is confirmed by the suite failing again
-    when built without incremental compilation, whose link failures (rust-lang/rust#81280) are
-    no catch."""
+def fails_alone(failing, cmd, incremental=True):
+    """Whether the test `failing` (as `cmd`'s report named it) fails again when run alone, built
+    as the suite was (an incremental rebuild could fail at the link, rust-lang/rust#81280, and
+    read as a failure); a failure that names no test (the tests did not build) is confirmed by
+    the suite failing again when built without incremental compilation, whose link failures
+    are no catch."""
     if failing == '-':
         return run(*cmd, incremental=False)[0] not in (0, 124)
     if cmd[:3] == ('cargo', 'nextest', 'run'):
         binary, _, test = failing.partition(' ')
-        return run('cargo', 'nextest', 'run', '--cargo-profile', 'mutants', '-E', f'binary_id({binary}) & test(={test})')[0] not in (0, 124)
+        return run('cargo', 'nextest', 'run', '--cargo-profile', 'mutants', '-E', f'binary_id({binary}) & test(={test})', incremental=incremental)[0] not in (0, 124)
     # libtest: the exact name; a doc test by its name as a filter (rustdoc's merged doc tests
     # do not answer to --exact)
     exact = () if re.search(r' - .*\(line \d+\)$', failing) else ('--exact',)
-    return run(*cmd, '--', *exact, failing)[0] not in (0, 124)
+    return run(*cmd, '--', *exact, failing, incremental=incremental)[0] not in (0, 124)
 
 
 def judge(quick, incremental=True):
@@ -90,7 +91,7 @@ def judge(quick, incremental=True):
             return 'timeout', '-'
         if rc == 0:
             break
-        if fails_alone(failing, cmd):
+        if fails_alone(failing, cmd, incremental):
             return 'caught', failing
         unconfirmed.append(failing)
     return 'missed', f"unconfirmed: {', '.join(unconfirmed)} failed in the suite and passed alone" if unconfirmed else '-'
@@ -127,9 +128,9 @@ with open(os.path.join(out, 'suite.txt'), 'w') as log:
         try:
             # a mutant that makes a loop endless is a timeout (cargo mutants counts those apart)
             if o in rebuilt:
-                rc, _, _ = run('cargo', 'test', '--profile', 'mutants', '--no-run', incremental=False)
-                verdict, said = ('unviable', 'rebuilt without incremental: it does not build') if rc != 0 else judge(quick, incremental=False)
-                said = said if rc != 0 else f"rebuilt without incremental; {said}"
+                builds = run('cargo', 'test', '--profile', 'mutants', '--no-run', incremental=False)[0] == 0
+                verdict, said = judge(quick, incremental=False) if builds else ('unviable', 'it does not build')
+                said = f"rebuilt without incremental; {said}"
             else:
                 verdict, said = judge(quick)
         finally:
