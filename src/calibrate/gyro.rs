@@ -442,12 +442,14 @@ impl GyroAlignment {
     /// lies at the edge of the searched range.
     pub fn estimate(&self) -> Option<GyroFit> {
         match &self.search {
-            None => {
-                let m = Moments { n: self.n as f64, sum_m: self.sum_m, sum_b: self.sum_b, sum_mb: self.sum_mb, sum_mm: self.sum_mm, sum_bb: self.sum_bb };
-                self.fit(&m, 0).map(|(fit, _, _)| fit)
-            }
+            None => self.fit(&self.moments(), 0).map(|(fit, _, _)| fit),
             Some(search) => self.estimate_with_clock(search),
         }
+    }
+
+    /// The moments of every window paired without the clock search.
+    fn moments(&self) -> Moments {
+        Moments { n: self.n as f64, sum_m: self.sum_m, sum_b: self.sum_b, sum_mb: self.sum_mb, sum_mm: self.sum_mm, sum_bb: self.sum_bb }
     }
 
     /// Kabsch on pooled moments: the fit, its residual sum of squares and the 3×3 covariance of a
@@ -991,8 +993,7 @@ mod tests {
     fn extra_parameters_take_degrees_of_freedom() {
         // a 13 ms clock offset the plain alignment ignores leaves residuals to scale
         let (g, _) = fly_for(gyro(), Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0)), Nanos::from_millis(13), 0.0, 600, 0..0);
-        let n = g.windows() as f64;
-        let m = Moments { n, sum_m: g.sum_m, sum_b: g.sum_b, sum_mb: g.sum_mb, sum_mm: g.sum_mm, sum_bb: g.sum_bb };
+        let (n, m) = (g.windows() as f64, g.moments());
         let ((_, rss, none), (_, _, two)) = (g.fit(&m, 0).unwrap(), g.fit(&m, 2).unwrap());
         assert!(rss > 0.0 && (10.0..20.0).contains(&n), "rss {rss}, {n} windows");
         let ratio = two[(0, 0)] / none[(0, 0)];
