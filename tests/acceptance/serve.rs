@@ -19,9 +19,12 @@ fn tmp(name: &str) -> super::Scratch {
     super::Scratch::new(&format!("serve-{name}"))
 }
 
-/// A port nobody listens on now (the OS's choice of a free one).
-fn free_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+/// `N` distinct ports nobody listens on now: all `N` sockets are held until every port is read,
+/// so the OS cannot hand the same port out twice (a server whose command and data ports were
+/// one port would fail for a reason no mutant and no code of ours caused).
+fn free_ports<const N: usize>() -> [u16; N] {
+    let held: Vec<UdpSocket> = (0..N).map(|_| UdpSocket::bind("127.0.0.1:0").unwrap()).collect();
+    std::array::from_fn(|i| held[i].local_addr().unwrap().port())
 }
 
 /// Whether Python has `module`. Without it the test fails under CI (where `.ci/run` installs
@@ -35,8 +38,9 @@ fn python_has(module: &str) -> bool {
     have
 }
 
-/// A child process killed when dropped (a failed assertion must not leave a server running).
-struct Killed(Child);
+/// A child process killed when dropped (a failed assertion must not leave a server running),
+/// with its stderr if it was read (a server's, so that a failed exit says why).
+struct Killed(Child, Option<std::thread::JoinHandle<String>>);
 
 impl Drop for Killed {
     fn drop(&mut self) {
@@ -57,6 +61,30 @@ impl Killed {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
+
+    /// Waits at most `limit` for the exit and asserts it was 0, showing the process's stderr
+    /// if not.
+    fn exits_ok(&mut self, limit: Duration) {
+        let code = self.wait_for(limit);
+        if code != 0 {
+            let err = self.1.take().map(|h| h.join().unwrap_or_default()).unwrap_or_default();
+            panic!("the server exited with {code}: {err}");
+        }
+    }
+
+    /// Spawns `cmd`, its stderr read while it runs (a full pipe would block it).
+    fn spawn(cmd: &mut Command) -> Killed {
+        let mut child = cmd.stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+        let mut stderr = child.stderr.take().unwrap();
+        Killed(
+            child,
+            Some(std::thread::spawn(move || {
+                let mut s = String::new();
+                let _ = std::io::Read::read_to_string(&mut stderr, &mut s);
+                s
+            })),
+        )
+    }
 }
 
 /// `flyarena serve` on the fixture at twice real time (3.5 s), waiting up to 30 s for a client.
@@ -65,20 +93,17 @@ fn server(port: u16, data_port: u16, out: &Path) -> Killed {
 }
 
 fn server_with(port: u16, data_port: u16, out: &Path, extra: &[&str]) -> Killed {
-    let child = Command::new(env!("CARGO_BIN_EXE_flyarena"))
-        .arg("serve")
-        .arg(fixture())
-        .args(["--command-port", &port.to_string(), "--data-port", &data_port.to_string(), "--speed", "2", "--wait-s", "30", "--no-rrd", "-q"])
-        .args(extra)
-        .arg("--out")
-        .arg(out)
-        .arg("--log")
-        .arg(out.join("served.csv"))
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    Killed(child)
+    Killed::spawn(
+        Command::new(env!("CARGO_BIN_EXE_flyarena"))
+            .arg("serve")
+            .arg(fixture())
+            .args(["--command-port", &port.to_string(), "--data-port", &data_port.to_string(), "--speed", "2", "--wait-s", "30", "--no-rrd", "-q"])
+            .args(extra)
+            .arg("--out")
+            .arg(out)
+            .arg("--log")
+            .arg(out.join("served.csv")),
+    )
 }
 
 /// Runs a client script with a time limit; its last stdout line, parsed. Its output is read
@@ -97,7 +122,7 @@ fn client(script: &str, args: &[String], limit: Duration) -> Value {
         let _ = std::io::Read::read_to_string(&mut stderr, &mut s);
         s
     });
-    let mut child = Killed(child);
+    let mut child = Killed(child, None);
     let code = child.wait_for(limit);
     let text = out.join().unwrap().unwrap();
     assert_eq!(code, 0, "{script} failed: {}", err.join().unwrap());
@@ -173,10 +198,10 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
     if !python_has("natnet") {
         return;
     }
-    let (port, data_port, out) = (free_port(), free_port(), tmp("natnet"));
+    let ([port, data_port], out) = (free_ports::<2>(), tmp("natnet"));
     let mut srv = server(port, data_port, &out);
     let got = client("natnet_client.py", &[port.to_string(), "3".into()], Duration::from_secs(60));
-    assert_eq!(srv.wait_for(Duration::from_secs(60)), 0);
+    srv.exits_ok(Duration::from_secs(60));
     assert_eq!(got["application"], "flyarena");
     assert_eq!(got["natnet_version"], "3.1.0.0");
     let s = flyarena::scenario::Scenario::load(&fixture()).unwrap();
@@ -233,10 +258,10 @@ fn libmotioncapture_receives_the_poses_flyarena_sent() {
     if !python_has("motioncapture") {
         return;
     }
-    let (port, data_port, out) = (free_port(), free_port(), tmp("motioncapture"));
+    let ([port, data_port], out) = (free_ports::<2>(), tmp("motioncapture"));
     let mut srv = server(port, data_port, &out);
     let got = client("motioncapture_client.py", &[port.to_string(), "300".into()], Duration::from_secs(60));
-    assert_eq!(srv.wait_for(Duration::from_secs(60)), 0);
+    srv.exits_ok(Duration::from_secs(60));
     let logs: HashMap<&str, Vec<Pose32>> =
         [("cf1", "served-cf1.csv"), ("cf2", "served-cf2.csv")].into_iter().map(|(n, f)| (n, log_poses(&out.join(f)).values().map(|(_, p, q)| z_up(*p, *q)).collect())).collect();
     let poses = got["poses"].as_array().unwrap();
@@ -283,8 +308,10 @@ fn fig6_builtin_and_external() -> (flyarena::scenario::Scenario, flyarena::scena
 /// Serves `s` on a free port in a thread (`opts` with that port and a 30 s wait for the
 /// controller) while `script` (with the port and vehicle id 1, plus `args`) controls it.
 fn serve_with_client(s: flyarena::scenario::Scenario, opts: ServeOptions, script: &str, args: &[String]) -> (Value, flyarena::engine::RunOutput, flyarena::serve::ServeReport) {
-    let port = free_port();
-    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), ..opts };
+    // a data port of its own: at the default (1511) its frames would also reach the client of
+    // a test running beside it that listens there
+    let [port, data_port] = free_ports::<2>();
+    let opts = ServeOptions { command_port: port, data_port, wait_for_client: Duration::from_secs(30), ..opts };
     let served = std::thread::spawn(move || serve(&s, &opts, RunOptions::default()));
     let mut all = vec![port.to_string(), "1".into()];
     all.extend_from_slice(args);
@@ -345,8 +372,10 @@ fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
 #[test]
 fn a_silent_controller_in_lockstep_times_out_once() {
     let s = super::inline("name: silent\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 1 }\n");
-    let port = free_port();
-    let opts = ServeOptions { command_port: port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_millis(300)), ..ServeOptions::default() };
+    // a data port of its own: at the default (1511) its frames would also reach the client of
+    // a test running beside it that listens there
+    let [port, data_port] = free_ports::<2>();
+    let opts = ServeOptions { command_port: port, data_port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_millis(300)), ..ServeOptions::default() };
     let served = std::thread::spawn(move || serve(&s, &opts, RunOptions::default()));
     // register with one command for period 0 (full thrust), then say nothing
     let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -425,11 +454,11 @@ fn the_natnet_client_receives_the_poses_over_multicast() {
     if !python_has("natnet") {
         return;
     }
-    let (port, data_port, out) = (free_port(), free_port(), tmp("multicast"));
+    let ([port, data_port], out) = (free_ports::<2>(), tmp("multicast"));
     let group = "239.255.42.99";
     let mut srv = server_with(port, data_port, &out, &["--multicast", group]);
     let got = client("natnet_client.py", &[port.to_string(), "3".into(), group.into(), data_port.to_string()], Duration::from_secs(60));
-    assert_eq!(srv.wait_for(Duration::from_secs(60)), 0);
+    srv.exits_ok(Duration::from_secs(60));
     let logs = [log_poses(&out.join("served-cf1.csv")), log_poses(&out.join("served-cf2.csv"))];
     let frames = got["frames"].as_array().unwrap();
     assert!(frames.len() > 300, "{} frames in 3 s at 200 Hz", frames.len());
@@ -500,21 +529,17 @@ fn the_readme_example_serves_fig6_to_the_reference_controller() {
     let text = std::fs::read_to_string(super::root().join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap();
     let path = dir.join("fig6-external.yaml");
     std::fs::write(&path, text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n")).unwrap();
-    let port = free_port();
-    let mut srv = Killed(
+    let [port, data_port] = free_ports::<2>();
+    let mut srv = Killed::spawn(
         Command::new(env!("CARGO_BIN_EXE_flyarena"))
             .arg("serve")
             .arg(&path)
-            .args(["--lockstep", "--no-rrd", "-q", "--command-port", &port.to_string(), "--data-port", &free_port().to_string()])
+            .args(["--lockstep", "--no-rrd", "-q", "--command-port", &port.to_string(), "--data-port", &data_port.to_string()])
             .arg("--out")
-            .arg(dir.join("out"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
+            .arg(dir.join("out")),
     );
     client("fig6_controller.py", &[port.to_string(), "1".into()], Duration::from_secs(180));
-    assert_eq!(srv.wait_for(Duration::from_secs(60)), 0);
+    srv.exits_ok(Duration::from_secs(60));
     let summary: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("out/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
     let rows = summary["requirements"].as_array().unwrap();
     let ratio = rows.iter().find(|r| r["id"] == "R2" && r["what"].as_str().unwrap().contains("uncompensated (0.36")).unwrap_or_else(|| panic!("{rows:?}"));
