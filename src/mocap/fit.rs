@@ -186,6 +186,20 @@ mod tests {
         }
         assert!(polar_rotation(&(r * 0.0)).is_none());
     }
+
+    /// The fast path is the polar factor, not a rotation it happened to be handed: for M = R·S
+    /// with S symmetric positive definite (here a stretch by 3, 1 and 0.2 along tilted axes),
+    /// the orthogonal polar factor of M is R, in closed form. Newton needs several steps from
+    /// such an M (the first step leaves X far from orthogonal), so an iteration that stops
+    /// early falls back to the SVD and returns `None` here.
+    #[test]
+    fn polar_rotation_of_a_stretched_rotation_is_the_rotation() {
+        let r = *nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 1.0).matrix();
+        let axes = *nalgebra::Rotation3::from_euler_angles(-0.7, 0.4, 0.1).matrix();
+        let s = axes * Matrix3::from_diagonal(&Vector3::new(3.0, 1.0, 0.2)) * axes.transpose();
+        let got = polar_rotation(&(r * s)).expect("a well-conditioned M takes the fast path");
+        assert!((got - r).abs().max() < 1e-12, "{got} against {r}");
+    }
     use crate::frames::{Body, Euler, MocapBody, Nav};
 
     /// An asymmetric four-marker template (body frame, m).
