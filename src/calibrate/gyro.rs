@@ -328,7 +328,9 @@ impl GyroAlignment {
                     self.pending[i] = None;
                 }
                 // the frames for this window are older than the ring or will never arrive
-                _ if (self.newest_mocap - w.t_b).0 > self.mocap_period.0 * (MOCAP_RING as i64 / 2) => {
+                // (saturating: before the first mocap frame, newest_mocap is i64::MIN and the
+                // window waits)
+                _ if self.newest_mocap.0.saturating_sub(w.t_b.0) > self.mocap_period.0 * (MOCAP_RING as i64 / 2) => {
                     self.pending[i] = None;
                     self.dropped += 1;
                 }
@@ -983,6 +985,27 @@ mod tests {
             g.add_mocap(Nanos::from_millis(ms), Rot::identity());
         }
         assert_eq!((g.windows(), g.dropped()), (1, 0), "(paired, dropped)");
+    }
+
+    /// The plain alignment builds a window from consecutive telemetry frames; a frame that does
+    /// not start where the open window ends restarts it, and the broken window counts as
+    /// dropped. Windows of 4 frames (40 ms): frames at 0, 10 | 30, 40 | 60, 70, 80, 90 ms break
+    /// two windows and complete one, [60, 100] ms, which waits for its mocap: telemetry that
+    /// arrives before the first mocap frame is not lost (it was, through an overflow of
+    /// `i64::MIN − t_b` that a debug build panicked on); with the frames in, it is paired.
+    /// Census of 33c1bbe, shard 2: the count `+= 1` as `-= 1` passed every test.
+    #[test]
+    fn a_telemetry_gap_drops_the_open_window() {
+        let mut g = gyro();
+        for (seq, ms) in [0, 10, 30, 40, 60, 70, 80, 90].into_iter().enumerate() {
+            let t0 = Nanos::from_millis(ms);
+            g.add_telemetry(&TelemetryFrame { seq: seq as u32, t0, t1: t0 + Nanos::from_millis(10), gyro_mean: Vec3::zeros() });
+        }
+        assert_eq!((g.windows(), g.dropped()), (0, 2), "(paired, dropped) before any mocap");
+        for ms in (50..=110).step_by(5) {
+            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+        }
+        assert_eq!((g.windows(), g.dropped()), (1, 2), "(paired, dropped) with the mocap in");
     }
 
     /// Each extra parameter of a fit (the clock search's offset and drift) is one degree of

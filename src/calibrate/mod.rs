@@ -269,6 +269,18 @@ mod tests {
         assert!((roll.to_degrees() - 4.0).abs() < 1e-12 && (pitch.to_degrees() - 1.0).abs() < 1e-12, "{}°, {}°", roll.to_degrees(), pitch.to_degrees());
     }
 
+    /// A track that does not move has no heading: every point equal (a hover, or one point
+    /// repeated) gives `None`, not the course 0 that atan2(0, 0) would make of it; two distinct
+    /// points give their direction. Census of 33c1bbe, shard 2: `sxx + syy > 0` as `>=`
+    /// passed every test.
+    #[test]
+    fn a_track_that_does_not_move_has_no_course() {
+        assert_eq!(tls_course(&[1.0, 1.0, 1.0], &[-2.0, -2.0, -2.0]), None);
+        assert_eq!(tls_course(&[1.0], &[-2.0]), None);
+        let northeast = tls_course(&[0.0, 1.0], &[0.0, 1.0]).expect("a track that moves");
+        assert!((northeast - std::f64::consts::FRAC_PI_4).abs() < 1e-15, "{northeast}");
+    }
+
     #[test]
     fn ls_recovers_the_heading_of_a_straight_track() {
         // true heading −ψ_off = −2°: the measured heading 0 hides it
