@@ -169,9 +169,9 @@ pub struct GyroAlignment {
     search: Option<ClockSearch>,
     blocks: Vec<Block>,
     /// With the clock search: the telemetry frames still needed, in t0 order, the newest frame's
-    /// end, and the next window (index of t_a on the window grid).
+    /// start, and the next window (index of t_a on the window grid).
     frames: std::collections::VecDeque<TelemetryFrame>,
-    newest_telemetry: Nanos,
+    newest_telemetry_start: Nanos,
     next_window: Option<i64>,
 }
 
@@ -203,7 +203,7 @@ impl GyroAlignment {
             search: None,
             blocks: Vec::new(),
             frames: std::collections::VecDeque::new(),
-            newest_telemetry: Nanos(i64::MIN),
+            newest_telemetry_start: Nanos(i64::MIN),
             next_window: None,
         }
     }
@@ -257,7 +257,7 @@ impl GyroAlignment {
         if self.search.is_some() {
             let at = self.frames.iter().rposition(|g| g.t0 <= f.t0).map_or(0, |i| i + 1);
             self.frames.insert(at, *f);
-            self.newest_telemetry = self.newest_telemetry.max(f.t1);
+            self.newest_telemetry_start = self.newest_telemetry_start.max(f.t0);
             self.windows_on_mocap_grid();
             return;
         }
@@ -341,12 +341,16 @@ impl GyroAlignment {
 
     /// With the clock search: every window [t_a, t_b] of the grid whose mocap frames and whose
     /// telemetry up to t_b + max_offset can have arrived is paired at every candidate offset (or
-    /// dropped, if a frame or a stretch of telemetry is missing).
+    /// dropped, if a frame or a stretch of telemetry is missing). "Can have arrived" for the
+    /// telemetry is a frame that starts at or after t_b + max_offset: a frame that covers
+    /// t_b + δ in part integrates the parabola through its neighbours' means, so the frame
+    /// after it must be in too (with only the frames up to t_b + max_offset in, the last one
+    /// took its own mean for its missing neighbour, and the estimate depended on arrival order).
     fn windows_on_mocap_grid(&mut self) {
         let Some(search) = self.search else { return };
         while let Some(k) = self.next_window {
             let (t_a, t_b) = (Nanos(k * self.window.0), Nanos((k + 1) * self.window.0));
-            if self.newest_mocap < t_b + Nanos(self.mocap_period.0 * NEIGHBOUR_PERIODS) || self.newest_telemetry < t_b + search.max_offset {
+            if self.newest_mocap < t_b + Nanos(self.mocap_period.0 * NEIGHBOUR_PERIODS) || self.newest_telemetry_start < t_b + search.max_offset {
                 return;
             }
             self.next_window = Some(k + 1);
@@ -794,6 +798,25 @@ mod tests {
     /// [`fly_with_gap`] for `duration_ms` milliseconds.
     fn fly_for(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, duration_ms: i64, lost_ms: std::ops::Range<i64>) -> (GyroAlignment, Option<GyroFit>) {
         let mut g = g;
+        for e in arrivals(c, offset, drift_ppm, duration_ms, lost_ms) {
+            match e {
+                Arrival::Mocap(t, a) => g.add_mocap(t, a),
+                Arrival::Telemetry(f) => g.add_telemetry(&f),
+            }
+        }
+        let fit = g.estimate();
+        (g, fit)
+    }
+
+    /// What reaches the alignment, in order of arrival.
+    enum Arrival {
+        Mocap(Nanos, Rot<MocapBody, MocapNav>),
+        Telemetry(TelemetryFrame),
+    }
+
+    /// The flight of [`fly_for`], as the frames it delivers in their order of arrival.
+    fn arrivals(c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, duration_ms: i64, lost_ms: std::ops::Range<i64>) -> Vec<Arrival> {
+        let mut out = Vec::new();
         let omega = |t: f64| Vec3::<Body>::new(0.6 * (3.0 * t).cos() * (1.0 + 0.5 * (0.7 * t).sin()), 0.5 * (2.0 * t).sin(), 0.2 + 0.3 * (1.3 * t).sin());
         let stamp = |t: Nanos| Nanos(t.0 + offset.0 + (t.0 as f64 * drift_ppm * 1e-6).round() as i64);
         let mut att: Rot<Body, Nav> = Rot::identity();
@@ -813,7 +836,7 @@ mod tests {
             if (ms + 1) % 10 == 0 {
                 let (t0, t1) = (Nanos::from_millis(ms - 9), Nanos::from_millis(ms + 1));
                 if !lost_ms.contains(&(ms + 1)) {
-                    g.add_telemetry(&TelemetryFrame { seq, t0: stamp(t0), t1: stamp(t1), gyro_mean: gyro_sum * 0.1 });
+                    out.push(Arrival::Telemetry(TelemetryFrame { seq, t0: stamp(t0), t1: stamp(t1), gyro_mean: gyro_sum * 0.1 }));
                 }
                 seq += 1;
                 gyro_sum = Vec3::zeros();
@@ -822,12 +845,11 @@ mod tests {
                 if tc + Nanos::from_millis(12) > t {
                     break;
                 }
-                g.add_mocap(tc, a);
+                out.push(Arrival::Mocap(tc, a));
                 mocap_queue.pop_front();
             }
         }
-        let fit = g.estimate();
-        (g, fit)
+        out
     }
 
     fn gyro() -> GyroAlignment {
@@ -1006,6 +1028,62 @@ mod tests {
             g.add_mocap(Nanos::from_millis(ms), Rot::identity());
         }
         assert_eq!((g.windows(), g.dropped()), (1, 2), "(paired, dropped) with the mocap in");
+    }
+
+    /// The clock search's estimate does not depend on the order in which telemetry and mocap
+    /// arrive: the flight of [`fly`] (a clock 17 ms ahead, searched up to 20 ms) gives the same
+    /// fit, to the bit, as delivered (telemetry first, mocap 12 ms late), with its telemetry
+    /// 40 ms late instead, and with all its telemetry before any mocap. A window is paired only
+    /// once a telemetry frame starting at or after t_b + max_offset is in, so the frame that
+    /// covers t_b + δ in part (at the nodes next to the 17 ms minimum) has its next neighbour
+    /// for the parabola in every order. Census of 33c1bbe, shard 4: the gate's `<` as `<=`
+    /// passed every test; the gate then (the newest frame's *end* at t_b + max_offset) paired a
+    /// window with late telemetry while the frame after [t_b + 17, t_b + 27] ms was still on
+    /// its way, and that frame's own mean stood in for its neighbour's.
+    #[test]
+    fn the_clock_search_does_not_depend_on_the_order_of_arrival() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
+        let (offset, search) = (Nanos::from_millis(17), ClockSearch { max_offset: Nanos::from_millis(20), ..ClockSearch::default() });
+        let fed = |telemetry_lag: Option<Nanos>| {
+            let mut order = arrivals(c, offset, 0.0, 4000, 0..0);
+            // arrival times: a mocap frame 12 ms after its capture, a telemetry frame at the end
+            // of its interval (on the arena's clock) plus the lag; None: all telemetry first
+            let at = |e: &Arrival| match (e, telemetry_lag) {
+                (Arrival::Mocap(t, _), _) => *t + Nanos::from_millis(12),
+                (Arrival::Telemetry(f), Some(lag)) => f.t1 - offset + lag,
+                (Arrival::Telemetry(_), None) => Nanos(i64::MIN),
+            };
+            order.sort_by_key(|e| at(e)); // stable: equal times keep the order of delivery
+            let mut g = gyro().estimate_clock(search);
+            for e in order {
+                match e {
+                    Arrival::Mocap(t, a) => g.add_mocap(t, a),
+                    Arrival::Telemetry(f) => g.add_telemetry(&f),
+                }
+            }
+            let fit = g.estimate().unwrap_or_else(|| panic!("no fit from {} windows", g.windows()));
+            assert!(g.windows() > 90, "{} windows", g.windows());
+            ((g.windows(), g.dropped()), format!("{fit:?}"))
+        };
+        let telemetry_first = fed(None);
+        assert_eq!(fed(Some(Nanos::ZERO)), telemetry_first, "as delivered");
+        assert_eq!(fed(Some(Nanos::from_millis(40))), telemetry_first, "telemetry 40 ms late");
+    }
+
+    /// The telemetry gate at its edge: with a 10 ms search, window [40, 80] ms needs telemetry
+    /// up to 90 ms and is paired as soon as a frame starting at exactly 90 ms is in (the frames
+    /// end there; all mocap is in). Window [80, 120] waits for a frame starting at 130 ms.
+    #[test]
+    fn a_window_is_paired_once_a_frame_starts_at_its_end_plus_the_search() {
+        let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(10), ..ClockSearch::default() });
+        for ms in (0..=200).step_by(5) {
+            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+        }
+        for seq in 0..10 {
+            let t0 = Nanos::from_millis(10 * seq as i64);
+            g.add_telemetry(&TelemetryFrame { seq, t0, t1: t0 + Nanos::from_millis(10), gyro_mean: Vec3::zeros() });
+        }
+        assert_eq!((g.windows(), g.dropped()), (1, 0), "(paired, dropped) with frames up to [90, 100] ms");
     }
 
     /// Each extra parameter of a fit (the clock search's offset and drift) is one degree of

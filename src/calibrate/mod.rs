@@ -271,14 +271,19 @@ mod tests {
 
     /// A track that does not move has no heading: every point equal (a hover, or one point
     /// repeated) gives `None`, not the course 0 that atan2(0, 0) would make of it; two distinct
-    /// points give their direction. Census of 33c1bbe, shard 2: `sxx + syy > 0` as `>=`
-    /// passed every test.
+    /// points give their direction, and so does a track along one axis only. Census of 33c1bbe,
+    /// shards 2 and 4: `sxx + syy > 0` as `>=`, as `sxx − syy` and as `sxx · syy` passed every
+    /// test.
     #[test]
     fn a_track_that_does_not_move_has_no_course() {
         assert_eq!(tls_course(&[1.0, 1.0, 1.0], &[-2.0, -2.0, -2.0]), None);
         assert_eq!(tls_course(&[1.0], &[-2.0]), None);
         let northeast = tls_course(&[0.0, 1.0], &[0.0, 1.0]).expect("a track that moves");
         assert!((northeast - std::f64::consts::FRAC_PI_4).abs() < 1e-15, "{northeast}");
+        // a track along one axis has no spread across it (and none along the other axis)
+        assert_eq!(tls_course(&[0.0, 1.0, 2.0], &[3.0, 3.0, 3.0]), Some(0.0), "due north");
+        let east = tls_course(&[3.0, 3.0, 3.0], &[0.0, 1.0, 2.0]).expect("due east");
+        assert!((east - std::f64::consts::FRAC_PI_2).abs() < 1e-15, "{east}");
     }
 
     #[test]
