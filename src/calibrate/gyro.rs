@@ -1030,6 +1030,26 @@ mod tests {
         assert_eq!((g.windows(), g.dropped()), (1, 2), "(paired, dropped) with the mocap in");
     }
 
+    /// A window is `window` long on the Vicon clock, to 1/1000: four telemetry frames of a clock
+    /// 0.05 % fast (40.02 ms, 20 µs off) make a window that is paired, four of a clock 0.2 %
+    /// fast (40.08 ms, 80 µs off, over the 40 µs bound) one that is dropped. Census of 33c1bbe,
+    /// shard 7: the span's difference `−` as `/` (a ratio near 1, always within the bound)
+    /// passed every test.
+    #[test]
+    fn a_window_off_its_length_by_more_than_a_thousandth_is_dropped() {
+        for (period_ns, expected) in [(10_005_000, (1, 0)), (10_020_000, (0, 1))] {
+            let mut g = gyro();
+            for ms in (0..=100).step_by(5) {
+                g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+            }
+            for seq in 0..4 {
+                let t0 = Nanos(period_ns * seq as i64);
+                g.add_telemetry(&TelemetryFrame { seq, t0, t1: t0 + Nanos(period_ns), gyro_mean: Vec3::zeros() });
+            }
+            assert_eq!((g.windows(), g.dropped()), expected, "(paired, dropped) with frames of {period_ns} ns");
+        }
+    }
+
     /// The clock search's estimate does not depend on the order in which telemetry and mocap
     /// arrive: the flight of [`fly`] (a clock 17 ms ahead, searched up to 20 ms) gives the same
     /// fit, to the bit, as delivered (telemetry first, mocap 12 ms late), with its telemetry
