@@ -799,10 +799,7 @@ mod tests {
     fn fly_for(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, duration_ms: i64, lost_ms: std::ops::Range<i64>) -> (GyroAlignment, Option<GyroFit>) {
         let mut g = g;
         for e in arrivals(c, offset, drift_ppm, duration_ms, lost_ms) {
-            match e {
-                Arrival::Mocap(t, a) => g.add_mocap(t, a),
-                Arrival::Telemetry(f) => g.add_telemetry(&f),
-            }
+            e.deliver(&mut g);
         }
         let fit = g.estimate();
         (g, fit)
@@ -812,6 +809,20 @@ mod tests {
     enum Arrival {
         Mocap(Nanos, Rot<MocapBody, MocapNav>),
         Telemetry(TelemetryFrame),
+    }
+
+    impl Arrival {
+        fn deliver(self, g: &mut GyroAlignment) {
+            match self {
+                Arrival::Mocap(t, a) => g.add_mocap(t, a),
+                Arrival::Telemetry(f) => g.add_telemetry(&f),
+            }
+        }
+    }
+
+    /// A telemetry frame of a vehicle at rest: number `seq`, [t0, t0 + span).
+    fn at_rest(seq: u32, t0: Nanos, span: Nanos) -> TelemetryFrame {
+        TelemetryFrame { seq, t0, t1: t0 + span, gyro_mean: Vec3::zeros() }
     }
 
     /// The flight of [`fly_for`], as the frames it delivers in their order of arrival.
@@ -1000,7 +1011,7 @@ mod tests {
         let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(3), ..ClockSearch::default() });
         for seq in 0..20 {
             let t0 = Nanos::from_millis(10 * seq as i64);
-            g.add_telemetry(&TelemetryFrame { seq, t0, t1: t0 + Nanos::from_millis(10), gyro_mean: Vec3::zeros() });
+            g.add_telemetry(&at_rest(seq, t0, Nanos::from_millis(10)));
         }
         let frames = (0..=75).step_by(5).chain([85, 90, 80, 95]);
         for ms in frames {
@@ -1021,7 +1032,7 @@ mod tests {
         let mut g = gyro();
         for (seq, ms) in [0, 10, 30, 40, 60, 70, 80, 90].into_iter().enumerate() {
             let t0 = Nanos::from_millis(ms);
-            g.add_telemetry(&TelemetryFrame { seq: seq as u32, t0, t1: t0 + Nanos::from_millis(10), gyro_mean: Vec3::zeros() });
+            g.add_telemetry(&at_rest(seq as u32, t0, Nanos::from_millis(10)));
         }
         assert_eq!((g.windows(), g.dropped()), (0, 2), "(paired, dropped) before any mocap");
         for ms in (50..=110).step_by(5) {
@@ -1044,7 +1055,7 @@ mod tests {
             }
             for seq in 0..4 {
                 let t0 = Nanos(period_ns * seq as i64);
-                g.add_telemetry(&TelemetryFrame { seq, t0, t1: t0 + Nanos(period_ns), gyro_mean: Vec3::zeros() });
+                g.add_telemetry(&at_rest(seq, t0, Nanos(period_ns)));
             }
             assert_eq!((g.windows(), g.dropped()), expected, "(paired, dropped) with frames of {period_ns} ns");
         }
@@ -1076,10 +1087,7 @@ mod tests {
             order.sort_by_key(|e| at(e)); // stable: equal times keep the order of delivery
             let mut g = gyro().estimate_clock(search);
             for e in order {
-                match e {
-                    Arrival::Mocap(t, a) => g.add_mocap(t, a),
-                    Arrival::Telemetry(f) => g.add_telemetry(&f),
-                }
+                e.deliver(&mut g);
             }
             let fit = g.estimate().unwrap_or_else(|| panic!("no fit from {} windows", g.windows()));
             assert!(g.windows() > 90, "{} windows", g.windows());
@@ -1101,7 +1109,7 @@ mod tests {
         }
         for seq in 0..10 {
             let t0 = Nanos::from_millis(10 * seq as i64);
-            g.add_telemetry(&TelemetryFrame { seq, t0, t1: t0 + Nanos::from_millis(10), gyro_mean: Vec3::zeros() });
+            g.add_telemetry(&at_rest(seq, t0, Nanos::from_millis(10)));
         }
         assert_eq!((g.windows(), g.dropped()), (1, 0), "(paired, dropped) with frames up to [90, 100] ms");
     }
