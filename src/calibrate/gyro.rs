@@ -346,13 +346,17 @@ impl GyroAlignment {
     /// t_b + δ in part integrates the parabola through its neighbours' means, so the frame
     /// after it must be in too (with only the frames up to t_b + max_offset in, the last one
     /// took its own mean for its missing neighbour, and the estimate depended on arrival order).
+    ///
+    /// Window k ends at t_b = (k + 1)·window; it is ready when t_b ≤ `ready`, the earlier of
+    /// newest mocap − [`NEIGHBOUR_PERIODS`] periods and newest telemetry start − max_offset, that
+    /// is for k < ⌊ready / window⌋. The windows are walked over that range, so the loop ends
+    /// whatever the bookkeeping of `next_window` does.
     fn windows_on_mocap_grid(&mut self) {
-        let Some(search) = self.search else { return };
-        while let Some(k) = self.next_window {
+        let (Some(search), Some(first)) = (self.search, self.next_window) else { return };
+        // saturating: before the first telemetry frame its start is i64::MIN
+        let ready = (self.newest_mocap.0.saturating_sub(self.mocap_period.0 * NEIGHBOUR_PERIODS)).min(self.newest_telemetry_start.0.saturating_sub(search.max_offset.0));
+        for k in first..ready.div_euclid(self.window.0) {
             let (t_a, t_b) = (Nanos(k * self.window.0), Nanos((k + 1) * self.window.0));
-            if self.newest_mocap < t_b + Nanos(self.mocap_period.0 * NEIGHBOUR_PERIODS) || self.newest_telemetry_start < t_b + search.max_offset {
-                return;
-            }
             self.next_window = Some(k + 1);
             // frames that no later window needs
             while self.frames.front().is_some_and(|f| f.t1 < t_a - search.max_offset) {
@@ -1018,6 +1022,26 @@ mod tests {
             g.add_mocap(Nanos::from_millis(ms), Rot::identity());
         }
         assert_eq!((g.windows(), g.dropped()), (1, 0), "(paired, dropped)");
+    }
+
+    /// The clock search drops a window whose mocap frame at either end is missing, and holds only
+    /// the telemetry a later window can need. A 3 ms search, telemetry at rest over [0, 200) ms,
+    /// mocap every 5 ms to 200 ms but for 120 ms: windows k < ⌊min(200 − 15, 190 − 3)/40⌋ = 4
+    /// are ready, [40, 80] is paired and [80, 120], [120, 160] are dropped. The last window
+    /// starts at 120 ms, so frames that end before 117 ms are let go: the 9 frames from
+    /// [110, 120) on stay (all 20, kept forever, would be a leak on a long flight).
+    #[test]
+    fn the_clock_search_drops_a_window_without_its_mocap_frames_and_lets_old_telemetry_go() {
+        let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(3), ..ClockSearch::default() });
+        for seq in 0..20 {
+            g.add_telemetry(&at_rest(seq, Nanos::from_millis(10 * seq as i64), Nanos::from_millis(10)));
+        }
+        for ms in (0..=200).step_by(5).filter(|ms| *ms != 120) {
+            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+        }
+        assert_eq!((g.windows(), g.dropped()), (1, 2), "(paired, dropped)");
+        assert_eq!(g.frames.len(), 9, "telemetry frames held");
+        assert_eq!(g.frames.front().map(|f| f.t0), Some(Nanos::from_millis(110)));
     }
 
     /// The plain alignment builds a window from consecutive telemetry frames; a frame that does
