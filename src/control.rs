@@ -191,6 +191,16 @@ mod tests {
                 assert!((a - b).abs() < 1e-14, "({roll}, {pitch}): {a} vs {b}");
             }
         }
+        // θ = π/2 exactly: q = (½, ½, ½, −½) has R₃₁ = 2(q_x·q_z − q_w·q_y) = −1,
+        // R₃₂ = 2(q_y·q_z + q_w·q_x) = 0 and R₃₃ = 1 − 2(q_x² + q_y²) = 0 to the bit, so
+        // cos θ = 0, φ is not defined by R and the angles' own sines are used (dividing by
+        // cos θ would give 0/0)
+        let q = nalgebra::UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(0.5, 0.5, 0.5, -0.5));
+        let att: Rot<Body, MocapNav> = Rot::from_quaternion(q);
+        assert_eq!((att.matrix()[(2, 1)], att.matrix()[(2, 2)]), (0.0, 0.0));
+        let e = att.euler();
+        assert_eq!(roll_pitch_sin_cos(&att, &e), (e.roll.sin_cos(), e.pitch.sin_cos()));
+        assert!((e.pitch - std::f64::consts::FRAC_PI_2).abs() < 1e-7, "pitch {}", e.pitch);
     }
 
     #[test]
