@@ -432,6 +432,18 @@ mod tests {
         for (q, erfc) in [(2e-6, 0.998_871_621_209_030_7), (0.01, 0.920_344_325_445_942)] {
             assert!((chi2_sf(q, 1.0) - erfc).abs() < 1e-13, "{q}: {}", chi2_sf(q, 1.0));
         }
+        // Far above the switch x = (a + 1)/(a + b + 2), where only the symmetric branch is
+        // accurate in 400 terms, against I_x(1, b) = 1 − (1 − x)^b and I_x(a, 1) = x^a (a = 1 or b = 1: the
+        // integrand is a power): b = 2000 puts the switch at 2/2003 ≈ 0.001, a = 2000 at
+        // 2001/2003 ≈ 0.999. An F test on a long flight has b = d₂/2 in the thousands: d₁ = 2,
+        // d₂ = 4000 and F = 20 (a clear effect) give x = d₁F/(d₁F + d₂) = 0.0099, where the
+        // direct fraction would have to reach I·a/front = 1/(b·x·(1 − x)^b) ≈ 2·10⁷ (it comes
+        // out 8·10⁻⁹ above 1, so the upper tail 1 − I would be negative)
+        for (a, b, x) in [(1.0f64, 2000.0f64, 0.003f64), (1.0, 2000.0, 0.0099), (1.0, 2000.0, 0.0005), (2000.0, 1.0, 0.9997), (2000.0, 1.0, 0.99)] {
+            let truth = if a == 1.0 { -(b * (-x).ln_1p()).exp_m1() } else { (a * x.ln()).exp() };
+            let got = incomplete_beta(a, b, x);
+            assert!((got - truth).abs() < 1e-12, "I_{x}({a}, {b}) = {got}, closed form {truth}");
+        }
         // F(2, 2): P(F > f) = 1/(1 + f); f = 0.25 puts x = 2/(2 + 0.5) = 0.8 above (1 + 1)/(1 + 1 + 2) = 0.5
         for f in [0.25, 4.0] {
             assert!((f_sf(f, 2.0, 2.0) - 1.0 / (1.0 + f)).abs() < 1e-13, "{f}");
