@@ -310,6 +310,25 @@ mod tests {
         }
     }
 
+    /// A fit needs three visible markers and one observation and one visibility flag per template
+    /// marker: three visible fit, two visible or a list one entry short (any of the three) is no
+    /// fit, with a guess or without. Census of 33c1bbe, shard 10: the length checks joined by
+    /// `&&` let a list one entry short through.
+    #[test]
+    fn a_fit_needs_three_visible_markers_and_one_entry_per_marker() {
+        let r: Rot<Body, Nav> = Rot::from_euler(Euler::from_degrees(10.0, -20.0, 30.0));
+        let m: Vec<Vec3<Body>> = crate::mocap::builtin_pattern(0).iter().map(|p| p.assume_same_as()).collect();
+        let y: Vec<Vec3<Nav>> = m.iter().map(|p| r.apply(*p)).collect();
+        for guess in [None, Some(r)] {
+            assert!(rigid_fit_near(&m, &y, &[true; 4], guess).is_some(), "all four");
+            assert!(rigid_fit_near(&m, &y, &[true, true, false, true], guess).is_some(), "three visible");
+            assert!(rigid_fit_near(&m, &y, &[true, false, true, false], guess).is_none(), "two visible");
+            assert!(rigid_fit_near(&m, &y[..3], &[true; 4], guess).is_none(), "an observation short");
+            assert!(rigid_fit_near(&m, &y, &[true; 3], guess).is_none(), "a visibility flag short");
+            assert!(rigid_fit_near(&m[..3], &y, &[true; 4], guess).is_none(), "a template marker short");
+        }
+    }
+
     /// One sign for the output whichever path found it: a guess given as −q (w < 0; the same
     /// rotation) is refined to −q, and the fit turns it to w ≥ 0, as the Kabsch path gives
     /// (shard 50: `w < 0` as `w == 0` kept the guess's sign).
