@@ -433,9 +433,9 @@ mod tests {
             assert!((chi2_sf(q, 1.0) - erfc).abs() < 1e-13, "{q}: {}", chi2_sf(q, 1.0));
         }
         // Far above the switch x = (a + 1)/(a + b + 2), where only the symmetric branch is
-        // accurate in 400 terms, against I_x(1, b) = 1 − (1 − x)^b and I_x(a, 1) = x^a (a = 1 or b = 1: the
-        // integrand is a power): b = 2000 puts the switch at 2/2003 ≈ 0.001, a = 2000 at
-        // 2001/2003 ≈ 0.999. An F test on a long flight has b = d₂/2 in the thousands: d₁ = 2,
+        // accurate in 400 terms, against I_x(1, b) = 1 − (1 − x)^b and I_x(a, 1) = x^a (a = 1
+        // or b = 1: the integrand is a power): b = 2000 puts the switch at 2/2003 ≈ 0.001,
+        // a = 2000 at 2001/2003 ≈ 0.999. An F test on a long flight has b = d₂/2 in the thousands: d₁ = 2,
         // d₂ = 4000 and F = 20 (a clear effect) give x = d₁F/(d₁F + d₂) = 0.0099, where the
         // direct fraction would have to reach I·a/front = 1/(b·x·(1 − x)^b) ≈ 2·10⁷ (it comes
         // out 8·10⁻⁹ above 1, so the upper tail 1 − I would be negative)
