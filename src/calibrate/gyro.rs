@@ -1042,6 +1042,18 @@ mod tests {
         assert_eq!((g.windows(), g.dropped()), (1, 2), "(paired, dropped)");
         assert_eq!(g.frames.len(), 9, "telemetry frames held");
         assert_eq!(g.frames.front().map(|f| f.t0), Some(Nanos::from_millis(110)));
+        // With a 10 ms search, t_a − max_offset = 110 ms is a frame end: [100, 110) stays, since
+        // at δ just above −10 ms window [120, 160] covers [110, 120) in part, and that frame's
+        // parabola takes the mean of [100, 110) (census shard 11: `<` as `<=` let it go, and
+        // the frame took its own mean instead)
+        let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(10), ..ClockSearch::default() });
+        for seq in 0..20 {
+            g.add_telemetry(&at_rest(seq, Nanos::from_millis(10 * seq as i64), Nanos::from_millis(10)));
+        }
+        for ms in (0..=200).step_by(5).filter(|ms| *ms != 120) {
+            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+        }
+        assert_eq!(g.frames.front().map(|f| f.t0), Some(Nanos::from_millis(100)));
     }
 
     /// The plain alignment builds a window from consecutive telemetry frames; a frame that does
