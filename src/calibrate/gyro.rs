@@ -354,7 +354,7 @@ impl GyroAlignment {
     fn windows_on_mocap_grid(&mut self) {
         let (Some(search), Some(first)) = (self.search, self.next_window) else { return };
         // saturating: before the first telemetry frame its start is i64::MIN
-        let ready = (self.newest_mocap.0.saturating_sub(self.mocap_period.0 * NEIGHBOUR_PERIODS)).min(self.newest_telemetry_start.0.saturating_sub(search.max_offset.0));
+        let ready = self.newest_mocap.0.saturating_sub(self.mocap_period.0 * NEIGHBOUR_PERIODS).min(self.newest_telemetry_start.0.saturating_sub(search.max_offset.0));
         for k in first..ready.div_euclid(self.window.0) {
             let (t_a, t_b) = (Nanos(k * self.window.0), Nanos((k + 1) * self.window.0));
             self.next_window = Some(k + 1);
@@ -1032,13 +1032,17 @@ mod tests {
     /// [110, 120) on stay (all 20, kept forever, would be a leak on a long flight).
     #[test]
     fn the_clock_search_drops_a_window_without_its_mocap_frames_and_lets_old_telemetry_go() {
-        let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(3), ..ClockSearch::default() });
-        for seq in 0..20 {
-            g.add_telemetry(&at_rest(seq, Nanos::from_millis(10 * seq as i64), Nanos::from_millis(10)));
-        }
-        for ms in (0..=200).step_by(5).filter(|ms| *ms != 120) {
-            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
-        }
+        let flown = |max_offset_ms: i64| {
+            let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(max_offset_ms), ..ClockSearch::default() });
+            for seq in 0..20 {
+                g.add_telemetry(&at_rest(seq, Nanos::from_millis(10 * seq as i64), Nanos::from_millis(10)));
+            }
+            for ms in (0..=200).step_by(5).filter(|ms| *ms != 120) {
+                g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+            }
+            g
+        };
+        let g = flown(3);
         assert_eq!((g.windows(), g.dropped()), (1, 2), "(paired, dropped)");
         assert_eq!(g.frames.len(), 9, "telemetry frames held");
         assert_eq!(g.frames.front().map(|f| f.t0), Some(Nanos::from_millis(110)));
@@ -1046,13 +1050,7 @@ mod tests {
         // at δ just above −10 ms window [120, 160] covers [110, 120) in part, and that frame's
         // parabola takes the mean of [100, 110) (census shard 11: `<` as `<=` let it go, and
         // the frame took its own mean instead)
-        let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(10), ..ClockSearch::default() });
-        for seq in 0..20 {
-            g.add_telemetry(&at_rest(seq, Nanos::from_millis(10 * seq as i64), Nanos::from_millis(10)));
-        }
-        for ms in (0..=200).step_by(5).filter(|ms| *ms != 120) {
-            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
-        }
+        let g = flown(10);
         assert_eq!(g.frames.front().map(|f| f.t0), Some(Nanos::from_millis(100)));
     }
 
