@@ -448,6 +448,15 @@ mod tests {
         for f in [0.25, 4.0] {
             assert!((f_sf(f, 2.0, 2.0) - 1.0 / (1.0 + f)).abs() < 1e-13, "{f}");
         }
+        // F(1, 1) is the square of a Cauchy variable: P(F > f) = (2/π)·atan(1/√f), the
+        // incomplete beta at a = b = ½ and x = 1/(1 + f). A huge f puts x near 0, far below
+        // the switch ⅜ = (½ + 1)/3, where the symmetric fraction in 1 − x ≈ 1 does not
+        // converge in 400 terms (with the switch at (a − 1)/(a + b + 2) < 0, f = 10⁸ gives
+        // 0.92 for 6.4·10⁻⁵)
+        for f in [1e8f64, 1e4, 0.5] {
+            let truth = std::f64::consts::FRAC_2_PI * (1.0 / f.sqrt()).atan();
+            assert!((f_sf(f, 1.0, 1.0) / truth - 1.0).abs() < 1e-12, "{f}: {} against {truth}", f_sf(f, 1.0, 1.0));
+        }
     }
 
     /// The autocorrelation at its smallest samples, by hand: (1, 3) has mean 2, Σ(x − x̄)² = 2
