@@ -205,8 +205,9 @@ pub(super) fn system(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>,
 }
 
 /// A fit of a set of columns: the parameters by ordinary least squares (they minimise the
-/// error the report measures), the tests on the prewhitened problem (GLS), and the covariance
-/// (prewhitened until [`refine`] replaces it by the Newey–West one).
+/// error the report measures) and the tests on the prewhitened problem (GLS). The covariance
+/// of the parameters is not here: [`super::refine`] computes the Newey–West one for the final
+/// fit of each model, the only one an interval is read from.
 pub(super) struct Fit {
     pub(super) set: Vec<usize>,
     /// OLS parameters, full length N_COLUMNS.
@@ -216,7 +217,6 @@ pub(super) struct Fit {
     /// Prewhitened residual sum of squares and sample count (for ΔBIC and the F-test).
     pub(super) rss: f64,
     pub(super) n: usize,
-    pub(super) cov: DMatrix<f64>,
 }
 
 pub(super) fn full(set: &[usize], x: &DVector<f64>) -> Vec<f64> {
@@ -231,11 +231,9 @@ pub(super) fn fit(gs: &[Gram], set: &[usize]) -> Fit {
     let (g, b, yy, n) = system(gs, set);
     let x = solve_spd(&g, &b).unwrap_or_else(|| DVector::zeros(set.len()));
     let rss = (yy - x.dot(&b)).max(1e-300);
-    let s2 = rss / (n.saturating_sub(set.len()).max(1)) as f64;
-    let cov = inverse_spd(&g) * s2;
     let (gr, br) = system_raw(gs, set);
     let xo = solve_spd(&gr, &br).unwrap_or_else(|| DVector::zeros(set.len()));
-    Fit { set: set.to_vec(), theta: full(set, &xo), theta_w: full(set, &x), rss, n, cov }
+    Fit { set: set.to_vec(), theta: full(set, &xo), theta_w: full(set, &x), rss, n }
 }
 
 /// Held-out residual energy per channel axis for parameters θ.

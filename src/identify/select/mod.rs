@@ -159,13 +159,15 @@ fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
 }
 
 /// A fitted problem at fixed corrections: the design, the train/held-out split, the Gram
-/// matrices of the prewhitened columns and the fit.
+/// matrices of the prewhitened columns, the fit and the covariance of its parameters in the
+/// order of `fit.set` (Newey–West plus the thrust systematic).
 struct Problem {
     design: Design,
     train: Vec<bool>,
     test: Vec<bool>,
     grams: Vec<Gram>,
     fit: Fit,
+    cov: DMatrix<f64>,
 }
 
 /// Fits S at the current corrections, folds the exact effects, re-linearises; returns the
@@ -186,8 +188,8 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         let mut f = fit(&grams, &set);
         let has_corrections = selected.iter().any(|e| e.is_correction());
         if it == iterations || !has_corrections {
-            f.cov = hac(&design, &train, &grams, &set, &f.theta, o.hac_lags) + thrust_systematic(&design, &train, &grams, &set, s.model.thrust_rel_sd);
-            last = Some(Problem { design, train, test, grams, fit: f });
+            let cov = hac(&design, &train, &grams, &set, &f.theta, o.hac_lags) + thrust_systematic(&design, &train, &grams, &set, s.model.thrust_rel_sd);
+            last = Some(Problem { design, train, test, grams, fit: f, cov });
             break;
         }
         fold(corr, &mut f.theta, selected);
@@ -213,10 +215,9 @@ fn total_tilt(frame: [f64; 2], bias: &Vector3<f64>, g: f64) -> [f64; 2] {
 /// part is the body offset δ plus the world tilt τ as the vehicle sees it at its rest yaw ψ,
 /// (τ_x·cos ψ + τ_y·sin ψ, −τ_x·sin ψ + τ_y·cos ψ) (the `accel_kin` column Rᵀ(g·e_D × e_j) at a
 /// level attitude, read by the ground check's δ = f̂ × r/g²); the accelerometer bias adds
-/// (b_y/g, −b_x/g), as [`super::ground`] derives. Returns (frame part, bias, standard deviation
-/// of the whole sum from the fit's covariance: offset and bias trade off in a hover, their sum
-/// does not).
-fn rest_tilt(selected: &[Effect], fit: &Fit, corr: &Corrections, g: f64, yaw: f64) -> ([f64; 2], nalgebra::Vector3<f64>, [f64; 2]) {
+/// (b_y/g, −b_x/g), as [`super::ground`] derives. Returns (frame part, bias); [`rest_tilt_sd`]
+/// gives the spread of their sum.
+fn rest_tilt(selected: &[Effect], theta: &[f64], corr: &Corrections, yaw: f64) -> ([f64; 2], nalgebra::Vector3<f64>) {
     let has = |e: Effect| selected.contains(&e);
     let (c, s) = (yaw.cos(), yaw.sin());
     let mut frame = [0.0, 0.0];
@@ -230,27 +231,44 @@ fn rest_tilt(selected: &[Effect], fit: &Fit, corr: &Corrections, g: f64, yaw: f6
         frame[1] += -tx * s + ty * c;
     }
     let b = cols_of(Effect::AccelBias);
-    let bias = if has(Effect::AccelBias) { nalgebra::Vector3::new(fit.theta[b.start], fit.theta[b.start + 1], fit.theta[b.start + 2]) } else { nalgebra::Vector3::zeros() };
+    let bias = if has(Effect::AccelBias) { nalgebra::Vector3::new(theta[b.start], theta[b.start + 1], theta[b.start + 2]) } else { nalgebra::Vector3::zeros() };
+    (frame, bias)
+}
+
+/// The standard deviation (rad) of the whole rest tilt, frame part plus bias, per axis, by the
+/// delta method over the columns of `set` with covariance `cov` (in `set`'s order): offset and
+/// bias trade off in a hover, their sum does not.
+fn rest_tilt_sd(set: &[usize], cov: &DMatrix<f64>, g: f64, yaw: f64) -> [f64; 2] {
+    let (c, s) = (yaw.cos(), yaw.sin());
+    let b = cols_of(Effect::AccelBias);
     let o = cols_of(Effect::BodyOffset);
     let w = cols_of(Effect::WorldTilt);
     // gradients of the two sums with respect to the columns
     let grads = [[(o.start, 1.0), (w.start, c), (w.start + 1, s), (b.start + 1, 1.0 / g)], [(o.start + 1, 1.0), (w.start, -s), (w.start + 1, c), (b.start, -1.0 / g)]];
-    let sd = grads.map(|grad| {
-        let pos: Vec<(usize, f64)> = grad.iter().filter_map(|(j, c)| fit.set.iter().position(|x| x == j).map(|p| (p, *c))).collect();
+    grads.map(|grad| {
+        let pos: Vec<(usize, f64)> = grad.iter().filter_map(|(j, c)| set.iter().position(|x| x == j).map(|p| (p, *c))).collect();
         let mut v = 0.0;
         for (p, cp) in &pos {
             for (q, cq) in &pos {
-                v += cp * cq * fit.cov[(*p, *q)];
+                v += cp * cq * cov[(*p, *q)];
             }
         }
         v.max(0.0).sqrt()
-    });
-    (frame, bias, sd)
+    })
 }
 
-fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: &Corrections) -> Vec<Param> {
+/// The values of `e`'s parameters in their report units, from the OLS parameters `theta`
+/// (columns of `set`) and the folded corrections.
+///
+/// The thrust scale and the effects that multiply the thrust (ground effect, thrust against
+/// voltage) enter the design additively, T·(1 + a + b·x); the simulation and the fed-back
+/// fragment multiply them, T·(1 + a)·(1 + c·x). The same model with c = b/(1 + a) when the
+/// thrust scale a is in the fit.
+fn values_of(e: Effect, theta: &[f64], set: &[usize], corr: &Corrections) -> Vec<f64> {
     let r = cols_of(e);
-    let sd = |j: usize| set.iter().position(|c| *c == j).map_or(0.0, |p| cov[(p, p)].max(0.0).sqrt());
+    if let Some([(a, _), (b, _)]) = thrust_multiplier(e, set) {
+        return vec![theta[b] / (1.0 + theta[a]) * e.params()[0].2];
+    }
     let value = |k: usize| -> f64 {
         match e {
             Effect::BodyOffset => {
@@ -267,24 +285,38 @@ fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: 
             _ => theta[r.start + k],
         }
     };
-    // The thrust scale and the effects that multiply the thrust (ground effect, thrust against
-    // voltage) enter the design additively, T·(1 + a + b·x); the simulation and the fed-back
-    // fragment multiply them, T·(1 + a)·(1 + c·x). The same model with c = b/(1 + a), and by
-    // the delta method var c = (var b − 2c·cov(a, b) + c²·var a)/(1 + a)².
-    let scale = cols_of(Effect::ThrustScale).start;
-    if matches!(e, Effect::GroundEffect | Effect::ThrustVoltage)
-        && let (Some(pa), Some(pb)) = (set.iter().position(|c| *c == scale), set.iter().position(|c| *c == r.start))
-    {
-        let (a, b) = (theta[scale], theta[r.start]);
-        let c = b / (1.0 + a);
-        let var = (cov[(pb, pb)] - 2.0 * c * cov[(pa, pb)] + c * c * cov[(pa, pa)]) / ((1.0 + a) * (1.0 + a));
-        let (name, unit, f) = e.params()[0];
-        return vec![Param { name: name.to_string(), value: c * f, ci95: Z_975 * var.max(0.0).sqrt() * f, unit: unit.to_string(), identifiable: true }];
+    e.params().iter().enumerate().map(|(k, (_, _, f))| value(k) * f).collect()
+}
+
+/// The columns and their positions in `set`, [(thrust scale a), (coefficient b)], when `e`
+/// multiplies the thrust and both are in `set`: its value is then reported as c = b/(1 + a)
+/// (see [`values_of`]).
+fn thrust_multiplier(e: Effect, set: &[usize]) -> Option<[(usize, usize); 2]> {
+    if !matches!(e, Effect::GroundEffect | Effect::ThrustVoltage) {
+        return None;
     }
-    e.params()
-        .iter()
-        .enumerate()
-        .map(|(k, (name, unit, f))| Param { name: name.to_string(), value: value(k) * f, ci95: Z_975 * sd(r.start + k) * f, unit: unit.to_string(), identifiable: true })
+    let (scale, col) = (cols_of(Effect::ThrustScale).start, cols_of(e).start);
+    let at = |j: usize| set.iter().position(|c| *c == j).map(|p| (j, p));
+    Some([at(scale)?, at(col)?])
+}
+
+/// `e`'s parameters with their 95 % half-widths ±1.96·σ, σ from `cov` (the covariance of the
+/// columns of `set`, in its order); for a thrust multiplier c = b/(1 + a) by the delta method,
+/// var c = (var b − 2c·cov(a, b) + c²·var a)/(1 + a)².
+fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: &Corrections) -> Vec<Param> {
+    let sd: Vec<f64> = match thrust_multiplier(e, set) {
+        Some([(a, pa), (b, pb)]) => {
+            let c = theta[b] / (1.0 + theta[a]);
+            let var = (cov[(pb, pb)] - 2.0 * c * cov[(pa, pb)] + c * c * cov[(pa, pa)]) / ((1.0 + theta[a]) * (1.0 + theta[a]));
+            vec![var.max(0.0).sqrt()]
+        }
+        None => cols_of(e).take(e.params().len()).map(|j| set.iter().position(|c| *c == j).map_or(0.0, |p| cov[(p, p)].max(0.0).sqrt())).collect(),
+    };
+    values_of(e, theta, set, corr)
+        .into_iter()
+        .zip(sd)
+        .zip(e.params())
+        .map(|((value, sd), (name, unit, f))| Param { name: name.to_string(), value, ci95: Z_975 * sd * f, unit: unit.to_string(), identifiable: true })
         .collect()
 }
 
@@ -558,8 +590,8 @@ impl Search {
         self.selected.push(best.effect);
         self.selected.extend(partner);
         self.refit(s, o);
-        let (fit, corr) = (&self.state.fit, &self.corr);
-        let params = self.selected.iter().flat_map(|e| params_of(*e, &fit.theta, &fit.cov, &fit.set, corr)).collect();
+        let (fit, cov, corr) = (&self.state.fit, &self.state.cov, &self.corr);
+        let params = self.selected.iter().flat_map(|e| params_of(*e, &fit.theta, cov, &fit.set, corr)).collect();
         self.steps.push(Step {
             added: best.effect,
             together_with: partner,
@@ -698,7 +730,7 @@ fn select(s: &Series, o: &Options) -> Report {
     let (errors, whiteness, left) = final_residuals(&state.design, &state.fit.theta, &state.test, &nominal_design, &lead_sigs, o.max_ar_order);
     notes.extend(hypothesis_hints(&left, selected));
     let mut effects: Vec<Found> =
-        selected.iter().map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.fit.cov, &state.fit.set, &corr) }).collect();
+        selected.iter().map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.cov, &state.fit.set, &corr) }).collect();
     let (ground_check, ground_agreement) =
         if too_few { (super::ground::ground_check(s), None) } else { ground(s, o, &search, yaw_spread_deg, &mut not_identifiable, &mut effects, &mut notes) };
     Report {
@@ -741,7 +773,8 @@ fn ground(
     let (state, selected) = (&search.state, &search.selected);
     let g = s.model.gravity_m_s2;
     let rest_yaw = super::ground::rest_yaw(s).unwrap_or(0.0);
-    let (tilt_offset, tilt_bias, tilt_sd) = rest_tilt(selected, &state.fit, &search.corr, g, rest_yaw);
+    let (tilt_offset, tilt_bias) = rest_tilt(selected, &state.fit.theta, &search.corr, rest_yaw);
+    let tilt_sd = rest_tilt_sd(&state.fit.set, &state.cov, g, rest_yaw);
     let tilt_total = total_tilt(tilt_offset, &tilt_bias, g);
     let mut tilt_widen = [0.0f64; 2];
     let fin = widen::Final { s, o, state, corr: search.corr, selected, g, rest_yaw };
@@ -802,13 +835,13 @@ mod tests {
         cov[(at(w.start + 1), at(o.start))] = k4;
         let mut theta = vec![0.0; N_COLUMNS];
         theta[b.start..b.end].copy_from_slice(&[0.05, -0.07, 0.11]);
-        let fit = Fit { set: set.clone(), theta: theta.clone(), theta_w: theta, rss: 1.0, n: 100, cov };
         let corr = Corrections {
             body_offset: UnitQuaternion::from_euler_angles(0.01, -0.02, 0.5),
             world_tilt: UnitQuaternion::from_euler_angles(0.003, 0.004, 0.0),
             ..Corrections::default()
         };
-        let (frame, bias, sd) = rest_tilt(&selected, &fit, &corr, g, yaw);
+        let (frame, bias) = rest_tilt(&selected, &theta, &corr, yaw);
+        let sd = rest_tilt_sd(&set, &cov, g, yaw);
         assert!((frame[0] - (0.01 + 0.003 * c + 0.004 * s)).abs() < 1e-12, "{frame:?}");
         assert!((frame[1] - (-0.02 - 0.003 * s + 0.004 * c)).abs() < 1e-12, "{frame:?}");
         assert_eq!(bias, Vector3::new(0.05, -0.07, 0.11));
@@ -816,7 +849,7 @@ mod tests {
         let pitch = var(o.start + 1) + s * s * var(w.start) + c * c * var(w.start + 1) + var(b.start) / (g * g) - 2.0 * k2 / g - 2.0 * k3 * s;
         assert!((sd[0] - roll.sqrt()).abs() < 1e-15 && (sd[1] - pitch.sqrt()).abs() < 1e-15, "{sd:?} against {} {}", roll.sqrt(), pitch.sqrt());
         // none of the effects selected: no frame and no bias, whatever the corrections hold
-        let (frame, bias, _) = rest_tilt(&[], &fit, &corr, g, yaw);
+        let (frame, bias) = rest_tilt(&[], &theta, &corr, yaw);
         assert_eq!((frame, bias), ([0.0, 0.0], Vector3::zeros()));
     }
 

@@ -72,13 +72,14 @@ pub(super) fn swaps(
             alt.push(c);
             let mut alt_corr = Corrections::default();
             let alt_state = refine(fin.s, fin.o, &mut alt_corr, &alt, fin.o.refine_iterations);
-            let (ao, ab, asd) = rest_tilt(&alt, &alt_state.fit, &alt_corr, fin.g, fin.rest_yaw);
+            let (ao, ab) = rest_tilt(&alt, &alt_state.fit.theta, &alt_corr, fin.rest_yaw);
+            let asd = rest_tilt_sd(&alt_state.fit.set, &alt_state.cov, fin.g, fin.rest_yaw);
             let alt_total = total_tilt(ao, &ab, fin.g);
             for k in 0..2 {
                 tilt_widen[k] = tilt_widen[k].max(covering(tilt_total[k], alt_total[k], Z_975 * asd[k]));
             }
             for f in effects.iter_mut().filter(|f| f.effect != e) {
-                let alt_params = params_of(f.effect, &alt_state.fit.theta, &alt_state.fit.cov, &alt_state.fit.set, &alt_corr);
+                let alt_params = params_of(f.effect, &alt_state.fit.theta, &alt_state.cov, &alt_state.fit.set, &alt_corr);
                 for (p, q) in f.params.iter_mut().zip(alt_params) {
                     p.ci95 = p.ci95.max(covering(p.value, q.value, q.ci95));
                 }
@@ -115,34 +116,35 @@ fn is_half_supported(c: &Candidate, alpha: f64, m: usize) -> bool {
 pub(super) fn half_supported(fin: &Final, final_candidates: &[Candidate], tilt_sd: [f64; 2], effects: &mut [Found], tilt_widen: &mut [f64; 2], notes: &mut Vec<String>) {
     let near: Vec<&Candidate> = final_candidates.iter().filter(|c| is_half_supported(c, fin.o.alpha, final_candidates.len())).collect();
     let folded = |set: &[usize], effects: &[Effect]| {
-        let f = fit(&fin.state.grams, set);
-        let mut theta = f.theta.clone();
+        let mut theta = fit(&fin.state.grams, set).theta;
         let mut corr = fin.corr;
         fold(&mut corr, &mut theta, effects);
-        (f, theta, corr)
+        (theta, corr)
     };
-    let (bf, bt, bc) = folded(&fin.state.fit.set, fin.selected);
+    let base_set = &fin.state.fit.set;
+    let (bt, bc) = folded(base_set, fin.selected);
     // the tilt at rest the ground check compares with moves too
-    let (base_offset, base_bias, _) = rest_tilt(fin.selected, &bf, &bc, fin.g, fin.rest_yaw);
+    let (base_offset, base_bias) = rest_tilt(fin.selected, &bt, &bc, fin.rest_yaw);
     let base_total = total_tilt(base_offset, &base_bias, fin.g);
     for c in near {
         let mut with_c = fin.selected.to_vec();
         with_c.push(c.effect);
-        let (af, at, ac) = folded(&set_of(&with_c), &with_c);
-        let (alt_offset, alt_bias, _) = rest_tilt(&with_c, &af, &ac, fin.g, fin.rest_yaw);
+        let alt_set = set_of(&with_c);
+        let (at, ac) = folded(&alt_set, &with_c);
+        let (alt_offset, alt_bias) = rest_tilt(&with_c, &at, &ac, fin.rest_yaw);
         let alt_total = total_tilt(alt_offset, &alt_bias, fin.g);
         for k in 0..2 {
             tilt_widen[k] = tilt_widen[k].max(covering(base_total[k], alt_total[k], Z_975 * tilt_sd[k]));
         }
         let mut moved = Vec::new();
         for f in effects.iter_mut() {
-            let base = params_of(f.effect, &bt, &bf.cov, &bf.set, &bc);
-            let alt = params_of(f.effect, &at, &af.cov, &af.set, &ac);
+            let base = values_of(f.effect, &bt, base_set, &bc);
+            let alt = values_of(f.effect, &at, &alt_set, &ac);
             for ((p, b), a) in f.params.iter_mut().zip(base).zip(alt) {
-                if (a.value - b.value).abs() > p.ci95 {
-                    moved.push(format!("{} {} {:+.3} {}", f.effect.key(), p.name, a.value - b.value, p.unit));
+                if (a - b).abs() > p.ci95 {
+                    moved.push(format!("{} {} {:+.3} {}", f.effect.key(), p.name, a - b, p.unit));
                 }
-                p.ci95 = covering(b.value, a.value, p.ci95);
+                p.ci95 = covering(b, a, p.ci95);
             }
         }
         if !moved.is_empty() {
