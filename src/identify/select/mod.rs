@@ -853,6 +853,26 @@ mod tests {
         assert_eq!((frame, bias), ([0.0, 0.0], Vector3::zeros()));
     }
 
+    /// The total rest tilt is what the ground check reads: at rest the mocap predicts
+    /// f̂ = (0, 0, −g) (a level marker frame), the ground check's δ = f̂ × f/|f̂|², and an IMU
+    /// frame that δ reads as (r, p) with no bias measures f₀ = (−g·p, g·r, −g) (f̂ × f₀/g² =
+    /// (r, p, 0) exactly: the cross product with f̂ takes f's x and y alone). A bias b adds to
+    /// f, so the ground check reads f₀ + b, and total_tilt must be the same sum (census shard
+    /// 12: pitch's −b_x/g as +b_x/g survived the suite, since the widening compares two totals
+    /// whose bias rarely differs).
+    #[test]
+    fn the_total_rest_tilt_is_what_the_ground_check_reads_with_a_bias() {
+        let g = 9.81;
+        let frame = [0.012, -0.021];
+        let f_hat = Vector3::new(0.0, 0.0, -g);
+        for bias in [Vector3::new(0.05, -0.07, 0.11), Vector3::new(-0.2, 0.0, 0.0), Vector3::new(0.0, 0.3, 0.0)] {
+            let f = Vector3::new(-g * frame[1], g * frame[0], -g) + bias;
+            let read = f_hat.cross(&f) / f_hat.norm_squared();
+            let total = total_tilt(frame, &bias, g);
+            assert!((total[0] - read.x).abs() < 1e-15 && (total[1] - read.y).abs() < 1e-15, "{total:?} against the ground check's {read:?} with bias {bias:?}");
+        }
+    }
+
     /// The F-test by hand: RSS 120 → 100 with k = 2 added of p = 4, n = 54: F = (20/2)/(100/50)
     /// = 5, and F(2, d₂)'s survival function is (1 + 2x/d₂)^(−d₂/2), so p = 1.2^−25 = 0.01048
     /// (shard 50: the denominator's n − p as n + p gave F = 5.8 and survived the suite).
