@@ -435,10 +435,10 @@ mod tests {
         // Far above the switch x = (a + 1)/(a + b + 2), where only the symmetric branch is
         // accurate in 400 terms, against I_x(1, b) = 1 − (1 − x)^b and I_x(a, 1) = x^a (a = 1
         // or b = 1: the integrand is a power): b = 2000 puts the switch at 2/2003 ≈ 0.001,
-        // a = 2000 at 2001/2003 ≈ 0.999. An F test on a long flight has b = d₂/2 in the thousands: d₁ = 2,
-        // d₂ = 4000 and F = 20 (a clear effect) give x = d₁F/(d₁F + d₂) = 0.0099, where the
-        // direct fraction would have to reach I·a/front = 1/(b·x·(1 − x)^b) ≈ 2·10⁷ (it comes
-        // out 8·10⁻⁹ above 1, so the upper tail 1 − I would be negative)
+        // a = 2000 at 2001/2003 ≈ 0.999. An F test on a long flight has b = d₂/2 in the
+        // thousands: d₁ = 2, d₂ = 4000 and F = 20 (a clear effect) give x = d₁F/(d₁F + d₂)
+        // = 0.0099, where the direct fraction would have to reach I·a/front = 1/(b·x·(1 − x)^b)
+        // ≈ 2·10⁷ (it comes out 8·10⁻⁹ above 1, so the upper tail 1 − I would be negative)
         for (a, b, x) in [(1.0f64, 2000.0f64, 0.003f64), (1.0, 2000.0, 0.0099), (1.0, 2000.0, 0.0005), (2000.0, 1.0, 0.9997), (2000.0, 1.0, 0.99)] {
             let truth = if a == 1.0 { -(b * (-x).ln_1p()).exp_m1() } else { (a * x.ln()).exp() };
             let got = incomplete_beta(a, b, x);
@@ -450,7 +450,7 @@ mod tests {
         }
         // F(1, 1) is the square of a Cauchy variable: P(F > f) = (2/π)·atan(1/√f), the
         // incomplete beta at a = b = ½ and x = 1/(1 + f). A huge f puts x near 0, far below
-        // the switch ⅜ = (½ + 1)/3, where the symmetric fraction in 1 − x ≈ 1 does not
+        // the switch ½ = (½ + 1)/3, where the symmetric fraction in 1 − x ≈ 1 does not
         // converge in 400 terms (with the switch at (a − 1)/(a + b + 2) < 0, f = 10⁸ gives
         // 0.92 for 6.4·10⁻⁵). A tiny f puts x near 1, where only the symmetric fraction
         // converges (with the switch at (a + 1)/(a + 2b) = 1, f = 10⁻⁸ gives 0.08 for 0.99994)
