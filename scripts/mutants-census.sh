@@ -53,6 +53,12 @@ eval "$(grep '^PY_CLIENTS=' "$dir/tree/.ci/run")"
 python3 -m pip install --quiet --disable-pip-version-check $PY_CLIENTS \
   || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages $PY_CLIENTS
 mkdir -p "$dir/shards"
+# A census killed mid-build (a session's end stops it) can leave this crate's incremental cache
+# half written: the next baseline build then fails to link ("undefined hidden symbol", shard 15
+# in session 29) and no mutant is tested. Start every run from this crate's clean artefacts
+# (the dependencies stay built; about two minutes).
+(cd "$dir/tree" && cargo clean --quiet --profile mutants -p flyarena)
+rm -rf "$dir/target/mutants/incremental"
 for k in $(seq 0 89); do
     if cut -f 1 "$table" | grep -qx "$k"; then continue; fi
     # a shard cut short left the tree mutated and its outcomes partial: restore, start it again
