@@ -1075,6 +1075,29 @@ mod tests {
         assert_eq!((g.windows(), g.dropped()), (1, 2), "(paired, dropped) with the mocap in");
     }
 
+    /// A window waits for its mocap frames in one of 16 slots; with all 16 taken, a new window
+    /// evicts the oldest (the one whose frames are least likely to come) and counts it as
+    /// dropped. 20 windows of 40 ms arrive before any mocap: windows 0–3 are evicted, 4 dropped.
+    /// Mocap frames up to 200 ms then pair window 4 ([160, 200] ms) alone (had the newest been
+    /// evicted, 0–4 would pair), and frames up to 800 ms the other 15. Census of 33c1bbe,
+    /// shard 15: the eviction's count `+= 1` as `-= 1` passed the unit tests.
+    #[test]
+    fn a_window_without_a_free_slot_evicts_the_oldest_and_counts_it_dropped() {
+        let mut g = gyro();
+        for seq in 0..80u32 {
+            g.add_telemetry(&at_rest(seq, Nanos::from_millis(10 * seq as i64), Nanos::from_millis(10)));
+        }
+        assert_eq!((g.windows(), g.dropped()), (0, 4), "(paired, dropped) before any mocap");
+        for ms in (0..=200).step_by(5) {
+            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+        }
+        assert_eq!((g.windows(), g.dropped()), (1, 4), "(paired, dropped) with the mocap to 200 ms");
+        for ms in (205..=800).step_by(5) {
+            g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+        }
+        assert_eq!((g.windows(), g.dropped()), (16, 4), "(paired, dropped) with the mocap to 800 ms");
+    }
+
     /// A window is `window` long on the Vicon clock, to 1/1000: four telemetry frames of a clock
     /// 0.05 % fast (40.02 ms, 20 µs off) make a window that is paired, four of a clock 0.2 %
     /// fast (40.08 ms, 80 µs off, over the 40 µs bound) one that is dropped. Census of 33c1bbe,
