@@ -164,6 +164,24 @@ fn gyro_that_disagrees_with_the_mocap_is_cut() {
     assert!(cuts[0].from_s <= 6.0 && cuts[0].to_s >= 6.05, "{:?}", cuts[0]);
 }
 
+/// The plotted residuals' times are seconds from the log's first sample, whatever its clock
+/// reads there: the drag flight cut to start 8 s in plots from 0 (its first usable row) to at
+/// most its own length, not from 16 s. Census of 33c1bbe, shard 19: `t − t₀` as `t + t₀` passed, every test log starting at 0.
+#[test]
+fn residuals_are_plotted_in_seconds_from_the_logs_first_sample() {
+    let clean = drag_flight();
+    let late = clean.slice(rows(&clean, 8.0, 1e9).start, clean.len());
+    let (t0, length) = (late.t_s[0], late.t_s[late.len() - 1] - late.t_s[0]);
+    assert!(t0 - clean.t_s[0] >= 8.0, "the cut flight starts at {t0} s");
+    let r = identify(&late, &Options::default()).unwrap();
+    let plotted = flyarena::identify::select::residual_series(&late, &Options::default(), &r);
+    assert!(!plotted.is_empty());
+    for x in &plotted {
+        let (first, last) = (x.t_s[0], x.t_s[x.t_s.len() - 1]);
+        assert!((0.0..0.5).contains(&first) && last <= length, "{:?} {}: {first}..{last} s for a log of {length} s", x.channel, x.axis);
+    }
+}
+
 /// Corrupted from 20 s to the end (accelerometer spikes to ~21 g, a gyro of tens of rad/s):
 /// the log is identified from its clean first part, with the same drag as that part alone.
 /// Corrupted from the start: refused, with the file and the stretch in the message.
