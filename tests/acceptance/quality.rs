@@ -166,7 +166,8 @@ fn gyro_that_disagrees_with_the_mocap_is_cut() {
 
 /// The plotted residuals' times are seconds from the log's first sample, whatever its clock
 /// reads there: the drag flight cut to start 8 s in plots from 0 (its first usable row) to at
-/// most its own length, not from 16 s. Census of 33c1bbe, shard 19: `t − t₀` as `t + t₀` passed, every test log starting at 0.
+/// most its own length, not from 16 s. Census of 33c1bbe, shard 19: `t − t₀` as `t + t₀`
+/// passed, because every log whose residuals a test read started at t₀ = 0.
 #[test]
 fn residuals_are_plotted_in_seconds_from_the_logs_first_sample() {
     let clean = drag_flight();
