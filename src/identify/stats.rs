@@ -541,6 +541,24 @@ mod tests {
         assert_eq!(inverse_spd(&bad), DMatrix::zeros(2, 2));
     }
 
+    /// The same singular Gram matrix in a solve: x₁ + x₂ = 2 is determined and x₁, x₂ alone are
+    /// not, so the fit takes the minimum-norm solution x = G⁺b = (1, 1, 1) for b = (2, 2, 4),
+    /// not nothing (its callers would then set every parameter to zero, the excited ones too).
+    /// A non-finite G or b gives None. Census of 33c1bbe, shard 21: the finiteness guard's `!`
+    /// deleted returned None for every finite singular G and passed.
+    #[test]
+    fn a_singular_system_gets_the_minimum_norm_solution() {
+        let g = DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 4.0]);
+        let b = DVector::from_column_slice(&[2.0, 2.0, 4.0]);
+        let x = solve_spd(&g, &b).expect("a minimum-norm solution");
+        assert!((x - DVector::from_element(3, 1.0)).amax() < 1e-12);
+        let spd = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 2.0]);
+        let x = solve_spd(&spd, &DVector::from_column_slice(&[3.0, 3.0])).expect("the Cholesky solution");
+        assert!((x - DVector::from_element(2, 1.0)).amax() < 1e-12);
+        assert_eq!(solve_spd(&spd, &DVector::from_column_slice(&[f64::INFINITY, 0.0])), None);
+        assert_eq!(solve_spd(&DMatrix::from_row_slice(2, 2, &[f64::NAN, 0.0, 0.0, 1.0]), &DVector::zeros(2)), None);
+    }
+
     /// Ten samples per coefficient or no fit: with `max_order` 8 an AR needs 10·(8 + 1) = 90
     /// usable rows (each with its 8 predecessors). A strongly coloured AR(2) of 97 samples (89
     /// rows, one short) is modelled as white noise with σ the RMS of those rows; of 98 samples
