@@ -124,13 +124,16 @@ mod tests {
 
     /// The rate loop alone on a rigid yaw axis J·ṙ = τ_com + τ_d (rotor lag ignored: the
     /// torque acts at once, the loop at 1 kHz). With K_I = 0 the step torque τ_d leaves the rate
-    /// error τ_d/(J·K_ω); with K_I > 0 the error decays to 0 and ∫e settles at τ_d/(J·K_I).
+    /// error τ_d/(J·K_ω); with K_I > 0 the error decays to 0 and ∫e settles at τ_d/(J·K_I),
+    /// with an integral on yaw alone or on every axis. Census of 33c1bbe, shard 21: the guard
+    /// "some K_I ≠ 0" as "some K_I = 0" skipped the integral exactly when every axis has one,
+    /// and passed while the tests gave it to yaw alone.
     #[test]
     fn the_integral_removes_the_rate_error_of_a_constant_torque() {
         let (tau_d, dt) = (0.02, 1e-3);
-        let steady = |ki: f64| {
+        let steady = |ki: [f64; 3]| {
             let mut p = VehicleParams::x3d();
-            p.rate_loop_integral_per_s2 = [0.0, 0.0, ki];
+            p.rate_loop_integral_per_s2 = ki;
             let mut rl = RateLoop::new(&p, dt);
             let j = p.inertia_kg_m2[2];
             let cmd = RateCommand { rates: Vec3::zeros(), thrust_n: 7.0 };
@@ -141,10 +144,12 @@ mod tests {
             }
             (r, rl.integral[2], j)
         };
-        let (r_p, _, j) = steady(0.0);
+        let (r_p, _, j) = steady([0.0; 3]);
         assert!((r_p - tau_d / (j * 10.0)).abs() < 1e-6, "P only: rate {r_p}");
-        let (r_pi, integral, _) = steady(25.0);
-        assert!(r_pi.abs() < 1e-6, "PI: rate {r_pi}");
-        assert!((integral - (-tau_d / (j * 25.0))).abs() < 1e-5, "∫e = {integral}");
+        for ki in [[0.0, 0.0, 25.0], [25.0; 3]] {
+            let (r_pi, integral, _) = steady(ki);
+            assert!(r_pi.abs() < 1e-6, "PI {ki:?}: rate {r_pi}");
+            assert!((integral - (-tau_d / (j * 25.0))).abs() < 1e-5, "PI {ki:?}: ∫e = {integral}");
+        }
     }
 }
