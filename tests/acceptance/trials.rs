@@ -15,6 +15,12 @@ fn fixture(master_seed: u64, index: u64, preset: &'static str, hidden: Vec<(Effe
     Trial { index, seed, preset, plan: vec![], hidden, yaml }
 }
 
+/// The flight of a trial, logged as `identify` reads it (what `trials::run` flies).
+fn flight(t: &Trial) -> flyarena::identify::Series {
+    let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new(&format!("trial-{}.yaml", t.index))).unwrap();
+    flyarena::identify::flyarena_log::run_and_log(&s, 0, &format!("trial {}", t.index)).unwrap().1
+}
+
 /// Three binomial standard deviations around a proportion p for n trials.
 fn band(p: f64, n: usize) -> f64 {
     3.0 * (p * (1.0 - p) / n.max(1) as f64).sqrt()
@@ -239,8 +245,7 @@ fn excitation_share_discounts_what_the_other_hidden_effects_explain() {
     use flyarena::identify::Effect::*;
     use flyarena::identify::select::excitation;
     let t = fixture(1, 294, "x3d", vec![]);
-    let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("trial-1-294.yaml")).unwrap();
-    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "294").unwrap();
+    let series = flight(&t);
     let o = Options::default();
     let tv = (ThrustVoltage, vec![0.0569]);
     let alone = excitation(&series, &o, std::slice::from_ref(&tv))[0];
@@ -313,9 +318,7 @@ fn a_thrust_scale_named_beside_a_voltage_effect_claims_no_interval() {
     // the final check meets the pair again and lists it (and writes its note) only if no step
     // did: once in the report. Census of 33c1bbe, shard 21: "not yet listed" as "already
     // listed" listed every pair named at its step twice (and no new one) and passed
-    let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("trial-3-216.yaml")).unwrap();
-    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "216").unwrap();
-    let r = flyarena::identify::identify(&series, &Options::default()).unwrap();
+    let r = flyarena::identify::identify(&flight(&t), &Options::default()).unwrap();
     let listed = r.not_identifiable.iter().filter(|(a, b, _)| [*a, *b] == [ThrustScale, ThrustVoltage] || [*b, *a] == [ThrustScale, ThrustVoltage]).count();
     assert_eq!(listed, 1, "{:?}", r.not_identifiable);
     assert!(!r.notes.iter().any(|n| n.contains("explain this flight's residual alike")), "{:?}", r.notes);
