@@ -267,7 +267,7 @@ fn rest_tilt_sd(set: &[usize], cov: &DMatrix<f64>, g: f64, yaw: f64) -> [f64; 2]
 fn values_of(e: Effect, theta: &[f64], set: &[usize], corr: &Corrections) -> Vec<f64> {
     let r = cols_of(e);
     if let Some([(a, _), (b, _)]) = thrust_multiplier(e, set) {
-        return vec![theta[b] / (1.0 + theta[a]) * e.params()[0].2];
+        return vec![multiplier(theta, a, b) * e.params()[0].2];
     }
     let value = |k: usize| -> f64 {
         match e {
@@ -300,13 +300,19 @@ fn thrust_multiplier(e: Effect, set: &[usize]) -> Option<[(usize, usize); 2]> {
     Some([at(scale)?, at(col)?])
 }
 
+/// The thrust multiplier's coefficient c = b/(1 + a) from the additive design's thrust scale
+/// `theta[a]` and coefficient `theta[b]` (see [`values_of`]).
+fn multiplier(theta: &[f64], a: usize, b: usize) -> f64 {
+    theta[b] / (1.0 + theta[a])
+}
+
 /// `e`'s parameters with their 95 % half-widths ±1.96·σ, σ from `cov` (the covariance of the
 /// columns of `set`, in its order); for a thrust multiplier c = b/(1 + a) by the delta method,
 /// var c = (var b − 2c·cov(a, b) + c²·var a)/(1 + a)².
 fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: &Corrections) -> Vec<Param> {
     let sd: Vec<f64> = match thrust_multiplier(e, set) {
         Some([(a, pa), (b, pb)]) => {
-            let c = theta[b] / (1.0 + theta[a]);
+            let c = multiplier(theta, a, b);
             let var = (cov[(pb, pb)] - 2.0 * c * cov[(pa, pb)] + c * c * cov[(pa, pa)]) / ((1.0 + theta[a]) * (1.0 + theta[a]));
             vec![var.max(0.0).sqrt()]
         }
