@@ -544,14 +544,22 @@ mod tests {
     /// The same singular Gram matrix in a solve: x₁ + x₂ = 2 is determined and x₁, x₂ alone are
     /// not, so the fit takes the minimum-norm solution x = G⁺b = (1, 1, 1) for b = (2, 2, 4),
     /// not nothing (its callers would then set every parameter to zero, the excited ones too).
-    /// A non-finite G or b gives None. Census of 33c1bbe, shard 21: the finiteness guard's `!`
-    /// deleted returned None for every finite singular G and passed.
+    /// The pseudo-inverse's cut-off is relative (1e-12·s_max), so G and b scaled by 10⁻⁹ or 10⁹
+    /// give the same x. A non-finite G or b gives None. Census of 33c1bbe, shard 21: the
+    /// finiteness guard's `!` deleted returned None for every finite singular G and passed;
+    /// shard 23: the cut-off as 1e-12/s_max dropped every singular value of G·10⁻⁹ (x = 0).
     #[test]
     fn a_singular_system_gets_the_minimum_norm_solution() {
         let g = DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 4.0]);
         let b = DVector::from_column_slice(&[2.0, 2.0, 4.0]);
         let x = solve_spd(&g, &b).expect("a minimum-norm solution");
         assert!((x - DVector::from_element(3, 1.0)).amax() < 1e-12);
+        // the cut-off is relative to the largest singular value: the same system in other units
+        // (G and b scaled alike) has the same solution
+        for scale in [1e-9, 1e9] {
+            let x = solve_spd(&(&g * scale), &(&b * scale)).expect("a minimum-norm solution");
+            assert!((&x - DVector::from_element(3, 1.0)).amax() < 1e-9, "G, b × {scale:e}: {x}");
+        }
         let spd = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 2.0]);
         let x = solve_spd(&spd, &DVector::from_column_slice(&[3.0, 3.0])).expect("the Cholesky solution");
         assert!((x - DVector::from_element(2, 1.0)).amax() < 1e-12);

@@ -1013,6 +1013,10 @@ mod tests {
         assert!(scores[0].delta_bic > scores[1].delta_bic, "{scores:#?}");
         let w = backward_worst(&gs, &selected, &selected, 0, &o).expect("two fail");
         assert_eq!(w.effect, Effect::ThrustScale);
+        // the least supported leaves whatever the order they are tested in (census of 33c1bbe,
+        // shard 23: `c.delta_bic > w.delta_bic` as `==` kept the first failure)
+        let reordered = [Effect::ThrustVoltage, Effect::GroundEffect, Effect::ThrustScale];
+        assert_eq!(backward_worst(&gs, &selected, &reordered, 0, &o).map(|w| w.effect), Some(Effect::ThrustScale));
         // nothing to remove when every testable effect passes
         assert!(backward_worst(&gs, &selected, &[Effect::GroundEffect], 0, &o).is_none());
     }
