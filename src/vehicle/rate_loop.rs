@@ -152,4 +152,28 @@ mod tests {
             assert!((integral - (-tau_d / (j * 25.0))).abs() < 1e-5, "PI {ki:?}: ∫e = {integral}");
         }
     }
+
+    /// No wind-up on the floor: with the motors off (T = 0) a rate error of (0.1, −0.2, 0.3)
+    /// rad/s held for 1 s leaves the integral at 0 on every axis; the first tick with thrust
+    /// adds e·Δt = (1, −2, 3)·10⁻⁴ rad, and a return to T = 0 resets it. Census of 33c1bbe,
+    /// shard 24: `T > 0` as `T ≥ 0` wound the integral up on the floor.
+    #[test]
+    fn the_integral_is_held_at_zero_with_the_motors_off() {
+        let mut p = VehicleParams::x3d();
+        p.rate_loop_integral_per_s2 = [25.0; 3];
+        let dt = 1e-3;
+        let mut rl = RateLoop::new(&p, dt);
+        let rates = Vec3::new(0.1, -0.2, 0.3);
+        let off = RateCommand { rates, thrust_n: 0.0 };
+        for _ in 0..1000 {
+            rl.rotor_speed_commands(&off, Vec3::zeros());
+        }
+        assert_eq!(rl.integral, [0.0; 3], "wound up on the floor");
+        rl.rotor_speed_commands(&RateCommand { rates, thrust_n: 7.0 }, Vec3::zeros());
+        for (got, want) in rl.integral.iter().zip([1e-4, -2e-4, 3e-4]) {
+            assert!((got - want).abs() < 1e-18, "{:?}", rl.integral);
+        }
+        rl.rotor_speed_commands(&off, Vec3::zeros());
+        assert_eq!(rl.integral, [0.0; 3], "reset with the motors off");
+    }
 }
