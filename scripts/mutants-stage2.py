@@ -46,10 +46,15 @@ NEXTEST = shutil.which('cargo-nextest') is not None
 FAILED = re.compile(r'^\s*FAIL \[[^]]*\] (?:\([^)]*\) )?(\S+(?: \S+)?)\s*$|^test (\S.*?) \.\.\. FAILED\s*$', re.M)
 
 
+# the output of the last command `run` ran (kept for a failing baseline: what failed, and how)
+LAST_OUTPUT = ['']
+
+
 def run(*cmd, incremental=True):
     """(exit code, first failing test or '-', cmd) of cmd under the time limit."""
     env = None if incremental else {**os.environ, 'CARGO_INCREMENTAL': '0'}
     p = subprocess.run(['timeout', str(TIMEOUT_S), *cmd], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, errors='replace', env=env)
+    LAST_OUTPUT[0] = p.stdout
     m = FAILED.search(p.stdout)
     return p.returncode, (m.group(1) or m.group(2)) if m else '-', cmd
 
@@ -116,7 +121,11 @@ rebuilt = [o for o in d['outcomes'] if link_fault(o)]
 if missed or rebuilt:
     rc, failing, _ = suite()
     if rc != 0:
-        sys.exit(f"stage 2: the suite fails without a mutant (exit {rc}, {failing}): no verdict is written")
+        # session 30: a real-time test failed here on an overloaded machine, and its message was lost
+        path = os.path.join(out, 'baseline-suite.log')
+        with open(path, 'w') as log:
+            log.write(LAST_OUTPUT[0])
+        sys.exit(f"stage 2: the suite fails without a mutant (exit {rc}, {failing}; its output: {path}): no verdict is written")
     print(f"stage 2: the suite passes without a mutant; {len(missed[::every])} to judge, {len(rebuilt)} unviable by a link failure to rebuild", flush=True)
 with open(os.path.join(out, 'suite.txt'), 'w') as log:
     for o in missed[::every] + rebuilt:
