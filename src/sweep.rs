@@ -240,17 +240,28 @@ impl Sweep {
         finished: &(dyn Fn(u64, &[SweepRow]) + Sync),
     ) -> Result<SweepOutput, SweepError> {
         let mine: Vec<u64> = shard_runs(runs, shard).collect();
-        let rows: Vec<Vec<SweepRow>> = mine
+        // Every run's scenario is drawn and checked before any run flies, so that a normal's tail
+        // leaving a field's range stops the sweep before it spends a flight, and the run named is
+        // the lowest such run whatever the thread count. (Rayon's collect into a `Result` returns
+        // whichever error a thread meets first: under load the sweep named another run.) The
+        // check parses each scenario twice (again in `run_one`); a parse is tiny beside a flight.
+        let bad: Vec<Option<SweepError>> = mine.par_iter().map(|&i| if done.contains_key(&i) { None } else { self.scenario(i).err() }).collect();
+        if let Some(e) = bad.into_iter().flatten().next() {
+            return Err(e);
+        }
+        let rows: Vec<Result<Vec<SweepRow>, SweepError>> = mine
             .par_iter()
             .map(|&i| match done.get(&i) {
-                Some(r) => Ok::<_, SweepError>(r.clone()),
+                Some(r) => Ok(r.clone()),
                 None => {
                     let r = self.run_one(i)?;
                     finished(i, &r);
                     Ok(r)
                 }
             })
-            .collect::<Result<_, _>>()?;
+            .collect();
+        // in run order: the first error by index, not the first a thread met
+        let rows = rows.into_iter().collect::<Result<Vec<_>, _>>()?;
         Ok(SweepOutput {
             scenario: self.name.clone(),
             sweep_seed: self.cfg.seed,
@@ -673,6 +684,35 @@ pub fn csv(out: &SweepOutput) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression (census shard 29's baseline, session 31): with several runs drawing a value
+    /// outside a field's range, the sweep named whichever a thread met first, and had flown
+    /// the runs before it. Now no run flies and the lowest bad run is named, on one thread
+    /// (where the old code flew every run below it first) and on eight.
+    #[test]
+    fn a_sweep_with_bad_draws_names_its_lowest_bad_run_before_flying() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let good = std::fs::read_to_string(root.join("scenarios/sweep-hover-duration.yaml")).unwrap();
+        let path = std::env::temp_dir().join(format!("flyarena-sweep-bad-draws-{}.yaml", std::process::id()));
+        std::fs::write(&path, good.replace("uniform: [0.1, 1.0]", "normal: [0.5, 10]")).unwrap();
+        let sweep = Sweep::load(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        // mocap.noise_mm is the fourth varied field; a draw below 0 mm is outside [0, 20]
+        let bad: Vec<u64> = (0..40).filter(|&i| sweep.draw(i).0[3] < 0.0).collect();
+        assert!(bad.len() >= 2 && bad[0] > 0, "the test needs good runs before two bad ones: {bad:?}");
+        for threads in [1, 8] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let flown = std::sync::atomic::AtomicUsize::new(0);
+            let got = pool.install(|| sweep.run_resumable(40, None, &BTreeMap::new(), &|_, _| {
+                flown.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }));
+            match got {
+                Err(SweepError::Run { run, .. }) => assert_eq!(run, bad[0], "{threads} threads"),
+                other => panic!("{threads} threads: {:?}", other.map(|o| o.rows.len())),
+            }
+            assert_eq!(flown.into_inner(), 0, "{threads} threads: runs flew before the sweep was rejected");
+        }
+    }
 
     #[test]
     fn nearest_rank_percentiles() {
