@@ -583,6 +583,9 @@ mod tests {
         let rms = (short[8..].iter().map(|x| x * x).sum::<f64>() / 89.0).sqrt();
         assert_eq!(ar.order(), 0);
         assert!((ar.sigma - rms).abs() < 1e-15, "{} vs {rms}", ar.sigma);
+        // white noise's marginal variance is its innovation variance, the series' mean square
+        // (the raw Gram's weight 1/var: census shard 31 had it as σ + σ)
+        assert!((ar.marginal_var - rms * rms).abs() < 1e-15, "{} vs {}", ar.marginal_var, rms * rms);
         assert!(Ar::fit(&e[..98], &[true; 98], 8).order() >= 1);
     }
 
@@ -598,6 +601,13 @@ mod tests {
         let ar = Ar::fit(&e, &ok, 8);
         assert!(ar.order() >= 2 && ar.order() <= 4, "order {}", ar.order());
         assert!((ar.a[0] - a1).abs() < 0.03 && (ar.a[1] - a2).abs() < 0.03, "{:?}", ar.a);
+        // AR(2)'s marginal variance γ₀ = σ²(1 − a₂)/((1 + a₂)((1 − a₂)² − a₁²)) = 0.09·1.5/(0.5·0.81)
+        // = 1/3. The sample's, over n = 20,000 samples, has Bartlett's relative standard error
+        // √(2·Σρ²/n) = 1.7 % (ρ₁ = a₁/(1 − a₂) = 0.8, ρ₂ = 0.46, ρ₃ = 0.15, …: Σ over all lags ≈ 2.85);
+        // 5 % is three of them
+        let gamma0 = s * s * (1.0 - a2) / ((1.0 + a2) * ((1.0 - a2).powi(2) - a1 * a1));
+        assert!((gamma0 - 1.0 / 3.0).abs() < 1e-12);
+        assert!((ar.marginal_var / gamma0 - 1.0).abs() < 0.05, "{} vs {gamma0}", ar.marginal_var);
         assert!((ar.sigma - s).abs() < 0.01);
         // raw: strongly coloured; whitened: passes Ljung–Box
         assert!(ljung_box(&e, 20, 0).p_value < 1e-10);

@@ -154,6 +154,54 @@ fn structured(correlates: &[Correlate], ljung_box_p: f64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::identify::design::Signal;
+
+    /// A design of `n` usable samples with the given lead signals and nothing else.
+    fn signals_only(n: usize, signals: Vec<Signal>) -> Design {
+        Design {
+            n,
+            t: (0..n).map(|i| i as f64 * 0.01).collect(),
+            ok: vec![true; n],
+            measured: Default::default(),
+            predicted: Default::default(),
+            columns: Default::default(),
+            has_force: true,
+            has_vbat: false,
+            yaw_spread_rad: 0.0,
+            outliers: 0,
+            signals,
+        }
+    }
+
+    /// Pearson's r is invariant to offsets and scale: a residual r = 2x + 3 of a white signal
+    /// x = 1 + w (w uniform on ±0.5, so n_eff ≈ n) follows it with r = 1 exactly, and one
+    /// independent of x (a second white series) is no lead. Fails if either sum of squares is
+    /// taken about anything but the mean (census shard 29: Σ(r + m̄)² = n·(σ_r² + 4m̄²) gives
+    /// r = σ_r/√(σ_r² + 4·5²) = 0.577/10.0 ≈ 0.058 here, below `LEAD_MIN_CORR`: no lead). The
+    /// cross sum Σ(r − m̄)(x − x̄) is the same about any centre of one factor (Σ(x − x̄) = 0).
+    #[test]
+    fn a_residual_that_is_a_signal_plus_an_offset_follows_it_with_r_one() {
+        let n = 400;
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut white = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let x: Vec<f64> = (0..n).map(|_| 1.0 + white()).collect();
+        let other: Vec<f64> = (0..n).map(|_| white()).collect();
+        let d = signals_only(n, vec![Signal { name: "x", samples: x.clone(), excludes: vec![], floor: false }]);
+        let ls = lead_signals(&d);
+        let residual: Vec<f64> = x.iter().map(|x| 2.0 * x + 3.0).collect();
+        let got = leads(&ls, 1, 0, &residual);
+        assert_eq!(got.len(), 1, "{got:?}");
+        assert!((got[0].r - 1.0).abs() < 1e-12, "{got:?}");
+        assert!(leads(&ls, 1, 0, &other).is_empty());
+        // a signal excluded for this channel axis is no lead even when followed exactly
+        let d = signals_only(n, vec![Signal { name: "x", samples: x, excludes: vec![(1, 0)], floor: false }]);
+        assert!(leads(&lead_signals(&d), 1, 0, &residual).is_empty());
+    }
 
     /// The hint names `--with imu_offset` for force.x following ω̇_y or force.y following ω̇_x,
     /// not for force.z, not for another signal, and not once the offset is fitted.
