@@ -703,9 +703,11 @@ mod tests {
         for threads in [1, 8] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             let flown = std::sync::atomic::AtomicUsize::new(0);
-            let got = pool.install(|| sweep.run_resumable(40, None, &BTreeMap::new(), &|_, _| {
-                flown.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            }));
+            let got = pool.install(|| {
+                sweep.run_resumable(40, None, &BTreeMap::new(), &|_, _| {
+                    flown.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                })
+            });
             match got {
                 Err(SweepError::Run { run, .. }) => assert_eq!(run, bad[0], "{threads} threads"),
                 other => panic!("{threads} threads: {:?}", other.map(|o| o.rows.len())),
