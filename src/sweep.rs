@@ -244,7 +244,8 @@ impl Sweep {
         // leaving a field's range stops the sweep before it spends a flight, and the run named is
         // the lowest such run whatever the thread count. (Rayon's collect into a `Result` returns
         // whichever error a thread meets first: under load the sweep named another run.) The
-        // check parses each scenario twice (again in `run_one`); a parse is tiny beside a flight.
+        // check parses each scenario twice (again in `run_one`): 80 parses of the example sweep
+        // take about 10 ms, one of its flights about 30 ms (the unit test below, in release).
         let bad: Vec<Option<SweepError>> = mine.par_iter().map(|&i| if done.contains_key(&i) { None } else { self.scenario(i).err() }).collect();
         if let Some(e) = bad.into_iter().flatten().next() {
             return Err(e);

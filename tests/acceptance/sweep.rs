@@ -148,8 +148,8 @@ fn bad_sweeps_are_rejected_before_running() {
         (good.replace("field: \"mocap.noise_mm\"", "field: \"mocap.nope\""), "vary[3]: `mocap.nope` = 0.1: unknown field `nope`"),
         (good.replace("field: \"mocap.noise_mm\"", "field: \"vehicles[0].markers.rotation_deg[0]\""), "vary[1] and vary[3] both vary `vehicles[0].markers.rotation_deg[0]`"),
         // a normal's tail is only found by drawing every run, before any flies: the lowest bad
-        // run (4 of 4, 5, 7, 9 below 0 mm in runs 0..12), named by its values, not by a position in
-        // the patched tree, which no file holds. This case once expected run 7, the one a second
+        // run is named (runs 4, 5, 7 and 9 of the 12 draw below 0 mm), by its values, not by a
+        // position in the patched tree, which no file holds. This case once expected run 7, the one a second
         // thread met first on an idle 2-core machine; under load another was named.
         (
             good.replace("uniform: [0.1, 1.0]", "normal: [0.5, 10]"),
