@@ -64,7 +64,7 @@ for k in $(seq 0 89); do
     # Stage 2 first runs the suite without a mutant and gives no verdict if that fails. The
     # commit's suite has tests that can fail on a loaded machine (33c1bbe: a sweep named the bad
     # run a thread met first, fixed on main after it; a real-time network test): such a shard
-    # starts again, twice at most, its failed log kept as DIR/shards/K.baseline-N.log. Any
+    # starts again, twice at most, its failed logs kept as DIR/shards/K.baseline-N{,.suite}.log. Any
     # other failure, or a third, stops the census.
     for attempt in 1 2 3; do
         # a shard cut short left the tree mutated and its outcomes partial: restore, start it again
@@ -77,6 +77,10 @@ for k in $(seq 0 89); do
         fi
         if [ "$attempt" -lt 3 ] && grep -q "the suite fails without a mutant" "$dir/shards/$k.log"; then
             mv "$dir/shards/$k.log" "$dir/shards/$k.baseline-$attempt.log"
+            # stage 2 (after d99dfea) keeps the failing suite's output; the restart cleans the tree
+            if [ -f "$dir/tree/mutants.out/baseline-suite.log" ]; then
+                mv "$dir/tree/mutants.out/baseline-suite.log" "$dir/shards/$k.baseline-$attempt.suite.log"
+            fi
             echo "census shard $k of 90: stage 2's baseline failed ($(grep -o 'the suite fails without a mutant.*' "$dir/shards/$k.baseline-$attempt.log" | head -n 1)); the shard starts again"
             continue
         fi

@@ -182,13 +182,8 @@ mod tests {
     #[test]
     fn a_residual_that_is_a_signal_plus_an_offset_follows_it_with_r_one() {
         let n = 400;
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut white = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = crate::rng::Stream::new(5, crate::rng::Component::Sweep, 0);
+        let mut white = || rng.uniform() - 0.5;
         let x: Vec<f64> = (0..n).map(|_| 1.0 + white()).collect();
         let other: Vec<f64> = (0..n).map(|_| white()).collect();
         let d = signals_only(n, vec![Signal { name: "x", samples: x.clone(), excludes: vec![], floor: false }]);
