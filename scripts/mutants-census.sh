@@ -60,7 +60,9 @@ mkdir -p "$dir/shards"
 (cd "$dir/tree" && cargo clean --quiet --profile mutants -p flyarena)
 rm -rf "$dir/target/mutants/incremental"
 for k in $(seq 0 89); do
-    if cut -f 1 "$table" | grep -qx "$k"; then continue; fi
+    # awk reads the whole table: `cut | grep -q` under pipefail failed whenever grep's early exit
+    # broke cut's pipe (3 in 200 for a 190 kB table), and session 32's restart began shard 3 again
+    if awk -F '\t' -v k="$k" '$1 == k { found = 1 } END { exit !found }' "$table"; then continue; fi
     # Stage 2 first runs the suite without a mutant and gives no verdict if that fails. The
     # commit's suite has tests that can fail on a loaded machine (33c1bbe: a sweep named the bad
     # run a thread met first, fixed on main after it; a real-time network test): such a shard
