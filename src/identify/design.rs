@@ -82,7 +82,9 @@ pub const N_COLUMNS: usize = {
 pub type Column = (usize, Vec<f64>);
 
 /// The built problem at one set of corrections: per channel and axis the measured signal, the
-/// nominal prediction, and every candidate column; `ok` marks usable samples.
+/// nominal prediction, and every candidate column; `ok` marks usable samples. The default is
+/// the empty design (no samples, no channels, no signals).
+#[derive(Default)]
 pub struct Design {
     /// Samples (after decimation).
     pub n: usize,

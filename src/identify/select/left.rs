@@ -158,19 +158,7 @@ mod tests {
 
     /// A design of `n` usable samples with the given lead signals and nothing else.
     fn signals_only(n: usize, signals: Vec<Signal>) -> Design {
-        Design {
-            n,
-            t: (0..n).map(|i| i as f64 * 0.01).collect(),
-            ok: vec![true; n],
-            measured: Default::default(),
-            predicted: Default::default(),
-            columns: Default::default(),
-            has_force: true,
-            has_vbat: false,
-            yaw_spread_rad: 0.0,
-            outliers: 0,
-            signals,
-        }
+        Design { n, t: (0..n).map(|i| i as f64 * 0.01).collect(), ok: vec![true; n], has_force: true, signals, ..Design::default() }
     }
 
     /// Pearson's r is invariant to offsets and scale: a residual r = 2x + 3 of a white signal

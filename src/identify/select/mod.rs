@@ -1087,19 +1087,7 @@ mod tests {
     /// offered it.
     #[test]
     fn an_effect_is_available_only_with_the_columns_it_needs() {
-        let design = |has_force: bool, has_vbat: bool| Design {
-            n: 0,
-            t: Vec::new(),
-            ok: Vec::new(),
-            measured: Default::default(),
-            predicted: Default::default(),
-            columns: Default::default(),
-            has_force,
-            has_vbat,
-            yaw_spread_rad: 0.0,
-            outliers: 0,
-            signals: Vec::new(),
-        };
+        let design = |has_force: bool, has_vbat: bool| Design { has_force, has_vbat, ..Design::default() };
         let offers = |has_force, has_vbat, e| available(&design(has_force, has_vbat), e);
         assert!(offers(true, true, Effect::ThrustVoltage));
         assert!(!offers(true, false, Effect::ThrustVoltage) && !offers(false, true, Effect::ThrustVoltage));
