@@ -105,7 +105,8 @@ pub struct Design {
     pub has_vbat: bool,
     /// Circular standard deviation of the yaw over the usable samples (rad).
     pub yaw_spread_rad: f64,
-    /// Mocap glitches found (each leaves out the filter's reach around it).
+    /// Mocap glitches found: runs of consecutive glitch poses ([`glitches`]), each counted once
+    /// (every pose in a run leaves out the filter's reach around it).
     pub outliers: usize,
     /// Measured signals a leftover residual may follow (name, samples): the leads of "what is
     /// left". Time (a drift), speed and body velocity (drag), body rates and their derivative
@@ -134,7 +135,14 @@ pub struct Signal {
 /// Poses this many robust standard deviations off the midpoint of their neighbours are glitches.
 pub(crate) const GLITCH_SIGMAS: f64 = 20.0;
 
-/// Rows whose pose jumps away from the midpoint of its neighbours and back.
+/// Glitch events among sorted glitch rows: a run of consecutive rows counts once. A pose that
+/// jumps by J also moves its neighbours' midpoint by J/2, so one glitched frame flags three
+/// rows ([`glitches`]), and a glitch of two frames four.
+fn glitch_events(rows: &[usize]) -> usize {
+    rows.iter().enumerate().filter(|&(k, &r)| k == 0 || rows[k - 1] + 1 != r).count()
+}
+
+/// Rows whose pose jumps away from the midpoint of its neighbours and back (sorted).
 pub fn glitches(s: &Series) -> Vec<usize> {
     let n = s.len();
     let mut jp = vec![f64::NAN; n];
@@ -305,7 +313,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
             pose_ok[k as usize] = false;
         }
     }
-    let outliers = glitches.len();
+    let outliers = glitch_events(&glitches);
     // the gyro with its delay against the accelerometer taken out (rows it cannot reach are out)
     let gyro_raw = super::series::gyro_advanced(s, corr.gyro_delay_s, &mut pose_ok);
     let (ok, height) = usable_rows(s, opt, &pos_nav, &pose_ok, h + 2);
@@ -726,6 +734,18 @@ fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
 mod tests {
     use super::*;
     use crate::identify::series::NominalModel;
+
+    /// A run of consecutive glitch rows is one glitch: one frame flags three rows, two frames
+    /// four; rows two apart are two glitches.
+    #[test]
+    fn consecutive_glitch_rows_count_once() {
+        assert_eq!(glitch_events(&[]), 0);
+        assert_eq!(glitch_events(&[5]), 1);
+        assert_eq!(glitch_events(&[4, 5, 6]), 1);
+        assert_eq!(glitch_events(&[4, 5, 6, 7]), 1);
+        assert_eq!(glitch_events(&[1, 3]), 2);
+        assert_eq!(glitch_events(&[0, 1, 2, 9, 10, 11, 40]), 3);
+    }
 
     /// A rigid body turning at a constant yaw rate Ω while it swings along north,
     /// p(t) = (A·sin νt, 0, −1) m, R = R_z(Ωt); the IMU reads the exact specific force

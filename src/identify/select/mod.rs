@@ -704,7 +704,7 @@ fn gate_notes(nominal: &Problem, o: &Options, notes: &mut Vec<String>) -> bool {
     }
     if nominal.design.outliers > 0 {
         notes.push(format!(
-            "{} mocap glitches (a pose more than {} robust σ, and 1 mm or 0.5°, off the midpoint of its neighbours) were left out with ±{} ms around each",
+            "{} mocap glitches (poses more than {} robust σ, and 1 mm or 0.5°, off the midpoint of their neighbours; consecutive ones count once) were left out with ±{} ms around each",
             nominal.design.outliers,
             super::design::GLITCH_SIGMAS,
             (3.0 * o.design.smoothing_s * 1e3).round()
