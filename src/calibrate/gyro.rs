@@ -580,17 +580,8 @@ impl GyroAlignment {
         let p = if with_drift { 2 } else { 1 };
         let hess = central_hessian(rss, x, r0, h, p);
         let cov_clock = hess.try_inverse()? * (2.0 * var);
-        let mut jac = nalgebra::DMatrix::<f64>::zeros(3, p);
-        for i in 0..p {
-            let mut e = [0.0; 2];
-            e[i] = h[i];
-            let c = |dx: [f64; 2]| self.pooled(search, t_mean, x[0] + dx[0], x[1] + dx[1]).and_then(|m| self.fit(&m, extra)).map(|f| f.0.rotation);
-            let (plus, minus) = (c(e)?, c([-e[0], -e[1]])?);
-            let d = (plus * minus.inverse()).rotation_vector();
-            for k in 0..3 {
-                jac[(k, i)] = d.to_array()[k] / (2.0 * h[i]);
-            }
-        }
+        let c = |clock: [f64; 2]| self.pooled(search, t_mean, clock[0], clock[1]).and_then(|m| self.fit(&m, extra)).map(|f| f.0.rotation);
+        let jac = central_rotation_jacobian(c, x, h, p)?;
         let add = &jac * &cov_clock * jac.transpose();
         for k in 0..3 {
             fit.sigma[k] = (cov_c[(k, k)] + add[(k, k)]).max(0.0).sqrt();
@@ -632,6 +623,30 @@ fn central_hessian(f: impl Fn([f64; 2]) -> f64, x: [f64; 2], f0: f64, h: [f64; 2
         hess[(1, 0)] = hess[(0, 1)];
     }
     hess
+}
+
+/// The Jacobian of a rotation-valued g over its first `p` (1 or 2) coordinates at `x` by
+/// central differences with steps `h`: column i is the rotation vector (rad) of
+/// g(x + h_i·e_i)·g(x − h_i·e_i)⁻¹ over 2h_i. Exact for a rotation about one fixed axis u by an
+/// angle linear in x, g(x) = exp([u·(a·x)]×), whose column i is a_i·u. None where g is None.
+fn central_rotation_jacobian<A: crate::frames::Frame, B: crate::frames::Frame>(
+    g: impl Fn([f64; 2]) -> Option<Rot<A, B>>,
+    x: [f64; 2],
+    h: [f64; 2],
+    p: usize,
+) -> Option<nalgebra::DMatrix<f64>> {
+    let g = |d: [f64; 2]| g([x[0] + d[0], x[1] + d[1]]);
+    let mut jac = nalgebra::DMatrix::<f64>::zeros(3, p);
+    for i in 0..p {
+        let mut e = [0.0; 2];
+        e[i] = h[i];
+        let (plus, minus) = (g(e)?, g([-e[0], -e[1]])?);
+        let d = (plus * minus.inverse()).rotation_vector().to_array();
+        for k in 0..3 {
+            jac[(k, i)] = d[k] / (2.0 * h[i]);
+        }
+    }
+    Some(jac)
 }
 
 /// The minimum of `f` on [a, b] by golden sections (60 steps: the bracket shrinks by 10⁻¹²).
@@ -1225,5 +1240,23 @@ mod tests {
         let h = central_hessian(f, [0.0; 2], f([0.0; 2]), [0.5, 0.25], 1);
         assert_eq!(h.shape(), (1, 1));
         assert!((h[(0, 0)] - 4.0).abs() < 1e-12, "{h}");
+    }
+
+    /// C's sensitivity to the clock by hand: g(x) = exp([u·(2x₀ − 3x₁)]×) about the unit axis
+    /// u = (0.6, 0, 0.8) has Jacobian columns 2u and −3u everywhere, read at (0.3, −0.2) (a point
+    /// read at x − d in one coordinate flips that column) with steps (0.5, 0.25); over x₀ alone,
+    /// 2u. Census of 33c1bbe, shard 38: the drift's column read at x − d was caught only by the
+    /// gyro_clock snapshot (the flights' clocks have near-uncorrelated offset and drift, so a
+    /// column's sign hardly moves C's σ).
+    #[test]
+    fn the_clock_jacobian_is_exact_for_a_rotation_linear_in_the_clock() {
+        let u = [0.6, 0.0, 0.8];
+        let g = |c: [f64; 2]| Some(Rot::<Body, Body>::from_rotation_vector(Vec3::from_array(u.map(|k| k * (2.0 * c[0] - 3.0 * c[1])))));
+        let jac = central_rotation_jacobian(g, [0.3, -0.2], [0.5, 0.25], 2).unwrap();
+        let want = nalgebra::DMatrix::from_row_slice(3, 2, &[1.2, -1.8, 0.0, 0.0, 1.6, -2.4]);
+        assert!((&jac - &want).amax() < 1e-12, "{jac}");
+        let jac = central_rotation_jacobian(g, [0.3, -0.2], [0.5, 0.25], 1).unwrap();
+        assert!((&jac - want.columns(0, 1)).amax() < 1e-12, "{jac}");
+        assert!(central_rotation_jacobian(|_| None::<Rot<Body, Body>>, [0.0; 2], [0.5, 0.25], 2).is_none());
     }
 }
