@@ -543,7 +543,9 @@ impl GyroAlignment {
         let t_mean = self.blocks.iter().map(|b| b.sum_t).sum::<f64>() / n as f64;
         let with_drift = self.blocks.len() >= 3;
         let extra = if with_drift { 2 } else { 1 };
-        let rss = |x: [f64; 2]| self.pooled(search, t_mean, x[0], x[1]).and_then(|m| self.fit(&m, extra)).map_or(f64::INFINITY, |f| f.1);
+        // the fit with the clock (offset s, drift) = x, and its residual sum of squares
+        let fit_at = |x: [f64; 2]| self.pooled(search, t_mean, x[0], x[1]).and_then(|m| self.fit(&m, extra));
+        let rss = |x: [f64; 2]| fit_at(x).map_or(f64::INFINITY, |f| f.1);
         let step = search.step.as_secs_f64();
         let max = (search.max_offset.0 / search.step.0.max(1)) as f64 * step;
         let drift_step = search.max_drift_ppm * 1e-6 / 10.0;
@@ -573,15 +575,14 @@ impl GyroAlignment {
         if x[0].abs() > max - 1.5 * step || (with_drift && x[1].abs() > search.max_drift_ppm * 1e-6 - drift_step) {
             return None;
         }
-        let (mut fit, r0, cov_c) = self.fit(&self.pooled(search, t_mean, x[0], x[1])?, extra)?;
+        let (mut fit, r0, cov_c) = fit_at(x)?;
         // the clock's covariance 2σ²·H⁻¹ from the residual's Hessian, and C's sensitivity to it
         let var = r0 / (3.0 * n as f64 - 6.0 - extra as f64).max(1.0);
         let h = [0.25 * step, 0.25 * drift_step];
         let p = if with_drift { 2 } else { 1 };
         let hess = central_hessian(rss, x, r0, h, p);
         let cov_clock = hess.try_inverse()? * (2.0 * var);
-        let c = |clock: [f64; 2]| self.pooled(search, t_mean, clock[0], clock[1]).and_then(|m| self.fit(&m, extra)).map(|f| f.0.rotation);
-        let jac = central_rotation_jacobian(c, x, h, p)?;
+        let jac = central_rotation_jacobian(|clock| fit_at(clock).map(|f| f.0.rotation), x, h, p)?;
         let add = &jac * &cov_clock * jac.transpose();
         for k in 0..3 {
             fit.sigma[k] = (cov_c[(k, k)] + add[(k, k)]).max(0.0).sqrt();
