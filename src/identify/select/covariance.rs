@@ -90,4 +90,40 @@ mod tests {
         assert_eq!((0..4).map(|l| bartlett(l, 3)).collect::<Vec<_>>(), [1.0, 0.75, 0.5, 0.25]);
         assert_eq!(bartlett(0, 0), 1.0);
     }
+
+    /// The thrust error's covariance in closed form. A relative error ε of the nominal thrust
+    /// adds ε times the thrust-scale column c to the force z residual. With the thrust scale in
+    /// the model that is exactly its own column, so its parameter moves by ε and the others not
+    /// at all: covariance σ_T² on the thrust scale, 0 elsewhere. Without it, a constant vertical
+    /// force (the accelerometer bias z, a column of ones) takes the least-squares projection of
+    /// c on a constant, the training mean c̄: σ_T²·c̄². The weight w_r cancels (here 1/0.5²).
+    /// Census of 33c1bbe: `col·c` as `col / c` (shard 42) and σ_T·σ_T as σ_T + σ_T (shard 43)
+    /// were caught only through `identify`'s end-to-end tests.
+    #[test]
+    fn a_thrust_error_moves_the_thrust_scale_by_itself_or_a_bias_by_the_mean_thrust() {
+        let n = 6;
+        let (f, z) = (Channel::Force.index(), 2);
+        let (ts, bz) = (cols_of(Effect::ThrustScale).start, cols_of(Effect::AccelBias).start + 2);
+        let mut d = Design { n, ..Design::default() };
+        d.measured[f][z] = vec![0.1, -0.2, 0.05, 0.0, 0.3, -0.1];
+        d.predicted[f][z] = vec![0.0; n];
+        d.columns[f][z] = vec![(ts, vec![-9.0, -10.0, -11.0, -9.5, -10.5, -12.0]), (bz, vec![1.0; n])];
+        // row 2 is held out: c̄ over the training rows is (−9 − 10 − 9.5 − 10.5 − 12)/5 = −10.2
+        let train = [true, true, false, true, true, true];
+        let test: Vec<bool> = train.iter().map(|t| !t).collect();
+        let gs = grams(&d, &train, &test, &[Ar::white(0.5)]);
+        let sd = 0.05;
+        let close = |got: f64, want: f64| assert!((got - want).abs() < 1e-12, "{got} for {want}");
+        let both = thrust_systematic(&d, &train, &gs, &[ts, bz], sd);
+        close(both[(0, 0)], sd * sd);
+        for (p, q) in [(0, 1), (1, 0), (1, 1)] {
+            close(both[(p, q)], 0.0);
+        }
+        let bias = thrust_systematic(&d, &train, &gs, &[bz], sd);
+        close(bias[(0, 0)], sd * sd * 10.2 * 10.2);
+        // no thrust error, or no thrust-scale column in the log: nothing added
+        assert_eq!(thrust_systematic(&d, &train, &gs, &[ts, bz], 0.0), DMatrix::zeros(2, 2));
+        d.columns[f][z].remove(0);
+        assert_eq!(thrust_systematic(&d, &train, &gs, &[bz], sd), DMatrix::zeros(1, 1));
+    }
 }

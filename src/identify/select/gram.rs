@@ -288,3 +288,79 @@ pub(super) fn canonical_corr(gs: &[Gram], s: &[usize], a: &[usize], b: &[usize])
 pub(super) fn ar_models(d: &Design, train: &[bool], theta: &[f64], max_order: usize) -> Vec<Ar> {
     active(d).into_iter().map(|(c, a)| Ar::fit(&residual_of(d, c, a, theta), train, max_order)).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The normal equations of `rows` (one sample each: the values of `cols` in that order),
+    /// whitened and raw alike.
+    fn gram_of(cols: &[usize], rows: &[&[f64]]) -> Gram {
+        let m = cols.len();
+        let mut g = Gram {
+            cols: cols.to_vec(),
+            g_w: DMatrix::zeros(m, m),
+            b_w: DVector::zeros(m),
+            yy_w: 0.0,
+            n_w: rows.len(),
+            g_t: DMatrix::zeros(m, m),
+            b_t: DVector::zeros(m),
+            yy_t: 0.0,
+            n_t: 0,
+            g_r: DMatrix::zeros(m, m),
+            b_r: DVector::zeros(m),
+            w_r: 1.0,
+        };
+        for r in rows {
+            let x = DVector::from_row_slice(r);
+            g.g_w += &x * x.transpose();
+        }
+        g.g_r = g.g_w.clone();
+        g
+    }
+
+    /// Canonical correlations by geometry, with four samples (e1..e4 the unit samples). Columns
+    /// 0 = e1, 1 = e1 + e2, 2 = e3, 3 = 2e1 + e2 + 3e4, 4 = e2, 5 = e1 + e3.
+    /// - B = {5} against A = {0, 4}: b's projection on span(e1, e2) is e1, ρ = 1/√2;
+    /// - B = {3} against A = {1, 2}: the projection is (3/2)(e1 + e2), ρ = (3/√2)/√14 = 3/√28;
+    /// - the same with S = {0} projected out: b becomes e2 + 3e4 and A spans e2 and e3, so
+    ///   ρ = 1/√10.
+    ///
+    /// The samples are split over two channel axes (one Gram each, the columns in another order,
+    /// the second without the columns that vanish on its samples): the system sums them. Census
+    /// of 33c1bbe, shard 42: B's conditioned block read at `ns − na` (S's own block: ρ = 1) was
+    /// caught only through `identify`'s command-line test.
+    #[test]
+    fn canonical_correlations_by_geometry_with_a_block_projected_out() {
+        // samples 1 and 2, columns 3, 0, 1, 2, 4, 5
+        let first = gram_of(&[3, 0, 1, 2, 4, 5], &[&[2.0, 1.0, 1.0, 0.0, 0.0, 1.0], &[1.0, 0.0, 1.0, 0.0, 1.0, 0.0]]);
+        // samples 3 and 4: columns 0, 1 and 4 are zero there and absent
+        let second = gram_of(&[5, 2, 3], &[&[1.0, 1.0, 0.0], &[0.0, 0.0, 3.0]]);
+        let gs = [first, second];
+        let close = |got: f64, want: f64| assert!((got - want).abs() < 1e-12, "ρ = {got}, not {want}");
+        close(canonical_corr(&gs, &[], &[0, 4], &[5]), 0.5f64.sqrt());
+        close(canonical_corr(&gs, &[], &[1, 2], &[3]), 3.0 / 28f64.sqrt());
+        close(canonical_corr(&gs, &[0], &[1, 2], &[3]), 0.1f64.sqrt());
+        // symmetric in A and B; and a block with S = {1, 2} of two columns
+        close(canonical_corr(&gs, &[0], &[3], &[1, 2]), 0.1f64.sqrt());
+        // S = {0, 2}: a = e1 + e2 becomes e2, b = 2e1 + e2 + 3e4 becomes e2 + 3e4
+        close(canonical_corr(&gs, &[0, 2], &[1], &[3]), 0.1f64.sqrt());
+    }
+
+    /// The residual after θ by hand: measured − predicted − Σ θ_j·x_j on the channel axis's
+    /// own columns, a zero θ_j skipped. Census of 33c1bbe, shard 42: `θ_j != 0` as `== 0`
+    /// (only the zero ones subtracted) was caught only through `identify`'s command-line test.
+    #[test]
+    fn the_residual_after_theta_by_hand() {
+        let mut d = Design { n: 3, ..Design::default() };
+        d.measured[1][2] = vec![1.0, 2.0, 3.0];
+        d.predicted[1][2] = vec![0.5, 0.5, 0.5];
+        d.columns[1][2] = vec![(4, vec![1.0, 0.0, 1.0]), (7, vec![0.0, 1.0, 1.0]), (9, vec![5.0, 5.0, 5.0])];
+        let mut theta = vec![0.0; N_COLUMNS];
+        theta[4] = 2.0;
+        theta[7] = -1.0;
+        // a column of another channel axis does not touch this one
+        theta[2] = 10.0;
+        assert_eq!(residual_of(&d, 1, 2, &theta), [0.5 - 2.0, 1.5 + 1.0, 2.5 - 2.0 + 1.0]);
+    }
+}
