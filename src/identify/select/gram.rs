@@ -24,6 +24,15 @@ pub(super) struct Gram {
     pub(super) w_r: f64,
 }
 
+impl Gram {
+    /// The empty sums of the columns `cols` (nothing accumulated yet), with the weight `w_r`.
+    pub(super) fn zeros(cols: Vec<usize>, w_r: f64) -> Gram {
+        let m = cols.len();
+        let (z, v) = (DMatrix::zeros(m, m), DVector::zeros(m));
+        Gram { cols, g_w: z.clone(), b_w: v.clone(), yy_w: 0.0, n_w: 0, g_t: z.clone(), b_t: v.clone(), yy_t: 0.0, n_t: 0, g_r: z, b_r: v, w_r }
+    }
+}
+
 pub(super) fn masks(s: &Series, d: &Design, o: &Options) -> (Vec<bool>, Vec<bool>) {
     let t0 = s.t_s.first().copied().unwrap_or(0.0);
     let tt = &d.t;
@@ -81,20 +90,7 @@ pub(super) fn grams(d: &Design, train: &[bool], test: &[bool], ars: &[Ar]) -> Ve
         for (q, (_, col)) in d.columns[c][a].iter().enumerate() {
             ars[k].whiten(col, train, &mut wc[q]);
         }
-        let mut g = Gram {
-            cols: cols.clone(),
-            g_w: DMatrix::zeros(m, m),
-            b_w: DVector::zeros(m),
-            yy_w: 0.0,
-            n_w: 0,
-            g_t: DMatrix::zeros(m, m),
-            b_t: DVector::zeros(m),
-            yy_t: 0.0,
-            n_t: 0,
-            g_r: DMatrix::zeros(m, m),
-            b_r: DVector::zeros(m),
-            w_r: 1.0 / ars[k].marginal_var.max(f64::MIN_POSITIVE),
-        };
+        let mut g = Gram::zeros(cols.clone(), 1.0 / ars[k].marginal_var.max(f64::MIN_POSITIVE));
         // accumulated in flat lower triangles (row p, column q ≤ p at p(p+1)/2 + q), each sum in
         // sample order as before
         let tri = m * (m + 1) / 2;
@@ -296,21 +292,8 @@ mod tests {
     /// The normal equations of `rows` (one sample each: the values of `cols` in that order),
     /// whitened and raw alike.
     fn gram_of(cols: &[usize], rows: &[&[f64]]) -> Gram {
-        let m = cols.len();
-        let mut g = Gram {
-            cols: cols.to_vec(),
-            g_w: DMatrix::zeros(m, m),
-            b_w: DVector::zeros(m),
-            yy_w: 0.0,
-            n_w: rows.len(),
-            g_t: DMatrix::zeros(m, m),
-            b_t: DVector::zeros(m),
-            yy_t: 0.0,
-            n_t: 0,
-            g_r: DMatrix::zeros(m, m),
-            b_r: DVector::zeros(m),
-            w_r: 1.0,
-        };
+        let mut g = Gram::zeros(cols.to_vec(), 1.0);
+        g.n_w = rows.len();
         for r in rows {
             let x = DVector::from_row_slice(r);
             g.g_w += &x * x.transpose();

@@ -953,20 +953,7 @@ mod tests {
     /// whitened and the raw training part alike (white noise needs no prewhitening).
     fn synthetic_gram(cols: [usize; 3], beta: [f64; 3]) -> Gram {
         let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut g = Gram {
-            cols: cols.to_vec(),
-            g_w: DMatrix::zeros(3, 3),
-            b_w: DVector::zeros(3),
-            yy_w: 0.0,
-            n_w: 0,
-            g_t: DMatrix::zeros(3, 3),
-            b_t: DVector::zeros(3),
-            yy_t: 0.0,
-            n_t: 0,
-            g_r: DMatrix::zeros(3, 3),
-            b_r: DVector::zeros(3),
-            w_r: 1.0,
-        };
+        let mut g = Gram::zeros(cols.to_vec(), 1.0);
         for i in 0..3000 {
             let x = [uniform(&mut state), uniform(&mut state), uniform(&mut state)];
             let y = beta[0] * x[0] + beta[1] * x[1] + beta[2] * x[2] + 0.1 * uniform(&mut state);
