@@ -518,6 +518,29 @@ mod tests {
         let _ = Euler::ZERO;
     }
 
+    /// Touchdown by hand: a body falling through D = 0 with its rotors stopped keeps its
+    /// horizontal position (it moved at constant horizontal velocity during the step: no thrust,
+    /// no drag on the preset) and its heading, and rests level on the floor with no velocity and
+    /// no rate. First tilted (roll 0.1, pitch −0.05, yaw 0.8 rad) with no rate; then level,
+    /// spinning about the vertical at 0.2 rad/s, a principal axis (no gyroscopic term), so its
+    /// heading after the step is 0.8 + 0.2·dt. Census of 33c1bbe, shard 46: the floor's
+    /// position at (x, x) instead of (x, y) was caught only through an `identify` flight.
+    #[test]
+    fn touchdown_keeps_the_horizontal_position_and_heading_and_levels_the_body() {
+        let dt = 1e-3;
+        for (att, omega, yaw) in [(Euler::new(0.1, -0.05, 0.8), 0.0, 0.8), (Euler::new(0.0, 0.0, 0.8), 0.2, 0.8 + 0.2 * dt)] {
+            let s =
+                State { pos: Vec3::new(1.5, -0.7, -0.0005), vel: Vec3::new(0.2, -0.1, 1.0), att: Rot::from_euler(att), omega: Vec3::new(0.0, 0.0, omega), rotor_speed: [0.0; 4] };
+            let mut x = X3d::in_flight(VehicleParams::x3d(), Disturbance::default(), s);
+            x.step(&[0.0; 4], dt);
+            assert!(x.on_ground());
+            let (pos, e) = (x.state().pos, x.state().att.euler());
+            assert!((pos.x() - (1.5 + 0.2 * dt)).abs() < 1e-12 && (pos.y() - (-0.7 - 0.1 * dt)).abs() < 1e-12 && pos.z() == 0.0, "{pos:?}");
+            assert!(e.roll.abs() < 1e-12 && e.pitch.abs() < 1e-12 && (e.yaw - yaw).abs() < 1e-12, "{e:?}");
+            assert_eq!((x.state().vel, x.state().omega), (Vec3::zeros(), Vec3::zeros()));
+        }
+    }
+
     #[test]
     fn stays_on_floor_until_thrust_exceeds_weight() {
         let p = VehicleParams::x3d();
