@@ -324,9 +324,9 @@ mod tests {
         close(canonical_corr(&gs, &[], &[0, 4], &[5]), 0.5f64.sqrt());
         close(canonical_corr(&gs, &[], &[1, 2], &[3]), 3.0 / 28f64.sqrt());
         close(canonical_corr(&gs, &[0], &[1, 2], &[3]), 0.1f64.sqrt());
-        // symmetric in A and B; and a block with S = {1, 2} of two columns
+        // symmetric in A and B (here B has two columns)
         close(canonical_corr(&gs, &[0], &[3], &[1, 2]), 0.1f64.sqrt());
-        // S = {0, 2}: a = e1 + e2 becomes e2, b = 2e1 + e2 + 3e4 becomes e2 + 3e4
+        // S of two columns, {0, 2}: a = e1 + e2 becomes e2, b = 2e1 + e2 + 3e4 becomes e2 + 3e4
         close(canonical_corr(&gs, &[0, 2], &[1], &[3]), 0.1f64.sqrt());
     }
 
