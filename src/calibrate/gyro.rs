@@ -1222,6 +1222,32 @@ mod tests {
         assert!((partial_rate_integral(v(3.0), v(-2.0), v(7.0), 1.0).x + 2.0).abs() < 1e-15);
     }
 
+    /// The gyro increment over a window that cuts frames, by hand: a rate along a fixed axis u
+    /// growing linearly, ω(t) = (a + b·t)·u, read as 10 ms frames whose means are its values at
+    /// the frames' midpoints. Over [23, 67] ms it turns by (a·(u₁ − u₀) + b·(u₁² − u₀²)/2)·u
+    /// exactly: the parabola through a frame's and its contiguous neighbours' means is the line
+    /// itself. A frame missing under the window gives `None`. Census of 33c1bbe, shard 48: the
+    /// neighbour taken only where it is *not* contiguous (`g.t1 == f.t0` as `!=`; the partial
+    /// frame then leans on its own mean, 1e-5 rad off here) was caught only by the gyro_clock
+    /// snapshot; shard 49's `next` read at i − 1 likewise.
+    #[test]
+    fn the_gyro_increment_over_cut_frames_integrates_a_linear_rate_exactly() {
+        let (a, b) = (0.3, 2.0); // rad/s, rad/s²
+        let u = Vector3::new(0.6, 0.0, 0.8);
+        let frame = |k: i64| {
+            let mid = (10 * k) as f64 * 1e-3 + 0.005;
+            TelemetryFrame { seq: k as u32, t0: Nanos::from_millis(10 * k), t1: Nanos::from_millis(10 * k + 10), gyro_mean: Vec3::from_raw(u * (a + b * mid)) }
+        };
+        let mut g = GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(50));
+        g.frames = (0..10).map(frame).collect();
+        let (u0, u1) = (0.023, 0.067);
+        let want = u * (a * (u1 - u0) + b * (u1 * u1 - u0 * u0) / 2.0);
+        let got = g.gyro_increment(Nanos::from_secs_f64(u0), Nanos::from_secs_f64(u1)).expect("frames cover the window");
+        assert!((got - want).amax() < 1e-15, "{got} vs {want}");
+        g.frames.remove(4);
+        assert_eq!(g.gyro_increment(Nanos::from_secs_f64(u0), Nanos::from_secs_f64(u1)), None, "40-50 ms missing");
+    }
+
     /// The clock's Hessian by hand: f(x, y) = 3 + 0.7x − 1.1y + 2x² + 0.8xy + 5y² has
     /// H = [[4, 0.8], [0.8, 10]] everywhere, read off at the origin (where the slope is not 0,
     /// so a one-sided difference would be off) and at (0.3, −0.2) (a point read at x − d in one
