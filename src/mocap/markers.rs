@@ -117,6 +117,27 @@ mod tests {
         assert!(off.rms_misfit_m > 0.0);
     }
 
+    /// Pairwise distances do not change under a rotation, a translation or a relabelling of the
+    /// markers, so such a copy is confusable however small the tolerance. Scaling a pattern by
+    /// 1 + k moves its distance d by k·d, the largest d_max most: confusable exactly when
+    /// tol > k·d_max. A pattern with another number of markers never is. (Census of 33c1bbe,
+    /// shard 49: `patterns_confusable` returning false was caught only by the CLI's bad-scenario
+    /// test.)
+    #[test]
+    fn a_pattern_moved_rigidly_and_relabelled_is_confusable_one_scaled_only_within_the_tolerance() {
+        let a = builtin_pattern(0).to_vec();
+        let r: Rot<MocapBody, MocapBody> = Rot::from_euler(Euler::from_degrees(20.0, -35.0, 110.0));
+        let mut moved: Vec<Vec3<MocapBody>> = a.iter().map(|m| r.apply(*m) + Vec3::new(0.3, -1.2, 0.7)).collect();
+        moved.rotate_left(1);
+        assert!(patterns_confusable(&a, &moved, 1e-9));
+        let k = 0.01;
+        let scaled: Vec<Vec3<MocapBody>> = a.iter().map(|m| *m * (1.0 + k)).collect();
+        let d_max = pattern_signature(&a).last().copied().unwrap();
+        assert!(patterns_confusable(&a, &scaled, 1.01 * k * d_max));
+        assert!(!patterns_confusable(&a, &scaled, 0.99 * k * d_max));
+        assert!(!patterns_confusable(&a, &a[..3], 1.0), "3 markers against 4");
+    }
+
     #[test]
     fn builtin_patterns_are_unique() {
         for a in 0..BUILTIN_PATTERNS {
