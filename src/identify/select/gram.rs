@@ -330,6 +330,30 @@ mod tests {
         close(canonical_corr(&gs, &[0, 2], &[1], &[3]), 0.1f64.sqrt());
     }
 
+    /// Two channel axes measure one constant (column 0, all ones, 4 training samples each):
+    /// residual 1 with noise σ₁ = 1 and residual 3 with σ₂ = 2. Weighted least squares over
+    /// both is the inverse-variance mean, θ = (1·4·1 + ¼·4·3)/(1·4 + ¼·4) = 7/5, both in the
+    /// raw weighted sums (w_r = 1/σ²: G_r = 4, 1; b_r = 4, 3) and in the whitened ones (x/σ).
+    /// Census of 33c1bbe, shard 50: w_r = σ² (θ = 2.6) was caught only through `identify`'s
+    /// end-to-end tests.
+    #[test]
+    fn two_channel_axes_are_weighted_by_their_inverse_noise_variance() {
+        let mut d = Design { n: 4, ..Design::default() };
+        for (a, y) in [(0, 1.0), (1, 3.0)] {
+            d.measured[0][a] = vec![y; 4];
+            d.predicted[0][a] = vec![0.0; 4];
+            d.columns[0][a] = vec![(0, vec![1.0; 4])];
+        }
+        let gs = grams(&d, &[true; 4], &[false; 4], &[Ar::white(1.0), Ar::white(2.0)]);
+        assert_eq!(gs.len(), 2);
+        assert_eq!([gs[0].w_r, gs[1].w_r], [1.0, 0.25]);
+        assert_eq!([gs[0].g_r[(0, 0)], gs[0].b_r[0], gs[1].g_r[(0, 0)], gs[1].b_r[0]], [4.0, 4.0, 1.0, 3.0]);
+        let (g, b) = system_raw(&gs, &[0]);
+        assert!((b[0] / g[(0, 0)] - 1.4).abs() < 1e-15, "raw: {}", b[0] / g[(0, 0)]);
+        let (g, b, _, n) = system(&gs, &[0]);
+        assert!((b[0] / g[(0, 0)] - 1.4).abs() < 1e-15 && n == 8, "whitened: {} from {n}", b[0] / g[(0, 0)]);
+    }
+
     /// The residual after θ by hand: measured − predicted − Σ θ_j·x_j on the channel axis's
     /// own columns, a zero θ_j skipped. Census of 33c1bbe, shard 42: `θ_j != 0` as `== 0`
     /// (only the zero ones subtracted) was caught only through `identify`'s command-line test.
