@@ -74,6 +74,20 @@ pub fn lever_arm_specific_force(omega: Vec3<Body>, omega_dot: Vec3<Body>, r: Vec
 mod tests {
     use super::*;
 
+    /// The engine adds the lever-arm acceleration only where `position` is `Some`: an IMU at
+    /// the centre of mass has none, one off it has exactly its configured r (body FRD). Census
+    /// of 33c1bbe, shards 51-52: `Some(0)` always, and `None` off the centre, lost the lever arm
+    /// and were caught only by `identify`'s off-centre IMU flight.
+    #[test]
+    fn an_imu_off_the_centre_reports_its_position_and_one_at_it_none() {
+        let stream = || crate::rng::Stream::new(1, crate::rng::Component::ImuNoise, 0);
+        assert_eq!(Imu::new(ImuParams::default(), stream()).position(), None);
+        let off = ImuParams { position_m: [0.05, -0.02, 0.01], ..ImuParams::default() };
+        assert_eq!(Imu::new(off, stream()).position().map(Vec3::to_array), Some([0.05, -0.02, 0.01]));
+        let below = ImuParams { position_m: [0.0, 0.0, 0.03], ..ImuParams::default() };
+        assert_eq!(Imu::new(below, stream()).position().map(Vec3::to_array), Some([0.0, 0.0, 0.03]));
+    }
+
     /// Closed forms: a point 0.1 m ahead of the centre on a body spinning about z at 3 rad/s is
     /// pulled towards the axis by ω²r = 0.9 m/s² (−x); the same point under ω̇ = 2 rad/s² about z
     /// is pushed sideways (+y, FRD: right) by ω̇·r = 0.2 m/s²; a point on the axis feels neither.
