@@ -186,6 +186,42 @@ mod tests {
         assert!(leads(&lead_signals(&d), 1, 0, &residual).is_empty());
     }
 
+    /// A lead must be significant as well as strong: ρ²·n_eff against χ²(1) at 1 % (one signal).
+    /// Over 200 samples of white series (n_eff ≈ 200; it would have to exceed 460), a residual
+    /// built to follow the signal with ρ = 0.12 exactly (the signal's and an orthogonal white
+    /// series' centred parts, of equal norm, mixed as ρ and √(1 − ρ²)) clears `LEAD_MIN_CORR`
+    /// but not the test (ρ²·n_eff ≈ 2.9 < 6.63), so it is no lead; with ρ = 0.5 (≈ 50) it is
+    /// one, with that r. Census of 33c1bbe, shard 52: the statistic ρ² + n_eff (every
+    /// correlation above 0.1 significant) was caught only by an acceptance test.
+    #[test]
+    fn a_lead_needs_a_significant_correlation_not_only_one_above_the_floor() {
+        let n = 200;
+        let mut rng = crate::rng::Stream::new(9, crate::rng::Component::Sweep, 0);
+        let mut white = || rng.uniform() - 0.5;
+        let x: Vec<f64> = (0..n).map(|_| white()).collect();
+        let y: Vec<f64> = (0..n).map(|_| white()).collect();
+        let centred = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            v.iter().map(|v| v - m).collect::<Vec<f64>>()
+        };
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
+        let xc = centred(&x);
+        let yc = centred(&y);
+        let along = dot(&yc, &xc) / dot(&xc, &xc);
+        let y_perp: Vec<f64> = yc.iter().zip(&xc).map(|(y, x)| y - along * x).collect();
+        let scale = (dot(&xc, &xc) / dot(&y_perp, &y_perp)).sqrt();
+        let follow = |rho: f64| -> Vec<f64> { xc.iter().zip(&y_perp).map(|(x, y)| 0.7 + rho * x + (1.0 - rho * rho).sqrt() * scale * y).collect() };
+        let d = signals_only(n, vec![Signal { name: "x", samples: x, excludes: vec![], floor: false }]);
+        let ls = lead_signals(&d);
+        let weak = leads(&ls, 1, 0, &follow(0.12));
+        assert!(weak.is_empty(), "{weak:?}");
+        let strong = leads(&ls, 1, 0, &follow(0.5));
+        assert_eq!(strong.len(), 1, "{strong:?}");
+        assert!((strong[0].r - 0.5).abs() < 1e-12 && (100.0..300.0).contains(&strong[0].n_eff), "{strong:?}");
+        // the weak one's statistic, with the strong one's n_eff (both residuals are white)
+        assert!(0.12f64.powi(2) * strong[0].n_eff < 6.63, "n_eff {}", strong[0].n_eff);
+    }
+
     /// The hint names `--with imu_offset` for force.x following ω̇_y or force.y following ω̇_x,
     /// not for force.z, not for another signal, and not once the offset is fitted.
     #[test]
