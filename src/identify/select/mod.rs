@@ -573,15 +573,7 @@ impl Search {
         // than every passing single
         let near = pair_candidates(&cands, o.alpha);
         let tests = tests_with_pairs(pool.len(), near.len());
-        let mut pair: Option<(Effect, Candidate)> = None;
-        for (i, a) in near.iter().enumerate() {
-            for b in &near[i + 1..] {
-                let c = score(&[*a, *b], tests);
-                if c.passed && pair.as_ref().is_none_or(|(_, p)| c.delta_bic < p.delta_bic) {
-                    pair = Some((*b, c));
-                }
-            }
-        }
+        let pair = best_pair(&near, |a, b| score(&[a, b], tests));
         let Some((best, partner)) = round_winner(&cands, pair) else {
             self.final_candidates = cands;
             return false;
@@ -670,6 +662,22 @@ impl Search {
 fn pair_candidates(cands: &[Candidate], alpha: f64) -> Vec<Effect> {
     let level = alpha / cands.len() as f64;
     cands.iter().filter(|c| !c.passed && c.p_value < level && c.delta_bic < 0.0).map(|c| c.effect).collect()
+}
+
+/// The passing pair of `near` (each unordered pair once, scored by `score`) with the lowest
+/// ΔBIC, the first in order on a tie: its scoreboard and the partner that joins with its first
+/// effect. None when no pair passes.
+fn best_pair(near: &[Effect], mut score: impl FnMut(Effect, Effect) -> Candidate) -> Option<(Effect, Candidate)> {
+    let mut pair: Option<(Effect, Candidate)> = None;
+    for (i, a) in near.iter().enumerate() {
+        for b in &near[i + 1..] {
+            let c = score(*a, *b);
+            if c.passed && pair.as_ref().is_none_or(|(_, p)| c.delta_bic < p.delta_bic) {
+                pair = Some((*b, c));
+            }
+        }
+    }
+    pair
 }
 
 /// A round's winner: the passing pair (its scoreboard and the partner that joins with its first
@@ -1046,6 +1054,29 @@ mod tests {
         assert_eq!(winner(&singles, pair(-15.0)), Some((Effect::GyroDelay, -20.0, None)));
         assert_eq!(winner(&singles[2..], pair(-5.0)), Some((Effect::BodyOffset, -5.0, Some(Effect::WorldTilt))));
         assert_eq!(winner(&singles[2..], None), None);
+    }
+
+    /// A round's pair is the passing one with the lowest ΔBIC, whatever its place in the order:
+    /// of the pairs of (RotorDrag, GyroDelay, AccelBias), the failing one with ΔBIC −30 is
+    /// skipped, −9 beats the −5 before it and the −7 after it, and a later tie keeps the first.
+    /// Census of 33c1bbe, shard 53: `<` as `==` (the first passing pair) survived the whole
+    /// suite, whose flights never had two passing pairs in a round.
+    #[test]
+    fn the_round_pair_is_the_passing_one_with_the_lowest_delta_bic() {
+        use Effect::*;
+        let c = |effect: Effect, passed: bool, delta_bic: f64| Candidate { effect, delta_bic, f: 10.0, p_value: 1e-6, heldout_gain: 0.1, max_corr: 0.3, passed };
+        let near = [RotorDrag, GyroDelay, AccelBias, WorldTilt];
+        let board = |a: Effect, b: Effect| match (a, b) {
+            (RotorDrag, GyroDelay) => c(a, true, -5.0),
+            (RotorDrag, AccelBias) => c(a, true, -9.0),
+            (RotorDrag, WorldTilt) => c(a, false, -30.0),
+            (GyroDelay, AccelBias) => c(a, true, -7.0),
+            (_, _) => c(a, true, -9.0),
+        };
+        let got = best_pair(&near, board).map(|(partner, p)| (p.effect, partner, p.delta_bic));
+        assert_eq!(got, Some((RotorDrag, AccelBias, -9.0)));
+        assert_eq!(best_pair(&near[..1], board).map(|(b, _)| b), None, "one candidate has no pair");
+        assert_eq!(best_pair(&[RotorDrag, WorldTilt], board).map(|(b, _)| b), None, "only a failing pair");
     }
 
     /// The backward check's Bonferroni level: an effect re-tested on top of the others competes
