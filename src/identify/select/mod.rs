@@ -1057,10 +1057,11 @@ mod tests {
     }
 
     /// A round's pair is the passing one with the lowest ΔBIC, whatever its place in the order:
-    /// of the pairs of (RotorDrag, GyroDelay, AccelBias), the failing one with ΔBIC −30 is
-    /// skipped, −9 beats the −5 before it and the −7 after it, and a later tie keeps the first.
-    /// Census of 33c1bbe, shard 53: `<` as `==` (the first passing pair) survived the whole
-    /// suite, whose flights never had two passing pairs in a round.
+    /// of the pairs of (RotorDrag, GyroDelay, AccelBias, WorldTilt), the failing one with ΔBIC
+    /// −30 is skipped, −9 beats the −5 before it and the −7 after it, and the later ties at −9
+    /// keep the first. Census of 33c1bbe, shard 53: `<` as `==` (the first passing pair)
+    /// survived the whole suite: in none of its flights does a round's first passing pair
+    /// differ from its best.
     #[test]
     fn the_round_pair_is_the_passing_one_with_the_lowest_delta_bic() {
         use Effect::*;
