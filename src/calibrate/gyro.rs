@@ -1228,8 +1228,8 @@ mod tests {
     /// exactly: the parabola through a frame's and its contiguous neighbours' means is the line
     /// itself. A frame missing under the window gives `None`. Census of 33c1bbe, shard 48: the
     /// neighbour taken only where it is *not* contiguous (`g.t1 == f.t0` as `!=`; the partial
-    /// frame then leans on its own mean, 1e-5 rad off here) was caught only by the gyro_clock
-    /// snapshot; shard 49's `next` read at i − 1 likewise.
+    /// frame then leans on its own mean, of order 1e-5 rad off here) was caught only by the
+    /// gyro_clock snapshot; shard 49's `next` read at i − 1 likewise.
     #[test]
     fn the_gyro_increment_over_cut_frames_integrates_a_linear_rate_exactly() {
         let (a, b) = (0.3, 2.0); // rad/s, rad/s²
