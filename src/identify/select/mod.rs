@@ -1038,13 +1038,19 @@ mod tests {
         assert_eq!(counts, [10, 10, 11, 13, 16]);
     }
 
+    /// A round's scoreboard entry for the winner tests: only the effect, whether it passed and
+    /// its ΔBIC matter there.
+    fn scoreboard(effect: Effect, passed: bool, delta_bic: f64) -> Candidate {
+        Candidate { effect, delta_bic, f: 10.0, p_value: 1e-6, heldout_gain: 0.1, max_corr: 0.3, passed }
+    }
+
     /// A round's winner by hand: of the passing singles (ΔBIC −10 and −20; a failure at −30 does
     /// not count) the one at −20, unless a passing pair is strictly lower (shard 52: the pair's
     /// `<` as `==` let a pair win only when it tied); with no single passing, the pair; with
     /// nothing passing, none.
     #[test]
     fn a_pair_wins_a_round_only_strictly_below_every_passing_single() {
-        let c = |effect: Effect, passed: bool, delta_bic: f64| Candidate { effect, delta_bic, f: 10.0, p_value: 1e-6, heldout_gain: 0.1, max_corr: 0.3, passed };
+        let c = scoreboard;
         let singles = [c(Effect::RotorDrag, true, -10.0), c(Effect::GyroDelay, true, -20.0), c(Effect::AccelBias, false, -30.0)];
         let pair = |delta_bic: f64| Some((Effect::WorldTilt, c(Effect::BodyOffset, true, delta_bic)));
         let winner = |cands: &[Candidate], pair| round_winner(cands, pair).map(|(w, partner)| (w.effect, w.delta_bic, partner));
@@ -1065,7 +1071,7 @@ mod tests {
     #[test]
     fn the_round_pair_is_the_passing_one_with_the_lowest_delta_bic() {
         use Effect::*;
-        let c = |effect: Effect, passed: bool, delta_bic: f64| Candidate { effect, delta_bic, f: 10.0, p_value: 1e-6, heldout_gain: 0.1, max_corr: 0.3, passed };
+        let c = scoreboard;
         let near = [RotorDrag, GyroDelay, AccelBias, WorldTilt];
         let board = |a: Effect, b: Effect| match (a, b) {
             (RotorDrag, GyroDelay) => c(a, true, -5.0),
