@@ -1286,4 +1286,27 @@ mod tests {
         assert!((&jac - want.columns(0, 1)).amax() < 1e-12, "{jac}");
         assert!(central_rotation_jacobian(|_| None::<Rot<Body, Body>>, [0.0; 2], [0.5, 0.25], 2).is_none());
     }
+
+    /// Not knowing the clock can only widen C's interval: by the law of total variance,
+    /// Var(Ĉ) = Var(Ĉ | clock) + Var(E[Ĉ | clock]) ≈ Σ_C + J·Σ_clock·Jᵀ, so each σ_k² is at least
+    /// the fit's own at the fitted clock held fixed, and above it where C moves with the clock
+    /// (the 13.3 ms offset of [`fits_an_unsynchronised_telemetry_clock`]'s flight turns C by 0.15°
+    /// when it is ignored). Census of 33c1bbe, shard 54: Σ_C − J·Σ_clock·Jᵀ (a narrower interval) was caught
+    /// only by the gyro_clock snapshot.
+    #[test]
+    fn not_knowing_the_clock_widens_the_rotation_interval_and_never_narrows_it() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(0.5, 0.3, -3.0));
+        let (g, fit) = fly(gyro().estimate_clock(ClockSearch::default()), c, Nanos::from_micros(13_300), 200.0, 20);
+        let fit = fit.unwrap();
+        let k = fit.clock.unwrap();
+        let m = g.pooled(g.search.as_ref().unwrap(), k.t_mean_s, k.offset_s, k.drift_ppm.unwrap() * 1e-6).unwrap();
+        let (_, _, cov_fixed) = g.fit(&m, 2).unwrap();
+        let var = fit.sigma.map(|s| s * s);
+        for i in 0..3 {
+            assert!(var[i] >= cov_fixed[(i, i)] * (1.0 - 1e-9), "axis {i}: σ² {} below the fixed clock's {}", var[i], cov_fixed[(i, i)]);
+        }
+        // this noise-free flight pins the clock to microseconds, so J·Σ_clock·Jᵀ adds only ~0.4 %
+        // (axis x) to Σ_C, yet ~10¹² times the rounding of either
+        assert!((0..3).any(|i| var[i] > (1.0 + 1e-4) * cov_fixed[(i, i)]), "σ² {var:?} against the fixed clock's {cov_fixed}");
+    }
 }
