@@ -653,6 +653,15 @@ plan:
     assert!(matches!(first.added, Effect::BodyOffset | Effect::WorldTilt), "{text}");
     assert!(first.not_identifiable_from.iter().any(|(e, rho)| *e == other && *rho > 0.99), "{text}");
     assert!(r.notes.iter().any(|n| n.contains("not identifiable")), "{text}");
+    // a step names only rivals that passed its gates beside the winner, never the winner itself
+    // (whose canonical correlation with itself is 1). Census of 33c1bbe, shard 56: the rivals'
+    // filter `c.effect != best && c.passed` as `||` named the winner and failed candidates, and
+    // the whole suite passed.
+    for st in &r.steps {
+        for (e, _) in &st.not_identifiable_from {
+            assert!(*e != st.added && st.candidates.iter().any(|c| c.effect == *e && c.passed), "{:?} named {e:?}\n{text}", st.added);
+        }
+    }
 }
 
 /// The mocap delay is unbiased (issue 12: "9.5 ± 0.3 ms" for 10 ms, 11 of 90 intervals
