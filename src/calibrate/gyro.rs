@@ -1290,9 +1290,9 @@ mod tests {
     /// Not knowing the clock can only widen C's interval: by the law of total variance,
     /// Var(Ĉ) = Var(Ĉ | clock) + Var(E[Ĉ | clock]) ≈ Σ_C + J·Σ_clock·Jᵀ, so each σ_k² is at least
     /// the fit's own at the fitted clock held fixed, and above it where C moves with the clock
-    /// (the 13.3 ms offset of [`fits_an_unsynchronised_telemetry_clock`]'s flight turns C by 0.15°
-    /// when it is ignored). Census of 33c1bbe, shard 54: Σ_C − J·Σ_clock·Jᵀ (a narrower interval) was caught
-    /// only by the gyro_clock snapshot.
+    /// (the 13.3 ms offset of [`fits_an_unsynchronised_telemetry_clock`]'s flight turns C by
+    /// 0.15° when it is ignored). Census of 33c1bbe, shard 54: Σ_C − J·Σ_clock·Jᵀ (a narrower
+    /// interval) was caught only by the gyro_clock snapshot.
     #[test]
     fn not_knowing_the_clock_widens_the_rotation_interval_and_never_narrows_it() {
         let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(0.5, 0.3, -3.0));
@@ -1306,7 +1306,7 @@ mod tests {
             assert!(var[i] >= cov_fixed[(i, i)] * (1.0 - 1e-9), "axis {i}: σ² {} below the fixed clock's {}", var[i], cov_fixed[(i, i)]);
         }
         // this noise-free flight pins the clock to microseconds, so J·Σ_clock·Jᵀ adds only ~0.4 %
-        // (axis x) to Σ_C, yet ~10¹² times the rounding of either
+        // (axis x) to Σ_C; the bound 10⁻⁴ is still far above their rounding (relative ~10⁻¹⁶)
         assert!((0..3).any(|i| var[i] > (1.0 + 1e-4) * cov_fixed[(i, i)]), "σ² {var:?} against the fixed clock's {cov_fixed}");
     }
 }
