@@ -74,13 +74,18 @@ pub fn lever_arm_specific_force(omega: Vec3<Body>, omega_dot: Vec3<Body>, r: Vec
 mod tests {
     use super::*;
 
+    /// The IMU noise stream of run `seed`.
+    fn noise_stream(seed: u64) -> Stream {
+        Stream::new(seed, crate::rng::Component::ImuNoise, 0)
+    }
+
     /// The engine adds the lever-arm acceleration only where `position` is `Some`: an IMU at
     /// the centre of mass has none, one off it has exactly its configured r (body FRD). Census
     /// of 33c1bbe, shards 51-52: `Some(0)` always, and `None` off the centre, lost the lever arm
     /// and were caught only by `identify`'s off-centre IMU flight.
     #[test]
     fn an_imu_off_the_centre_reports_its_position_and_one_at_it_none() {
-        let stream = || crate::rng::Stream::new(1, crate::rng::Component::ImuNoise, 0);
+        let stream = || noise_stream(1);
         assert_eq!(Imu::new(ImuParams::default(), stream()).position(), None);
         let off = ImuParams { position_m: [0.05, -0.02, 0.01], ..ImuParams::default() };
         assert_eq!(Imu::new(off, stream()).position().map(Vec3::to_array), Some([0.05, -0.02, 0.01]));
@@ -110,13 +115,14 @@ mod tests {
     /// mean is off its truth + bias by at most 5σ/√n, and the sample variance s² is within
     /// 5·√(2/(n − 1)) (≈ 11 %) of σ² (the variance of s² is 2σ⁴/(n − 1) for Gaussian noise): a
     /// false alarm once in ~10⁶ per check, while an IMU that adds no noise, or the gyro's σ to the
-    /// accelerometer (σ² 400 times too small), is off by about 100 %. A noise-free IMU reads truth + bias exactly. Census
-    /// of 33c1bbe, shard 54: noise only where σ == 0 (i.e. never) passed every unit test.
+    /// accelerometer (σ² 400 times too small), is off by about 100 %. A noise-free IMU reads
+    /// truth + bias exactly. Census of 33c1bbe, shard 54: noise only where σ == 0 (i.e. never)
+    /// passed every unit test.
     #[test]
     fn an_imu_adds_its_bias_and_white_noise_of_the_configured_spread_on_every_axis() {
         let params = ImuParams { gyro_noise_rad_s: 0.01, accel_noise_m_s2: 0.2, gyro_bias_rad_s: [0.02, -0.03, 0.005], accel_bias_m_s2: [-0.1, 0.05, 0.3], ..ImuParams::default() };
         let (omega, force) = (Vec3::<Body>::new(0.5, -1.0, 2.0), Vec3::<Body>::new(0.0, 1.0, -9.81));
-        let mut imu = Imu::new(params.clone(), crate::rng::Stream::new(7, crate::rng::Component::ImuNoise, 0));
+        let mut imu = Imu::new(params.clone(), noise_stream(7));
         let n = 4000;
         let readings: Vec<ImuSample> = (0..n).map(|_| imu.sample(omega, force)).collect();
         let check = |name: &str, read: &dyn Fn(&ImuSample) -> [f64; 3], truth: [f64; 3], bias: [f64; 3], sigma: f64| {
@@ -131,7 +137,7 @@ mod tests {
         check("gyro", &|s| s.gyro.to_array(), omega.to_array(), params.gyro_bias_rad_s, params.gyro_noise_rad_s);
         check("accel", &|s| s.specific_force.to_array(), force.to_array(), params.accel_bias_m_s2, params.accel_noise_m_s2);
         let quiet = ImuParams { gyro_noise_rad_s: 0.0, accel_noise_m_s2: 0.0, ..params.clone() };
-        let s = Imu::new(quiet, crate::rng::Stream::new(7, crate::rng::Component::ImuNoise, 0)).sample(omega, force);
+        let s = Imu::new(quiet, noise_stream(7)).sample(omega, force);
         assert_eq!(s.gyro.to_array(), (omega + Vec3::from_array(params.gyro_bias_rad_s)).to_array());
         assert_eq!(s.specific_force.to_array(), (force + Vec3::from_array(params.accel_bias_m_s2)).to_array());
     }
