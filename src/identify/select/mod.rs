@@ -603,14 +603,9 @@ impl Search {
         true
     }
 
-    /// The step that added an effect the backward check did not remove later.
-    fn kept(&self, st: &Step) -> bool {
-        !self.removed.iter().any(|r| r.check.effect == st.added)
-    }
-
     /// The step that added `e` (and was kept) named `c` as not identifiable from it.
     fn named_at_step(&self, e: Effect, c: Effect) -> bool {
-        self.steps.iter().filter(|st| self.kept(st)).any(|st| st.added == e && st.not_identifiable_from.iter().any(|x| x.0 == c))
+        kept_steps(&self.steps, &self.removed).any(|st| st.added == e && st.not_identifiable_from.iter().any(|x| x.0 == c))
     }
 
     /// The pairs the data cannot tell apart, with a note for each: those the kept steps named,
@@ -618,7 +613,7 @@ impl Search {
     fn identifiability(&self, yaw_spread_deg: f64, notes: &mut Vec<String>) -> Vec<(Effect, Effect, f64)> {
         let (steps, selected, state) = (&self.steps, &self.selected, &self.state);
         let mut not_identifiable: Vec<(Effect, Effect, f64)> =
-            steps.iter().filter(|st| self.kept(st)).flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho))).collect();
+            kept_steps(steps, &self.removed).flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho))).collect();
         let flagged = |a: Effect, b: Effect| {
             steps
                 .iter()
@@ -635,7 +630,7 @@ impl Search {
                 ));
             }
         }
-        for st in steps.iter().filter(|st| self.kept(st)) {
+        for st in kept_steps(steps, &self.removed) {
             for (e, rho) in &st.not_identifiable_from {
                 notes.push(format!(
                     "{} was chosen over {} by ΔBIC, but this flight cannot tell them apart (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): not identifiable; fly yaw turns, circles and accelerations to separate them",
@@ -654,6 +649,13 @@ impl Search {
         }
         not_identifiable
     }
+}
+
+/// The steps whose added effect the backward check did not remove later: only their rivals
+/// are reported as not identifiable (a removed effect is not in the model, so "chosen over"
+/// would be false).
+fn kept_steps<'a>(steps: &'a [Step], removed: &'a [Removal]) -> impl Iterator<Item = &'a Step> + 'a {
+    steps.iter().filter(move |st| !removed.iter().any(|r| r.check.effect == st.added))
 }
 
 /// The candidates of a round that are tried in pairs: each failed its gates, yet alone is
@@ -1036,6 +1038,31 @@ mod tests {
         // 51: the count's `/ 2` as `% 2`, always 0, judged pairs among the singles alone)
         let counts: Vec<usize> = (0..5).map(|r| tests_with_pairs(10, r)).collect();
         assert_eq!(counts, [10, 10, 11, 13, 16]);
+    }
+
+    /// Only the steps whose effect stayed name rivals: of a gyro-delay step (naming the mocap
+    /// delay) that the backward check removed after step 2, and a body-offset step (naming the
+    /// world tilt) that stayed, the report keeps the second alone. Census of 33c1bbe, shard 61:
+    /// `kept` as `true` let the removed step's pair into the report ("gyro_delay was chosen over
+    /// mocap_delay …" for an effect not in the model), and the whole suite passed.
+    #[test]
+    fn only_the_steps_the_backward_check_kept_name_rivals() {
+        let step = |added: Effect, rival: Effect| Step {
+            added,
+            together_with: None,
+            delta_bic: -20.0,
+            p_value: 1e-6,
+            heldout_gain: 0.1,
+            candidates: Vec::new(),
+            not_identifiable_from: vec![(rival, 0.995)],
+            params: Vec::new(),
+        };
+        let steps = [step(Effect::GyroDelay, Effect::MocapDelay), step(Effect::BodyOffset, Effect::WorldTilt)];
+        let removed = [Removal { after_step: 2, check: scoreboard(Effect::GyroDelay, false, 4.0) }];
+        let kept: Vec<Effect> = kept_steps(&steps, &removed).map(|st| st.added).collect();
+        assert_eq!(kept, [Effect::BodyOffset]);
+        let all: Vec<Effect> = kept_steps(&steps, &[]).map(|st| st.added).collect();
+        assert_eq!(all, [Effect::GyroDelay, Effect::BodyOffset], "with nothing removed every step is kept");
     }
 
     /// A round's scoreboard entry for the winner tests: only the effect, whether it passed and
