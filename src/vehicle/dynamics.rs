@@ -446,6 +446,38 @@ mod tests {
         assert!((c_b_n * (vb0 + c * t) - want).amax() > 0.01);
     }
 
+    /// The accelerometer by hand at a tilted, yawed attitude in motion: with rotor drag alone
+    /// f = (−k_x·v_b,x, −k_y·v_b,y, −T/m), with an external force F alone f = C_n^b·F/m +
+    /// (0, 0, −T/m), with both the sum, where v_b = C_n^b·v and −T/m is the plain vehicle's
+    /// reading (no drag, no force: the fast path). Census of 33c1bbe, shard 62: the fast path
+    /// taken when *either* was zero (`&&` as `||`) dropped the drag from the reading, and only
+    /// identify's whole flights noticed.
+    #[test]
+    fn the_accelerometer_feels_rotor_drag_and_an_external_force_each_alone() {
+        let att = Rot::<Body, Nav>::from_euler(Euler::new(0.2, -0.3, 1.0));
+        let v = Vec3::<Nav>::new(2.0, 1.0, -0.5);
+        let force = [0.3, -0.2, 0.1];
+        let vehicle = |drag: [f64; 2], force_nav_n: [f64; 3]| {
+            let mut p = VehicleParams::x3d();
+            p.rotor_drag_per_s = drag;
+            let s = State { pos: Vec3::new(0.0, 0.0, -5.0), vel: v, att, omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
+            let mut x = X3d::in_flight(p, Disturbance { force_nav_n, torque_body_nm: [0.0; 3] }, s);
+            x.state.rotor_speed = [x.hover_rotor_speed(); 4];
+            x.specific_force()
+        };
+        let c_n_b = att.matrix().transpose();
+        let v_b = c_n_b * v.raw();
+        let f_ext = c_n_b * Vector3::from(force) / VehicleParams::x3d().mass_kg;
+        let plain = vehicle([0.0; 2], [0.0; 3]);
+        assert!(plain.x() == 0.0 && plain.y() == 0.0 && plain.z() < -9.0, "{plain:?}");
+        let thrust = Vector3::new(0.0, 0.0, plain.z());
+        let drag = Vector3::new(-0.3 * v_b.x, -0.5 * v_b.y, 0.0);
+        for (k, f_ext_n, want) in [([0.3, 0.5], [0.0; 3], thrust + drag), ([0.0; 2], force, thrust + f_ext), ([0.3, 0.5], force, thrust + drag + f_ext)] {
+            let got = vehicle(k, f_ext_n);
+            assert!((got.raw() - want).amax() < 1e-12, "drag {k:?}, force {f_ext_n:?}: {got:?} vs {want:?}");
+        }
+    }
+
     #[test]
     fn free_fall_matches_closed_form() {
         let mut x = hovering();
