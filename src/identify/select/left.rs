@@ -211,7 +211,7 @@ mod tests {
         let y_perp: Vec<f64> = yc.iter().zip(&xc).map(|(y, x)| y - along * x).collect();
         let scale = (dot(&xc, &xc) / dot(&y_perp, &y_perp)).sqrt();
         let follow = |rho: f64| -> Vec<f64> { xc.iter().zip(&y_perp).map(|(x, y)| 0.7 + rho * x + (1.0 - rho * rho).sqrt() * scale * y).collect() };
-        let d = signals_only(n, vec![Signal { name: "x", samples: x, excludes: vec![], floor: false }]);
+        let d = signals_only(n, vec![Signal { name: "x", samples: x.clone(), excludes: vec![], floor: false }]);
         let ls = lead_signals(&d);
         let weak = leads(&ls, 1, 0, &follow(0.12));
         assert!(weak.is_empty(), "{weak:?}");
@@ -220,6 +220,22 @@ mod tests {
         assert!((strong[0].r - 0.5).abs() < 1e-12 && (100.0..300.0).contains(&strong[0].n_eff), "{strong:?}");
         // the weak one's statistic, with the strong one's n_eff (both residuals are white)
         assert!(0.12f64.powi(2) * strong[0].n_eff < 6.63, "n_eff {}", strong[0].n_eff);
+        // Bonferroni over the signals: ρ²·n_eff ≈ 8 (p ≈ 0.005) is a lead of one signal (level
+        // 0.01, χ²(1) > 6.63) but not of one among five (level 0.002, χ²(1) > 9.55): four more
+        // white signals, independent of the residual, only raise the bar. Census of 33c1bbe,
+        // shard 61: the level 0.01·m or 0.01 % m (both 0.01 for one signal) was caught only by
+        // an acceptance test.
+        let mid = follow((8.0 / strong[0].n_eff).sqrt());
+        let one = leads(&ls, 1, 0, &mid);
+        assert_eq!(one.len(), 1, "{one:?}");
+        let stat = one[0].r.powi(2) * one[0].n_eff;
+        assert!((6.63..9.55).contains(&stat), "ρ²·n_eff = {stat}");
+        let mut five = vec![Signal { name: "x", samples: x, excludes: vec![], floor: false }];
+        for name in ["w1", "w2", "w3", "w4"] {
+            five.push(Signal { name, samples: (0..n).map(|_| white()).collect(), excludes: vec![], floor: false });
+        }
+        let among_five = leads(&lead_signals(&signals_only(n, five)), 1, 0, &mid);
+        assert!(among_five.is_empty(), "{among_five:?}");
     }
 
     /// The hint names `--with imu_offset` for force.x following ω̇_y or force.y following ω̇_x,
