@@ -147,6 +147,8 @@ mod tests {
     use crate::frames::Euler;
     use crate::rng::Component;
 
+    /// A noise-free frame is the truth seen through the camera error and the marker offset: the
+    /// attitude R_w·R·R_off, the position R_w·(p + R·t_off) + t_w.
     #[test]
     fn noiseless_capture_equals_truth_composed_with_offset() {
         let ms = MarkerSet::displaced(builtin_pattern(2).to_vec(), Euler::from_degrees(2.0, -1.0, 4.0), &[Vec3::zeros(); 4]);
@@ -157,8 +159,13 @@ mod tests {
         let f = m.capture(Nanos(0), &truth).unwrap();
         let ideal = ideal_measured_attitude(&cam, truth.att, off.rotation);
         assert!((f.att.inverse() * ideal).angle() < 1e-12);
-        let p_ideal = cam.to_mocap(truth.pos + truth.att.apply(off.translation));
-        assert!((f.pos - p_ideal).norm() < 1e-12);
+        // the template origin by hand, y = R_w·(p + R·t_off) + t_w (not through `to_mocap`:
+        // census of 33c1bbe, shard 63, `to_mocap` returning zero passed every unit test, since
+        // the expectation was computed with it), and back into the true frame by `to_nav`
+        let origin_nav = truth.pos + truth.att.apply(off.translation);
+        let p_ideal = cam.rotation.apply(origin_nav) + cam.translation;
+        assert!((f.pos - p_ideal).norm() < 1e-12, "{:?} vs {p_ideal:?}", f.pos);
+        assert!((cam.to_nav(f.pos) - origin_nav).norm() < 1e-12);
     }
 
     /// An occlusion hides its marker over [from, to): the frame at `from` sees 3 markers, the one
