@@ -1028,6 +1028,34 @@ mod tests {
         assert!((a.euler().yaw.to_degrees() - 10.8).abs() < 1e-9, "{}°", a.euler().yaw.to_degrees());
     }
 
+    /// Without the clock search (the paper's mode) a window whose mocap frame at an end never
+    /// comes waits until the mocap is more than half the ring (128 periods, 640 ms at 5 ms) past
+    /// its end, and is dropped then. Telemetry at rest over [0, 200) ms makes five 40 ms
+    /// windows; the mocap frame at 120 ms is missing, so [80, 120] and [120, 160] cannot be
+    /// paired: with frames to 760 ms (640 ms past 120) the three others are paired and nothing
+    /// is dropped yet, at 765 ms [80, 120] goes, past 800 ms [120, 160]. Census of 33c1bbe,
+    /// shard 63: a stale window never dropped (the guard as `false`) passed every unit test.
+    #[test]
+    fn without_the_clock_search_a_window_missing_a_frame_is_dropped_half_a_ring_later() {
+        let mut g = gyro();
+        for seq in 0..20 {
+            g.add_telemetry(&at_rest(seq, Nanos::from_millis(10 * seq as i64), Nanos::from_millis(10)));
+        }
+        let mocap_to = |g: &mut GyroAlignment, from: i64, to: i64| {
+            for ms in (from..=to).step_by(5).filter(|ms| *ms != 120) {
+                g.add_mocap(Nanos::from_millis(ms), Rot::identity());
+            }
+        };
+        mocap_to(&mut g, 0, 760);
+        assert_eq!((g.windows(), g.dropped()), (3, 0), "(paired, dropped) at 760 ms");
+        mocap_to(&mut g, 765, 765);
+        assert_eq!((g.windows(), g.dropped()), (3, 1), "(paired, dropped) at 765 ms");
+        mocap_to(&mut g, 770, 800);
+        assert_eq!(g.dropped(), 1, "[120, 160] waits to 800 ms");
+        mocap_to(&mut g, 805, 805);
+        assert_eq!((g.windows(), g.dropped()), (3, 2), "(paired, dropped) at 805 ms");
+    }
+
     /// The clock search pairs a window only once the mocap is [`NEIGHBOUR_PERIODS`] periods past
     /// its end, so a window-end frame that a jittery link delivers after two newer ones still
     /// counts: the first window is [40, 80] ms, its frames arrive …, 75, 85, 90, 80, 95 ms, and it
