@@ -164,6 +164,28 @@ mod tests {
         assert_eq!(failsafe(&g, att, 0.0, 0.97, true).thrust_n, 0.0);
     }
 
+    /// The failsafe law by hand, rolled, pitched and off its held yaw, with a gain per axis:
+    /// Euler rates (−k_φ·φ, −k_θ·θ, k_ψ·(ψ_hold − ψ)) mapped to body rates by
+    /// ω = φ̇·x̂ + R_x(φ)ᵀ·(θ̇·ŷ + R_y(θ)ᵀ·ψ̇·ẑ) (derived independently of `t_w_inv`), and
+    /// thrust f·m·g/(cos φ·cos θ); with the motors off, no rates and no thrust. Census of
+    /// 33c1bbe, shard 64: the roll term k_φ/(−φ) passed every unit test (the test above
+    /// checked only the roll rate's sign).
+    #[test]
+    fn failsafe_rates_and_thrust_by_hand_off_level() {
+        let g = Gains { k_att: [6.0, 5.0, 3.0], ..gains() };
+        let (phi, theta, psi, hold) = (0.17_f64, -0.09_f64, 0.5_f64, 0.7_f64);
+        let att: Rot<Body, MocapNav> = Rot::from_euler(Euler::new(phi, theta, psi));
+        let out = failsafe(&g, att, hold, 0.97, false);
+        let euler_rates = Vector3::new(-6.0 * phi, -5.0 * theta, 3.0 * (hold - psi));
+        let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), phi);
+        let ry = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), theta);
+        let omega = Vector3::x() * euler_rates.x + rx.inverse() * (Vector3::y() * euler_rates.y + ry.inverse() * (Vector3::z() * euler_rates.z));
+        assert!((out.rates.raw() - omega).norm() < 1e-12, "{:?} vs {omega:?}", out.rates);
+        assert!((out.thrust_n - 0.97 * 0.68 * GRAVITY / (phi.cos() * theta.cos())).abs() < 1e-12, "{}", out.thrust_n);
+        let off = failsafe(&g, att, hold, 0.97, true);
+        assert_eq!((off.rates, off.thrust_n), (Vec3::zeros(), 0.0));
+    }
+
     fn gains() -> Gains {
         Gains { k_x: [1.0; 3], k_v: [2.0, 2.0, 3.0], k_att: [6.0, 6.0, 3.0], max_tilt: [0.35, 0.35], thrust_max_n: 24.0, mass_kg: 0.68 }
     }
