@@ -1163,6 +1163,34 @@ mod tests {
         assert!(by_hand > 0.05 && (c.max_corr - by_hand).abs() < 1e-12 * by_hand, "{} against {by_hand} by hand", c.max_corr);
     }
 
+    /// The held-out gate weighs each channel axis the candidate acts on by the current model's
+    /// held-out error there: gain = 1 − √(mean_q rss₁,q/rss₀,q). Two axes share the columns;
+    /// the voltage column explains y on the first (β 0.2) and nothing on the second, whose
+    /// held-out rows are 100× larger in x and y (the same β, 10⁴× the error): the fit's
+    /// compromise cuts the first axis's error and raises the second's, and the mean of the
+    /// ratios differs from the pooled 1 − √(Σrss₁/Σrss₀), which the big axis would rule.
+    /// Census of 33c1bbe, shard 64: the weight 1 % rss₀ (1 for an error above one) passed every
+    /// unit test.
+    #[test]
+    fn the_heldout_gain_weighs_each_axis_by_its_current_error() {
+        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let acted_on = synthetic_gram(cols, [0.0, 0.2, 0.5]);
+        let mut big = synthetic_gram(cols, [0.0, 0.0, 0.5]);
+        big.g_t *= 1e4;
+        big.b_t *= 1e4;
+        big.yy_t *= 1e4;
+        let gs = [acted_on, big];
+        let base = fit(&gs, &set_of(&[Effect::GroundEffect]));
+        let with = fit(&gs, &set_of(&[Effect::GroundEffect, Effect::ThrustVoltage]));
+        let (r0, r1) = (heldout_rss(&gs, &base.theta), heldout_rss(&gs, &with.theta));
+        assert!(r0[1] > 100.0 * r0[0] && r1[0] < r0[0] && r1[1] > r0[1], "held-out errors {r0:?} → {r1:?}");
+        let by_hand = 1.0 - ((r1[0] / r0[0] + r1[1] / r0[1]) / 2.0).sqrt();
+        let pooled = 1.0 - ((r1[0] + r1[1]) / (r0[0] + r0[1])).sqrt();
+        assert!((by_hand - pooled).abs() > 0.05, "the weighting must matter: {by_hand} against {pooled} pooled");
+        let c = score(&gs, &base, &[Effect::ThrustVoltage], 1, &Options::default());
+        assert!((c.heldout_gain - by_hand).abs() < 1e-12, "{} against {by_hand} by hand", c.heldout_gain);
+    }
+
     /// The multiplicative reparameterisation by hand: a thrust scale a = −0.2 and an additive
     /// voltage coefficient b = 0.08 give c = b/(1 + a) = 0.1; with var a = 4·10⁻⁶,
     /// var b = 9·10⁻⁶ and cov(a, b) = 3·10⁻⁶, var c = (9 − 2·0.1·3 + 0.01·4)·10⁻⁶/0.64
