@@ -603,11 +603,6 @@ impl Search {
         true
     }
 
-    /// The step that added `e` (and was kept) named `c` as not identifiable from it.
-    fn named_at_step(&self, e: Effect, c: Effect) -> bool {
-        kept_steps(&self.steps, &self.removed).any(|st| st.added == e && st.not_identifiable_from.iter().any(|x| x.0 == c))
-    }
-
     /// The pairs the data cannot tell apart, with a note for each: those the kept steps named,
     /// and the two frame effects whatever was selected.
     fn identifiability(&self, yaw_spread_deg: f64, notes: &mut Vec<String>) -> Vec<(Effect, Effect, f64)> {
@@ -656,6 +651,11 @@ impl Search {
 /// would be false).
 fn kept_steps<'a>(steps: &'a [Step], removed: &'a [Removal]) -> impl Iterator<Item = &'a Step> + 'a {
     steps.iter().filter(move |st| !removed.iter().any(|r| r.check.effect == st.added))
+}
+
+/// The step that added `e` (and was kept) named `c` as not identifiable from it.
+fn named_at_step(steps: &[Step], removed: &[Removal], e: Effect, c: Effect) -> bool {
+    kept_steps(steps, removed).any(|st| st.added == e && st.not_identifiable_from.iter().any(|x| x.0 == c))
 }
 
 /// The candidates of a round that are tried in pairs: each failed its gates, yet alone is
@@ -794,7 +794,7 @@ fn ground(
     let tilt_total = total_tilt(tilt_offset, &tilt_bias, g);
     let mut tilt_widen = [0.0f64; 2];
     let fin = widen::Final { s, o, state, corr: search.corr, selected, g, rest_yaw };
-    widen::swaps(&fin, |e, c| search.named_at_step(e, c), tilt_total, yaw_spread_deg, not_identifiable, effects, &mut tilt_widen, notes);
+    widen::swaps(&fin, |e, c| named_at_step(&search.steps, &search.removed, e, c), tilt_total, yaw_spread_deg, not_identifiable, effects, &mut tilt_widen, notes);
     widen::half_supported(&fin, &search.final_candidates, tilt_sd, effects, &mut tilt_widen, notes);
     // the widening is an extra half-width beyond the fit's own
     let tilt_widen = [0, 1].map(|k| widen::beyond_own(tilt_widen[k], Z_975 * tilt_sd[k]));
@@ -1042,7 +1042,8 @@ mod tests {
 
     /// Only the steps whose effect stayed name rivals: of a gyro-delay step (naming the mocap
     /// delay) that the backward check removed after step 2, and a body-offset step (naming the
-    /// world tilt) that stayed, the report keeps the second alone. Census of 33c1bbe, shard 61:
+    /// world tilt) that stayed, the report keeps the second alone, and the swaps check
+    /// (`named_at_step`) knows only its pair, in its order. Census of 33c1bbe, shard 61:
     /// `kept` as `true` let the removed step's pair into the report ("gyro_delay was chosen over
     /// mocap_delay …" for an effect not in the model), and the whole suite passed.
     #[test]
@@ -1063,6 +1064,12 @@ mod tests {
         assert_eq!(kept, [Effect::BodyOffset]);
         let all: Vec<Effect> = kept_steps(&steps, &[]).map(|st| st.added).collect();
         assert_eq!(all, [Effect::GyroDelay, Effect::BodyOffset], "with nothing removed every step is kept");
+        // a pair is named by the kept step that added its first effect, in that order only
+        assert!(named_at_step(&steps, &removed, Effect::BodyOffset, Effect::WorldTilt));
+        assert!(!named_at_step(&steps, &removed, Effect::GyroDelay, Effect::MocapDelay), "its step was removed");
+        assert!(named_at_step(&steps, &[], Effect::GyroDelay, Effect::MocapDelay));
+        assert!(!named_at_step(&steps, &removed, Effect::WorldTilt, Effect::BodyOffset), "the step added the body offset");
+        assert!(!named_at_step(&steps, &removed, Effect::BodyOffset, Effect::MocapDelay), "another step's rival");
     }
 
     /// A round's scoreboard entry for the winner tests: only the effect, whether it passed and
