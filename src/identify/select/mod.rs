@@ -1198,6 +1198,78 @@ mod tests {
         assert!((c.heldout_gain - by_hand).abs() < 1e-12, "{} against {by_hand} by hand", c.heldout_gain);
     }
 
+    /// The corrections' fold by hand: the body offset's increment d composes on the left,
+    /// R_off ← exp(d)·R_off; the world tilt's (d_x, d_y, 0) on the right, R_w ← R_w·exp(d); the
+    /// two delays and the lever arm add. Each folded column is zeroed; an effect that is no
+    /// correction (the thrust scale) or is not selected (the accelerometer bias) keeps its θ.
+    /// Census of 33c1bbe, shards 57–64: `fold` doing nothing, each of its arms deleted and an
+    /// index r.start + 1 as r.start − 1 passed every unit test (whole flights caught them).
+    #[test]
+    fn the_corrections_fold_into_their_rotations_delays_and_lever_arm() {
+        let col = |e: Effect| cols_of(e).start;
+        let mut theta = vec![0.0; N_COLUMNS];
+        let d_off = Vector3::new(0.01, -0.02, 0.03);
+        let d_w = Vector3::new(0.004, -0.003, 0.0);
+        let lever = Vector3::new(0.01, 0.02, -0.03);
+        for k in 0..3 {
+            theta[col(Effect::BodyOffset) + k] = d_off[k];
+            theta[col(Effect::LeverArm) + k] = lever[k];
+        }
+        theta[col(Effect::WorldTilt)] = d_w.x;
+        theta[col(Effect::WorldTilt) + 1] = d_w.y;
+        theta[col(Effect::MocapDelay)] = 0.005;
+        theta[col(Effect::GyroDelay)] = 0.002;
+        theta[col(Effect::ThrustScale)] = 0.1;
+        theta[col(Effect::AccelBias)] = 0.2;
+        let (off0, w0) = (UnitQuaternion::from_euler_angles(0.02, 0.01, -0.05), UnitQuaternion::from_euler_angles(0.003, 0.001, 0.0));
+        let mut corr = Corrections { body_offset: off0, world_tilt: w0, mocap_delay_s: 0.010, gyro_delay_s: -0.001, lever_arm_m: Vector3::new(0.1, 0.0, 0.0) };
+        let selected = [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::GyroDelay, Effect::LeverArm, Effect::ThrustScale];
+        fold(&mut corr, &mut theta, &selected);
+        let (off, w) = (UnitQuaternion::from_scaled_axis(d_off) * off0, w0 * UnitQuaternion::from_scaled_axis(d_w));
+        assert!(corr.body_offset.angle_to(&off) < 1e-15 && corr.world_tilt.angle_to(&w) < 1e-15, "{corr:?}");
+        // the order of composition is visible at these sizes
+        assert!((off0 * UnitQuaternion::from_scaled_axis(d_off)).angle_to(&off) > 1e-5);
+        assert!((UnitQuaternion::from_scaled_axis(d_w) * w0).angle_to(&w) > 1e-6);
+        assert!((corr.mocap_delay_s - 0.015).abs() < 1e-15 && (corr.gyro_delay_s - 0.001).abs() < 1e-15, "{corr:?}");
+        assert!((corr.lever_arm_m - Vector3::new(0.11, 0.02, -0.03)).amax() < 1e-15, "{corr:?}");
+        for e in [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::GyroDelay, Effect::LeverArm] {
+            assert!(cols_of(e).all(|j| theta[j] == 0.0), "{e:?} not zeroed");
+        }
+        assert_eq!((theta[col(Effect::ThrustScale)], theta[col(Effect::AccelBias)]), (0.1, 0.2));
+    }
+
+    /// The corrections reported in their units, read from the folded corrections and not from
+    /// θ (whose correction columns hold 0.5 here): R_off's ZYX angles and R_w's roll and pitch
+    /// in degrees, the delays in ms, the lever arm in mm. Census of 33c1bbe, shards 61–65: each
+    /// of the five arms deleted (θ reported instead) passed every unit test.
+    #[test]
+    fn the_corrections_are_reported_in_degrees_milliseconds_and_millimetres() {
+        let deg = 180.0 / std::f64::consts::PI;
+        let theta = vec![0.5; N_COLUMNS];
+        let corr = Corrections {
+            body_offset: UnitQuaternion::from_euler_angles(0.01, -0.02, 0.03),
+            world_tilt: UnitQuaternion::from_euler_angles(0.004, -0.003, 0.0),
+            mocap_delay_s: 0.012,
+            gyro_delay_s: 0.002,
+            lever_arm_m: Vector3::new(0.01, 0.02, -0.03),
+        };
+        let all: Vec<usize> = (0..N_COLUMNS).collect();
+        let cases: [(Effect, &[f64]); 5] = [
+            (Effect::BodyOffset, &[0.01 * deg, -0.02 * deg, 0.03 * deg]),
+            (Effect::WorldTilt, &[0.004 * deg, -0.003 * deg]),
+            (Effect::MocapDelay, &[12.0]),
+            (Effect::GyroDelay, &[2.0]),
+            (Effect::LeverArm, &[10.0, 20.0, -30.0]),
+        ];
+        for (e, want) in cases {
+            let got = values_of(e, &theta, &all, &corr);
+            assert_eq!(got.len(), want.len(), "{e:?}");
+            for (g, w) in got.iter().zip(want) {
+                assert!((g - w).abs() < 1e-12 * w.abs().max(1.0), "{e:?}: {got:?} against {want:?}");
+            }
+        }
+    }
+
     /// The multiplicative reparameterisation by hand: a thrust scale a = −0.2 and an additive
     /// voltage coefficient b = 0.08 give c = b/(1 + a) = 0.1; with var a = 4·10⁻⁶,
     /// var b = 9·10⁻⁶ and cov(a, b) = 3·10⁻⁶, var c = (9 − 2·0.1·3 + 0.01·4)·10⁻⁶/0.64
