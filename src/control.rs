@@ -177,9 +177,7 @@ mod tests {
         let att: Rot<Body, MocapNav> = Rot::from_euler(Euler::new(phi, theta, psi));
         let out = failsafe(&g, att, hold, 0.97, false);
         let euler_rates = Vector3::new(-6.0 * phi, -5.0 * theta, 3.0 * (hold - psi));
-        let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), phi);
-        let ry = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), theta);
-        let omega = Vector3::x() * euler_rates.x + rx.inverse() * (Vector3::y() * euler_rates.y + ry.inverse() * (Vector3::z() * euler_rates.z));
+        let omega = body_rates_by_hand(phi, theta, euler_rates);
         assert!((out.rates.raw() - omega).norm() < 1e-12, "{:?} vs {omega:?}", out.rates);
         assert!((out.thrust_n - 0.97 * 0.68 * GRAVITY / (phi.cos() * theta.cos())).abs() < 1e-12, "{}", out.thrust_n);
         let off = failsafe(&g, att, hold, 0.97, true);
@@ -225,15 +223,19 @@ mod tests {
         assert!((e.pitch - std::f64::consts::FRAC_PI_2).abs() < 1e-7, "pitch {}", e.pitch);
     }
 
-    #[test]
-    fn t_w_inv_inverts_the_euler_rate_map() {
-        // Independent derivation: ω = ṙoll·x̂ + Rx(φ)ᵀ·(ṗitch·ŷ + Ry(θ)ᵀ·ẏaw·ẑ) for ZYX Euler angles.
-        let (phi, theta) = (0.4_f64, -0.3_f64);
+    /// Body rates from ZYX Euler-angle rates, derived independently of `t_w_inv`:
+    /// ω = ṙoll·x̂ + Rx(φ)ᵀ·(ṗitch·ŷ + Ry(θ)ᵀ·ẏaw·ẑ).
+    fn body_rates_by_hand(phi: f64, theta: f64, rates: Vector3<f64>) -> Vector3<f64> {
         let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), phi);
         let ry = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), theta);
+        Vector3::x() * rates.x + rx.inverse() * (Vector3::y() * rates.y + ry.inverse() * (Vector3::z() * rates.z))
+    }
+
+    #[test]
+    fn t_w_inv_inverts_the_euler_rate_map() {
+        let (phi, theta) = (0.4_f64, -0.3_f64);
         let rates = Vector3::new(0.3, -0.7, 1.1);
-        let omega = Vector3::x() * rates.x + rx.inverse() * (Vector3::y() * rates.y + ry.inverse() * (Vector3::z() * rates.z));
-        assert!((t_w_inv(phi, theta) * rates - omega).norm() < 1e-14);
+        assert!((t_w_inv(phi, theta) * rates - body_rates_by_hand(phi, theta, rates)).norm() < 1e-14);
     }
 
     #[test]
