@@ -394,3 +394,22 @@ pub(crate) fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> Vehic
         yaw_rls: c.yaw_rls.as_ref().map(line),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(pass: bool) -> Row {
+        Row { vehicle: "x3d".into(), id: "R1", what: "roll".into(), measured: "0.1 deg".into(), limit: "0.5 deg".into(), pass, asserted: true }
+    }
+
+    /// A report passes iff every row passes: one failing row among passing ones fails it, and
+    /// a report with no failing row passes. Census of 33c1bbe, shard 69: `passed` → true was
+    /// caught only by the CLI's exit-code test, no unit test.
+    #[test]
+    fn a_report_passes_only_if_every_row_passes() {
+        assert!(Report { rows: vec![row(true), row(true)] }.passed());
+        assert!(!Report { rows: vec![row(true), row(false), row(true)] }.passed());
+        assert!(!Report { rows: vec![row(false)] }.passed());
+    }
+}
