@@ -1268,6 +1268,15 @@ mod tests {
                 assert!((g - w).abs() < 1e-12 * w.abs().max(1.0), "{e:?}: {got:?} against {want:?}");
             }
         }
+        // an effect without a correction reads its own columns, k-th parameter from column
+        // start + k, times its unit factor (census of 33c1bbe, shard 66: theta[start − k] passed
+        // every unit test, since the cases above read equal columns)
+        let theta: Vec<f64> = (0..N_COLUMNS).map(|j| j as f64 + 1.0).collect();
+        for (e, unit) in [(Effect::AccelBias, 1.0), (Effect::GyroBias, deg), (Effect::ConstantForce, 1.0)] {
+            let s = cols_of(e).start as f64 + 1.0;
+            let want = [s * unit, (s + 1.0) * unit, (s + 2.0) * unit];
+            assert_eq!(values_of(e, &theta, &all, &corr), want, "{e:?}");
+        }
     }
 
     /// The multiplicative reparameterisation by hand: a thrust scale a = −0.2 and an additive
