@@ -399,8 +399,14 @@ pub(crate) fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> Vehic
 mod tests {
     use super::*;
 
-    fn row(pass: bool) -> Row {
-        Row { vehicle: "x3d".into(), id: "R1", what: "roll".into(), measured: "0.1 deg".into(), limit: "0.5 deg".into(), pass, asserted: true }
+    /// A report of asserted rows, written as `evaluate` writes them.
+    fn report(passes: &[bool]) -> Report {
+        let mut rows = Vec::new();
+        let mut out = Rows { vehicle: "x3d", rows: &mut rows };
+        for &pass in passes {
+            out.row("R1", "roll".into(), "0.1 deg".into(), "0.5 deg".into(), pass);
+        }
+        Report { rows }
     }
 
     /// A report passes iff every row passes: one failing row among passing ones fails it, and
@@ -408,8 +414,8 @@ mod tests {
     /// caught only by the CLI's exit-code test, no unit test.
     #[test]
     fn a_report_passes_only_if_every_row_passes() {
-        assert!(Report { rows: vec![row(true), row(true)] }.passed());
-        assert!(!Report { rows: vec![row(true), row(false), row(true)] }.passed());
-        assert!(!Report { rows: vec![row(false)] }.passed());
+        assert!(report(&[true, true]).passed());
+        assert!(!report(&[true, false, true]).passed());
+        assert!(!report(&[false]).passed());
     }
 }

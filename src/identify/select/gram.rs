@@ -334,8 +334,9 @@ mod tests {
     /// residual 1 with noise σ₁ = 1 and residual 3 with σ₂ = 2. Weighted least squares over
     /// both is the inverse-variance mean, θ = (1·4·1 + ¼·4·3)/(1·4 + ¼·4) = 7/5, both in the
     /// raw weighted sums (w_r = 1/σ²: G_r = 4, 1; b_r = 4, 3) and in the whitened ones (x/σ).
-    /// The whitened residual's sum of squares is 4·1² + 4·(3/2)² = 13. Census of 33c1bbe,
-    /// shard 50: w_r = σ² (θ = 2.6) was caught only through `identify`'s end-to-end tests.
+    /// The whitened residual's sum of squares is 4·1² + 4·(3/2)² = 13. Census of 33c1bbe:
+    /// w_r = σ² (θ = 2.6, shard 50) was caught only through `identify`'s end-to-end tests, and
+    /// y·y accumulated with `-=` or `*=` (shards 68–69) passed every unit test.
     #[test]
     fn two_channel_axes_are_weighted_by_their_inverse_noise_variance() {
         let mut d = Design { n: 4, ..Design::default() };
@@ -352,8 +353,6 @@ mod tests {
         assert!((b[0] / g[(0, 0)] - 1.4).abs() < 1e-15, "raw: {}", b[0] / g[(0, 0)]);
         let (g, b, yy, n) = system(&gs, &[0]);
         assert!((b[0] / g[(0, 0)] - 1.4).abs() < 1e-15 && n == 8, "whitened: {} from {n}", b[0] / g[(0, 0)]);
-        // the whitened residual's sum of squares: 4·(1/1)² + 4·(3/2)² = 13 (census of 33c1bbe,
-        // shards 68-69: y·y accumulated with -= or *= passed every unit test)
         assert!((yy - 13.0).abs() < 1e-12, "whitened y·y {yy}, not 13");
     }
 
