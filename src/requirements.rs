@@ -409,6 +409,27 @@ mod tests {
         Report { rows }
     }
 
+    /// The table by hand: a header, a rule as wide as each column's widest cell (counted in
+    /// characters: "≤ 0.5°" is 6), one line per row, columns two spaces apart, no trailing
+    /// blanks, and the result column reads pass, FAIL or "not asserted". Census shard 71:
+    /// `table` → "" was caught only by the CLI's test.
+    #[test]
+    fn the_table_aligns_its_columns_and_names_each_result() {
+        let mut rows = Vec::new();
+        let mut out = Rows { vehicle: "x3d", rows: &mut rows };
+        out.row("R1", "roll".into(), "0.1°".into(), "≤ 0.5°".into(), true);
+        out.row("R2", "ratio".into(), "12".into(), "≥ 2".into(), false);
+        out.shown("R4", "why".into(), "n/a".into(), "-".into());
+        let want = [
+            "vehicle  req  what   measured  limit   result",
+            "-------  ---  -----  --------  ------  ------------",
+            "x3d      R1   roll   0.1°      ≤ 0.5°  pass",
+            "x3d      R2   ratio  12        ≥ 2     FAIL",
+            "x3d      R4   why    n/a       -       not asserted",
+        ];
+        assert_eq!(Report { rows }.table(), want.map(|l| format!("{l}\n")).concat());
+    }
+
     /// A report passes iff every row passes: one failing row among passing ones fails it, and
     /// a report with no failing row passes. Census of 33c1bbe, shard 69: `passed` → true was
     /// caught only by the CLI's exit-code test, no unit test.

@@ -691,6 +691,37 @@ mod tests {
         assert_eq!((gcd(4, 6), gcd(6, 4), gcd(7, 0)), (2, 2, 7));
     }
 
+    /// Windows go to the time block of their start t_a (5 s blocks: t_a = 10 s and 11 s to
+    /// block 2, 0.5 s to 0, 6 s to 1), one block per index, kept in index order whatever order
+    /// the windows come in; each block sums its windows' centres ½(t_a + t_b), mocap rotations
+    /// and per-offset telemetry rotations, and their second moments. Census shards 67–71: the
+    /// lookup's guard as false (a second block 2), its `<=` as `>` and the insertion at i·1
+    /// (blocks out of order) passed every unit test; shards 72–89 mutate each sum.
+    #[test]
+    fn windows_are_summed_in_one_block_per_index_in_index_order() {
+        let mut g = GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(40));
+        let search = ClockSearch::default();
+        assert_eq!(search.block, Nanos::from_millis(5000));
+        for (t_a_ms, m) in [(10_000, 1.0), (500, 2.0), (11_000, 3.0), (6_000, 4.0)] {
+            let t_a = Nanos::from_millis(t_a_ms);
+            g.add_to_block(&search, t_a, t_a + Nanos::from_millis(40), Vector3::new(m, 0.0, 0.0), &[Vector3::new(0.0, m, 0.0)]);
+        }
+        assert_eq!(g.n, 4);
+        let got: Vec<(i64, u64, f64, f64)> = g.blocks.iter().map(|b| (b.index, b.n, b.sum_m.x, b.per_offset[0].sum_b.y)).collect();
+        assert_eq!(got, [(0, 1, 2.0, 2.0), (1, 1, 4.0, 4.0), (2, 2, 4.0, 4.0)]);
+        // second moments Σθ_m·θ_mᵀ, Σθ_m·θ_bᵀ and Σ|θ_b|², each Σm² (block 2: 1² + 3² = 10),
+        // and nothing off their one entry
+        for (b, want) in g.blocks.iter().zip([4.0, 16.0, 10.0]) {
+            let o = &b.per_offset[0];
+            assert_eq!((b.sum_mm[(0, 0)], o.sum_mb[(0, 1)], o.sum_bb), (want, want, want), "block {}", b.index);
+            assert_eq!((b.sum_mm.sum(), o.sum_mb.sum(), b.sum_m.sum(), o.sum_b.sum()), (want, want, b.sum_m.x, o.sum_b.y));
+        }
+        let centres: Vec<f64> = g.blocks.iter().map(|b| b.sum_t).collect();
+        for (got, want) in centres.iter().zip([0.52, 6.02, 10.02 + 11.02]) {
+            assert!((got - want).abs() < 1e-12, "{centres:?}");
+        }
+    }
+
     /// Rotation vectors about two axes, mapped through a known C, recover C exactly and the bias.
     #[test]
     fn recovers_a_known_rotation_and_bias_from_exact_pairs() {

@@ -265,6 +265,16 @@ pub(crate) fn inverse_spd(g: &DMatrix<f64>) -> DMatrix<f64> {
         .unwrap_or_else(zero)
 }
 
+/// The Schur complement G/G_OO = G_CC − G_CO·G_OO⁻¹·G_OC of a symmetric matrix G, C its first
+/// `k` rows and columns and O the rest (G_OO pseudo-inverted if singular, see [`inverse_spd`]):
+/// for a Gram matrix, the information on C's parameters that is left once O's are fitted too.
+/// With no O it is G itself.
+pub(crate) fn schur_complement(g: &DMatrix<f64>, k: usize) -> DMatrix<f64> {
+    let o = g.nrows() - k;
+    let gco = g.view((0, k), (k, o));
+    g.view((0, 0), (k, k)) - gco * inverse_spd(&g.view((k, k), (o, o)).into_owned()) * gco.transpose()
+}
+
 /// Sample autocorrelation of x at lags 1..=max_lag over the finite samples (lags across NaN
 /// holes are skipped).
 pub fn autocorrelation(x: &[f64], max_lag: usize) -> (Vec<f64>, usize) {
@@ -539,6 +549,22 @@ mod tests {
         assert!((inverse_spd(&spd) - DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 2.0]) / 3.0).amax() < 1e-12);
         let bad = DMatrix::from_row_slice(2, 2, &[f64::NAN, 0.0, 0.0, 1.0]);
         assert_eq!(inverse_spd(&bad), DMatrix::zeros(2, 2));
+    }
+
+    /// G/G_OO by hand: [[4, 2], [2, 2]] with C the first leaves 4 − 2·2/2 = 2; in
+    /// [[4, 1, 2], [1, 3, 1], [2, 1, 2]] with C the first two, O the third (g_CO = (2, 1)):
+    /// G_CC − g·gᵀ/2 = [[4 − 2, 1 − 1], [1 − 1, 3 − ½]] = [[2, 0], [0, 2.5]]; with C the first
+    /// of [[5, 1, 2], [1, 2, 0], [2, 0, 4]]: 5 − 1²/2 − 2²/4 = 3.5; with no O, G itself.
+    /// Census shards 62–66 (`excitation`'s λ, before the helper): its − as + and either · as +
+    /// passed every unit test.
+    #[test]
+    fn the_schur_complement_by_hand() {
+        let m = |r: usize, v: &[f64]| DMatrix::from_row_slice(r, r, v);
+        assert!((schur_complement(&m(2, &[4.0, 2.0, 2.0, 2.0]), 1) - m(1, &[2.0])).amax() < 1e-15);
+        let g = m(3, &[4.0, 1.0, 2.0, 1.0, 3.0, 1.0, 2.0, 1.0, 2.0]);
+        assert!((schur_complement(&g, 2) - m(2, &[2.0, 0.0, 0.0, 2.5])).amax() < 1e-15, "{}", schur_complement(&g, 2));
+        assert!((schur_complement(&m(3, &[5.0, 1.0, 2.0, 1.0, 2.0, 0.0, 2.0, 0.0, 4.0]), 1) - m(1, &[3.5])).amax() < 1e-15);
+        assert_eq!(schur_complement(&g, 3), g);
     }
 
     /// The same singular Gram matrix in a solve: x₁ + x₂ = 2 is determined and x₁, x₂ alone are

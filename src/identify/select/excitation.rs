@@ -57,12 +57,8 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             order.extend(&others);
             let (g, _, _, _) = system(&gs, &order);
             let k = block.len();
-            let gcc = g.view((0, 0), (k, k)).into_owned();
-            let gco = g.view((0, k), (k, others.len())).into_owned();
-            let goo = g.view((k, k), (others.len(), others.len())).into_owned();
-            let schur = gcc - &gco * inverse_spd(&goo) * gco.transpose();
-            let theta = DVector::from_iterator(k, values.iter().zip(e.params()).map(|(v, (_, _, f))| v / f));
-            let lambda = (theta.transpose() * schur * &theta)[(0, 0)].max(0.0);
+            let theta = in_fit_units(*e, values);
+            let lambda = quadratic_form(&theta, &schur_complement(&g, k));
             // held-out energy of the part of the effect that the flight's other hidden effects
             // do not explain (the Schur complement of the held-out Gram over the axes the effect
             // acts on: a thrust against voltage whose mean a hidden thrust scale takes is not
@@ -86,12 +82,21 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
                     noise += rss_full_t[q];
                 }
             }
-            let no = partners.len();
-            let schur_t = g_t.view((0, 0), (k, k)).into_owned() - g_t.view((0, k), (k, no)) * inverse_spd(&g_t.view((k, k), (no, no)).into_owned()) * g_t.view((k, 0), (no, k));
-            let energy = (theta.transpose() * schur_t * &theta)[(0, 0)].max(0.0);
+            let energy = quadratic_form(&theta, &schur_complement(&g_t, k));
             Excitation { lambda, heldout_share: share(energy, noise) }
         })
         .collect()
+}
+
+/// An effect's parameters from the reported units (deg, ms, mm, …) to the fit's SI and radian
+/// values: each over its factor in [`Effect::params`].
+fn in_fit_units(e: Effect, values: &[f64]) -> DVector<f64> {
+    DVector::from_iterator(e.n_params(), values.iter().zip(e.params()).map(|(v, (_, _, f))| v / f))
+}
+
+/// θᵀ·M·θ, floored at 0 (M a Schur complement, positive semidefinite up to rounding).
+fn quadratic_form(theta: &DVector<f64>, m: &DMatrix<f64>) -> f64 {
+    (theta.transpose() * m * theta)[(0, 0)].max(0.0)
 }
 
 /// The effect's share E/(E + N) of the held-out energy (0 when both are 0).
@@ -109,6 +114,29 @@ mod tests {
     #[test]
     fn the_heldout_share_by_hand() {
         assert_eq!([share(1.0, 3.0), share(3.0, 1.0), share(2.0, 0.0), share(0.0, 0.0), share(0.0, 2.0)], [0.25, 0.75, 1.0, 0.0, 0.0]);
+    }
+
+    /// Reported units back to the fit's: a lever arm of 10, −5 and 2 mm is 0.01, −0.005 and
+    /// 0.002 m; 1° of body-offset roll is π/180 rad; a mocap delay of 5 ms is 0.005 s. Census
+    /// shards 68–69: the value times its factor, or modulo it, passed every unit test.
+    #[test]
+    fn the_true_parameters_are_taken_back_to_the_fits_units() {
+        let close = |got: DVector<f64>, want: &[f64]| got.len() == want.len() && got.iter().zip(want).all(|(g, w)| (g - w).abs() <= 1e-15 * w.abs().max(1.0));
+        assert!(close(in_fit_units(Effect::LeverArm, &[10.0, -5.0, 2.0]), &[0.01, -0.005, 0.002]));
+        assert!(close(in_fit_units(Effect::BodyOffset, &[1.0, 0.0, -2.0]), &[std::f64::consts::PI / 180.0, 0.0, -std::f64::consts::PI / 90.0]));
+        assert!(close(in_fit_units(Effect::MocapDelay, &[5.0]), &[0.005]));
+    }
+
+    /// θᵀ·M·θ by hand: θ = (1, 2) on diag(2, 2.5) is 2 + 10 = 12; θ = (1, −1) on
+    /// [[2, 1], [1, 3]] is 2 − 1 − 1 + 3 = 3; a form negative by rounding is 0. Census shard 70:
+    /// M + θ for M·θ passed every unit test (the 1×1 case is a sum, not a panic).
+    #[test]
+    fn the_noncentrality_is_the_quadratic_form_of_the_true_parameters() {
+        let m = |r: usize, v: &[f64]| DMatrix::from_row_slice(r, r, v);
+        assert_eq!(quadratic_form(&DVector::from_row_slice(&[1.0, 2.0]), &m(2, &[2.0, 0.0, 0.0, 2.5])), 12.0);
+        assert_eq!(quadratic_form(&DVector::from_row_slice(&[1.0, -1.0]), &m(2, &[2.0, 1.0, 1.0, 3.0])), 3.0);
+        assert_eq!(quadratic_form(&DVector::from_row_slice(&[3.0]), &m(1, &[2.0])), 18.0);
+        assert_eq!(quadratic_form(&DVector::from_row_slice(&[1.0]), &m(1, &[-1e-17])), 0.0);
     }
 
     /// Both margins must hold, each at its boundary: λ ≥ 40 and a held-out share ≥ 0.3.

@@ -161,6 +161,27 @@ mod tests {
         Design { n, t: (0..n).map(|i| i as f64 * 0.01).collect(), ok: vec![true; n], has_force: true, signals, ..Design::default() }
     }
 
+    /// The held-out error counts the samples that are both held out and usable in the nominal
+    /// design: of 100, the even ones held out and the first 80 usable leave 40, each with a
+    /// nominal residual of ±3 (RMSE 3); every other sample's residual is 1000. Census shard 71:
+    /// the `&&` as `||` (90 samples, RMSE ≈ 900) was caught only by a whole NanoBench flight.
+    #[test]
+    fn the_heldout_error_counts_the_usable_heldout_samples_only() {
+        let n = 100;
+        let test: Vec<bool> = (0..n).map(|i| i % 2 == 0).collect();
+        let mut nominal = signals_only(n, Vec::new());
+        nominal.ok = (0..n).map(|i| i < 80).collect();
+        let y: Vec<f64> = (0..n).map(|i| if test[i] && i < 80 { if i % 4 == 0 { 3.0 } else { -3.0 } } else { 1000.0 }).collect();
+        nominal.measured[0][0] = y;
+        nominal.predicted[0][0] = vec![0.0; n];
+        let d = signals_only(n, Vec::new());
+        let d = Design { measured: nominal.measured.clone(), predicted: nominal.predicted.clone(), ..d };
+        let (errors, _, _) = final_residuals(&d, &[], &test, &nominal, &lead_signals(&d), 2);
+        assert_eq!(errors.len(), 1);
+        let e = &errors[0];
+        assert_eq!((e.samples, e.rmse_before, e.rmse_after), (40, 3.0, 3.0));
+    }
+
     /// Pearson's r is invariant to offsets and scale: a residual r = 2x + 3 of a white signal
     /// x = 1 + w (w uniform on ±0.5, so n_eff ≈ n) follows it with r = 1 exactly, and one
     /// independent of x (a second white series) is no lead. Fails if either sum of squares is

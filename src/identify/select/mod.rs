@@ -53,7 +53,7 @@
 
 use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build, column_offsets};
 use super::series::{Corrections, NominalModel, Series};
-use super::stats::{Ar, LjungBox, Z_975, Z_995, autocorrelation, f_sf, inverse_spd, ljung_box, solve_spd};
+use super::stats::{Ar, LjungBox, Z_975, Z_995, autocorrelation, f_sf, inverse_spd, ljung_box, schur_complement, solve_spd};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 
 mod covariance;
@@ -1070,6 +1070,56 @@ mod tests {
         assert!(named_at_step(&steps, &[], Effect::GyroDelay, Effect::MocapDelay));
         assert!(!named_at_step(&steps, &removed, Effect::WorldTilt, Effect::BodyOffset), "the step added the body offset");
         assert!(!named_at_step(&steps, &removed, Effect::BodyOffset, Effect::MocapDelay), "another step's rival");
+    }
+
+    /// The pairs and notes of a search by hand (no frame effect selected, so no Gram matrix is
+    /// read): the kept step that added the mocap delay over the gyro delay (ρ 0.995) gives the
+    /// pair and its note, the step the backward check removed gives neither, and a negative
+    /// mocap delay (−3 ms) with no gyro delay selected gets its note. Census shard 70:
+    /// `identifiability` → no pairs (and no notes) was caught only by whole flights.
+    #[test]
+    fn the_search_names_its_kept_rivals_and_a_negative_mocap_delay() {
+        let step = |added: Effect, rival: Effect| Step {
+            added,
+            together_with: None,
+            delta_bic: -20.0,
+            p_value: 1e-6,
+            heldout_gain: 0.1,
+            candidates: Vec::new(),
+            not_identifiable_from: vec![(rival, 0.995)],
+            params: Vec::new(),
+        };
+        let search = |mocap_delay_s: f64, selected: Vec<Effect>| Search {
+            selected,
+            state: Problem {
+                design: Design::default(),
+                train: Vec::new(),
+                test: Vec::new(),
+                grams: Vec::new(),
+                fit: Fit { set: Vec::new(), theta: vec![0.0; N_COLUMNS], theta_w: vec![0.0; N_COLUMNS], rss: 0.0, n: 0 },
+                cov: DMatrix::zeros(0, 0),
+            },
+            corr: Corrections { mocap_delay_s, ..Corrections::default() },
+            steps: vec![step(Effect::MocapDelay, Effect::GyroDelay), step(Effect::GyroBias, Effect::AccelBias)],
+            removed: vec![Removal { after_step: 2, check: scoreboard(Effect::GyroBias, false, 4.0) }],
+            final_candidates: Vec::new(),
+        };
+        let mut notes = Vec::new();
+        let pairs = search(-0.003, vec![Effect::MocapDelay]).identifiability(12.0, &mut notes);
+        assert_eq!(pairs, [(Effect::MocapDelay, Effect::GyroDelay, 0.995)]);
+        assert_eq!(
+            notes,
+            [
+                "mocap_delay was chosen over gyro_delay by ΔBIC, but this flight cannot tell them apart (canonical correlation 0.9950, yaw spread 12.0°): not identifiable; fly yaw turns, circles and accelerations to separate them",
+                "the mocap delay came out negative (-3.0 ms: the mocap leads the IMU): a clock offset between the streams, or a delay of the gyro alone against the accelerometer, which `--with gyro_delay` tests",
+            ]
+        );
+        // a positive delay, or one with the gyro delay selected beside it, gets no such note
+        for (delay, selected) in [(0.003, vec![Effect::MocapDelay]), (-0.003, vec![Effect::MocapDelay, Effect::GyroDelay])] {
+            let mut notes = Vec::new();
+            search(delay, selected).identifiability(12.0, &mut notes);
+            assert_eq!(notes.len(), 1, "{notes:?}");
+        }
     }
 
     /// A round's scoreboard entry for the winner tests: only the effect, whether it passed and
