@@ -1048,16 +1048,6 @@ mod tests {
     /// mocap_delay …" for an effect not in the model), and the whole suite passed.
     #[test]
     fn only_the_steps_the_backward_check_kept_name_rivals() {
-        let step = |added: Effect, rival: Effect| Step {
-            added,
-            together_with: None,
-            delta_bic: -20.0,
-            p_value: 1e-6,
-            heldout_gain: 0.1,
-            candidates: Vec::new(),
-            not_identifiable_from: vec![(rival, 0.995)],
-            params: Vec::new(),
-        };
         let steps = [step(Effect::GyroDelay, Effect::MocapDelay), step(Effect::BodyOffset, Effect::WorldTilt)];
         let removed = [Removal { after_step: 2, check: scoreboard(Effect::GyroDelay, false, 4.0) }];
         let kept: Vec<Effect> = kept_steps(&steps, &removed).map(|st| st.added).collect();
@@ -1079,16 +1069,6 @@ mod tests {
     /// `identifiability` → no pairs (and no notes) was caught only by whole flights.
     #[test]
     fn the_search_names_its_kept_rivals_and_a_negative_mocap_delay() {
-        let step = |added: Effect, rival: Effect| Step {
-            added,
-            together_with: None,
-            delta_bic: -20.0,
-            p_value: 1e-6,
-            heldout_gain: 0.1,
-            candidates: Vec::new(),
-            not_identifiable_from: vec![(rival, 0.995)],
-            params: Vec::new(),
-        };
         let search = |mocap_delay_s: f64, selected: Vec<Effect>| Search {
             selected,
             state: Problem {
@@ -1119,6 +1099,21 @@ mod tests {
             let mut notes = Vec::new();
             search(delay, selected).identifiability(12.0, &mut notes);
             assert_eq!(notes.len(), 1, "{notes:?}");
+        }
+    }
+
+    /// A kept forward step that added `added` and named `rival` as not identifiable from it
+    /// (ρ 0.995).
+    fn step(added: Effect, rival: Effect) -> Step {
+        Step {
+            added,
+            together_with: None,
+            delta_bic: -20.0,
+            p_value: 1e-6,
+            heldout_gain: 0.1,
+            candidates: Vec::new(),
+            not_identifiable_from: vec![(rival, 0.995)],
+            params: Vec::new(),
         }
     }
 
