@@ -297,6 +297,34 @@ mod tests {
         assert!((tls_course(&north, &east).unwrap() + psi_off).abs() < 1e-12);
     }
 
+    /// The recursion of (8) on a straight track that starts 1 m north (its regressor is taken
+    /// from the first X_N and the intercept shifted back): no estimate until X_N has spread
+    /// 0.5 m (32 samples of 1/64 m, exact in binary), then the line itself; with a wobble of
+    /// ±1 cm in X_E, which the recursion's updates must follow, batch LS (9) to rounding.
+    /// Census shard 73: `update` as a no-op passed every lib test (only the property test
+    /// `rls_equals_batch_ls` caught it).
+    #[test]
+    fn rls_starts_once_the_track_spreads_and_then_equals_batch_ls() {
+        let psi_off = 2f64.to_radians();
+        let north: Vec<f64> = (0..500).map(|k| 1.0 + k as f64 / 64.0).collect();
+        for wobble in [0.0, 0.01] {
+            let east: Vec<f64> = north.iter().enumerate().map(|(k, n)| 0.3 + n * (-psi_off).tan() + wobble * (7.0 * k as f64).sin()).collect();
+            let mut rls = Rls::new(0.5);
+            for (k, (n, e)) in north.iter().zip(&east).enumerate() {
+                rls.update(*n, *e);
+                assert_eq!(rls.estimate().is_some(), k >= 32, "sample {k}");
+            }
+            let (got, want) = (rls.estimate().unwrap(), batch_ls(&north, &east).unwrap());
+            assert_eq!(got.n, 500);
+            assert!((got.slope - want.slope).abs() < 1e-12 && (got.x_e0 - want.x_e0).abs() < 1e-12, "wobble {wobble}: {got:?} vs {want:?}");
+            if wobble == 0.0 {
+                assert!((got.psi_offset - psi_off).abs() < 1e-12 && (got.x_e0 - 0.3).abs() < 1e-12, "{got:?}");
+            } else {
+                assert!((got.psi_offset - psi_off).abs() > 1e-6, "the wobble moves the fit: {got:?}");
+            }
+        }
+    }
+
     /// No line from what determines none: fewer than two points, one X_N repeated, or X_N and
     /// X_E of different lengths (a fit over the shorter one would pair the wrong samples; shard
     /// 41's `||` as `&&` returned a line for 3 north and 2 east samples).
