@@ -164,7 +164,8 @@ mod tests {
     /// The held-out error counts the samples that are both held out and usable in the nominal
     /// design: of 100, the even ones held out and the first 80 usable leave 40, each with a
     /// nominal residual of ±3 (RMSE 3); every other sample's residual is 1000. Census shard 71:
-    /// the `&&` as `||` (90 samples, RMSE ≈ 900) was caught only by a whole NanoBench flight.
+    /// the `&&` as `||` (90 samples, RMSE √((40·9 + 50·1000²)/90) ≈ 745) was caught only by a
+    /// whole NanoBench flight.
     #[test]
     fn the_heldout_error_counts_the_usable_heldout_samples_only() {
         let n = 100;
@@ -174,8 +175,7 @@ mod tests {
         let y: Vec<f64> = (0..n).map(|i| if test[i] && i < 80 { if i % 4 == 0 { 3.0 } else { -3.0 } } else { 1000.0 }).collect();
         nominal.measured[0][0] = y;
         nominal.predicted[0][0] = vec![0.0; n];
-        let d = signals_only(n, Vec::new());
-        let d = Design { measured: nominal.measured.clone(), predicted: nominal.predicted.clone(), ..d };
+        let d = Design { measured: nominal.measured.clone(), predicted: nominal.predicted.clone(), ..signals_only(n, Vec::new()) };
         let (errors, _, _) = final_residuals(&d, &[], &test, &nominal, &lead_signals(&d), 2);
         assert_eq!(errors.len(), 1);
         let e = &errors[0];
