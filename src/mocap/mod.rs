@@ -180,6 +180,9 @@ mod tests {
         let seen = |m: &mut Mocap, ms: i64| m.capture(Nanos::from_millis(ms), &truth).map(|f| (f.seq, f.visible_markers));
         assert_eq!(seen(&mut m, 95), Some((0, 4)));
         assert_eq!(seen(&mut m, 100), Some((1, 3)));
+        // the cameras' last view: all four markers, the hidden one flagged (shard 74: the view
+        // as two empty slices passed every unit test)
+        assert_eq!((m.last_observation().0.len(), m.last_observation().1), (4, &[true, false, true, true][..]));
         assert_eq!(seen(&mut m, 195), Some((2, 3)));
         assert_eq!(seen(&mut m, 200), Some((3, 4)));
         assert_eq!(seen(&mut m, 305), Some((4, 3)), "the second occlusion, of another marker");

@@ -64,7 +64,7 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             // acts on: a thrust against voltage whose mean a hidden thrust scale takes is not
             // counted), and of the full model's residual, on those axes
             let mut order = block.clone();
-            let partners: Vec<usize> = truth.iter().filter(|(x, _)| x != e && all.contains(x)).flat_map(|(x, _)| set_of(&[*x])).collect();
+            let partners = set_of(&partners(truth, *e, &all));
             order.extend(&partners);
             let pos = |j: usize| order.iter().position(|x| *x == j);
             let mut g_t = DMatrix::<f64>::zeros(order.len(), order.len());
@@ -86,6 +86,12 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             Excitation { lambda, heldout_share: share(energy, noise) }
         })
         .collect()
+}
+
+/// The other effects of `truth` that the data has columns for (`all`): the hidden effects whose
+/// part of the held-out Gram is projected out of `e`'s.
+fn partners(truth: &[(Effect, Vec<f64>)], e: Effect, all: &[Effect]) -> Vec<Effect> {
+    truth.iter().map(|(x, _)| *x).filter(|x| *x != e && all.contains(x)).collect()
 }
 
 /// An effect's parameters from the reported units (deg, ms, mm, …) to the fit's SI and radian
@@ -125,6 +131,18 @@ mod tests {
         assert!(close(in_fit_units(Effect::LeverArm, &[10.0, -5.0, 2.0]), &[0.01, -0.005, 0.002]));
         assert!(close(in_fit_units(Effect::BodyOffset, &[1.0, 0.0, -2.0]), &[std::f64::consts::PI / 180.0, 0.0, -std::f64::consts::PI / 90.0]));
         assert!(close(in_fit_units(Effect::MocapDelay, &[5.0]), &[0.005]));
+    }
+
+    /// The partners of an effect are the other true effects the data has columns for: of
+    /// {mocap delay, thrust scale, lever arm} with no lever-arm column, the mocap delay's is the
+    /// thrust scale alone. Census shard 74: the `&&` as `||` (the effect its own partner, its
+    /// held-out energy 0) passed every unit test and the whole suite.
+    #[test]
+    fn an_effects_partners_are_the_other_true_effects_with_columns() {
+        let truth = [(Effect::MocapDelay, vec![5.0]), (Effect::ThrustScale, vec![0.1]), (Effect::LeverArm, vec![10.0, 0.0, 0.0])];
+        let all = [Effect::MocapDelay, Effect::ThrustScale, Effect::GyroBias];
+        assert_eq!(partners(&truth, Effect::MocapDelay, &all), [Effect::ThrustScale]);
+        assert_eq!(partners(&truth, Effect::ThrustScale, &all), [Effect::MocapDelay]);
     }
 
     /// θᵀ·M·θ by hand: θ = (1, 2) on diag(2, 2.5) is 2 + 10 = 12; θ = (1, −1) on
