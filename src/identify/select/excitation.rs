@@ -64,8 +64,8 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             // acts on: a thrust against voltage whose mean a hidden thrust scale takes is not
             // counted), and of the full model's residual, on those axes
             let mut order = block.clone();
-            let partners = set_of(&partners(truth, *e, &all));
-            order.extend(&partners);
+            let partner_cols = set_of(&partners(truth, *e, &all));
+            order.extend(&partner_cols);
             let pos = |j: usize| order.iter().position(|x| *x == j);
             let mut g_t = DMatrix::<f64>::zeros(order.len(), order.len());
             let mut noise = 0.0;
