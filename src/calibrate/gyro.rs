@@ -1008,6 +1008,23 @@ mod tests {
         assert!(edge.is_none(), "{edge:?}");
     }
 
+    /// The drift's twin of the offset edge: a drift minimum within one drift step (a tenth of
+    /// the range) of the range's edge is not a minimum either. With a 1000 ppm range (steps of
+    /// 100 ppm, edge at 900 ppm), a clock 960 ppm fast is no fit and one 700 ppm fast is fitted
+    /// (700 ppm within its interval). Census of 33c1bbe, shard 75: the edge at range + step
+    /// (never reached: the golden sections stop at one step past the grid) passed every unit test.
+    #[test]
+    fn a_drift_within_one_drift_step_of_the_range_edge_is_not_fitted() {
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
+        let search = ClockSearch { max_drift_ppm: 1000.0, ..ClockSearch::default() };
+        let (_, inside) = fly(gyro().estimate_clock(search), c, Nanos::ZERO, 700.0, 16);
+        let k = inside.unwrap().clock.unwrap();
+        let (d, sd) = (k.drift_ppm.unwrap(), k.drift_sigma_ppm.unwrap());
+        assert!((d - 700.0).abs() < 3.0 * sd + 1.0 && sd < 50.0, "drift {d} ± {sd}");
+        let (_, edge) = fly(gyro().estimate_clock(search), c, Nanos::ZERO, 960.0, 16);
+        assert!(edge.is_none(), "{edge:?}");
+    }
+
     /// The pooled moments need the four grid nodes around each block's offset (the cubic through
     /// them): with a 20 ms range and 1 ms steps (nodes −20, −19, ..., 20 ms) an offset is pooled
     /// from −19 ms to 19 ms and not beyond either end (shard 46: the node count's `− 1` as `+ 1`

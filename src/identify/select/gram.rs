@@ -356,6 +356,36 @@ mod tests {
         assert!((yy - 13.0).abs() < 1e-12, "whitened y·y {yy}, not 13");
     }
 
+    /// The three sums by hand on one channel axis of five samples: residual y = 1, 2, 3, 4, 100
+    /// and column x = 1, 1, 2, −1, 7; samples 1–2 train, 3–4 are held out, 5 is neither. Training
+    /// (white noise σ = 1, so whitened = raw): n = 2, y·y = 1 + 4 = 5, x·x = 2, x·y = 3. Held out:
+    /// n = 2, y·y = 9 + 16 = 25, x·x = 4 + 1 = 5, x·y = 6 − 4 = 2. The held-out residual energy
+    /// Σ (y − θx)² is 25 at θ = 0, (3 − 2)² + (4 + 1)² = 26 at θ = 1 and (3 − 0.8)² + (4 + 0.4)² =
+    /// 24.2 at θ = 0.4. Census of 33c1bbe, shard 75: the held-out y·y accumulated with `-=`
+    /// passed every unit test.
+    #[test]
+    fn training_and_heldout_sums_by_hand() {
+        let mut d = Design { n: 5, ..Design::default() };
+        d.measured[0][0] = vec![1.0, 2.0, 3.0, 4.0, 100.0];
+        d.predicted[0][0] = vec![0.0; 5];
+        d.columns[0][0] = vec![(0, vec![1.0, 1.0, 2.0, -1.0, 7.0])];
+        let (t, f) = (true, false);
+        let gs = grams(&d, &[t, t, f, f, f], &[f, f, t, t, f], &[Ar::white(1.0)]);
+        assert_eq!(gs.len(), 1);
+        let g = &gs[0];
+        assert_eq!((g.n_w, g.yy_w, g.g_w[(0, 0)], g.b_w[0]), (2, 5.0, 2.0, 3.0), "whitened training sums");
+        assert_eq!((g.g_r[(0, 0)], g.b_r[0]), (2.0, 3.0), "raw training sums");
+        assert_eq!((g.n_t, g.yy_t, g.g_t[(0, 0)], g.b_t[0]), (2, 25.0, 5.0, 2.0), "held-out sums");
+        let energy = |th: f64| {
+            let mut theta = vec![0.0; N_COLUMNS];
+            theta[0] = th;
+            heldout_rss(&gs, &theta)[0]
+        };
+        for (th, want) in [(0.0, 25.0), (1.0, 26.0), (0.4, 24.2)] {
+            assert!((energy(th) - want).abs() < 1e-12, "held-out energy at θ = {th}: {}, not {want}", energy(th));
+        }
+    }
+
     /// The residual after θ by hand: measured − predicted − Σ θ_j·x_j on the channel axis's
     /// own columns, a zero θ_j skipped. Census of 33c1bbe, shard 42: `θ_j != 0` as `== 0`
     /// (only the zero ones subtracted) was caught only through `identify`'s command-line test.
