@@ -786,6 +786,26 @@ mod tests {
         assert_eq!(g.mocap_interp(Nanos::from_millis(10)), None, "the lost frame's own time has no frame");
     }
 
+    /// The cut for a motion too close to one axis is relative to the largest eigenvalue of the
+    /// mocap increments' scatter S_m: no fit when λ₂ ≤ 10⁻¹²·λ₃, whatever the scale of the motion.
+    /// Moments by hand (C = I, zero means, 100 windows): S_m = diag(s, r·s, 0) is no fit at
+    /// r = 10⁻¹³ and a fit (C = I) at r = 10⁻¹¹, both at s = 1 and at s = 10⁴. Census of 33c1bbe,
+    /// shard 78: the cut 10⁻¹²/λ₃ (an absolute cut at s = 1) passed every unit test.
+    #[test]
+    fn the_one_axis_cut_is_relative_to_the_largest_eigenvalue() {
+        let g = GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(50));
+        let fit = |s: f64, r: f64| {
+            let scatter = Matrix3::from_diagonal(&Vector3::new(s, r * s, 0.0));
+            let m = Moments { n: 100.0, sum_m: Vector3::zeros(), sum_b: Vector3::zeros(), sum_mb: scatter, sum_mm: scatter, sum_bb: s + r * s };
+            g.fit(&m, 0).map(|(f, _, _)| f.rotation)
+        };
+        for s in [1.0, 1e4] {
+            assert!(fit(s, 1e-13).is_none(), "scale {s}: a second axis 1e-13 of the first is fitted");
+            let c = fit(s, 1e-11).unwrap_or_else(|| panic!("scale {s}: a second axis 1e-11 of the first is no fit"));
+            assert!(c.angle() < 1e-9, "scale {s}: {c:?}");
+        }
+    }
+
     /// A spin about one axis only leaves the rotation about that axis undetermined.
     #[test]
     fn one_axis_of_rotation_is_not_enough() {

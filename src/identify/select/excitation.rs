@@ -44,7 +44,6 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
     let ars = ar_models(&st.design, &st.train, &f_all.theta, o.max_ar_order);
     let gs = grams(&st.design, &st.train, &st.test, &ars);
     let rss_full_t = heldout_rss(&gs, &f_all.theta);
-    let act = active(&st.design);
     truth
         .iter()
         .map(|(e, values)| {
@@ -66,26 +65,33 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
             let mut order = block.clone();
             let partner_cols = set_of(&partners(truth, *e, &all));
             order.extend(&partner_cols);
-            let pos = |j: usize| order.iter().position(|x| *x == j);
-            let mut g_t = DMatrix::<f64>::zeros(order.len(), order.len());
-            let mut noise = 0.0;
-            for q in 0..act.len() {
-                if gs[q].cols.iter().any(|j| block.contains(j)) {
-                    let gr = &gs[q];
-                    for (u, ju) in gr.cols.iter().enumerate() {
-                        for (v, jv) in gr.cols.iter().enumerate() {
-                            if let (Some(pu), Some(pv)) = (pos(*ju), pos(*jv)) {
-                                g_t[(pu, pv)] += gr.g_t[(u, v)];
-                            }
-                        }
-                    }
-                    noise += rss_full_t[q];
-                }
-            }
+            let (g_t, noise) = heldout_on_axes_of(&gs, &block, &order, &rss_full_t);
             let energy = quadratic_form(&theta, &schur_complement(&g_t, k));
             Excitation { lambda, heldout_share: share(energy, noise) }
         })
         .collect()
+}
+
+/// On the channel axes that have a column of `block` (the axes the effect acts on): the raw
+/// held-out Gram of the columns `order`, summed over those axes in `order`'s order (a column an
+/// axis lacks adds nothing there), and the sum of `rss_t`, each axis's held-out residual energy.
+fn heldout_on_axes_of(gs: &[Gram], block: &[usize], order: &[usize], rss_t: &[f64]) -> (DMatrix<f64>, f64) {
+    let pos = |j: usize| order.iter().position(|x| *x == j);
+    let mut g_t = DMatrix::<f64>::zeros(order.len(), order.len());
+    let mut noise = 0.0;
+    for (gr, rss) in gs.iter().zip(rss_t) {
+        if gr.cols.iter().any(|j| block.contains(j)) {
+            for (u, ju) in gr.cols.iter().enumerate() {
+                for (v, jv) in gr.cols.iter().enumerate() {
+                    if let (Some(pu), Some(pv)) = (pos(*ju), pos(*jv)) {
+                        g_t[(pu, pv)] += gr.g_t[(u, v)];
+                    }
+                }
+            }
+            noise += rss;
+        }
+    }
+    (g_t, noise)
 }
 
 /// The other effects of `truth` that the data has columns for (`all`): the hidden effects whose
@@ -113,6 +119,11 @@ fn share(energy: f64, noise: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The r×r matrix of `v` (row by row).
+    fn m(r: usize, v: &[f64]) -> DMatrix<f64> {
+        DMatrix::from_row_slice(r, r, v)
+    }
 
     /// E/(E + N) by hand on both sides of E = N and at the ends: 1/(1 + 3) = 0.25, 3/(3 + 1) =
     /// 0.75, an effect with no residual left 1, nothing at all 0. Census shard 0 (ec82c47): the
@@ -150,7 +161,6 @@ mod tests {
     /// M + θ for M·θ passed every unit test (the 1×1 case is a sum, not a panic).
     #[test]
     fn the_noncentrality_is_the_quadratic_form_of_the_true_parameters() {
-        let m = |r: usize, v: &[f64]| DMatrix::from_row_slice(r, r, v);
         assert_eq!(quadratic_form(&DVector::from_row_slice(&[1.0, 2.0]), &m(2, &[2.0, 0.0, 0.0, 2.5])), 12.0);
         assert_eq!(quadratic_form(&DVector::from_row_slice(&[1.0, -1.0]), &m(2, &[2.0, 1.0, 1.0, 3.0])), 3.0);
         assert_eq!(quadratic_form(&DVector::from_row_slice(&[3.0]), &m(1, &[2.0])), 18.0);
@@ -165,5 +175,24 @@ mod tests {
         assert!(!ex(39.9, 0.9), "too little noncentrality");
         assert!(!ex(1e3, 0.29), "too small a share of the held-out error");
         assert!(!ex(0.0, 0.0));
+    }
+
+    /// The held-out Gram on the effect's axes by hand. Axis A has columns 5, 2, 7 (G_t rows
+    /// 1 2 3 / 2 4 5 / 3 5 6), axis B columns 7, 2 (10 20 / 20 30), axis C column 9 (100); their
+    /// held-out residual energies are 1, 2, 4. For the block {2} with its partner 7 (order 2, 7),
+    /// A and B count and C does not: G(2,2) = 4 + 30, G(2,7) = 5 + 20, G(7,7) = 6 + 10, column 5
+    /// (not in the order) adds nothing, and N = 1 + 2. For the block {9}: G = 100, N = 4. Census
+    /// of 33c1bbe, shards 76–77: the order lookup `==` as `!=` and the sum `+=` as `-=` passed
+    /// every unit test (whole flights in the trials caught them).
+    #[test]
+    fn the_heldout_gram_sums_the_effects_axes_in_its_columns_order() {
+        let gram = |cols: &[usize], g_t: DMatrix<f64>| Gram { g_t, ..Gram::zeros(cols.to_vec(), 1.0) };
+        let gs = [gram(&[5, 2, 7], m(3, &[1.0, 2.0, 3.0, 2.0, 4.0, 5.0, 3.0, 5.0, 6.0])), gram(&[7, 2], m(2, &[10.0, 20.0, 20.0, 30.0])), gram(&[9], m(1, &[100.0]))];
+        let rss_t = [1.0, 2.0, 4.0];
+        let (g, noise) = heldout_on_axes_of(&gs, &[2], &[2, 7], &rss_t);
+        assert_eq!(g, m(2, &[34.0, 25.0, 25.0, 16.0]));
+        assert_eq!(noise, 3.0);
+        let (g, noise) = heldout_on_axes_of(&gs, &[9], &[9], &rss_t);
+        assert_eq!((g, noise), (m(1, &[100.0]), 4.0));
     }
 }

@@ -1249,6 +1249,20 @@ mod tests {
         assert!((c.heldout_gain - by_hand).abs() < 1e-12, "{} against {by_hand} by hand", c.heldout_gain);
     }
 
+    /// With no held-out rows (a flight too short to hold any out) both held-out errors are 0:
+    /// the gain is 0, not 0/0 = NaN, and the held-out gate fails. Census of 33c1bbe, shard 76:
+    /// the guard `e0 > 0` as `>=` passed every unit test.
+    #[test]
+    fn without_heldout_rows_the_heldout_gain_is_zero_not_nan() {
+        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let mut g = synthetic_gram(cols, [0.0, 0.2, 0.5]);
+        (g.g_t, g.b_t, g.yy_t, g.n_t) = (DMatrix::zeros(3, 3), DVector::zeros(3), 0.0, 0);
+        let gs = [g];
+        let c = score(&gs, &fit(&gs, &set_of(&[Effect::GroundEffect])), &[Effect::ThrustVoltage], 1, &Options::default());
+        assert_eq!(c.heldout_gain.to_bits(), 0.0f64.to_bits(), "gain {}", c.heldout_gain);
+        assert!(!c.passed && c.p_value < 1e-6, "significant in training, yet no held-out support: {c:?}");
+    }
+
     /// The corrections' fold by hand: the body offset's increment d composes on the left,
     /// R_off ← exp(d)·R_off; the world tilt's (d_x, d_y, 0) on the right, R_w ← R_w·exp(d); the
     /// two delays and the lever arm add. Each folded column is zeroed; an effect that is no
