@@ -1249,7 +1249,7 @@ mod tests {
         assert!((c.heldout_gain - by_hand).abs() < 1e-12, "{} against {by_hand} by hand", c.heldout_gain);
     }
 
-    /// With no held-out rows (a flight too short to hold any out) both held-out errors are 0:
+    /// With no held-out rows (no sample in the held-out mask) both held-out errors are 0:
     /// the gain is 0, not 0/0 = NaN, and the held-out gate fails. Census of 33c1bbe, shard 76:
     /// the guard `e0 > 0` as `>=` passed every unit test.
     #[test]
