@@ -291,6 +291,20 @@ mod tests {
         assert!((fit3.rotation.inverse() * truth).angle() < 1e-12);
     }
 
+    /// An exact rigid motion away from the origin, y_i = R·m_i + t with t = (1, 2, 3) m: the fit
+    /// returns R and t, and its RMS residual √(Σ‖R·m_i + t − y_i‖²/n) is 0 (to rounding). Census of
+    /// 33c1bbe, shard 79: the residual with −t (2‖t‖ = 7.5 m here) passed every unit test.
+    #[test]
+    fn an_exact_motion_away_from_the_origin_leaves_no_residual() {
+        let truth: Rot<Body, Nav> = Rot::from_euler(Euler::new(0.3, -0.2, 2.5));
+        let t = Vec3::<Nav>::new(1.0, 2.0, 3.0);
+        let y: Vec<Vec3<Nav>> = FOUR_MARKERS.iter().map(|p| Vec3::from_raw(truth.apply(*p).raw() + t.raw())).collect();
+        let fit = rigid_fit(&FOUR_MARKERS, &y, &[true; 4]).unwrap();
+        assert!((fit.rotation.inverse() * truth).angle() < 1e-12);
+        assert!((fit.translation.raw() - t.raw()).norm() < 1e-12, "{:?}", fit.translation);
+        assert!(fit.rms_residual < 1e-12, "rms residual {} m", fit.rms_residual);
+    }
+
     /// Markers on one line, whichever its direction (an axis, a diagonal in each coordinate
     /// plane, a general one), leave the rotation about it unknown: no fit. The spread test sums
     /// the three principal 2×2 minors of the spread, each of which is zero for a line, and a
