@@ -76,18 +76,11 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
 /// held-out Gram of the columns `order`, summed over those axes in `order`'s order (a column an
 /// axis lacks adds nothing there), and the sum of `rss_t`, each axis's held-out residual energy.
 fn heldout_on_axes_of(gs: &[Gram], block: &[usize], order: &[usize], rss_t: &[f64]) -> (DMatrix<f64>, f64) {
-    let pos = |j: usize| order.iter().position(|x| *x == j);
     let mut g_t = DMatrix::<f64>::zeros(order.len(), order.len());
     let mut noise = 0.0;
     for (gr, rss) in gs.iter().zip(rss_t) {
         if gr.cols.iter().any(|j| block.contains(j)) {
-            for (u, ju) in gr.cols.iter().enumerate() {
-                for (v, jv) in gr.cols.iter().enumerate() {
-                    if let (Some(pu), Some(pv)) = (pos(*ju), pos(*jv)) {
-                        g_t[(pu, pv)] += gr.g_t[(u, v)];
-                    }
-                }
-            }
+            add_at(&mut g_t, &gr.g_t, &positions(order, &gr.cols));
             noise += rss;
         }
     }

@@ -157,21 +157,32 @@ pub(super) fn grams(d: &Design, train: &[bool], test: &[bool], ars: &[Ar]) -> Ve
     out
 }
 
+/// The pairs (p, i) with `set[p]` = `cols[i]`: where a channel axis's sums over its columns
+/// `cols` go in sums over `set` (the set's columns the axis lacks are left out).
+pub(super) fn positions(set: &[usize], cols: &[usize]) -> Vec<(usize, usize)> {
+    set.iter().enumerate().filter_map(|(p, j)| cols.iter().position(|c| c == j).map(|i| (p, i))).collect()
+}
+
+/// Adds a channel axis's matrix `from` (over its columns) into `to` (over a set) at the pairs
+/// `at` from [`positions`]: `to[(p, q)] += from[(i, j)]` for every two pairs (p, i), (q, j).
+pub(super) fn add_at(to: &mut DMatrix<f64>, from: &DMatrix<f64>, at: &[(usize, usize)]) {
+    for &(p, i) in at {
+        for &(q, j) in at {
+            to[(p, q)] += from[(i, j)];
+        }
+    }
+}
+
 /// The raw (training) normal equations of a set of columns, summed over channel axes.
 pub(super) fn system_raw(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>) {
     let k = set.len();
     let mut g = DMatrix::zeros(k, k);
     let mut b = DVector::zeros(k);
     for gr in gs {
-        let pos: Vec<Option<usize>> = set.iter().map(|j| gr.cols.iter().position(|c| c == j)).collect();
-        for (p, ip) in pos.iter().enumerate() {
-            let Some(ip) = ip else { continue };
-            b[p] += gr.b_r[*ip];
-            for (q, iq) in pos.iter().enumerate() {
-                if let Some(iq) = iq {
-                    g[(p, q)] += gr.g_r[(*ip, *iq)];
-                }
-            }
+        let at = positions(set, &gr.cols);
+        add_at(&mut g, &gr.g_r, &at);
+        for &(p, i) in &at {
+            b[p] += gr.b_r[i];
         }
     }
     (g, b)
@@ -186,15 +197,10 @@ pub(super) fn system(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>,
     for gr in gs {
         yy += gr.yy_w;
         n += gr.n_w;
-        let pos: Vec<Option<usize>> = set.iter().map(|j| gr.cols.iter().position(|c| c == j)).collect();
-        for (p, ip) in pos.iter().enumerate() {
-            let Some(ip) = ip else { continue };
-            b[p] += gr.b_w[*ip];
-            for (q, iq) in pos.iter().enumerate() {
-                if let Some(iq) = iq {
-                    g[(p, q)] += gr.g_w[(*ip, *iq)];
-                }
-            }
+        let at = positions(set, &gr.cols);
+        add_at(&mut g, &gr.g_w, &at);
+        for &(p, i) in &at {
+            b[p] += gr.b_w[i];
         }
     }
     (g, b, yy, n)
