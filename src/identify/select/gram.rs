@@ -33,6 +33,22 @@ impl Gram {
     }
 }
 
+#[cfg(test)]
+impl Gram {
+    /// The normal equations of `rows` (one sample each: the values of `cols` in that order),
+    /// whitened and raw alike (tests build Grams by hand with it).
+    pub(super) fn of_samples(cols: &[usize], rows: &[&[f64]]) -> Gram {
+        let mut g = Gram::zeros(cols.to_vec(), 1.0);
+        g.n_w = rows.len();
+        for r in rows {
+            let x = DVector::from_row_slice(r);
+            g.g_w += &x * x.transpose();
+        }
+        g.g_r = g.g_w.clone();
+        g
+    }
+}
+
 pub(super) fn masks(s: &Series, d: &Design, o: &Options) -> (Vec<bool>, Vec<bool>) {
     let t0 = s.t_s.first().copied().unwrap_or(0.0);
     let tt = &d.t;
@@ -295,19 +311,6 @@ pub(super) fn ar_models(d: &Design, train: &[bool], theta: &[f64], max_order: us
 mod tests {
     use super::*;
 
-    /// The normal equations of `rows` (one sample each: the values of `cols` in that order),
-    /// whitened and raw alike.
-    fn gram_of(cols: &[usize], rows: &[&[f64]]) -> Gram {
-        let mut g = Gram::zeros(cols.to_vec(), 1.0);
-        g.n_w = rows.len();
-        for r in rows {
-            let x = DVector::from_row_slice(r);
-            g.g_w += &x * x.transpose();
-        }
-        g.g_r = g.g_w.clone();
-        g
-    }
-
     /// Canonical correlations by geometry, with four samples (e1..e4 the unit samples). Columns
     /// 0 = e1, 1 = e1 + e2, 2 = e3, 3 = 2e1 + e2 + 3e4, 4 = e2, 5 = e1 + e3.
     /// - B = {5} against A = {0, 4}: b's projection on span(e1, e2) is e1, ρ = 1/√2;
@@ -322,9 +325,9 @@ mod tests {
     #[test]
     fn canonical_correlations_by_geometry_with_a_block_projected_out() {
         // samples 1 and 2, columns 3, 0, 1, 2, 4, 5
-        let first = gram_of(&[3, 0, 1, 2, 4, 5], &[&[2.0, 1.0, 1.0, 0.0, 0.0, 1.0], &[1.0, 0.0, 1.0, 0.0, 1.0, 0.0]]);
+        let first = Gram::of_samples(&[3, 0, 1, 2, 4, 5], &[&[2.0, 1.0, 1.0, 0.0, 0.0, 1.0], &[1.0, 0.0, 1.0, 0.0, 1.0, 0.0]]);
         // samples 3 and 4: columns 0, 1 and 4 are zero there and absent
-        let second = gram_of(&[5, 2, 3], &[&[1.0, 1.0, 0.0], &[0.0, 0.0, 3.0]]);
+        let second = Gram::of_samples(&[5, 2, 3], &[&[1.0, 1.0, 0.0], &[0.0, 0.0, 3.0]]);
         let gs = [first, second];
         let close = |got: f64, want: f64| assert!((got - want).abs() < 1e-12, "ρ = {got}, not {want}");
         close(canonical_corr(&gs, &[], &[0, 4], &[5]), 0.5f64.sqrt());

@@ -609,7 +609,10 @@ impl Search {
         let (steps, selected, state) = (&self.steps, &self.selected, &self.state);
         let mut not_identifiable: Vec<(Effect, Effect, f64)> =
             kept_steps(steps, &self.removed).flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho))).collect();
-        if (selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt)) && !named_either_way(steps, Effect::BodyOffset, Effect::WorldTilt) {
+        // the frame pair, unless a kept step named it already (in either order)
+        let frames = [Effect::BodyOffset, Effect::WorldTilt];
+        let named = not_identifiable.iter().any(|(a, b, _)| frames.contains(a) && frames.contains(b));
+        if (selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt)) && !named {
             let rho = canonical_corr(&state.grams, &[], &set_of(&[Effect::WorldTilt]), &set_of(&[Effect::BodyOffset]));
             if rho > 0.99 {
                 // the one not selected (if both were, the pair is still named)
@@ -646,12 +649,6 @@ impl Search {
 /// would be false).
 fn kept_steps<'a>(steps: &'a [Step], removed: &'a [Removal]) -> impl Iterator<Item = &'a Step> + 'a {
     steps.iter().filter(move |st| !removed.iter().any(|r| r.check.effect == st.added))
-}
-
-/// A step (kept or not) that added `a` named `b` as not identifiable from it, or the reverse.
-fn named_either_way(steps: &[Step], a: Effect, b: Effect) -> bool {
-    let named = |x: Effect, y: Effect| steps.iter().any(|st| st.added == x && st.not_identifiable_from.iter().any(|r| r.0 == y));
-    named(a, b) || named(b, a)
 }
 
 /// The step that added `e` (and was kept) named `c` as not identifiable from it.
@@ -1061,11 +1058,6 @@ mod tests {
         assert!(named_at_step(&steps, &[], Effect::GyroDelay, Effect::MocapDelay));
         assert!(!named_at_step(&steps, &removed, Effect::WorldTilt, Effect::BodyOffset), "the step added the body offset");
         assert!(!named_at_step(&steps, &removed, Effect::BodyOffset, Effect::MocapDelay), "another step's rival");
-        // the frame-pair check asks in either order, of every step (shard 74: its `||` as `&&`
-        // passed the whole suite)
-        assert!(named_either_way(&steps, Effect::WorldTilt, Effect::BodyOffset) && named_either_way(&steps, Effect::BodyOffset, Effect::WorldTilt));
-        assert!(named_either_way(&steps, Effect::MocapDelay, Effect::GyroDelay), "a removed step's pair too");
-        assert!(!named_either_way(&steps, Effect::BodyOffset, Effect::MocapDelay));
     }
 
     /// The pairs and notes of a search by hand (no frame effect selected, so no Gram matrix is
@@ -1075,20 +1067,10 @@ mod tests {
     /// `identifiability` → no pairs (and no notes) was caught only by whole flights.
     #[test]
     fn the_search_names_its_kept_rivals_and_a_negative_mocap_delay() {
-        let search = |mocap_delay_s: f64, selected: Vec<Effect>| Search {
-            selected,
-            state: Problem {
-                design: Design::default(),
-                train: Vec::new(),
-                test: Vec::new(),
-                grams: Vec::new(),
-                fit: Fit { set: Vec::new(), theta: vec![0.0; N_COLUMNS], theta_w: vec![0.0; N_COLUMNS], rss: 0.0, n: 0 },
-                cov: DMatrix::zeros(0, 0),
-            },
-            corr: Corrections { mocap_delay_s, ..Corrections::default() },
-            steps: vec![step(Effect::MocapDelay, Effect::GyroDelay), step(Effect::GyroBias, Effect::AccelBias)],
-            removed: vec![Removal { after_step: 2, check: scoreboard(Effect::GyroBias, false, 4.0) }],
-            final_candidates: Vec::new(),
+        let search = |mocap_delay_s: f64, selected: Vec<Effect>| {
+            let steps = vec![step(Effect::MocapDelay, Effect::GyroDelay), step(Effect::GyroBias, Effect::AccelBias)];
+            let removed = vec![Removal { after_step: 2, check: scoreboard(Effect::GyroBias, false, 4.0) }];
+            finished_search(selected, steps, removed, Vec::new(), mocap_delay_s)
         };
         let mut notes = Vec::new();
         let pairs = search(-0.003, vec![Effect::MocapDelay]).identifiability(12.0, &mut notes);
@@ -1105,6 +1087,82 @@ mod tests {
             let mut notes = Vec::new();
             search(delay, selected).identifiability(12.0, &mut notes);
             assert_eq!(notes.len(), 1, "{notes:?}");
+        }
+    }
+
+    /// The mocap world tilt and the body offset's roll/pitch differ only through yaw changes,
+    /// body rates and accelerations other than gravity. With either selected and no kept step
+    /// naming the pair, the search names it (the selected one first) when the flight's
+    /// canonical correlation between their columns exceeds 0.99. By hand, five samples: world
+    /// tilt column 0 = e1 and column 1 = e3; body offset column 0 = c·e1 + s·e2 (c² + s² = 1),
+    /// columns 1 and 2 = e4, e5; so ρ = c. Census of 33c1bbe, shards 74–86: this branch was held
+    /// only by whole flights (its conditions as `&&`/`||`/`!=` passed every unit test).
+    #[test]
+    fn the_frame_pair_is_named_when_their_columns_correlate_above_the_cut() {
+        let (wt, bo) = (set_of(&[Effect::WorldTilt]), set_of(&[Effect::BodyOffset]));
+        assert_eq!((wt.len(), bo.len()), (2, 3));
+        let grams = |c: f64| {
+            let s = (1.0 - c * c).sqrt();
+            let cols: Vec<usize> = wt.iter().chain(&bo).copied().collect();
+            // columns: wt0 wt1 bo0 bo1 bo2
+            let rows: [&[f64]; 5] = [&[1.0, 0.0, c, 0.0, 0.0], &[0.0, 0.0, s, 0.0, 0.0], &[0.0, 1.0, 0.0, 0.0, 0.0], &[0.0, 0.0, 0.0, 1.0, 0.0], &[0.0, 0.0, 0.0, 0.0, 1.0]];
+            vec![Gram::of_samples(&cols, &rows)]
+        };
+        let pairs = |c: f64, selected: Vec<Effect>, steps: Vec<Step>, removed: Vec<Removal>| {
+            let mut notes = Vec::new();
+            let pairs = finished_search(selected, steps, removed, grams(c), 0.0).identifiability(12.0, &mut notes);
+            (pairs.into_iter().map(|(a, b, rho)| (a, b, (rho * 1e4).round() / 1e4)).collect::<Vec<_>>(), notes)
+        };
+        let (bo_e, wt_e) = (Effect::BodyOffset, Effect::WorldTilt);
+        let (got, notes) = pairs(0.995, vec![bo_e], Vec::new(), Vec::new());
+        assert_eq!(got, [(bo_e, wt_e, 0.995)]);
+        assert_eq!(
+            notes,
+            [
+                "mocap world tilt and body offset roll/pitch are not identifiable apart in this flight (canonical correlation 0.9950, yaw spread 12.0°): they differ only through yaw changes, body rates and accelerations other than gravity"
+            ]
+        );
+        assert_eq!(pairs(0.995, vec![wt_e], Vec::new(), Vec::new()).0, [(wt_e, bo_e, 0.995)], "the world tilt selected");
+        assert_eq!(pairs(0.995, vec![Effect::GyroBias, wt_e, bo_e], Vec::new(), Vec::new()).0, [(bo_e, wt_e, 0.995)], "both selected");
+        assert_eq!(pairs(1.0, vec![bo_e], Vec::new(), Vec::new()).0, [(bo_e, wt_e, 1.0)]);
+        // under the cut, or with neither selected: nothing
+        assert_eq!(pairs(0.985, vec![bo_e], Vec::new(), Vec::new()), (Vec::new(), Vec::new()));
+        assert_eq!(pairs(0.995, vec![Effect::GyroBias], Vec::new(), Vec::new()), (Vec::new(), Vec::new()));
+        // a kept step that named the pair (either way round) names it once, with its own note
+        for (added, rival) in [(bo_e, wt_e), (wt_e, bo_e)] {
+            let (got, notes) = pairs(0.995, vec![added], vec![step(added, rival)], Vec::new());
+            assert_eq!(got, [(added, rival, 0.995)]);
+            assert_eq!(notes.len(), 1, "{notes:?}");
+            assert!(notes[0].contains("was chosen over"), "{notes:?}");
+        }
+        // a kept step naming another pair, even one with a frame effect in it (a body offset
+        // over an accelerometer bias, which tilt gravity alike at hover), does not stand for it
+        let (got, notes) = pairs(0.995, vec![bo_e], vec![step(bo_e, Effect::AccelBias)], Vec::new());
+        assert_eq!(got, [(bo_e, Effect::AccelBias, 0.995), (bo_e, wt_e, 0.995)]);
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        // a step the backward check removed names nothing: the frame check still does
+        let removed = vec![Removal { after_step: 2, check: scoreboard(wt_e, false, 4.0) }];
+        assert_eq!(pairs(0.995, vec![bo_e], vec![step(wt_e, bo_e)], removed).0, [(bo_e, wt_e, 0.995)]);
+    }
+
+    /// A finished search by hand for the `identifiability` tests: the selected effects, the
+    /// forward steps, the backward check's removals, the Grams the frame-pair check reads and
+    /// the mocap delay (s).
+    fn finished_search(selected: Vec<Effect>, steps: Vec<Step>, removed: Vec<Removal>, grams: Vec<Gram>, mocap_delay_s: f64) -> Search {
+        Search {
+            selected,
+            state: Problem {
+                design: Design::default(),
+                train: Vec::new(),
+                test: Vec::new(),
+                grams,
+                fit: Fit { set: Vec::new(), theta: vec![0.0; N_COLUMNS], theta_w: vec![0.0; N_COLUMNS], rss: 0.0, n: 0 },
+                cov: DMatrix::zeros(0, 0),
+            },
+            corr: Corrections { mocap_delay_s, ..Corrections::default() },
+            steps,
+            removed,
+            final_candidates: Vec::new(),
         }
     }
 
