@@ -122,6 +122,26 @@ mod tests {
         assert!((p.k_torque_m * (f + b - r - l) - tau[2]).abs() < 1e-12);
     }
 
+    /// With the rates on command (no error, no integral) the loop commands the gyroscopic
+    /// torque alone, ω × Jω = ((J_z − J_y)·q·r, (J_x − J_z)·p·r, (J_y − J_x)·p·q) (Euler's
+    /// equations), read back from the rotor speeds through the mixer. J = (0.01, 0.02, 0.04)
+    /// kg·m² and ω = (1, 2, 3) rad/s give (0.12, −0.09, 0.02) N·m. Census of 33c1bbe, shard 81:
+    /// J·ω's `*` as `+` was caught only by whole flights.
+    #[test]
+    fn on_command_the_loop_cancels_the_gyroscopic_torque() {
+        let mut p = VehicleParams::x3d();
+        p.inertia_kg_m2 = [0.01, 0.02, 0.04];
+        let mut rl = RateLoop::new(&p, 1e-3);
+        let w = Vec3::new(1.0, 2.0, 3.0);
+        let f = rl.rotor_speed_commands(&RateCommand { rates: w, thrust_n: 8.0 }, w).map(|x| p.k_thrust * x * x);
+        let [front, right, back, left] = f;
+        let tau = [p.arm_m * (left - right), p.arm_m * (front - back), p.k_torque_m * (front + back - right - left)];
+        for (got, want) in tau.iter().zip([0.12, -0.09, 0.02]) {
+            assert!((got - want).abs() < 1e-12, "{tau:?}");
+        }
+        assert!((f.iter().sum::<f64>() - 8.0).abs() < 1e-12, "{f:?}");
+    }
+
     /// The rate loop alone on a rigid yaw axis J·ṙ = τ_com + τ_d (rotor lag ignored: the
     /// torque acts at once, the loop at 1 kHz). With K_I = 0 the step torque τ_d leaves the rate
     /// error τ_d/(J·K_ω); with K_I > 0 the error decays to 0 and ∫e settles at τ_d/(J·K_I),

@@ -91,6 +91,40 @@ mod tests {
         assert_eq!(bartlett(0, 0), 1.0);
     }
 
+    /// Newey–West by hand for one parameter: two channel axes carry its column, a constant 2
+    /// (θ is half the mean); the second also carries another column, which the score must not
+    /// use. Axis weights w = 1/σ² are ¼ (σ = 2) and 1; residuals at θ = 0 are e₁ = (0.5, 0, 0,
+    /// 1, −0.5) and e₂ = (1, 2, 7, −1, 3); row 2 is held out. The scores summed per time sample,
+    /// u_t = 2·(¼·e₁ + e₂), are 2·(1.125, 2, held out, −0.75, 2.875), and G = Σ w·2²·n =
+    /// (¼ + 1)·4·4 = 20, so var = S/G² = 4·s/400 with s the sum for ¼·e₁ + e₂: Σu² = 14.09375
+    /// (0 lags); + 2·½·(u₁u₀ + u₄u₃) = 0.09375 (1 lag: pairs across the held-out row do not
+    /// count); with 2 lags ⅔ on lag 1 and ⅓ on u₃u₁ = −1.5: s = 14.09375 + 0.125 − 1 = 13.21875.
+    /// Census of 33c1bbe: every mutant of `hac` (the column lookup's `==` as `!=`, shard 80; the
+    /// score's and S's sums, shards 1–13) was caught only through `identify`'s end-to-end tests.
+    #[test]
+    fn the_variance_of_a_mean_summed_per_time_sample_with_bartlett_lags() {
+        let n = 5;
+        let f = Channel::Force.index();
+        let (one, other) = (cols_of(Effect::AccelBias).start, cols_of(Effect::ThrustScale).start);
+        let mut d = Design { n, ..Design::default() };
+        d.measured[f][0] = vec![0.5, 0.0, 0.0, 1.0, -0.5];
+        d.measured[f][2] = vec![1.0, 2.0, 7.0, -1.0, 3.0];
+        for a in [0, 2] {
+            d.predicted[f][a] = vec![0.0; n];
+        }
+        d.columns[f][0] = vec![(one, vec![2.0; n])];
+        d.columns[f][2] = vec![(other, vec![0.5, -1.0, 4.0, 2.0, 1.0]), (one, vec![2.0; n])];
+        let train = [true, true, false, true, true];
+        let test: Vec<bool> = train.iter().map(|t| !t).collect();
+        let gs = grams(&d, &train, &test, &[Ar::white(2.0), Ar::white(1.0)]);
+        let theta = vec![0.0; N_COLUMNS];
+        for (lags, s) in [(0, 14.09375), (1, 14.1875), (2, 13.21875)] {
+            let v = hac(&d, &train, &gs, &[one], &theta, lags);
+            assert_eq!(v.shape(), (1, 1));
+            assert!((v[(0, 0)] - s / 100.0).abs() < 1e-14, "{lags} lags: {} for {}", v[(0, 0)], s / 100.0);
+        }
+    }
+
     /// The thrust error's covariance in closed form. A relative error ε of the nominal thrust
     /// adds ε times the thrust-scale column c to the force z residual. With the thrust scale in
     /// the model that is exactly its own column, so its parameter moves by ε and the others not
