@@ -399,6 +399,17 @@ pub(crate) fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> Vehic
 mod tests {
     use super::*;
 
+    /// A report's angle: radians in, degrees out to four places with the unit; a rounding-level
+    /// negative prints as 0, not −0. Census of 33c1bbe, shards 82–83: `deg` → "" and → "xyzzy"
+    /// were caught only by whole flights.
+    #[test]
+    fn an_angle_is_reported_in_degrees_to_four_places() {
+        assert_eq!(deg(std::f64::consts::FRAC_PI_4), "45.0000°");
+        assert_eq!(deg(-0.5f64.to_radians()), "-0.5000°");
+        assert_eq!(deg(-(3e-5f64).to_radians()), "0.0000°");
+        assert_eq!(deg(-(2e-4f64).to_radians()), "-0.0002°");
+    }
+
     /// A report of asserted rows, written as `evaluate` writes them.
     fn report(passes: &[bool]) -> Report {
         let mut rows = Vec::new();

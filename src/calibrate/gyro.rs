@@ -1306,6 +1306,31 @@ mod tests {
         assert!((ratio - (3.0 * n - 6.0) / (3.0 * n - 8.0)).abs() < 1e-12, "{ratio} from {n} windows");
     }
 
+    /// The clock offset's interval is the residual's curvature: with one clock parameter (one
+    /// time block, so no drift) σ_δ² = 2·σ²/(∂²RSS/∂δ²), σ² = RSS₀/(3n − 7): 3n residual
+    /// components less the rotation's 3, the bias's 3 and the offset's 1 degrees of freedom.
+    /// Here the curvature by a central difference of 0.1 ms about the fitted offset (the fit's
+    /// own uses a quarter step, 0.25 ms) on 1 s of flight with a 13 ms offset: 21 windows, so
+    /// 3n − 7 = 56 against 3n − 5 = 58 or 3n + 5 = 68 moves σ_δ² by 3.6 % or more; the two
+    /// agree to 0.04 % (the tolerance is 1 %). Census of 33c1bbe,
+    /// shards 81–84: the degrees of freedom as 3n + 6 − extra, 3n − 6 + extra and 3n/6 − extra
+    /// passed every unit test (the tests bounded the clock's σ only from above).
+    #[test]
+    fn the_clock_offset_sigma_is_the_residual_variance_over_the_curvature() {
+        let search = ClockSearch::default();
+        let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
+        let (g, fit) = fly_for(gyro().estimate_clock(search), c, Nanos::from_millis(13), 0.0, 1000, 0..0);
+        let k = fit.unwrap().clock.unwrap();
+        let n = g.blocks.iter().map(|b| b.n).sum::<u64>() as f64;
+        assert!(g.blocks.len() == 1 && k.drift_ppm.is_none() && (15.0..40.0).contains(&n), "{} blocks, {n} windows", g.blocks.len());
+        let rss = |d: f64| g.fit(&g.pooled(&search, k.t_mean_s, d, 0.0).unwrap(), 1).unwrap().1;
+        let (d, h) = (k.offset_s, 1e-4);
+        let (r0, curvature) = (rss(d), (rss(d + h) - 2.0 * rss(d) + rss(d - h)) / (h * h));
+        let expected = 2.0 * r0 / (3.0 * n - 7.0) / curvature;
+        let ratio = k.offset_sigma_s.powi(2) / expected;
+        assert!(r0 > 0.0 && (ratio - 1.0).abs() < 0.01, "σ² {} s² against {expected} s² by hand ({n} windows, RSS {r0})", k.offset_sigma_s.powi(2));
+    }
+
     /// The partial-frame integral against closed forms: ω(s) = s (means −½, ½, 3/2) integrates
     /// to x²/2, ω(s) = s² (means 1/3, 1/3, 7/3) to x³/3; a whole frame gives its mean.
     #[test]

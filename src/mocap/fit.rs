@@ -305,6 +305,25 @@ mod tests {
         assert!(fit.rms_residual < 1e-12, "rms residual {} m", fit.rms_residual);
     }
 
+    /// A pattern grown by 1 + ε about its centroid and then moved, y_i = R·(1 + ε)·m_i + t: the
+    /// cross-covariance is (1 + ε)·S·Rᵀ with S = Σ a_i·a_iᵀ (a_i = m_i − m̄), so the fit is R, each
+    /// residual is −ε·R·a_i and the RMS residual is ε·√(Σ‖a_i‖²/n). A square of half-side 0.1 m
+    /// with ε = 0.02: 2 mm. Three of its markers (centroid (0, 0.1/3, 0)): Σ‖a_i‖² = 0.08/3 m²,
+    /// so 0.02·√(0.08/9) = 1.8856 mm. Census of 33c1bbe, shards 83–84: the RMS over n as
+    /// √(ss % n) (2× for four markers) passed every unit test.
+    #[test]
+    fn a_grown_pattern_leaves_its_growth_as_the_rms_residual() {
+        let square = [Vec3::<Body>::new(0.1, 0.0, 0.0), Vec3::new(0.0, 0.1, 0.0), Vec3::new(-0.1, 0.0, 0.0), Vec3::new(0.0, -0.1, 0.0)];
+        let truth: Rot<Body, Nav> = Rot::from_euler(Euler::new(0.3, -0.2, 2.5));
+        let t = Vec3::<Nav>::new(1.0, 2.0, 3.0);
+        let y: Vec<Vec3<Nav>> = square.iter().map(|p| Vec3::from_raw(truth.apply(*p).raw() * 1.02 + t.raw())).collect();
+        for (visible, rms) in [([true; 4], 0.002), ([true, true, true, false], 0.0018856180831641267)] {
+            let fit = rigid_fit(&square, &y, &visible).unwrap();
+            assert!((fit.rotation.inverse() * truth).angle() < 1e-12);
+            assert!((fit.rms_residual - rms).abs() < 1e-12, "{visible:?}: rms residual {} m, not {rms} m", fit.rms_residual);
+        }
+    }
+
     /// Markers on one line, whichever its direction (an axis, a diagonal in each coordinate
     /// plane, a general one), leave the rotation about it unknown: no fit. The spread test sums
     /// the three principal 2×2 minors of the spread, each of which is zero for a line, and a
