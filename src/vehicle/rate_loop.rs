@@ -96,30 +96,34 @@ impl RateLoop {
         }
         self.mix(cmd.thrust_n, torque).map(|f| (f / self.k_f).sqrt())
     }
-
-    /// The yaw torque the loop commands (through the mixer and back), for the unit tests.
-    #[cfg(test)]
-    fn mix_torque_for_test(&mut self, cmd: &RateCommand, gyro: Vec3<Body>) -> f64 {
-        let w = self.rotor_speed_commands(cmd, gyro);
-        let f = w.map(|x| self.k_f * x * x);
-        self.k_m * (f[0] + f[2] - f[1] - f[3])
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// The body torque (N·m) of rotor forces [front, right, back, left] (N) by the X3D's
+    /// geometry, written from the parameters (not the loop's copies): roll ℓ·(f_l − f_r),
+    /// pitch ℓ·(f_f − f_b), yaw k_m·(f_f + f_b − f_r − f_l).
+    fn body_torque(p: &VehicleParams, [front, right, back, left]: [f64; 4]) -> [f64; 3] {
+        [p.arm_m * (left - right), p.arm_m * (front - back), p.k_torque_m * (front + back - right - left)]
+    }
+
+    /// The rotor forces k_f·ω² (N) of rotor speed commands (rad/s).
+    fn forces(p: &VehicleParams, speeds: [f64; 4]) -> [f64; 4] {
+        speeds.map(|x| p.k_thrust * x * x)
+    }
+
     #[test]
     fn mixer_reproduces_requested_thrust_and_torque() {
         let p = VehicleParams::x3d();
         let rl = RateLoop::new(&p, 1e-3);
         let (t, tau) = (7.0, [0.05, -0.03, 0.01]);
-        let [f, r, b, l] = rl.mix(t, tau);
-        assert!((f + r + b + l - t).abs() < 1e-12);
-        assert!((p.arm_m * (l - r) - tau[0]).abs() < 1e-12);
-        assert!((p.arm_m * (f - b) - tau[1]).abs() < 1e-12);
-        assert!((p.k_torque_m * (f + b - r - l) - tau[2]).abs() < 1e-12);
+        let f = rl.mix(t, tau);
+        assert!((f.iter().sum::<f64>() - t).abs() < 1e-12);
+        for (got, want) in body_torque(&p, f).iter().zip(tau) {
+            assert!((got - want).abs() < 1e-12, "{f:?}");
+        }
     }
 
     /// With the rates on command (no error, no integral) the loop commands the gyroscopic
@@ -133,9 +137,8 @@ mod tests {
         p.inertia_kg_m2 = [0.01, 0.02, 0.04];
         let mut rl = RateLoop::new(&p, 1e-3);
         let w = Vec3::new(1.0, 2.0, 3.0);
-        let f = rl.rotor_speed_commands(&RateCommand { rates: w, thrust_n: 8.0 }, w).map(|x| p.k_thrust * x * x);
-        let [front, right, back, left] = f;
-        let tau = [p.arm_m * (left - right), p.arm_m * (front - back), p.k_torque_m * (front + back - right - left)];
+        let f = forces(&p, rl.rotor_speed_commands(&RateCommand { rates: w, thrust_n: 8.0 }, w));
+        let tau = body_torque(&p, f);
         for (got, want) in tau.iter().zip([0.12, -0.09, 0.02]) {
             assert!((got - want).abs() < 1e-12, "{tau:?}");
         }
@@ -159,8 +162,8 @@ mod tests {
             let cmd = RateCommand { rates: Vec3::zeros(), thrust_n: 7.0 };
             let mut r = 0.0;
             for _ in 0..10_000 {
-                let f = rl.mix_torque_for_test(&cmd, Vec3::new(0.0, 0.0, r));
-                r += (f + tau_d) / j * dt;
+                let tau = body_torque(&p, forces(&p, rl.rotor_speed_commands(&cmd, Vec3::new(0.0, 0.0, r))));
+                r += (tau[2] + tau_d) / j * dt;
             }
             (r, rl.integral[2], j)
         };

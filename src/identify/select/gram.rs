@@ -189,37 +189,33 @@ pub(super) fn add_at(to: &mut DMatrix<f64>, from: &DMatrix<f64>, at: &[(usize, u
     }
 }
 
-/// The raw (training) normal equations of a set of columns, summed over channel axes.
-pub(super) fn system_raw(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>) {
+/// The normal equations (G, b) of a set of columns summed over channel axes, from the sums
+/// `sums` reads off each axis's Gram: the raw (training) ones or the whitened ones.
+fn normal_equations(gs: &[Gram], set: &[usize], sums: impl Fn(&Gram) -> (&DMatrix<f64>, &DVector<f64>)) -> (DMatrix<f64>, DVector<f64>) {
     let k = set.len();
     let mut g = DMatrix::zeros(k, k);
     let mut b = DVector::zeros(k);
     for gr in gs {
+        let (g_axis, b_axis) = sums(gr);
         let at = positions(set, &gr.cols);
-        add_at(&mut g, &gr.g_r, &at);
+        add_at(&mut g, g_axis, &at);
         for &(p, i) in &at {
-            b[p] += gr.b_r[i];
+            b[p] += b_axis[i];
         }
     }
     (g, b)
 }
 
-/// The whitened normal equations of a set of columns, summed over channel axes.
+/// The raw (training) normal equations of a set of columns, summed over channel axes.
+pub(super) fn system_raw(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>) {
+    normal_equations(gs, set, |gr| (&gr.g_r, &gr.b_r))
+}
+
+/// The whitened normal equations of a set of columns, summed over channel axes, with the
+/// whitened Σy² and sample count.
 pub(super) fn system(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>, f64, usize) {
-    let k = set.len();
-    let mut g = DMatrix::zeros(k, k);
-    let mut b = DVector::zeros(k);
-    let (mut yy, mut n) = (0.0, 0);
-    for gr in gs {
-        yy += gr.yy_w;
-        n += gr.n_w;
-        let at = positions(set, &gr.cols);
-        add_at(&mut g, &gr.g_w, &at);
-        for &(p, i) in &at {
-            b[p] += gr.b_w[i];
-        }
-    }
-    (g, b, yy, n)
+    let (g, b) = normal_equations(gs, set, |gr| (&gr.g_w, &gr.b_w));
+    (g, b, gs.iter().fold(0.0, |yy, gr| yy + gr.yy_w), gs.iter().map(|gr| gr.n_w).sum())
 }
 
 /// A fit of a set of columns: the parameters by ordinary least squares (they minimise the
