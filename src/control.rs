@@ -181,7 +181,7 @@ mod tests {
         assert!((out.rates.raw() - omega).norm() < 1e-12, "{:?} vs {omega:?}", out.rates);
         assert!((out.thrust_n - 0.97 * 0.68 * GRAVITY / (phi.cos() * theta.cos())).abs() < 1e-12, "{}", out.thrust_n);
         // the sink the law expects, (1 − 0.97)·9.81 m/s² down the body z axis (census of 33c1bbe,
-        // shards 83–84: (1 − f)·g as (1 − f) + g and (1 − f)/g passed every test)
+        // shards 83–85: (1 − f)·g as (1 − f) + g, (1 − f)/g and (1 + f)·g passed every test)
         assert!((out.accel_com.raw() - Vector3::new(0.0, 0.0, 0.2943)).norm() < 1e-12, "{:?}", out.accel_com);
         let off = failsafe(&g, att, hold, 0.97, true);
         assert_eq!((off.rates, off.thrust_n), (Vec3::zeros(), 0.0));
