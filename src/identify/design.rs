@@ -773,16 +773,7 @@ mod tests {
             thrust_n: Some(vec![g; n]),
             vbat_v: None,
             segments: vec![(0, n)],
-            model: NominalModel {
-                vehicle: "test".into(),
-                mass_kg: 1.0,
-                rotor_drag_per_s: [0.0; 2],
-                rotor_radius_m: 0.1,
-                vbat_ref_v: 0.0,
-                gravity_m_s2: g,
-                thrust_rel_sd: 0.0,
-                imu_range: crate::vehicle::params::ImuRange::x3d(),
-            },
+            model: NominalModel::for_tests(g),
             repairs: Vec::new(),
         };
         let d = build(&s, &Corrections::default(), &DesignOptions::default());

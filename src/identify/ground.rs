@@ -827,16 +827,8 @@ mod tests {
             thrust_n: Some((0..n).map(|i| if i < rest_rows { 0.0 } else { fraction * G }).collect()),
             vbat_v: None,
             segments: vec![(0, n)],
-            model: NominalModel {
-                vehicle: "test".into(),
-                mass_kg: 1.0,
-                rotor_drag_per_s: [0.0; 2],
-                rotor_radius_m: 0.1,
-                vbat_ref_v: 3.7,
-                gravity_m_s2: G,
-                thrust_rel_sd: 0.0,
-                imu_range: crate::vehicle::params::ImuRange::x3d(),
-            },
+            // no battery column: the voltage reference is never read
+            model: NominalModel::for_tests(G),
             repairs: vec![],
         }
     }

@@ -27,6 +27,24 @@ pub struct NominalModel {
     pub imu_range: crate::vehicle::params::ImuRange,
 }
 
+#[cfg(test)]
+impl NominalModel {
+    /// The unit tests' vehicle: 1 kg, no rotor drag, a 0.1 m rotor, no voltage reference, an
+    /// exact thrust model and the X3D's IMU range, in gravity `g` (m/s²).
+    pub(crate) fn for_tests(g: f64) -> NominalModel {
+        NominalModel {
+            vehicle: "test".into(),
+            mass_kg: 1.0,
+            rotor_drag_per_s: [0.0; 2],
+            rotor_radius_m: 0.1,
+            vbat_ref_v: 0.0,
+            gravity_m_s2: g,
+            thrust_rel_sd: 0.0,
+            imu_range: crate::vehicle::params::ImuRange::x3d(),
+        }
+    }
+}
+
 /// One flight, resampled to nothing: samples as logged, each with a validity flag.
 #[derive(Clone, Debug)]
 pub struct Series {
