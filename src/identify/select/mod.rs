@@ -824,9 +824,10 @@ mod tests {
     /// test; the IMU reads Rᵀ(p̈ − g·e_D) and (0, 0, Ω) plus a ±0.01 m/s² alternation) whose
     /// markers sit turned by R_off = (0.6°, −0.4°, 1.0°): v_body = R_off·v_mocap_body, so the
     /// mocap reports R·R_off. With the body offset selected, three iterations bring
-    /// corr.body_offset to R_off (to 4·10⁻⁶°; the tolerance is 0.01°). Census of 33c1bbe, shards 84–85: the loop's stop
-    /// `it == iterations || !has_corrections` as `&&` (it never keeps a pass: `expect` panics)
-    /// and `==` as `!=` (it returns before folding) passed every unit test.
+    /// corr.body_offset to R_off (to 4·10⁻⁶°; the tolerance is 0.01°). Census of 33c1bbe,
+    /// shards 84–85: the loop's stop `it == iterations || !has_corrections` as `&&` (it never
+    /// keeps a pass: `expect` panics) and `==` as `!=` (it returns before folding) passed every
+    /// unit test.
     #[test]
     fn refine_folds_a_marker_offset_into_the_body_offset() {
         let (dt, n, a, nu, omega, g) = (0.005, 4000, 0.5, 2.0 * std::f64::consts::PI, 2.0, 9.81);
