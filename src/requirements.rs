@@ -398,6 +398,7 @@ pub(crate) fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> Vehic
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::clock::Nanos;
 
     /// A report's angle: radians in, degrees out to four places with the unit; a rounding-level
     /// negative prints as 0, not −0. Census of 33c1bbe, shards 82–83: `deg` → "" and → "xyzzy"
@@ -439,6 +440,49 @@ mod tests {
             "x3d      R4   why    n/a       -       not asserted",
         ];
         assert_eq!(Report { rows }.table(), want.map(|l| format!("{l}\n")).concat());
+    }
+
+    /// The one vehicle of `scenarios/fig6-roll-pitch-offsets.yaml` before its first tick: no
+    /// estimate yet, no phase flown; each test sets what it checks.
+    fn unflown() -> VehicleRun {
+        let s = crate::scenario::Scenario::parse(include_str!("../scenarios/fig6-roll-pitch-offsets.yaml"), std::path::Path::new("fig6-roll-pitch-offsets.yaml")).unwrap();
+        let mut v = crate::engine::Arena::new(&s, crate::engine::RunOptions::default()).finish().vehicles.remove(0);
+        v.phases.clear();
+        v
+    }
+
+    /// R1 by hand: the markers roll 1° and pitch −0.5°; the hover average reads 1.05° and
+    /// −0.7°, so roll is 0.05° off (within 0.1°: pass) and pitch 0.2° off (FAIL). Without a
+    /// hover average the row fails ("not calibrated"); with `calibrate_gyro` flown and no gyro
+    /// fit, the gyro yaw row fails; a straight-flight yaw without a tolerance is shown, not
+    /// asserted. Census of 33c1bbe, shard 87: `offsets` → () (no R1 row at all) was caught only
+    /// by whole flights.
+    #[test]
+    fn r1_holds_each_offset_to_its_tolerance_and_fails_a_missing_estimate() {
+        let r = OffsetsReq { roll_pitch_tol_deg: 0.1, yaw_tol_deg: 0.05, yaw_straight_flight_tol_deg: None };
+        let mut v = unflown();
+        (v.truth.euler.roll, v.truth.euler.pitch) = (1.0f64.to_radians(), (-0.5f64).to_radians());
+        v.calibration.roll_pitch = Some((1.05f64.to_radians(), (-0.7f64).to_radians(), 1000));
+        let mut rows = Vec::new();
+        offsets(&r, &v, &mut Rows { vehicle: "x3d", rows: &mut rows });
+        let got: Vec<_> = rows.iter().map(|x| (x.id, x.measured.as_str(), x.limit.as_str(), x.pass, x.asserted)).collect();
+        assert_eq!(got, [("R1", "0.0500°", "≤ 0.1000°", true, true), ("R1", "0.2000°", "≤ 0.1000°", false, true)]);
+        assert!(rows[0].what.starts_with("roll offset") && rows[1].what.starts_with("pitch offset"), "{rows:?}");
+
+        v.calibration.roll_pitch = None;
+        v.calibration.gyro = None;
+        v.phases = vec![(Nanos::ZERO, "calibrate_gyro"), (Nanos::from_millis(1), "calibrate_yaw")];
+        let mut rows = Vec::new();
+        offsets(&r, &v, &mut Rows { vehicle: "x3d", rows: &mut rows });
+        let got: Vec<_> = rows.iter().map(|x| (x.what.as_str(), x.limit.as_str(), x.pass, x.asserted)).collect();
+        assert_eq!(
+            got,
+            [
+                ("roll/pitch offsets", "≤ 0.1000°", false, true),
+                ("yaw offset, straight flight (8)–(9)", "none: unobservable in rate mode (README)", true, false),
+                ("yaw offset, gyro telemetry", "≤ 0.0500°", false, true),
+            ]
+        );
     }
 
     /// A report passes iff every row passes: one failing row among passing ones fails it, and
