@@ -455,8 +455,10 @@ mod tests {
     /// −0.7°, so roll is 0.05° off (within 0.1°: pass) and pitch 0.2° off (FAIL). Without a
     /// hover average the row fails ("not calibrated"); with `calibrate_gyro` flown and no gyro
     /// fit, the gyro yaw row fails; a straight-flight yaw without a tolerance is shown, not
-    /// asserted. Census of 33c1bbe, shard 87: `offsets` → () (no R1 row at all) was caught only
-    /// by whole flights.
+    /// asserted. Flown by an external controller, each missing estimate is shown with why.
+    /// Census of 33c1bbe: `offsets` → () (no R1 row at all, shard 87) and the guard
+    /// `None if v.external` as `true` and `false` (shards 88–89) were caught only by whole
+    /// flights.
     #[test]
     fn r1_holds_each_offset_to_its_tolerance_and_fails_a_missing_estimate() {
         let r = OffsetsReq { roll_pitch_tol_deg: 0.1, yaw_tol_deg: 0.05, yaw_straight_flight_tol_deg: None };
@@ -481,6 +483,22 @@ mod tests {
                 ("roll/pitch offsets", "≤ 0.1000°", false, true),
                 ("yaw offset, straight flight (8)–(9)", "none: unobservable in rate mode (README)", true, false),
                 ("yaw offset, gyro telemetry", "≤ 0.0500°", false, true),
+            ]
+        );
+
+        // flown by an external controller, the same missing estimates are its to report: shown
+        // with why, not failed (with a straight-flight tolerance set, that row too)
+        v.external = true;
+        let r = OffsetsReq { yaw_straight_flight_tol_deg: Some(0.5), ..r };
+        let mut rows = Vec::new();
+        offsets(&r, &v, &mut Rows { vehicle: "x3d", rows: &mut rows });
+        let got: Vec<_> = rows.iter().map(|x| (x.measured.as_str(), x.pass, x.asserted)).collect();
+        assert_eq!(
+            got,
+            [
+                ("the external controller reported no offset (FAOF)", true, false),
+                ("the external controller reported no yaw offset (FAOF)", true, false),
+                ("the external controller flies it: no built-in gyro fit", true, false),
             ]
         );
     }
