@@ -2,7 +2,7 @@
 # The census of issue 14's mutation score: every mutant of the list, all 90 shards of
 # scripts/mutants.sh, against one suite (one commit), so the score has no sampling error.
 #
-#   scripts/mutants-census.sh DIR [COMMIT]      # ~20-27 h on 2 cores, across sessions; restartable
+#   scripts/mutants-census.sh DIR [COMMIT]      # 31-51 min a shard on 2 cores (~60 h), across sessions; restartable
 #   python3 scripts/mutants-score.py --census [--survivors]
 #
 # The census's results live in the clone, in scripts/mutants-census.tsv (committed, one row per
