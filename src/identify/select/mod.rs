@@ -870,8 +870,8 @@ mod tests {
     /// data averages it away. On the [`swing`] the statistical part is at most ~3·10⁻¹⁰
     /// (a ±0.01 m/s² alternation over 4000 samples of a 9.81 m/s² column, 10⁻⁴/(4000·9.81²),
     /// before the Newey–West weights, which cancel an alternation further: 0 to rounding here),
-    /// so the variance is σ_T² to 10⁻⁶ of itself. Census of 33c1bbe, shard 87: the sum as a difference (a negative variance)
-    /// passed every unit test.
+    /// so the variance is σ_T² to 10⁻⁶ of itself. Census of 33c1bbe, shards 87–88: the sum as
+    /// a difference (a negative variance) and as a product passed every unit test.
     #[test]
     fn the_thrust_scales_variance_adds_the_thrust_systematic_to_the_statistical() {
         let mut s = swing(UnitQuaternion::identity());
