@@ -733,7 +733,6 @@ fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::series::NominalModel;
 
     /// A run of consecutive glitch rows is one glitch: one frame flags three rows, two frames
     /// four; rows two apart are two glitches.
@@ -747,35 +746,17 @@ mod tests {
         assert_eq!(glitch_events(&[0, 1, 2, 9, 10, 11, 40]), 3);
     }
 
-    /// A rigid body turning at a constant yaw rate Ω while it swings along north,
-    /// p(t) = (A·sin νt, 0, −1) m, R = R_z(Ωt); the IMU reads the exact specific force
-    /// Rᵀ(p̈ − g·e_D) and rate (0, 0, Ω), no noise. The smoothed IMU is K*(Rᵀ(p̈ − g·e_D)); the
+    /// A rigid body turning at a constant yaw rate Ω while it swings along north
+    /// ([`Series::swing_for_tests`] without its alternation), p(t) = (A·sin νt, 0, −1) m,
+    /// R = R_z(Ωt); the IMU reads the exact specific force Rᵀ(p̈ − g·e_D) and rate (0, 0, Ω),
+    /// no noise. The smoothed IMU is K*(Rᵀ(p̈ − g·e_D)); the
     /// mocap side must be the same to second order in σ. Rotating the smoothed p̈ instead
     /// (Rᵀ(K*p̈)) misses σ²·ω×(Rᵀ·jerk) + (σ²/2)·ω×(ω×Rᵀp̈): with A = 0.5 m, ν = 2π rad/s,
     /// Ω = 2 rad/s and σ = 20 ms that is 4·10⁻⁴·2·124 ≈ 0.1 m/s². What remains is the second
     /// difference's own error (νΔt)²/12·Aν² ≈ 1.6·10⁻³ m/s² and O(σ⁴) terms.
     #[test]
     fn the_mocap_specific_force_is_rotated_before_it_is_smoothed() {
-        let (dt, n, a, nu, omega, g) = (0.005, 4000, 0.5, 2.0 * std::f64::consts::PI, 2.0, 9.81);
-        let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
-        let att: Vec<UnitQuaternion<f64>> = t.iter().map(|t| UnitQuaternion::from_euler_angles(0.0, 0.0, omega * t)).collect();
-        let pos: Vec<Vector3<f64>> = t.iter().map(|t| Vector3::new(a * (nu * t).sin(), 0.0, -1.0)).collect();
-        let accel: Vec<Vector3<f64>> = t.iter().zip(&att).map(|(t, q)| q.inverse() * (Vector3::new(-a * nu * nu * (nu * t).sin(), 0.0, 0.0) - Vector3::new(0.0, 0.0, g))).collect();
-        let s = Series {
-            source: "swing".into(),
-            t_s: t,
-            pos_mocap_nav: pos,
-            att_mocap: att,
-            mocap_ok: vec![true; n],
-            gyro_body: vec![Vector3::new(0.0, 0.0, omega); n],
-            accel_body: accel,
-            // the motors run throughout: no floor, nothing masked for height
-            thrust_n: Some(vec![g; n]),
-            vbat_v: None,
-            segments: vec![(0, n)],
-            model: NominalModel::for_tests(g),
-            repairs: Vec::new(),
-        };
+        let s = Series::swing_for_tests(UnitQuaternion::identity(), 0.0);
         let d = build(&s, &Corrections::default(), &DesignOptions::default());
         let c = Channel::AccelKin.index();
         let mut worst: f64 = 0.0;

@@ -45,6 +45,40 @@ impl NominalModel {
     }
 }
 
+#[cfg(test)]
+impl Series {
+    /// The unit tests' exact rigid body: yaw turning at Ω = 2 rad/s while it swings along north,
+    /// p(t) = (A·sin νt, 0, −1) m with A = 0.5 m and ν = 2π rad/s, R = R_z(Ωt), for 20 s at
+    /// 200 Hz. The IMU reads the exact specific force Rᵀ(p̈ − g·e_D) plus an alternation of
+    /// ±`alternation_m_s2` on every axis (signs +, −, + at even rows) and the rate (0, 0, Ω);
+    /// the thrust is m·g (1 kg, the motors run throughout: no floor, nothing masked for height),
+    /// so the force channel's z residual is that alternation alone. The markers sit turned by
+    /// `r_off`: v_body = R_off·v_mocap_body, so the mocap reports R·R_off.
+    pub(crate) fn swing_for_tests(r_off: UnitQuaternion<f64>, alternation_m_s2: f64) -> Series {
+        let (dt, n, a, nu, omega, g) = (0.005, 4000, 0.5, 2.0 * std::f64::consts::PI, 2.0, 9.81);
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+        let att: Vec<UnitQuaternion<f64>> = t.iter().map(|t| UnitQuaternion::from_euler_angles(0.0, 0.0, omega * t)).collect();
+        let accel = t.iter().zip(&att).enumerate().map(|(i, (t, q))| {
+            let f = q.inverse() * (Vector3::new(-a * nu * nu * (nu * t).sin(), 0.0, 0.0) - Vector3::new(0.0, 0.0, g));
+            f + Vector3::new(1.0, -1.0, 1.0) * alternation_m_s2 * if i % 2 == 0 { 1.0 } else { -1.0 }
+        });
+        Series {
+            source: "swing".into(),
+            pos_mocap_nav: t.iter().map(|t| Vector3::new(a * (nu * t).sin(), 0.0, -1.0)).collect(),
+            att_mocap: att.iter().map(|q| q * r_off).collect(),
+            mocap_ok: vec![true; n],
+            gyro_body: vec![Vector3::new(0.0, 0.0, omega); n],
+            accel_body: accel.collect(),
+            thrust_n: Some(vec![g; n]),
+            vbat_v: None,
+            segments: vec![(0, n)],
+            t_s: t,
+            model: NominalModel::for_tests(g),
+            repairs: Vec::new(),
+        }
+    }
+}
+
 /// One flight, resampled to nothing: samples as logged, each with a validity flag.
 #[derive(Clone, Debug)]
 pub struct Series {

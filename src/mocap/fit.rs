@@ -310,8 +310,8 @@ mod tests {
     /// residual is −ε·R·a_i and the RMS residual is ε·√(Σ‖a_i‖²/n). A square of half-side 0.1 m
     /// with ε = 0.02: 2 mm. Three of its markers (centroid (0, 0.1/3, 0)): Σ‖a_i‖² = 0.08/3 m²,
     /// so 0.02·√(0.08/9) = 1.8856 mm (a growth about another point is one about the visible
-    /// markers' centroid plus a shift, which the translation absorbs). Census of 33c1bbe, shards 83–84: the RMS over n as
-    /// √(ss % n) (2× for four markers) passed every unit test.
+    /// markers' centroid plus a shift, which the translation absorbs). Census of 33c1bbe,
+    /// shards 83–84: the RMS over n as √(ss % n) (2× for four markers) passed every unit test.
     #[test]
     fn a_grown_pattern_leaves_its_growth_as_the_rms_residual() {
         let square = [Vec3::<Body>::new(0.1, 0.0, 0.0), Vec3::new(0.0, 0.1, 0.0), Vec3::new(-0.1, 0.0, 0.0), Vec3::new(0.0, -0.1, 0.0)];

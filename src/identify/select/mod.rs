@@ -819,45 +819,17 @@ fn ground(
 mod tests {
     use super::*;
 
-    /// An exact rigid body: yaw turning at 2 rad/s while it swings 0.5 m along north at 1 Hz
-    /// for 20 s at 200 Hz, as in `design`'s rotated-smoothing test. The IMU reads
-    /// Rᵀ(p̈ − g·e_D) and (0, 0, Ω) plus a ±0.01 m/s² alternation, the thrust is m·g (1 kg, so
-    /// the force channel's z residual is that alternation alone), and the markers sit turned by
-    /// `r_off`: v_body = R_off·v_mocap_body, so the mocap reports R·R_off.
-    fn swing(r_off: UnitQuaternion<f64>) -> Series {
-        let (dt, n, a, nu, omega, g) = (0.005, 4000, 0.5, 2.0 * std::f64::consts::PI, 2.0, 9.81);
-        let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
-        let att: Vec<UnitQuaternion<f64>> = t.iter().map(|t| UnitQuaternion::from_euler_angles(0.0, 0.0, omega * t)).collect();
-        let accel = t.iter().zip(&att).enumerate().map(|(i, (t, q))| {
-            let f = q.inverse() * (Vector3::new(-a * nu * nu * (nu * t).sin(), 0.0, 0.0) - Vector3::new(0.0, 0.0, g));
-            f + Vector3::new(0.01, -0.01, 0.01) * if i % 2 == 0 { 1.0 } else { -1.0 }
-        });
-        Series {
-            source: "swing".into(),
-            pos_mocap_nav: t.iter().map(|t| Vector3::new(a * (nu * t).sin(), 0.0, -1.0)).collect(),
-            att_mocap: att.iter().map(|q| q * r_off).collect(),
-            mocap_ok: vec![true; n],
-            gyro_body: vec![Vector3::new(0.0, 0.0, omega); n],
-            accel_body: accel.collect(),
-            thrust_n: Some(vec![g; n]),
-            vbat_v: None,
-            segments: vec![(0, n)],
-            t_s: t,
-            model: NominalModel::for_tests(g),
-            repairs: Vec::new(),
-        }
-    }
-
-    /// `refine` folds a correction over its iterations. The [`swing`] is seen through markers
-    /// turned by R_off = (0.6°, −0.4°, 1.0°); with the body offset selected, three iterations
-    /// bring corr.body_offset to R_off (to 4·10⁻⁶°; the tolerance is 0.01°). Census of 33c1bbe,
+    /// `refine` folds a correction over its iterations. The swing of [`Series::swing_for_tests`]
+    /// (a ±0.01 m/s² alternation on the IMU) is seen through markers turned by
+    /// R_off = (0.6°, −0.4°, 1.0°); with the body offset selected, three iterations bring
+    /// corr.body_offset to R_off (to 4·10⁻⁶°; the tolerance is 0.01°). Census of 33c1bbe,
     /// shards 84–85: the loop's stop `it == iterations || !has_corrections` as `&&` (it never
     /// keeps a pass: `expect` panics) and `==` as `!=` (it returns before folding) passed every
     /// unit test.
     #[test]
     fn refine_folds_a_marker_offset_into_the_body_offset() {
         let r_off = UnitQuaternion::from_euler_angles(0.6f64.to_radians(), -0.4f64.to_radians(), 1.0f64.to_radians());
-        let s = swing(r_off);
+        let s = Series::swing_for_tests(r_off, 0.01);
         let mut corr = Corrections::default();
         refine(&s, &Options::default(), &mut corr, &[Effect::BodyOffset], 3);
         let err = (corr.body_offset.inverse() * r_off).angle().to_degrees();
@@ -867,14 +839,14 @@ mod tests {
     /// The final fit's covariance is the statistical (Newey–West) one plus the thrust
     /// systematic, added (see `covariance::thrust_systematic`): with the thrust scale in the
     /// model, a nominal thrust known to σ_T = 5 % adds σ_T² = 0.0025 to its variance, and no
-    /// data averages it away. On the [`swing`] the statistical part is at most ~3·10⁻¹⁰
-    /// (a ±0.01 m/s² alternation over 4000 samples of a 9.81 m/s² column, 10⁻⁴/(4000·9.81²),
+    /// data averages it away. On [`Series::swing_for_tests`] the statistical part is at most
+    /// ~3·10⁻¹⁰ (a ±0.01 m/s² alternation over 4000 samples of a 9.81 m/s² column, 10⁻⁴/(4000·9.81²),
     /// before the Newey–West weights, which cancel an alternation further: 0 to rounding here),
     /// so the variance is σ_T² to 10⁻⁶ of itself. Census of 33c1bbe, shards 87–88: the sum as
     /// a difference (a negative variance) and as a product passed every unit test.
     #[test]
     fn the_thrust_scales_variance_adds_the_thrust_systematic_to_the_statistical() {
-        let mut s = swing(UnitQuaternion::identity());
+        let mut s = Series::swing_for_tests(UnitQuaternion::identity(), 0.01);
         s.model.thrust_rel_sd = 0.05;
         let p = refine(&s, &Options::default(), &mut Corrections::default(), &[Effect::ThrustScale], 3);
         assert_eq!(p.cov.shape(), (1, 1));
