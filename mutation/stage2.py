@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Stage 2 of scripts/mutants.sh: every mutant that the unit tests missed (stage 1, cargo
+"""Stage 2 of mutation/mutants.sh: every mutant that the unit tests missed (stage 1, cargo
 mutants' outcomes.json) is applied to the tree, the whole suite is run against it, and the tree
 is restored. Prints and appends to OUT/suite.txt one line per mutant:
 caught|missed|timeout <TAB> name <TAB> the first failing test (for a caught mutant; "-" else).
@@ -10,21 +10,19 @@ installed), so stage 2 stops there with exit 1 and writes no verdict.
 
 A failure is confirmed before it counts: the first failing test is run again alone, the mutant
 still applied. A test that fails in the suite and passes alone failed for something else than
-the mutant (a flaky test: census shard 0 under ec82c47 counted `<` as `<=` on a 1e-15 stopping
-step caught by a network test); the suite then runs once more, and a mutant with no confirmed
+the mutant (a flaky test, such as a network test on a loaded machine); the suite then runs once more, and a mutant with no confirmed
 failure after that is missed, its line saying which test failed unconfirmed.
 
 A stage-1 "unviable" whose build log holds no rustc error (`error[E`) failed at the link, a
-fault of incremental compilation (rust-lang/rust#81280: census shard 0 under 54ef21a had three,
-which the ec82c47 run had built and counted caught): it is built again without incremental
+fault of incremental compilation (rust-lang/rust#81280): it is built again without incremental
 compilation and judged like a missed mutant (its line says "rebuilt without incremental"), and
 stays unviable only if that build fails too. Likewise a failure that names no test is
 confirmed only by a non-incremental rebuild failing again.
 
-    python3 scripts/mutants-stage2.py mutants.out [--every K] [--quick FILTER]
+    python3 mutation/stage2.py mutants.out [--every K] [--quick FILTER]
 
 --every K runs a deterministic sample: every K-th missed mutant, from the first (for a large
-`--in-diff` run whose stage 1 misses more than a session can rerun). --quick FILTER first runs
+`--in-diff` run whose stage 1 misses more than there is time to rerun). --quick FILTER first runs
 only the acceptance tests whose names match FILTER (e.g. `identify::`): a mutant they catch is
 caught, and only a mutant they miss is run against the whole suite, so a "missed" verdict is
 always the whole suite's.
@@ -121,7 +119,7 @@ rebuilt = [o for o in d['outcomes'] if link_fault(o)]
 if missed or rebuilt:
     rc, failing, _ = suite()
     if rc != 0:
-        # session 30: a real-time test failed here on an overloaded machine, and its message was lost
+        # keep the output: a real-time test can fail on an overloaded machine
         path = os.path.join(out, 'baseline-suite.log')
         with open(path, 'w') as log:
             log.write(LAST_OUTPUT[0])

@@ -1,14 +1,14 @@
 #!/usr/bin/env python3
-"""The mutation score of the shards measured so far (scripts/mutants-shards.tsv), with its sample.
+"""The mutation score of the shards measured so far (mutation/shards.tsv), with its sample.
 
-    python3 scripts/mutants-score.py            # every shard
-    python3 scripts/mutants-score.py --from 13  # shards 13 on
-    python3 scripts/mutants-score.py --coverage # the intervals' coverage, measured by simulation
-    python3 scripts/mutants-score.py --from 24 --alpha 0.025  # look 1 of scripts/mutants-plan.md
-    python3 scripts/mutants-score.py --census [--survivors]  # scripts/mutants-census.tsv's count
-    python3 scripts/mutants-score.py --bound-at 0.923 1410 --alpha 0.00078125  # a look projected
+    python3 mutation/score.py            # every shard
+    python3 mutation/score.py --from 13  # shards 13 on
+    python3 mutation/score.py --coverage # the intervals' coverage, measured by simulation
+    python3 mutation/score.py --from 24 --alpha 0.025  # shards 24 on, a one-sided 97.5 % bound
+    python3 mutation/score.py --census [--survivors]  # mutation/census.tsv's count
+    python3 mutation/score.py --bound-at 0.923 1410 --alpha 0.00078125  # a look projected
 
-A shard is a deterministic round-robin sample (every 90th mutant of the issue-14 list), so the
+A shard is a deterministic round-robin sample (every 90th mutant of the list of mutation/mutants.sh), so the
 viable mutants of the shards together are a sample of the population's viable mutants. Printed:
 the pooled score at measurement (each shard against the suite of its day, before its survivors
 led to tests: the estimate for mutants the suite was not tuned on), its Wilson 95 % interval,
@@ -81,14 +81,15 @@ def coverage(n, p, alpha=0.05, draws=DRAWS, seed=14):
 
 
 SHARDS = 90
-CENSUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "mutants-census.tsv")
+CENSUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "census.tsv")
+SHARDS_TABLE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "shards.tsv")
 STAGE1 = {"CaughtMutant": "caught", "MissedMutant": "missed", "Unviable": "unviable", "Timeout": "timeout"}
 
 
 def census_rows(shard_dir, k):
-    """One finished shard of scripts/mutants-census.sh as rows of scripts/mutants-census.tsv:
+    """One finished shard of mutation/census.sh as rows of mutation/census.tsv:
     shard, verdict (caught, missed, timeout, unviable), the stage that gave it (1: the unit
-    tests in cargo mutants; 2: the whole suite, scripts/mutants-stage2.py, for each mutant stage
+    tests in cargo mutants; 2: the whole suite, mutation/stage2.py, for each mutant stage
     1 missed), the mutant, and for a caught mutant the first failing test (confirmed alone),
     for a missed one the tests that failed in the suite but passed alone (or "-")."""
     d = json.load(open(os.path.join(shard_dir, "outcomes.json"), encoding="utf-8"))
@@ -152,20 +153,27 @@ def census(table, survivors=False):
         state = "the score: every mutant of the list" if done == list(range(SHARDS)) else "progress, not the score: the census decides when all shards are done"
         print(f"caught: {caught} of {n} = {100 * caught / n:.1f} % ({state})")
         print(f"by stage: {sum(r[1] == 'caught' and r[2] == '1' for r in rows)} by the unit tests, {sum(r[1] == 'caught' and r[2] == '2' for r in rows)} by the whole suite; not caught: {sum(r[1] == 'missed' for r in rows)} missed ({sum(r[4].startswith('unconfirmed') for r in rows)} of them failed a test that then passed alone), {sum(r[1] == 'timeout' for r in rows)} timeouts")
+        # the shards no earlier sample measured: mutants the suite was never tuned on
+        sampled = {int(x.split("\t")[0]) for x in open(SHARDS_TABLE, encoding="utf-8") if x[:1].isdigit()}
+        fresh = [r for r in rows if int(r[0]) not in sampled and r[1] != "unviable"]
+        if fresh:
+            kf = sum(r[1] == "caught" for r in fresh)
+            lo, hi = wilson(kf, len(fresh))
+            print(f"on the {len(set(r[0] for r in fresh))} shards never sampled before the census (mutants the suite was not tuned on): {kf} of {len(fresh)} = {100 * kf / len(fresh):.1f} % (Wilson 95 %: {100 * lo:.1f}-{100 * hi:.1f} %)")
     if survivors:
         print("\n".join(f"{r[0]}\t{r[1]}\t{r[3]}" for r in rows if r[1] in ("missed", "timeout")))
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--census", nargs="?", const=CENSUS, metavar="TABLE", help="count the census (scripts/mutants-census.tsv unless TABLE) instead of the shards table")
+    ap.add_argument("--census", nargs="?", const=CENSUS, metavar="TABLE", help="count the census (mutation/census.tsv unless TABLE) instead of the shards table")
     ap.add_argument("--survivors", action="store_true", help="with --census: list the viable mutants not caught")
-    ap.add_argument("--census-add", nargs=3, metavar=("SHARD_DIR", "K", "TABLE"), help="append finished shard K (scripts/mutants-census.sh) to the census TABLE")
+    ap.add_argument("--census-add", nargs=3, metavar=("SHARD_DIR", "K", "TABLE"), help="append finished shard K (mutation/census.sh) to the census TABLE")
     ap.add_argument("--bound-at", nargs=2, type=float, metavar=("P", "N"), help="the one-sided lower bound (at --alpha) of round(P·N) caught of N: a later look projected at the rate P")
     ap.add_argument("--from", dest="first", type=int, default=None, help="first shard to include")
     ap.add_argument("--to", dest="last", type=int, default=None, help="last shard to include")
-    ap.add_argument("--table", default=os.path.join(os.path.dirname(__file__), "mutants-shards.tsv"))
-    ap.add_argument("--alpha", type=float, default=0.05, help="one-sided level of the lower bound (scripts/mutants-plan.md spends 0.05 over repeated looks)")
+    ap.add_argument("--table", default=SHARDS_TABLE)
+    ap.add_argument("--alpha", type=float, default=0.05, help="one-sided level of the lower bound")
     ap.add_argument("--coverage", action="store_true", help="measure the intervals' coverage at the pooled sample size")
     a = ap.parse_args()
     if a.census_add:
@@ -180,7 +188,7 @@ def main():
     for line in open(a.table, encoding="utf-8"):
         if line.startswith("#") or line.startswith("shard") or not line.strip():
             continue
-        shard, session, mutants, unviable, viable, at, now = (int(x) for x in line.split("\t"))
+        shard, mutants, unviable, viable, at, now = (int(x) for x in line.split("\t"))
         if viable != mutants - unviable or not 0 <= at <= viable or not 0 <= now <= viable:
             raise SystemExit(f"{a.table}: shard {shard}: inconsistent counts")
         if (a.first is None or shard >= a.first) and (a.last is None or shard <= a.last):

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# A deterministic mutation sample of the modules issue 14 names, affordable on 2 cores.
+# A deterministic mutation sample of the modules in `files` below, affordable on 2 cores.
 #
-#   scripts/mutants.sh 12 90     # shard 12 of 90: every 90th mutant (round-robin), ~47 of ~4,200
+#   mutation/mutants.sh 12 90     # shard 12 of 90: every 90th mutant (round-robin), ~47 of ~4,200
 #
 # Two stages, so that a mutant costs seconds rather than minutes:
 #  1. `cargo mutants` with the `mutants` profile (Cargo.toml: this crate at opt-level 1,
@@ -12,8 +12,7 @@
 # The tree is mutated in place (cargo-mutants and stage 2 restore it): do not edit while it
 # runs. Results: mutants.out/{caught,missed,unviable,timeout}.txt for stage 1,
 # mutants.out/suite.txt for stage 2 (verdict, mutant and the first failing test, confirmed alone, after a baseline
-# run of the unmutated suite: `scripts/mutants-stage2.py`). Survivors go to
-# scripts/mutants-survivors.txt with a reason each (equivalent, or accepted and why).
+# run of the unmutated suite: `mutation/stage2.py`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shard="${1:-0}"
@@ -29,11 +28,10 @@ for f in "${files[@]}"; do
     fi
 done
 # stage 1. Exit 2 means "some mutants were missed", which stage 2 decides; 3, "some timed out",
-# takes precedence over 2 (a shard with a timeout and misses exits 3: shard 53 stopped here
-# before stage 2 until this read both); anything else is a harness fault.
+# takes precedence over 2 (a shard with a timeout and misses exits 3); anything else is a harness fault.
 cargo mutants --in-place --profile mutants --timeout 300 "${args[@]}" --shard "$shard/$of" --sharding round-robin -- --lib || {
     rc=$?
     [ "$rc" -eq 2 ] || [ "$rc" -eq 3 ]
 }
 # stage 2: the whole suite against each mutant stage 1 missed
-python3 scripts/mutants-stage2.py mutants.out
+python3 mutation/stage2.py mutants.out

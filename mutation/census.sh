@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
-# The census of issue 14's mutation score: every mutant of the list, all 90 shards of
-# scripts/mutants.sh, against one suite (one commit), so the score has no sampling error.
+# The mutation census: every mutant of the list, all 90 shards of
+# mutation/mutants.sh, against one suite (one commit), so the score has no sampling error.
 #
-#   scripts/mutants-census.sh DIR [COMMIT]      # 31-51 min a shard on 2 cores (~60 h), across sessions; restartable
-#   python3 scripts/mutants-score.py --census [--survivors]
+#   mutation/census.sh DIR [COMMIT]      # 31-51 min a shard on 2 cores (~60 h); restartable
+#   python3 mutation/score.py --census [--survivors]
 #
-# The census's results live in the clone, in scripts/mutants-census.tsv (committed, one row per
+# The census's results live in the clone, in mutation/census.tsv (committed, one row per
 # mutant; its first line names the commit and the cargo-mutants version): a machine's caches
-# do not outlive a session, so a finished shard counts only once it is in that table. A shard
+# may not outlive a run, so a finished shard counts only once it is in that table. A shard
 # enters the table whole, after both stages finished; run again (on any machine), the census
 # skips the shards the table holds and starts the others from their beginning. It refuses a
 # COMMIT or a cargo-mutants version other than the table's (one census, one suite, one list).
@@ -20,11 +20,11 @@
 # (default: the clone's ../shared/data).
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
-dir="$(realpath -m "${1:?usage: scripts/mutants-census.sh DIR [COMMIT]}")"
+dir="$(realpath -m "${1:?usage: mutation/census.sh DIR [COMMIT]}")"
 case "$dir/" in
 "$here"/*) echo "mutants-census: $dir is inside the clone ($here); name a folder outside it" >&2; exit 2 ;;
 esac
-table="$here/scripts/mutants-census.tsv"
+table="$here/mutation/census.tsv"
 commit="$(git -C "$here" rev-parse --verify "${2:-HEAD}^{commit}")"
 version="$(cargo mutants --version)"
 head="# census of $commit ($version)"
@@ -34,7 +34,7 @@ if [ -e "$table" ]; then
         exit 2
     fi
 else
-    printf '%s\n%s\n' "$head" "# shard	verdict	stage	mutant	first failing test (scripts/mutants-score.py --census counts it)" > "$table"
+    printf '%s\n%s\n' "$head" "# shard	verdict	stage	mutant	first failing test (mutation/score.py --census counts it)" > "$table"
 fi
 mkdir -p "$dir"
 if [ "$(cat "$dir/COMMIT" 2> /dev/null)" != "$commit" ]; then
@@ -53,15 +53,15 @@ eval "$(grep '^PY_CLIENTS=' "$dir/tree/.ci/run")"
 python3 -m pip install --quiet --disable-pip-version-check $PY_CLIENTS \
   || python3 -m pip install --quiet --disable-pip-version-check --break-system-packages $PY_CLIENTS
 mkdir -p "$dir/shards"
-# A census killed mid-build (a session's end stops it) can leave this crate's incremental cache
-# half written: the next baseline build then fails to link ("undefined hidden symbol", shard 15
-# in session 29) and no mutant is tested. Start every run from this crate's clean artefacts
+# A census killed mid-build can leave this crate's incremental cache
+# half written: the next baseline build then fails to link ("undefined hidden symbol")
+# and no mutant is tested. Start every run from this crate's clean artefacts
 # (the dependencies stay built; about two minutes).
 (cd "$dir/tree" && cargo clean --quiet --profile mutants -p flyarena)
 rm -rf "$dir/target/mutants/incremental"
 for k in $(seq 0 89); do
     # awk reads the whole table: `cut | grep -q` under pipefail failed whenever grep's early exit
-    # broke cut's pipe (3 in 200 for a 190 kB table), and session 32's restart began shard 3 again
+    # broke cut's pipe (3 in 200 for a 190 kB table), and a restart began a finished shard again
     if awk -F '\t' -v k="$k" '$1 == k { found = 1 } END { exit !found }' "$table"; then continue; fi
     # Stage 2 first runs the suite without a mutant and gives no verdict if that fails. The
     # commit's suite has tests that can fail on a loaded machine (33c1bbe: a sweep named the bad
@@ -73,8 +73,8 @@ for k in $(seq 0 89); do
         git -C "$dir/tree" checkout -q -- .
         git -C "$dir/tree" clean -q -fdx
         rm -rf "$dir/shards/$k"
-        echo "census shard $k of 90: start $(date -u +%FT%TZ)"
-        if "$dir/tree/scripts/mutants.sh" "$k" 90 > "$dir/shards/$k.log" 2>&1; then
+        echo "mutants-census: shard $k of 90: start $(date -u +%FT%TZ)"
+        if "$dir/tree/mutation/mutants.sh" "$k" 90 > "$dir/shards/$k.log" 2>&1; then
             break
         fi
         if [ "$attempt" -lt 3 ] && grep -q "the suite fails without a mutant" "$dir/shards/$k.log"; then
@@ -83,7 +83,7 @@ for k in $(seq 0 89); do
             if [ -f "$dir/tree/mutants.out/baseline-suite.log" ]; then
                 mv "$dir/tree/mutants.out/baseline-suite.log" "$dir/shards/$k.baseline-$attempt.suite.log"
             fi
-            echo "census shard $k of 90: stage 2's baseline failed ($(grep -o 'the suite fails without a mutant.*' "$dir/shards/$k.baseline-$attempt.log" | head -n 1)); the shard starts again"
+            echo "mutants-census: shard $k of 90: stage 2's baseline failed ($(grep -o 'the suite fails without a mutant.*' "$dir/shards/$k.baseline-$attempt.log" | head -n 1)); the shard starts again"
             continue
         fi
         echo "mutants-census: shard $k failed (its log: $dir/shards/$k.log)" >&2
@@ -97,7 +97,7 @@ for k in $(seq 0 89); do
         git -C "$dir/tree" status --porcelain >&2
         exit 1
     fi
-    python3 "$here/scripts/mutants-score.py" --census-add "$dir/shards/$k" "$k" "$table"
-    echo "census shard $k of 90: done $(date -u +%FT%TZ)"
+    python3 "$here/mutation/score.py" --census-add "$dir/shards/$k" "$k" "$table"
+    echo "mutants-census: shard $k of 90: done $(date -u +%FT%TZ)"
 done
-python3 "$here/scripts/mutants-score.py" --census "$table"
+python3 "$here/mutation/score.py" --census "$table"
