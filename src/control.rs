@@ -164,11 +164,10 @@ mod tests {
         assert_eq!(failsafe(&g, att, 0.0, 0.97, true).thrust_n, 0.0);
     }
 
-    /// The failsafe law by hand, rolled, pitched and off its held yaw, with a gain per axis:
-    /// Euler rates (−k_φ·φ, −k_θ·θ, k_ψ·(ψ_hold − ψ)) mapped to body rates by
-    /// ω = φ̇·x̂ + R_x(φ)ᵀ·(θ̇·ŷ + R_y(θ)ᵀ·ψ̇·ẑ) (derived independently of `t_w_inv`), and
-    /// thrust f·m·g/(cos φ·cos θ); with the motors off, no rates and no thrust. Census of
-    /// 33c1bbe, shard 64: the roll term k_φ/(−φ) passed every unit test (the test above
+    /// The failsafe law by hand, rolled, pitched and off its held yaw, with a gain per axis: Euler
+    /// rates (−k_φ·φ, −k_θ·θ, k_ψ·(ψ_hold − ψ)) mapped to body rates by ω = φ̇·x̂ + R_x(φ)ᵀ·(θ̇·ŷ +
+    /// R_y(θ)ᵀ·ψ̇·ẑ) (derived independently of `t_w_inv`), and thrust f·m·g/(cos φ·cos θ); with the
+    /// motors off, no rates and no thrust. A bug it catches: the roll term k_φ/(−φ) (the test above
     /// checked only the roll rate's sign).
     #[test]
     fn failsafe_rates_and_thrust_by_hand_off_level() {
@@ -180,8 +179,8 @@ mod tests {
         let omega = body_rates_by_hand(phi, theta, euler_rates);
         assert!((out.rates.raw() - omega).norm() < 1e-12, "{:?} vs {omega:?}", out.rates);
         assert!((out.thrust_n - 0.97 * 0.68 * GRAVITY / (phi.cos() * theta.cos())).abs() < 1e-12, "{}", out.thrust_n);
-        // the sink the law expects, (1 − 0.97)·9.81 m/s² down the body z axis (census of 33c1bbe,
-        // shards 83–85: (1 − f)·g as (1 − f) + g, (1 − f)/g and (1 + f)·g passed every test)
+        // the sink the law expects, (1 − 0.97)·9.81 m/s² down the body z axis (a bug it catches: (1
+        // − f)·g as (1 − f) + g, (1 − f)/g and (1 + f)·g)
         assert!((out.accel_com.raw() - Vector3::new(0.0, 0.0, 0.2943)).norm() < 1e-12, "{:?}", out.accel_com);
         let off = failsafe(&g, att, hold, 0.97, true);
         assert_eq!((off.rates, off.thrust_n), (Vec3::zeros(), 0.0));

@@ -166,7 +166,7 @@ impl Effect {
             Effect::AccelMisalignment => &[("roll", "deg", DEG), ("pitch", "deg", DEG)],
             // z only: in flight the body x and y specific force is drag alone (a few 0.1 m/s²),
             // no larger than the noise of either sensor, and a regression on either one draws
-            // the scale toward ±1 (errors in variables; README, *Hypotheses tested*)
+            // the scale toward ±1 (errors in variables; docs/nanobench.md, *Hypotheses tested*)
             Effect::AccelScale => &[("z", "%", 100.0)],
             Effect::ThrustTilt => &[("roll", "deg", DEG), ("pitch", "deg", DEG)],
             Effect::ClockDrift => &[("rate", "ms/min", 60e3)],
@@ -191,17 +191,17 @@ impl Effect {
     }
     /// Whether the selection searches for it by default. The gyro delay is a hypothesis to test
     /// (`--with gyro_delay`), not searched: on the NanoBench flights it cuts no held-out error
-    /// (README, *Hypotheses tested on the real flights*), and its gyro column is the mocap
+    /// (docs/nanobench.md, *Hypotheses tested on the real flights*), and its gyro column is the mocap
     /// delay's, so searching for both leaves a mocap delay not identifiable wherever the
     /// accelerometer's ḟ is too weak to separate them (25 of 29 found in 300 trial flights).
     /// The accelerometer's misalignment and z scale, the thrust tilt and the clock drift are
-    /// hypotheses the real flights do not support (README, *Four more hypotheses*): the first
+    /// hypotheses the real flights do not support (docs/nanobench.md, *Four more hypotheses*): the first
     /// and the third share the force channel's column, the misalignment's accel_kin column is
     /// the body offset's, and none cut a held-out error on the NanoBench flights.
     ///
     /// The IMU's offset from the centre of mass is real on the NanoBench flights (2.6 ± 0.3 mm
     /// below it, the same on 68 held-out flights) but a few millimetres: it removes the force
-    /// channel's commonest lead and cuts the held-out force error by under 2 % (README, *The IMU
+    /// channel's commonest lead and cuts the held-out force error by under 2 % (docs/nanobench.md, *The IMU
     /// off the centre of mass*).
     pub fn searched(self) -> bool {
         !matches!(self, Effect::GyroDelay | Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift | Effect::ImuOffset)

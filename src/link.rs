@@ -209,8 +209,8 @@ mod tests {
 
     /// The receiver's counts by hand: frames 0, 1 and 5 sent at 0, 5 and 30 ms arrive 20 ms
     /// later, at 20, 25 and 50 ms, so the gaps between deliveries are 5 and 25 ms (the longest
-    /// 25 ms), and 2, 3 and 4 are missing (one run of 3). Shard 55: `now − prev` as `now + prev`
-    /// passed the tests, which bounded the longest gap only from below.
+    /// 25 ms), and 2, 3 and 4 are missing (one run of 3). The longest gap is pinned from both sides: `now + prev`
+    /// for `now − prev` fails it.
     #[test]
     fn the_longest_gap_and_missing_run_by_hand() {
         let mut l = link(LossModel::NONE, 0);

@@ -249,9 +249,9 @@ mod tests {
         assert!((t - 6.67).abs() <= 24.0 / 255.0 / 2.0);
     }
 
-    /// The receiver holds idle until the latency has passed, then the frame until the next;
-    /// the radio remembers the frame it sent last (the log's `ppm` column) from the moment it
-    /// is sent (census of 33c1bbe, shard 63: `last_sent` as None passed every unit test).
+    /// The receiver holds idle until the latency has passed, then the frame until the next; the
+    /// radio remembers the frame it sent last (the log's `ppm` column) from the moment it is sent
+    /// (a bug it catches: `last_sent` as None).
     #[test]
     fn receiver_holds_the_last_frame_after_latency() {
         let mut r = radio();

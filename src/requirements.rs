@@ -176,7 +176,7 @@ fn offsets(r: &OffsetsReq, v: &VehicleRun, out: &mut Rows) {
                 let tol = t.to_radians();
                 out.row("R1", what, measured, format!("≤ {}", deg(tol)), err.is_some_and(|e| e <= tol));
             }
-            None => out.shown("R1", what, measured, "none: unobservable in rate mode (README)".into()),
+            None => out.shown("R1", what, measured, "none: unobservable in rate mode (docs/findings.md)".into()),
         }
     }
     if flies("calibrate_gyro") {
@@ -401,8 +401,7 @@ mod tests {
     use crate::clock::Nanos;
 
     /// A report's angle: radians in, degrees out to four places with the unit; a rounding-level
-    /// negative prints as 0, not −0. Census of 33c1bbe, shards 82–83: `deg` → "" and → "xyzzy"
-    /// were caught only by whole flights.
+    /// negative prints as 0, not −0. A bug it catches: `deg` → "" and → "xyzzy".
     #[test]
     fn an_angle_is_reported_in_degrees_to_four_places() {
         assert_eq!(deg(std::f64::consts::FRAC_PI_4), "45.0000°");
@@ -422,9 +421,8 @@ mod tests {
     }
 
     /// The table by hand: a header, a rule as wide as each column's widest cell (counted in
-    /// characters: "≤ 0.5°" is 6), one line per row, columns two spaces apart, no trailing
-    /// blanks, and the result column reads pass, FAIL or "not asserted". Census shard 71:
-    /// `table` → "" was caught only by the CLI's test.
+    /// characters: "≤ 0.5°" is 6), one line per row, columns two spaces apart, no trailing blanks,
+    /// and the result column reads pass, FAIL or "not asserted". A bug it catches: `table` → "".
     #[test]
     fn the_table_aligns_its_columns_and_names_each_result() {
         let mut rows = Vec::new();
@@ -451,14 +449,12 @@ mod tests {
         v
     }
 
-    /// R1 by hand: the markers roll 1° and pitch −0.5°; the hover average reads 1.05° and
-    /// −0.7°, so roll is 0.05° off (within 0.1°: pass) and pitch 0.2° off (FAIL). Without a
-    /// hover average the row fails ("not calibrated"); with `calibrate_gyro` flown and no gyro
-    /// fit, the gyro yaw row fails; a straight-flight yaw without a tolerance is shown, not
-    /// asserted. Flown by an external controller, each missing estimate is shown with why.
-    /// Census of 33c1bbe: `offsets` → () (no R1 row at all, shard 87) and the guard
-    /// `None if v.external` as `true` and `false` (shards 88–89) were caught only by whole
-    /// flights.
+    /// R1 by hand: the markers roll 1° and pitch −0.5°; the hover average reads 1.05° and −0.7°, so
+    /// roll is 0.05° off (within 0.1°: pass) and pitch 0.2° off (FAIL). Without a hover average the
+    /// row fails ("not calibrated"); with `calibrate_gyro` flown and no gyro fit, the gyro yaw row
+    /// fails; a straight-flight yaw without a tolerance is shown, not asserted. Flown by an
+    /// external controller, each missing estimate is shown with why. A bug it catches: `offsets` →
+    /// () (no R1 row at all) and the guard `None if v.external` as `true` and `false`.
     #[test]
     fn r1_holds_each_offset_to_its_tolerance_and_fails_a_missing_estimate() {
         let r = OffsetsReq { roll_pitch_tol_deg: 0.1, yaw_tol_deg: 0.05, yaw_straight_flight_tol_deg: None };
@@ -481,7 +477,7 @@ mod tests {
             got,
             [
                 ("roll/pitch offsets", "≤ 0.1000°", false, true),
-                ("yaw offset, straight flight (8)–(9)", "none: unobservable in rate mode (README)", true, false),
+                ("yaw offset, straight flight (8)–(9)", "none: unobservable in rate mode (docs/findings.md)", true, false),
                 ("yaw offset, gyro telemetry", "≤ 0.0500°", false, true),
             ]
         );
@@ -503,9 +499,8 @@ mod tests {
         );
     }
 
-    /// A report passes iff every row passes: one failing row among passing ones fails it, and
-    /// a report with no failing row passes. Census of 33c1bbe, shard 69: `passed` → true was
-    /// caught only by the CLI's exit-code test, no unit test.
+    /// A report passes iff every row passes: one failing row among passing ones fails it, and a
+    /// report with no failing row passes. A bug it catches: `passed` → true.
     #[test]
     fn a_report_passes_only_if_every_row_passes() {
         assert!(report(&[true, true]).passed());

@@ -127,7 +127,7 @@ impl Sweep {
         let scenario = Scenario::parse(&src, path)?;
         let file = path.display().to_string();
         let spec = |message: String| SweepError::Spec { file: file.clone(), message };
-        let cfg = scenario.sweep.clone().ok_or_else(|| spec("the scenario has no `sweep:` section (see README, Sweeps)".into()))?;
+        let cfg = scenario.sweep.clone().ok_or_else(|| spec("the scenario has no `sweep:` section (see docs/sweeps.md)".into()))?;
         if cfg.vary.is_empty() {
             return Err(spec("`vary` is empty: name at least one field to vary".into()));
         }
@@ -686,10 +686,8 @@ pub fn csv(out: &SweepOutput) -> String {
 mod tests {
     use super::*;
 
-    /// Regression (census shard 29's baseline, session 31): with several runs drawing a value
-    /// outside a field's range, the sweep named whichever a thread met first, and had flown
-    /// the runs before it. Now no run flies and the lowest bad run is named, on one thread
-    /// (where the old code flew every run below it first) and on eight.
+    /// With several runs drawing a value outside a field's range, no run flies and the lowest bad
+    /// run is named, whatever the thread count: on one thread and on eight.
     #[test]
     fn a_sweep_with_bad_draws_names_its_lowest_bad_run_before_flying() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));

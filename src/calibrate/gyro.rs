@@ -1,6 +1,6 @@
 //! The mocap-to-body rotation from body-rate telemetry: gyro vs mocap attitude increments
 //! (Wahba's problem). Not in the paper; flyarena adds it because the paper's yaw method cannot
-//! see a marker rotation about the thrust axis (README, "Findings").
+//! see a marker rotation about the thrust axis (docs/findings.md).
 //!
 //! Frames: the true attitude is R_b(t) = `Rot<Body, Nav>`, the mocap's R_m(t) = R_b(t)·C with
 //! C = R_off = `Rot<MocapBody, Body>`. Over a window [t_a, t_b]:
@@ -678,10 +678,10 @@ mod tests {
     use super::*;
     use crate::frames::Nav;
 
-    /// A window is the shortest multiple of both periods at least `min_window` long: for 4 ms
-    /// mocap and 6 ms telemetry frames the multiples are 12 ms apart (lcm = 4·6/gcd(4, 6)), so
-    /// 1 ms gives 12 ms and 13 ms gives 24 ms, with 2 and 4 telemetry frames (shard 51: gcd's
-    /// `b == 0` as `!=` returned its first argument, right for 5 and 10 ms, and made the lcm 6).
+    /// A window is the shortest multiple of both periods at least `min_window` long: for 4 ms mocap
+    /// and 6 ms telemetry frames the multiples are 12 ms apart (lcm = 4·6/gcd(4, 6)), so 1 ms gives
+    /// 12 ms and 13 ms gives 24 ms, with 2 and 4 telemetry frames (a bug it catches: gcd's `b == 0`
+    /// as `!=` returned its first argument, right for 5 and 10 ms, and made the lcm 6).
     #[test]
     fn a_window_is_the_shortest_common_multiple_of_both_periods() {
         for (min_ms, want_ms, frames) in [(1, 12, 2), (12, 12, 2), (13, 24, 4)] {
@@ -691,12 +691,12 @@ mod tests {
         assert_eq!((gcd(4, 6), gcd(6, 4), gcd(7, 0)), (2, 2, 7));
     }
 
-    /// Windows go to the time block of their start t_a (5 s blocks: t_a = 10 s and 11 s to
-    /// block 2, 0.5 s to 0, 6 s to 1), one block per index, kept in index order whatever order
-    /// the windows come in; each block sums its windows' centres ½(t_a + t_b), mocap rotations
-    /// and per-offset telemetry rotations, and their second moments. Census shards 67–71: the
-    /// lookup's guard as false (a second block 2), its `<=` as `>` and the insertion at i·1
-    /// (blocks out of order) passed every unit test; shards 72–89 mutate each sum.
+    /// Windows go to the time block of their start t_a (5 s blocks: t_a = 10 s and 11 s to block 2,
+    /// 0.5 s to 0, 6 s to 1), one block per index, kept in index order whatever order the windows
+    /// come in; each block sums its windows' centres ½(t_a + t_b), mocap rotations and per-offset
+    /// telemetry rotations, and their second moments. A bug it catches: the lookup's guard as false
+    /// (a second block 2), its `<=` as `>` and the insertion at i·1 (blocks out of order); mutate
+    /// each sum.
     #[test]
     fn windows_are_summed_in_one_block_per_index_in_index_order() {
         let mut g = GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(40));
@@ -788,9 +788,9 @@ mod tests {
 
     /// The cut for a motion too close to one axis is relative to the largest eigenvalue of the
     /// mocap increments' scatter S_m: no fit when λ₂ ≤ 10⁻¹²·λ₃, whatever the scale of the motion.
-    /// Moments by hand (C = I, zero means, 100 windows): S_m = diag(s, r·s, 0) is no fit at
-    /// r = 10⁻¹³ and a fit (C = I) at r = 10⁻¹¹, both at s = 1 and at s = 10⁴. Census of 33c1bbe,
-    /// shard 78: the cut 10⁻¹²/λ₃ (an absolute cut at s = 1) passed every unit test.
+    /// Moments by hand (C = I, zero means, 100 windows): S_m = diag(s, r·s, 0) is no fit at r =
+    /// 10⁻¹³ and a fit (C = I) at r = 10⁻¹¹, both at s = 1 and at s = 10⁴. A bug it catches: the
+    /// cut 10⁻¹²/λ₃ (an absolute cut at s = 1).
     #[test]
     fn the_one_axis_cut_is_relative_to_the_largest_eigenvalue() {
         let g = GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(50));
@@ -1028,11 +1028,11 @@ mod tests {
         assert!(edge.is_none(), "{edge:?}");
     }
 
-    /// The drift's twin of the offset edge: a drift minimum within one drift step (a tenth of
-    /// the range) of the range's edge is not a minimum either. With a 1000 ppm range (steps of
-    /// 100 ppm, edge at 900 ppm), a clock 960 ppm fast is no fit and one 700 ppm fast is fitted
-    /// (700 ppm within its interval). Census of 33c1bbe, shard 75: the edge at range + step
-    /// (never reached: the golden sections stop at one step past the grid) passed every unit test.
+    /// The drift's twin of the offset edge: a drift minimum within one drift step (a tenth of the
+    /// range) of the range's edge is not a minimum either. With a 1000 ppm range (steps of 100 ppm,
+    /// edge at 900 ppm), a clock 960 ppm fast is no fit and one 700 ppm fast is fitted (700 ppm
+    /// within its interval). A bug it catches: the edge at range + step (never reached: the golden
+    /// sections stop at one step past the grid).
     #[test]
     fn a_drift_within_one_drift_step_of_the_range_edge_is_not_fitted() {
         let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
@@ -1047,8 +1047,8 @@ mod tests {
 
     /// The pooled moments need the four grid nodes around each block's offset (the cubic through
     /// them): with a 20 ms range and 1 ms steps (nodes −20, −19, ..., 20 ms) an offset is pooled
-    /// from −19 ms to 19 ms and not beyond either end (shard 46: the node count's `− 1` as `+ 1`
-    /// extrapolated up to two steps past the last node).
+    /// from −19 ms to 19 ms and not beyond either end (a bug it catches: the node count's `− 1` as
+    /// `+ 1` extrapolated up to two steps past the last node).
     #[test]
     fn the_pooled_moments_stop_one_step_inside_the_grid() {
         let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
@@ -1096,13 +1096,13 @@ mod tests {
         assert!((a.euler().yaw.to_degrees() - 10.8).abs() < 1e-9, "{}°", a.euler().yaw.to_degrees());
     }
 
-    /// Without the clock search (the paper's mode) a window whose mocap frame at an end never
-    /// comes waits until the mocap is more than half the ring (128 periods, 640 ms at 5 ms) past
-    /// its end, and is dropped then. Telemetry at rest over [0, 200) ms makes five 40 ms
-    /// windows; the mocap frame at 120 ms is missing, so [80, 120] and [120, 160] cannot be
-    /// paired: with frames to 760 ms (640 ms past 120) the three others are paired and nothing
-    /// is dropped yet, at 765 ms [80, 120] goes, past 800 ms [120, 160]. Census of 33c1bbe,
-    /// shard 63: a stale window never dropped (the guard as `false`) passed every unit test.
+    /// Without the clock search (the paper's mode) a window whose mocap frame at an end never comes
+    /// waits until the mocap is more than half the ring (128 periods, 640 ms at 5 ms) past its end,
+    /// and is dropped then. Telemetry at rest over [0, 200) ms makes five 40 ms windows; the mocap
+    /// frame at 120 ms is missing, so [80, 120] and [120, 160] cannot be paired: with frames to 760
+    /// ms (640 ms past 120) the three others are paired and nothing is dropped yet, at 765 ms [80,
+    /// 120] goes, past 800 ms [120, 160]. A bug it catches: a stale window never dropped (the guard
+    /// as `false`).
     #[test]
     fn without_the_clock_search_a_window_missing_a_frame_is_dropped_half_a_ring_later() {
         let mut g = gyro();
@@ -1127,9 +1127,8 @@ mod tests {
     /// The clock search pairs a window only once the mocap is [`NEIGHBOUR_PERIODS`] periods past
     /// its end, so a window-end frame that a jittery link delivers after two newer ones still
     /// counts: the first window is [40, 80] ms, its frames arrive …, 75, 85, 90, 80, 95 ms, and it
-    /// is paired (one window, none dropped). Census shard 0 (the ec82c47 run): the wait
-    /// `period · 3` as `period + 3` (3 ns) tried it at 90 ms, before frame 80 was in, and
-    /// dropped it.
+    /// is paired (one window, none dropped). A bug it catches: the wait `period · 3` as `period +
+    /// 3` (3 ns) tried it at 90 ms, before frame 80 was in, and dropped it.
     #[test]
     fn the_clock_search_waits_for_a_window_end_frame_that_arrives_late() {
         let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(3), ..ClockSearch::default() });
@@ -1166,21 +1165,21 @@ mod tests {
         assert_eq!((g.windows(), g.dropped()), (1, 2), "(paired, dropped)");
         assert_eq!(g.frames.len(), 9, "telemetry frames held");
         assert_eq!(g.frames.front().map(|f| f.t0), Some(Nanos::from_millis(110)));
-        // With a 10 ms search, t_a − max_offset = 110 ms is a frame end: [100, 110) stays, since
-        // at δ just above −10 ms window [120, 160] covers [110, 120) in part, and that frame's
-        // parabola takes the mean of [100, 110) (census shard 11: `<` as `<=` let it go, and
-        // the frame took its own mean instead)
+        // With a 10 ms search, t_a − max_offset = 110 ms is a frame end: [100, 110) stays, since at
+        // δ just above −10 ms window [120, 160] covers [110, 120) in part, and that frame's
+        // parabola takes the mean of [100, 110) (a bug it catches: `<` as `<=` let it go, and the
+        // frame took its own mean instead)
         let g = flown(10);
         assert_eq!(g.frames.front().map(|f| f.t0), Some(Nanos::from_millis(100)));
     }
 
-    /// The plain alignment builds a window from consecutive telemetry frames; a frame that does
-    /// not start where the open window ends restarts it, and the broken window counts as
-    /// dropped. Windows of 4 frames (40 ms): frames at 0, 10 | 30, 40 | 60, 70, 80, 90 ms break
-    /// two windows and complete one, [60, 100] ms, which waits for its mocap: telemetry that
-    /// arrives before the first mocap frame is not lost (it was, through an overflow of
-    /// `i64::MIN − t_b` that a debug build panicked on); with the frames in, it is paired.
-    /// Census of 33c1bbe, shard 2: the count `+= 1` as `-= 1` passed every test.
+    /// The plain alignment builds a window from consecutive telemetry frames; a frame that does not
+    /// start where the open window ends restarts it, and the broken window counts as dropped.
+    /// Windows of 4 frames (40 ms): frames at 0, 10 | 30, 40 | 60, 70, 80, 90 ms break two windows
+    /// and complete one, [60, 100] ms, which waits for its mocap: telemetry that arrives before the
+    /// first mocap frame is not lost (it was, through an overflow of `i64::MIN − t_b` that a debug
+    /// build panicked on); with the frames in, it is paired. A bug it catches: the count `+= 1` as
+    /// `-= 1`.
     #[test]
     fn a_telemetry_gap_drops_the_open_window() {
         let mut g = gyro();
@@ -1196,11 +1195,11 @@ mod tests {
     }
 
     /// A window waits for its mocap frames in one of 16 slots; with all 16 taken, a new window
-    /// evicts the oldest (the one whose frames are least likely to come) and counts it as
-    /// dropped. 20 windows of 40 ms arrive before any mocap: windows 0–3 are evicted, 4 dropped.
-    /// Mocap frames up to 200 ms then pair window 4 ([160, 200] ms) alone (had the newest been
-    /// evicted, 0–4 would pair), and frames up to 800 ms the other 15. Census of 33c1bbe,
-    /// shard 15: the eviction's count `+= 1` as `-= 1` passed the unit tests.
+    /// evicts the oldest (the one whose frames are least likely to come) and counts it as dropped.
+    /// 20 windows of 40 ms arrive before any mocap: windows 0–3 are evicted, 4 dropped. Mocap
+    /// frames up to 200 ms then pair window 4 ([160, 200] ms) alone (had the newest been evicted,
+    /// 0–4 would pair), and frames up to 800 ms the other 15. A bug it catches: the eviction's
+    /// count `+= 1` as `-= 1` passed the unit tests.
     #[test]
     fn a_window_without_a_free_slot_evicts_the_oldest_and_counts_it_dropped() {
         let mut g = gyro();
@@ -1219,10 +1218,9 @@ mod tests {
     }
 
     /// A window is `window` long on the Vicon clock, to 1/1000: four telemetry frames of a clock
-    /// 0.05 % fast (40.02 ms, 20 µs off) make a window that is paired, four of a clock 0.2 %
-    /// fast (40.08 ms, 80 µs off, over the 40 µs bound) one that is dropped. Census of 33c1bbe,
-    /// shard 7: the span's difference `−` as `/` (a ratio near 1, always within the bound)
-    /// passed every test.
+    /// 0.05 % fast (40.02 ms, 20 µs off) make a window that is paired, four of a clock 0.2 % fast
+    /// (40.08 ms, 80 µs off, over the 40 µs bound) one that is dropped. A bug it catches: the
+    /// span's difference `−` as `/` (a ratio near 1, always within the bound).
     #[test]
     fn a_window_off_its_length_by_more_than_a_thousandth_is_dropped() {
         for (period_ns, expected) in [(10_005_000, (1, 0)), (10_020_000, (0, 1))] {
@@ -1240,14 +1238,14 @@ mod tests {
 
     /// The clock search's estimate does not depend on the order in which telemetry and mocap
     /// arrive: the flight of [`fly`] (a clock 17 ms ahead, searched up to 20 ms) gives the same
-    /// fit, to the bit, as delivered (telemetry first, mocap 12 ms late), with its telemetry
-    /// 40 ms late instead, and with all its telemetry before any mocap. A window is paired only
-    /// once a telemetry frame starting at or after t_b + max_offset is in, so the frame that
-    /// covers t_b + δ in part (at the nodes next to the 17 ms minimum) has its next neighbour
-    /// for the parabola in every order. Census of 33c1bbe, shard 4: the gate's `<` as `<=`
-    /// passed every test; the gate then (the newest frame's *end* at t_b + max_offset) paired a
-    /// window with late telemetry while the frame after [t_b + 17, t_b + 27] ms was still on
-    /// its way, and that frame's own mean stood in for its neighbour's.
+    /// fit, to the bit, as delivered (telemetry first, mocap 12 ms late), with its telemetry 40 ms
+    /// late instead, and with all its telemetry before any mocap. A window is paired only once a
+    /// telemetry frame starting at or after t_b + max_offset is in, so the frame that covers t_b +
+    /// δ in part (at the nodes next to the 17 ms minimum) has its next neighbour for the parabola
+    /// in every order. A bug it catches: the gate's `<` as `<=`; the gate then (the newest frame's
+    /// *end* at t_b + max_offset) paired a window with late telemetry while the frame after [t_b +
+    /// 17, t_b + 27] ms was still on its way, and that frame's own mean stood in for its
+    /// neighbour's.
     #[test]
     fn the_clock_search_does_not_depend_on_the_order_of_arrival() {
         let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
@@ -1291,10 +1289,10 @@ mod tests {
         assert_eq!((g.windows(), g.dropped()), (1, 0), "(paired, dropped) with frames up to [90, 100] ms");
     }
 
-    /// Each extra parameter of a fit (the clock search's offset and drift) is one degree of
-    /// freedom fewer: on the same moments of n windows, the variance with two extra parameters
-    /// is (3n − 6)/(3n − 8) times the variance with none (n = 10: 24/22). Census shard 0
-    /// (ec82c47): the `− extra` as `+ extra` gave (3n − 6)/(3n − 4).
+    /// Each extra parameter of a fit (the clock search's offset and drift) is one degree of freedom
+    /// fewer: on the same moments of n windows, the variance with two extra parameters is (3n −
+    /// 6)/(3n − 8) times the variance with none (n = 10: 24/22). A bug it catches: the `− extra` as
+    /// `+ extra` gave (3n − 6)/(3n − 4).
     #[test]
     fn extra_parameters_take_degrees_of_freedom() {
         // a 13 ms clock offset the plain alignment ignores leaves residuals to scale
@@ -1306,15 +1304,14 @@ mod tests {
         assert!((ratio - (3.0 * n - 6.0) / (3.0 * n - 8.0)).abs() < 1e-12, "{ratio} from {n} windows");
     }
 
-    /// The clock offset's interval is the residual's curvature: with one clock parameter (one
-    /// time block, so no drift) σ_δ² = 2·σ²/(∂²RSS/∂δ²), σ² = RSS₀/(3n − 7): 3n residual
-    /// components less the rotation's 3, the bias's 3 and the offset's 1 degrees of freedom.
-    /// Here the curvature by a central difference of 0.1 ms about the fitted offset (the fit's
-    /// own uses a quarter step, 0.25 ms) on 1 s of flight with a 13 ms offset: 21 windows, so
-    /// 3n − 7 = 56 against 3n − 5 = 58 or 3n + 5 = 68 moves σ_δ² by 3.6 % or more; the two
-    /// agree to 0.04 % (the tolerance is 1 %). Census of 33c1bbe,
-    /// shards 81–84: the degrees of freedom as 3n + 6 − extra, 3n − 6 + extra and 3n/6 − extra
-    /// passed every unit test (the tests bounded the clock's σ only from above).
+    /// The clock offset's interval is the residual's curvature: with one clock parameter (one time
+    /// block, so no drift) σ_δ² = 2·σ²/(∂²RSS/∂δ²), σ² = RSS₀/(3n − 7): 3n residual components less
+    /// the rotation's 3, the bias's 3 and the offset's 1 degrees of freedom. Here the curvature by
+    /// a central difference of 0.1 ms about the fitted offset (the fit's own uses a quarter step,
+    /// 0.25 ms) on 1 s of flight with a 13 ms offset: 21 windows, so 3n − 7 = 56 against 3n − 5 =
+    /// 58 or 3n + 5 = 68 moves σ_δ² by 3.6 % or more; the two agree to 0.04 % (the tolerance is 1
+    /// %). A bug it catches: the degrees of freedom as 3n + 6 − extra, 3n − 6 + extra and 3n/6 −
+    /// extra (the tests bounded the clock's σ only from above).
     #[test]
     fn the_clock_offset_sigma_is_the_residual_variance_over_the_curvature() {
         let search = ClockSearch::default();
@@ -1344,13 +1341,12 @@ mod tests {
     }
 
     /// The gyro increment over a window that cuts frames, by hand: a rate along a fixed axis u
-    /// growing linearly, ω(t) = (a + b·t)·u, read as 10 ms frames whose means are its values at
-    /// the frames' midpoints. Over [23, 67] ms it turns by (a·(u₁ − u₀) + b·(u₁² − u₀²)/2)·u
-    /// exactly: the parabola through a frame's and its contiguous neighbours' means is the line
-    /// itself. A frame missing under the window gives `None`. Census of 33c1bbe, shard 48: the
-    /// neighbour taken only where it is *not* contiguous (`g.t1 == f.t0` as `!=`; the partial
-    /// frame then leans on its own mean, of order 1e-5 rad off here) was caught only by the
-    /// gyro_clock snapshot; shard 49's `next` read at i − 1 likewise.
+    /// growing linearly, ω(t) = (a + b·t)·u, read as 10 ms frames whose means are its values at the
+    /// frames' midpoints. Over [23, 67] ms it turns by (a·(u₁ − u₀) + b·(u₁² − u₀²)/2)·u exactly:
+    /// the parabola through a frame's and its contiguous neighbours' means is the line itself. A
+    /// frame missing under the window gives `None`. A bug it catches: the neighbour taken only
+    /// where it is *not* contiguous (`g.t1 == f.t0` as `!=`; the partial frame then leans on its
+    /// own mean, of order 1e-5 rad off here), and `next` read at i − 1.
     #[test]
     fn the_gyro_increment_over_cut_frames_integrates_a_linear_rate_exactly() {
         let (a, b) = (0.3, 2.0); // rad/s, rad/s²
@@ -1369,14 +1365,13 @@ mod tests {
         assert_eq!(g.gyro_increment(Nanos::from_secs_f64(u0), Nanos::from_secs_f64(u1)), None, "40-50 ms missing");
     }
 
-    /// The clock's Hessian by hand: f(x, y) = 3 + 0.7x − 1.1y + 2x² + 0.8xy + 5y² has
-    /// H = [[4, 0.8], [0.8, 10]] everywhere, read off at the origin (where the slope is not 0,
-    /// so a one-sided difference would be off) and at (0.3, −0.2) (a point read at x − d in one
-    /// coordinate gives H₀₁ = −0.8) with steps (0.5, 0.25); over x alone, [[4]].
-    /// The unit tests' flights cannot tell: their clocks, parameterised at the windows' mean
-    /// time, have H₀₁ ≈ 0 and a slope ≈ 0 at the fitted minimum (census of 33c1bbe: a sign lost
-    /// in the cross difference, shard 26, was caught only by the acceptance test of the
-    /// intervals' coverage; the one-sided diagonal of shard 14 by nothing).
+    /// The clock's Hessian by hand: f(x, y) = 3 + 0.7x − 1.1y + 2x² + 0.8xy + 5y² has H = [[4,
+    /// 0.8], [0.8, 10]] everywhere, read off at the origin (where the slope is not 0, so a
+    /// one-sided difference would be off) and at (0.3, −0.2) (a point read at x − d in one
+    /// coordinate gives H₀₁ = −0.8) with steps (0.5, 0.25); over x alone, [[4]]. The unit tests'
+    /// flights cannot tell: their clocks, parameterised at the windows' mean time, have H₀₁ ≈ 0 and
+    /// a slope ≈ 0 at the fitted minimum (a bug it catches: a sign lost in the cross difference;
+    /// the one-sided diagonal by nothing).
     #[test]
     fn the_clock_hessian_is_exact_for_a_quadratic() {
         let f = |d: [f64; 2]| 3.0 + 0.7 * d[0] - 1.1 * d[1] + 2.0 * d[0] * d[0] + 0.8 * d[0] * d[1] + 5.0 * d[1] * d[1];
@@ -1390,12 +1385,9 @@ mod tests {
         assert!((h[(0, 0)] - 4.0).abs() < 1e-12, "{h}");
     }
 
-    /// C's sensitivity to the clock by hand: g(x) = exp([u·(2x₀ − 3x₁)]×) about the unit axis
-    /// u = (0.6, 0, 0.8) has Jacobian columns 2u and −3u everywhere, read at (0.3, −0.2) (a point
-    /// read at x − d in one coordinate flips that column) with steps (0.5, 0.25); over x₀ alone,
-    /// 2u. Census of 33c1bbe, shard 38: the drift's column read at x − d was caught only by the
-    /// gyro_clock snapshot (the flights' clocks have near-uncorrelated offset and drift, so a
-    /// column's sign hardly moves C's σ).
+    /// C's sensitivity to the clock by hand: g(x) = exp([u·(2x₀ − 3x₁)]×) about the unit axis u =
+    /// (0.6, 0, 0.8) has Jacobian columns 2u and −3u everywhere, read at (0.3, −0.2) (a point read
+    /// at x − d in one coordinate flips that column) with steps (0.5, 0.25); over x₀ alone, 2u. A bug it catches: the drift's column read at x − d.
     #[test]
     fn the_clock_jacobian_is_exact_for_a_rotation_linear_in_the_clock() {
         let u = [0.6, 0.0, 0.8];
@@ -1408,12 +1400,11 @@ mod tests {
         assert!(central_rotation_jacobian(|_| None::<Rot<Body, Body>>, [0.0; 2], [0.5, 0.25], 2).is_none());
     }
 
-    /// Not knowing the clock can only widen C's interval: by the law of total variance,
-    /// Var(Ĉ) = Var(Ĉ | clock) + Var(E[Ĉ | clock]) ≈ Σ_C + J·Σ_clock·Jᵀ, so each σ_k² is at least
-    /// the fit's own at the fitted clock held fixed, and above it where C moves with the clock
-    /// (the 13.3 ms offset of [`fits_an_unsynchronised_telemetry_clock`]'s flight turns C by
-    /// 0.15° when it is ignored). Census of 33c1bbe, shard 54: Σ_C − J·Σ_clock·Jᵀ (a narrower
-    /// interval) was caught only by the gyro_clock snapshot.
+    /// Not knowing the clock can only widen C's interval: by the law of total variance, Var(Ĉ) =
+    /// Var(Ĉ | clock) + Var(E[Ĉ | clock]) ≈ Σ_C + J·Σ_clock·Jᵀ, so each σ_k² is at least the fit's
+    /// own at the fitted clock held fixed, and above it where C moves with the clock (the 13.3 ms
+    /// offset of [`fits_an_unsynchronised_telemetry_clock`]'s flight turns C by 0.15° when it is
+    /// ignored). A bug it catches: Σ_C − J·Σ_clock·Jᵀ (a narrower interval).
     #[test]
     fn not_knowing_the_clock_widens_the_rotation_interval_and_never_narrows_it() {
         let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(0.5, 0.3, -3.0));

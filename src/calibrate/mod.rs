@@ -38,7 +38,7 @@ pub struct OffsetEstimate {
 
 impl Default for OffsetEstimate {
     /// No offset (written out rather than by `from_euler`: a `from_euler` that returned
-    /// `Default::default()` made the two call each other for ever, census shard 0's timeout).
+    /// `Default::default()` made the two call each other for ever).
     fn default() -> Self {
         OffsetEstimate { euler: Euler::ZERO, rotation: Rot::identity() }
     }
@@ -271,9 +271,8 @@ mod tests {
 
     /// A track that does not move has no heading: every point equal (a hover, or one point
     /// repeated) gives `None`, not the course 0 that atan2(0, 0) would make of it; two distinct
-    /// points give their direction, and so does a track along one axis only. Census of 33c1bbe,
-    /// shards 2 and 4: `sxx + syy > 0` as `>=`, as `sxx − syy` and as `sxx · syy` passed every
-    /// test.
+    /// points give their direction, and so does a track along one axis only. A bug it catches: `sxx +
+    /// syy > 0` as `>=`, as `sxx − syy` and as `sxx · syy`.
     #[test]
     fn a_track_that_does_not_move_has_no_course() {
         assert_eq!(tls_course(&[1.0, 1.0, 1.0], &[-2.0, -2.0, -2.0]), None);
@@ -297,12 +296,11 @@ mod tests {
         assert!((tls_course(&north, &east).unwrap() + psi_off).abs() < 1e-12);
     }
 
-    /// The recursion of (8) on a straight track that starts 1 m north (its regressor is taken
-    /// from the first X_N and the intercept shifted back): no estimate until X_N has spread
-    /// 0.5 m (32 samples of 1/64 m, exact in binary), then the line itself; with a wobble of
-    /// ±1 cm in X_E, which the recursion's updates must follow, batch LS (9) to rounding.
-    /// Census shard 73: `update` as a no-op passed every lib test (only the property test
-    /// `rls_equals_batch_ls` caught it).
+    /// The recursion of (8) on a straight track that starts 1 m north (its regressor is taken from
+    /// the first X_N and the intercept shifted back): no estimate until X_N has spread 0.5 m (32
+    /// samples of 1/64 m, exact in binary), then the line itself; with a wobble of ±1 cm in X_E,
+    /// which the recursion's updates must follow, batch LS (9) to rounding. A bug it catches:
+    /// `update` as a no-op (only the property test `rls_equals_batch_ls` caught it).
     #[test]
     fn rls_starts_once_the_track_spreads_and_then_equals_batch_ls() {
         let psi_off = 2f64.to_radians();
@@ -325,9 +323,8 @@ mod tests {
         }
     }
 
-    /// No line from what determines none: fewer than two points, one X_N repeated, or X_N and
-    /// X_E of different lengths (a fit over the shorter one would pair the wrong samples; shard
-    /// 41's `||` as `&&` returned a line for 3 north and 2 east samples).
+    /// No line from what determines none: fewer than two points, one X_N repeated, or X_N and X_E
+    /// of different lengths (a fit over the shorter one would pair the wrong samples; a bug it catches: `||` as `&&` returned a line for 3 north and 2 east samples).
     #[test]
     fn ls_refuses_what_determines_no_line() {
         assert_eq!(batch_ls(&[], &[]), None);
@@ -350,11 +347,12 @@ mod tests {
         let mut ok = ValidityCheck::default();
         ok.add(Euler::from_degrees(0.2, 0.0, -0.3));
         assert!(ok.verdict(1f64.to_radians(), 1f64.to_radians()).accepted);
-        // no sample is no verdict to accept, though its means read 0 (shard 48: n > 0 as >= 0)
+        // no sample is no verdict to accept, though its means read 0 (a bug it catches: n > 0 as >=
+        // 0)
         let none = ValidityCheck::default().verdict(1f64.to_radians(), 1f64.to_radians());
         assert!(!none.accepted && none.mean_yaw == 0.0 && none.mean_roll == 0.0, "{none:?}");
-        // (7)'s inequalities are strict: a mean exactly at its bound fails (four samples of
-        // 0.5 rad average to 0.5 exactly; shard 51: the yaw's `<` as `<=` accepted it)
+        // (7)'s inequalities are strict: a mean exactly at its bound fails (four samples of 0.5 rad
+        // average to 0.5 exactly; a bug it catches: the yaw's `<` as `<=` accepted it)
         for (yaw, roll) in [(0.5, 0.0), (0.0, 0.5)] {
             let mut edge = ValidityCheck::default();
             for _ in 0..4 {

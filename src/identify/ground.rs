@@ -300,7 +300,7 @@ pub struct GroundAgreement {
 /// cameras see badly at rest: a marker hidden near the floor, the fit flickering between
 /// subsets of markers. On the ten shared NanoBench flights a clear view scatters by
 /// 0.005–0.014°, and the three flights above 0.09° were the ones whose two rests both disagree
-/// with the flight in roll. The threshold was set there; on 68 held-out flights (README, *A still
+/// with the flight in roll. The threshold was set there; on 68 held-out flights (docs/nanobench.md, *A still
 /// pose that scatters*, with its caveat) the ground check disagrees with the flight by a median
 /// 0.31° in roll above it and 0.08° below it, one-sided Mann–Whitney p = 3·10⁻⁵.
 pub const STILL_POSE_SD_DEG: f64 = 0.02;

@@ -10,7 +10,7 @@
 //! ```
 //!
 //! The same code runs on flyarena's own runs (where the truth is known and the tests check that
-//! the hidden effect is found) and on real flights (NanoBench, in the README).
+//! the hidden effect is found) and on real flights (NanoBench, docs/nanobench.md).
 //!
 //! ```
 //! use flyarena::identify::{Effect, Options, flyarena_log::run_and_log, identify};

@@ -334,17 +334,17 @@ pub(crate) fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
 mod tests {
     use super::*;
 
-    /// The Lentz guard by hand: zero and anything smaller in size than 10⁻³⁰⁰ (either sign)
-    /// becomes 10⁻³⁰⁰, anything else passes unchanged. Census shard 0 (ec82c47): `|v| < tiny`
-    /// as `|v| == tiny` let an exact zero through, to be divided by.
+    /// The Lentz guard by hand: zero and anything smaller in size than 10⁻³⁰⁰ (either sign) becomes
+    /// 10⁻³⁰⁰, anything else passes unchanged. A bug it catches: `|v| < tiny` as `|v| == tiny` let
+    /// an exact zero through, to be divided by.
     #[test]
     fn the_lentz_guard_by_hand() {
         assert_eq!([0.0, -0.0, 1e-310, -5e-301].map(lentz_guard), [LENTZ_TINY; 4]);
         assert_eq!([LENTZ_TINY, -LENTZ_TINY, 0.5, -2.0].map(lentz_guard), [LENTZ_TINY, -LENTZ_TINY, 0.5, -2.0]);
     }
 
-    /// A constant series has no variance to normalise by: its autocorrelations are 0, not 0/0
-    /// (shard 50: `var > 0` as `>= 0` returned NaN).
+    /// A constant series has no variance to normalise by: its autocorrelations are 0, not 0/0 (a
+    /// bug it catches: `var > 0` as `>= 0` returned NaN).
     #[test]
     fn the_autocorrelation_of_a_constant_is_zero() {
         let (r, n) = autocorrelation(&[3.0; 10], 3);
@@ -470,16 +470,15 @@ mod tests {
         }
     }
 
-    /// The F tests of a long flight, against a finite sum: for d₂ = 2m even, P(F > f) =
-    /// I_x(m, b) with b = d₁/2, x = d₂/(d₂ + d₁f), and for integer m (integration by parts,
-    /// m − 1 times) I_x(m, b) = 1 − (1 − x)^b·Σ_{j<m} (b)_j/j!·x^j. Here a = d₂/2 is large and
-    /// b = d₁/2 is not an integer, so neither continued fraction terminates (with a or b = 1,
-    /// as in most cases above, one does), and the switch (a + 1)/(a + b + 2) decides. Moved to
-    /// (a + 1)/(a·b + 2), above 1 for b = ½ and a > 2, a one-parameter test on 4000 samples
-    /// at f = 10⁻⁴ gave P = 0.29 for 0.992 (an effect invented), and F(5, 4000) at f = 20
-    /// gave 0.93 for 5·10⁻¹⁵ (one missed). Moved to (a + 1)/(a − b + 2), above 1 for b > 1,
-    /// F(3, 400) at f = 10⁻⁴ gave −0.38. The cases above pass both (mutants of shards 15 and
-    /// 16 of the census of 33c1bbe).
+    /// The F tests of a long flight, against a finite sum: for d₂ = 2m even, P(F > f) = I_x(m, b)
+    /// with b = d₁/2, x = d₂/(d₂ + d₁f), and for integer m (integration by parts, m − 1 times)
+    /// I_x(m, b) = 1 − (1 − x)^b·Σ_{j<m} (b)_j/j!·x^j. Here a = d₂/2 is large and b = d₁/2 is not
+    /// an integer, so neither continued fraction terminates (with a or b = 1, as in most cases
+    /// above, one does), and the switch (a + 1)/(a + b + 2) decides. Moved to (a + 1)/(a·b + 2),
+    /// above 1 for b = ½ and a > 2, a one-parameter test on 4000 samples at f = 10⁻⁴ gave P = 0.29
+    /// for 0.992 (an effect invented), and F(5, 4000) at f = 20 gave 0.93 for 5·10⁻¹⁵ (one missed).
+    /// Moved to (a + 1)/(a − b + 2), above 1 for b > 1, F(3, 400) at f = 10⁻⁴ gave −0.38. The tests
+    /// above pass both; this one fails them.
     #[test]
     fn f_tests_on_a_long_flight_match_the_finite_sum_for_even_d2() {
         let finite_sum = |d1: f64, d2: f64, f: f64| {
@@ -551,12 +550,11 @@ mod tests {
         assert_eq!(inverse_spd(&bad), DMatrix::zeros(2, 2));
     }
 
-    /// G/G_OO by hand: [[4, 2], [2, 2]] with C the first leaves 4 − 2·2/2 = 2; in
-    /// [[4, 1, 2], [1, 3, 1], [2, 1, 2]] with C the first two, O the third (g_CO = (2, 1)):
-    /// G_CC − g·gᵀ/2 = [[4 − 2, 1 − 1], [1 − 1, 3 − ½]] = [[2, 0], [0, 2.5]]; with C the first
-    /// of [[5, 1, 2], [1, 2, 0], [2, 0, 4]]: 5 − 1²/2 − 2²/4 = 3.5; with no O, G itself.
-    /// Census shards 62–66 (`excitation`'s λ, before the helper): its − as + and either · as +
-    /// passed every unit test.
+    /// G/G_OO by hand: [[4, 2], [2, 2]] with C the first leaves 4 − 2·2/2 = 2; in [[4, 1, 2], [1,
+    /// 3, 1], [2, 1, 2]] with C the first two, O the third (g_CO = (2, 1)): G_CC − g·gᵀ/2 = [[4 −
+    /// 2, 1 − 1], [1 − 1, 3 − ½]] = [[2, 0], [0, 2.5]]; with C the first of [[5, 1, 2], [1, 2, 0],
+    /// [2, 0, 4]]: 5 − 1²/2 − 2²/4 = 3.5; with no O, G itself. A bug it catches: the − as + and
+    /// either · as +.
     #[test]
     fn the_schur_complement_by_hand() {
         let m = |r: usize, v: &[f64]| DMatrix::from_row_slice(r, r, v);
@@ -568,12 +566,12 @@ mod tests {
     }
 
     /// The same singular Gram matrix in a solve: x₁ + x₂ = 2 is determined and x₁, x₂ alone are
-    /// not, so the fit takes the minimum-norm solution x = G⁺b = (1, 1, 1) for b = (2, 2, 4),
-    /// not nothing (its callers would then set every parameter to zero, the excited ones too).
-    /// The pseudo-inverse's cut-off is relative (1e-12·s_max), so G and b scaled by 10⁻⁹ or 10⁹
-    /// give the same x. A non-finite G or b gives None. Census of 33c1bbe, shard 21: the
-    /// finiteness guard's `!` deleted returned None for every finite singular G and passed;
-    /// shard 23: the cut-off as 1e-12/s_max dropped every singular value of G·10⁻⁹ (x = 0).
+    /// not, so the fit takes the minimum-norm solution x = G⁺b = (1, 1, 1) for b = (2, 2, 4), not
+    /// nothing (its callers would then set every parameter to zero, the excited ones too). The
+    /// pseudo-inverse's cut-off is relative (1e-12·s_max), so G and b scaled by 10⁻⁹ or 10⁹ give
+    /// the same x. A non-finite G or b gives None. A bug it catches: the finiteness guard's `!`
+    /// deleted returned None for every finite singular G; and the cut-off as 1e-12/s_max
+    /// dropped every singular value of G·10⁻⁹ (x = 0).
     #[test]
     fn a_singular_system_gets_the_minimum_norm_solution() {
         let g = DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 4.0]);
@@ -609,8 +607,7 @@ mod tests {
         let rms = (short[8..].iter().map(|x| x * x).sum::<f64>() / 89.0).sqrt();
         assert_eq!(ar.order(), 0);
         assert!((ar.sigma - rms).abs() < 1e-15, "{} vs {rms}", ar.sigma);
-        // white noise's marginal variance is its innovation variance, the series' mean square
-        // (the raw Gram's weight 1/var: census shard 31 had it as σ + σ)
+        // white noise's marginal variance is its innovation variance, the series' mean square (the raw Gram's weight 1/var)
         assert!((ar.marginal_var - rms * rms).abs() < 1e-15, "{} vs {}", ar.marginal_var, rms * rms);
         assert!(Ar::fit(&e[..98], &[true; 98], 8).order() >= 1);
     }

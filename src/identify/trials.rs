@@ -434,7 +434,7 @@ pub fn score(outcomes: &[Outcome]) -> (Vec<(Effect, EffectScore)>, EffectScore) 
     (by, total)
 }
 
-/// The table of [`score`], as the README shows it.
+/// The table of [`score`], as docs/trials.md shows it.
 pub fn render(outcomes: &[Outcome]) -> String {
     let (by, total) = score(outcomes);
     let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.1} %", 100.0 * v));

@@ -292,8 +292,8 @@ mod tests {
     }
 
     /// An exact rigid motion away from the origin, y_i = R·m_i + t with t = (1, 2, 3) m: the fit
-    /// returns R and t, and its RMS residual √(Σ‖R·m_i + t − y_i‖²/n) is 0 (to rounding). Census of
-    /// 33c1bbe, shard 79: the residual with −t (2‖t‖ = 7.5 m here) passed every unit test.
+    /// returns R and t, and its RMS residual √(Σ‖R·m_i + t − y_i‖²/n) is 0 (to rounding). A bug it
+    /// catches: the residual with −t (2‖t‖ = 7.5 m here).
     #[test]
     fn an_exact_motion_away_from_the_origin_leaves_no_residual() {
         let truth: Rot<Body, Nav> = Rot::from_euler(Euler::new(0.3, -0.2, 2.5));
@@ -308,10 +308,10 @@ mod tests {
     /// A pattern grown by 1 + ε about its centroid and then moved, y_i = R·(1 + ε)·m_i + t: the
     /// cross-covariance is (1 + ε)·S·Rᵀ with S = Σ a_i·a_iᵀ (a_i = m_i − m̄), so the fit is R, each
     /// residual is −ε·R·a_i and the RMS residual is ε·√(Σ‖a_i‖²/n). A square of half-side 0.1 m
-    /// with ε = 0.02: 2 mm. Three of its markers (centroid (0, 0.1/3, 0)): Σ‖a_i‖² = 0.08/3 m²,
-    /// so 0.02·√(0.08/9) = 1.8856 mm (a growth about another point is one about the visible
-    /// markers' centroid plus a shift, which the translation absorbs). Census of 33c1bbe,
-    /// shards 83–84: the RMS over n as √(ss % n) (2× for four markers) passed every unit test.
+    /// with ε = 0.02: 2 mm. Three of its markers (centroid (0, 0.1/3, 0)): Σ‖a_i‖² = 0.08/3 m², so
+    /// 0.02·√(0.08/9) = 1.8856 mm (a growth about another point is one about the visible markers'
+    /// centroid plus a shift, which the translation absorbs). A bug it catches: the RMS over n as
+    /// √(ss % n) (2× for four markers).
     #[test]
     fn a_grown_pattern_leaves_its_growth_as_the_rms_residual() {
         let square = [Vec3::<Body>::new(0.1, 0.0, 0.0), Vec3::new(0.0, 0.1, 0.0), Vec3::new(-0.1, 0.0, 0.0), Vec3::new(0.0, -0.1, 0.0)];
@@ -346,8 +346,8 @@ mod tests {
 
     /// A fit needs three visible markers and one observation and one visibility flag per template
     /// marker: three visible fit, two visible or a list one entry short (any of the three) is no
-    /// fit, with a guess or without. Census of 33c1bbe, shard 10: the length checks joined by
-    /// `&&` let a list one entry short through.
+    /// fit, with a guess or without. A bug it catches: the length checks joined by `&&` let a list
+    /// one entry short through.
     #[test]
     fn a_fit_needs_three_visible_markers_and_one_entry_per_marker() {
         let r: Rot<Body, Nav> = Rot::from_euler(Euler::from_degrees(10.0, -20.0, 30.0));
@@ -364,8 +364,8 @@ mod tests {
     }
 
     /// One sign for the output whichever path found it: a guess given as −q (w < 0; the same
-    /// rotation) is refined to −q, and the fit turns it to w ≥ 0, as the Kabsch path gives
-    /// (shard 50: `w < 0` as `w == 0` kept the guess's sign).
+    /// rotation) is refined to −q, and the fit turns it to w ≥ 0, as the Kabsch path gives (a bug
+    /// it catches: `w < 0` as `w == 0` kept the guess's sign).
     #[test]
     fn the_fitted_quaternion_has_w_at_least_zero_whatever_the_guess() {
         let r: Rot<Body, Nav> = Rot::from_euler(Euler::from_degrees(10.0, -20.0, 30.0));
@@ -380,11 +380,11 @@ mod tests {
         }
     }
 
-    /// The collinearity test is on λ₂ (m²), not on c₂ (m⁴): markers (±a, 0, 0) and (0, h, 0)
-    /// have the spread diag(2a², 2h²/3, 0), so c₂/tr = λ₁λ₂/(λ₁ + λ₂). With a = 0.1 m
-    /// (λ₁ = 0.02 m²), a height giving λ₂ = 3e-8 m² (h = 0.21 mm) passes the 1e-8 m² bound
-    /// (c₂/tr = 3.0e-8) and one giving λ₂ = 3e-9 m² does not; the product c₂ = λ₁λ₂ = 6e-10
-    /// would refuse both (shard 48: `c₂ / tr` as `c₂ % tr`, which is c₂ below tr).
+    /// The collinearity test is on λ₂ (m²), not on c₂ (m⁴): markers (±a, 0, 0) and (0, h, 0) have
+    /// the spread diag(2a², 2h²/3, 0), so c₂/tr = λ₁λ₂/(λ₁ + λ₂). With a = 0.1 m (λ₁ = 0.02 m²), a
+    /// height giving λ₂ = 3e-8 m² (h = 0.21 mm) passes the 1e-8 m² bound (c₂/tr = 3.0e-8) and one
+    /// giving λ₂ = 3e-9 m² does not; the product c₂ = λ₁λ₂ = 6e-10 would refuse both (a bug it
+    /// catches: `c₂ / tr` as `c₂ % tr`, which is c₂ below tr).
     #[test]
     fn the_collinearity_bound_is_on_the_second_spread_eigenvalue() {
         let fits = |lambda2: f64| {

@@ -118,11 +118,10 @@ mod tests {
     }
 
     /// Pairwise distances do not change under a rotation, a translation or a relabelling of the
-    /// markers, so such a copy is confusable however small the tolerance. Scaling a pattern by
-    /// 1 + k moves its distance d by k·d, the largest d_max most: confusable exactly when
-    /// tol > k·d_max. A pattern with another number of markers never is. (Census of 33c1bbe,
-    /// shard 49: `patterns_confusable` returning false was caught only by the CLI's bad-scenario
-    /// test.)
+    /// markers, so such a copy is confusable however small the tolerance. Scaling a pattern by 1 +
+    /// k moves its distance d by k·d, the largest d_max most: confusable exactly when tol >
+    /// k·d_max. A pattern with another number of markers never is. (a bug it catches:
+    /// `patterns_confusable` returning false.)
     #[test]
     fn a_pattern_moved_rigidly_and_relabelled_is_confusable_one_scaled_only_within_the_tolerance() {
         let a = builtin_pattern(0).to_vec();

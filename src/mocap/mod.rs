@@ -159,9 +159,8 @@ mod tests {
         let f = m.capture(Nanos(0), &truth).unwrap();
         let ideal = ideal_measured_attitude(&cam, truth.att, off.rotation);
         assert!((f.att.inverse() * ideal).angle() < 1e-12);
-        // the template origin by hand, y = R_w·(p + R·t_off) + t_w (not through `to_mocap`:
-        // census of 33c1bbe, shard 63, `to_mocap` returning zero passed every unit test, since
-        // the expectation was computed with it), and back into the true frame by `to_nav`
+        // the template origin by hand, y = R_w·(p + R·t_off) + t_w (not through `to_mocap`: a `to_mocap` returning zero would pass a test whose expectation was computed with it), and
+        // back into the true frame by `to_nav`
         let origin_nav = truth.pos + truth.att.apply(off.translation);
         let p_ideal = cam.rotation.apply(origin_nav) + cam.translation;
         assert!((f.pos - p_ideal).norm() < 1e-12, "{:?} vs {p_ideal:?}", f.pos);
@@ -180,8 +179,8 @@ mod tests {
         let seen = |m: &mut Mocap, ms: i64| m.capture(Nanos::from_millis(ms), &truth).map(|f| (f.seq, f.visible_markers));
         assert_eq!(seen(&mut m, 95), Some((0, 4)));
         assert_eq!(seen(&mut m, 100), Some((1, 3)));
-        // the cameras' last view: all four markers, the hidden one flagged (shard 74: the view
-        // as two empty slices passed every unit test)
+        // the cameras' last view: all four markers, the hidden one flagged (a bug it catches: the
+        // view as two empty slices)
         assert_eq!((m.last_observation().0.len(), m.last_observation().1), (4, &[true, false, true, true][..]));
         assert_eq!(seen(&mut m, 195), Some((2, 3)));
         assert_eq!(seen(&mut m, 200), Some((3, 4)));

@@ -1,6 +1,6 @@
 //! Scenarios: YAML in, validated configuration out.
 //!
-//! Every field is documented in the README's scenario reference; units are in the field names
+//! Every field is documented in the guide's scenario reference (docs/scenarios.md); units are in the field names
 //! (`_m`, `_mm`, `_deg`, `_s`, `_ms`, `_hz`). Degrees exist only here: [`Scenario`] fields stay as
 //! written, and the engine converts them to radians once when it builds the arena.
 //! Unknown fields, duplicate keys, wrong types and out-of-range values are rejected with the file,
@@ -685,7 +685,7 @@ pub struct DisturbanceCfg {
     pub torque_nm: [f64; 3],
 }
 
-/// One phase of the flight plan (README, *Scenario reference*).
+/// One phase of the flight plan (docs/scenarios.md, *Scenario reference*).
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum PhaseCfg {
@@ -783,7 +783,7 @@ pub enum PhaseCfg {
         duration_s: f64,
     },
 }
-// Defaults of the plan's fields (README, *Scenario reference*).
+// Defaults of the plan's fields (docs/scenarios.md, *Scenario reference*).
 /// Hover before averaging roll/pitch or spinning (s).
 fn settle_hover_s() -> f64 {
     3.0
@@ -885,7 +885,7 @@ pub struct OffsetsReq {
     #[serde(with = "ranges::tol_deg")]
     pub yaw_tol_deg: f64,
     /// Yaw from the paper's straight flight (8)–(9) (checked when the plan flies calibrate_yaw);
-    /// `null` (default) shows it without asserting it: README, "Findings".
+    /// `null` (default) shows it without asserting it: docs/findings.md.
     #[serde(with = "ranges::tol_deg::opt")]
     pub yaw_straight_flight_tol_deg: Option<f64>,
 }

@@ -1,6 +1,6 @@
 //! Range-checked numbers for the YAML edge. A value outside its range fails *during*
 //! deserialisation, so the YAML parser reports the exact line and column of the offending value.
-//! Every range here is the documented range of its field (README, "Scenario reference").
+//! Every range here is the documented range of its field (docs/scenarios.md, "Scenario reference").
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer, de::Error};
 

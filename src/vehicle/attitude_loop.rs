@@ -4,7 +4,7 @@
 //! Frames: the body frame is the physical vehicle's (the IMU's), the onboard attitude estimate
 //! refers to gravity and to the heading at power-on, never to the mocap. That is the point of
 //! the mode: a commanded tilt is a tilt of the *physical* body, so the straight flight (6)
-//! goes where the body points, and a marker yaw becomes visible to (8)–(9) (README, Findings).
+//! goes where the body points, and a marker yaw becomes visible to (8)–(9) (docs/findings.md).
 //!
 //! Gyro calibration at power-on, as flight firmware does: until the motors first run (the vehicle
 //! at rest on the floor), b̂ is the mean gyro reading; after that it is frozen, and both onboard

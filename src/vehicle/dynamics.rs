@@ -418,9 +418,8 @@ mod tests {
     /// torque) the body velocity obeys v̇_b = C_n^b·g·e_D − K·v_b + (0, 0, −T/m), K = diag(k_x,
     /// k_y, 0), so along the body's x and y v_i(t) = c_i/k_i + (v_i(0) − c_i/k_i)·e^{−k_i·t} and
     /// along z v_z(0) + c_z·t. After 0.1 s of 1 ms steps the nav velocity must be C_b^n·v_b(t)
-    /// within RK4's error (k·h ≤ 5·10⁻⁴). Census of 33c1bbe, shards 35–39: the drag's body
-    /// velocity read with a sign of the inverse rotation lost, or from the wrong state index,
-    /// was caught only by identify's rotor-drag scenario.
+    /// within RK4's error (k·h ≤ 5·10⁻⁴). A bug it catches: the drag's body velocity read with a
+    /// sign of the inverse rotation lost, or from the wrong state index.
     #[test]
     fn rotor_drag_decays_the_body_velocity_in_closed_form() {
         let mut p = VehicleParams::x3d();
@@ -446,12 +445,11 @@ mod tests {
         assert!((c_b_n * (vb0 + c * t) - want).amax() > 0.01);
     }
 
-    /// The accelerometer by hand at a tilted, yawed attitude in motion: with rotor drag alone
-    /// f = (−k_x·v_b,x, −k_y·v_b,y, −T/m), with an external force F alone f = C_n^b·F/m +
-    /// (0, 0, −T/m), with both the sum, where v_b = C_n^b·v and −T/m is the plain vehicle's
-    /// reading (no drag, no force: the fast path). Census of 33c1bbe, shard 62: the fast path
-    /// taken when *either* was zero (`&&` as `||`) dropped the drag from the reading, and only
-    /// identify's whole flights noticed.
+    /// The accelerometer by hand at a tilted, yawed attitude in motion: with rotor drag alone f =
+    /// (−k_x·v_b,x, −k_y·v_b,y, −T/m), with an external force F alone f = C_n^b·F/m + (0, 0, −T/m),
+    /// with both the sum, where v_b = C_n^b·v and −T/m is the plain vehicle's reading (no drag, no
+    /// force: the fast path). A bug it catches: the fast path taken when *either* was zero (`&&` as
+    /// `||`) dropped the drag from the reading, and only identify's whole flights noticed.
     #[test]
     fn the_accelerometer_feels_rotor_drag_and_an_external_force_each_alone() {
         let att = Rot::<Body, Nav>::from_euler(Euler::new(0.2, -0.3, 1.0));
@@ -550,13 +548,12 @@ mod tests {
         let _ = Euler::ZERO;
     }
 
-    /// Touchdown by hand: a body falling through D = 0 with its rotors stopped keeps its
-    /// horizontal position (it moved at constant horizontal velocity during the step: no thrust,
-    /// no drag on the preset) and its heading, and rests level on the floor with no velocity and
-    /// no rate. First tilted (roll 0.1, pitch −0.05, yaw 0.8 rad) with no rate; then level,
-    /// spinning about the vertical at 0.2 rad/s, a principal axis (no gyroscopic term), so its
-    /// heading after the step is 0.8 + 0.2·dt. Census of 33c1bbe, shard 46: the floor's
-    /// position at (x, x) instead of (x, y) was caught only through an `identify` flight.
+    /// Touchdown by hand: a body falling through D = 0 with its rotors stopped keeps its horizontal
+    /// position (it moved at constant horizontal velocity during the step: no thrust, no drag on
+    /// the preset) and its heading, and rests level on the floor with no velocity and no rate.
+    /// First tilted (roll 0.1, pitch −0.05, yaw 0.8 rad) with no rate; then level, spinning about
+    /// the vertical at 0.2 rad/s, a principal axis (no gyroscopic term), so its heading after the
+    /// step is 0.8 + 0.2·dt. A bug it catches: the floor's position at (x, x) instead of (x, y).
     #[test]
     fn touchdown_keeps_the_horizontal_position_and_heading_and_levels_the_body() {
         let dt = 1e-3;

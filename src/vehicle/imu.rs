@@ -79,10 +79,9 @@ mod tests {
         Stream::new(seed, crate::rng::Component::ImuNoise, 0)
     }
 
-    /// The engine adds the lever-arm acceleration only where `position` is `Some`: an IMU at
-    /// the centre of mass has none, one off it has exactly its configured r (body FRD). Census
-    /// of 33c1bbe, shards 51-52: `Some(0)` always, and `None` off the centre, lost the lever arm
-    /// and were caught only by `identify`'s off-centre IMU flight.
+    /// The engine adds the lever-arm acceleration only where `position` is `Some`: an IMU at the
+    /// centre of mass has none, one off it has exactly its configured r (body FRD). A bug it
+    /// catches: `Some(0)` always, and `None` off the centre, lost the lever arm and.
     #[test]
     fn an_imu_off_the_centre_reports_its_position_and_one_at_it_none() {
         let stream = || noise_stream(1);
@@ -111,13 +110,12 @@ mod tests {
         assert!((f.x() - 0.1).abs() < 1e-12 && f.y().abs() < 1e-12, "{f:?}");
     }
 
-    /// Closed forms: each axis reads truth + bias + N(0, σ²). Over n = 4,000 readings the axis
-    /// mean is off its truth + bias by at most 5σ/√n, and the sample variance s² is within
-    /// 5·√(2/(n − 1)) (≈ 11 %) of σ² (the variance of s² is 2σ⁴/(n − 1) for Gaussian noise): a
-    /// false alarm once in ~10⁶ per check, while an IMU that adds no noise, or the gyro's σ to the
-    /// accelerometer (σ² 400 times too small), is off by about 100 %. A noise-free IMU reads
-    /// truth + bias exactly. Census of 33c1bbe, shard 54: noise only where σ == 0 (i.e. never)
-    /// passed every unit test.
+    /// Closed forms: each axis reads truth + bias + N(0, σ²). Over n = 4,000 readings the axis mean
+    /// is off its truth + bias by at most 5σ/√n, and the sample variance s² is within 5·√(2/(n −
+    /// 1)) (≈ 11 %) of σ² (the variance of s² is 2σ⁴/(n − 1) for Gaussian noise): a false alarm
+    /// once in ~10⁶ per check, while an IMU that adds no noise, or the gyro's σ to the
+    /// accelerometer (σ² 400 times too small), is off by about 100 %. A noise-free IMU reads truth +
+    /// bias exactly. A bug it catches: noise only where σ == 0 (i.e. never).
     #[test]
     fn an_imu_adds_its_bias_and_white_noise_of_the_configured_spread_on_every_axis() {
         let params = ImuParams { gyro_noise_rad_s: 0.01, accel_noise_m_s2: 0.2, gyro_bias_rad_s: [0.02, -0.03, 0.005], accel_bias_m_s2: [-0.1, 0.05, 0.3], ..ImuParams::default() };

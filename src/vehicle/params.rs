@@ -205,13 +205,12 @@ impl VehicleParams {
 mod tests {
     use super::*;
 
-    /// The PWM thrust map by hand, T = max(0, a·u² + b·u·V + c)/4 · g/1000 with u = pwm/65535:
-    /// a = 40 g, b = 10 g/V, c = −1 g at u = ½ and V = 4 V gives (10 + 20 − 1)/4 = 7.25 g a
-    /// motor; at u = 0.01 the sum is negative (0.004 + 0.4 − 1) and the thrust 0; and 0 at
-    /// pwm 0. The Crazyflie 2.1 stand fit's intercept is below zero: at 3.7 V its thrust starts
-    /// at u = (−bV + √((bV)² − 4ac))/(2a) = 0.003428, pwm 224.6. Census of 33c1bbe: the
-    /// intercept's sign (shard 80) and every operator of `thrust_n` (shards 0–14) were caught
-    /// only through `identify`'s end-to-end tests.
+    /// The PWM thrust map by hand, T = max(0, a·u² + b·u·V + c)/4 · g/1000 with u = pwm/65535: a =
+    /// 40 g, b = 10 g/V, c = −1 g at u = ½ and V = 4 V gives (10 + 20 − 1)/4 = 7.25 g a motor; at u
+    /// = 0.01 the sum is negative (0.004 + 0.4 − 1) and the thrust 0; and 0 at pwm 0. The Crazyflie
+    /// 2.1 stand fit's intercept is below zero: at 3.7 V its thrust starts at u = (−bV + √((bV)² −
+    /// 4ac))/(2a) = 0.003428, pwm 224.6. A bug it catches: the intercept's sign and every operator
+    /// of `thrust_n`.
     #[test]
     fn pwm_thrust_by_hand_and_the_stand_fits_dead_band() {
         let map = PwmThrustMap { a_g: 40.0, b_g_per_v: 10.0, c_g: -1.0, vbat_ref_v: 3.7 };

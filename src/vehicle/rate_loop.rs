@@ -126,11 +126,10 @@ mod tests {
         }
     }
 
-    /// With the rates on command (no error, no integral) the loop commands the gyroscopic
-    /// torque alone, ω × Jω = ((J_z − J_y)·q·r, (J_x − J_z)·p·r, (J_y − J_x)·p·q) (Euler's
-    /// equations), read back from the rotor speeds through the mixer. J = (0.01, 0.02, 0.04)
-    /// kg·m² and ω = (1, 2, 3) rad/s give (0.12, −0.09, 0.02) N·m. Census of 33c1bbe, shard 81:
-    /// J·ω's `*` as `+` was caught only by whole flights.
+    /// With the rates on command (no error, no integral) the loop commands the gyroscopic torque
+    /// alone, ω × Jω = ((J_z − J_y)·q·r, (J_x − J_z)·p·r, (J_y − J_x)·p·q) (Euler's equations),
+    /// read back from the rotor speeds through the mixer. J = (0.01, 0.02, 0.04) kg·m² and ω = (1,
+    /// 2, 3) rad/s give (0.12, −0.09, 0.02) N·m. A bug it catches: J·ω's `*` as `+`.
     #[test]
     fn on_command_the_loop_cancels_the_gyroscopic_torque() {
         let mut p = VehicleParams::x3d();
@@ -145,12 +144,12 @@ mod tests {
         assert!((f.iter().sum::<f64>() - 8.0).abs() < 1e-12, "{f:?}");
     }
 
-    /// The rate loop alone on a rigid yaw axis J·ṙ = τ_com + τ_d (rotor lag ignored: the
-    /// torque acts at once, the loop at 1 kHz). With K_I = 0 the step torque τ_d leaves the rate
-    /// error τ_d/(J·K_ω); with K_I > 0 the error decays to 0 and ∫e settles at τ_d/(J·K_I),
-    /// with an integral on yaw alone or on every axis. Census of 33c1bbe, shard 21: the guard
-    /// "some K_I ≠ 0" as "some K_I = 0" skipped the integral exactly when every axis has one,
-    /// and passed while the tests gave it to yaw alone.
+    /// The rate loop alone on a rigid yaw axis J·ṙ = τ_com + τ_d (rotor lag ignored: the torque
+    /// acts at once, the loop at 1 kHz). With K_I = 0 the step torque τ_d leaves the rate error
+    /// τ_d/(J·K_ω); with K_I > 0 the error decays to 0 and ∫e settles at τ_d/(J·K_I), with an
+    /// integral on yaw alone or on every axis. A bug it catches: the guard "some K_I ≠ 0" as "some
+    /// K_I = 0" skipped the integral exactly when every axis has one, and passed while the tests
+    /// gave it to yaw alone.
     #[test]
     fn the_integral_removes_the_rate_error_of_a_constant_torque() {
         let (tau_d, dt) = (0.02, 1e-3);
@@ -176,10 +175,10 @@ mod tests {
         }
     }
 
-    /// No wind-up on the floor: with the motors off (T = 0) a rate error of (0.1, −0.2, 0.3)
-    /// rad/s held for 1 s leaves the integral at 0 on every axis; the first tick with thrust
-    /// adds e·Δt = (1, −2, 3)·10⁻⁴ rad, and a return to T = 0 resets it. Census of 33c1bbe,
-    /// shard 24: `T > 0` as `T ≥ 0` wound the integral up on the floor.
+    /// No wind-up on the floor: with the motors off (T = 0) a rate error of (0.1, −0.2, 0.3) rad/s
+    /// held for 1 s leaves the integral at 0 on every axis; the first tick with thrust adds e·Δt =
+    /// (1, −2, 3)·10⁻⁴ rad, and a return to T = 0 resets it. A bug it catches: `T > 0` as `T ≥ 0`
+    /// wound the integral up on the floor.
     #[test]
     fn the_integral_is_held_at_zero_with_the_motors_off() {
         let mut p = VehicleParams::x3d();

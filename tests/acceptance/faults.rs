@@ -124,7 +124,7 @@ fn an_outage_after_landing_keeps_the_motors_off() {
     assert!(v.final_pos.z().abs() < 1e-9);
 }
 
-/// The failsafe's dead reckoning uses the gyro alignment's bias (issue 15): a 2 °/s roll-gyro
+/// The failsafe's dead reckoning uses the gyro alignment's bias: a 2 °/s roll-gyro
 /// bias, the calibration circles, then a 1 s outage in hover. The dead reckoning runs from the
 /// last pose (captured at 19.985 s) through the telemetry that has arrived by the failsafe's
 /// last tick (frames up to 20.99 s: 10 ms telemetry latency), 1.005 s; without the bias it
@@ -164,7 +164,7 @@ plan:
 }
 
 /// The failsafe's dead reckoning maps the telemetry's stamps to Vicon time through the fitted
-/// clock (issue 15): the telemetry clock runs 30 ms behind, the station fits it in the gyro
+/// clock: the telemetry clock runs 30 ms behind, the station fits it in the gyro
 /// alignment, and the mocap drops out for 0.5 s while the vehicle yaws at 18 °/s. Taken for
 /// Vicon time, the stamps would make the propagation skip the first 30 ms of telemetry after the
 /// last pose, and the dead-reckoned attitude would miss Ω·δ = 18 °/s · 30 ms = 0.54° of yaw

@@ -151,7 +151,7 @@ fn a_gyro_delay_is_found_when_tested_and_named_when_not() {
     assert!(yaml.contains("gyro_delay_ms"));
     let s = super::inline(&yaml);
     let (_, series) = run_and_log(&s, 0, "gyro-delay").unwrap();
-    // named twice (`--with gyro_delay --with gyro_delay`), it is fitted once (census shard 33:
+    // named twice (`--with gyro_delay --with gyro_delay`), it is fitted once (a bug it catches:
     // "available and not yet selected" as "or" forced it twice, a singular pair of columns)
     let r = identify(&series, &Options { forced: vec![Effect::GyroDelay, Effect::GyroDelay], ..Options::default() }).unwrap();
     assert_eq!(r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(), [Effect::GyroDelay], "{}", flyarena::identify::report::render(&r));
@@ -368,7 +368,7 @@ fn crazyflie21_battery_is_the_stand_fit() {
 }
 
 /// The real flights (NanoBench, ../shared/data): per flight, with the body offset fitted
-/// (forced) and the rest selected. What the README's table reports, pinned loosely.
+/// (forced) and the rest selected. What the guide's table (docs/nanobench.md) reports, pinned loosely.
 #[test]
 fn nanobench_flights() {
     let Some(data) = super::shared_data() else { return };
@@ -436,9 +436,9 @@ fn nanobench_flights() {
     assert!(agree >= 8, "in-flight frame tilt and bias-corrected ground tilt agree within 0.7° on {agree} of 9 flights");
 }
 
-/// The README's NanoBench table, pinned per flight (`scripts/nanobench-table.py`): each figure
+/// The NanoBench table of docs/nanobench.md, pinned per flight (`scripts/nanobench-table.py`): each figure
 /// may move by at most a quarter of its own 95 % interval (a change that moves it more changes
-/// what the README says), the lever arm is selected on the same flights, the ground agreement's
+/// what the guide says), the lever arm is selected on the same flights, the ground agreement's
 /// differences stay within 0.02°, and the held-out accel_kin RMSE within 2 %.
 #[test]
 fn nanobench_table_is_pinned() {
@@ -462,7 +462,7 @@ fn nanobench_table_is_pinned() {
     let map = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
     let mut opts = Options { forced: vec![Effect::BodyOffset], ..Options::default() };
     opts.design.smoothing_s = map.smoothing_ms.unwrap() * 1e-3;
-    let near = |name: &str, what: &str, got: f64, (want, ci): Pair| assert!((got - want).abs() <= 0.25 * ci + 1e-4, "{name}: {what} {got} (README {want} ± {ci})");
+    let near = |name: &str, what: &str, got: f64, (want, ci): Pair| assert!((got - want).abs() <= 0.25 * ci + 1e-4, "{name}: {what} {got} (the guide: {want} ± {ci})");
     let mut diffs = [Vec::new(), Vec::new()];
     let mut agreements = Vec::new();
     let mut rest_scatter = Vec::new();
@@ -483,7 +483,7 @@ fn nanobench_table_is_pinned() {
         }
         agreements.push(a);
         rest_scatter.push((name.to_string(), r.ground_check.unwrap().mocap_sd_deg[0]));
-        // the accel_kin x floor (README, *The Vicon attitude in flight*): the final residual
+        // the accel_kin x floor (docs/nanobench.md, *The Vicon attitude in flight*): the final residual
         // follows the Vicon attitude's pitch gap with the sign of −g·δθ_y
         let x = r.left.iter().find(|l| l.channel == flyarena::identify::Channel::AccelKin && l.axis == 'x').unwrap();
         if x.correlates.iter().any(|c| c.floor && c.signal.ends_with("integral y (rad)") && (-0.6..=-0.19).contains(&c.r)) {
@@ -498,12 +498,12 @@ fn nanobench_table_is_pinned() {
         ["B2_circle_fast_rep2", "B3_figure8_medium_rep2", "B5_helix_fast_rep1", "B7_oval_fast_rep1", "B8_star_medium_rep1", "B9_trefoil_fast_rep1"],
         "accel_kin x at the Vicon attitude's floor"
     );
-    // the README's medians of |ground − bias tilt − flight|: 0.17° roll, 0.39° pitch
+    // the guide's medians of |ground − bias tilt − flight|: 0.17° roll, 0.39° pitch
     for (k, want) in [(0, 0.17), (1, 0.39)] {
         diffs[k].sort_by(f64::total_cmp);
         assert!((diffs[k][4] - want).abs() < 0.01, "median {k}: {}", diffs[k][4]);
     }
-    // the spin-up as the ground check (README, *In flight against on the ground*): pitch moves
+    // the spin-up as the ground check (docs/nanobench.md, *In flight against on the ground*): pitch moves
     // toward the flight in 8 of 9 flights (p = 10/512) and its median falls to 0.25°; roll does not
     let sum = flyarena::identify::ground::spin_up_summary(agreements.iter()).unwrap();
     assert_eq!((sum.flights, sum.roll.toward_flight, sum.pitch.toward_flight), (9, 4, 8), "{sum:?}");
@@ -511,7 +511,7 @@ fn nanobench_table_is_pinned() {
     for (got, want) in [(sum.roll.median_spin_up_deg, 0.34), (sum.pitch.median_spin_up_deg, 0.25)] {
         assert!((got - want).abs() < 0.01, "{sum:?}");
     }
-    // the rest after landing (README, *Before take-off and after landing*): 8 flights have one
+    // the rest after landing (docs/nanobench.md, *Before take-off and after landing*): 8 flights have one
     // (B9's log ends at the motors' stop); the two rests differ by a median 0.09° roll and
     // 0.24° pitch, and their mean meets the flight within a median 0.13° and 0.16°; with it as
     // the reference where there is one, 0.19° and 0.24° over all 9, and only B9's roll beyond 1°
@@ -536,7 +536,7 @@ fn nanobench_table_is_pinned() {
     ] {
         assert!((got - want).abs() < 0.01, "{got} vs {want}: {l:?}");
     }
-    // split by the still pose's scatter (README, *A still pose that scatters*): the three
+    // split by the still pose's scatter (docs/nanobench.md, *A still pose that scatters*): the three
     // flights above 0.02° against the six below; below it the medians are 0.09° roll and 0.27°
     // pitch, with B9's roll (not covered) the one beyond 1°
     let rp = flyarena::identify::ground::rest_pose_summary(agreements.iter()).unwrap();
@@ -547,12 +547,12 @@ fn nanobench_table_is_pinned() {
     assert!((rp.roll.mann_whitney_p - 0.061).abs() < 0.001, "{rp:?}");
 }
 
-/// Consistency across the real flights (README, *Consistency across flights*): the ground
+/// Consistency across the real flights (docs/nanobench.md, *Consistency across flights*): the ground
 /// tilts group (all within 0.5° of each other) into three mountings of several flights; inside
 /// each the body offsets agree within their intervals (χ², p ≥ 0.05, every axis), one flight's
 /// offset lowers every other's accel_kin error in its mounting, and across mountings it makes it
 /// worse in 18 of 62 pairs; against the other flights' mean offset it helps in every pair inside
-/// a mounting and loses in 36 of 62 across. The medians are the README's.
+/// a mounting and loses in 36 of 62 across. The medians are the guide's.
 #[test]
 fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     let Some(data) = super::shared_data() else { return };
@@ -580,8 +580,8 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     assert_eq!(c.mountings[..3].iter().map(|m| m.axes.len()).sum::<usize>(), 9, "roll, pitch and yaw in the three mountings of several flights");
     assert_eq!((c.within_pairs, c.across_pairs), (10, 62));
     assert_eq!(c.within_offset_worse, 0, "inside a mounting one flight's offset never makes another worse");
-    assert_eq!(c.across_offset_worse, 18, "across mountings it does, in 18 of 62 pairs (README)");
-    let near = |what: &str, got: Option<f64>, want: f64| assert!((got.unwrap() - want).abs() < 0.01, "{what}: {got:?} (README {want})");
+    assert_eq!(c.across_offset_worse, 18, "across mountings it does, in 18 of 62 pairs (the guide)");
+    let near = |what: &str, got: Option<f64>, want: f64| assert!((got.unwrap() - want).abs() < 0.01, "{what}: {got:?} (the guide: {want})");
     near("within cut", c.within_cut, 0.35);
     near("across cut", c.across_cut, 0.20);
     near("within offset gain", c.within_offset_gain, 0.33);
@@ -593,7 +593,7 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     assert_eq!((c.within_mounting_worse, c.across_mounting_worse), (0, 36), "{}", flyarena::identify::consistency::render(c));
     near("within mounting gain", c.within_mounting_gain, 0.30);
     near("across mounting gain", c.across_mounting_gain, -0.15);
-    // the block the command prints (README, *Consistency across flights*), line by line
+    // the block the command prints (docs/nanobench.md, *Consistency across flights*), line by line
     for line in [
         "  mounting 2: B2_circle_fast_rep2, B3_figure8_medium_rep2 (ground spread 0.24°)",
         "    body offset roll  mean +1.80°, spread 0.13° over 2 flights, χ² 0.8 on 1 dof, p 0.37: agree within their intervals",
@@ -654,9 +654,9 @@ plan:
     assert!(first.not_identifiable_from.iter().any(|(e, rho)| *e == other && *rho > 0.99), "{text}");
     assert!(r.notes.iter().any(|n| n.contains("not identifiable")), "{text}");
     // a step names only rivals that passed its gates beside the winner, never the winner itself
-    // (whose canonical correlation with itself is 1). Census of 33c1bbe, shard 56: the rivals'
-    // filter `c.effect != best && c.passed` as `||` named the winner and failed candidates, and
-    // the whole suite passed.
+    // (whose canonical correlation with itself is 1). A bug it catches: the rivals' filter
+    // `c.effect != best && c.passed` as `||` named the winner and failed candidates, and the whole
+    // suite passed.
     for st in &r.steps {
         for (e, _) in &st.not_identifiable_from {
             assert!(*e != st.added && st.candidates.iter().any(|c| c.effect == *e && c.passed), "{:?} named {e:?}\n{text}", st.added);
@@ -664,13 +664,13 @@ plan:
     }
 }
 
-/// The mocap delay is unbiased (issue 12: "9.5 ± 0.3 ms" for 10 ms, 11 of 90 intervals
-/// missing). Two causes, both fixed and each caught here: the mocap's specific force was
+/// The mocap delay is unbiased (not "9.5 ± 0.3 ms" for 10 ms, with 11 of 90 intervals
+/// missing). Two causes of such a bias, each caught here: the mocap's specific force was
 /// rotated into the body frame after smoothing (K*(Rᵀp̈) ≠ Rᵀ(K*p̈) by σ²·ω×(Rᵀ·jerk), which
 /// the delay column partly absorbed), and the pooled least squares weighted the channels by
 /// their units, so the accelerometer's noisy ḟ column (three quarters noise on x and y)
 /// dominated the gyro's clean ω̇ one, and errors in that variable shrank the delay. On five
-/// seeds of the delay scenario the mean error must be within 0.05 ms of zero (it was −0.2 ms)
+/// seeds of the delay scenario the mean error must be within 0.05 ms of zero (either cause gives −0.2 ms)
 /// and every 95 % interval must hold the truth.
 #[test]
 fn the_mocap_delay_is_unbiased_over_seeds() {
@@ -755,7 +755,7 @@ fn with_hypothesis(base: &flyarena::identify::Series, e: Effect, v: &[f64]) -> f
     s
 }
 
-/// The hypotheses tested on the NanoBench flights (README, *Hypotheses tested on the real
+/// The hypotheses tested on the NanoBench flights (docs/nanobench.md, *Hypotheses tested on the real
 /// flights*) are not searched, so they are checked here as a user runs them, forced with
 /// `--with`: applied to a simulated flight they come out at their truth within their interval,
 /// and on the untouched flight their interval covers zero (no invented effect). Each truth is a
@@ -793,7 +793,7 @@ fn the_hypotheses_tested_on_real_flights_are_found_at_their_truth_and_not_invent
 }
 
 /// The IMU off the centre of mass (`imu_offset`, a hypothesis the NanoBench flights support at
-/// 2.5 mm: README, *The IMU off the centre of mass*), flown in the simulator with the IMU at
+/// 2.5 mm: docs/nanobench.md, *The IMU off the centre of mass*), flown in the simulator with the IMU at
 /// `imu.position_mm` (it reads f + ω̇×r + ω×(ω×r) there; the markers stay centred on the centre
 /// of mass): forced, it comes out at its truth within its interval, and the lever arm that the
 /// selection adds in the accelerometer-against-mocap channel is the same point (r = r_c − d with
@@ -816,7 +816,7 @@ fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
         let r = identify(&series, &forced).unwrap();
         let text = flyarena::identify::report::render(&r);
         let f = r.effect(Effect::ImuOffset).unwrap_or_else(|| panic!("not fitted\n{text}"));
-        // the README quotes this line (`-- --nocapture`)
+        // docs/nanobench.md quotes this line (`-- --nocapture`)
         eprintln!("{label}: imu_offset {}", f.params.iter().map(|p| format!("{:.1} ± {:.1}", p.value, p.ci95)).collect::<Vec<_>>().join(" / "));
         for (p, w) in f.params.iter().zip(want) {
             assert!(p.identifiable && (p.value - w).abs() <= p.ci95, "{label}: imu_offset {}: {} ± {} mm (truth {w})\n{text}", p.name, p.value, p.ci95);
@@ -901,14 +901,13 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
     assert!(cv.text.contains("B8_copy: left out, the same samples as B8_star_medium_rep1"), "{}", cv.text);
 }
 
-/// Mocap glitches (a marker mistaken for another for a frame or two) are found in the raw
-/// poses, left out and named, and make no effect. Into the flight with nothing hidden go three
-/// position jumps of 5 cm, one of two frames and one attitude jump of 3° about z, far apart in
-/// the hover and the turns. A jump J at row i is J off its neighbours' midpoint, and row i ± 1
-/// is J/2 off its own (J, 0 and J/2): rows i − 1 … i + 1 exceed the limit (floors 1 mm and
-/// 0.5°, 20 robust σ of a smooth flight's sub-millimetre differences), and i − 1 … i + 2 for the
-/// two-frame jump: 16 rows, 5 glitches. Census of 33c1bbe, shard 36: the note's `outliers > 0`
-/// as `< 0` (never named) went unseen; the note then counted rows (12 for 4 one-frame glitches).
+/// Mocap glitches (a marker mistaken for another for a frame or two) are found in the raw poses,
+/// left out and named, and make no effect. Into the flight with nothing hidden go three position
+/// jumps of 5 cm, one of two frames and one attitude jump of 3° about z, far apart in the hover and
+/// the turns. A jump J at row i is J off its neighbours' midpoint, and row i ± 1 is J/2 off its own
+/// (J, 0 and J/2): rows i − 1 … i + 1 exceed the limit (floors 1 mm and 0.5°, 20 robust σ of a
+/// smooth flight's sub-millimetre differences), and i − 1 … i + 2 for the two-frame jump: 16 rows,
+/// 5 glitches. A bug it catches: the note's `outliers > 0` as `< 0` (never named); the note counted rows (12 for 4 one-frame glitches).
 #[test]
 fn injected_mocap_glitches_are_left_out_and_named() {
     use flyarena::identify::design::glitches;

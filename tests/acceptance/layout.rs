@@ -1,4 +1,4 @@
-//! The crate's layout (issue 18): the library's top-level modules depend on each other in one
+//! The crate's layout: the library's top-level modules depend on each other in one
 //! direction only, and none of them reaches the command line.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -158,7 +158,7 @@ fn function_lengths(text: &str) -> Vec<(String, usize)> {
     out
 }
 
-/// No function of the library or the binary is longer than 100 lines (issue 18: a long function
+/// No function of the library or the binary is longer than 100 lines (a long function
 /// holds several jobs; ripgrep keeps under 1 % of its functions above 80 lines).
 #[test]
 fn no_function_is_longer_than_100_lines() {

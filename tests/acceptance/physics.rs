@@ -76,13 +76,13 @@ fn straight_flight_yaw_in(mode: &str, seed: u64, yaw_deg: f64, extra: &str) -> f
     run(&inline(&y), RunOptions { trace: false, apply_calibration: None }).vehicles[0].calibration.yaw_offset.unwrap().to_degrees()
 }
 
-/// Yaw observability (README): with the attitude loop closed on the mocap, the thrust axis is
+/// Yaw observability (docs/findings.md): with the attitude loop closed on the mocap, the thrust axis is
 /// tilted in the mocap frame, and a marker rotation about the body z axis leaves that axis
 /// unchanged, so the straight flight (6) goes along *measured* North to first order and the fit
 /// (8)–(9) sees only a small part of a yaw offset. Pinned here so that a change in this physics is
 /// noticed: with 4° of marker yaw the estimate moves by less than half of it against the same
 /// seed without (with the default 1.5 °/s per count and noise, the estimate itself scatters by the
-/// error budget of the README, ±1.7° over seeds and 3.2° on one: it is not ~0).
+/// error budget of docs/findings.md, ±1.7° over seeds and 3.2° on one: it is not ~0).
 #[test]
 fn straight_flight_is_nearly_blind_to_a_marker_yaw_offset() {
     for seed in 1..=3 {
@@ -281,7 +281,7 @@ plan:
 /// atan(r·ω²/g) = atan(0.25·π²/9.81) = 14.1° of tilt turning at ω = π rad/s, a roll and pitch
 /// rate of 0.246·π = 0.77 rad/s = 44 °/s. The position loop overshoots the circle, so the
 /// vehicle flies a wider one: over the middle turn the mean tilt and the mean |(p, q)| are
-/// pinned here at their flown values, 20° and 64 °/s (README; flown 20.3° and 64.3 °/s), within 3 %.
+/// pinned here at their flown values, 20° and 64 °/s (docs/findings.md; flown 20.3° and 64.3 °/s), within 3 %.
 #[test]
 fn calibration_circles_as_flown() {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/yaw-offset.yaml")).unwrap();
@@ -358,8 +358,8 @@ fn the_run_summary_states_each_quantity_in_its_unit() {
     assert!(c.at_s > 1.0 && (c.offset_ms - truth_ms).abs() < 1.0, "{c:?} against {truth_ms} ms");
     assert!((0.02..1.0).contains(&c.offset_sigma_ms), "{c:?}");
     let (drift, sd) = (c.drift_ppm.unwrap(), c.drift_sigma_ppm.unwrap());
-    // and it is measured: its 1σ is under a quarter of the 100 ppm (shard 57: `· 1e6` as `+ 1e6`
-    // gave ~1e6 ppm, inside every lower bound)
+    // and it is measured: its 1σ is under a quarter of the 100 ppm (a bug it catches: `· 1e6` as `+
+    // 1e6` gave ~1e6 ppm, inside every lower bound)
     assert!(sd > 0.0 && sd < 25.0 && (drift - 100.0).abs() < 4.0 * sd, "{c:?}");
     // the markers only rotate (1°, −0.5°, 4°): the truth is a rigid displacement, no misfit
     assert!(near(&v.true_offset_deg, &[1.0, -0.5, 4.0], 1e-9) && v.true_offset_misfit_mm.abs() < 1e-9, "{:?} {}", v.true_offset_deg, v.true_offset_misfit_mm);
@@ -368,8 +368,8 @@ fn the_run_summary_states_each_quantity_in_its_unit() {
 /// The summary's marker misfit is the truth's rigid-fit residual in mm. displaced-markers.yaml
 /// moves two markers by (0, 6, −4) and (0, 0, 5) mm: no rigid motion maps the template onto them,
 /// so the misfit is above 0, and at most the RMS displacement √((36 + 16 + 25)/4) = 4.39 mm (the
-/// identity's residual: the best rigid fit does no worse). Shard 46 found `· 1e3` as `+ 1e3`
-/// unread (and `/ 1e3` would give 0.004 mm).
+/// identity's residual: the best rigid fit does no worse). `· 1e3` as `+ 1e3`
+/// fails it, and `/ 1e3` would give 0.004 mm.
 #[test]
 fn the_run_summary_states_the_markers_misfit_in_mm() {
     use flyarena::{Body, Vec3};

@@ -164,10 +164,10 @@ fn gyro_that_disagrees_with_the_mocap_is_cut() {
     assert!(cuts[0].from_s <= 6.0 && cuts[0].to_s >= 6.05, "{:?}", cuts[0]);
 }
 
-/// The plotted residuals' times are seconds from the log's first sample, whatever its clock
-/// reads there: the drag flight cut to start 8 s in plots from 0 (its first usable row) to at
-/// most its own length, not from 16 s. Census of 33c1bbe, shard 19: `t − t₀` as `t + t₀`
-/// passed, because every log whose residuals a test read started at t₀ = 0.
+/// The plotted residuals' times are seconds from the log's first sample, whatever its clock reads
+/// there: the drag flight cut to start 8 s in plots from 0 (its first usable row) to at most its
+/// own length, not from 16 s. A bug it catches: `t − t₀` as `t + t₀` passed, because every log
+/// whose residuals a test read started at t₀ = 0.
 #[test]
 fn residuals_are_plotted_in_seconds_from_the_logs_first_sample() {
     let clean = drag_flight();

@@ -516,7 +516,7 @@ fn r3_and_r4_do_not_apply_to_an_external_vehicle() {
     assert!(report.rows.iter().any(|r| r.measured.contains("external controller")), "{}", report.table());
 }
 
-/// The README's example as a user runs it: `flyarena serve` (the binary) on Fig. 6 with its
+/// The guide's example (docs/serve.md) as a user runs it: `flyarena serve` (the binary) on Fig. 6 with its
 /// vehicle external, `--lockstep`, and the reference controller. Exit 0, and the summary's R2
 /// ratio is asserted against flyarena's own station flying uncompensated (not against an
 /// external vehicle that nobody flies, which would stay on the floor).

@@ -1,5 +1,5 @@
 //! `flyarena trials`: identify on flights it was not tuned to. A small sample of the random
-//! generator runs here with tolerances derived from its size (the README's 300-flight table comes
+//! generator runs here with tolerances derived from its size (the 300-flight table of docs/trials.md comes
 //! from `flyarena trials --flights 300 --seed 1`); the generator is a pure function of (seed,
 //! index); a known hard case is reported honestly.
 
@@ -26,13 +26,13 @@ fn band(p: f64, n: usize) -> f64 {
     3.0 * (p * (1.0 - p) / n.max(1) as f64).sqrt()
 }
 
-/// The intervals claim 95 %. Measured on the README's 300 flights: 95.5 % (seed 1), 95.3 %
+/// The intervals claim 95 %. Measured on the 300 flights of docs/trials.md: 95.5 % (seed 1), 95.3 %
 /// (seed 2) and 94.5 % (seed 3), every effect at 90.8 % or more but the constant force on seed 2
 /// (87.5 %). The sample here must agree with 95 % within its
 /// binomial band: intervals that narrow (or widen) by a quarter fail it.
 const NOMINAL_COVERAGE: f64 = 0.95;
 
-/// 48 random flights (seed 7, not the README's): recall where the excitation suffices, precision,
+/// 48 random flights (seed 7, not the guide's): recall where the excitation suffices, precision,
 /// the intervals' coverage and the share of confidently wrong parameters, each within three
 /// binomial standard deviations of its target for this sample size (coverage: of the nominal
 /// 95 %, see [`NOMINAL_COVERAGE`]).
@@ -126,9 +126,10 @@ fn excitation_matches_the_selections_f_statistic() {
 }
 
 /// The excitation takes a truth in the report's units (here deg/s) and computes λ from its SI
-/// value, as the selection's F statistic sees it: on the gyro-bias flight (the bias hidden,
-/// found at the first step) F·k and λ agree (1.02) as on the rotor-drag flight, whose factor is 1 and
-/// cannot tell a lost conversion (shard 48: `v / f` as `v % f`, which leaves 1.0 deg/s at 1.0).
+/// value, as the selection's F statistic sees it: on the gyro-bias flight (the bias hidden, found
+/// at the first step) F·k and λ agree (1.02) as on the rotor-drag flight, whose factor is 1 and
+/// cannot tell a lost conversion (a bug it catches: `v / f` as `v % f`, which leaves 1.0 deg/s at
+/// 1.0).
 #[test]
 fn excitation_reads_the_truth_in_the_reported_units() {
     use flyarena::identify::Effect::GyroBias;
@@ -315,10 +316,10 @@ fn a_thrust_scale_named_beside_a_voltage_effect_claims_no_interval() {
     let scale = r.effect(ThrustScale).unwrap_or_else(|| panic!("thrust scale missed: {r:#?}"));
     assert!(scale.params.iter().any(|p| !p.identifiable), "{scale:#?}");
     assert!(r.effect(ThrustVoltage).is_none(), "{r:#?}");
-    // the final check meets the pair again and lists it (and writes its note) only if no step
-    // did: once in the report, which flags the voltage effect beside the selected thrust scale.
-    // Census of 33c1bbe, shard 21: "not yet listed" as "already listed" listed every pair
-    // named at its step twice (and no new one) and passed
+    // the final check meets the pair again and lists it (and writes its note) only if no step did:
+    // once in the report, which flags the voltage effect beside the selected thrust scale. A bug it
+    // catches: "not yet listed" as "already listed" listed every pair named at its step twice (and
+    // no new one) and passed
     let listed = r.not_identifiable.iter().filter(|(a, b, _)| [*a, *b] == [ThrustScale, ThrustVoltage] || [*b, *a] == [ThrustScale, ThrustVoltage]).count();
     assert_eq!(listed, 1, "{:?}", r.not_identifiable);
     assert!(!r.notes.iter().any(|n| n.contains("explain this flight's residual alike")), "{:?}", r.notes);
@@ -350,8 +351,8 @@ fn a_half_supported_delay_widens_the_body_offset_yaw() {
 /// (`widen::half_supported`), and without the delay among the candidates nothing is widened.
 /// The note gives the alternative's body-offset roll as +0.021°; the bias moves too little to
 /// be listed (asserted), so the roll interval grows by 0.021° (0.0208° measured: 0.0708° against 0.0500°).
-/// The flight's mocap starts a frame after its IMU (the undeclared 5 ms delay), which until
-/// session 20 cost it its rest and the whole ground agreement.
+/// The flight's mocap starts a frame after its IMU (the undeclared 5 ms delay): its rest must
+/// begin at the first pose, or it has no rest and no ground agreement at all.
 #[test]
 fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
     use flyarena::identify::Effect::*;

@@ -61,7 +61,7 @@ fn r1_gyro_yaw_fails_below_its_measured_error() {
     only_failing(&yaw_offset(|t| t.replace("yaw_tol_deg: 0.5", "yaw_tol_deg: 0.0001")), "R1", "yaw offset, gyro");
 }
 
-/// R1 straight-flight yaw: not asserted by default (blind in rate mode, README); asserted at
+/// R1 straight-flight yaw: not asserted by default (blind in rate mode, docs/findings.md); asserted at
 /// 0.01°, the 4° marker yaw the flight cannot see makes it fail.
 #[test]
 fn r1_straight_flight_yaw_fails_when_asserted() {

@@ -82,25 +82,24 @@ pub(super) fn thrust_systematic(d: &Design, train: &[bool], gs: &[Gram], set: &[
 mod tests {
     use super::*;
 
-    /// The Bartlett weights by hand for 3 lags: 1, 3/4, 1/2, 1/4. Census shard 0 (ec82c47):
-    /// `lags + 1` as `lags − 1` (1, 1/2, 0, −1/2: S no longer positive semidefinite) and as
-    /// `lags · 1` (1, 2/3, 1/3, 0) went unseen.
+    /// The Bartlett weights by hand for 3 lags: 1, 3/4, 1/2, 1/4. A bug it catches: `lags + 1` as
+    /// `lags − 1` (1, 1/2, 0, −1/2: S no longer positive semidefinite) and as `lags · 1` (1, 2/3,
+    /// 1/3, 0).
     #[test]
     fn bartlett_weights_by_hand() {
         assert_eq!((0..4).map(|l| bartlett(l, 3)).collect::<Vec<_>>(), [1.0, 0.75, 0.5, 0.25]);
         assert_eq!(bartlett(0, 0), 1.0);
     }
 
-    /// Newey–West by hand for one parameter: two channel axes carry its column, a constant 2
-    /// (θ is half the mean); the second also carries another column, which the score must not
-    /// use. Axis weights w = 1/σ² are ¼ (σ = 2) and 1; residuals at θ = 0 are e₁ = (0.5, 0, 0,
-    /// 1, −0.5) and e₂ = (1, 2, 7, −1, 3); row 2 is held out. The scores summed per time sample,
-    /// u_t = 2·(¼·e₁ + e₂), are 2·(1.125, 2, held out, −0.75, 2.875), and G = Σ w·2²·n =
-    /// (¼ + 1)·4·4 = 20, so var = S/G² = 4·s/400 with s the sum for ¼·e₁ + e₂: Σu² = 14.09375
-    /// (0 lags); + 2·½·(u₁u₀ + u₄u₃) = 0.09375 (1 lag: pairs across the held-out row do not
-    /// count); with 2 lags ⅔ on lag 1 and ⅓ on u₃u₁ = −1.5: s = 14.09375 + 0.125 − 1 = 13.21875.
-    /// Census of 33c1bbe: every mutant of `hac` (the column lookup's `==` as `!=`, shard 80; the
-    /// score's and S's sums, shards 1–13) was caught only through `identify`'s end-to-end tests.
+    /// Newey–West by hand for one parameter: two channel axes carry its column, a constant 2 (θ is
+    /// half the mean); the second also carries another column, which the score must not use. Axis
+    /// weights w = 1/σ² are ¼ (σ = 2) and 1; residuals at θ = 0 are e₁ = (0.5, 0, 0, 1, −0.5) and
+    /// e₂ = (1, 2, 7, −1, 3); row 2 is held out. The scores summed per time sample, u_t = 2·(¼·e₁ +
+    /// e₂), are 2·(1.125, 2, held out, −0.75, 2.875), and G = Σ w·2²·n = (¼ + 1)·4·4 = 20, so var =
+    /// S/G² = 4·s/400 with s the sum for ¼·e₁ + e₂: Σu² = 14.09375 (0 lags); + 2·½·(u₁u₀ + u₄u₃) =
+    /// 0.09375 (1 lag: pairs across the held-out row do not count); with 2 lags ⅔ on lag 1 and ⅓ on
+    /// u₃u₁ = −1.5: s = 14.09375 + 0.125 − 1 = 13.21875. A bug it catches: every mutant of `hac`
+    /// (the column lookup's `==` as `!=`, the score's and S's sums).
     #[test]
     fn the_variance_of_a_mean_summed_per_time_sample_with_bartlett_lags() {
         let n = 5;
@@ -125,14 +124,13 @@ mod tests {
         }
     }
 
-    /// The thrust error's covariance in closed form. A relative error ε of the nominal thrust
-    /// adds ε times the thrust-scale column c to the force z residual. With the thrust scale in
-    /// the model that is exactly its own column, so its parameter moves by ε and the others not
-    /// at all: covariance σ_T² on the thrust scale, 0 elsewhere. Without it, a constant vertical
-    /// force (the accelerometer bias z, a column of ones) takes the least-squares projection of
-    /// c on a constant, the training mean c̄: σ_T²·c̄². The weight w_r cancels (here 1/0.5²).
-    /// Census of 33c1bbe: `col·c` as `col / c` (shard 42) and σ_T·σ_T as σ_T + σ_T (shard 43)
-    /// were caught only through `identify`'s end-to-end tests.
+    /// The thrust error's covariance in closed form. A relative error ε of the nominal thrust adds
+    /// ε times the thrust-scale column c to the force z residual. With the thrust scale in the
+    /// model that is exactly its own column, so its parameter moves by ε and the others not at all:
+    /// covariance σ_T² on the thrust scale, 0 elsewhere. Without it, a constant vertical force (the
+    /// accelerometer bias z, a column of ones) takes the least-squares projection of c on a
+    /// constant, the training mean c̄: σ_T²·c̄². The weight w_r cancels (here 1/0.5²). A bug it
+    /// catches: `col·c` as `col / c` and σ_T·σ_T as σ_T + σ_T.
     #[test]
     fn a_thrust_error_moves_the_thrust_scale_by_itself_or_a_bias_by_the_mean_thrust() {
         let n = 6;

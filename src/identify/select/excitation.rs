@@ -119,16 +119,16 @@ mod tests {
     }
 
     /// E/(E + N) by hand on both sides of E = N and at the ends: 1/(1 + 3) = 0.25, 3/(3 + 1) =
-    /// 0.75, an effect with no residual left 1, nothing at all 0. Census shard 0 (ec82c47): the
-    /// guard's `E + N` as `E − N` (0 whenever E < N) and as `E·N` (0 when N = 0) went unseen.
+    /// 0.75, an effect with no residual left 1, nothing at all 0. A bug it catches: the guard's `E +
+    /// N` as `E − N` (0 whenever E < N) and as `E·N` (0 when N = 0).
     #[test]
     fn the_heldout_share_by_hand() {
         assert_eq!([share(1.0, 3.0), share(3.0, 1.0), share(2.0, 0.0), share(0.0, 0.0), share(0.0, 2.0)], [0.25, 0.75, 1.0, 0.0, 0.0]);
     }
 
-    /// Reported units back to the fit's: a lever arm of 10, −5 and 2 mm is 0.01, −0.005 and
-    /// 0.002 m; 1° of body-offset roll is π/180 rad; a mocap delay of 5 ms is 0.005 s. Census
-    /// shards 68–69: the value times its factor, or modulo it, passed every unit test.
+    /// Reported units back to the fit's: a lever arm of 10, −5 and 2 mm is 0.01, −0.005 and 0.002
+    /// m; 1° of body-offset roll is π/180 rad; a mocap delay of 5 ms is 0.005 s. A bug it catches:
+    /// the value times its factor, or modulo it.
     #[test]
     fn the_true_parameters_are_taken_back_to_the_fits_units() {
         let close = |got: DVector<f64>, want: &[f64]| got.len() == want.len() && got.iter().zip(want).all(|(g, w)| (g - w).abs() <= 1e-15 * w.abs().max(1.0));
@@ -137,10 +137,9 @@ mod tests {
         assert!(close(in_fit_units(Effect::MocapDelay, &[5.0]), &[0.005]));
     }
 
-    /// The partners of an effect are the other true effects the data has columns for: of
-    /// {mocap delay, thrust scale, lever arm} with no lever-arm column, the mocap delay's is the
-    /// thrust scale alone. Census shard 74: the `&&` as `||` (the effect its own partner, its
-    /// held-out energy 0) passed every unit test and the whole suite.
+    /// The partners of an effect are the other true effects the data has columns for: of {mocap
+    /// delay, thrust scale, lever arm} with no lever-arm column, the mocap delay's is the thrust
+    /// scale alone. A bug it catches: the `&&` as `||` (the effect its own partner, its held-out energy 0).
     #[test]
     fn an_effects_partners_are_the_other_true_effects_with_columns() {
         let truth = [(Effect::MocapDelay, vec![5.0]), (Effect::ThrustScale, vec![0.1]), (Effect::LeverArm, vec![10.0, 0.0, 0.0])];
@@ -149,9 +148,9 @@ mod tests {
         assert_eq!(partners(&truth, Effect::ThrustScale, &all), [Effect::MocapDelay]);
     }
 
-    /// θᵀ·M·θ by hand: θ = (1, 2) on diag(2, 2.5) is 2 + 10 = 12; θ = (1, −1) on
-    /// [[2, 1], [1, 3]] is 2 − 1 − 1 + 3 = 3; a form negative by rounding is 0. Census shard 70:
-    /// M + θ for M·θ passed every unit test (the 1×1 case is a sum, not a panic).
+    /// θᵀ·M·θ by hand: θ = (1, 2) on diag(2, 2.5) is 2 + 10 = 12; θ = (1, −1) on [[2, 1], [1, 3]]
+    /// is 2 − 1 − 1 + 3 = 3; a form negative by rounding is 0. A bug it catches: M + θ for M·θ (the
+    /// 1×1 case is a sum, not a panic).
     #[test]
     fn the_noncentrality_is_the_quadratic_form_of_the_true_parameters() {
         assert_eq!(quadratic_form(&DVector::from_row_slice(&[1.0, 2.0]), &m(2, &[2.0, 0.0, 0.0, 2.5])), 12.0);
@@ -170,13 +169,13 @@ mod tests {
         assert!(!ex(0.0, 0.0));
     }
 
-    /// The held-out Gram on the effect's axes by hand. Axis A has columns 5, 2, 7 (G_t rows
-    /// 1 2 3 / 2 4 5 / 3 5 6), axis B columns 7, 2 (10 20 / 20 30), axis C column 9 (100); their
-    /// held-out residual energies are 1, 2, 4. For the block {2} with its partner 7 (order 2, 7),
-    /// A and B count and C does not: G(2,2) = 4 + 30, G(2,7) = 5 + 20, G(7,7) = 6 + 10, column 5
-    /// (not in the order) adds nothing, and N = 1 + 2. For the block {9}: G = 100, N = 4. Census
-    /// of 33c1bbe, shards 76–77: the order lookup `==` as `!=` and the sum `+=` as `-=` passed
-    /// every unit test (whole flights in the trials caught them).
+    /// The held-out Gram on the effect's axes by hand. Axis A has columns 5, 2, 7 (G_t rows 1 2 3 /
+    /// 2 4 5 / 3 5 6), axis B columns 7, 2 (10 20 / 20 30), axis C column 9 (100); their held-out
+    /// residual energies are 1, 2, 4. For the block {2} with its partner 7 (order 2, 7), A and B
+    /// count and C does not: G(2,2) = 4 + 30, G(2,7) = 5 + 20, G(7,7) = 6 + 10, column 5 (not in
+    /// the order) adds nothing, and N = 1 + 2. For the block {9}: G = 100, N = 4. A bug it catches:
+    /// the order lookup `==` as `!=` and the sum `+=` as `-=` (whole flights in the trials caught
+    /// them).
     #[test]
     fn the_heldout_gram_sums_the_effects_axes_in_its_columns_order() {
         let gram = |cols: &[usize], g_t: DMatrix<f64>| Gram { g_t, ..Gram::zeros(cols.to_vec(), 1.0) };

@@ -315,9 +315,8 @@ mod tests {
     ///   ρ = 1/√10.
     ///
     /// The samples are split over two channel axes (one Gram each, the columns in another order,
-    /// the second without the columns that vanish on its samples): the system sums them. Census
-    /// of 33c1bbe, shard 42: B's conditioned block read at `ns − na` (S's own block: ρ = 1) was
-    /// caught only through `identify`'s command-line test.
+    /// the second without the columns that vanish on its samples): the system sums them. A bug it
+    /// catches: B's conditioned block read at `ns − na` (S's own block: ρ = 1).
     #[test]
     fn canonical_correlations_by_geometry_with_a_block_projected_out() {
         // samples 1 and 2, columns 3, 0, 1, 2, 4, 5
@@ -336,12 +335,10 @@ mod tests {
     }
 
     /// Two channel axes measure one constant (column 0, all ones, 4 training samples each):
-    /// residual 1 with noise σ₁ = 1 and residual 3 with σ₂ = 2. Weighted least squares over
-    /// both is the inverse-variance mean, θ = (1·4·1 + ¼·4·3)/(1·4 + ¼·4) = 7/5, both in the
-    /// raw weighted sums (w_r = 1/σ²: G_r = 4, 1; b_r = 4, 3) and in the whitened ones (x/σ).
-    /// The whitened residual's sum of squares is 4·1² + 4·(3/2)² = 13. Census of 33c1bbe:
-    /// w_r = σ² (θ = 2.6, shard 50) was caught only through `identify`'s end-to-end tests, and
-    /// y·y accumulated with `-=` or `*=` (shards 68–69) passed every unit test.
+    /// residual 1 with noise σ₁ = 1 and residual 3 with σ₂ = 2. Weighted least squares over both is
+    /// the inverse-variance mean, θ = (1·4·1 + ¼·4·3)/(1·4 + ¼·4) = 7/5, both in the raw weighted
+    /// sums (w_r = 1/σ²: G_r = 4, 1; b_r = 4, 3) and in the whitened ones (x/σ). The whitened
+    /// residual's sum of squares is 4·1² + 4·(3/2)² = 13. A bug it catches: w_r = σ² (θ = 2.6), and y·y accumulated with `-=` or `*=`.
     #[test]
     fn two_channel_axes_are_weighted_by_their_inverse_noise_variance() {
         let mut d = Design { n: 4, ..Design::default() };
@@ -361,13 +358,12 @@ mod tests {
         assert!((yy - 13.0).abs() < 1e-12, "whitened y·y {yy}, not 13");
     }
 
-    /// The three sums by hand on one channel axis of five samples: residual y = 1, 2, 3, 4, 100
-    /// and column x = 1, 1, 2, −1, 7; samples 1–2 train, 3–4 are held out, 5 is neither. Training
+    /// The three sums by hand on one channel axis of five samples: residual y = 1, 2, 3, 4, 100 and
+    /// column x = 1, 1, 2, −1, 7; samples 1–2 train, 3–4 are held out, 5 is neither. Training
     /// (white noise σ = 1, so whitened = raw): n = 2, y·y = 1 + 4 = 5, x·x = 2, x·y = 3. Held out:
-    /// n = 2, y·y = 9 + 16 = 25, x·x = 4 + 1 = 5, x·y = 6 − 4 = 2. The held-out residual energy
-    /// Σ (y − θx)² is 25 at θ = 0, (3 − 2)² + (4 + 1)² = 26 at θ = 1 and (3 − 0.8)² + (4 + 0.4)² =
-    /// 24.2 at θ = 0.4. Census of 33c1bbe, shard 75: the held-out y·y accumulated with `-=`
-    /// passed every unit test.
+    /// n = 2, y·y = 9 + 16 = 25, x·x = 4 + 1 = 5, x·y = 6 − 4 = 2. The held-out residual energy Σ
+    /// (y − θx)² is 25 at θ = 0, (3 − 2)² + (4 + 1)² = 26 at θ = 1 and (3 − 0.8)² + (4 + 0.4)² =
+    /// 24.2 at θ = 0.4. A bug it catches: the held-out y·y accumulated with `-=`.
     #[test]
     fn training_and_heldout_sums_by_hand() {
         let mut d = Design { n: 5, ..Design::default() };
@@ -391,9 +387,9 @@ mod tests {
         }
     }
 
-    /// The residual after θ by hand: measured − predicted − Σ θ_j·x_j on the channel axis's
-    /// own columns, a zero θ_j skipped. Census of 33c1bbe, shard 42: `θ_j != 0` as `== 0`
-    /// (only the zero ones subtracted) was caught only through `identify`'s command-line test.
+    /// The residual after θ by hand: measured − predicted − Σ θ_j·x_j on the channel axis's own
+    /// columns, a zero θ_j skipped. A bug it catches: `θ_j != 0` as `== 0` (only the zero ones
+    /// subtracted).
     #[test]
     fn the_residual_after_theta_by_hand() {
         let mut d = Design { n: 3, ..Design::default() };

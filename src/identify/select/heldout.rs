@@ -129,19 +129,18 @@ mod tests {
         // a flat signal has no fit to speak of
         let flat = axis_error(Channel::AccelKin, 0, &[2.0; 4], &before, &after, &[0, 1, 2, 3]);
         assert!(flat.fit_before_pct.is_none() && flat.fit_after_pct.is_none());
-        // y = (1, −1, 1, −1): a spread of ‖y − ȳ‖ = 2 = √n, far above the 1e-9·√n threshold, has its
-        // fit, 100·(1 − 1/2) = 50 % for a residual of 0.5 (shard 44's `1e-9 + √n` gave none)
+        // y = (1, −1, 1, −1): a spread of ‖y − ȳ‖ = 2 = √n, far above the 1e-9·√n threshold, has
+        // its fit, 100·(1 − 1/2) = 50 % for a residual of 0.5 (a bug it catches: `1e-9 + √n` gave none)
         let e = axis_error(Channel::Gyro, 2, &[1.0, -1.0, 1.0, -1.0], &before, &[0.5; 4], &[0, 1, 2, 3]);
         assert!((e.fit_after_pct.unwrap() - 50.0).abs() < 1e-12 && (e.rmse_after - 0.5).abs() < 1e-15, "{e:?}");
-        // the threshold grows with √n: over n = 4 it is 2e-9, so a spread of 1e-9 (y = ±5e-10)
-        // has no fit and one of 3e-9 (y = ±1.5e-9) has one (shard 45's `1e-9 / √n`, 5e-10, gave
-        // the first a fit)
+        // the threshold grows with √n: over n = 4 it is 2e-9, so a spread of 1e-9 (y = ±5e-10) has
+        // no fit and one of 3e-9 (y = ±1.5e-9) has one (a bug it catches: `1e-9 / √n`, 5e-10, gave the first a fit)
         let alt = |h: f64| [h, -h, h, -h];
         let thin = axis_error(Channel::Gyro, 0, &alt(5e-10), &before, &[0.5; 4], &[0, 1, 2, 3]);
         let thick = axis_error(Channel::Gyro, 0, &alt(1.5e-9), &before, &[0.5; 4], &[0, 1, 2, 3]);
         assert!(thin.fit_after_pct.is_none() && thick.fit_after_pct.is_some(), "{thin:?} {thick:?}");
-        // and the bound is strict: a spread of exactly 2e-9 (y = ±1e-9: √(4·(1e-9)²) is 2e-9 to
-        // the bit, as is 1e-9·√4) has none (shard 56: `>` as `>=` gave it one)
+        // and the bound is strict: a spread of exactly 2e-9 (y = ±1e-9: √(4·(1e-9)²) is 2e-9 to the
+        // bit, as is 1e-9·√4) has none (a bug it catches: `>` as `>=` gave it one)
         let edge = axis_error(Channel::Gyro, 0, &alt(1e-9), &before, &[0.5; 4], &[0, 1, 2, 3]);
         assert!(edge.fit_after_pct.is_none(), "{edge:?}");
     }

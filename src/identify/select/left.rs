@@ -162,10 +162,9 @@ mod tests {
     }
 
     /// The held-out error counts the samples that are both held out and usable in the nominal
-    /// design: of 100, the even ones held out and the first 80 usable leave 40, each with a
-    /// nominal residual of ±3 (RMSE 3); every other sample's residual is 1000. Census shard 71:
-    /// the `&&` as `||` (90 samples, RMSE √((40·9 + 50·1000²)/90) ≈ 745) was caught only by a
-    /// whole NanoBench flight.
+    /// design: of 100, the even ones held out and the first 80 usable leave 40, each with a nominal
+    /// residual of ±3 (RMSE 3); every other sample's residual is 1000. A bug it catches: the `&&`
+    /// as `||` (90 samples, RMSE √((40·9 + 50·1000²)/90) ≈ 745).
     #[test]
     fn the_heldout_error_counts_the_usable_heldout_samples_only() {
         let n = 100;
@@ -182,12 +181,12 @@ mod tests {
         assert_eq!((e.samples, e.rmse_before, e.rmse_after), (40, 3.0, 3.0));
     }
 
-    /// Pearson's r is invariant to offsets and scale: a residual r = 2x + 3 of a white signal
-    /// x = 1 + w (w uniform on ±0.5, so n_eff ≈ n) follows it with r = 1 exactly, and one
-    /// independent of x (a second white series) is no lead. Fails if either sum of squares is
-    /// taken about anything but the mean (census shard 29: Σ(r + m̄)² = n·(σ_r² + 4m̄²) gives
-    /// r = σ_r/√(σ_r² + 4·5²) = 0.577/10.0 ≈ 0.058 here, below `LEAD_MIN_CORR`: no lead). The
-    /// cross sum Σ(r − m̄)(x − x̄) is the same about any centre of one factor (Σ(x − x̄) = 0).
+    /// Pearson's r is invariant to offsets and scale: a residual r = 2x + 3 of a white signal x = 1 +
+    /// w (w uniform on ±0.5, so n_eff ≈ n) follows it with r = 1 exactly, and one independent of
+    /// x (a second white series) is no lead. Fails if either sum of squares is taken about anything
+    /// but the mean (a bug it catches: Σ(r + m̄)² = n·(σ_r² + 4m̄²) gives r = σ_r/√(σ_r² + 4·5²) =
+    /// 0.577/10.0 ≈ 0.058 here, below `LEAD_MIN_CORR`: no lead). The cross sum Σ(r − m̄)(x − x̄) is
+    /// the same about any centre of one factor (Σ(x − x̄) = 0).
     #[test]
     fn a_residual_that_is_a_signal_plus_an_offset_follows_it_with_r_one() {
         let n = 400;
@@ -210,10 +209,10 @@ mod tests {
     /// A lead must be significant as well as strong: ρ²·n_eff against χ²(1) at 1 % (one signal).
     /// Over 200 samples of white series (n_eff ≈ 200; it would have to exceed 460), a residual
     /// built to follow the signal with ρ = 0.12 exactly (the signal's and an orthogonal white
-    /// series' centred parts, of equal norm, mixed as ρ and √(1 − ρ²)) clears `LEAD_MIN_CORR`
-    /// but not the test (ρ²·n_eff ≈ 2.9 < 6.63), so it is no lead; with ρ = 0.5 (≈ 50) it is
-    /// one, with that r. Census of 33c1bbe, shard 52: the statistic ρ² + n_eff (every
-    /// correlation above 0.1 significant) was caught only by an acceptance test.
+    /// series' centred parts, of equal norm, mixed as ρ and √(1 − ρ²)) clears `LEAD_MIN_CORR` but
+    /// not the test (ρ²·n_eff ≈ 2.9 < 6.63), so it is no lead; with ρ = 0.5 (≈ 50) it is one, with
+    /// that r. A bug it catches: the statistic ρ² + n_eff (every correlation above 0.1
+    /// significant).
     #[test]
     fn a_lead_needs_a_significant_correlation_not_only_one_above_the_floor() {
         let n = 200;
@@ -243,9 +242,8 @@ mod tests {
         assert!(0.12f64.powi(2) * strong[0].n_eff < 6.63, "n_eff {}", strong[0].n_eff);
         // Bonferroni over the signals: ρ²·n_eff ≈ 8 (p ≈ 0.005) is a lead of one signal (level
         // 0.01, χ²(1) > 6.63) but not of one among five (level 0.002, χ²(1) > 9.55): four more
-        // white signals, independent of the residual, only raise the bar. Census of 33c1bbe,
-        // shard 61: the level 0.01·m or 0.01 % m (both 0.01 for one signal) was caught only by
-        // an acceptance test.
+        // white signals, independent of the residual, only raise the bar. A bug it catches: the
+        // level 0.01·m or 0.01 % m (both 0.01 for one signal).
         let mid = follow((8.0 / strong[0].n_eff).sqrt());
         let one = leads(&ls, 1, 0, &mid);
         assert_eq!(one.len(), 1, "{one:?}");

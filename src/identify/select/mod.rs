@@ -819,13 +819,12 @@ fn ground(
 mod tests {
     use super::*;
 
-    /// `refine` folds a correction over its iterations. The swing of [`Series::swing_for_tests`]
-    /// (a ±0.01 m/s² alternation on the IMU) is seen through markers turned by
-    /// R_off = (0.6°, −0.4°, 1.0°); with the body offset selected, three iterations bring
-    /// corr.body_offset to R_off (to 4·10⁻⁶°; the tolerance is 0.01°). Census of 33c1bbe,
-    /// shards 84–85: the loop's stop `it == iterations || !has_corrections` as `&&` (it never
-    /// keeps a pass: `expect` panics) and `==` as `!=` (it returns before folding) passed every
-    /// unit test.
+    /// `refine` folds a correction over its iterations. The swing of [`Series::swing_for_tests`] (a
+    /// ±0.01 m/s² alternation on the IMU) is seen through markers turned by R_off = (0.6°, −0.4°,
+    /// 1.0°); with the body offset selected, three iterations bring corr.body_offset to R_off (to
+    /// 4·10⁻⁶°; the tolerance is 0.01°). A bug it catches: the loop's stop `it == iterations ||
+    /// !has_corrections` as `&&` (it never keeps a pass: `expect` panics) and `==` as `!=` (it
+    /// returns before folding).
     #[test]
     fn refine_folds_a_marker_offset_into_the_body_offset() {
         let r_off = UnitQuaternion::from_euler_angles(0.6f64.to_radians(), -0.4f64.to_radians(), 1.0f64.to_radians());
@@ -836,14 +835,14 @@ mod tests {
         assert!(err < 0.01, "body offset {:?} against R_off {:?}: {err}°", corr.body_offset.euler_angles(), r_off.euler_angles());
     }
 
-    /// The final fit's covariance is the statistical (Newey–West) one plus the thrust
-    /// systematic, added (see `covariance::thrust_systematic`): with the thrust scale in the
-    /// model, a nominal thrust known to σ_T = 5 % adds σ_T² = 0.0025 to its variance, and no
-    /// data averages it away. On [`Series::swing_for_tests`] the statistical part is at most
-    /// ~3·10⁻¹⁰ (a ±0.01 m/s² alternation over 4000 samples of a 9.81 m/s² column, 10⁻⁴/(4000·9.81²),
-    /// before the Newey–West weights, which cancel an alternation further: 0 to rounding here),
-    /// so the variance is σ_T² to 10⁻⁶ of itself. Census of 33c1bbe, shards 87–88: the sum as
-    /// a difference (a negative variance) and as a product passed every unit test.
+    /// The final fit's covariance is the statistical (Newey–West) one plus the thrust systematic,
+    /// added (see `covariance::thrust_systematic`): with the thrust scale in the model, a nominal
+    /// thrust known to σ_T = 5 % adds σ_T² = 0.0025 to its variance, and no data averages it away.
+    /// On [`Series::swing_for_tests`] the statistical part is at most ~3·10⁻¹⁰ (a ±0.01 m/s²
+    /// alternation over 4000 samples of a 9.81 m/s² column, 10⁻⁴/(4000·9.81²), before the
+    /// Newey–West weights, which cancel an alternation further: 0 to rounding here), so the
+    /// variance is σ_T² to 10⁻⁶ of itself. A bug it catches: the sum as a difference (a negative
+    /// variance) and as a product.
     #[test]
     fn the_thrust_scales_variance_adds_the_thrust_systematic_to_the_statistical() {
         let mut s = Series::swing_for_tests(UnitQuaternion::identity(), 0.01);
@@ -856,12 +855,12 @@ mod tests {
 
     /// The rest tilt of the ground agreement by hand: the frame's roll and pitch are the body
     /// offset's plus the world tilt turned by the yaw, (t_x·c + t_y·s, −t_x·s + t_y·c), and their
-    /// standard deviations are the delta method over the columns they sum: roll over
-    /// (o_x, w_x·c, w_y·s, b_y/g), pitch over (o_y, −w_x·s, w_y·c, −b_x/g), with the covariances'
-    /// cross terms. Every column has its own variance, so a gradient that picks the wrong column
-    /// (b_x for roll's b_y) or drops one changes the result; the covariances of pitch's w_x and
-    /// of roll's w_y with the offset give each world-tilt gradient's sign a cross term (shard 44:
-    /// −s as s survived, the variances alone square it away).
+    /// standard deviations are the delta method over the columns they sum: roll over (o_x, w_x·c,
+    /// w_y·s, b_y/g), pitch over (o_y, −w_x·s, w_y·c, −b_x/g), with the covariances' cross terms.
+    /// Every column has its own variance, so a gradient that picks the wrong column (b_x for roll's
+    /// b_y) or drops one changes the result; the covariances of pitch's w_x and of roll's w_y with
+    /// the offset give each world-tilt gradient's sign a cross term (a bug it catches: −s as s,
+    /// which the variances alone square away).
     #[test]
     fn rest_tilt_is_the_frame_sum_and_its_delta_method_spread() {
         let (g, yaw) = (9.81, 0.3_f64);
@@ -902,13 +901,13 @@ mod tests {
         assert_eq!((frame, bias), ([0.0, 0.0], Vector3::zeros()));
     }
 
-    /// The total rest tilt is what the ground check reads: at rest the mocap predicts
-    /// f̂ = (0, 0, −g) (a level marker frame), the ground check's δ = f̂ × f/|f̂|², and an IMU
-    /// frame that δ reads as (r, p) with no bias measures f₀ = (−g·p, g·r, −g) (f̂ × f₀/g² =
-    /// (r, p, 0) exactly: the cross product with f̂ takes f's x and y alone). A bias b adds to
-    /// f, so the ground check reads f₀ + b, and total_tilt must be the same sum (census shard
-    /// 12: pitch's −b_x/g as +b_x/g survived the suite, since the widening compares two totals
-    /// whose bias rarely differs).
+    /// The total rest tilt is what the ground check reads: at rest the mocap predicts f̂ = (0, 0,
+    /// −g) (a level marker frame), the ground check's δ = f̂ × f/|f̂|², and an IMU frame that δ
+    /// reads as (r, p) with no bias measures f₀ = (−g·p, g·r, −g) (f̂ × f₀/g² = (r, p, 0) exactly:
+    /// the cross product with f̂ takes f's x and y alone). A bias b adds to f, so the ground check
+    /// reads f₀ + b, and total_tilt must be the same sum (a bug it catches: pitch's −b_x/g as
+    /// +b_x/g survived the suite, since the widening compares two totals whose bias rarely
+    /// differs).
     #[test]
     fn the_total_rest_tilt_is_what_the_ground_check_reads_with_a_bias() {
         let g = 9.81;
@@ -922,9 +921,9 @@ mod tests {
         }
     }
 
-    /// The F-test by hand: RSS 120 → 100 with k = 2 added of p = 4, n = 54: F = (20/2)/(100/50)
-    /// = 5, and F(2, d₂)'s survival function is (1 + 2x/d₂)^(−d₂/2), so p = 1.2^−25 = 0.01048
-    /// (shard 50: the denominator's n − p as n + p gave F = 5.8 and survived the suite).
+    /// The F-test by hand: RSS 120 → 100 with k = 2 added of p = 4, n = 54: F = (20/2)/(100/50) =
+    /// 5, and F(2, d₂)'s survival function is (1 + 2x/d₂)^(−d₂/2), so p = 1.2^−25 = 0.01048 (a bug
+    /// it catches: the denominator's n − p as n + p gave F = 5.8).
     #[test]
     fn the_f_test_is_the_nested_models_by_hand() {
         let (f, p) = f_test(120.0, 100.0, 2.0, 54.0, 4.0);
@@ -1043,18 +1042,18 @@ mod tests {
         assert!(scores[0].delta_bic > scores[1].delta_bic, "{scores:#?}");
         let w = backward_worst(&gs, &selected, &selected, 0, &o).expect("two fail");
         assert_eq!(w.effect, Effect::ThrustScale);
-        // the least supported leaves whatever the order they are tested in (census of 33c1bbe,
-        // shard 23: `c.delta_bic > w.delta_bic` as `==` kept the first failure)
+        // the least supported leaves whatever the order they are tested in (a bug it catches:
+        // `c.delta_bic > w.delta_bic` as `==` kept the first failure)
         let reordered = [Effect::ThrustVoltage, Effect::GroundEffect, Effect::ThrustScale];
         assert_eq!(backward_worst(&gs, &selected, &reordered, 0, &o).map(|w| w.effect), Some(Effect::ThrustScale));
         // nothing to remove when every testable effect passes
         assert!(backward_worst(&gs, &selected, &[Effect::GroundEffect], 0, &o).is_none());
     }
 
-    /// Pairs are tried among the round's failures that alone are significant at α/m and have
-    /// ΔBIC < 0: with α = 0.01 and m = 5 candidates the level is 0.002, so p = 0.0015 is in and
-    /// p = 0.0025 is out (shard 46: α/m as α % m, which is α, took it in); a passed candidate
-    /// and a failure with ΔBIC ≥ 0 are out at any p.
+    /// Pairs are tried among the round's failures that alone are significant at α/m and have ΔBIC <
+    /// 0: with α = 0.01 and m = 5 candidates the level is 0.002, so p = 0.0015 is in and p = 0.0025
+    /// is out (a bug it catches: α/m as α % m, which is α, took it in); a passed candidate and a
+    /// failure with ΔBIC ≥ 0 are out at any p.
     #[test]
     fn pairs_are_tried_among_failures_significant_at_alpha_over_the_candidates() {
         let c = |effect: Effect, passed: bool, p_value: f64, delta_bic: f64| Candidate { effect, delta_bic, f: 10.0, p_value, heldout_gain: -0.01, max_corr: 0.3, passed };
@@ -1067,8 +1066,8 @@ mod tests {
         ];
         assert_eq!(pair_candidates(&cands, 0.01), [Effect::BodyOffset, Effect::AccelBias]);
         assert_eq!(pair_candidates(&cands[..2], 0.01), [Effect::BodyOffset, Effect::WorldTilt], "m = 2: the level is 0.005");
-        // a pair is judged among the m singles and the r(r − 1)/2 pairs of r candidates (shard
-        // 51: the count's `/ 2` as `% 2`, always 0, judged pairs among the singles alone)
+        // a pair is judged among the m singles and the r(r − 1)/2 pairs of r candidates (a bug it
+        // catches: the count's `/ 2` as `% 2`, always 0, judged pairs among the singles alone)
         let counts: Vec<usize> = (0..5).map(|r| tests_with_pairs(10, r)).collect();
         assert_eq!(counts, [10, 10, 11, 13, 16]);
     }
@@ -1076,9 +1075,9 @@ mod tests {
     /// Only the steps whose effect stayed name rivals: of a gyro-delay step (naming the mocap
     /// delay) that the backward check removed after step 2, and a body-offset step (naming the
     /// world tilt) that stayed, the report keeps the second alone, and the swaps check
-    /// (`named_at_step`) knows only its pair, in its order. Census of 33c1bbe, shard 61:
-    /// `kept` as `true` let the removed step's pair into the report ("gyro_delay was chosen over
-    /// mocap_delay …" for an effect not in the model), and the whole suite passed.
+    /// (`named_at_step`) knows only its pair, in its order. A bug it catches: `kept` as `true` let
+    /// the removed step's pair into the report ("gyro_delay was chosen over mocap_delay …" for an
+    /// effect not in the model), and the whole suite passed.
     #[test]
     fn only_the_steps_the_backward_check_kept_name_rivals() {
         let steps = [step(Effect::GyroDelay, Effect::MocapDelay), step(Effect::BodyOffset, Effect::WorldTilt)];
@@ -1096,10 +1095,10 @@ mod tests {
     }
 
     /// The pairs and notes of a search by hand (no frame effect selected, so no Gram matrix is
-    /// read): the kept step that added the mocap delay over the gyro delay (ρ 0.995) gives the
-    /// pair and its note, the step the backward check removed gives neither, and a negative
-    /// mocap delay (−3 ms) with no gyro delay selected gets its note. Census shard 70:
-    /// `identifiability` → no pairs (and no notes) was caught only by whole flights.
+    /// read): the kept step that added the mocap delay over the gyro delay (ρ 0.995) gives the pair
+    /// and its note, the step the backward check removed gives neither, and a negative mocap delay
+    /// (−3 ms) with no gyro delay selected gets its note. A bug it catches: `identifiability` → no
+    /// pairs (and no notes).
     #[test]
     fn the_search_names_its_kept_rivals_and_a_negative_mocap_delay() {
         let search = |mocap_delay_s: f64, selected: Vec<Effect>| {
@@ -1125,13 +1124,12 @@ mod tests {
         }
     }
 
-    /// The mocap world tilt and the body offset's roll/pitch differ only through yaw changes,
-    /// body rates and accelerations other than gravity. With either selected and no kept step
-    /// naming the pair, the search names it (the selected one first) when the flight's
-    /// canonical correlation between their columns exceeds 0.99. By hand, five samples: world
-    /// tilt column 0 = e1 and column 1 = e3; body offset column 0 = c·e1 + s·e2 (c² + s² = 1),
-    /// columns 1 and 2 = e4, e5; so ρ = c. Census of 33c1bbe, shards 74–86: this branch was held
-    /// only by whole flights (its conditions as `&&`/`||`/`!=` passed every unit test).
+    /// The mocap world tilt and the body offset's roll/pitch differ only through yaw changes, body
+    /// rates and accelerations other than gravity. With either selected and no kept step naming the
+    /// pair, the search names it (the selected one first) when the flight's canonical correlation
+    /// between their columns exceeds 0.99. By hand, five samples: world tilt column 0 = e1 and
+    /// column 1 = e3; body offset column 0 = c·e1 + s·e2 (c² + s² = 1), columns 1 and 2 = e4, e5;
+    /// so ρ = c. A bug it catches: this branch's conditions as `&&`/`||`/`!=`.
     #[test]
     fn the_frame_pair_is_named_when_their_columns_correlate_above_the_cut() {
         let (wt, bo) = (set_of(&[Effect::WorldTilt]), set_of(&[Effect::BodyOffset]));
@@ -1223,8 +1221,8 @@ mod tests {
     }
 
     /// A round's winner by hand: of the passing singles (ΔBIC −10 and −20; a failure at −30 does
-    /// not count) the one at −20, unless a passing pair is strictly lower (shard 52: the pair's
-    /// `<` as `==` let a pair win only when it tied); with no single passing, the pair; with
+    /// not count) the one at −20, unless a passing pair is strictly lower (a bug it catches: the
+    /// pair's `<` as `==` let a pair win only when it tied); with no single passing, the pair; with
     /// nothing passing, none.
     #[test]
     fn a_pair_wins_a_round_only_strictly_below_every_passing_single() {
@@ -1240,12 +1238,11 @@ mod tests {
         assert_eq!(winner(&singles[2..], None), None);
     }
 
-    /// A round's pair is the passing one with the lowest ΔBIC, whatever its place in the order:
-    /// of the pairs of (RotorDrag, GyroDelay, AccelBias, WorldTilt), the failing one with ΔBIC
-    /// −30 is skipped, −9 beats the −5 before it and the −7 after it, and the later ties at −9
-    /// keep the first. Census of 33c1bbe, shard 53: `<` as `==` (the first passing pair)
-    /// survived the whole suite: in none of its flights does a round's first passing pair
-    /// differ from its best.
+    /// A round's pair is the passing one with the lowest ΔBIC, whatever its place in the order: of
+    /// the pairs of (RotorDrag, GyroDelay, AccelBias, WorldTilt), the failing one with ΔBIC −30 is
+    /// skipped, −9 beats the −5 before it and the −7 after it, and the later ties at −9 keep the
+    /// first. A bug it catches: `<` as `==` (the first passing pair) survived the whole suite: in
+    /// none of its flights does a round's first passing pair differ from its best.
     #[test]
     fn the_round_pair_is_the_passing_one_with_the_lowest_delta_bic() {
         use Effect::*;
@@ -1285,9 +1282,8 @@ mod tests {
     }
 
     /// Which effects a log can test: the thrust–voltage effect needs the thrust and the battery
-    /// voltage, a force-channel effect the thrust, a rate or acceleration effect neither. Census
-    /// shard 0 (ec82c47): without the voltage arm a log with thrust and no battery voltage
-    /// offered it.
+    /// voltage, a force-channel effect the thrust, a rate or acceleration effect neither. A bug it
+    /// catches: without the voltage arm a log with thrust and no battery voltage offered it.
     #[test]
     fn an_effect_is_available_only_with_the_columns_it_needs() {
         let design = |has_force: bool, has_vbat: bool| Design { has_force, has_vbat, ..Design::default() };
@@ -1300,8 +1296,8 @@ mod tests {
 
     /// A candidate's correlation with the residual, from the Gram sums by hand: on the base set
     /// {ground effect} alone (column 2, θ = b₂/g₂₂) the residual's square is yy − b₂²/g₂₂ and its
-    /// product with the voltage column (1) is b₁ − g₁₂·b₂/g₂₂; `max_corr` is |that| over
-    /// √(g₁₁·rr). Census shard 0 (ec82c47): `b − G·θ` as `b + G·θ` went unseen.
+    /// product with the voltage column (1) is b₁ − g₁₂·b₂/g₂₂; `max_corr` is |that| over √(g₁₁·rr).
+    /// A bug it catches: `b − G·θ` as `b + G·θ`.
     #[test]
     fn a_candidates_correlation_with_the_residual_by_hand() {
         let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
@@ -1315,13 +1311,12 @@ mod tests {
     }
 
     /// The held-out gate weighs each channel axis the candidate acts on by the current model's
-    /// held-out error there: gain = 1 − √(mean_q rss₁,q/rss₀,q). Two axes share the columns;
-    /// the voltage column explains y on the first (β 0.2) and nothing on the second, whose
-    /// held-out rows are 100× larger in x and y (the same β, 10⁴× the error): the fit's
-    /// compromise cuts the first axis's error and raises the second's, and the mean of the
-    /// ratios differs from the pooled 1 − √(Σrss₁/Σrss₀), which the big axis would rule.
-    /// Census of 33c1bbe, shard 64: the weight 1 % rss₀ (1 for an error above one) passed every
-    /// unit test.
+    /// held-out error there: gain = 1 − √(mean_q rss₁,q/rss₀,q). Two axes share the columns; the
+    /// voltage column explains y on the first (β 0.2) and nothing on the second, whose held-out
+    /// rows are 100× larger in x and y (the same β, 10⁴× the error): the fit's compromise cuts the
+    /// first axis's error and raises the second's, and the mean of the ratios differs from the
+    /// pooled 1 − √(Σrss₁/Σrss₀), which the big axis would rule. A bug it catches: the weight 1 %
+    /// rss₀ (1 for an error above one).
     #[test]
     fn the_heldout_gain_weighs_each_axis_by_its_current_error() {
         let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
@@ -1342,9 +1337,9 @@ mod tests {
         assert!((c.heldout_gain - by_hand).abs() < 1e-12, "{} against {by_hand} by hand", c.heldout_gain);
     }
 
-    /// With no held-out rows (no sample in the held-out mask) both held-out errors are 0:
-    /// the gain is 0, not 0/0 = NaN, and the held-out gate fails. Census of 33c1bbe, shard 76:
-    /// the guard `e0 > 0` as `>=` passed every unit test.
+    /// With no held-out rows (no sample in the held-out mask) both held-out errors are 0: the gain
+    /// is 0, not 0/0 = NaN, and the held-out gate fails. A bug it catches: the guard `e0 > 0` as
+    /// `>=`.
     #[test]
     fn without_heldout_rows_the_heldout_gain_is_zero_not_nan() {
         let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
@@ -1356,12 +1351,12 @@ mod tests {
         assert!(!c.passed && c.p_value < 1e-6, "significant in training, yet no held-out support: {c:?}");
     }
 
-    /// The corrections' fold by hand: the body offset's increment d composes on the left,
-    /// R_off ← exp(d)·R_off; the world tilt's (d_x, d_y, 0) on the right, R_w ← R_w·exp(d); the
-    /// two delays and the lever arm add. Each folded column is zeroed; an effect that is no
-    /// correction (the thrust scale) or is not selected (the accelerometer bias) keeps its θ.
-    /// Census of 33c1bbe, shards 57–64: `fold` doing nothing, each of its arms deleted and an
-    /// index r.start + 1 as r.start − 1 passed every unit test (whole flights caught them).
+    /// The corrections' fold by hand: the body offset's increment d composes on the left, R_off ←
+    /// exp(d)·R_off; the world tilt's (d_x, d_y, 0) on the right, R_w ← R_w·exp(d); the two delays
+    /// and the lever arm add. Each folded column is zeroed; an effect that is no correction (the
+    /// thrust scale) or is not selected (the accelerometer bias) keeps its θ. A bug it catches:
+    /// `fold` doing nothing, each of its arms deleted and an index r.start + 1 as r.start − 1
+    /// (whole flights caught them).
     #[test]
     fn the_corrections_fold_into_their_rotations_delays_and_lever_arm() {
         let col = |e: Effect| cols_of(e).start;
@@ -1396,10 +1391,10 @@ mod tests {
         assert_eq!((theta[col(Effect::ThrustScale)], theta[col(Effect::AccelBias)]), (0.1, 0.2));
     }
 
-    /// The corrections reported in their units, read from the folded corrections and not from
-    /// θ (whose correction columns hold 0.5 here): R_off's ZYX angles and R_w's roll and pitch
-    /// in degrees, the delays in ms, the lever arm in mm. Census of 33c1bbe, shards 61–65: each
-    /// of the five arms deleted (θ reported instead) passed every unit test.
+    /// The corrections reported in their units, read from the folded corrections and not from θ
+    /// (whose correction columns hold 0.5 here): R_off's ZYX angles and R_w's roll and pitch in
+    /// degrees, the delays in ms, the lever arm in mm. A bug it catches: each of the five arms
+    /// deleted (θ reported instead).
     #[test]
     fn the_corrections_are_reported_in_degrees_milliseconds_and_millimetres() {
         let deg = 180.0 / std::f64::consts::PI;
@@ -1426,9 +1421,9 @@ mod tests {
                 assert!((g - w).abs() < 1e-12 * w.abs().max(1.0), "{e:?}: {got:?} against {want:?}");
             }
         }
-        // an effect without a correction reads its own columns, k-th parameter from column
-        // start + k, times its unit factor (census of 33c1bbe, shard 66: theta[start − k] passed
-        // every unit test, since the cases above read equal columns)
+        // an effect without a correction reads its own columns, k-th parameter from column start +
+        // k, times its unit factor (a bug it catches: theta[start − k], since the cases above read
+        // equal columns)
         let theta: Vec<f64> = (0..N_COLUMNS).map(|j| j as f64 + 1.0).collect();
         for (e, unit) in [(Effect::AccelBias, 1.0), (Effect::GyroBias, deg), (Effect::ConstantForce, 1.0)] {
             let s = cols_of(e).start as f64 + 1.0;

@@ -175,10 +175,10 @@ fn moved_note(c: &Candidate, moved: &[String]) -> Option<String> {
 mod tests {
     use super::*;
 
-    /// A pair is listed in either order and only as itself: with {thrust scale, voltage}
-    /// listed, a pair that shares one of its effects is not. Census of 33c1bbe, shard 23: the
-    /// check as `(a == e || b == c) || …` took (thrust scale, ground effect) as listed, and a
-    /// second pair of one selected effect went unlisted.
+    /// A pair is listed in either order and only as itself: with {thrust scale, voltage} listed, a
+    /// pair that shares one of its effects is not. A bug it catches: the check as `(a == e || b ==
+    /// c) || …` took (thrust scale, ground effect) as listed, and a second pair of one selected
+    /// effect went unlisted.
     #[test]
     fn a_pair_is_listed_in_either_order_and_only_as_itself() {
         use Effect::{GroundEffect, MocapDelay, ThrustScale, ThrustVoltage};
@@ -223,9 +223,9 @@ mod tests {
         assert!(is_half_supported(&c(false, -3.0, 0.005), 0.01, 0));
     }
 
-    /// A half-supported candidate gets a note only when an estimate moves beyond its own
-    /// interval, and the note names each one. Census shard 66: the `!` deleted (a note for each
-    /// candidate that moved nothing, none for one that did) passed every unit test.
+    /// A half-supported candidate gets a note only when an estimate moves beyond its own interval,
+    /// and the note names each one. A bug it catches: the `!` deleted (a note for each candidate
+    /// that moved nothing, none for one that did).
     #[test]
     fn a_note_names_the_estimates_a_half_supported_candidate_would_move() {
         let c = Candidate { effect: Effect::MocapDelay, delta_bic: -12.4, f: 10.0, p_value: 2.5e-4, heldout_gain: 0.031, max_corr: 0.5, passed: false };

@@ -19,7 +19,7 @@ from natnet.version import Version
 
 port, vehicle = int(sys.argv[1]), int(sys.argv[2])
 G = 9.81
-# the X3D and flyarena's default gains and radio (README, Scenario reference)
+# the X3D and flyarena's default gains and radio (docs/scenarios.md, Scenario reference)
 MASS, T_MAX = 0.68, 24.0
 K_X, K_V, K_ATT = (1.0, 1.0, 1.0), (2.0, 2.0, 3.0), (6.0, 6.0, 3.0)
 MAX_TILT = math.radians(20.0)
