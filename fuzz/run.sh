@@ -5,11 +5,13 @@
 # checks); with a nightly toolchain drop `-s none` to add AddressSanitizer.
 #   cargo install cargo-fuzz && fuzz/run.sh 300
 # Crashes land in fuzz/artifacts/<target>/; each one found so far is a regression test in
-# tests/acceptance (see the README).
+# tests/acceptance (docs/verification.md).
 set -euo pipefail
 cd "$(dirname "$0")"
 secs=${1:-300}
-data=${FLYARENA_DATA:-../../shared/data}
+# the real data: $FLYARENA_DATA, else data/ in the checkout (scripts/fetch-data), else ../shared/data
+data=${FLYARENA_DATA:-../data}
+[ -d "$data/nanobench" ] || data=../../shared/data
 mkdir -p corpus/scenario_parser corpus/log_reader corpus/mapped_log
 cp ../scenarios/*.yaml corpus/scenario_parser/
 ( cd .. && CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/flyarena-target}" cargo run --release --quiet -- run scenarios/fig7-no-offsets.yaml --no-rrd --quiet --out /tmp/flyarena-fuzz --log /tmp/flyarena-fuzz/log.csv >/dev/null || true )
