@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The README's unsynchronised-clock table from two sweeps of scenarios/gyro-clock.yaml:
+"""The unsynchronised-clock table of docs/findings.md from two sweeps of scenarios/gyro-clock.yaml:
 
     cargo run --release -- sweep scenarios/gyro-clock.yaml --out out/fitted
     sed 's/estimate: true/estimate: false/' scenarios/gyro-clock.yaml > /tmp/gyro-clock-naive.yaml

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """What `identify` does on NanoBench flights it was never built on: the published set's further
-flights (README, *Held-out flights*).
+flights (docs/nanobench.md, Held-out flights).
 
     git clone --depth 1 https://github.com/syediu/nanobench-iros2026 ../nanobench-full
     cargo run --release -- identify ../nanobench-full/datasets/dataset/B{2,3,5,6,7,8,9,10}_*.csv \\

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The hypotheses the issue on real flights names, tested together on the NanoBench flights: each
+"""Four hypotheses, tested together on the NanoBench flights: each
 fitted on top of the selected model (forced with --with), its estimate (95 %) and the change of
 the held-out RMSE of the channel it acts on, per flight.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The README's NanoBench table, from the JSON that the cross-validation run writes:
+"""The NanoBench table of docs/nanobench.md, from the JSON that the cross-validation run writes:
 
     cargo run --release -- identify $FLYARENA_DATA/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml --with body_offset
     python3 scripts/nanobench-table.py out/cross-validation.identify.json

@@ -1,7 +1,7 @@
-//! One error type for the library's entry points: [`Error`] gathers each stage's own error
-//! (the scenario's, a log's, an `identify` input's, a sweep's, the recording's) and the
-//! outputs that cannot be written, so that a program driving flyarena handles one type and
-//! still matches on the stage. Every message names the file, and the line and column where
+//! One error type over the library's stages: each stage returns its own error (the scenario's,
+//! a log's, an `identify` input's, a sweep's, the recording's), and [`Error`] gathers them
+//! (`From` each, so `?` converts) with the outputs that cannot be written, so that a program
+//! driving several stages handles one type and still matches on the stage. Every message names the file, and the line and column where
 //! the defect has them. The command line prints the message and exits with
 //! [`Error::exit_code`].
 

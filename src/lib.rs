@@ -67,8 +67,10 @@
 //! ```
 //!
 //! [`run::run_scenario`] adds what `flyarena run` does on top: the uncompensated twin a
-//! requirement may compare with, the requirements evaluated and the summary; `sweep`,
-//! `identify` and the command line all go through it.
+//! requirement may compare with, the requirements evaluated and the summary; `flyarena run` and
+//! every run of a sweep go through it. `serve` paces [`engine`] by the wall clock, and
+//! `identify` flies a scenario with [`engine::run`] itself (it needs the trace, not the
+//! requirements).
 //!
 //! Angles are radians everywhere inside; degrees exist only in YAML fields named `_deg` and in
 //! printed output. Time is [`clock::Nanos`], an integer; every random draw comes from a

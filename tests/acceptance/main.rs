@@ -10,6 +10,7 @@ mod layout;
 mod left;
 mod log;
 mod physics;
+mod project;
 mod props;
 mod quality;
 #[cfg(feature = "record")]
