@@ -72,7 +72,7 @@ fn process_words_are_found_and_nothing_else() {
     assert_eq!(process_words(&format!("as {s} found")).len(), 1);
     assert_eq!(process_words(&["see ", "issu", "es 58 and 59"].concat()).len(), 1);
     assert_eq!(process_words(&["the cen", "sus shard"].concat()).len(), 1);
-    assert!(process_words("PX4 issue #21468; a session of flights; reissue 3; the tissue 5").is_empty());
+    assert!(process_words(&["PX4 issue #21468; a session of flights; reiss", "ue 3; the tiss", "ue 5"].concat()).is_empty());
 }
 
 /// `scripts/fetch-data` from a local copy: every file of the manifest lands in the target, equal
