@@ -42,6 +42,7 @@ mod error;
 pub mod feedback;
 pub mod flyarena_log;
 pub mod ground;
+mod joined;
 pub mod mapping;
 pub mod quality;
 pub mod report;
