@@ -1,5 +1,5 @@
 //! Time-stamped topics joined onto the IMU's clock: the rows that a ROS 2 bag ([`super::ros2`])
-//! becomes before it goes through the CSV reader
+//! or a PX4 log ([`super::ulog`]) becomes before it goes through the CSV reader
 //! ([`super::mapping`]), so that every route gives one report.
 //!
 //! One row per IMU message, at its stamp: the pose is interpolated between the two poses around

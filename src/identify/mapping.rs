@@ -70,6 +70,9 @@ pub struct Mapping {
     /// The topics of a ROS 2 bag (MCAP); `None` for a CSV log.
     #[serde(skip)]
     pub ros2: Option<super::ros2::Topics>,
+    /// The topics of a PX4 log (ULog); `None` for a CSV log.
+    #[serde(skip)]
+    pub px4: Option<super::ulog::Topics>,
 }
 
 /// A mapping for ROS 2 bags: topics instead of columns (see [`super::ros2`]).
@@ -86,6 +89,33 @@ struct Ros2File {
     mass_kg: Option<f64>,
     #[serde(default)]
     smoothing_ms: Option<f64>,
+}
+
+/// A mapping for PX4 logs: topics instead of columns, PX4's frames (see [`super::ulog`]).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Px4File {
+    vehicle: VehiclePreset,
+    px4: super::ulog::Topics,
+    #[serde(default)]
+    mass_kg: Option<f64>,
+    #[serde(default)]
+    smoothing_ms: Option<f64>,
+}
+
+impl Px4File {
+    /// The CSV mapping of the rows [`super::ulog::to_csv`] writes: a z-down world, an FRD body.
+    fn into_mapping(self) -> Mapping {
+        let ros2 = Ros2File {
+            vehicle: self.vehicle,
+            ros2: super::ros2::Topics { pose: String::new(), imu: String::new(), motors: self.px4.motors.clone(), battery: self.px4.battery.clone() },
+            world: WorldUp::ZDown,
+            body: BodyAxes::Frd,
+            mass_kg: self.mass_kg,
+            smoothing_ms: self.smoothing_ms,
+        };
+        Mapping { ros2: None, px4: Some(self.px4), ..ros2.into_mapping() }
+    }
 }
 
 fn z_up() -> WorldUp {
@@ -116,6 +146,7 @@ impl Ros2File {
             mass_kg: self.mass_kg,
             smoothing_ms: self.smoothing_ms,
             ros2: Some(self.ros2),
+            px4: None,
         }
     }
 }
@@ -282,7 +313,13 @@ impl Mapping {
         let err = |e: serde_saphyr::Error| InputError::invalid(&file, crate::scenario::error::with_suggestion(&e.to_string()));
         // a `ros2:` block makes it a mapping of topics, not columns
         let keys: std::collections::BTreeMap<String, serde::de::IgnoredAny> = serde_saphyr::from_str(src).map_err(err)?;
-        let m: Mapping = if keys.contains_key("ros2") { serde_saphyr::from_str::<Ros2File>(src).map_err(err)?.into_mapping() } else { serde_saphyr::from_str(src).map_err(err)? };
+        let m: Mapping = if keys.contains_key("ros2") {
+            serde_saphyr::from_str::<Ros2File>(src).map_err(err)?.into_mapping()
+        } else if keys.contains_key("px4") {
+            serde_saphyr::from_str::<Px4File>(src).map_err(err)?.into_mapping()
+        } else {
+            serde_saphyr::from_str(src).map_err(err)?
+        };
         if let Some(mass) = m.mass_kg
             && !(mass > 0.0 && mass < 100.0)
         {
@@ -306,6 +343,7 @@ impl Mapping {
         if let Some(mo) = &m.motors
             && mo.columns.is_empty()
             && m.ros2.is_none()
+            && m.px4.is_none()
         {
             return Err(InputError::invalid(&file, "motors.columns is empty; give one column per motor"));
         }
@@ -327,28 +365,40 @@ impl Mapping {
         })
     }
 
-    /// Reads a CSV log, or with a `ros2:` mapping a ROS 2 bag (MCAP), through the mapping.
+    /// Reads a CSV log, with a `ros2:` mapping a ROS 2 bag (MCAP), or with a `px4:` mapping a
+    /// PX4 log (ULog), through the mapping.
     pub fn read(&self, path: &Path) -> Result<Series, InputError> {
         let file = path.display().to_string();
+        if let Some(topics) = &self.px4 {
+            let (text, repairs) = super::ulog::to_csv(path, topics)?;
+            return self.read_joined(&text, repairs, &file);
+        }
         let bytes = std::fs::read(path).map_err(|e| InputError::io(&file, e))?;
         match &self.ros2 {
             Some(topics) => {
                 let (text, repairs) = super::ros2::to_csv(&bytes, topics, &file)?;
-                let header = text.lines().next().unwrap_or("");
-                let motors = self.motors.as_ref().map(|_| Motors { columns: header.split(',').filter(|c| c.starts_with('m')).map(str::to_string).collect() });
-                let m = Mapping { motors, ..self.clone() };
-                let mut s = m.read_str(&text, &file)?;
-                s.repairs.splice(0..0, repairs);
-                Ok(s)
+                self.read_joined(&text, repairs, &file)
             }
             None if bytes.starts_with(super::ros2::MAGIC) => {
                 Err(InputError::log(&file, "an MCAP file needs a mapping with a `ros2:` block of topics (see mappings/ros2-crazyflie.yaml)"))
             }
+            None if bytes.starts_with(super::ulog::MAGIC) => Err(InputError::log(&file, "a PX4 log (ULog) needs a mapping with a `px4:` block of topics (see mappings/px4.yaml)")),
             None => {
                 let text = String::from_utf8(bytes).map_err(|e| InputError::log(&file, format!("not UTF-8 text ({e})")))?;
                 self.read_str(&text, &file)
             }
         }
+    }
+
+    /// Reads the rows a bag or a PX4 log was joined into (`identify/joined.rs`): the motor columns
+    /// are named by the header, and the route's repairs come first.
+    fn read_joined(&self, text: &str, repairs: Vec<String>, file: &str) -> Result<Series, InputError> {
+        let header = text.lines().next().unwrap_or("");
+        let motors = self.motors.as_ref().map(|_| Motors { columns: header.split(',').filter(|c| c.starts_with('m')).map(str::to_string).collect() });
+        let m = Mapping { motors, ..self.clone() };
+        let mut s = m.read_str(text, file)?;
+        s.repairs.splice(0..0, repairs);
+        Ok(s)
     }
 
     /// The header's index of every column the mapping names; a name the header lacks is an

@@ -51,6 +51,7 @@ pub mod select;
 pub mod series;
 pub(crate) mod stats;
 pub mod trials;
+pub mod ulog;
 pub mod workflow;
 
 pub use design::{Channel, DesignOptions, Effect};

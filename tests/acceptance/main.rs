@@ -21,6 +21,7 @@ mod serve;
 mod sweep;
 mod trials;
 mod twins;
+mod ulog;
 
 use flyarena::scenario::Scenario;
 

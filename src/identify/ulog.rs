@@ -1,0 +1,482 @@
+//! PX4 flight logs (ULog, `.ulg`) as identification data.
+//!
+//! A mapping with a `px4:` block reads a ULog file instead of a CSV (`mappings/px4.yaml`):
+//!
+//! ```yaml
+//! vehicle: crazyflie21
+//! px4:
+//!   pose: vehicle_visual_odometry  # or vehicle_mocap_odometry (default: the first the log has)
+//!   imu: sensor_combined           # default; or vehicle_imu
+//!   motors: actuator_motors        # optional; or actuator_outputs with output_range
+//!   battery: battery_status        # optional
+//!   instance: 0                    # which instance of a multi-instance topic (default 0)
+//! smoothing_ms: 50
+//! ```
+//!
+//! The file is parsed by the `px4-ulog` crate (maintained in the PX4 organisation), appended
+//! data sections included; a log cut short or with a malformed record is read up to the fault,
+//! which the repairs name. What each topic gives, in PX4's frames and units (uORB message
+//! definitions):
+//! - the pose, `VehicleOdometry`: `position` (m) and `q` (w, x, y, z: the rotation from the FRD
+//!   body to the reference frame, NED or a world-fixed FRD), both z down, so the mapping's world
+//!   is `z_down` and its body `frd`; logs before PX4 1.14 name the position `x, y, z`. A pose
+//!   with a NaN (PX4's "invalid") is a frame in which the vehicle was not seen. It is stamped by
+//!   `timestamp_sample`, the time the mocap captured it as the bridge set it, where the log has
+//!   it and it is not 0, else by `timestamp`, the time PX4 published it (later by the bridge's
+//!   and the link's latency, which a mocap delay then absorbs); the report says which.
+//! - the IMU, `SensorCombined`: `gyro_rad` (rad/s) at `timestamp` and `accelerometer_m_s2`
+//!   (m/s², specific force) at `timestamp + accelerometer_timestamp_relative` (µs); rows are at
+//!   the gyro's stamp and the report says by how much the accelerometer's differ. Or
+//!   `VehicleImu`: `delta_angle`/`delta_angle_dt` and `delta_velocity`/`delta_velocity_dt`, the
+//!   mean rate and specific force over the integration interval, at its middle
+//!   (`timestamp_sample − dt/2`).
+//! - the motors, `ActuatorMotors`: `control` in [0, 1] per motor (NaN: stopped, read as 0),
+//!   read as the fraction u of full command that the preset's thrust map takes (u = PWM/65535
+//!   on a Crazyflie); or `ActuatorOutputs`: `output` mapped to u by the mapping's
+//!   `output_range: [zero, full]` (e.g. [1000, 2000] µs). The motors are the first
+//!   `motor_count` (default: as many as ever hold a number, at most 8).
+//! - the battery, `BatteryStatus`: `voltage_v` (V); a sample at 0 V (no battery) is left out.
+//!
+//! The streams are then joined onto the IMU's clock (`identify/joined.rs`) and go through the same
+//! reader as a CSV log, as a ROS 2 bag does, so all three routes give one report. Nothing read
+//! from the file can panic: a parser failure, a missing topic or field is an error that names
+//! the file and, for a missing topic, the `SDLOG_PROFILE` bit that logs it.
+
+use super::error::InputError;
+use super::joined::{Stream, Streams};
+use px4_ulog::full_parser::{Completeness, SomeVec};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A ULog file starts with these bytes (the header's magic and its version byte comes after).
+pub(crate) const MAGIC: &[u8] = b"ULog\x01\x12\x35";
+
+/// The topics of a PX4 mapping (the `px4:` block).
+#[derive(Debug, Clone, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Topics {
+    /// The mocap pose: `vehicle_visual_odometry` or `vehicle_mocap_odometry` (default: the first
+    /// of the two the log has).
+    #[serde(default)]
+    pub pose: Option<String>,
+    /// The IMU: `sensor_combined` (default) or `vehicle_imu`.
+    #[serde(default)]
+    pub imu: Option<String>,
+    /// The motor commands: `actuator_motors` or `actuator_outputs`, if wanted.
+    #[serde(default)]
+    pub motors: Option<String>,
+    /// `actuator_outputs` only: the output values that mean no command and full command.
+    #[serde(default)]
+    pub output_range: Option<[f64; 2]>,
+    /// How many motors (default: as many controls as ever hold a number, at most 8).
+    #[serde(default)]
+    pub motor_count: Option<usize>,
+    /// The battery: `battery_status`, if wanted.
+    #[serde(default)]
+    pub battery: Option<String>,
+    /// The instance of each multi-instance topic (default 0).
+    #[serde(default)]
+    pub instance: u8,
+}
+
+/// One topic instance of a log: its `timestamp`s (µs since boot) and its fields as numbers
+/// (integers and booleans converted exactly, `f32` widened; a `char` field is left out).
+#[derive(Debug, Clone)]
+pub struct TopicData {
+    /// The uORB topic.
+    pub name: String,
+    /// Its instance (`multi_id`).
+    pub instance: u8,
+    /// Each field by its flattened name (`gyro_rad[0]`), one value per message.
+    pub fields: BTreeMap<String, Vec<f64>>,
+}
+
+impl TopicData {
+    /// The `timestamp` field (µs), as logged.
+    pub fn timestamps(&self) -> &[f64] {
+        self.fields.get("timestamp").map_or(&[], Vec::as_slice)
+    }
+    fn field(&self, name: &str) -> Option<&[f64]> {
+        self.fields.get(name).map(Vec::as_slice)
+    }
+    fn need(&self, name: &str, file: &str) -> Result<&[f64], InputError> {
+        self.field(name).ok_or_else(|| InputError::log(file, format!("topic `{}` has no field `{name}`", self.name)))
+    }
+    fn len(&self) -> usize {
+        self.timestamps().len()
+    }
+}
+
+/// A parsed log: every topic instance, and how the data ended (`None`: cleanly).
+#[derive(Debug, Clone)]
+pub struct Log {
+    /// The topic instances, by name then instance.
+    pub topics: Vec<TopicData>,
+    /// Why the reading stopped early, if it did (a log cut short or a malformed record).
+    pub incomplete: Option<String>,
+}
+
+impl Log {
+    /// Reads a `.ulg` file with `px4-ulog`; a file the parser cannot read is an error naming it.
+    pub fn read(path: &Path) -> Result<Log, InputError> {
+        let file = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| InputError::io(&file, e))?;
+        if !bytes.starts_with(MAGIC) {
+            return Err(InputError::log(&file, "not a ULog file (no ULog magic bytes)"));
+        }
+        let name = path.to_str().ok_or_else(|| InputError::log(&file, "the path is not UTF-8, which the ULog parser needs"))?.to_string();
+        // the parser indexes its buffers by offsets the file gives; a corrupt file must be an
+        // error, never a panic of ours
+        let parsed = std::panic::catch_unwind(|| px4_ulog::full_parser::read_file(&name))
+            .map_err(|_| InputError::log(&file, "the ULog parser failed on this file (corrupt or not a PX4 log)"))?
+            .map_err(|e| InputError::log(&file, format!("not a readable ULog file ({e})")))?;
+        let incomplete = match parsed.completeness {
+            Completeness::Complete => None,
+            Completeness::Truncated => Some("the log ends in the middle of a message (cut short); it is read up to the cut".to_string()),
+            Completeness::MalformedRecord(why) => Some(format!("a malformed record stopped the reading ({why}); the data before it is read")),
+        };
+        let mut topics = Vec::new();
+        for (topic, instances) in parsed.messages {
+            for (id, fields) in instances {
+                let fields = fields.into_iter().filter_map(|(k, v)| numbers(v).map(|v| (k, v))).collect();
+                topics.push(TopicData { name: topic.clone(), instance: id.value(), fields });
+            }
+        }
+        topics.sort_by(|a, b| (&a.name, a.instance).cmp(&(&b.name, b.instance)));
+        Ok(Log { topics, incomplete })
+    }
+
+    /// The instance `instance` of `topic`; absent, an error naming the instances there are.
+    fn topic(&self, topic: &str, instance: u8, file: &str) -> Result<&TopicData, InputError> {
+        let all: Vec<&TopicData> = self.topics.iter().filter(|t| t.name == topic).collect();
+        match all.iter().find(|t| t.instance == instance) {
+            Some(t) if t.len() > 0 => Ok(t),
+            Some(_) => Err(InputError::log(file, format!("topic `{topic}` has no message"))),
+            None if all.is_empty() => Err(InputError::log(file, format!("the log has no topic `{topic}`{}", profile_hint(topic)))),
+            None => Err(InputError::log(
+                file,
+                format!(
+                    "topic `{topic}` has no instance {instance} (instances: {}); set `px4.instance`",
+                    all.iter().map(|t| t.instance.to_string()).collect::<Vec<_>>().join(", ")
+                ),
+            )),
+        }
+    }
+
+    fn has(&self, topic: &str) -> bool {
+        self.topics.iter().any(|t| t.name == topic && t.len() > 0)
+    }
+}
+
+/// Every number of a field, as `f64`; a `char` field gives `None`.
+fn numbers(v: SomeVec) -> Option<Vec<f64>> {
+    Some(match v {
+        SomeVec::Int8(v) => v.into_iter().map(f64::from).collect(),
+        SomeVec::UInt8(v) => v.into_iter().map(f64::from).collect(),
+        SomeVec::Int16(v) => v.into_iter().map(f64::from).collect(),
+        SomeVec::UInt16(v) => v.into_iter().map(f64::from).collect(),
+        SomeVec::Int32(v) => v.into_iter().map(f64::from).collect(),
+        SomeVec::UInt32(v) => v.into_iter().map(f64::from).collect(),
+        // µs since boot stay below 2⁵³ (285 years), so they are exact
+        SomeVec::Int64(v) => v.into_iter().map(|x| x as f64).collect(),
+        SomeVec::UInt64(v) => v.into_iter().map(|x| x as f64).collect(),
+        SomeVec::Float(v) => v.into_iter().map(f64::from).collect(),
+        SomeVec::Double(v) => v,
+        SomeVec::Bool(v) => v.into_iter().map(|b| if b { 1.0 } else { 0.0 }).collect(),
+        SomeVec::Char(_) => return None,
+    })
+}
+
+/// Which `SDLOG_PROFILE` bit records a topic at a rate `identify` can use (PX4's logger,
+/// `logged_topics.cpp`): the estimator-replay set (bit 1) logs `vehicle_visual_odometry` and
+/// `sensor_combined` at full rate, the computer-vision set (bit 7) both odometry topics at 30 ms,
+/// the system-identification set (bit 3) `actuator_motors` at full rate (the default set: 100 ms).
+fn profile_hint(topic: &str) -> &'static str {
+    match topic {
+        "vehicle_visual_odometry" => " (PX4 logs it with SDLOG_PROFILE bit 1, estimator replay, at full rate: add 2; or bit 7, computer vision, at 30 ms: add 128)",
+        "vehicle_mocap_odometry" => " (PX4 logs it with SDLOG_PROFILE bit 7, computer vision, at 30 ms: add 128)",
+        "sensor_combined" => " (PX4's default logging profile records it at full rate: SDLOG_PROFILE bit 0)",
+        "actuator_motors" => " (PX4 logs it at 10 Hz by default; SDLOG_PROFILE bit 3, system identification, at full rate: add 8)",
+        "battery_status" => " (PX4's default logging profile records it: SDLOG_PROFILE bit 0)",
+        _ => "",
+    }
+}
+
+/// Microseconds (as logged) to the nanoseconds the join counts in.
+fn ns(us: f64) -> i128 {
+    us as i128 * 1000
+}
+
+/// Reads the log at `path` through `topics` into the rows of a CSV log
+/// (`t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, see `identify/joined.rs`), and
+/// the repairs and notes made.
+pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<String>), InputError> {
+    let file = path.display().to_string();
+    let log = Log::read(path)?;
+    let mut notes = Vec::new();
+    notes.extend(log.incomplete.clone());
+    let pose_topic = match &topics.pose {
+        Some(p) => p.clone(),
+        None => ["vehicle_visual_odometry", "vehicle_mocap_odometry"].into_iter().find(|t| log.has(t)).map(str::to_string).ok_or_else(|| {
+            InputError::log(&file, format!("the log has neither `vehicle_visual_odometry` nor `vehicle_mocap_odometry`{}", profile_hint("vehicle_visual_odometry")))
+        })?,
+    };
+    let pose = pose_stream(log.topic(&pose_topic, topics.instance, &file)?, &file, &mut notes)?;
+    let imu_topic = topics.imu.as_deref().unwrap_or("sensor_combined");
+    let imu = imu_stream(log.topic(imu_topic, topics.instance, &file)?, &file, &mut notes)?;
+    let (motors, n_motors) = match &topics.motors {
+        Some(m) => {
+            let (s, n) = motor_stream(log.topic(m, topics.instance, &file)?, topics, &file, &mut notes)?;
+            (s, Some(n))
+        }
+        None => (Stream::new(), None),
+    };
+    let battery = match &topics.battery {
+        Some(b) => battery_stream(log.topic(b, topics.instance, &file)?, &file, &mut notes)?,
+        None => Stream::new(),
+    };
+    let streams = Streams { pose: pose.sorted(), imu: imu.sorted(), motors: motors.sorted(), n_motors, battery: battery.sorted() };
+    let (csv, repairs) = streams.join();
+    notes.extend(repairs);
+    Ok((csv, notes))
+}
+
+/// The stamps of a topic that has `timestamp_sample`: those, where every one is set, else
+/// `timestamp`; and which one was used.
+fn sample_stamps<'a>(t: &'a TopicData, file: &str) -> Result<(&'a [f64], &'static str), InputError> {
+    match t.field("timestamp_sample") {
+        Some(s) if s.iter().all(|x| *x > 0.0) => Ok((s, "timestamp_sample")),
+        _ => Ok((t.need("timestamp", file)?, "timestamp")),
+    }
+}
+
+fn pose_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stream<7>, InputError> {
+    let (stamps, which) = sample_stamps(t, file)?;
+    let pos: [&[f64]; 3] = match t.field("position[0]") {
+        Some(_) => [t.need("position[0]", file)?, t.need("position[1]", file)?, t.need("position[2]", file)?],
+        None => [t.need("x", file)?, t.need("y", file)?, t.need("z", file)?],
+    };
+    let q: [&[f64]; 4] = [t.need("q[0]", file)?, t.need("q[1]", file)?, t.need("q[2]", file)?, t.need("q[3]", file)?];
+    if let Some(frame) = t.field("pose_frame")
+        && frame.iter().any(|f| *f != 1.0 && *f != 2.0)
+    {
+        notes.push(format!("`{}` has poses of an unknown frame (pose_frame not 1, NED, or 2, FRD); they are read as z-down", t.name));
+    }
+    let mut s = Stream::new();
+    let mut invalid = 0;
+    for i in 0..stamps.len() {
+        // PX4: w, x, y, z; the join: x, y, z, w
+        let v = [pos[0][i], pos[1][i], pos[2][i], q[1][i], q[2][i], q[3][i], q[0][i]];
+        if v.iter().any(|x| !x.is_finite()) {
+            invalid += 1;
+            continue;
+        }
+        s.push(ns(stamps[i]), v).map_err(|e| InputError::log(file, format!("`{}` message {i}: {e}", t.name)))?;
+    }
+    notes.push(format!("the pose (`{}`) is stamped by its `{which}`", t.name));
+    if invalid > 0 {
+        notes.push(format!("{invalid} poses of `{}` are invalid (NaN): frames in which the vehicle was not seen", t.name));
+    }
+    Ok(s)
+}
+
+fn imu_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stream<6>, InputError> {
+    let mut s = Stream::new();
+    let at = |i: usize| move |e: &str| InputError::log(file, format!("`{}` message {i}: {e}", t.name));
+    if t.name == "vehicle_imu" {
+        let stamps = t.need("timestamp_sample", file)?;
+        let da: [&[f64]; 3] = [t.need("delta_angle[0]", file)?, t.need("delta_angle[1]", file)?, t.need("delta_angle[2]", file)?];
+        let dv: [&[f64]; 3] = [t.need("delta_velocity[0]", file)?, t.need("delta_velocity[1]", file)?, t.need("delta_velocity[2]", file)?];
+        let (da_dt, dv_dt) = (t.need("delta_angle_dt", file)?, t.need("delta_velocity_dt", file)?);
+        let mut skipped = 0;
+        for i in 0..stamps.len() {
+            if da_dt[i] <= 0.0 || dv_dt[i] <= 0.0 {
+                skipped += 1;
+                continue;
+            }
+            let (wa, wv) = (1e6 / da_dt[i], 1e6 / dv_dt[i]);
+            let v = [da[0][i] * wa, da[1][i] * wa, da[2][i] * wa, dv[0][i] * wv, dv[1][i] * wv, dv[2][i] * wv];
+            s.push(ns(stamps[i] - da_dt[i] / 2.0), v).map_err(at(i))?;
+        }
+        if skipped > 0 {
+            notes.push(format!("{skipped} `vehicle_imu` messages with no integration interval were left out"));
+        }
+        return Ok(s);
+    }
+    let stamps = t.need("timestamp", file)?;
+    let g: [&[f64]; 3] = [t.need("gyro_rad[0]", file)?, t.need("gyro_rad[1]", file)?, t.need("gyro_rad[2]", file)?];
+    let a: [&[f64]; 3] = [t.need("accelerometer_m_s2[0]", file)?, t.need("accelerometer_m_s2[1]", file)?, t.need("accelerometer_m_s2[2]", file)?];
+    let rel = t.field("accelerometer_timestamp_relative");
+    // PX4's RELATIVE_TIMESTAMP_INVALID: no accelerometer sample in this message
+    const INVALID: f64 = i32::MAX as f64;
+    let (mut skipped, mut offsets) = (0, Vec::new());
+    for i in 0..stamps.len() {
+        if let Some(r) = rel {
+            if r[i] == INVALID {
+                skipped += 1;
+                continue;
+            }
+            offsets.push(r[i]);
+        }
+        s.push(ns(stamps[i]), [g[0][i], g[1][i], g[2][i], a[0][i], a[1][i], a[2][i]]).map_err(at(i))?;
+    }
+    if skipped > 0 {
+        notes.push(format!("{skipped} `sensor_combined` messages without an accelerometer sample were left out"));
+    }
+    offsets.sort_by(f64::total_cmp);
+    if let Some(m) = offsets.get(offsets.len() / 2)
+        && *m != 0.0
+    {
+        notes.push(format!("the accelerometer's samples are stamped a median {m} µs from the gyro's; each row takes the gyro's stamp"));
+    }
+    Ok(s)
+}
+
+fn motor_stream(t: &TopicData, topics: &Topics, file: &str, notes: &mut Vec<String>) -> Result<(Stream<8>, usize), InputError> {
+    let outputs = t.name == "actuator_outputs";
+    let (prefix, range) = if outputs {
+        let r = topics.output_range.ok_or_else(|| InputError::log(file, "`actuator_outputs` needs `px4.output_range: [zero, full]`, the outputs that mean no and full command"))?;
+        if !(r[0].is_finite() && r[1].is_finite() && r[1] != r[0]) {
+            return Err(InputError::log(file, format!("px4.output_range {r:?} must be two different numbers")));
+        }
+        ("output", r)
+    } else {
+        ("control", [0.0, 1.0])
+    };
+    let (stamps, which) = sample_stamps(t, file)?;
+    let columns: Vec<&[f64]> = (0..16).map_while(|k| t.field(&format!("{prefix}[{k}]"))).collect();
+    let n = match topics.motor_count {
+        Some(n) => n,
+        None => columns.iter().take_while(|c| c.iter().any(|x| x.is_finite())).count(),
+    };
+    if n == 0 || n > 8 || n > columns.len() {
+        return Err(InputError::log(file, format!("`{}`: {n} motors; 1 to 8 of its {} `{prefix}` fields expected (set `px4.motor_count`)", t.name, columns.len())));
+    }
+    let mut s = Stream::new();
+    for i in 0..stamps.len() {
+        let mut v = [0.0; 8];
+        for (k, x) in v.iter_mut().enumerate().take(n) {
+            // NaN: the motor is stopped (disarmed); the thrust map takes u in [0, 1]
+            let u = (columns[k][i] - range[0]) / (range[1] - range[0]);
+            *x = if u.is_finite() { u.clamp(0.0, 1.0) * 65535.0 } else { 0.0 };
+        }
+        s.push(ns(stamps[i]), v).map_err(|e| InputError::log(file, format!("`{}` message {i}: {e}", t.name)))?;
+    }
+    let span = (stamps[stamps.len() - 1] - stamps[0]) * 1e-6;
+    if stamps.len() > 1 && span > 0.0 && (stamps.len() - 1) as f64 / span < 50.0 {
+        notes.push(format!("`{}` is logged at {:.0} Hz, coarse for the force channel{}", t.name, (stamps.len() - 1) as f64 / span, profile_hint(&t.name)));
+    }
+    notes.push(format!("the motors (`{}`, {n}) are stamped by their `{which}`", t.name));
+    Ok((s, n))
+}
+
+fn battery_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stream<1>, InputError> {
+    let stamps = t.need("timestamp", file)?;
+    let v = t.need("voltage_v", file)?;
+    let mut s = Stream::new();
+    let mut skipped = 0;
+    for i in 0..stamps.len() {
+        if v[i].is_nan() || v[i] <= 0.0 {
+            skipped += 1;
+            continue;
+        }
+        s.push(ns(stamps[i]), [v[i]]).map_err(|e| InputError::log(file, format!("`{}` message {i}: {e}", t.name)))?;
+    }
+    if skipped > 0 {
+        notes.push(format!("{skipped} `{}` samples at 0 V (no battery) were left out", t.name));
+    }
+    if s.t.is_empty() {
+        return Err(InputError::log(file, format!("`{}` has no sample with a voltage", t.name)));
+    }
+    Ok(s)
+}
+
+/// The topics `identify` can read from a log, with their fields: for a user who wants to know
+/// what a log holds, and for tests against another parser.
+pub fn readable_topics(log: &Log) -> Vec<&TopicData> {
+    const READ: [&str; 7] = ["vehicle_visual_odometry", "vehicle_mocap_odometry", "sensor_combined", "vehicle_imu", "actuator_motors", "actuator_outputs", "battery_status"];
+    log.topics.iter().filter(|t| READ.contains(&t.name.as_str())).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn topic(name: &str, fields: &[(&str, Vec<f64>)]) -> TopicData {
+        TopicData { name: name.to_string(), instance: 0, fields: fields.iter().map(|(k, v)| (k.to_string(), v.clone())).collect() }
+    }
+
+    /// `vehicle_imu` by hand: 0.01 rad about x and (0, 0, −0.0981) m/s over 10 ms are a mean
+    /// rate of 1 rad/s and a specific force of −9.81 m/s² along z, at the interval's middle, 5 ms
+    /// before `timestamp_sample`; an interval of 0 µs is left out and said.
+    #[test]
+    fn vehicle_imu_is_the_mean_rate_and_force_at_the_middle_of_its_interval() {
+        let t = topic(
+            "vehicle_imu",
+            &[
+                ("timestamp", vec![20_000.0, 30_000.0]),
+                ("timestamp_sample", vec![19_000.0, 29_000.0]),
+                ("delta_angle[0]", vec![0.01, 0.01]),
+                ("delta_angle[1]", vec![0.0, 0.0]),
+                ("delta_angle[2]", vec![0.0, 0.0]),
+                ("delta_velocity[0]", vec![0.0, 0.0]),
+                ("delta_velocity[1]", vec![0.0, 0.0]),
+                ("delta_velocity[2]", vec![-0.0981, -0.0981]),
+                ("delta_angle_dt", vec![10_000.0, 0.0]),
+                ("delta_velocity_dt", vec![10_000.0, 10_000.0]),
+            ],
+        );
+        let mut notes = Vec::new();
+        let s = imu_stream(&t, "f.ulg", &mut notes).unwrap();
+        assert_eq!(s.t, vec![14_000_000]);
+        assert!((s.v[0][0] - 1.0).abs() < 1e-12 && (s.v[0][5] + 9.81).abs() < 1e-12, "{:?}", s.v);
+        assert_eq!(notes, ["1 `vehicle_imu` messages with no integration interval were left out"]);
+    }
+
+    /// Motor commands by hand: `actuator_motors` control 0.5 is half of full PWM and NaN (a
+    /// stopped motor) is 0; `actuator_outputs` 1500 µs on [1000, 2000] is half too, 2100 is
+    /// clamped to full, and without `output_range` it is an error that says what to set. The
+    /// motor count is the controls that ever hold a number.
+    #[test]
+    fn motor_commands_are_fractions_of_full_command() {
+        let nan = f64::NAN;
+        let m = topic("actuator_motors", &[("timestamp", vec![1.0, 2.0]), ("control[0]", vec![0.5, nan]), ("control[1]", vec![nan, 1.0]), ("control[2]", vec![nan, nan])]);
+        let (s, n) = motor_stream(&m, &Topics::default(), "f.ulg", &mut Vec::new()).unwrap();
+        assert_eq!(n, 2);
+        assert_eq!((s.v[0][0], s.v[0][1], s.v[1][0], s.v[1][1]), (32767.5, 0.0, 0.0, 65535.0));
+        let o = topic("actuator_outputs", &[("timestamp", vec![1.0]), ("output[0]", vec![1500.0]), ("output[1]", vec![2100.0])]);
+        let e = motor_stream(&o, &Topics::default(), "f.ulg", &mut Vec::new()).unwrap_err().to_string();
+        assert!(e.contains("output_range"), "{e}");
+        let with = Topics { output_range: Some([1000.0, 2000.0]), ..Topics::default() };
+        let (s, n) = motor_stream(&o, &with, "f.ulg", &mut Vec::new()).unwrap();
+        assert_eq!((n, s.v[0][0], s.v[0][1]), (2, 32767.5, 65535.0));
+    }
+
+    /// The pose: PX4's (w, x, y, z) becomes the join's (x, y, z, w); `timestamp_sample` stamps it
+    /// when every sample has one, `timestamp` otherwise (said either way); a NaN pose is no pose.
+    #[test]
+    fn a_pose_is_reordered_stamped_by_its_sample_time_and_nan_is_not_seen() {
+        let nan = f64::NAN;
+        let fields = |sample: Vec<f64>| {
+            vec![
+                ("timestamp", vec![15.0, 25.0]),
+                ("timestamp_sample", sample),
+                ("position[0]", vec![1.0, nan]),
+                ("position[1]", vec![2.0, 0.0]),
+                ("position[2]", vec![-3.0, 0.0]),
+                ("q[0]", vec![0.5, 1.0]),
+                ("q[1]", vec![0.5, 0.0]),
+                ("q[2]", vec![-0.5, 0.0]),
+                ("q[3]", vec![0.5, 0.0]),
+            ]
+        };
+        let mut notes = Vec::new();
+        let s = pose_stream(&topic("vehicle_visual_odometry", &fields(vec![10.0, 20.0])), "f.ulg", &mut notes).unwrap();
+        assert_eq!((s.t.clone(), s.v[0]), (vec![10_000], [1.0, 2.0, -3.0, 0.5, -0.5, 0.5, 0.5]));
+        assert!(notes[0].ends_with("stamped by its `timestamp_sample`") && notes[1].starts_with("1 poses"), "{notes:?}");
+        let mut notes = Vec::new();
+        let s = pose_stream(&topic("vehicle_visual_odometry", &fields(vec![0.0, 20.0])), "f.ulg", &mut notes).unwrap();
+        assert_eq!(s.t, vec![15_000]);
+        assert!(notes[0].ends_with("stamped by its `timestamp`"), "{notes:?}");
+    }
+}
