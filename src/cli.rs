@@ -218,6 +218,14 @@ struct IdentifyArgs {
     /// Print only the verdict line
     #[arg(long, short)]
     quiet: bool,
+    /// Also give the PX4 parameters the flight supports (EKF2_EV_DELAY, EKF2_EV_POS_*,
+    /// EKF2_IMU_POS_*) with their intervals, and write them as a QGroundControl parameter file
+    /// (DIR/<input>.px4.params); the mocap delay is always fitted
+    #[arg(long)]
+    px4: bool,
+    /// The QGroundControl parameter file's path (with --px4)
+    #[arg(long, value_name = "PATH", requires = "px4")]
+    px4_params: Option<PathBuf>,
 }
 
 fn parse_shard(v: &str) -> Result<(u64, u64), String> {
@@ -502,6 +510,9 @@ fn check_identify(a: &IdentifyArgs) -> Result<(), Error> {
     let usage = |m: &str| Error::Usage(m.to_string());
     let first = a.inputs.first().ok_or_else(|| usage("what to identify? `flyarena identify scenarios/<x>.yaml`, or a log with --scenario or --mapping"))?;
     let is_yaml = first.extension().is_some_and(|e| e == "yaml" || e == "yml");
+    if a.inputs.len() > 1 && a.px4 {
+        return Err(usage("--px4 takes one flight: the parameters are the vehicle's as that flight shows them"));
+    }
     if a.inputs.len() > 1 && a.mapping.is_none() {
         return Err(usage("several inputs (cross-validation) need --mapping: they are logs of other tools"));
     }
@@ -537,7 +548,13 @@ fn cmd_identify(a: IdentifyArgs) -> Result<i32, Error> {
         (None, Some(mapping)) => Source::Mapped { log: input, mapping },
         (None, None) => Source::Scenario(input),
     };
-    let req = Request { vehicle: a.vehicle.as_deref(), seed: a.seed, smoothing_ms: a.smoothing_ms, forced: a.forced.clone(), ..Request::new(source) };
+    let mut forced = a.forced.clone();
+    if a.px4 && !forced.contains(&flyarena::identify::Effect::MocapDelay) {
+        // EKF2_EV_DELAY matters most and is the hardest to see: it is estimated as a tested
+        // hypothesis, with its interval, whether or not the selection would add it
+        forced.push(flyarena::identify::Effect::MocapDelay);
+    }
+    let req = Request { vehicle: a.vehicle.as_deref(), seed: a.seed, smoothing_ms: a.smoothing_ms, forced, ..Request::new(source) };
     let done = flyarena::identify::workflow::run(&req)?;
     let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
@@ -550,11 +567,22 @@ fn cmd_identify(a: IdentifyArgs) -> Result<i32, Error> {
     if let Some(path) = &rrd_path {
         write_output(path, &flyarena::record::encode_identify(&stem, &done.report, &done.residuals)?)?;
     }
+    let px4 = a.px4.then(|| flyarena::identify::px4::parameters(&done.report));
+    let px4_path = a.px4_params.clone().unwrap_or_else(|| a.out.join(format!("{stem}.px4.params")));
+    if let Some(p) = &px4 {
+        write_output(&px4_path, flyarena::identify::px4::qgc_file(p, &input.display().to_string()).as_bytes())?;
+    }
     if !a.quiet {
         print!("{}", done.text);
+        if let Some(p) = &px4 {
+            print!("\n{}", flyarena::identify::px4::render(p));
+        }
         println!("\nreport: {}\nscenario fragment: {} (`flyarena run SCENARIO --effects {}`)", json_path.display(), frag_path.display(), frag_path.display());
         if let Some(p) = &rrd_path {
             println!("residuals: {} (open with `rerun {}`)", p.display(), p.display());
+        }
+        if px4.is_some() {
+            println!("PX4 parameters: {} (QGroundControl: Parameters → Tools → Load from file)", px4_path.display());
         }
     }
     match &done.requirements {

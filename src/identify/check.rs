@@ -16,15 +16,22 @@ pub fn effect_cut(r: &Report, e: Effect) -> Option<f64> {
 }
 
 /// R5 for one vehicle: the rows of its `identify` requirement (effects found, parameters within
-/// their limits, the held-out cut, nothing invented) checked against a report.
+/// their limits, the held-out cut, nothing invented) checked against a report. An effect fitted
+/// because the user asked for it (`--with`, or the delay `--px4` always fits) was not found by the
+/// selection: it neither counts as found first nor as invented, but its parameters are checked
+/// when it is expected.
 pub fn check(r: &Report, req: &IdentifyReq, vehicle: &str) -> requirements::Report {
     let row = |what: String, measured: String, limit: String, pass: bool| Row { vehicle: vehicle.to_string(), id: "R5", what, measured, limit, pass, asserted: true };
     let mut rows = Vec::new();
-    let found: Vec<Effect> = r.effects.iter().map(|f| f.effect).collect();
+    let found: Vec<Effect> = r.effects.iter().map(|f| f.effect).filter(|e| !r.options.forced.contains(e)).collect();
     let names = |v: &[Effect]| if v.is_empty() { "nothing".to_string() } else { v.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ") };
     let expected: Vec<Effect> = req.expect().map(|e| e.effect).collect();
     if let Some(first) = expected.first() {
-        rows.push(row("effect found first".into(), found.first().map_or("nothing".into(), |e| e.key().to_string()), first.key().into(), found.first() == Some(first)));
+        if r.options.forced.contains(first) {
+            rows.push(row("effect found first".into(), "fitted as asked (--with)".into(), first.key().into(), r.effect(*first).is_some()));
+        } else {
+            rows.push(row("effect found first".into(), found.first().map_or("nothing".into(), |e| e.key().to_string()), first.key().into(), found.first() == Some(first)));
+        }
     }
     for e in req.expect() {
         let Some(f) = r.effect(e.effect) else {

@@ -44,6 +44,7 @@ pub mod flyarena_log;
 pub mod ground;
 mod joined;
 pub mod mapping;
+pub mod px4;
 pub mod quality;
 pub mod report;
 pub mod ros2;

@@ -12,6 +12,7 @@ mod log;
 mod physics;
 mod project;
 mod props;
+mod px4;
 mod quality;
 #[cfg(feature = "record")]
 mod record;

@@ -1,0 +1,138 @@
+//! PX4 parameters from an identification: the values a PX4 user sets for EKF2's fusion of a
+//! mocap pose, each from the effect it comes from, with its 95 % interval.
+//!
+//! PX4's definitions (`src/modules/ekf2/params_external_vision.yaml` and the IMU position
+//! parameters of EKF2; body frame FRD, origin at the centre of gravity):
+//! - `EKF2_EV_DELAY` (ms, 0 to 300): "Vision Position Estimator delay relative to IMU
+//!   measurements"; PX4's guide sets it to the difference between the measurement's timestamp
+//!   and its actual capture time. `identify`'s mocap delay τ is that difference against the IMU's
+//!   clock: the log stamps a pose τ after it was captured (`undeclared.mocap_delay_ms` simulates
+//!   it so). So `EKF2_EV_DELAY` = τ, for the stamps the EKF uses (`timestamp_sample` of the
+//!   odometry, which the PX4 log reader uses where it can). A negative τ (poses stamped before
+//!   they were captured: a clock offset) has no PX4 setting, and none is written.
+//! - `EKF2_IMU_POS_X/Y/Z` (m): the IMU's position from the centre of gravity. `identify`'s
+//!   `imu_offset` r_c is that vector, so `EKF2_IMU_POS` = r_c. It is fitted only when asked for
+//!   (`--with imu_offset`, with a force model).
+//! - `EKF2_EV_POS_X/Y/Z` (m): the position of the vision sensor's focal point from the centre of
+//!   gravity; for a mocap, the point whose position it reports (the rigid body's origin).
+//!   `identify`'s `lever_arm` r runs from that point to the IMU, so the point sits at r_c − r
+//!   from the centre of gravity: `EKF2_EV_POS` = r_c − r, and −r where the IMU is taken to sit
+//!   at the centre of gravity (no `imu_offset` fitted; said in the notes). Its interval adds the
+//!   two half-widths in quadrature (the two fits taken as independent).
+//!
+//! The body offset has no PX4 parameter: it is a rotation to apply where the pose is made (the
+//! mocap's rigid-body definition or the bridge); the notes say it. An effect not found, or found
+//! but not identifiable, gives no value: a parameter not written keeps whatever the vehicle has.
+
+use super::{Effect, Report};
+use std::fmt::Write as _;
+
+/// One PX4 parameter with its value, interval and origin.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Px4Param {
+    /// PX4's name.
+    pub name: &'static str,
+    /// The value, in PX4's unit.
+    pub value: f64,
+    /// Half-width of its 95 % interval.
+    pub ci95: f64,
+    /// PX4's unit.
+    pub unit: &'static str,
+    /// The effect (or effects) it comes from.
+    pub from: &'static str,
+}
+
+/// What an identification gives a PX4 user.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Px4Parameters {
+    /// The parameters to set.
+    pub params: Vec<Px4Param>,
+    /// What was not written and why, and what has no parameter.
+    pub notes: Vec<String>,
+}
+
+/// The PX4 parameters `report` supports (see the module doc for each derivation).
+pub fn parameters(report: &Report) -> Px4Parameters {
+    let mut out = Px4Parameters::default();
+    let found = |e: Effect| report.effects.iter().find(|f| f.effect == e);
+    let identifiable = |e: Effect| found(e).is_some_and(|f| f.params.iter().all(|p| p.identifiable));
+    match found(Effect::MocapDelay) {
+        Some(f) if !identifiable(Effect::MocapDelay) => out.notes.push(format!(
+            "EKF2_EV_DELAY not written: the mocap delay ({:.2} ms) is not identifiable from another effect on this flight",
+            f.params[0].value
+        )),
+        Some(f) if f.params[0].value < 0.0 => out.notes.push(format!(
+            "EKF2_EV_DELAY not written: the poses are stamped {:.2} ± {:.2} ms before the IMU's time of the same motion, which no delay (PX4: 0 to 300 ms) makes up for; the pose's stamps are off (a clock offset between the mocap and the flight controller)",
+            -f.params[0].value, f.params[0].ci95
+        )),
+        Some(f) => out.params.push(Px4Param { name: "EKF2_EV_DELAY", value: f.params[0].value, ci95: f.params[0].ci95, unit: "ms", from: "mocap_delay" }),
+        None => out.notes.push("EKF2_EV_DELAY not written: the mocap delay was not fitted (identify --px4 always fits it)".to_string()),
+    }
+    let mm = |e: Effect| found(e).filter(|_| identifiable(e)).map(|f| f.params.iter().map(|p| (p.value * 1e-3, p.ci95 * 1e-3)).collect::<Vec<_>>());
+    let imu = mm(Effect::ImuOffset);
+    let lever = mm(Effect::LeverArm);
+    const IMU_POS: [&str; 3] = ["EKF2_IMU_POS_X", "EKF2_IMU_POS_Y", "EKF2_IMU_POS_Z"];
+    const EV_POS: [&str; 3] = ["EKF2_EV_POS_X", "EKF2_EV_POS_Y", "EKF2_EV_POS_Z"];
+    match &imu {
+        Some(r_c) => {
+            for k in 0..3 {
+                out.params.push(Px4Param { name: IMU_POS[k], value: r_c[k].0, ci95: r_c[k].1, unit: "m", from: "imu_offset" });
+            }
+        }
+        None if found(Effect::ImuOffset).is_some() => {
+            out.notes.push("EKF2_IMU_POS not written: the IMU's offset from the centre of mass is not identifiable on this flight".into())
+        }
+        None => out.notes.push("EKF2_IMU_POS not written: the IMU's offset from the centre of mass was not fitted (`--with imu_offset`, which needs a force model)".into()),
+    }
+    match &lever {
+        Some(r) => {
+            let zero = [(0.0, 0.0); 3];
+            let r_c = imu.as_deref().unwrap_or(&zero);
+            for k in 0..3 {
+                let (v, ci) = (r_c[k].0 - r[k].0, (r_c[k].1.powi(2) + r[k].1.powi(2)).sqrt());
+                out.params.push(Px4Param { name: EV_POS[k], value: v, ci95: ci, unit: "m", from: if imu.is_some() { "imu_offset − lever_arm" } else { "−lever_arm" } });
+            }
+            if imu.is_none() {
+                out.notes.push(
+                    "EKF2_EV_POS is −(lever arm): the mocap origin against the IMU, the IMU taken to sit at the centre of gravity (fit `--with imu_offset` to place it)".into(),
+                );
+            }
+        }
+        None if found(Effect::LeverArm).is_some() => out.notes.push("EKF2_EV_POS not written: the lever arm is not identifiable on this flight".into()),
+        None => out.notes.push("EKF2_EV_POS not written: no lever arm between the mocap origin and the IMU was selected on this flight".into()),
+    }
+    if let Some(f) = found(Effect::BodyOffset) {
+        let p = &f.params;
+        out.notes.push(format!(
+            "the body offset (roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°, yaw {:.2} ± {:.2}°, the rotation from the mocap's body frame to the IMU's, Z-Y-X) has no PX4 parameter: correct the rigid body's orientation in the mocap software or in the bridge",
+            p[0].value, p[0].ci95, p[1].value, p[1].ci95, p[2].value, p[2].ci95
+        ));
+    }
+    out
+}
+
+/// The parameters as a QGroundControl parameter file (tab-separated: vehicle id, component id,
+/// name, value, MAVLink type; 9 is `MAV_PARAM_TYPE_REAL32`), for vehicle 1, component 1.
+pub fn qgc_file(p: &Px4Parameters, source: &str) -> String {
+    let mut s = format!("# PX4 parameters identified by flyarena from {source}\n#\n# Vehicle-Id\tComponent-Id\tName\tValue\tType\n");
+    for q in &p.params {
+        let _ = writeln!(s, "1\t1\t{}\t{:.6}\t9", q.name, q.value);
+    }
+    s
+}
+
+/// The parameters and notes as text, one line each, for the command line.
+pub fn render(p: &Px4Parameters) -> String {
+    let mut s = String::from("PX4 parameters (95 % intervals; body frame FRD, origin at the centre of gravity):\n");
+    if p.params.is_empty() {
+        s.push_str("  none: nothing this flight supports\n");
+    }
+    for q in &p.params {
+        let (v, ci) = if q.unit == "m" { (format!("{:.4}", q.value), format!("{:.4}", q.ci95)) } else { (format!("{:.2}", q.value), format!("{:.2}", q.ci95)) };
+        let _ = writeln!(s, "  {:<15} {v:>8} ± {ci} {:<2}  from {}", q.name, q.unit, q.from);
+    }
+    for n in &p.notes {
+        let _ = writeln!(s, "  {n}");
+    }
+    s
+}

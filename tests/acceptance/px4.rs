@@ -1,0 +1,79 @@
+//! PX4 parameters from an identification, checked against flights whose truth is known, with
+//! PX4's conventions taken from PX4's own definitions (EKF2's parameter files and guide), not
+//! from flyarena's code.
+
+use flyarena::identify::Effect;
+use flyarena::identify::px4::{Px4Parameters, parameters};
+use flyarena::identify::workflow::{Request, Source, run};
+use std::process::Command;
+
+fn px4_of(scenario: &str, forced: Vec<Effect>) -> Px4Parameters {
+    let path = super::root().join("scenarios").join(scenario);
+    let req = Request { forced, ..Request::new(Source::Scenario(&path)) };
+    parameters(&run(&req).unwrap().report)
+}
+
+fn param(p: &Px4Parameters, name: &str) -> (f64, f64) {
+    let q = p.params.iter().find(|q| q.name == name).unwrap_or_else(|| panic!("{name} not written: {:?}", p.notes));
+    (q.value, q.ci95)
+}
+
+/// EKF2_EV_DELAY. PX4 defines it as the vision measurement's delay relative to the IMU (ms, 0 to
+/// 300) and its guide sets it to the difference between the measurement's timestamp and the
+/// actual capture time. `identify-mocap-delay` stamps every pose 10 ms after the mocap captured
+/// it (`undeclared.mocap_delay_ms: 10`), so the value PX4 needs is +10 ms: it must be written,
+/// positive, and hold 10 within its interval.
+#[test]
+fn ekf2_ev_delay_is_the_stamp_minus_the_capture_time() {
+    let p = px4_of("identify-mocap-delay.yaml", vec![Effect::MocapDelay]);
+    let (v, ci) = param(&p, "EKF2_EV_DELAY");
+    assert!(v > 0.0 && (v - 10.0).abs() <= ci, "EKF2_EV_DELAY {v} ± {ci} ms for a truth of +10 ms");
+    assert!(ci < 1.0, "± {ci} ms");
+}
+
+/// EKF2_EV_POS. PX4 defines it as the position of the vision sensor's focal point in the body
+/// frame (FRD: x forward, y right, z down), from the centre of gravity; for a mocap, the point
+/// whose position it reports. In `identify-lever-arm` the IMU sits at the centre of mass and
+/// every marker is mounted 10 mm behind, 5 mm right of and 30 mm above where the template puts
+/// it (`displacement_mm: [-10, 5, -30]`), so the mocap reports the point (−0.010, +0.005,
+/// −0.030) m: each written value must hold it within its interval (a sign flipped on any axis
+/// misses by 10 mm or more against intervals of about 1 mm), and the notes must say that the IMU
+/// was taken to sit at the centre of gravity. No IMU offset was fitted, so EKF2_IMU_POS is not
+/// written.
+#[test]
+fn ekf2_ev_pos_is_the_tracked_point_from_the_centre_of_gravity() {
+    let p = px4_of("identify-lever-arm.yaml", vec![Effect::MocapDelay]);
+    for (name, truth) in [("EKF2_EV_POS_X", -0.010), ("EKF2_EV_POS_Y", 0.005), ("EKF2_EV_POS_Z", -0.030)] {
+        let (v, ci) = param(&p, name);
+        assert!((v - truth).abs() <= ci && ci < 0.003, "{name} {v} ± {ci} m for a truth of {truth} m");
+    }
+    assert!(p.params.iter().all(|q| !q.name.starts_with("EKF2_IMU_POS")), "{:?}", p.params);
+    assert!(p.notes.iter().any(|n| n.contains("centre of gravity") && n.contains("--with imu_offset")), "{:?}", p.notes);
+}
+
+/// `identify --px4` writes a QGroundControl parameter file beside the report: a `#` header and
+/// one tab-separated line per parameter (vehicle 1, component 1, name, value, type 9 = REAL32),
+/// and it fits the mocap delay without being asked. The delay it fits on its own is no invented
+/// effect for R5: `identify-lever-arm`, which hides no delay, still passes (exit 0). Several
+/// inputs with --px4 are a usage error.
+#[test]
+fn identify_px4_writes_a_qgroundcontrol_parameter_file() {
+    let d = super::Scratch::new("px4-params");
+    let scenario = super::root().join("scenarios/identify-mocap-delay.yaml");
+    let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(["identify"]).arg(&scenario).args(["--px4", "--no-rrd", "--out"]).arg(&*d).output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("PX4 parameters (95 % intervals") && stdout.contains("EKF2_EV_DELAY"), "{stdout}");
+    let file = std::fs::read_to_string(d.join("identify-mocap-delay.px4.params")).unwrap();
+    let rows: Vec<Vec<&str>> = file.lines().filter(|l| !l.starts_with('#')).map(|l| l.split('\t').collect()).collect();
+    assert_eq!(rows.len(), 1, "{file}");
+    assert_eq!((rows[0][0], rows[0][1], rows[0][2], rows[0][4]), ("1", "1", "EKF2_EV_DELAY", "9"), "{file}");
+    let v: f64 = rows[0][3].parse().unwrap();
+    assert!((v - 10.0).abs() < 0.5, "{file}");
+    let lever = super::root().join("scenarios/identify-lever-arm.yaml");
+    let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(["identify"]).arg(&lever).args(["--px4", "--no-rrd", "--out"]).arg(&*d).output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stdout));
+    let two = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(["identify", "a.csv", "b.csv", "--mapping", "m.yaml", "--px4"]).current_dir(&*d).output().unwrap();
+    assert_eq!(two.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&two.stderr).contains("--px4 takes one flight"));
+}
