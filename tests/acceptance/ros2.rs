@@ -49,19 +49,7 @@ fn a_ros2_bag_gives_the_csv_report() {
         let bag_map = Mapping::load(&super::root().join("mappings/ros2-crazyflie.yaml")).unwrap();
         let a = identify(&csv_map.read(&csv).unwrap(), &opts(&csv_map)).unwrap();
         let b = identify(&bag_map.read(&bag).unwrap(), &opts(&bag_map)).unwrap();
-        // the same rows; a decimated sample on a block edge may fall to the other side of it
-        assert_eq!(a.samples, b.samples, "{name}");
-        assert!(a.train_samples.abs_diff(b.train_samples) <= 2, "{name}: {} vs {} training samples", a.train_samples, b.train_samples);
-        let effects = |r: &flyarena::identify::Report| r.effects.iter().map(|f| f.effect).collect::<Vec<_>>();
-        assert_eq!(effects(&a), effects(&b), "{name}");
-        for (fa, fb) in a.effects.iter().zip(&b.effects) {
-            for (pa, pb) in fa.params.iter().zip(&fb.params) {
-                assert_eq!(pa.identifiable, pb.identifiable, "{name}: {} {}", fa.effect.key(), pa.name);
-                let tol = 0.05 * pa.ci95;
-                assert!((pa.value - pb.value).abs() <= tol, "{name}: {} {}: CSV {} ± {}, bag {}", fa.effect.key(), pa.name, pa.value, pa.ci95, pb.value);
-                assert!((pa.ci95 - pb.ci95).abs() <= 0.05 * pa.ci95.max(1e-9), "{name}: {} {} interval {} vs {}", fa.effect.key(), pa.name, pa.ci95, pb.ci95);
-            }
-        }
+        super::same_report(&a, &b, name);
     }
 }
 

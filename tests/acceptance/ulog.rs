@@ -83,9 +83,9 @@ fn the_topics_flyarena_reads_equal_pyulogs_parse_of_real_logs() {
 
 /// A NanoBench flight written as a PX4 log by pyulog's writer (`scripts/to-ulog.py`: PX4's
 /// topics, NED/FRD, float32, the pose published 5 ms after its `timestamp_sample`) gives the CSV
-/// route's report: the same effects in the same order and every parameter within a twentieth of
-/// its interval. Read by `timestamp` instead of `timestamp_sample`, the same log would carry a
-/// 5 ms mocap delay the data does not have.
+/// route's report (`same_report`): the same effects in the same order, every parameter and
+/// interval within a twentieth of the CSV's interval. Read by `timestamp` instead of
+/// `timestamp_sample`, the same log would carry a 5 ms mocap delay the data does not have.
 #[test]
 fn a_px4_log_gives_the_csv_report() {
     let Some(data) = super::shared_data() else { return };
@@ -109,16 +109,7 @@ fn a_px4_log_gives_the_csv_report() {
         assert!(series.repairs.iter().any(|r| r.contains("stamped by its `timestamp_sample`")), "{:?}", series.repairs);
         let a = identify(&csv_map.read(&csv).unwrap(), &opts(&csv_map)).unwrap();
         let b = identify(&series, &opts(&px4_map)).unwrap();
-        assert_eq!(a.samples, b.samples, "{name}");
-        let effects = |r: &flyarena::identify::Report| r.effects.iter().map(|f| f.effect).collect::<Vec<_>>();
-        assert_eq!(effects(&a), effects(&b), "{name}");
-        for (fa, fb) in a.effects.iter().zip(&b.effects) {
-            for (pa, pb) in fa.params.iter().zip(&fb.params) {
-                assert_eq!(pa.identifiable, pb.identifiable, "{name}: {} {}", fa.effect.key(), pa.name);
-                let tol = 0.05 * pa.ci95;
-                assert!((pa.value - pb.value).abs() <= tol, "{name}: {} {} {} against the CSV's {} ± {}", fa.effect.key(), pa.name, pb.value, pa.value, pa.ci95);
-            }
-        }
+        super::same_report(&a, &b, name);
     }
 }
 
