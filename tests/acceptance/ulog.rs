@@ -142,3 +142,30 @@ fn missing_topics_and_wrong_files_are_named() {
         Err(e) => assert!(e.to_string().contains("cut.ulg"), "{e}"),
     }
 }
+
+/// A flyarena flight with a hidden mocap delay (`identify-mocap-delay`: poses stamped 10 ms after
+/// their capture), logged by `run --log` and written as a PX4 log by pyulog's writer, read
+/// through `mappings/px4.yaml` (pose and IMU only, no force model): `identify` finds the delay
+/// first, holds 10 ms within its interval, and invents nothing else.
+#[test]
+fn a_px4_log_of_a_flight_with_a_hidden_delay_gives_the_delay() {
+    if !have_pyulog() {
+        return;
+    }
+    let d = super::Scratch::new("ulog-hidden");
+    let scenario = super::root().join("scenarios/identify-mocap-delay.yaml");
+    let log = d.join("flight.csv");
+    let st = Command::new(env!("CARGO_BIN_EXE_flyarena")).arg("run").arg(&scenario).args(["--no-rrd", "--quiet", "--out"]).arg(&*d).arg("--log").arg(&log).status().unwrap();
+    assert!(st.code().is_some_and(|c| c <= 1), "run --log failed");
+    let ulg = d.join("flight.ulg");
+    let st = Command::new("python3").arg(super::root().join("scripts/to-ulog.py")).arg("flyarena").arg(&log).arg(&ulg).status().unwrap();
+    assert!(st.success(), "the ULog writer failed");
+    let map = Mapping::load(&super::root().join("mappings/px4.yaml")).unwrap();
+    let mut o = Options::default();
+    o.design.smoothing_s = map.smoothing_ms.unwrap() * 1e-3;
+    let r = identify(&map.read(&ulg).unwrap(), &o).unwrap();
+    let found: Vec<Effect> = r.effects.iter().map(|f| f.effect).collect();
+    assert_eq!(found, [Effect::MocapDelay], "{found:?}");
+    let p = &r.effects[0].params[0];
+    assert!((p.value - 10.0).abs() <= p.ci95, "delay {} ± {} ms for a truth of 10 ms", p.value, p.ci95);
+}
