@@ -77,3 +77,28 @@ fn identify_px4_writes_a_qgroundcontrol_parameter_file() {
     assert_eq!(two.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&two.stderr).contains("--px4 takes one flight"));
 }
+
+/// EKF2_IMU_POS and EKF2_EV_POS together. PX4 measures both from the centre of gravity: the
+/// IMU's position, and the position of the point the mocap reports. Here the IMU sits at
+/// r_c = (20, −10, 15) mm from the centre of mass (`imu.position_mm`) and the markers are mounted
+/// at d = (−10, 5, −30) mm from where the template puts them (the centre of mass), so the mocap
+/// reports the point d: with `imu_offset` fitted, EKF2_IMU_POS must hold r_c and EKF2_EV_POS d,
+/// each within its interval, whatever lever arm (r_c − d) identify finds between them.
+#[test]
+fn ekf2_imu_pos_and_ev_pos_are_both_from_the_centre_of_gravity() {
+    let d = super::Scratch::new("px4-imu-pos");
+    let text = std::fs::read_to_string(super::root().join("scenarios/identify-lever-arm.yaml")).unwrap();
+    let text = text.replace("imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }", "imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05, position_mm: [20, -10, 15] }");
+    assert!(text.contains("position_mm"));
+    // R5 of the original scenario (r = 10, −5, 30) does not hold here; only the report is read
+    let path = d.join("imu-pos.yaml");
+    std::fs::write(&path, text).unwrap();
+    let req = Request { forced: vec![Effect::MocapDelay, Effect::ImuOffset], ..Request::new(Source::Scenario(&path)) };
+    let p = parameters(&run(&req).unwrap().report);
+    for (name, truth) in
+        [("EKF2_IMU_POS_X", 0.020), ("EKF2_IMU_POS_Y", -0.010), ("EKF2_IMU_POS_Z", 0.015), ("EKF2_EV_POS_X", -0.010), ("EKF2_EV_POS_Y", 0.005), ("EKF2_EV_POS_Z", -0.030)]
+    {
+        let (v, ci) = param(&p, name);
+        assert!((v - truth).abs() <= ci && ci < 0.005, "{name} {v} ± {ci} m for a truth of {truth} m");
+    }
+}
