@@ -49,7 +49,7 @@ fn a_ros2_bag_gives_the_csv_report() {
         let bag_map = Mapping::load(&super::root().join("mappings/ros2-crazyflie.yaml")).unwrap();
         let a = identify(&csv_map.read(&csv).unwrap(), &opts(&csv_map)).unwrap();
         let b = identify(&bag_map.read(&bag).unwrap(), &opts(&bag_map)).unwrap();
-        super::same_report(&a, &b, name);
+        super::same_report(&a, &b, name, true);
     }
 }
 
