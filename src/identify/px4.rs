@@ -24,6 +24,7 @@
 //! mocap's rigid-body definition or the bridge); the notes say it. An effect not found, or found
 //! but not identifiable, gives no value: a parameter not written keeps whatever the vehicle has.
 
+use super::select::Found;
 use super::{Effect, Report};
 use std::fmt::Write as _;
 
@@ -53,8 +54,13 @@ pub struct Px4Parameters {
 
 /// The PX4 parameters `report` supports (see the module doc for each derivation).
 pub fn parameters(report: &Report) -> Px4Parameters {
+    parameters_of(&report.effects)
+}
+
+/// The PX4 parameters the effects of a final model support.
+fn parameters_of(effects: &[Found]) -> Px4Parameters {
     let mut out = Px4Parameters::default();
-    let found = |e: Effect| report.effects.iter().find(|f| f.effect == e);
+    let found = |e: Effect| effects.iter().find(|f| f.effect == e);
     let identifiable = |e: Effect| found(e).is_some_and(|f| f.params.iter().all(|p| p.identifiable));
     match found(Effect::MocapDelay) {
         Some(f) if !identifiable(Effect::MocapDelay) => out.notes.push(format!(
@@ -135,4 +141,53 @@ pub fn render(p: &Px4Parameters) -> String {
         let _ = writeln!(s, "  {n}");
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::select::Param;
+
+    fn found(effect: Effect, values: &[(f64, f64)], identifiable: bool) -> Found {
+        let params = values.iter().map(|&(value, ci95)| Param { name: "p".into(), value, ci95, unit: "u".into(), identifiable }).collect();
+        Found { effect, name: effect.key().into(), params }
+    }
+
+    fn names(p: &Px4Parameters) -> Vec<&str> {
+        p.params.iter().map(|q| q.name).collect()
+    }
+
+    /// What is not written, and why: a delay that is not identifiable, a negative delay (PX4
+    /// takes 0 to 300 ms), a delay of exactly 0 (written: 0 is PX4's own default and in range),
+    /// an IMU offset or a lever arm found but not identifiable, and each one not fitted at all;
+    /// each has its own note.
+    #[test]
+    fn what_is_not_written_is_said_with_its_reason() {
+        let p = parameters_of(&[found(Effect::MocapDelay, &[(4.0, 1.0)], false)]);
+        assert!(names(&p).is_empty() && p.notes[0].contains("not identifiable"), "{p:?}");
+        let p = parameters_of(&[found(Effect::MocapDelay, &[(-3.0, 0.5)], true)]);
+        assert!(names(&p).is_empty() && p.notes[0].contains("3.00 ± 0.50 ms before"), "{p:?}");
+        let p = parameters_of(&[found(Effect::MocapDelay, &[(0.0, 0.5)], true)]);
+        assert_eq!(names(&p), ["EKF2_EV_DELAY"]);
+        let p = parameters_of(&[]);
+        assert!(p.notes[0].contains("not fitted") && p.notes[1].contains("not fitted") && p.notes[2].contains("no lever arm"), "{p:?}");
+        let mm = [(10.0, 1.0), (-5.0, 1.0), (30.0, 1.0)];
+        let p = parameters_of(&[found(Effect::ImuOffset, &mm, false), found(Effect::LeverArm, &mm, false)]);
+        assert!(names(&p).is_empty(), "{p:?}");
+        assert!(p.notes[1].starts_with("EKF2_IMU_POS not written") && p.notes[1].contains("not identifiable"), "{p:?}");
+        assert!(p.notes[2].starts_with("EKF2_EV_POS not written") && p.notes[2].contains("not identifiable"), "{p:?}");
+    }
+
+    /// EV_POS = r_c − r by hand, in metres, with the half-widths in quadrature: r_c = (20, 0,
+    /// 15) ± (3, 3, 4) mm and r = (30, −5, 10) ± (4, 4, 3) mm give (−0.010, 0.005, 0.005) ±
+    /// 0.005 m; IMU_POS is r_c.
+    #[test]
+    fn ev_pos_is_the_imu_offset_less_the_lever_arm() {
+        let p = parameters_of(&[found(Effect::ImuOffset, &[(20.0, 3.0), (0.0, 3.0), (15.0, 4.0)], true), found(Effect::LeverArm, &[(30.0, 4.0), (-5.0, 4.0), (10.0, 3.0)], true)]);
+        let get = |n: &str| p.params.iter().find(|q| q.name == n).map(|q| (q.value, q.ci95)).unwrap();
+        for (n, v) in [("EKF2_EV_POS_X", -0.010), ("EKF2_EV_POS_Y", 0.005), ("EKF2_EV_POS_Z", 0.005), ("EKF2_IMU_POS_X", 0.020), ("EKF2_IMU_POS_Z", 0.015)] {
+            assert!((get(n).0 - v).abs() < 1e-12, "{n}: {:?}", get(n));
+        }
+        assert!((get("EKF2_EV_POS_X").1 - 0.005).abs() < 1e-12);
+    }
 }
