@@ -106,15 +106,32 @@ struct Px4File {
 impl Px4File {
     /// The CSV mapping of the rows [`super::ulog::to_csv`] writes: a z-down world, an FRD body.
     fn into_mapping(self) -> Mapping {
-        let ros2 = Ros2File {
-            vehicle: self.vehicle,
-            ros2: super::ros2::Topics { pose: String::new(), imu: String::new(), motors: self.px4.motors.clone(), battery: self.px4.battery.clone() },
-            world: WorldUp::ZDown,
-            body: BodyAxes::Frd,
-            mass_kg: self.mass_kg,
-            smoothing_ms: self.smoothing_ms,
-        };
-        Mapping { ros2: None, px4: Some(self.px4), ..ros2.into_mapping() }
+        let (motors, battery) = (self.px4.motors.is_some(), self.px4.battery.is_some());
+        Mapping { px4: Some(self.px4), ..joined_mapping(self.vehicle, WorldUp::ZDown, BodyAxes::Frd, motors, battery, self.mass_kg, self.smoothing_ms) }
+    }
+}
+
+/// The CSV mapping of the rows a bag or a PX4 log is joined into (`identify/joined.rs`):
+/// SI units, an x, y, z, w quaternion, the given frames. The motor columns are named when the
+/// log is read (their count is the messages').
+fn joined_mapping(vehicle: VehiclePreset, world: WorldUp, body: BodyAxes, motors: bool, battery: bool, mass_kg: Option<f64>, smoothing_ms: Option<f64>) -> Mapping {
+    let s = |x: &str| x.to_string();
+    let three = |a: &str, b: &str, c: &str, unit: &str| Columns3 { columns: [s(a), s(b), s(c)], unit: s(unit) };
+    Mapping {
+        vehicle,
+        time: Column { column: s("t"), unit: Some(s("s")) },
+        position: three("px", "py", "pz", "m"),
+        attitude: AttitudeCols { columns: Some([s("qx"), s("qy"), s("qz"), s("qw")]), order: Some(QuatOrder::Xyzw), euler: None, unit: None },
+        world,
+        body,
+        gyro: three("gx", "gy", "gz", "rad/s"),
+        accel: three("ax", "ay", "az", "m/s2"),
+        motors: motors.then(|| Motors { columns: Vec::new() }),
+        battery: battery.then(|| Column { column: s("vbat"), unit: None }),
+        mass_kg,
+        smoothing_ms,
+        ros2: None,
+        px4: None,
     }
 }
 
@@ -129,25 +146,8 @@ fn flu() -> BodyAxes {
 impl Ros2File {
     /// The CSV mapping of the rows [`super::ros2::to_csv`] writes.
     fn into_mapping(self) -> Mapping {
-        let s = |x: &str| x.to_string();
-        let three = |a: &str, b: &str, c: &str, unit: &str| Columns3 { columns: [s(a), s(b), s(c)], unit: s(unit) };
-        Mapping {
-            vehicle: self.vehicle,
-            time: Column { column: s("t"), unit: Some(s("s")) },
-            position: three("px", "py", "pz", "m"),
-            attitude: AttitudeCols { columns: Some([s("qx"), s("qy"), s("qz"), s("qw")]), order: Some(QuatOrder::Xyzw), euler: None, unit: None },
-            world: self.world,
-            body: self.body,
-            gyro: three("gx", "gy", "gz", "rad/s"),
-            accel: three("ax", "ay", "az", "m/s2"),
-            // the motor columns are named when the bag is read (their count is the messages')
-            motors: self.ros2.motors.as_ref().map(|_| Motors { columns: Vec::new() }),
-            battery: self.ros2.battery.as_ref().map(|_| Column { column: s("vbat"), unit: None }),
-            mass_kg: self.mass_kg,
-            smoothing_ms: self.smoothing_ms,
-            ros2: Some(self.ros2),
-            px4: None,
-        }
+        let (motors, battery) = (self.ros2.motors.is_some(), self.ros2.battery.is_some());
+        Mapping { ros2: Some(self.ros2), ..joined_mapping(self.vehicle, self.world, self.body, motors, battery, self.mass_kg, self.smoothing_ms) }
     }
 }
 
