@@ -13,7 +13,7 @@ fn scenario(name: &str) -> PathBuf {
 }
 
 /// The identify scenarios, `scenarios/identify-<name>.yaml`.
-const IDENTIFY_SCENARIOS: [&str; 13] = [
+const IDENTIFY_SCENARIOS: [&str; 14] = [
     "none",
     "world-tilt",
     "rotor-drag",
@@ -27,6 +27,7 @@ const IDENTIFY_SCENARIOS: [&str; 13] = [
     "ground-effect",
     "lever-arm",
     "thrust-voltage",
+    "crazyflie-delay",
 ];
 
 /// A new identify scenario without its place in the list above fails here.

@@ -365,7 +365,7 @@ fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
         ([a.roll.ci95_deg, a.pitch.ci95_deg], r.notes)
     };
     let (with, notes) = agreement(&Options::default());
-    let note = notes.iter().find(|n| n.starts_with("mocap_delay is significant")).unwrap_or_else(|| panic!("{notes:?}"));
+    let note = notes.iter().find(|n| n.starts_with("mocap_delay has very strong evidence")).unwrap_or_else(|| panic!("{notes:?}"));
     // it lists what moves beyond its own interval (the roll, by 0.021°), not what stays inside
     // it (the bias)
     assert!(note.contains("body_offset roll +0.021 deg") && !note.contains("accel_bias"), "{note}");

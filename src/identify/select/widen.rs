@@ -152,23 +152,45 @@ pub(super) fn half_supported(fin: &Final, final_candidates: &[Candidate], tilt_s
                 p.ci95 = covering(b, a, p.ci95);
             }
         }
-        notes.extend(moved_note(c, &moved));
+        notes.extend(moved_note(c, &moved, fin.o.min_heldout_gain));
     }
 }
 
-/// The note for a half-supported candidate `c` that would move the estimates `moved` beyond
-/// their own intervals; none if it moves nothing that far.
-fn moved_note(c: &Candidate, moved: &[String]) -> Option<String> {
-    (!moved.is_empty()).then(|| {
+/// ΔBIC at or below this is very strong evidence (ΔBIC ≈ −2·ln B, the Bayes factor B; Kass and
+/// Raftery's scale calls 2·ln B > 10 very strong).
+pub(super) const VERY_STRONG_BIC: f64 = -10.0;
+
+/// The note for a half-supported candidate `c`: with very strong evidence (ΔBIC ≤
+/// [`VERY_STRONG_BIC`]) it always names the candidate and the option that fits it as a tested
+/// hypothesis (a delay that the held-out blocks cannot confirm is still the value a user must
+/// set); and it names the estimates `moved` beyond their own intervals with it in. None for a
+/// weaker candidate that moves nothing that far.
+fn moved_note(c: &Candidate, moved: &[String], min_heldout_gain: f64) -> Option<String> {
+    let strong = c.delta_bic <= VERY_STRONG_BIC;
+    if moved.is_empty() && !strong {
+        return None;
+    }
+    let key = c.effect.key();
+    let mut note = if strong {
         format!(
-            "{} is significant in the fit (ΔBIC {:.0}, F-test p {:.1e}) but does not cut the held-out error enough to join (−{:.1} %); with it in, the estimates would move ({}): their intervals cover both",
-            c.effect.key(),
+            "{key} has very strong evidence in the fit (ΔBIC {:.0}, F-test p {:.1e}) and fails only the held-out gate (held-out error {:+.1} %, the gate needs −{:.0} %): not added; `--with {key}` fits it as a hypothesis, with its interval",
             c.delta_bic,
             c.p_value,
-            100.0 * c.heldout_gain,
-            moved.join(", ")
+            -100.0 * c.heldout_gain,
+            100.0 * min_heldout_gain
         )
-    })
+    } else {
+        format!(
+            "{key} is significant in the fit (ΔBIC {:.0}, F-test p {:.1e}) but does not cut the held-out error enough to join ({:+.1} %)",
+            c.delta_bic,
+            c.p_value,
+            -100.0 * c.heldout_gain
+        )
+    };
+    if !moved.is_empty() {
+        note.push_str(&format!("; with it in, the estimates would move ({}): their intervals cover both", moved.join(", ")));
+    }
+    Some(note)
 }
 
 #[cfg(test)]
@@ -223,19 +245,41 @@ mod tests {
         assert!(is_half_supported(&c(false, -3.0, 0.005), 0.01, 0));
     }
 
-    /// A half-supported candidate gets a note only when an estimate moves beyond its own interval,
-    /// and the note names each one. A bug it catches: the `!` deleted (a note for each candidate
-    /// that moved nothing, none for one that did).
+    /// A weakly supported candidate (ΔBIC −9.6, above the very-strong −10) gets a note only when
+    /// an estimate moves beyond its own interval, and the note names each one. A bug it catches:
+    /// the `!` deleted (a note for each candidate that moved nothing, none for one that did).
     #[test]
     fn a_note_names_the_estimates_a_half_supported_candidate_would_move() {
-        let c = Candidate { effect: Effect::MocapDelay, delta_bic: -12.4, f: 10.0, p_value: 2.5e-4, heldout_gain: 0.031, max_corr: 0.5, passed: false };
-        assert_eq!(moved_note(&c, &[]), None);
+        let c = Candidate { effect: Effect::MocapDelay, delta_bic: -9.6, f: 10.0, p_value: 2.5e-4, heldout_gain: 0.031, max_corr: 0.5, passed: false };
+        assert_eq!(moved_note(&c, &[], 0.1), None);
         let moved = ["body_offset yaw +0.412 deg".to_string(), "gyro_bias z -0.050 deg/s".to_string()];
         assert_eq!(
-            moved_note(&c, &moved).as_deref(),
+            moved_note(&c, &moved, 0.1).as_deref(),
             Some(
-                "mocap_delay is significant in the fit (ΔBIC -12, F-test p 2.5e-4) but does not cut the held-out error enough to join (−3.1 %); with it in, the estimates would move (body_offset yaw +0.412 deg, gyro_bias z -0.050 deg/s): their intervals cover both"
+                "mocap_delay is significant in the fit (ΔBIC -10, F-test p 2.5e-4) but does not cut the held-out error enough to join (-3.1 %); with it in, the estimates would move (body_offset yaw +0.412 deg, gyro_bias z -0.050 deg/s): their intervals cover both"
             )
         );
+    }
+
+    /// A candidate with very strong evidence (ΔBIC ≤ −10 on Kass and Raftery's scale) that fails
+    /// only the held-out gate is always named, with the option that tests it, whether or not it
+    /// moves an estimate; at ΔBIC −10 exactly it is very strong, at −9.99 not. A bug it catches:
+    /// `<=` as `<`, or the strong note dropped when nothing moves.
+    #[test]
+    fn a_very_strong_candidate_failing_only_the_heldout_gate_is_named_with_its_option() {
+        let c = |delta_bic| Candidate { effect: Effect::MocapDelay, delta_bic, f: 300.0, p_value: 1.0e-60, heldout_gain: 0.042, max_corr: 0.5, passed: false };
+        assert_eq!(
+            moved_note(&c(-358.2), &[], 0.1).as_deref(),
+            Some(
+                "mocap_delay has very strong evidence in the fit (ΔBIC -358, F-test p 1.0e-60) and fails only the held-out gate (held-out error -4.2 %, the gate needs −10 %): not added; `--with mocap_delay` fits it as a hypothesis, with its interval"
+            )
+        );
+        assert!(moved_note(&c(-10.0), &[], 0.1).is_some_and(|n| n.contains("very strong")));
+        assert_eq!(moved_note(&c(-9.99), &[], 0.1), None);
+        // a candidate that makes the held-out error grow says so with its sign
+        let grows = Candidate { heldout_gain: -0.002, ..c(-67.0) };
+        assert!(moved_note(&grows, &[], 0.1).is_some_and(|n| n.contains("(held-out error +0.2 %,")), "{:?}", moved_note(&grows, &[], 0.1));
+        let moved = ["rotor_drag x -0.010 1/s".to_string()];
+        assert!(moved_note(&c(-50.0), &moved, 0.1).is_some_and(|n| n.contains("--with mocap_delay") && n.ends_with("(rotor_drag x -0.010 1/s): their intervals cover both")));
     }
 }
