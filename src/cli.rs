@@ -226,6 +226,11 @@ struct IdentifyArgs {
     /// The QGroundControl parameter file's path (with --px4)
     #[arg(long, value_name = "PATH", requires = "px4")]
     px4_params: Option<PathBuf>,
+    /// With --px4: the rigid body's axes in the mocap software, for the body offset's fix: z (x
+    /// forward, y left, z up: Vicon, Qualisys), y (Motive's y up: x forward, y up, z right) or
+    /// ned (FRD)
+    #[arg(long, value_enum, default_value_t = UpArg::Z, requires = "px4")]
+    up: UpArg,
 }
 
 fn parse_shard(v: &str) -> Result<(u64, u64), String> {
@@ -567,7 +572,12 @@ fn cmd_identify(a: IdentifyArgs) -> Result<i32, Error> {
     if let Some(path) = &rrd_path {
         write_output(path, &flyarena::record::encode_identify(&stem, &done.report, &done.residuals)?)?;
     }
-    let px4 = a.px4.then(|| flyarena::identify::px4::parameters(&done.report));
+    let axes = match a.up {
+        UpArg::Z => flyarena::identify::px4::MocapAxes::ZUp,
+        UpArg::Y => flyarena::identify::px4::MocapAxes::YUp,
+        UpArg::Ned => flyarena::identify::px4::MocapAxes::Frd,
+    };
+    let px4 = a.px4.then(|| flyarena::identify::px4::parameters(&done.report, axes));
     let px4_path = a.px4_params.clone().unwrap_or_else(|| a.out.join(format!("{stem}.px4.params")));
     if let Some(p) = &px4 {
         write_output(&px4_path, flyarena::identify::px4::qgc_file(p, &input.display().to_string()).as_bytes())?;

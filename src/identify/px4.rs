@@ -21,12 +21,78 @@
 //!   two half-widths in quadrature (the two fits taken as independent).
 //!
 //! The body offset has no PX4 parameter: it is a rotation to apply where the pose is made (the
-//! mocap's rigid-body definition or the bridge); the notes say it. An effect not found, or found
-//! but not identifiable, gives no value: a parameter not written keeps whatever the vehicle has.
+//! mocap's rigid-body definition or the bridge). `identify`'s body offset R_off maps the mocap
+//! body frame M to the IMU's body frame B (q_mocap = q_true·R_off, body → world), so the rigid
+//! body's axes must turn by R_off⁻¹ about themselves: q_new = q_mocap·R_off⁻¹ = q_true. Written in
+//! the rigid body's own axes of the user's mocap ([`MocapAxes`]; C maps FRD to them), that is
+//! C·R_off⁻¹·Cᵀ, whose rotation vector is C·(−φ) for φ the rotation vector of R_off.
+//!
+//! An effect not found, or found but not identifiable, gives no value: a parameter not written
+//! keeps whatever the vehicle has.
 
 use super::select::Found;
 use super::{Effect, Report};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use std::fmt::Write as _;
+
+/// The axes of a rigid body in the user's mocap software (the same three conventions as
+/// `serve --up`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MocapAxes {
+    /// x forward, y left, z up (Vicon, Qualisys, OptiTrack set to Z up, ROS's FLU).
+    #[default]
+    ZUp,
+    /// x forward, y up, z right (OptiTrack Motive's default, Y up).
+    YUp,
+    /// x forward, y right, z down (FRD, as PX4 and flyarena).
+    Frd,
+}
+
+impl MocapAxes {
+    /// C: a vector in FRD body axes → the same vector in these axes.
+    fn frd_to_axes(self) -> Matrix3<f64> {
+        match self {
+            MocapAxes::ZUp => Matrix3::new(1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0),
+            MocapAxes::YUp => Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0),
+            MocapAxes::Frd => Matrix3::identity(),
+        }
+    }
+
+    /// The axes in words, for the notes.
+    pub fn describe(self) -> &'static str {
+        match self {
+            MocapAxes::ZUp => "z up: x forward, y left, z up",
+            MocapAxes::YUp => "y up: x forward, y up, z right",
+            MocapAxes::Frd => "FRD: x forward, y right, z down",
+        }
+    }
+}
+
+/// The rotation that removes the body offset, in the rigid body's own axes of the user's mocap.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BodyOffsetFix {
+    /// The axes it is written in.
+    pub axes: MocapAxes,
+    /// Its rotation vector (°) per axis of [`Self::axes`], each with the half-width of its 95 %
+    /// interval (the body offset's roll, pitch and yaw intervals, carried to first order).
+    pub rotation_vector_deg: [(f64, f64); 3],
+    /// The same rotation as a quaternion (x, y, z, w), for a bridge that turns each pose as
+    /// q·r before sending it.
+    pub quaternion_xyzw: [f64; 4],
+}
+
+/// The fix for a body offset of Z-Y-X roll, pitch, yaw (rad) with 95 % half-widths (rad), in
+/// `axes` (module doc: C·R_off⁻¹·Cᵀ).
+fn body_offset_fix(rpy: [f64; 3], ci: [f64; 3], axes: MocapAxes) -> BodyOffsetFix {
+    let r_off = Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]);
+    let c = axes.frd_to_axes();
+    let fix = Rotation3::from_matrix_unchecked(c * r_off.inverse().matrix() * c.transpose());
+    let v = fix.scaled_axis();
+    let ci_conv = c.abs() * Vector3::from(ci);
+    let q = UnitQuaternion::from_rotation_matrix(&fix);
+    BodyOffsetFix { axes, rotation_vector_deg: [0, 1, 2].map(|k| (v[k].to_degrees(), ci_conv[k].to_degrees())), quaternion_xyzw: [q.i, q.j, q.k, q.w] }
+}
 
 /// One PX4 parameter with its value, interval and origin.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -50,15 +116,18 @@ pub struct Px4Parameters {
     pub params: Vec<Px4Param>,
     /// What was not written and why, and what has no parameter.
     pub notes: Vec<String>,
+    /// The body offset's fix in the mocap software, where one was found and is identifiable.
+    pub body_offset_fix: Option<BodyOffsetFix>,
 }
 
-/// The PX4 parameters `report` supports (see the module doc for each derivation).
-pub fn parameters(report: &Report) -> Px4Parameters {
-    parameters_of(&report.effects)
+/// The PX4 parameters `report` supports (see the module doc for each derivation), with the body
+/// offset's fix written in the rigid body's `axes`.
+pub fn parameters(report: &Report, axes: MocapAxes) -> Px4Parameters {
+    parameters_of(&report.effects, axes)
 }
 
 /// The PX4 parameters the effects of a final model support.
-fn parameters_of(effects: &[Found]) -> Px4Parameters {
+fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
     let mut out = Px4Parameters::default();
     let found = |e: Effect| effects.iter().find(|f| f.effect == e);
     let identifiable = |e: Effect| found(e).is_some_and(|f| f.params.iter().all(|p| p.identifiable));
@@ -107,12 +176,18 @@ fn parameters_of(effects: &[Found]) -> Px4Parameters {
         None if found(Effect::LeverArm).is_some() => out.notes.push("EKF2_EV_POS not written: the lever arm is not identifiable on this flight".into()),
         None => out.notes.push("EKF2_EV_POS not written: no lever arm between the mocap origin and the IMU was selected on this flight".into()),
     }
-    if let Some(f) = found(Effect::BodyOffset) {
-        let p = &f.params;
-        out.notes.push(format!(
-            "the body offset (roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°, yaw {:.2} ± {:.2}°, the rotation from the mocap's body frame to the IMU's, Z-Y-X) has no PX4 parameter: correct the rigid body's orientation in the mocap software or in the bridge",
-            p[0].value, p[0].ci95, p[1].value, p[1].ci95, p[2].value, p[2].ci95
-        ));
+    match found(Effect::BodyOffset) {
+        Some(f) if identifiable(Effect::BodyOffset) => {
+            let p = &f.params;
+            let fix = body_offset_fix([0, 1, 2].map(|k| p[k].value.to_radians()), [0, 1, 2].map(|k| p[k].ci95.to_radians()), axes);
+            out.notes.push(format!(
+                "the body offset (roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°, yaw {:.2} ± {:.2}°, FRD, Z-Y-X: the mocap's body frame against the IMU's) has no PX4 parameter: turn the rigid body's axes in the mocap software as below",
+                p[0].value, p[0].ci95, p[1].value, p[1].ci95, p[2].value, p[2].ci95
+            ));
+            out.body_offset_fix = Some(fix);
+        }
+        Some(_) => out.notes.push("the body offset is not identifiable on this flight: no fix for the rigid body".into()),
+        None => {}
     }
     out
 }
@@ -140,6 +215,25 @@ pub fn render(p: &Px4Parameters) -> String {
     for n in &p.notes {
         let _ = writeln!(s, "  {n}");
     }
+    if let Some(f) = &p.body_offset_fix {
+        let [x, y, z] = f.rotation_vector_deg;
+        let q = f.quaternion_xyzw;
+        let _ = writeln!(
+            s,
+            "  rigid body ({}): turn its axes about themselves by the rotation vector ({:+.3} ± {:.3}°, {:+.3} ± {:.3}°, {:+.3} ± {:.3}°); as a quaternion (x, y, z, w) = ({:.6}, {:.6}, {:.6}, {:.6}), applied as q·r to each pose in a bridge",
+            f.axes.describe(),
+            x.0,
+            x.1,
+            y.0,
+            y.1,
+            z.0,
+            z.1,
+            q[0],
+            q[1],
+            q[2],
+            q[3]
+        );
+    }
     s
 }
 
@@ -153,6 +247,10 @@ mod tests {
         Found { effect, name: effect.key().into(), params }
     }
 
+    fn parameters_of_frd(effects: &[Found]) -> Px4Parameters {
+        parameters_of(effects, MocapAxes::Frd)
+    }
+
     fn names(p: &Px4Parameters) -> Vec<&str> {
         p.params.iter().map(|q| q.name).collect()
     }
@@ -163,16 +261,16 @@ mod tests {
     /// each has its own note.
     #[test]
     fn what_is_not_written_is_said_with_its_reason() {
-        let p = parameters_of(&[found(Effect::MocapDelay, &[(4.0, 1.0)], false)]);
+        let p = parameters_of_frd(&[found(Effect::MocapDelay, &[(4.0, 1.0)], false)]);
         assert!(names(&p).is_empty() && p.notes[0].contains("not identifiable"), "{p:?}");
-        let p = parameters_of(&[found(Effect::MocapDelay, &[(-3.0, 0.5)], true)]);
+        let p = parameters_of_frd(&[found(Effect::MocapDelay, &[(-3.0, 0.5)], true)]);
         assert!(names(&p).is_empty() && p.notes[0].contains("3.00 ± 0.50 ms before"), "{p:?}");
-        let p = parameters_of(&[found(Effect::MocapDelay, &[(0.0, 0.5)], true)]);
+        let p = parameters_of_frd(&[found(Effect::MocapDelay, &[(0.0, 0.5)], true)]);
         assert_eq!(names(&p), ["EKF2_EV_DELAY"]);
-        let p = parameters_of(&[]);
+        let p = parameters_of_frd(&[]);
         assert!(p.notes[0].contains("not fitted") && p.notes[1].contains("not fitted") && p.notes[2].contains("no lever arm"), "{p:?}");
         let mm = [(10.0, 1.0), (-5.0, 1.0), (30.0, 1.0)];
-        let p = parameters_of(&[found(Effect::ImuOffset, &mm, false), found(Effect::LeverArm, &mm, false)]);
+        let p = parameters_of_frd(&[found(Effect::ImuOffset, &mm, false), found(Effect::LeverArm, &mm, false)]);
         assert!(names(&p).is_empty(), "{p:?}");
         assert!(p.notes[1].starts_with("EKF2_IMU_POS not written") && p.notes[1].contains("not identifiable"), "{p:?}");
         assert!(p.notes[2].starts_with("EKF2_EV_POS not written") && p.notes[2].contains("not identifiable"), "{p:?}");
@@ -183,11 +281,80 @@ mod tests {
     /// 0.005 m; IMU_POS is r_c.
     #[test]
     fn ev_pos_is_the_imu_offset_less_the_lever_arm() {
-        let p = parameters_of(&[found(Effect::ImuOffset, &[(20.0, 3.0), (0.0, 3.0), (15.0, 4.0)], true), found(Effect::LeverArm, &[(30.0, 4.0), (-5.0, 4.0), (10.0, 3.0)], true)]);
+        let p =
+            parameters_of_frd(&[found(Effect::ImuOffset, &[(20.0, 3.0), (0.0, 3.0), (15.0, 4.0)], true), found(Effect::LeverArm, &[(30.0, 4.0), (-5.0, 4.0), (10.0, 3.0)], true)]);
         let get = |n: &str| p.params.iter().find(|q| q.name == n).map(|q| (q.value, q.ci95)).unwrap();
         for (n, v) in [("EKF2_EV_POS_X", -0.010), ("EKF2_EV_POS_Y", 0.005), ("EKF2_EV_POS_Z", 0.005), ("EKF2_IMU_POS_X", 0.020), ("EKF2_IMU_POS_Z", 0.015)] {
             assert!((get(n).0 - v).abs() < 1e-12, "{n}: {:?}", get(n));
         }
         assert!((get("EKF2_EV_POS_X").1 - 0.005).abs() < 1e-12);
+    }
+
+    /// The body offset's fix by hand, one axis at a time (each 2° so that the second-order terms
+    /// are nil). The markers' frame is the IMU's turned by R_off, so the rigid body's axes must
+    /// turn back by −φ about themselves, written in the mocap's axes (FRD → z up: x, −y, −z; FRD
+    /// → y up: x, −z, y):
+    /// - yaw +2° (about down): −2° about down = +2° about z up, +2° about y up, −2° about FRD z;
+    /// - roll +2° (about forward): −2° about x in all three;
+    /// - pitch +2° (about right): −2° about right = +2° about z-up's y (left), −2° about y-up's z
+    ///   (right).
+    ///
+    /// The quaternion is the same rotation (w = cos 1°, one component ±sin 1°), and the interval
+    /// moves with its axis. A bug it catches: R_off instead of its inverse (every sign flips), C
+    /// instead of Cᵀ or the y-up rows swapped (the pitch lands on the wrong axis).
+    #[test]
+    fn the_body_offset_fix_turns_the_rigid_body_back_in_its_own_axes() {
+        let d = 2f64.to_radians();
+        let ci = [0.1f64.to_radians(), 0.2f64.to_radians(), 0.3f64.to_radians()];
+        let cases = [
+            ([0.0, 0.0, d], MocapAxes::ZUp, [0.0, 0.0, 2.0]),
+            ([0.0, 0.0, d], MocapAxes::YUp, [0.0, 2.0, 0.0]),
+            ([0.0, 0.0, d], MocapAxes::Frd, [0.0, 0.0, -2.0]),
+            ([d, 0.0, 0.0], MocapAxes::ZUp, [-2.0, 0.0, 0.0]),
+            ([d, 0.0, 0.0], MocapAxes::YUp, [-2.0, 0.0, 0.0]),
+            ([0.0, d, 0.0], MocapAxes::ZUp, [0.0, 2.0, 0.0]),
+            ([0.0, d, 0.0], MocapAxes::YUp, [0.0, 0.0, -2.0]),
+        ];
+        for (rpy, axes, want) in cases {
+            let f = body_offset_fix(rpy, ci, axes);
+            for k in 0..3 {
+                assert!((f.rotation_vector_deg[k].0 - want[k]).abs() < 1e-9, "{rpy:?} in {axes:?}: {:?}", f.rotation_vector_deg);
+            }
+            let q = f.quaternion_xyzw;
+            assert!((q[3] - 1f64.to_radians().cos()).abs() < 1e-12, "{q:?}");
+            for k in 0..3 {
+                assert!((q[k] - want[k].signum() * 1f64.to_radians().sin() * (want[k] != 0.0) as u8 as f64).abs() < 1e-12, "{q:?} for {want:?}");
+            }
+        }
+        // intervals follow the axes: yaw's 0.3° sits on y in y-up, on z in z-up
+        let f = body_offset_fix([0.0; 3], ci, MocapAxes::YUp);
+        assert!((f.rotation_vector_deg[1].1 - 0.3).abs() < 1e-12 && (f.rotation_vector_deg[2].1 - 0.2).abs() < 1e-12, "{:?}", f.rotation_vector_deg);
+        let f = body_offset_fix([0.0; 3], ci, MocapAxes::ZUp);
+        assert!((f.rotation_vector_deg[2].1 - 0.3).abs() < 1e-12 && (f.rotation_vector_deg[1].1 - 0.2).abs() < 1e-12);
+    }
+
+    /// A body offset that is not identifiable gets no fix, and a note says so; one that is gets
+    /// the fix and a note with its angles.
+    #[test]
+    fn a_body_offset_that_is_not_identifiable_gets_no_fix() {
+        let p = parameters_of_frd(&[found(Effect::BodyOffset, &[(1.0, 0.1), (0.0, 0.1), (2.0, 0.1)], false)]);
+        assert!(p.body_offset_fix.is_none() && p.notes.iter().any(|n| n.contains("body offset is not identifiable")), "{p:?}");
+        let p = parameters_of_frd(&[found(Effect::BodyOffset, &[(1.0, 0.1), (0.0, 0.1), (2.0, 0.1)], true)]);
+        assert!(p.body_offset_fix.is_some() && p.notes.iter().any(|n| n.contains("roll 1.00 ± 0.10°")), "{p:?}");
+    }
+
+    /// Lengths print to 0.1 mm (4 decimals of a metre), milliseconds to 0.01 ms. A bug it
+    /// catches: the unit test inverted (a lever arm of 12.3 mm printed as 0.01 m).
+    #[test]
+    fn render_prints_metres_to_a_tenth_of_a_millimetre() {
+        let p = Px4Parameters {
+            params: vec![
+                Px4Param { name: "EKF2_EV_POS_X", value: -0.01234, ci95: 0.00051, unit: "m", from: "−lever_arm" },
+                Px4Param { name: "EKF2_EV_DELAY", value: 9.8372, ci95: 0.512, unit: "ms", from: "mocap_delay" },
+            ],
+            ..Default::default()
+        };
+        let r = render(&p);
+        assert!(r.contains("-0.0123 ± 0.0005 m") && r.contains("9.84 ± 0.51 ms"), "{r}");
     }
 }

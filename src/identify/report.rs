@@ -61,7 +61,7 @@ fn render_steps(s: &mut String, r: &Report) {
         r.samples, r.train_samples, r.heldout_samples, r.options.holdout_every, r.options.block_s, r.model.vehicle, r.model.mass_kg
     );
     for rep in &r.repairs {
-        let _ = writeln!(s, "  repaired: {rep}");
+        let _ = writeln!(s, "  read: {rep}");
     }
     if !super::select::enough_to_select(r.train_samples) {
         let _ = writeln!(

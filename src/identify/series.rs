@@ -104,7 +104,7 @@ pub struct Series {
     pub segments: Vec<(usize, usize)>,
     /// What the declared model knows.
     pub model: NominalModel,
-    /// What the readers repaired.
+    /// What the readers did: repairs, and the stamps and instances read.
     pub repairs: Vec<String>,
 }
 

@@ -194,7 +194,8 @@ pub struct Report {
     pub ground_agreement: Option<crate::identify::ground::GroundAgreement>,
     /// What a reader should know (a negative delay, a half-supported candidate, ...).
     pub notes: Vec<String>,
-    /// What the reader repaired in the log (dropped duplicate rows, gaps).
+    /// What the reader did to the log, one sentence each: repairs (dropped duplicate rows, gaps,
+    /// rows left out) and, for PX4 logs and ROS 2 bags, which stamps and instances it read.
     pub repairs: Vec<String>,
     /// What the data-quality gate cut out before the fit.
     pub data_quality: crate::identify::quality::DataQuality,
