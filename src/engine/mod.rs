@@ -169,6 +169,8 @@ struct VehicleLoop {
     imu: Imu,
     mocap: Mocap,
     mocap_latency: Nanos,
+    /// The scenario's `mocap.latency_ms`: what the mocap system itself knows of its latency.
+    declared_mocap_latency: Nanos,
     log_delay_frames: usize,
     gyro_log_delay_frames: usize,
     link: Link<MocapFrame>,
@@ -311,10 +313,10 @@ impl Arena {
         self.vehicles.len()
     }
 
-    /// The processing latency of vehicle `i`'s mocap (exposure to hand-over to the link,
-    /// including an undeclared delay).
-    pub fn mocap_latency(&self, i: usize) -> Nanos {
-        self.vehicles[i].mocap_latency
+    /// The latency vehicle `i`'s mocap reports of itself: the scenario's declared
+    /// `mocap.latency_ms`, without an undeclared delay (which no mocap system knows of).
+    pub fn declared_mocap_latency(&self, i: usize) -> Nanos {
+        self.vehicles[i].declared_mocap_latency
     }
 
     /// Advances every vehicle by one physics tick: [`Arena::sense`], then [`Arena::act`].
@@ -484,6 +486,7 @@ impl VehicleLoop {
             imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
             mocap,
             mocap_latency: ms(s.mocap.latency_ms + u.mocap_delay_ms),
+            declared_mocap_latency: ms(s.mocap.latency_ms),
             log_delay_frames: (u.mocap_delay_ms * s.mocap.rate_hz() as f64 / 1000.0).round() as usize,
             gyro_log_delay_frames: (u.gyro_delay_ms * s.mocap.rate_hz() as f64 / 1000.0).round() as usize,
             link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)).with_outages(outages.clone()),

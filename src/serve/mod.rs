@@ -23,9 +23,10 @@
 //!
 //! **Timestamps** are simulated time in nanoseconds ([`natnet::CLOCK_HZ`]): the frame's
 //! `timestamp` and mid-exposure stamp are the exposure time, the data-received and transmit
-//! stamps are exposure + the mocap's processing latency (so a client's "camera latency" reads
-//! the scenario's `mocap.latency_ms`; the link's network latency comes after the transmit stamp,
-//! as on a real network). Frame numbers are the mocap's (+1 per camera frame, also for frames
+//! stamps are exposure + the mocap's declared processing latency (so a client's "camera latency"
+//! reads the scenario's `mocap.latency_ms`, and not an undeclared `mocap_delay_ms`, which no mocap
+//! system knows of; the link's network latency comes after the transmit stamp, as on a real
+//! network). Frame numbers are the mocap's (+1 per camera frame, also for frames
 //! that were lost), so a client sees gaps where the link lost frames. Bodies the cameras did not
 //! see, or whose frame the link lost, are absent from that packet. The mean marker error is not
 //! modelled (0).
@@ -376,7 +377,7 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
         server.listen_until((Instant::now() + Duration::from_millis(20)).min(deadline))?;
     }
     server.report.waited_s = waiting.elapsed().as_secs_f64();
-    let latency: Vec<Nanos> = (0..n).map(|i| arena.mocap_latency(i)).collect();
+    let latency: Vec<Nanos> = (0..n).map(|i| arena.declared_mocap_latency(i)).collect();
     let start = Instant::now();
     let mut previous_ids: Vec<i32> = Vec::new();
     let mut period: u32 = 0;

@@ -93,10 +93,14 @@ fn server(port: u16, data_port: u16, out: &Path) -> Killed {
 }
 
 fn server_with(port: u16, data_port: u16, out: &Path, extra: &[&str]) -> Killed {
+    server_of(&fixture(), port, data_port, out, extra)
+}
+
+fn server_of(scenario: &Path, port: u16, data_port: u16, out: &Path, extra: &[&str]) -> Killed {
     Killed::spawn(
         Command::new(env!("CARGO_BIN_EXE_flyarena"))
             .arg("serve")
-            .arg(fixture())
+            .arg(scenario)
             .args(["--command-port", &port.to_string(), "--data-port", &data_port.to_string(), "--speed", "2", "--wait-s", "30", "--no-rrd", "-q"])
             .args(extra)
             .arg("--out")
@@ -248,6 +252,35 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
     assert!((p2[0] - 1.0).abs() < 0.05 && (p2[1] + 2.0).abs() < 0.05 && (p2[2] - 1.0).abs() < 0.05, "cf2 at {p2:?}");
     let (roll, pitch) = roll_pitch_deg(f32s::<4>(&by_id(1)[2]));
     assert!((roll - 3.0).abs() < 0.3 && (pitch - 2.0).abs() < 0.3, "cf1 reads roll {roll:.2}°, pitch {pitch:.2}°");
+}
+
+/// The latency stamps carry what a mocap system knows of itself. cf1 of the test flight hides a
+/// 10 ms mocap delay (`undeclared.mocap_delay_ms`: its poses reach the station late, which no
+/// mocap system knows of); every frame's data-received stamp must still be its mid-exposure stamp
+/// plus the declared `mocap.latency_ms`, for cf1's frames as for cf2's.
+#[test]
+fn the_latency_stamps_hold_the_declared_latency_not_a_hidden_delay() {
+    if !python_has("natnet") {
+        return;
+    }
+    let ([port, data_port], out) = (free_ports::<2>(), tmp("natnet-hidden-delay"));
+    let text = std::fs::read_to_string(fixture()).unwrap();
+    let hidden = text.replace("    markers: { rotation_deg: [3, -2, 10] }\n", "    markers: { rotation_deg: [3, -2, 10] }\n    undeclared: { mocap_delay_ms: 10 }\n");
+    assert_ne!(hidden, text);
+    let path = out.join("hidden-delay.yaml");
+    std::fs::write(&path, hidden).unwrap();
+    let s = flyarena::scenario::Scenario::load(&path).unwrap();
+    let latency_ns = (s.mocap.latency_ms * 1e6) as u64;
+    let mut srv = server_of(&path, port, data_port, &out, &[]);
+    let got = client("natnet_client.py", &[port.to_string(), "2".into()], Duration::from_secs(60));
+    srv.exits_ok(Duration::from_secs(60));
+    let frames = got["frames"].as_array().unwrap();
+    let with_cf1 = frames.iter().filter(|f| f["bodies"].as_array().unwrap().iter().any(|b| b[0].as_i64() == Some(1))).count();
+    assert!(with_cf1 > 100, "{with_cf1} frames with cf1 in 2 s at 200 Hz");
+    for f in frames {
+        let stamps: Vec<u64> = f["stamps"].as_array().unwrap().iter().map(|x| x.as_u64().unwrap()).collect();
+        assert_eq!(stamps[1] - stamps[0], latency_ns, "frame {}: camera latency = the declared mocap.latency_ms", f["number"]);
+    }
 }
 
 /// libmotioncapture's `optitrack` backend (the `motioncapture` wheel, as Crazyswarm2 uses it):
