@@ -337,7 +337,7 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
         for c in &net.commands {
             let k = &c.stats;
             println!(
-                "{}: {} commands received, {} applied, {} duplicate, {} out of order, {} missing; {} radio ticks held the last frame{}",
+                "{}: {} commands received, {} applied, {} duplicate, {} out of order, {} missing; {} radio ticks held the last frame{}{}",
                 c.vehicle,
                 k.received,
                 k.applied,
@@ -345,7 +345,8 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
                 k.out_of_order,
                 k.missing,
                 k.held,
-                if k.timeouts > 0 { "; the controller stopped answering (lockstep timeout)" } else { "" }
+                if k.failsafe > 0 { format!(", {} sent the failsafe's idle frame", k.failsafe) } else { String::new() },
+                if k.timeouts > 0 { format!("; the controller missed {} lockstep deadline(s)", k.timeouts) } else { String::new() }
             );
         }
         if net.rejected > 0 {

@@ -292,6 +292,12 @@ impl Arena {
         self.vehicles.get(i).is_some_and(|v| v.external.is_some())
     }
 
+    /// The idle frame of vehicle `i`'s radio (zero rates or level, zero thrust): what its
+    /// receiver's failsafe sends.
+    pub fn idle_frame(&self, i: usize) -> PpmFrame {
+        self.vehicles[i].radio.idle_frame()
+    }
+
     /// Gives an externally flown vehicle the frame its transmitter sends from the next radio
     /// tick on (held until the next call, as a PPM transmitter holds its channels). Ignored for a
     /// vehicle the built-in station flies.

@@ -335,6 +335,11 @@ pub struct RadioCfg {
     /// Thrust at count 255 (N); default: the vehicle's maximum thrust.
     #[serde(with = "ranges::thrust_n::opt")]
     pub thrust_max_n: Option<f64>,
+    /// The receiver's failsafe for a vehicle flown from outside (`flyarena serve`): with no new
+    /// command from its controller for this long, the radio sends the idle frame (zero rates or
+    /// level, zero thrust) instead of holding the last, as a PPM receiver's failsafe does (ms).
+    #[serde(with = "ranges::failsafe_ms")]
+    pub failsafe_ms: f64,
 }
 impl RadioCfg {
     /// PPM frames per second (divides the 1 kHz physics clock).
@@ -348,7 +353,7 @@ impl RadioCfg {
 }
 impl Default for RadioCfg {
     fn default() -> Self {
-        RadioCfg { rate_hz: spanned(50), channels: spanned(8), latency_ms: 10.0, rate_scale_deg_s: 1.5, angle_scale_deg: 0.25, thrust_max_n: None }
+        RadioCfg { rate_hz: spanned(50), channels: spanned(8), latency_ms: 10.0, rate_scale_deg_s: 1.5, angle_scale_deg: 0.25, thrust_max_n: None, failsafe_ms: 500.0 }
     }
 }
 

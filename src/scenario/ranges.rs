@@ -103,6 +103,7 @@ const INF: f64 = f64::INFINITY;
 ranged! {
     probability: 0.0, 1.0, false, "";
     latency_ms: 0.0, 1000.0, false, "ms";
+    failsafe_ms: 20.0, 10000.0, false, "ms";
     clock_offset_ms: -40.0, 40.0, false, "ms";
     clock_drift_ppm: -400.0, 400.0, false, "ppm";
     noise_mm: 0.0, 20.0, false, "mm";

@@ -9,11 +9,16 @@
 //! | offset | controller → flyarena | 32 | `"FAOF"`, version u8 = 1, vehicle id u8, 0 u16, roll, pitch, yaw f64 (rad): the controller's estimate of the marker offset, in flyarena's convention (the rotation `markers.rotation_deg` declares: body FRD to the markers' frame, Z-Y-X); NaN where it has none |
 //! | telemetry | flyarena → controller | 40 | `"FATM"`, version u8 = 1, vehicle id u8, 0 u16, sequence u32, interval start i64, end i64 (ns, vehicle clock), mean gyro x y z f32 (rad/s, body FRD) |
 //!
-//! A controller registers for a vehicle with its first command (an idle frame, 128 128 128 0,
-//! will do); requests and telemetry go to the address its latest command came from. At each
-//! radio tick of its vehicle flyarena sends a request naming the radio period k. In lockstep
-//! the tick waits for a command whose sequence number is k or later; in real time every
-//! command is applied when it arrives. Either way the transmitter sends the held frame at each
+//! A controller registers for a vehicle with a command sent before the flight starts (any
+//! frame and any sequence number: it registers the address and is not applied, nor does it
+//! answer a request); requests and telemetry go to the address its latest command came from. At
+//! each radio tick of its vehicle flyarena sends a request naming the radio period k, from 0. In
+//! lockstep the tick waits for a command whose sequence number is k or later; in real time every
+//! command is applied when it arrives. A controller silent for `radio.failsafe_ms` of simulated
+//! time is failed safe as a PPM receiver would be: the radio sends the idle frame (zero rates or
+//! level, zero thrust) until a new command comes, which is applied as usual. In lockstep, a tick
+//! that waited its timeout in vain goes on without the controller's command (counted), and the
+//! next tick waits again. Either way the transmitter sends the held frame at each
 //! radio tick (zero-order hold), as a PPM transmitter does, and the receiver side counts what
 //! happened ([`CommandStats`]): a sequence number equal to the last applied one is a duplicate,
 //! a smaller one arrived out of order, both are dropped; a jump counts the numbers skipped as
@@ -156,9 +161,12 @@ pub struct CommandStats {
     pub missing: u64,
     /// Radio ticks that re-sent the held frame because no new command had come.
     pub held: u64,
-    /// Lockstep: radio ticks that gave up waiting (the timeout); the controller is then taken
-    /// as gone and the run goes on holding its last frame.
+    /// Lockstep: radio ticks that gave up waiting (the timeout) and went on without the
+    /// controller's command.
     pub timeouts: u64,
+    /// Radio ticks that sent the idle frame because the controller had sent no new command for
+    /// `radio.failsafe_ms` (the receiver's failsafe).
+    pub failsafe: u64,
 }
 
 /// The receiver side of one vehicle's commands: which to apply, and the counts.
@@ -236,7 +244,7 @@ mod tests {
         let mut r = Receiver::default();
         let applied: Vec<bool> = [0, 1, 1, 3, 2, 6].into_iter().map(|s| r.accept(s)).collect();
         assert_eq!(applied, [true, true, false, true, false, true]);
-        assert_eq!(r.stats, CommandStats { received: 6, applied: 4, duplicates: 1, out_of_order: 1, missing: 3, held: 0, timeouts: 0 });
+        assert_eq!(r.stats, CommandStats { received: 6, applied: 4, duplicates: 1, out_of_order: 1, missing: 3, held: 0, timeouts: 0, failsafe: 0 });
         assert_eq!(r.last(), Some(6));
         r.radio_tick(); // a new command came: not held
         r.radio_tick(); // none since: held

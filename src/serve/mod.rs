@@ -114,8 +114,10 @@ pub struct ServeOptions {
     /// externally flown vehicles, for a first command of each.
     pub wait_for_client: Duration,
     /// Lockstep: each radio tick of an externally flown vehicle waits for its controller's
-    /// command, at most this long (then the controller is taken as gone and its last frame is
-    /// held for the rest of the run). Requests are answered while a tick waits, so with no
+    /// command, at most this long; a tick that waited in vain goes on without it (the held
+    /// frame, then after `radio.failsafe_ms` of such ticks the receiver's failsafe), and the
+    /// next tick waits again, so a controller that answers again is back at once. A controller
+    /// that never answers costs this long per radio tick. Requests are answered while a tick waits, so with no
     /// externally flown vehicle a lockstep run goes as fast as it can and answers nothing until
     /// it ends. `None`: real time, paced by the wall clock.
     pub lockstep: Option<Duration>,
@@ -199,12 +201,11 @@ struct Server {
     last_frame: Option<Vec<u8>>,
     report: ServeReport,
     /// Per vehicle: whether it is flown from outside, its controller's address, its receiver,
-    /// the newest frame to apply, whether its controller is taken as gone (lockstep timeout).
+    /// the newest frame to apply.
     external: Vec<bool>,
     controllers: Vec<Option<SocketAddr>>,
     receivers: Vec<Receiver>,
     incoming: Vec<Option<PpmFrame>>,
-    gone: Vec<bool>,
     /// The offset each external controller reported last (rad).
     offsets: Vec<Option<[f64; 3]>>,
 }
@@ -238,7 +239,6 @@ impl Server {
             controllers: vec![None; n],
             receivers: vec![Receiver::default(); n],
             incoming: vec![None; n],
-            gone: vec![false; n],
             offsets: vec![None; n],
         })
     }
@@ -329,6 +329,27 @@ impl Server {
         }
     }
 
+    /// Lockstep: waits at most `timeout` for every registered external controller to answer
+    /// request `period` (a command with that sequence number or later); each one that has not by
+    /// then misses the deadline (counted) and the tick goes on without it.
+    fn wait_for_answers(&mut self, period: u32, timeout: Duration) -> Result<(), ServeError> {
+        let give_up = Instant::now() + timeout;
+        loop {
+            let left: Vec<usize> =
+                (0..self.external.len()).filter(|&i| self.external[i] && self.controllers[i].is_some() && self.receivers[i].last().is_none_or(|l| l < period)).collect();
+            if left.is_empty() {
+                return Ok(());
+            }
+            if Instant::now() >= give_up {
+                for i in left {
+                    self.receivers[i].stats.timeouts += 1;
+                }
+                return Ok(());
+            }
+            self.listen_once(give_up)?;
+        }
+    }
+
     fn broadcast(&mut self, bytes: Vec<u8>, poses: usize) {
         self.report.frames += 1;
         self.report.poses += poses as u64;
@@ -377,6 +398,14 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
         server.listen_until((Instant::now() + Duration::from_millis(20)).min(deadline))?;
     }
     server.report.waited_s = waiting.elapsed().as_secs_f64();
+    // what came before the flight registered the controllers and answers no request: the
+    // receivers start afresh, whatever sequence number the registration carried
+    for i in 0..n {
+        server.receivers[i] = Receiver::default();
+        server.incoming[i] = None;
+    }
+    let failsafe_after = Nanos::from_secs_f64(s.radio.failsafe_ms * 1e-3);
+    let mut last_applied: Vec<Option<Nanos>> = vec![None; n];
     let latency: Vec<Nanos> = (0..n).map(|i| arena.declared_mocap_latency(i)).collect();
     let start = Instant::now();
     let mut previous_ids: Vec<i32> = Vec::new();
@@ -406,34 +435,23 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
                 }
             }
             if let Some(timeout) = opts.lockstep {
-                let give_up = Instant::now() + timeout;
-                let waiting_for = |sv: &Server| {
-                    (0..n).filter(|&i| external[i] && !sv.gone[i] && sv.controllers[i].is_some() && sv.receivers[i].last().is_none_or(|l| l < period)).collect::<Vec<_>>()
-                };
-                loop {
-                    let left = waiting_for(&server);
-                    if left.is_empty() {
-                        break;
-                    }
-                    if Instant::now() >= give_up {
-                        for i in left {
-                            server.gone[i] = true;
-                            server.receivers[i].stats.timeouts += 1;
-                        }
-                        break;
-                    }
-                    server.listen_once(give_up)?;
-                }
+                server.wait_for_answers(period, timeout)?;
             }
         }
         for i in 0..n {
             if let Some(f) = server.incoming[i].take() {
                 arena.set_command(i, f);
+                last_applied[i] = Some(t);
             }
         }
         if radio_tick {
             for i in (0..n).filter(|i| external[*i]) {
                 server.receivers[i].radio_tick();
+                // the receiver's failsafe: silent for failsafe_ms, the idle frame goes out
+                if last_applied[i].is_some_and(|t0| t - t0 >= failsafe_after) {
+                    arena.set_command(i, arena.idle_frame(i));
+                    server.receivers[i].stats.failsafe += 1;
+                }
             }
             period += 1;
         }

@@ -284,8 +284,10 @@ fn the_latency_stamps_hold_the_declared_latency_not_a_hidden_delay() {
 }
 
 /// libmotioncapture's `optitrack` backend (the `motioncapture` wheel, as Crazyswarm2 uses it):
-/// it finds both rigid bodies by name, and every pose it hands out is one flyarena's log holds
-/// for that vehicle, in Z-up.
+/// it finds both rigid bodies by name, and each frame it hands out is one frame flyarena sent:
+/// every pose in it is the pose flyarena logged for that vehicle at one and the same frame
+/// number, in Z-up, and those numbers increase from frame to frame (the binding exposes no
+/// frame number, so it is recovered from the poses, which differ frame to frame).
 #[test]
 fn libmotioncapture_receives_the_poses_flyarena_sent() {
     if !python_has("motioncapture") {
@@ -295,18 +297,45 @@ fn libmotioncapture_receives_the_poses_flyarena_sent() {
     let mut srv = server(port, data_port, &out);
     let got = client("motioncapture_client.py", &[port.to_string(), "300".into()], Duration::from_secs(60));
     srv.exits_ok(Duration::from_secs(60));
-    let logs: HashMap<&str, Vec<Pose32>> =
-        [("cf1", "served-cf1.csv"), ("cf2", "served-cf2.csv")].into_iter().map(|(n, f)| (n, log_poses(&out.join(f)).values().map(|(_, p, q)| z_up(*p, *q)).collect())).collect();
-    let poses = got["poses"].as_array().unwrap();
-    assert!(poses.len() >= 300, "{} poses from 300 frames", poses.len());
-    let mut names = std::collections::BTreeSet::new();
-    for p in poses {
-        let name = p[0].as_str().unwrap();
-        let pose = (f32s::<3>(&p[1]), f32s::<4>(&p[2]));
-        assert!(logs[name].contains(&pose), "{name}: {pose:?} is no pose flyarena logged for it");
-        names.insert(name.to_string());
+    // per body, each logged pose → the frame numbers that logged it (a pose held still may repeat)
+    let mut logs: HashMap<&str, HashMap<Pose32Bits, Vec<u32>>> = HashMap::new();
+    for (name, file) in [("cf1", "served-cf1.csv"), ("cf2", "served-cf2.csv")] {
+        let by_pose = logs.entry(name).or_default();
+        for (number, (_, p, q)) in log_poses(&out.join(file)) {
+            by_pose.entry(bits(z_up(p, q))).or_default().push(number);
+        }
+    }
+    let frames = got["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 300);
+    let (mut names, mut previous, mut both) = (std::collections::BTreeSet::new(), None::<u32>, 0);
+    for (k, f) in frames.iter().enumerate() {
+        // the frame numbers every body of this frame was logged at: one must be common to all,
+        // and later than the previous frame's
+        let mut common: Option<Vec<u32>> = None;
+        for b in f.as_array().unwrap() {
+            let name = b[0].as_str().unwrap();
+            let pose = (f32s::<3>(&b[1]), f32s::<4>(&b[2]));
+            let numbers = logs[name].get(&bits(pose)).unwrap_or_else(|| panic!("frame {k}: {name} {pose:?} is no pose flyarena logged for it"));
+            common = Some(match common {
+                None => numbers.clone(),
+                Some(c) => c.into_iter().filter(|n| numbers.contains(n)).collect(),
+            });
+            names.insert(name.to_string());
+        }
+        both += usize::from(f.as_array().unwrap().len() == 2);
+        let number = common.unwrap_or_default().into_iter().filter(|n| previous.is_none_or(|p| *n > p)).min();
+        let number = number.unwrap_or_else(|| panic!("frame {k}: its bodies share no frame number after {previous:?}: {f}"));
+        previous = Some(number);
     }
     assert_eq!(names.into_iter().collect::<Vec<_>>(), ["cf1", "cf2"]);
+    assert!(both > 200, "{both} of 300 frames hold both bodies (5 % loss on each link)");
+}
+
+/// A pose as bits, to key a map.
+type Pose32Bits = ([u32; 3], [u32; 4]);
+
+fn bits((p, q): Pose32) -> Pose32Bits {
+    (p.map(f32::to_bits), q.map(f32::to_bits))
 }
 
 /// A port already taken is bad input: exit 2 with what to do, nothing written.
@@ -400,39 +429,105 @@ fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
     assert!(r1.len() == 1 && !r1[0].asserted && r1[0].measured.contains("reported no offset"), "{}", outcome.report.table());
 }
 
-/// In lockstep, a controller that stops answering cannot hang the run: the tick waits its
-/// timeout once, the controller is taken as gone, and the run finishes holding its last frame.
-#[test]
-fn a_silent_controller_in_lockstep_times_out_once() {
-    let s = super::inline("name: silent\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 1 }\n");
-    // a data port of its own: at the default (1511) its frames would also reach the client of
-    // a test running beside it that listens there
-    let [port, data_port] = free_ports::<2>();
-    let opts = ServeOptions { command_port: port, data_port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_millis(300)), ..ServeOptions::default() };
-    let served = std::thread::spawn(move || serve(&s, &opts, RunOptions::default()));
-    // register with one command for period 0 (full thrust), then say nothing
-    let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
-    let started = Instant::now();
-    sock.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
-    let mut buf = [0u8; 2048];
-    loop {
-        sock.send_to(&[0, 0, 5, 0, b'P', b'i', b'n', b'g', 0], ("127.0.0.1", port)).unwrap();
-        if sock.recv_from(&mut buf).is_ok_and(|(n, _)| n > 4 && buf[0] == 1) {
-            break;
+/// A controller on a loopback socket for the tests below: connects, registers for vehicle 1 with
+/// a command of sequence number `registration` (full thrust: it must not be applied), then
+/// answers each request k for which `answer(k)` gives counts with those counts and sequence
+/// number k, until the run ends (no request for 2 s).
+fn scripted_controller(port: u16, registration: u32, answer: impl Fn(u32) -> Option<[u8; 8]> + Send + 'static) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let started = Instant::now();
+        sock.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+        let mut buf = [0u8; 2048];
+        loop {
+            sock.send_to(&[0, 0, 5, 0, b'P', b'i', b'n', b'g', 0], ("127.0.0.1", port)).unwrap();
+            if sock.recv_from(&mut buf).is_ok_and(|(n, _)| n > 4 && buf[0] == 1) {
+                break;
+            }
+            assert!(started.elapsed() < Duration::from_secs(20), "no server info");
         }
-        assert!(started.elapsed() < Duration::from_secs(20), "no server info");
-    }
-    sock.send_to(&flyarena::serve::command::command(1, 0, &[128, 128, 128, 255, 0, 0, 0, 0]), ("127.0.0.1", port)).unwrap();
+        sock.send_to(&flyarena::serve::command::command(1, registration, &[128, 128, 128, 255, 0, 0, 0, 0]), ("127.0.0.1", port)).unwrap();
+        sock.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+        while let Ok((n, _)) = sock.recv_from(&mut buf) {
+            if n == 20 && &buf[..4] == b"FARQ" {
+                let k = u32::from_le_bytes(buf[8..12].try_into().unwrap());
+                if let Some(counts) = answer(k) {
+                    sock.send_to(&flyarena::serve::command::command(1, k, &counts), ("127.0.0.1", port)).unwrap();
+                }
+            }
+        }
+    })
+}
+
+/// Serves `yaml` in lockstep (timeout `timeout_ms`) to [`scripted_controller`].
+fn serve_scripted(
+    yaml: &str,
+    timeout_ms: u64,
+    registration: u32,
+    answer: impl Fn(u32) -> Option<[u8; 8]> + Send + 'static,
+) -> (flyarena::engine::RunOutput, flyarena::serve::command::CommandStats) {
+    let s = super::inline(yaml);
+    let [port, data_port] = free_ports::<2>();
+    let opts =
+        ServeOptions { command_port: port, data_port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_millis(timeout_ms)), ..ServeOptions::default() };
+    let served = std::thread::spawn(move || serve(&s, &opts, RunOptions::default()));
+    let controller = scripted_controller(port, registration, answer);
     let (out, net) = served.join().unwrap().unwrap();
-    let k = net.commands[0].stats;
-    assert_eq!((k.applied, k.timeouts), (1, 1), "{k:?}");
-    // one radio tick per 20 ms of the run: the first sends the command, the others hold it
+    controller.join().unwrap();
+    (out, net.commands[0].stats)
+}
+
+const EXTERNAL_HOVER: &str =
+    "name: external\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 3 }\n";
+
+/// Registration answers no request, whatever its sequence number: registered with 0, 1 or
+/// 4,000,000,000 and answering every request k with sequence number k, the controller has every
+/// answer applied (request 0's too: with 0 it is no duplicate of the registration, with a large
+/// number no answer is out of order), none waited in vain, and the registration's full thrust
+/// never flew (the vehicle, fed idle frames, stays on the floor).
+#[test]
+fn registration_answers_no_request_whatever_its_sequence_number() {
+    for registration in [0, 1, 4_000_000_000] {
+        let (out, k) = serve_scripted(EXTERNAL_HOVER, 2000, registration, |_| Some([128, 128, 128, 0, 0, 0, 0, 0]));
+        let ticks = (out.duration.as_nanos() as u64).div_ceil(20_000_000);
+        assert_eq!(
+            (k.received, k.applied, k.duplicates, k.out_of_order, k.missing, k.timeouts, k.failsafe),
+            (ticks, ticks, 0, 0, 0, 0, 0),
+            "registered with {registration}: {k:?}"
+        );
+        assert!(out.vehicles[0].final_pos.z() > -0.05, "registered with {registration}: {:?}", out.vehicles[0].final_pos);
+    }
+}
+
+/// A controller that falls silent is failed safe as a PPM receiver would be, and resumes when it
+/// answers again. It answers requests 0–49 with full thrust, none of 50–119, and 120 on with the
+/// idle frame at thrust 1 (counts 128 128 128 1). In lockstep (timeout 80 ms) each of ticks
+/// 50–119 waits its timeout and goes on (70 timeouts; a slow answer under load may add a few);
+/// 0.5 s (`radio.failsafe_ms`, 25 ticks) after its last command, from tick 74, the radio sends the
+/// idle frame instead of the held full thrust, 46 ticks until tick 119; from 120 every answer is
+/// applied again: the radio sent full thrust at 1.2 s (held), zero at 2.0 s (failsafe) and the
+/// resumed frame at the end.
+#[test]
+fn a_silent_controller_is_failed_safe_and_resumes_when_it_answers() {
+    let (out, k) = serve_scripted(
+        "name: silent\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 4 }\n",
+        80,
+        7,
+        |k| match k {
+            0..50 => Some([128, 128, 128, 255, 0, 0, 0, 0]),
+            50..120 => None,
+            _ => Some([128, 128, 128, 1, 0, 0, 0, 0]),
+        },
+    );
     let ticks = (out.duration.as_nanos() as u64).div_ceil(20_000_000);
-    assert!(ticks >= 100, "{ticks}");
-    assert_eq!(k.held, ticks - 1);
-    assert!(started.elapsed() < Duration::from_secs(10), "one timeout of 0.3 s, not one per tick");
-    // full thrust held: the vehicle climbed far above the 1 m the plan asked for
-    assert!(out.vehicles[0].final_pos.z() < -3.0, "{:?}", out.vehicles[0].final_pos);
+    assert!(ticks >= 240, "{ticks}");
+    assert!((70..=75).contains(&k.timeouts), "{k:?}");
+    assert_eq!(k.failsafe, 46, "{k:?}");
+    assert_eq!((k.applied, k.duplicates, k.out_of_order, k.missing), (ticks - 70, 0, 0, 70), "{k:?} of {ticks} ticks");
+    // the thrust the radio sent: held full thrust into the silence, the failsafe's zero from
+    // 0.5 s after the last command, the resumed controller's 1 at the end
+    let thrust_at = |t_s: f64| out.vehicles[0].trace.iter().rfind(|x| x.t.as_secs_f64() <= t_s).and_then(|x| x.ppm).map(|f| f.channels[3]);
+    assert_eq!([thrust_at(1.2), thrust_at(2.0), thrust_at(out.duration.as_secs_f64())], [Some(255), Some(0), Some(1)]);
 }
 
 /// `run` cannot fly a vehicle that an external controller flies: exit 2, saying to serve it.

@@ -21,8 +21,7 @@ def command(k):
 
 
 sent = {"commands": 0, "duplicates": 0, "out_of_order": 0}
-sock.sendto(command(0), server)  # registers, and is period 0's frame
-sent["commands"] += 1
+sock.sendto(command(0), server)  # registers (before the flight: answers no request)
 requests, telemetry, last = 0, 0, -1
 sock.settimeout(10.0)
 while last < len(frames) - 1:
@@ -33,8 +32,6 @@ while last < len(frames) - 1:
         requests += 1
         k = struct.unpack_from("<I", data, 8)[0]
         last = k
-        if k == 0:
-            continue  # answered by the registration
         sock.sendto(command(k), server)
         sent["commands"] += 1
         if k % 10 == 5:
