@@ -135,7 +135,7 @@ struct ServeArgs {
     /// wall clock); otherwise real time
     #[arg(long)]
     lockstep: bool,
-    /// Lockstep: how long a radio tick waits before the controller is taken as gone
+    /// Lockstep: how long a radio tick waits for the controller's command before going on without it
     #[arg(long, default_value_t = 1000, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=600_000), requires = "lockstep")]
     lockstep_timeout_ms: u64,
 }
