@@ -68,18 +68,42 @@ fn nominal_tree(tree: &Value, i: usize) -> Value {
     t
 }
 
-/// Rounded to 4 decimals, as the fragment writes values.
-fn round4(x: f64) -> f64 {
-    (x * 1e4).round() / 1e4
+/// Decimals that print a 95 % half-width `ci` to two significant digits (0 for a half-width of
+/// 10 or more; 6 for one that is 0 or not finite).
+fn decimals_for(ci: f64) -> usize {
+    if !(ci.is_finite() && ci > 0.0) {
+        return 6;
+    }
+    (1 - ci.log10().floor() as i64).clamp(0, 12) as usize
+}
+
+/// `x` rounded to the precision of its interval, and to at least 4 decimals.
+fn round_to(x: f64, ci: f64) -> f64 {
+    let scale = 10f64.powi(decimals_for(ci).max(4) as i32);
+    (x * scale).round() / scale
+}
+
+/// `value ± ci` to the precision of the interval.
+fn with_interval(value: f64, ci: f64) -> String {
+    let d = decimals_for(ci);
+    format!("{value:.d$} ± {ci:.d$}")
 }
 
 /// The fragment of a report for vehicle `i` (with `n_markers` markers): one scenario field per
 /// effect found, and a comment where a value had to be rounded to what the scenario can express.
 pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> String {
-    let mut lines = vec![format!("# flyarena identify: the effects found in {}", r.source), "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string()];
+    fragment_of(&r.source, &r.effects, i, mocap_rate_hz, n_markers)
+}
+
+/// [`fragment`] from the effects found: every value keeps the precision of its interval (at
+/// least 4 decimals), and a value the scenario cannot express (a negative delay: poses stamped
+/// before their capture) is said with its interval and left out, not set to the nearest it can.
+fn fragment_of(source: &str, effects: &[super::select::Found], i: usize, mocap_rate_hz: u32, n_markers: usize) -> String {
+    let mut lines = vec![format!("# flyarena identify: the effects found in {source}"), "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string()];
     let mut set = Vec::new();
-    for f in &r.effects {
-        let v: Vec<f64> = f.params.iter().map(|p| round4(p.value)).collect();
+    let imu_offset = effects.iter().find(|f| f.effect == Effect::ImuOffset);
+    for f in effects {
+        let v: Vec<f64> = f.params.iter().map(|p| round_to(p.value, p.ci95)).collect();
         let vi = format!("vehicles[{i}]");
         match f.effect {
             Effect::BodyOffset => set.push((format!("{vi}.markers.rotation_deg"), json!(v))),
@@ -87,10 +111,15 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
             Effect::MocapDelay | Effect::GyroDelay => {
                 // the scenario takes whole frames of the mocap period (≥ 0)
                 let period = 1000.0 / mocap_rate_hz as f64;
-                let frames = (v[0] / period).round().max(0.0);
                 let (what, field) = if f.effect == Effect::MocapDelay { ("mocap delay", "mocap_delay_ms") } else { ("gyro delay", "gyro_delay_ms") };
+                let shown = with_interval(f.params[0].value, f.params[0].ci95);
+                if v[0] < 0.0 {
+                    lines.push(format!("# {what} {shown} ms is negative (stamped before the capture: a clock offset), which no scenario field expresses: left out"));
+                    continue;
+                }
+                let frames = (v[0] / period).round();
                 if (frames * period - v[0]).abs() > 1e-6 {
-                    lines.push(format!("# {what} {} ms rounded to {} whole frames of {period} ms", v[0], frames));
+                    lines.push(format!("# {what} {shown} ms rounded to {frames} whole frames of {period} ms"));
                 }
                 set.push((format!("{vi}.undeclared.{field}"), json!(frames * period)));
             }
@@ -98,13 +127,13 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
             Effect::GyroBias => set.push((format!("{vi}.imu.gyro_bias_deg_s"), json!(v))),
             Effect::RotorDrag => set.push((format!("{vi}.undeclared.rotor_drag_per_s"), json!(v.iter().map(|x| x.max(0.0)).collect::<Vec<_>>()))),
             Effect::ConstantForce => set.push((format!("{vi}.disturbance.force_n"), json!(v))),
-            Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(round4(1.0 + f.params[0].value)))),
+            Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(round_to(1.0 + f.params[0].value, f.params[0].ci95)))),
             Effect::GroundEffect => set.push((format!("{vi}.undeclared.ground_effect"), json!(v[0].max(0.0)))),
             Effect::LeverArm => {
                 // markers displaced by d from the centre of mass make the mocap track the point
                 // d, and the IMU sits at r_c from it: r = r_c − d, so d = r_c − r for each marker
-                let r_c = r.effect(Effect::ImuOffset).map_or(vec![0.0; 3], |c| c.params.iter().map(|p| round4(p.value)).collect());
-                let d: Vec<f64> = v.iter().zip(&r_c).map(|(x, c)| round4(c - x)).collect();
+                let r_c = imu_offset.map_or(vec![0.0; 3], |c| c.params.iter().map(|p| round_to(p.value, p.ci95)).collect());
+                let d: Vec<f64> = v.iter().zip(&r_c).zip(&f.params).map(|((x, c), p)| round_to(c - x, p.ci95)).collect();
                 set.push((format!("{vi}.markers.displacement_mm"), json!(vec![d; n_markers])));
             }
             Effect::ImuOffset => set.push((format!("{vi}.imu.position_mm"), json!(v))),
@@ -189,4 +218,37 @@ pub(crate) fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text
     }
     let parse = |t: &Value, what: &str| Scenario::parse(&serde_json::to_string(t).expect("JSON"), Path::new(&format!("{name} ({what})")));
     Ok((parse(&nominal, "nominal")?, parse(&fed, "with the identified effects")?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::select::{Found, Param};
+
+    fn found(effect: Effect, values: &[(f64, f64)]) -> Found {
+        let params = values.iter().map(|&(value, ci95)| Param { name: "p".into(), value, ci95, unit: "u".into(), identifiable: true }).collect();
+        Found { effect, name: effect.key().into(), params }
+    }
+
+    /// Two significant digits of the half-width: 0.05 → 3 decimals, 0.0086 → 4, 0.5 → 2, 12 → 0.
+    #[test]
+    fn decimals_give_the_interval_two_significant_digits() {
+        assert_eq!([decimals_for(0.05), decimals_for(0.0086), decimals_for(0.5), decimals_for(12.0), decimals_for(0.0)], [3, 4, 2, 0, 6]);
+        assert_eq!(with_interval(-3.0213, 0.05), "-3.021 ± 0.050");
+        // at least 4 decimals in the values set, more where the interval is finer
+        assert_eq!((round_to(1.234_567, 0.5), round_to(1.234_567, 0.000_12)), (1.2346, 1.23457));
+    }
+
+    /// A delay of −3.02 ± 0.05 ms (poses stamped before their capture) is no scenario's: the
+    /// fragment says so with its interval and sets nothing, instead of rounding it to 0 frames;
+    /// 7.32 ± 0.41 ms is set as the nearest whole frame of 5 ms (5 ms), and the comment keeps its
+    /// precision. A bug it catches: the old `.max(0.0)`, which set the negative delay to 0.
+    #[test]
+    fn a_negative_delay_is_said_and_left_out_and_a_positive_one_rounded_to_frames() {
+        let frag = fragment_of("f.csv", &[found(Effect::MocapDelay, &[(-3.0213, 0.05)])], 0, 200, 4);
+        assert!(!frag.contains("mocap_delay_ms"), "{frag}");
+        assert!(frag.contains("# mocap delay -3.021 ± 0.050 ms is negative"), "{frag}");
+        let frag = fragment_of("f.csv", &[found(Effect::MocapDelay, &[(7.3213, 0.41)])], 0, 200, 4);
+        assert!(frag.contains("# mocap delay 7.32 ± 0.41 ms rounded to 1 whole frames of 5 ms") && frag.contains("vehicles[0].undeclared.mocap_delay_ms: 5.0"), "{frag}");
+    }
 }
