@@ -198,11 +198,27 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
     last.expect("at least one iteration")
 }
 
+/// Whether a log can test effect `e`: the thrust–voltage effect needs the thrust and the battery
+/// voltage; any other needs one of its channels, the force channel only where the log has motor
+/// commands (an accelerometer bias also acts in the accelerometer-against-mocap channel, so a log
+/// without motors still tests it).
 fn available(d: &Design, e: Effect) -> bool {
     match e {
         Effect::ThrustVoltage => d.has_force && d.has_vbat,
-        _ => e.channels().iter().all(|c| *c != Channel::Force || d.has_force),
+        _ => e.channels().iter().any(|c| *c != Channel::Force || d.has_force),
     }
+}
+
+/// Why a log cannot test `e` ([`available`]), for the note on an effect asked for with `--with`.
+fn unavailable_reason(d: &Design, e: Effect) -> Option<String> {
+    if available(d, e) {
+        return None;
+    }
+    Some(if e == Effect::ThrustVoltage && d.has_force {
+        format!("--with {}: left out, the log has no battery voltage", e.key())
+    } else {
+        format!("--with {}: left out, it acts only through the thrust model and the log has no motor commands", e.key())
+    })
 }
 
 /// The whole tilt at rest (roll, pitch; rad): the frame part plus the tilt (b_y/g, −b_x/g) an
@@ -486,7 +502,9 @@ impl Search {
     /// Fits the forced effects (those with columns in the data) without testing them.
     fn force(&mut self, s: &Series, o: &Options, notes: &mut Vec<String>) {
         for e in &o.forced {
-            if available(&self.state.design, *e) && !self.selected.contains(e) {
+            if let Some(why) = unavailable_reason(&self.state.design, *e) {
+                notes.push(why);
+            } else if !self.selected.contains(e) {
                 self.selected.push(*e);
             }
         }
@@ -704,6 +722,11 @@ fn tests_with_pairs(singles: usize, near: usize) -> usize {
 fn gate_notes(nominal: &Problem, o: &Options, notes: &mut Vec<String>) -> bool {
     let usable = nominal.train.iter().filter(|x| **x).count();
     let too_few = !enough_to_select(usable);
+    if !nominal.design.has_force {
+        notes.push(
+            "no motor commands in the log: no force model, so the effects are fitted on the accelerometer against the mocap (accel_kin) and the gyro; those that act only through the thrust are not tried".into(),
+        );
+    }
     if too_few {
         notes.push(format!(
             "only {usable} usable training samples (airborne above {} m, away from gaps and edges; decimated): at least {MIN_TRAIN_SAMPLES} are needed to select effects, so none were tried",
@@ -1292,6 +1315,13 @@ mod tests {
         assert!(!offers(true, false, Effect::ThrustVoltage) && !offers(false, true, Effect::ThrustVoltage));
         assert!(offers(true, false, Effect::ThrustScale) && !offers(false, false, Effect::ThrustScale));
         assert!(offers(false, false, Effect::GyroDelay));
+        // an accelerometer bias acts in accel_kin too: a log without motors tests it
+        assert!(offers(false, false, Effect::AccelBias) && offers(false, false, Effect::AccelScale));
+        assert!(!offers(false, false, Effect::ImuOffset) && !offers(false, false, Effect::ConstantForce));
+        let no_force = design(false, false);
+        assert_eq!(unavailable_reason(&no_force, Effect::AccelBias), None);
+        assert!(unavailable_reason(&no_force, Effect::ThrustScale).is_some_and(|w| w.contains("--with thrust_scale") && w.contains("no motor commands")));
+        assert!(unavailable_reason(&design(true, false), Effect::ThrustVoltage).is_some_and(|w| w.contains("no battery voltage")));
     }
 
     /// A candidate's correlation with the residual, from the Gram sums by hand: on the base set
