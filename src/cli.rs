@@ -40,7 +40,8 @@ enum Command {
     Sweep(SweepArgs),
     /// Combine shard outputs into the summary one unsharded sweep would give
     Merge {
-        /// Shard files (`<scenario>.sweep.shard-K-of-N.json`)
+        /// Shard files of one sweep (`<scenario>.sweep.shard-K-of-N.json`) or of one batch of
+        /// trials (`trials-<seed>-<N>.shard-K-of-N.json`)
         #[arg(required = true, value_name = "SHARD.json")]
         shards: Vec<PathBuf>,
         /// Output folder
@@ -59,6 +60,10 @@ enum Command {
         /// Master seed (flight i of seed S is a pure function of (S, i))
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Fly only shard K of N (flights i with i mod N = K − 1), into
+        /// DIR/trials-<seed>-<N>.shard-K-of-N.json; `flyarena merge` combines the shards
+        #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+        shard: Option<(u64, u64)>,
         /// Output folder
         #[arg(long, default_value = "out", value_name = "DIR")]
         out: PathBuf,
@@ -502,13 +507,27 @@ fn cmd_sweep(a: SweepArgs) -> Result<i32, Error> {
 }
 
 fn cmd_merge(files: &[PathBuf], out: &Path) -> Result<i32, Error> {
-    let mut parts = Vec::new();
+    let mut sweeps = Vec::new();
+    let mut trials = Vec::new();
     for f in files {
         let bytes = std::fs::read(f).map_err(|e| Error::Usage(format!("{}: {e}", f.display())))?;
-        let part = serde_json::from_slice::<flyarena::sweep::SweepOutput>(&bytes).map_err(|e| Error::Usage(format!("{}: not a shard file: {e}", f.display())))?;
-        parts.push(part);
+        let not_a_shard = |e: serde_json::Error| Error::Usage(format!("{}: not a shard file: {e}", f.display()));
+        // a trials shard holds `outcomes`, a sweep shard `rows`
+        let value: serde_json::Value = serde_json::from_slice(&bytes).map_err(not_a_shard)?;
+        if value.get("outcomes").is_some() {
+            trials.push(serde_json::from_value::<flyarena::identify::trials::TrialsShard>(value).map_err(not_a_shard)?);
+        } else {
+            sweeps.push(serde_json::from_slice::<flyarena::sweep::SweepOutput>(&bytes).map_err(not_a_shard)?);
+        }
     }
-    finish_sweep(&flyarena::sweep::merge(parts)?, out, false)
+    match (sweeps.is_empty(), trials.is_empty()) {
+        (false, true) => finish_sweep(&flyarena::sweep::merge(sweeps)?, out, false),
+        (true, false) => {
+            let (seed, flights, outcomes) = flyarena::identify::trials::merge(trials).map_err(Error::Usage)?;
+            finish_trials(seed, flights, &outcomes, out)
+        }
+        _ => Err(Error::Usage("the shard files mix a sweep's and a batch of trials'".into())),
+    }
 }
 
 /// The combinations of inputs and options clap cannot declare.
@@ -616,10 +635,22 @@ fn cmd_identify(a: IdentifyArgs) -> Result<i32, Error> {
     }
 }
 
-fn cmd_trials(flights: u64, seed: u64, out: &Path) -> Result<i32, Error> {
-    let outcomes = flyarena::identify::trials::run_many(seed, flights, &flyarena::identify::Options::default());
-    let table = flyarena::identify::trials::render(&outcomes);
-    let (by, total) = flyarena::identify::trials::score(&outcomes);
+fn cmd_trials(flights: u64, seed: u64, shard: Option<(u64, u64)>, out: &Path) -> Result<i32, Error> {
+    let outcomes = flyarena::identify::trials::run_shard(seed, flights, shard, &flyarena::identify::Options::default());
+    if let Some((k, n)) = shard {
+        let part = flyarena::identify::trials::TrialsShard { seed, flights, shard: [k + 1, n], outcomes };
+        let path = out.join(format!("trials-{seed}-{flights}.shard-{}-of-{n}.json", k + 1));
+        write_output(&path, &serde_json::to_vec_pretty(&part).expect("serialises"))?;
+        println!("shard {}/{n}: {} flights → {} (combine with `flyarena merge`)", k + 1, part.outcomes.len(), path.display());
+        return Ok(PASS);
+    }
+    finish_trials(seed, flights, &outcomes, out)
+}
+
+/// The batch's table and report (DIR/trials-<seed>-<N>.json), from all its outcomes.
+fn finish_trials(seed: u64, flights: u64, outcomes: &[flyarena::identify::trials::Outcome], out: &Path) -> Result<i32, Error> {
+    let table = flyarena::identify::trials::render(outcomes);
+    let (by, total) = flyarena::identify::trials::score(outcomes);
     let json = serde_json::json!({ "seed": seed, "flights": flights, "scores": by.iter().map(|(e, s)| serde_json::json!({"effect": e, "score": s})).collect::<Vec<_>>(), "total": total, "outcomes": outcomes });
     let path = out.join(format!("trials-{seed}-{flights}.json"));
     write_output(&path, &serde_json::to_vec_pretty(&json).expect("serialises"))?;
@@ -647,7 +678,7 @@ pub fn main() -> i32 {
         Command::Sweep(a) => cmd_sweep(a),
         Command::Merge { shards, out } => cmd_merge(&shards, &out),
         Command::Identify(a) => cmd_identify(a),
-        Command::Trials { flights, seed, out } => cmd_trials(flights, seed, &out),
+        Command::Trials { flights, seed, shard, out } => cmd_trials(flights, seed, shard, &out),
         Command::Completions { shell } => {
             clap_complete::generate(shell, &mut Cli::command(), "flyarena", &mut std::io::stdout());
             Ok(PASS)

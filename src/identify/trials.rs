@@ -53,14 +53,14 @@ pub fn simulated() -> Vec<Effect> {
 }
 
 /// One drawn trial.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Trial {
     /// Trial number within the batch.
     pub index: u64,
     /// Seed of the flight's scenario (drawn from the batch seed and the index).
     pub seed: u64,
     /// Vehicle preset flown.
-    pub preset: &'static str,
+    pub preset: String,
     /// The plan pieces, in words.
     pub plan: Vec<String>,
     /// Hidden effects with their true parameters in the reported units.
@@ -100,7 +100,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
     let mut hidden = draw_hidden(&mut d, cf);
     let (plan, words) = draw_plan(&mut d, cf, &mut hidden);
     let yaml = trial_yaml(index, run_seed, preset, &plan, &hidden);
-    Trial { index, seed: run_seed, preset, plan: words, hidden, yaml }
+    Trial { index, seed: run_seed, preset: preset.to_string(), plan: words, hidden, yaml }
 }
 
 /// The hidden effects of a trial: 0–3 distinct simulated ones, with values drawn in ranges a
@@ -251,7 +251,7 @@ fn trial_yaml(index: u64, run_seed: u64, preset: &str, plan: &[String], hidden: 
 }
 
 /// What happened to one hidden effect.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct HiddenOutcome {
     /// The effect hidden.
     pub effect: Effect,
@@ -270,7 +270,7 @@ pub struct HiddenOutcome {
 }
 
 /// One trial, identified and scored.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Outcome {
     /// The trial as drawn.
     pub trial: Trial,
@@ -325,8 +325,67 @@ pub fn run(trial: &Trial, o: &Options) -> Outcome {
 /// Flies `count` trials of master seed `seed` on all cores; outcomes in index order, the same
 /// whatever the thread count.
 pub fn run_many(seed: u64, count: u64, o: &Options) -> Vec<Outcome> {
+    run_shard(seed, count, None, o)
+}
+
+/// The trials of shard `(k, n)` (0-based k: the indices i with i mod n = k) of `count`, or all
+/// of them with `None`; outcomes in index order. Trial i is a pure function of (seed, i), so the
+/// shards of a split hold, between them, exactly the outcomes of the unsharded batch.
+pub fn run_shard(seed: u64, count: u64, shard: Option<(u64, u64)>, o: &Options) -> Vec<Outcome> {
     use rayon::prelude::*;
-    (0..count).into_par_iter().map(|i| run(&draw(seed, i), o)).collect()
+    let mine: Vec<u64> = (0..count).filter(|i| shard.is_none_or(|(k, n)| i % n == k)).collect();
+    mine.into_par_iter().map(|i| run(&draw(seed, i), o)).collect()
+}
+
+/// One shard of a batch of trials, as `trials --shard K/N` writes it.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct TrialsShard {
+    /// The batch's master seed.
+    pub seed: u64,
+    /// The batch's number of flights.
+    pub flights: u64,
+    /// This shard, 1-based, and the number of shards: [K, N].
+    pub shard: [u64; 2],
+    /// Its outcomes, in index order.
+    pub outcomes: Vec<Outcome>,
+}
+
+/// The outcomes of a whole batch from its shards, in index order, with the batch's seed and
+/// size; an error names a shard that does not belong (another seed, size or split), is given
+/// twice or is missing, or one whose outcomes are not its trials.
+pub fn merge(parts: Vec<TrialsShard>) -> Result<(u64, u64, Vec<Outcome>), String> {
+    let first = parts.first().ok_or("no shard files given")?;
+    let (seed, flights, split) = (first.seed, first.flights, first.shard[1]);
+    let mut seen = std::collections::BTreeSet::new();
+    for p in &parts {
+        let [k, n] = p.shard;
+        let why = if p.seed != seed {
+            Some(format!("seed {}, not {seed}", p.seed))
+        } else if p.flights != flights {
+            Some(format!("{} flights, not {flights}", p.flights))
+        } else if n != split {
+            Some(format!("a split into {n} shards, not {split}"))
+        } else {
+            None
+        };
+        if let Some(why) = why {
+            return Err(format!("shard {k} of {n} does not belong with shard {} of {split} of trials seed {seed}: {why}", first.shard[0]));
+        }
+        if !(1..=n).contains(&k) || !seen.insert(k) {
+            return Err(format!("shard {k} of {n} is given twice or is no shard of {n}"));
+        }
+        let want: Vec<u64> = (0..flights).filter(|i| i % n == k - 1).collect();
+        let got: Vec<u64> = p.outcomes.iter().map(|o| o.trial.index).collect();
+        if got != want {
+            return Err(format!("shard {k} of {n} does not hold its trials (every {n}th from {}): a shard file cut short or edited", k - 1));
+        }
+    }
+    if let Some(missing) = (1..=split).find(|k| !seen.contains(k)) {
+        return Err(format!("shard {missing} of {split} is missing"));
+    }
+    let mut outcomes: Vec<Outcome> = parts.into_iter().flat_map(|p| p.outcomes).collect();
+    outcomes.sort_by_key(|o| o.trial.index);
+    Ok((seed, flights, outcomes))
 }
 
 /// Per-effect scores over a set of outcomes.

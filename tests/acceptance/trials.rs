@@ -12,7 +12,7 @@ use flyarena::identify::{Effect, Options};
 fn fixture(master_seed: u64, index: u64, preset: &'static str, hidden: Vec<(Effect, Vec<f64>)>) -> Trial {
     let yaml = std::fs::read_to_string(super::root().join(format!("tests/acceptance/fixtures/trial-{master_seed}-{index}.yaml"))).unwrap();
     let seed = yaml.lines().find_map(|l| l.strip_prefix("seed: ")).unwrap().trim().parse().unwrap();
-    Trial { index, seed, preset, plan: vec![], hidden, yaml }
+    Trial { index, seed, preset: preset.to_string(), plan: vec![], hidden, yaml }
 }
 
 /// The flight of a trial, logged as `identify` reads it (what `trials::run` flies).
@@ -376,4 +376,36 @@ fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
     let widen = [with[0] - own[0], with[1] - own[1]];
     assert!((widen[0] - 0.021).abs() < 0.002, "roll widened by {widen:?} for the alternative's 0.021°");
     assert!((0.0..widen[0]).contains(&widen[1]), "pitch widened by {widen:?}: the delay moves the roll");
+}
+
+/// `trials --shard K/N` flies every Nth flight from K − 1, and `flyarena merge` of the N shard
+/// files writes the unsharded report byte for byte (6 flights of seed 3 in 3 shards); a shard of
+/// another seed, one given twice and one missing are refused (exit 2, naming it), and nothing is
+/// written then.
+#[test]
+fn sharded_trials_merge_to_the_unsharded_report_byte_for_byte() {
+    let d = super::Scratch::new("trials-shards");
+    let fly = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(&*d).output().unwrap();
+    assert_eq!(fly(&["trials", "--flights", "6", "--seed", "3", "--out", "full"]).status.code(), Some(0));
+    for k in ["1/3", "2/3", "3/3"] {
+        assert_eq!(fly(&["trials", "--flights", "6", "--seed", "3", "--shard", k, "--out", "s"]).status.code(), Some(0));
+    }
+    assert_eq!(fly(&["trials", "--flights", "6", "--seed", "4", "--shard", "3/3", "--out", "other"]).status.code(), Some(0));
+    let shard = |k: u32| format!("s/trials-3-6.shard-{k}-of-3.json");
+    let merged = fly(&["merge", &shard(1), &shard(2), &shard(3), "--out", "m"]);
+    assert_eq!(merged.status.code(), Some(0), "{}", String::from_utf8_lossy(&merged.stderr));
+    assert_eq!(std::fs::read(d.join("m/trials-3-6.json")).unwrap(), std::fs::read(d.join("full/trials-3-6.json")).unwrap(), "merged ≠ unsharded");
+    for (files, why) in [
+        (vec![shard(1), shard(2), "other/trials-4-6.shard-3-of-3.json".into()], "seed 4, not 3"),
+        (vec![shard(1), shard(2), shard(2)], "shard 2 of 3 is given twice"),
+        (vec![shard(1), shard(3)], "shard 2 of 3 is missing"),
+    ] {
+        let mut args = vec!["merge".to_string()];
+        args.extend(files);
+        args.extend(["--out".into(), "bad".into()]);
+        let out = fly(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert_eq!(out.status.code(), Some(2), "{why}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains(why), "{why}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(!d.join("bad").exists(), "{why}: nothing written");
+    }
 }

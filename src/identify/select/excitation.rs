@@ -5,7 +5,7 @@ use super::*;
 
 /// How strongly one flight excites an effect, decided from the data's information matrix
 /// and the effect's size, not from what `identify` found.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Excitation {
     /// Noncentrality of the effect's block given every other candidate:
     /// λ = θᵀ·(G_CC − G_CO·G_OO⁻¹·G_OC)·θ on the prewhitened training problem (G the whitened
