@@ -68,6 +68,12 @@ enum Command {
         #[arg(long, default_value = "out", value_name = "DIR")]
         out: PathBuf,
     },
+    /// Write Slurm job scripts: a job array of shards and the merge that waits for it
+    /// (DIR/<name>.array.sbatch, .merge.sbatch, .submit.sh; run the last on a login node)
+    Slurm {
+        #[command(subcommand)]
+        job: SlurmJob,
+    },
     /// Print a shell completion script (e.g. `flyarena completions bash > ~/.local/share/bash-completion/completions/flyarena`)
     Completions {
         #[arg(value_enum)]
@@ -143,6 +149,56 @@ struct ServeArgs {
     /// Lockstep: how long a radio tick waits for the controller's command before going on without it
     #[arg(long, default_value_t = 1000, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=600_000), requires = "lockstep")]
     lockstep_timeout_ms: u64,
+}
+
+/// What a Slurm job array flies.
+#[derive(Subcommand)]
+enum SlurmJob {
+    /// `flyarena sweep SCENARIO`, one shard per array task
+    Sweep {
+        /// The scenario (with a `sweep:` section)
+        #[arg(value_name = "SCENARIO.yaml")]
+        scenario: PathBuf,
+        /// Number of runs (default: the scenario's)
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=10_000_000))]
+        runs: Option<u64>,
+        #[command(flatten)]
+        cluster: ClusterArgs,
+    },
+    /// `flyarena trials`, one shard per array task
+    Trials {
+        /// Number of flights
+        #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+        flights: u64,
+        /// Master seed
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[command(flatten)]
+        cluster: ClusterArgs,
+    },
+}
+
+/// The array's size, the cluster's options and the output folder.
+#[derive(Args)]
+struct ClusterArgs {
+    /// Array tasks (shards)
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    tasks: u64,
+    /// `#SBATCH --partition`
+    #[arg(long)]
+    partition: Option<String>,
+    /// `#SBATCH --time` (e.g. 01:00:00)
+    #[arg(long)]
+    time: Option<String>,
+    /// `#SBATCH --cpus-per-task` (also each task's threads)
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    cpus_per_task: Option<u32>,
+    /// `#SBATCH --account`
+    #[arg(long)]
+    account: Option<String>,
+    /// Output folder: the scripts, and where the jobs write (shards/, logs/, the merged output)
+    #[arg(long, default_value = "out", value_name = "DIR")]
+    out: PathBuf,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -659,6 +715,37 @@ fn finish_trials(seed: u64, flights: u64, outcomes: &[flyarena::identify::trials
     Ok(PASS)
 }
 
+fn cmd_slurm(job: SlurmJob) -> Result<i32, Error> {
+    use flyarena::slurm::{Cluster, Job, scripts};
+    let absolute = |p: &Path| std::path::absolute(p).map_err(|e| Error::Usage(format!("{}: {e}", p.display())));
+    let (job, name, c) = match job {
+        SlurmJob::Sweep { scenario, runs, cluster } => {
+            // the scenario is checked here, on the login node, not by every task
+            let s = Scenario::load(&scenario)?;
+            if s.sweep.is_none() {
+                return Err(Error::Usage(format!("{}: has no `sweep:` section", scenario.display())));
+            }
+            (Job::Sweep { scenario: absolute(&scenario)?, runs }, s.name.clone(), cluster)
+        }
+        SlurmJob::Trials { flights, seed, cluster } => (Job::Trials { flights, seed }, format!("trials-{seed}-{flights}"), cluster),
+    };
+    let cluster = Cluster { partition: c.partition, time: c.time, cpus_per_task: c.cpus_per_task, account: c.account };
+    let bin = std::env::current_exe().map_err(|e| Error::Usage(format!("the flyarena binary's path: {e}")))?;
+    let out = absolute(&c.out)?;
+    let s = scripts(&job, c.tasks, &cluster, &bin, &out, &name).map_err(Error::Usage)?;
+    for (file, text) in [&s.array, &s.merge, &s.submit] {
+        write_output(&out.join(file), text.as_bytes())?;
+    }
+    let submit = out.join(&s.submit.0);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&submit, std::fs::Permissions::from_mode(0o755)).map_err(|source| Error::Write { path: submit.clone(), source })?;
+    }
+    println!("{} array tasks → {}; submit on a login node with: {}", c.tasks, out.join(&s.array.0).display(), submit.display());
+    Ok(PASS)
+}
+
 /// Parses the arguments, runs the command and returns the process exit code (clap's own
 /// errors exit 2, `--help` and `--version` 0).
 pub fn main() -> i32 {
@@ -679,6 +766,7 @@ pub fn main() -> i32 {
         Command::Merge { shards, out } => cmd_merge(&shards, &out),
         Command::Identify(a) => cmd_identify(a),
         Command::Trials { flights, seed, shard, out } => cmd_trials(flights, seed, shard, &out),
+        Command::Slurm { job } => cmd_slurm(job),
         Command::Completions { shell } => {
             clap_complete::generate(shell, &mut Cli::command(), "flyarena", &mut std::io::stdout());
             Ok(PASS)

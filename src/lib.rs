@@ -104,6 +104,7 @@ pub mod rng;
 pub mod run;
 pub mod scenario;
 pub mod serve;
+pub mod slurm;
 pub mod sweep;
 pub mod vehicle;
 

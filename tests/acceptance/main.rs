@@ -19,6 +19,7 @@ mod record;
 mod ros2;
 mod scenarios;
 mod serve;
+mod slurm;
 mod sweep;
 mod trials;
 mod twins;

@@ -1,0 +1,159 @@
+//! `flyarena slurm`: the job scripts it writes, submitted as they are to a real Slurm cluster of
+//! one node (slurmctld, slurmd and munged started in a scratch folder with their own config and
+//! ports, stopped when the test ends, on failure too). `.ci/run` installs `slurm-wlm` and `munge`;
+//! outside CI, without them, the test skips with one line.
+
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A one-node cluster in a scratch folder; its daemons are stopped when it is dropped.
+struct Cluster {
+    dir: PathBuf,
+    conf: PathBuf,
+}
+
+fn free_tcp_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+fn run_ok(cmd: &mut Command) {
+    let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
+    assert!(out.status.success(), "{cmd:?}: {}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+}
+
+impl Cluster {
+    fn start(dir: &Path) -> Cluster {
+        for d in ["state", "spool", "log", "run", "munge"] {
+            std::fs::create_dir_all(dir.join(d)).unwrap();
+        }
+        let munge = dir.join("munge");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&munge, std::fs::Permissions::from_mode(0o700)).unwrap();
+            let key: Vec<u8> = (0..1024u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+            std::fs::write(munge.join("munge.key"), key).unwrap();
+            std::fs::set_permissions(munge.join("munge.key"), std::fs::Permissions::from_mode(0o400)).unwrap();
+        }
+        let host = String::from_utf8(Command::new("hostname").output().unwrap().stdout).unwrap().trim().to_string();
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let (ctld, d) = (free_tcp_port(), free_tcp_port());
+        let p = |s: &str| dir.join(s).display().to_string();
+        let conf = format!(
+            "ClusterName=flyarena\nSlurmctldHost={host}\nSlurmUser=root\nSlurmdUser=root\nSlurmctldPort={ctld}\nSlurmdPort={d}\n\
+             AuthType=auth/munge\nAuthInfo=socket={}\nCredType=cred/munge\nProctrackType=proctrack/linuxproc\nTaskPlugin=task/none\n\
+             SelectType=select/cons_tres\nSelectTypeParameters=CR_CPU\nStateSaveLocation={}\nSlurmdSpoolDir={}\n\
+             SlurmctldPidFile={}\nSlurmdPidFile={}\nSlurmctldLogFile={}\nSlurmdLogFile={}\nReturnToService=2\n\
+             JobAcctGatherType=jobacct_gather/none\nAccountingStorageType=accounting_storage/none\nMpiDefault=none\n\
+             NodeName={host} CPUs={cpus} State=UNKNOWN\nPartitionName=debug Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n",
+            p("munge/munge.sock"),
+            p("state"),
+            p("spool"),
+            p("run/slurmctld.pid"),
+            p("run/slurmd.pid"),
+            p("log/slurmctld.log"),
+            p("log/slurmd.log"),
+        );
+        let conf_path = dir.join("slurm.conf");
+        std::fs::write(&conf_path, conf).unwrap();
+        let cluster = Cluster { dir: dir.to_path_buf(), conf: conf_path };
+        run_ok(Command::new("munged").args([
+            "--key-file",
+            &p("munge/munge.key"),
+            "--socket",
+            &p("munge/munge.sock"),
+            "--pid-file",
+            &p("munge/munged.pid"),
+            "--log-file",
+            &p("munge/munged.log"),
+            "--seed-file",
+            &p("munge/seed"),
+            "-f",
+        ]));
+        run_ok(Command::new("slurmctld").arg("-f").arg(&cluster.conf));
+        run_ok(Command::new("slurmd").arg("-f").arg(&cluster.conf));
+        // up when the node is idle (seconds)
+        let started = std::time::Instant::now();
+        loop {
+            let out = cluster.cmd("sinfo").args(["-h", "-o", "%T"]).output().unwrap();
+            if String::from_utf8_lossy(&out.stdout).trim() == "idle" {
+                break;
+            }
+            assert!(started.elapsed().as_secs() < 60, "the node did not come up: {}", std::fs::read_to_string(dir.join("log/slurmctld.log")).unwrap_or_default());
+            std::thread::sleep(std::time::Duration::from_millis(300));
+        }
+        cluster
+    }
+
+    /// A Slurm command against this cluster.
+    fn cmd(&self, program: &str) -> Command {
+        let mut c = Command::new(program);
+        c.env("SLURM_CONF", &self.conf);
+        c
+    }
+}
+
+impl Drop for Cluster {
+    /// Stops every daemon and waits until each is gone (10 s, then SIGKILL).
+    fn drop(&mut self) {
+        for pid_file in ["run/slurmd.pid", "run/slurmctld.pid", "munge/munged.pid"] {
+            let Some(pid) = std::fs::read_to_string(self.dir.join(pid_file)).ok().and_then(|s| s.trim().parse::<i32>().ok()) else { continue };
+            let pid = pid.to_string();
+            // running: its /proc entry is there and not a zombie (state Z, after the `)` of its name)
+            let alive = || std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|st| st.rsplit(')').next().is_some_and(|rest| !rest.trim_start().starts_with('Z')));
+            let _ = Command::new("kill").arg(&pid).status();
+            let since = std::time::Instant::now();
+            while alive() && since.elapsed().as_secs() < 10 {
+                std::thread::sleep(std::time::Duration::from_millis(100));
+            }
+            if alive() {
+                let _ = Command::new("kill").args(["-9", &pid]).status();
+            }
+        }
+    }
+}
+
+fn flyarena(args: &[&str], dir: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap()
+}
+
+/// The scripts `flyarena slurm` writes, submitted as they are to a real one-node cluster: a
+/// sweep of 200 runs over 4 array tasks and 6 trial flights over 2, each merged by the job that
+/// waits for its array (`--dependency=afterok`), give the unsharded outputs byte for byte and
+/// the unsharded verdict (the exit code of `submit.sh --wait`), and every array task wrote its
+/// shard.
+#[test]
+fn the_job_scripts_run_on_a_real_cluster_and_merge_to_the_unsharded_outputs() {
+    let have = Command::new("slurmctld").arg("-V").output().is_ok_and(|o| o.status.success());
+    if !have {
+        assert!(std::env::var("CI").is_err(), "CI must have Slurm (apt-get install slurm-wlm munge, as .ci/run does)");
+        eprintln!("skipped: no Slurm here (apt-get install slurm-wlm munge)");
+        return;
+    }
+    let d = super::Scratch::new("slurm");
+    let cluster = Cluster::start(&d.join("cluster"));
+    let scenario = super::root().join("scenarios/sweep-hover-duration.yaml");
+    let s = scenario.to_str().unwrap();
+    let plain = flyarena(&["sweep", s, "--runs", "200", "--quiet", "--out", "plain"], &d);
+    // some runs of this sweep fail a requirement: its verdict is exit 1, on the cluster too
+    let verdict = plain.status.code();
+    assert!(verdict.is_some_and(|c| c <= 1), "{}", String::from_utf8_lossy(&plain.stderr));
+    assert_eq!(flyarena(&["trials", "--flights", "6", "--seed", "3", "--out", "plain"], &d).status.code(), Some(0));
+    let wrote = flyarena(&["slurm", "sweep", s, "--runs", "200", "--tasks", "4", "--out", "sweep"], &d);
+    assert_eq!(wrote.status.code(), Some(0), "{}", String::from_utf8_lossy(&wrote.stderr));
+    assert_eq!(flyarena(&["slurm", "trials", "--flights", "6", "--seed", "3", "--tasks", "2", "--out", "trials"], &d).status.code(), Some(0));
+    // `--wait` makes the merge's sbatch exit with the merge's code: the verdict
+    for (folder, name, code) in [("sweep", "sweep-hover-duration", verdict), ("trials", "trials-3-6", Some(0))] {
+        let submit = d.join(folder).join(format!("{name}.submit.sh"));
+        let out = cluster.cmd("timeout").arg("300").arg("bash").arg(&submit).arg("--wait").output().unwrap();
+        assert_eq!(out.status.code(), code, "{folder}: {}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    }
+    for (file, shards) in [("sweep-hover-duration.sweep.json", 4), ("sweep-hover-duration.sweep.csv", 4), ("trials-3-6.json", 2)] {
+        let folder = if file.starts_with("trials") { "trials" } else { "sweep" };
+        assert_eq!(std::fs::read(d.join(folder).join(file)).unwrap(), std::fs::read(d.join("plain").join(file)).unwrap(), "{file}: merged on the cluster ≠ unsharded");
+        let n =
+            std::fs::read_dir(d.join(folder).join("shards")).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(&format!("-of-{shards}.json"))).count();
+        assert_eq!(n, shards, "{folder}: one shard file per array task");
+    }
+}
