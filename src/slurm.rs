@@ -97,7 +97,8 @@ pub fn scripts(job: &Job, tasks: u64, cluster: &Cluster, flyarena: &Path, out: &
             let s = scenario.display().to_string();
             safe("the scenario's path", &s)?;
             let runs = runs.map_or(String::new(), |r| format!(" --runs {r}"));
-            (format!("{bin} sweep {s}{runs} --quiet"), format!("{dir}/shards/*.sweep.shard-*-of-{tasks}.json"))
+            // not --quiet: a task that resumes says how many of its runs its journal held
+            (format!("{bin} sweep {s}{runs}"), format!("{dir}/shards/*.sweep.shard-*-of-{tasks}.json"))
         }
         Job::Trials { flights, seed } => (format!("{bin} trials --flights {flights} --seed {seed}"), format!("{dir}/shards/trials-{seed}-{flights}.shard-*-of-{tasks}.json")),
     };
@@ -167,7 +168,7 @@ mod tests {
             "#SBATCH --account=lab-7",
             "#SBATCH --cpus-per-task=2",
             "#SBATCH --output=/scratch/run/logs/%x-%A_%a.out",
-            "exec /opt/flyarena sweep /data/s.yaml --runs 400 --quiet --shard \"${SLURM_ARRAY_TASK_ID}/4\" --out /scratch/run/shards",
+            "exec /opt/flyarena sweep /data/s.yaml --runs 400 --shard \"${SLURM_ARRAY_TASK_ID}/4\" --out /scratch/run/shards",
         ] {
             assert!(a.lines().any(|l| l == line), "missing `{line}` in\n{a}");
         }

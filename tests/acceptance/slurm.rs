@@ -157,3 +157,64 @@ fn the_job_scripts_run_on_a_real_cluster_and_merge_to_the_unsharded_outputs() {
         assert_eq!(n, shards, "{folder}: one shard file per array task");
     }
 }
+
+/// A task killed mid-run and submitted again finishes from its journal. A sweep of 600 runs over
+/// 2 array tasks is submitted; once task 1 has journalled 20 of its 300 runs (and before it ends)
+/// it is cancelled (`scancel JOB_1`), so its shard file is missing and its journal holds what it
+/// finished. Task 1 submitted again (`sbatch --array=1` on the same script) says it resumes with at
+/// least those runs done, the merge job then gives the unsharded output and verdict byte for
+/// byte.
+#[test]
+fn a_cancelled_task_submitted_again_resumes_from_its_journal() {
+    if !Command::new("slurmctld").arg("-V").output().is_ok_and(|o| o.status.success()) {
+        assert!(std::env::var("CI").is_err(), "CI must have Slurm (apt-get install slurm-wlm munge, as .ci/run does)");
+        eprintln!("skipped: no Slurm here (apt-get install slurm-wlm munge)");
+        return;
+    }
+    let d = super::Scratch::new("slurm-resume");
+    let cluster = Cluster::start(&d.join("cluster"));
+    let scenario = super::root().join("scenarios/sweep-hover-duration.yaml");
+    let s = scenario.to_str().unwrap();
+    let verdict = flyarena(&["sweep", s, "--runs", "600", "--quiet", "--out", "plain"], &d).status.code();
+    assert!(verdict.is_some_and(|c| c <= 1));
+    assert_eq!(flyarena(&["slurm", "sweep", s, "--runs", "600", "--tasks", "2", "--out", "job"], &d).status.code(), Some(0));
+    let job = d.join("job");
+    for sub in ["logs", "shards"] {
+        std::fs::create_dir_all(job.join(sub)).unwrap();
+    }
+    let array = job.join("sweep-hover-duration.array.sbatch");
+    let submitted = cluster.cmd("sbatch").arg("--parsable").arg(&array).output().unwrap();
+    assert!(submitted.status.success(), "{}", String::from_utf8_lossy(&submitted.stderr));
+    let id = String::from_utf8(submitted.stdout).unwrap().trim().split(';').next().unwrap().to_string();
+    let journal = job.join("shards/sweep-hover-duration.sweep.shard-1-of-2.journal.jsonl");
+    let lines = || std::fs::read_to_string(&journal).map_or(0, |t| t.lines().count());
+    let since = std::time::Instant::now();
+    while lines() < 21 {
+        assert!(since.elapsed().as_secs() < 120, "task 1 journalled {} lines in 120 s", lines());
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    run_ok(cluster.cmd("scancel").arg(format!("{id}_1")));
+    // the array ends: task 2 completes, task 1 is cancelled
+    let since = std::time::Instant::now();
+    while !String::from_utf8_lossy(&cluster.cmd("squeue").args(["-h", "-j", &id]).output().unwrap().stdout).trim().is_empty() {
+        assert!(since.elapsed().as_secs() < 120, "the array did not end");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
+    let shard1 = job.join("shards/sweep-hover-duration.sweep.shard-1-of-2.json");
+    assert!(!shard1.exists(), "task 1 finished before it was cancelled: the test needs more runs");
+    // the header line, then one line per finished run (a line cut by the kill is dropped on resume)
+    let finished = lines().saturating_sub(2);
+    assert!(finished >= 19 && finished < 300, "{finished} runs journalled");
+    let again = cluster.cmd("timeout").args(["300", "sbatch", "--wait", "--array=1", "--parsable"]).arg(&array).output().unwrap();
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+    assert!(shard1.exists());
+    let id2 = String::from_utf8(again.stdout).unwrap().trim().split(';').next().unwrap().to_string();
+    let log = std::fs::read_to_string(job.join(format!("logs/sweep-hover-duration-shards-{id2}_1.out"))).unwrap();
+    let resumed: usize = log.split("resuming: ").nth(1).and_then(|r| r.split(' ').next()).and_then(|n| n.parse().ok()).unwrap_or_else(|| panic!("no resume line: {log}"));
+    assert!(resumed >= finished && log.contains(&format!("resuming: {resumed} of 300 runs already done")), "{log}");
+    let merged = cluster.cmd("timeout").args(["300", "sbatch", "--wait"]).arg(job.join("sweep-hover-duration.merge.sbatch")).output().unwrap();
+    assert_eq!(merged.status.code(), verdict, "{}", String::from_utf8_lossy(&merged.stderr));
+    for file in ["sweep-hover-duration.sweep.json", "sweep-hover-duration.sweep.csv"] {
+        assert_eq!(std::fs::read(job.join(file)).unwrap(), std::fs::read(d.join("plain").join(file)).unwrap(), "{file}: resumed ≠ unsharded");
+    }
+}
