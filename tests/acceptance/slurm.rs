@@ -204,7 +204,7 @@ fn a_cancelled_task_submitted_again_resumes_from_its_journal() {
     assert!(!shard1.exists(), "task 1 finished before it was cancelled: the test needs more runs");
     // the header line, then one line per finished run (a line cut by the kill is dropped on resume)
     let finished = lines().saturating_sub(2);
-    assert!(finished >= 19 && finished < 300, "{finished} runs journalled");
+    assert!((19..300).contains(&finished), "{finished} runs journalled");
     let again = cluster.cmd("timeout").args(["300", "sbatch", "--wait", "--array=1", "--parsable"]).arg(&array).output().unwrap();
     assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
     assert!(shard1.exists());
