@@ -17,17 +17,18 @@ secs() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", (b - a) / 1e9 }'; }
 start=$(now)
 "$bin" sweep "$scenario" --runs "$runs" --quiet --out "$(mktemp -d)" > /dev/null || true
 echo "no scheduler, all cores: $runs runs in $(secs "$start" "$(now)") s"
-for tasks in 1 2 4; do
+# submits RUNS runs over TASKS one-CPU array tasks and waits for the merge; prints the wall time
+timed_array() {
+  local runs="$1" tasks="$2" out start
   out=$(mktemp -d)
   "$bin" slurm sweep "$scenario" --runs "$runs" --tasks "$tasks" --cpus-per-task 1 --out "$out" > /dev/null
   start=$(now)
   bash "$out"/*.submit.sh --wait > /dev/null || true
-  echo "$tasks array task(s) of 1 CPU: $runs runs in $(secs "$start" "$(now)") s"
+  secs "$start" "$(now)"
+}
+for tasks in 1 2 4; do
+  echo "$tasks array task(s) of 1 CPU: $runs runs in $(timed_array "$runs" "$tasks") s"
 done
 for tasks in 1 8; do
-  out=$(mktemp -d)
-  "$bin" slurm sweep "$scenario" --runs "$tasks" --tasks "$tasks" --cpus-per-task 1 --out "$out" > /dev/null
-  start=$(now)
-  bash "$out"/*.submit.sh --wait > /dev/null || true
-  echo "$tasks array task(s) of one run each, and the merge: $(secs "$start" "$(now)") s"
+  echo "$tasks array task(s) of one run each, and the merge: $(timed_array "$tasks" "$tasks") s"
 done

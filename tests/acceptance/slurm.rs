@@ -114,6 +114,17 @@ impl Drop for Cluster {
     }
 }
 
+/// Whether Slurm is installed; outside CI its absence skips the test with one line, under CI
+/// (where `.ci/run` installs it) it fails.
+fn have_slurm() -> bool {
+    if Command::new("slurmctld").arg("-V").output().is_ok_and(|o| o.status.success()) {
+        return true;
+    }
+    assert!(std::env::var("CI").is_err(), "CI must have Slurm (apt-get install slurm-wlm munge, as .ci/run does)");
+    eprintln!("skipped: no Slurm here (apt-get install slurm-wlm munge)");
+    false
+}
+
 fn flyarena(args: &[&str], dir: &Path) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap()
 }
@@ -125,10 +136,7 @@ fn flyarena(args: &[&str], dir: &Path) -> std::process::Output {
 /// shard.
 #[test]
 fn the_job_scripts_run_on_a_real_cluster_and_merge_to_the_unsharded_outputs() {
-    let have = Command::new("slurmctld").arg("-V").output().is_ok_and(|o| o.status.success());
-    if !have {
-        assert!(std::env::var("CI").is_err(), "CI must have Slurm (apt-get install slurm-wlm munge, as .ci/run does)");
-        eprintln!("skipped: no Slurm here (apt-get install slurm-wlm munge)");
+    if !have_slurm() {
         return;
     }
     let d = super::Scratch::new("slurm");
@@ -166,9 +174,7 @@ fn the_job_scripts_run_on_a_real_cluster_and_merge_to_the_unsharded_outputs() {
 /// byte.
 #[test]
 fn a_cancelled_task_submitted_again_resumes_from_its_journal() {
-    if !Command::new("slurmctld").arg("-V").output().is_ok_and(|o| o.status.success()) {
-        assert!(std::env::var("CI").is_err(), "CI must have Slurm (apt-get install slurm-wlm munge, as .ci/run does)");
-        eprintln!("skipped: no Slurm here (apt-get install slurm-wlm munge)");
+    if !have_slurm() {
         return;
     }
     let d = super::Scratch::new("slurm-resume");
