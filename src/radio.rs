@@ -9,7 +9,12 @@
 //! Rates: count = clamp(round(128 + ω/s), 0, 255), ω = (count − 128)·s, with s the rate scale in
 //! rad/s per count (default 1.5 °/s, so −192…+190.5 °/s). 128 is exactly zero rate.
 //! Angles: count = clamp(round(128 + α/s_α), 0, 255), α = (count − 128)·s_α, with s_α the angle
-//! scale in rad per count (default 0.25°, so −32…+31.75°). 128 is exactly level.
+//! scale in rad per count (default 0.25°, so −32…+31.75°). 128 is exactly level. The flown
+//! transmitter ([`Radio::transmit`]) carries each angle frame's rounding into the next (first-order
+//! error feedback: x_k = 128 + α_k/s_α + e_{k−1}, count_k = round(x_k), e_k = x_k − count_k, |e| ≤ ½), so
+//! a steady command between two counts is sent as the mix of both whose mean it is: the mean
+//! tilt an attitude-mode vehicle holds is the commanded one, not the nearest count (a
+//! 0.125° rounding of a held roll drifts a straight flight sideways).
 //! Thrust: count = clamp(round(255·T/T_max), 0, 255), T = count·T_max/255 (default T_max = the
 //! vehicle's maximum collective thrust, 24.0 N for the X3D: 0.094 N a count).
 //! The transmitter samples the controller's latest command every frame (zero-order hold until the
@@ -97,6 +102,8 @@ pub struct Radio {
     in_flight: VecDeque<(Nanos, PpmFrame)>,
     held: Received,
     last_sent: Option<PpmFrame>,
+    /// The error feedback of the roll and pitch angle channels (counts).
+    residual: [f64; 2],
 }
 
 impl Radio {
@@ -106,7 +113,7 @@ impl Radio {
             OnboardMode::Rate => Received::Rates(RateCommand::idle()),
             OnboardMode::Attitude => Received::Attitude(AttitudeCommand { roll: 0.0, pitch: 0.0, yaw_rate: 0.0, thrust_n: 0.0 }),
         };
-        Radio { params, in_flight: VecDeque::with_capacity(8), held, last_sent: None }
+        Radio { params, in_flight: VecDeque::with_capacity(8), held, last_sent: None, residual: [0.0; 2] }
     }
 
     /// The frame for a controller output: its body rates (rate mode) or its roll and pitch
@@ -137,9 +144,19 @@ impl Radio {
         }
     }
 
-    /// Transmits one frame at `now`; returns it (for logging).
+    /// Transmits one frame at `now`; returns it (for logging). In attitude mode the angle
+    /// channels carry their rounding into the next frame (module doc).
     pub fn transmit(&mut self, now: Nanos, out: &ControlOutput) -> PpmFrame {
-        let f = self.encode(out);
+        let mut f = self.encode(out);
+        if self.params.mode == OnboardMode::Attitude {
+            let sa = self.params.angle_scale_rad;
+            for (k, angle) in [out.angles_com.roll, out.angles_com.pitch].into_iter().enumerate() {
+                let x = RATE_CENTER as f64 + angle / sa + self.residual[k];
+                let c = x.round().clamp(0.0, 255.0);
+                f.channels[k] = c as u8;
+                self.residual[k] = (x - c).clamp(-0.5, 0.5);
+            }
+        }
         self.transmit_frame(now, f);
         f
     }
@@ -284,5 +301,26 @@ mod tests {
         // before the first frame the receiver holds level, no thrust
         let mut r = r;
         assert_eq!(r.receiver(Nanos::ZERO), Received::Attitude(AttitudeCommand { roll: 0.0, pitch: 0.0, yaw_rate: 0.0, thrust_n: 0.0 }));
+    }
+
+    /// A held roll of 0.1° (0.4 count) and pitch of −0.3125° (−1.25 counts) go out frame by
+    /// frame as the rounding of the running sum, by hand: roll 128.4 → 128 (e 0.4), 128.8 → 129,
+    /// 128.2 → 128, 128.6 → 129, 128.0 → 128; pitch 126.75 → 127, 126.5 → 127 (ties away from
+    /// zero), 126.25 → 126, 127.0 → 127. Over 20 frames the mean is the command to ½ count / 20.
+    /// Rate mode sends the plain rounding.
+    #[test]
+    fn a_held_angle_between_counts_is_sent_as_its_mean() {
+        let mut r = Radio::new(params(OnboardMode::Attitude));
+        let held = ControlOutput { angles_com: Euler::from_degrees(0.1, -0.3125, 0.0), yaw_rate_com: 0.0, ..out(Vec3::zeros(), 5.0) };
+        let sent: Vec<PpmFrame> = (0..20).map(|k| r.transmit(Nanos::from_millis(20 * k), &held)).collect();
+        let roll: Vec<u8> = sent.iter().map(|f| f.channels[0]).collect();
+        assert_eq!(&roll[..5], &[128, 129, 128, 129, 128], "{roll:?}");
+        let pitch: Vec<u8> = sent.iter().map(|f| f.channels[1]).collect();
+        assert_eq!(&pitch[..4], &[127, 127, 126, 127], "{pitch:?}");
+        let mean = |c: &[u8]| c.iter().map(|&x| x as f64 - 128.0).sum::<f64>() / c.len() as f64;
+        assert!((mean(&roll) - 0.4).abs() <= 0.5 / 20.0 && (mean(&pitch) + 1.25).abs() <= 0.5 / 20.0, "{} {}", mean(&roll), mean(&pitch));
+        let mut r = Radio::new(params(OnboardMode::Rate));
+        let f = r.transmit(Nanos::ZERO, &held);
+        assert_eq!(f, r.encode(&held));
     }
 }
