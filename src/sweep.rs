@@ -28,9 +28,10 @@ use std::path::{Path, PathBuf};
 /// Metric names, in column order. Angles in degrees, distances in metres; NaN when a run has no
 /// value for it (e.g. no yaw flight).
 /// Metrics per row, in this order: the roll and pitch calibration errors, the yaw errors of
-/// the gyro alignment and of the straight flight (deg), the spin drift (m) and its ratio to the
+/// the gyro alignment and of the straight flight (deg, absolute; then the straight flight's
+/// signed, estimate − truth), the spin drift (m) and its ratio to the
 /// uncompensated twin's, and |ψ_LS − ψ_RLS| (rad).
-pub const METRICS: [&str; 7] = ["roll_err_deg", "pitch_err_deg", "yaw_gyro_err_deg", "yaw_ls_err_deg", "spin_dev_m", "spin_ratio", "ls_rls_dpsi_rad"];
+pub const METRICS: [&str; 8] = ["roll_err_deg", "pitch_err_deg", "yaw_gyro_err_deg", "yaw_ls_err_deg", "yaw_ls_signed_err_deg", "spin_dev_m", "spin_ratio", "ls_rls_dpsi_rad"];
 /// Requirement pass flags per row.
 pub const REQUIREMENTS: [&str; 4] = ["R1", "R2", "R3", "R4"];
 
@@ -291,6 +292,7 @@ impl Sweep {
                     c.roll_pitch.map(|(_, p, _)| deg(p - t.pitch)),
                     c.gyro.map(|g| deg(crate::frames::wrap_pi(g.euler.yaw - t.yaw))),
                     c.yaw_offset.map(|y| deg(crate::frames::wrap_pi(y - t.yaw))),
+                    c.yaw_offset.map(|y| crate::frames::wrap_pi(y - t.yaw).to_degrees()),
                     v.spin_max_deviation_m,
                     v.spin_max_deviation_m.zip(u.and_then(|u| u.spin_max_deviation_m)).map(|(a, b)| a / b),
                     c.yaw_ls.zip(c.yaw_rls).map(|(a, b)| (a.psi_offset - b.psi_offset).abs()),

@@ -463,6 +463,7 @@ impl VehicleLoop {
             mocap_period: rate(s.mocap.rate_hz()).period(),
             telemetry_period: rate(tm.rate_hz()).period(),
             estimate_telemetry_clock: tm.clock.estimate,
+            hover_trim: cal.hover_trim && params.onboard_mode == crate::vehicle::OnboardMode::Attitude,
         };
         let fs =
             FailsafeSettings { timeout: ms(c.failsafe_timeout_ms), thrust_fraction: c.failsafe_thrust_fraction, motors_off_after: Nanos::from_secs_f64(c.failsafe_motors_off_s) };
@@ -579,7 +580,7 @@ impl VehicleLoop {
         let imu = self.imu.sample(s.omega, f);
         let rates = match held {
             Received::Rates(c) => c,
-            Received::Attitude(a) => self.attitude_loop.rate_command(&a, &s.att, imu.gyro),
+            Received::Attitude(a) => self.attitude_loop.rate_command(&a, &imu),
         };
         let gyro = match held {
             Received::Rates(_) => imu.gyro,

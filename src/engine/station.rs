@@ -4,7 +4,7 @@
 
 use crate::calibrate::{ClockSearch, Compensation, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
 use crate::clock::Nanos;
-use crate::control::{ControlOutput, Gains, Reference, control, failsafe};
+use crate::control::{ControlOutput, Gains, LateralMode, Reference, control, failsafe};
 use crate::estimate::VelocityEstimator;
 use crate::frames::{Body, Euler, MocapNav, Rot, Vec3};
 use crate::guidance::{Plan, Window};
@@ -34,6 +34,10 @@ pub struct CalibrationSettings {
     pub telemetry_period: Nanos,
     /// The gyro alignment fits the telemetry clock (offset, drift) instead of assuming the Vicon's.
     pub estimate_telemetry_clock: bool,
+    /// The straight flight (6) commands the hover's mean roll command, φ_com = φ̄_com,hover,
+    /// instead of 0 (`calibration.hover_trim`, attitude mode only): hovering on the spot the true
+    /// body is level on average, so the mean roll it was commanded is the onboard level's error.
+    pub hover_trim: bool,
 }
 
 /// When the mocap falls silent: after `timeout` without a pose the station commands the
@@ -83,6 +87,10 @@ pub struct CalibrationReport {
     pub gyro: Option<GyroFit>,
     /// The offset the controller used at the end of the run.
     pub applied: Euler,
+    /// The roll trim of the straight flight: the mean roll command of the hover average (rad;
+    /// with `hover_trim` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub roll_trim: Option<f64>,
 }
 
 /// The running hover average as it converged (for recording), rad.
@@ -115,6 +123,9 @@ pub struct Station {
     estimator: VelocityEstimator,
     offset: OffsetEstimate,
     hover: HoverAverager,
+    /// Σφ_com and the count over the hover average, for the trim.
+    hover_roll_com: (f64, u64),
+    roll_trim: Option<f64>,
     north: Vec<f64>,
     east: Vec<f64>,
     rls: Rls,
@@ -164,6 +175,8 @@ impl Station {
             estimator: VelocityEstimator::new(velocity_cutoff_hz),
             offset: OffsetEstimate::default(),
             hover: HoverAverager::default(),
+            hover_roll_com: (0.0, 0),
+            roll_trim: None,
             north: Vec::with_capacity(yaw_samples),
             east: Vec::with_capacity(yaw_samples),
             rls,
@@ -322,6 +335,16 @@ impl Station {
         self.dead_reckoned = Some((att, f.t_capture));
         self.reference = reference;
         self.command = control(&self.gains, &reference, f.pos, vel, att);
+        if self.settings.hover_trim {
+            match window {
+                Window::HoverAverage => {
+                    self.hover_roll_com.0 += self.command.angles_com.roll;
+                    self.hover_roll_com.1 += 1;
+                }
+                _ if reference.lateral == LateralMode::RollZero => self.command.angles_com.roll = self.roll_trim.unwrap_or(0.0),
+                _ => {}
+            }
+        }
     }
 
     /// Ends a calibration window: computes its result and, if enabled, applies it.
@@ -336,6 +359,11 @@ impl Station {
                     }
                 }
                 self.hover = HoverAverager::default();
+                if self.hover_roll_com.1 > 0 {
+                    self.roll_trim = Some(self.hover_roll_com.0 / self.hover_roll_com.1 as f64);
+                    self.report.roll_trim = self.roll_trim;
+                }
+                self.hover_roll_com = (0.0, 0);
             }
             Window::YawFlight => {
                 let validity = self.validity.verdict(self.settings.eps_yaw, self.settings.eps_roll);

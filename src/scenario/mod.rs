@@ -419,10 +419,13 @@ pub struct CalibrationCfg {
     /// Spread of X_N before the RLS recursion starts (m).
     #[serde(with = "ranges::spread_m")]
     pub rls_min_spread_m: f64,
+    /// Attitude mode: the straight flight (6) commands the hover's mean roll command (the
+    /// onboard level's error, trimmed) instead of φ_com = 0.
+    pub hover_trim: bool,
 }
 impl Default for CalibrationCfg {
     fn default() -> Self {
-        CalibrationCfg { apply: true, validity_max_mean_yaw_deg: 1.0, validity_max_mean_roll_deg: 1.0, rls_min_spread_m: 0.2 }
+        CalibrationCfg { apply: true, validity_max_mean_yaw_deg: 1.0, validity_max_mean_roll_deg: 1.0, rls_min_spread_m: 0.2, hover_trim: true }
     }
 }
 

@@ -19,7 +19,7 @@ pub mod params;
 pub mod rate_loop;
 pub mod telemetry;
 
-pub use attitude_loop::{AttitudeCommand, AttitudeLoop, OnboardMode};
+pub use attitude_loop::{AttitudeCommand, AttitudeLoop, LEVEL_GAIN_PER_S, OnboardMode};
 pub use battery::{Battery, BatteryParams};
 pub use dynamics::{Disturbance, State, X3d};
 pub use imu::{Imu, ImuParams, ImuSample};

@@ -183,8 +183,9 @@ fn straight_flight_yaw_is_the_leak_alone_without_noise() {
 /// The same straight flight in the onboard attitude mode, noise-free as above: φ_com = 0 is a
 /// level *physical* body, the pitch command tilts it about its own y axis, so the track's course
 /// is the body's heading ψ_m − ψ_off and (8)–(9) with the mean yaw returns ψ_off itself. For 4°
-/// and −6° of marker yaw the estimate is the truth within 0.01° (flown: 0.001°), for none within
-/// 0.001°; the rate-mode leak above is below 0.12° for the same 4°.
+/// and −6° of marker yaw the estimate is the truth within 0.02° (flown: 0.0006° and 0.011°, the
+/// onboard level filter's small part), for none within 0.001°; the rate-mode leak above is below
+/// 0.12° for the same 4°.
 #[test]
 fn the_straight_flight_sees_a_marker_yaw_in_attitude_mode() {
     let quiet = "mocap: { noise_mm: 0 }\nradio: { rate_scale_deg_s: 0.05 }\n";
@@ -193,15 +194,15 @@ fn the_straight_flight_sees_a_marker_yaw_in_attitude_mode() {
     for truth in [4.0, -6.0] {
         let e = est(truth);
         eprintln!("attitude mode: {truth}° of marker yaw, estimate {e}°");
-        assert!((e - truth).abs() < 0.01, "{truth}° of marker yaw: estimate {e}°");
+        assert!((e - truth).abs() < 0.02, "{truth}° of marker yaw: estimate {e}°");
     }
 }
 
 /// A straight flight in attitude mode whose trace is kept; `vehicle` is added to the vehicle's
-/// YAML (an IMU, a disturbance), `plan0` before the take-off.
-fn attitude_flight(vehicle: &str, plan0: &str) -> flyarena::engine::VehicleRun {
+/// YAML (an IMU, a disturbance), `plan0` before the take-off; `trim` is `calibration.hover_trim`.
+fn attitude_flight(vehicle: &str, plan0: &str, trim: bool) -> flyarena::engine::VehicleRun {
     let y = format!(
-        "name: att\nseed: 1\nmocap: {{ noise_mm: 0 }}\nvehicles:\n  - name: x3d\n    home_m: [-3, 0]\n    model: {{ onboard_mode: attitude }}\n{vehicle}plan:\n{plan0}  - takeoff: {{ altitude_m: 1.0, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 6, average_s: 5 }}\n  - calibrate_yaw: {{ settle_s: 3, distance_m: 6, speed_m_s: 0.75 }}\n"
+        "name: att\nseed: 1\nmocap: {{ noise_mm: 0 }}\ncalibration: {{ hover_trim: {trim} }}\nvehicles:\n  - name: x3d\n    home_m: [-3, 0]\n    model: {{ onboard_mode: attitude }}\n{vehicle}plan:\n{plan0}  - takeoff: {{ altitude_m: 1.0, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 6, average_s: 5 }}\n  - calibrate_yaw: {{ settle_s: 3, distance_m: 6, speed_m_s: 0.75 }}\n"
     );
     run(&inline(&y), RunOptions::default()).vehicles.remove(0)
 }
@@ -216,27 +217,37 @@ fn cruise_roll_deg(v: &flyarena::engine::VehicleRun) -> f64 {
 }
 
 /// Attitude mode's level, in closed form. A constant roll torque τ (a bent rotor) needs the
-/// rate loop's error τ/(J_x·K_ω) and the P attitude loop then stands off by
-/// φ = τ/(J_x·K_ω·K_φ): 2.44·10⁻³ N·m on J_x = 0.007 kg·m², K_ω = 25, K_φ = 8 is 0.0999°, held
-/// while the straight flight (6) commands φ = 0 (flown: within 0.001 % of it). A gyro bias of 1 °/s in roll would stand off by
-/// b/K_φ = 0.125° in the same way, but the power-on calibration (the rest before the first
-/// thrust) removes it: the roll stays within 0.001° (and the noise-free gyro needs no `idle`).
+/// rate loop's error τ/(J_x·K_ω) and the P attitude loop then stands off its estimate by
+/// ε₀ = τ/(J_x·K_ω·K_φ): 2.44·10⁻³ N·m on J_x = 0.007 kg·m², K_ω = 25, K_φ = 8 is 0.0999°. In
+/// flight the accelerometer reads the thrust axis, not gravity, so the level filter pulls the
+/// estimate toward the body's own axis at k_a·ε, and the loop, holding the estimate, rolls the
+/// body further: ε(t) = ε₀·(1 + k_a·t) from the start of (6), 2.1·ε₀ = 0.2097° averaged over 4–7 s
+/// of the flight (flown: 0.2015°, 4 % under it; held to 5 %). The hover trim (`calibration.hover_trim`, the
+/// default) commands the hover's mean roll instead of 0, which is the roll the estimate holds
+/// level at, and the body stays within 1 % of ε₀ of level (flown: 0.4 %). A gyro bias of 1 °/s
+/// in roll would stand off by b/K_φ = 0.125° in the same way, but the power-on calibration (the
+/// rest before the first thrust) removes it: the roll stays within 0.001° (and the noise-free
+/// gyro needs no `idle`).
 #[test]
 fn the_attitude_mode_holds_its_own_level() {
     let tau: f64 = 2.44e-3;
-    let predicted = (tau / (0.007 * 25.0 * 8.0)).to_degrees();
-    assert!((predicted - 0.0999).abs() < 1e-4, "{predicted}");
-    let bent = cruise_roll_deg(&attitude_flight(&format!("    disturbance: {{ torque_nm: [{tau}, 0, 0] }}\n"), ""));
-    assert!((bent - predicted).abs() < 1e-3 * predicted, "roll stand-off {bent}° vs {predicted}°");
-    let biased = cruise_roll_deg(&attitude_flight("    imu: { gyro_bias_deg_s: [1.0, 0, 0] }\n", ""));
-    eprintln!("roll stand-off {bent}° (closed form {predicted}°); with a calibrated 1 °/s bias {biased}°");
+    let eps0 = (tau / (0.007 * 25.0 * 8.0)).to_degrees();
+    assert!((eps0 - 0.0999).abs() < 1e-4, "{eps0}");
+    let predicted = eps0 * (1.0 + flyarena::vehicle::LEVEL_GAIN_PER_S * 5.5);
+    let torque = format!("    disturbance: {{ torque_nm: [{tau}, 0, 0] }}\n");
+    let bent = cruise_roll_deg(&attitude_flight(&torque, "", false));
+    assert!((bent - predicted).abs() < 0.05 * predicted, "roll {bent}° vs {predicted}°");
+    let trimmed = cruise_roll_deg(&attitude_flight(&torque, "", true));
+    assert!(trimmed.abs() < 0.01 * eps0, "trimmed roll {trimmed}°");
+    let biased = cruise_roll_deg(&attitude_flight("    imu: { gyro_bias_deg_s: [1.0, 0, 0] }\n", "", true));
+    eprintln!("roll {bent}° (closed form {predicted}°), trimmed {trimmed}°; with a calibrated 1 °/s bias {biased}°");
     assert!(biased.abs() < 1e-3, "a calibrated gyro bias tilts the body by {biased}°");
 }
 
 /// Fig. 6 and Fig. 7 in both onboard modes, uncompensated. In rate mode the 3°+3° markers turn
 /// the vehicle on a 0.36 m circle (closed form above); in attitude mode a level command is a
 /// level body, T_w⁻¹ acts onboard on the true angles, and the largest deviation while yawing is
-/// Fig. 7's noise level, below 1 cm (flown: 4.2 mm, and 3.8 mm for Fig. 7 in attitude mode).
+/// Fig. 7's noise level, below 1 cm (flown: 1.6 mm, and 1.4 mm for Fig. 7 in attitude mode).
 #[test]
 fn fig6_does_not_circle_in_attitude_mode() {
     let dev = |file: &str, edit: &dyn Fn(String) -> String| {

@@ -44,7 +44,7 @@ fn tampered_shards_are_errors_not_summaries() {
     assert!(merge(parts.clone()).is_ok());
     type Edit = fn(&mut Vec<SweepOutput>);
     let cases: [(Edit, &str); 15] = [
-        (|p| p[1].rows[0].metrics.clear(), "run 1 (x3d) has 4 values, 0 metrics and 4 requirement flags; a row has 4, 7 and 4"),
+        (|p| p[1].rows[0].metrics.clear(), "run 1 (x3d) has 4 values, 0 metrics and 4 requirement flags; a row has 4, 8 and 4"),
         (|p| p[1].rows[0].requirements.truncate(1), "1 requirement flags"),
         (|p| p[0].rows[1].params.truncate(1), "run 2 (x3d) has 1 values"),
         (
