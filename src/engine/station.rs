@@ -36,7 +36,8 @@ pub struct CalibrationSettings {
     pub estimate_telemetry_clock: bool,
     /// The straight flight (6) commands the hover's mean roll command, φ_com = φ̄_com,hover,
     /// instead of 0 (`calibration.hover_trim`, attitude mode only): hovering on the spot the true
-    /// body is level on average, so the mean roll it was commanded is the onboard level's error.
+    /// body is level on average, so the mean roll it was commanded is the roll at which the
+    /// onboard estimate holds the body level (minus the onboard level's error).
     pub hover_trim: bool,
 }
 
