@@ -125,6 +125,11 @@ impl<T: Copy> Link<T> {
         self
     }
 
+    /// The link's fixed delay.
+    pub fn latency(&self) -> Nanos {
+        self.params.latency
+    }
+
     /// The receiver's counts so far.
     pub fn stats(&self) -> &LinkStats {
         &self.stats

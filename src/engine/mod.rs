@@ -37,6 +37,7 @@ use crate::rng::{Component, Stream};
 use crate::scenario::{PHYSICS_HZ, Scenario, StationKind};
 use crate::vehicle::battery;
 use crate::vehicle::{AttitudeLoop, Battery, Disturbance, Downlink, Imu, ImuParams, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
+use std::collections::VecDeque;
 
 /// Options that are not part of the scenario.
 #[derive(Clone, Copy, Debug)]
@@ -191,6 +192,12 @@ struct VehicleLoop {
     delivered: Option<Vec<MocapFrame>>,
     /// The telemetry frames that reached the station in the current tick (tapped likewise).
     telemetry_delivered: Option<Vec<TelemetryFrame>>,
+    /// The frames the mocap lost this vehicle in (fewer than three markers seen), with the time
+    /// a tracked frame would have reached the station (capture + mocap latency + the link's
+    /// fixed delay) and the capture time; kept only when tapped.
+    lost: Option<VecDeque<(Nanos, u32, Nanos)>>,
+    /// The lost frames due in the current tick: (frame number, capture time).
+    lost_due: Vec<(u32, Nanos)>,
     /// An external controller's frame, held until the next one (`None`: the built-in station
     /// commands).
     external: Option<PpmFrame>,
@@ -272,12 +279,14 @@ impl Arena {
     }
 
     /// From now on, keep the mocap and telemetry frames that reach each vehicle's station in a
-    /// tick, for [`Arena::delivered`] and [`Arena::telemetry_delivered`] (a bridge streams them,
+    /// tick, and the frames the mocap lost it in, for [`Arena::delivered`],
+    /// [`Arena::telemetry_delivered`] and [`Arena::lost`] (a bridge streams them,
     /// e.g. `flyarena serve`). Changes nothing in the run.
     pub fn tap_delivered(&mut self) {
         for v in &mut self.vehicles {
             v.delivered.get_or_insert_with(Vec::new);
             v.telemetry_delivered.get_or_insert_with(Vec::new);
+            v.lost.get_or_insert_with(VecDeque::new);
         }
     }
 
@@ -312,6 +321,14 @@ impl Arena {
     /// received. Empty unless [`Arena::tap_delivered`] was called.
     pub fn delivered(&self, i: usize) -> &[MocapFrame] {
         self.vehicles.get(i).and_then(|v| v.delivered.as_deref()).unwrap_or(&[])
+    }
+
+    /// The frames whose capture lost vehicle `i` (fewer than three markers seen) and that would
+    /// have reached its station during the last [`Arena::step`] had it been tracked (capture +
+    /// mocap latency + the link's fixed delay): (frame number, capture time). Empty unless
+    /// [`Arena::tap_delivered`] was called.
+    pub fn lost(&self, i: usize) -> &[(u32, Nanos)] {
+        self.vehicles.get(i).map(|v| v.lost_due.as_slice()).unwrap_or(&[])
     }
 
     /// The number of vehicles.
@@ -510,6 +527,8 @@ impl VehicleLoop {
             any_nan: false,
             delivered: None,
             telemetry_delivered: None,
+            lost: None,
+            lost_due: Vec::new(),
             external: (v.station == StationKind::External).then(|| radio.idle_frame()),
             captured: None,
             radio,
@@ -520,9 +539,26 @@ impl VehicleLoop {
 impl VehicleLoop {
     fn sense(&mut self, t: Nanos, mocap_tick: bool) {
         self.captured = None;
-        if mocap_tick && let Some(f) = self.mocap.capture(t, self.x3d.state()) {
-            self.link.send(t + self.mocap_latency, f.seq, f);
-            self.captured = Some(f);
+        if mocap_tick {
+            let seq = self.mocap.next_seq();
+            match self.mocap.capture(t, self.x3d.state()) {
+                Some(f) => {
+                    self.link.send(t + self.mocap_latency, f.seq, f);
+                    self.captured = Some(f);
+                }
+                None => {
+                    if let Some(l) = &mut self.lost {
+                        l.push_back((t + self.mocap_latency + self.link.latency(), seq, t));
+                    }
+                }
+            }
+        }
+        self.lost_due.clear();
+        if let Some(l) = &mut self.lost {
+            while let Some(&(_, seq, at)) = l.front().filter(|(due, _, _)| *due <= t) {
+                self.lost_due.push((seq, at));
+                l.pop_front();
+            }
         }
         if let Some(d) = &mut self.delivered {
             d.clear();

@@ -112,6 +112,11 @@ impl Mocap {
         (&self.observed, &self.visible)
     }
 
+    /// The sequence number the next [`Mocap::capture`] takes.
+    pub fn next_seq(&self) -> u32 {
+        self.seq
+    }
+
     /// Captures one frame of the true state at time `t`. `None` when the vehicle is lost
     /// (fewer than three visible markers); the sequence number advances either way.
     pub fn capture(&mut self, t: Nanos, truth: &State) -> Option<MocapFrame> {

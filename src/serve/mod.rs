@@ -145,7 +145,7 @@ pub struct ServeReport {
     pub clients: Vec<String>,
     /// NatNet frames sent (one per frame number and arrival tick; each to every client).
     pub frames: u64,
-    /// Rigid-body poses in those frames.
+    /// Tracked rigid-body poses in those frames.
     pub poses: u64,
     /// Datagrams that could not be sent (e.g. a client's port closed).
     pub send_errors: u64,
@@ -408,7 +408,7 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
     let mut last_applied: Vec<Option<Nanos>> = vec![None; n];
     let latency: Vec<Nanos> = (0..n).map(|i| arena.declared_mocap_latency(i)).collect();
     let start = Instant::now();
-    let mut previous_ids: Vec<i32> = Vec::new();
+    let mut stream = StreamState::default();
     let mut period: u32 = 0;
     while !arena.done() {
         if opts.lockstep.is_none() {
@@ -420,7 +420,7 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
         }
         let t = arena.now();
         let radio_tick = arena.sense();
-        stream_frames(&mut server, &arena, opts.up, &latency, &mut previous_ids);
+        stream_frames(&mut server, &arena, opts.up, &latency, &mut stream);
         for i in (0..n).filter(|i| external[*i]) {
             if let Some(to) = server.controllers[i] {
                 for f in arena.telemetry_delivered(i) {
@@ -473,34 +473,64 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
     Ok((out, server.report))
 }
 
+/// What the stream last said of each body, for the frames that lose it.
+#[derive(Default)]
+struct StreamState {
+    /// The ids of the last frame's bodies.
+    ids: Vec<i32>,
+    /// Each vehicle's last tracked pose as streamed (position, quaternion).
+    last_pose: Vec<Option<([f32; 3], [f32; 4])>>,
+}
+
 /// Sends the mocap frames that reached the stations in this tick: one NatNet frame per frame
-/// number, with every body that came with it.
-fn stream_frames(server: &mut Server, arena: &Arena, up: Up, latency: &[Nanos], previous_ids: &mut Vec<i32>) {
-    let mut arrived: Vec<(u32, usize, crate::mocap::MocapFrame)> = Vec::new();
-    for i in 0..arena.vehicle_count() {
-        arrived.extend(arena.delivered(i).iter().map(|f| (f.seq, i, *f)));
+/// number, with every body that came with it, tracked, and every body the mocap lost in that
+/// frame with its tracking flag cleared and its last tracked pose (as Motive sends a rigid body
+/// out of view; the origin and no rotation before it was ever seen). A body missing because its
+/// link lost the packet is not in the frame.
+fn stream_frames(server: &mut Server, arena: &Arena, up: Up, latency: &[Nanos], state: &mut StreamState) {
+    let n = arena.vehicle_count();
+    state.last_pose.resize(n, None);
+    // (frame number, vehicle, capture time, the pose if tracked)
+    let mut arrived: Vec<(u32, usize, Nanos, Option<crate::mocap::MocapFrame>)> = Vec::new();
+    for i in 0..n {
+        arrived.extend(arena.delivered(i).iter().map(|f| (f.seq, i, f.t_capture, Some(*f))));
+        arrived.extend(arena.lost(i).iter().map(|&(seq, at)| (seq, i, at, None)));
     }
-    arrived.sort_by_key(|(seq, i, _)| (*seq, *i));
+    arrived.sort_by_key(|(seq, i, _, _)| (*seq, *i));
     for group in arrived.chunk_by(|a, b| a.0 == b.0) {
-        let (seq, first, f0) = group[0];
+        let (seq, first, at, _) = group[0];
         let bodies: Vec<natnet::RigidBody> = group
             .iter()
-            .map(|(_, i, f)| natnet::RigidBody { id: *i as i32 + 1, pos_m: up.position(f.pos), quat_xyzw: up.quaternion(&f.att), mean_error_m: 0.0, tracked: true })
+            .map(|(_, i, _, f)| {
+                let id = *i as i32 + 1;
+                match f {
+                    Some(f) => {
+                        let (pos_m, quat_xyzw) = (up.position(f.pos), up.quaternion(&f.att));
+                        state.last_pose[*i] = Some((pos_m, quat_xyzw));
+                        natnet::RigidBody { id, pos_m, quat_xyzw, mean_error_m: 0.0, tracked: true }
+                    }
+                    None => {
+                        let (pos_m, quat_xyzw) = state.last_pose[*i].unwrap_or(([0.0; 3], [0.0, 0.0, 0.0, 1.0]));
+                        natnet::RigidBody { id, pos_m, quat_xyzw, mean_error_m: 0.0, tracked: false }
+                    }
+                }
+            })
             .collect();
         let ids: Vec<i32> = bodies.iter().map(|b| b.id).collect();
-        let exposed = f0.t_capture.as_nanos().max(0) as u64;
-        let processed = (f0.t_capture + latency[first]).as_nanos().max(0) as u64;
+        let exposed = at.as_nanos().max(0) as u64;
+        let processed = (at + latency[first]).as_nanos().max(0) as u64;
         let frame = natnet::Frame {
             number: seq,
             bodies,
-            timestamp_s: f0.t_capture.as_secs_f64(),
+            timestamp_s: at.as_secs_f64(),
             mid_exposure: exposed,
             data_received: processed,
             transmit: processed,
-            models_changed: ids != *previous_ids,
+            models_changed: ids != state.ids,
         };
-        *previous_ids = ids;
-        server.broadcast(natnet::frame(&frame), group.len());
+        state.ids = ids;
+        let tracked = frame.bodies.iter().filter(|b| b.tracked).count();
+        server.broadcast(natnet::frame(&frame), tracked);
     }
 }
 

@@ -283,6 +283,51 @@ fn the_latency_stamps_hold_the_declared_latency_not_a_hidden_delay() {
     }
 }
 
+/// A body the mocap loses is sent untracked, as Motive does: cf1's markers 0 and 1 hidden over
+/// [2.5, 3.0) s leave two of four, so every frame exposed in that window holds cf1 with its
+/// tracking flag cleared and the last pose it was tracked at (the pose of its last tracked frame
+/// before the window, as received), and cf2 tracked beside it; outside the window cf1 is
+/// tracked. 0.5 s at 200 Hz is 100 frames, of which the client must see most (the link loses
+/// 5 % of cf2's, and a frame with cf1 alone is still sent).
+#[test]
+fn a_lost_body_is_sent_with_its_tracking_flag_cleared() {
+    if !python_has("natnet") {
+        return;
+    }
+    let ([port, data_port], out) = (free_ports::<2>(), tmp("natnet-lost"));
+    let text = std::fs::read_to_string(fixture()).unwrap();
+    let hidden = "    markers: { rotation_deg: [3, -2, 10], occlusions: [{ marker: 0, from_s: 2.5, to_s: 3.0 }, { marker: 1, from_s: 2.5, to_s: 3.0 }] }\n";
+    let lost = text.replace("    markers: { rotation_deg: [3, -2, 10] }\n", hidden);
+    assert_ne!(lost, text);
+    let path = out.join("lost.yaml");
+    std::fs::write(&path, lost).unwrap();
+    let mut srv = server_of(&path, port, data_port, &out, &[]);
+    let got = client("natnet_client.py", &[port.to_string(), "3.2".into()], Duration::from_secs(60));
+    srv.exits_ok(Duration::from_secs(60));
+    let (mut last_tracked, mut untracked, mut tracked_in_window) = (None::<Pose32>, 0, 0);
+    for f in got["frames"].as_array().unwrap() {
+        let t = f["timestamp"].as_f64().unwrap();
+        let in_window = (2.5..3.0).contains(&t);
+        for b in f["bodies"].as_array().unwrap() {
+            let (id, pose, valid) = (b[0].as_i64().unwrap(), (f32s::<3>(&b[1]), f32s::<4>(&b[2])), b[3].as_bool().unwrap());
+            if id == 2 {
+                assert!(valid, "cf2 is tracked at {t} s");
+                tracked_in_window += usize::from(in_window);
+                continue;
+            }
+            assert_eq!(valid, !in_window, "cf1 at {t} s (frame {})", f["number"]);
+            if valid {
+                last_tracked = Some(pose);
+            } else {
+                assert_eq!(Some(pose), last_tracked, "cf1 lost at {t} s: its last tracked pose");
+                untracked += 1;
+            }
+        }
+    }
+    assert!((95..=100).contains(&untracked), "{untracked} frames with cf1 untracked in 0.5 s at 200 Hz");
+    assert!(tracked_in_window > 80, "{tracked_in_window} frames with cf2 tracked beside it");
+}
+
 /// libmotioncapture's `optitrack` backend (the `motioncapture` wheel, as Crazyswarm2 uses it):
 /// it finds both rigid bodies by name, and each frame it hands out is one frame flyarena sent:
 /// every pose in it is the pose flyarena logged for that vehicle at one and the same frame
