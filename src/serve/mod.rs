@@ -571,4 +571,29 @@ mod tests {
         assert_eq!(Up::Z.position(Vec3::from_array([0.0, 0.0, -1.0])), [0.0, 0.0, 1.0]);
         assert_eq!(Up::Y.position(Vec3::from_array([0.0, 0.0, -1.0])), [0.0, 1.0, 0.0]);
     }
+
+    /// The command port stays in the vehicle's own axes (body FRD, NED), and docs/serve.md gives
+    /// the conversion from a stream convention, checked here against C: a body vector (the
+    /// body rates p, q, r of a rate command, the telemetry's mean gyro) is v' = C·v, so in z-up
+    /// (p, −q, −r) and in y-up (p, −r, q); a rotation (an attitude, the marker offset of a
+    /// report) is R' = C·R·Cᵀ, whose Z-Y-X angles in z-up are (φ, −θ, −ψ) (so an attitude-mode
+    /// command's roll, pitch and heading rate are (φ, −θ, −ψ̇) there); in y-up no sign rule
+    /// gives them, and R = Cᵀ·R'·C is what to report.
+    #[test]
+    fn the_command_ports_conversions_in_the_guide_are_c() {
+        let w = Vector3::new(0.3, -0.7, 1.1);
+        assert_eq!(c(Up::Z) * w, Vector3::new(0.3, 0.7, -1.1), "z-up: (p, −q, −r)");
+        assert_eq!(c(Up::Y) * w, Vector3::new(0.3, -1.1, -0.7), "y-up: (p, −r, q)");
+        for (r, p, y) in [(0.05, -0.03, 0.2), (0.4, 0.3, -2.0), (-0.2, 0.1, 3.0)] {
+            let frd = Rot::<MocapBody, MocapNav>::from_euler(Euler::new(r, p, y)).matrix();
+            let z = c(Up::Z) * frd * c(Up::Z).transpose();
+            let e = Rot::<MocapBody, MocapNav>::from_matrix(&z).euler();
+            assert!((e.roll - r).abs() < 1e-12 && (e.pitch + p).abs() < 1e-12 && crate::frames::wrap_pi(e.yaw + y).abs() < 1e-12, "z-up angles {e:?}");
+            let yup = c(Up::Y) * frd * c(Up::Y).transpose();
+            let back = c(Up::Y).transpose() * yup * c(Up::Y);
+            assert!((back - frd).abs().max() < 1e-12);
+            let ey = Rot::<MocapBody, MocapNav>::from_matrix(&yup).euler();
+            assert!((ey.roll - r).abs() > 1e-3 || (ey.pitch.abs() - p.abs()).abs() > 1e-3 || (ey.yaw.abs() - y.abs()).abs() > 1e-3, "y-up has no sign rule: {ey:?}");
+        }
+    }
 }
