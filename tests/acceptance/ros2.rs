@@ -112,10 +112,39 @@ fn poses_are_interpolated_onto_the_imu_clock_and_not_across_a_dropped_frame() {
     let d = tmp("interp");
     let p = d.join("i.mcap");
     std::fs::write(&p, bytes).unwrap();
-    let s = super::props::ros2_fuzz::mapping().read(&p).unwrap();
-    assert_eq!(s.len(), 400);
+    interpolated_on_the_imu_clock(&super::props::ros2_fuzz::mapping().read(&p).unwrap(), 0);
+}
+
+/// The same flight written by the independent writer (`mcap-ros2-support`,
+/// `tests/acceptance/clients/ros2_clock_bag.py`), every topic on its own clock: the IMU at
+/// 100 Hz, the poses at 50 Hz 5 ms after their rows, the motors 3 ms after each IMU message,
+/// the battery at 10 Hz 7 ms after; the same closed form holds row by row. The first IMU
+/// message comes before any motor or battery message, so its row is left out (the join holds
+/// those channels' last value and has none yet).
+#[test]
+fn poses_are_interpolated_on_a_bag_whose_topics_have_their_own_clocks() {
+    let have = Command::new("python3").args(["-c", "import mcap_ros2.writer"]).status().is_ok_and(|s| s.success());
+    if !have {
+        assert!(std::env::var("CI").is_err(), "CI must have Python's mcap-ros2-support (pip install mcap-ros2-support==0.6.0, as .ci/run does)");
+        eprintln!("skipped: no Python mcap-ros2-support here (pip install mcap-ros2-support==0.6.0)");
+        return;
+    }
+    let d = tmp("clocks");
+    let p = d.join("clocks.mcap");
+    let st = Command::new("python3").arg(super::root().join("tests/acceptance/clients/ros2_clock_bag.py")).arg(&p).status().unwrap();
+    assert!(st.success(), "the bag writer failed");
+    let m = Mapping::parse("vehicle: crazyflie21\nros2: { pose: /vicon/cf/pose, imu: /cf/imu, motors: /cf/motors, battery: /cf/battery }\nsmoothing_ms: 50\n", Path::new("m.yaml"))
+        .unwrap();
+    interpolated_on_the_imu_clock(&m.read(&p).unwrap(), 1);
+}
+
+/// The checks of the two tests above on 400 IMU messages at 10 ms with poses every 20 ms, 5 ms
+/// late, pose 202 dropped; the series starts at IMU message `first`.
+fn interpolated_on_the_imu_clock(s: &flyarena::identify::Series, first: usize) {
+    assert_eq!(s.len(), 400 - first);
     let mut checked = 0;
-    for k in 0..400usize {
+    for row in 0..s.len() {
+        let k = row + first;
         let t = k as f64 * 0.01;
         let inside = (3..=396).contains(&k);
         // poses 200 and 204 are stamped at rows 200.5 and 204.5: rows 201–204 lie between them
@@ -123,15 +152,15 @@ fn poses_are_interpolated_onto_the_imu_clock_and_not_across_a_dropped_frame() {
         if !inside {
             continue;
         }
-        assert_eq!(s.mocap_ok[k], !dropped, "row {k}");
+        assert_eq!(s.mocap_ok[row], !dropped, "IMU message {k}");
         if dropped {
             continue;
         }
         // the mapping turns the z-up world by π about x: y and z change sign
         let x_true = 0.3 * (2.0 * (t - 0.005)).cos();
-        assert!((s.pos_mocap_nav[k].x - x_true).abs() < 1e-4, "row {k}: x {} vs {x_true}", s.pos_mocap_nav[k].x);
+        assert!((s.pos_mocap_nav[row].x - x_true).abs() < 1e-4, "IMU message {k}: x {} vs {x_true}", s.pos_mocap_nav[row].x);
         let y_true = -0.3 * (2.0 * (t - 0.005)).sin();
-        assert!((s.pos_mocap_nav[k].y - y_true).abs() < 1e-4, "row {k}: y {} vs {y_true}", s.pos_mocap_nav[k].y);
+        assert!((s.pos_mocap_nav[row].y - y_true).abs() < 1e-4, "IMU message {k}: y {} vs {y_true}", s.pos_mocap_nav[row].y);
         checked += 1;
     }
     assert!(checked > 380, "{checked}");
