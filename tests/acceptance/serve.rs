@@ -504,17 +504,24 @@ fn scripted_controller(port: u16, registration: u32, answer: impl Fn(u32) -> Opt
     })
 }
 
-/// Serves `yaml` in lockstep (timeout `timeout_ms`) to [`scripted_controller`].
+/// Serves `yaml` to [`scripted_controller`]: in lockstep with a timeout of `timeout_ms`, or
+/// with `None` in real time at twice real speed.
 fn serve_scripted(
     yaml: &str,
-    timeout_ms: u64,
+    timeout_ms: Option<u64>,
     registration: u32,
     answer: impl Fn(u32) -> Option<[u8; 8]> + Send + 'static,
 ) -> (flyarena::engine::RunOutput, flyarena::serve::command::CommandStats) {
     let s = super::inline(yaml);
     let [port, data_port] = free_ports::<2>();
-    let opts =
-        ServeOptions { command_port: port, data_port, wait_for_client: Duration::from_secs(30), lockstep: Some(Duration::from_millis(timeout_ms)), ..ServeOptions::default() };
+    let opts = ServeOptions {
+        command_port: port,
+        data_port,
+        wait_for_client: Duration::from_secs(30),
+        lockstep: timeout_ms.map(Duration::from_millis),
+        speed: if timeout_ms.is_some() { 1.0 } else { 2.0 },
+        ..ServeOptions::default()
+    };
     let served = std::thread::spawn(move || serve(&s, &opts, RunOptions::default()));
     let controller = scripted_controller(port, registration, answer);
     let (out, net) = served.join().unwrap().unwrap();
@@ -533,7 +540,7 @@ const EXTERNAL_HOVER: &str =
 #[test]
 fn registration_answers_no_request_whatever_its_sequence_number() {
     for registration in [0, 1, 4_000_000_000] {
-        let (out, k) = serve_scripted(EXTERNAL_HOVER, 2000, registration, |_| Some([128, 128, 128, 0, 0, 0, 0, 0]));
+        let (out, k) = serve_scripted(EXTERNAL_HOVER, Some(2000), registration, |_| Some([128, 128, 128, 0, 0, 0, 0, 0]));
         let ticks = (out.duration.as_nanos() as u64).div_ceil(20_000_000);
         assert_eq!(
             (k.received, k.applied, k.duplicates, k.out_of_order, k.missing, k.timeouts, k.failsafe),
@@ -554,16 +561,7 @@ fn registration_answers_no_request_whatever_its_sequence_number() {
 /// resumed frame at the end.
 #[test]
 fn a_silent_controller_is_failed_safe_and_resumes_when_it_answers() {
-    let (out, k) = serve_scripted(
-        "name: silent\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 4 }\n",
-        80,
-        7,
-        |k| match k {
-            0..50 => Some([128, 128, 128, 255, 0, 0, 0, 0]),
-            50..120 => None,
-            _ => Some([128, 128, 128, 1, 0, 0, 0, 0]),
-        },
-    );
+    let (out, k) = serve_scripted(SILENT_HOVER, Some(80), 7, silent_from_50_to_119);
     let ticks = (out.duration.as_nanos() as u64).div_ceil(20_000_000);
     assert!(ticks >= 240, "{ticks}");
     assert!((70..=75).contains(&k.timeouts), "{k:?}");
@@ -571,6 +569,31 @@ fn a_silent_controller_is_failed_safe_and_resumes_when_it_answers() {
     assert_eq!((k.applied, k.duplicates, k.out_of_order, k.missing), (ticks - 70, 0, 0, 70), "{k:?} of {ticks} ticks");
     // the thrust the radio sent: held full thrust into the silence, the failsafe's zero from
     // 0.5 s after the last command, the resumed controller's 1 at the end
+    let thrust_at = |t_s: f64| out.vehicles[0].trace.iter().rfind(|x| x.t.as_secs_f64() <= t_s).and_then(|x| x.ppm).map(|f| f.channels[3]);
+    assert_eq!([thrust_at(1.2), thrust_at(2.0), thrust_at(out.duration.as_secs_f64())], [Some(255), Some(0), Some(1)]);
+}
+
+const SILENT_HOVER: &str = "name: silent\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 4 }\n";
+
+/// Full thrust for requests 0–49, silence for 50–119, thrust count 1 from 120 on.
+fn silent_from_50_to_119(k: u32) -> Option<[u8; 8]> {
+    match k {
+        0..50 => Some([128, 128, 128, 255, 0, 0, 0, 0]),
+        50..120 => None,
+        _ => Some([128, 128, 128, 1, 0, 0, 0, 0]),
+    }
+}
+
+/// The same silent controller in real time (twice real speed, no lockstep): nothing waits, so no
+/// deadline is missed; the receiver holds full thrust into the silence and sends the idle frame
+/// from 0.5 s after the last command applied, until an answer arrives again. Answers land when
+/// they land, so the counts have bounds: about 46 failsafe ticks (40–52), and the radio sent
+/// full thrust at 1.2 s, zero at 2.0 s and the resumed frame at the end.
+#[test]
+fn a_silent_controller_is_failed_safe_in_real_time_too() {
+    let (out, k) = serve_scripted(SILENT_HOVER, None, 7, silent_from_50_to_119);
+    assert_eq!(k.timeouts, 0, "{k:?}");
+    assert!((40..=52).contains(&k.failsafe), "{k:?}");
     let thrust_at = |t_s: f64| out.vehicles[0].trace.iter().rfind(|x| x.t.as_secs_f64() <= t_s).and_then(|x| x.ppm).map(|f| f.channels[3]);
     assert_eq!([thrust_at(1.2), thrust_at(2.0), thrust_at(out.duration.as_secs_f64())], [Some(255), Some(0), Some(1)]);
 }
