@@ -1005,6 +1005,13 @@ mod tests {
         let b: Vec<f64> = (1..26).map(f64::from).collect();
         let p = mann_whitney_greater(&a, &b);
         assert!((p / 4.57e-10 - 1.0).abs() < 0.02, "{p}");
+        // with ties above 50: thirty 1s against fifteen 0s and fifteen 1s; midranks 8 and 38,
+        // U = 30·38 − 465 = 675, mean 450, tie term Σ(t³ − t) = 3360 + 91080 over 60·59, so
+        // var = (900/12)·(61 − 26.678) = 2574.2, z = 4.4347, p = 4.610e-6 (without the tie term
+        // z = 3.327, p = 4.4e-4)
+        let b: Vec<f64> = [0.0; 15].into_iter().chain([1.0; 15]).collect();
+        let p = mann_whitney_greater(&[1.0; 30], &b);
+        assert!((p / 4.6098e-6 - 1.0).abs() < 1e-3, "{p}");
     }
 
     /// The test's size: under "both from one distribution" (uniform draws; 31 against 37 as the
@@ -1144,6 +1151,9 @@ mod tests {
         assert!((l.roll.difference_deg + 0.1).abs() < 1e-3 && (l.pitch.difference_deg - 0.5).abs() < 1e-3, "{l:?}");
         assert!(l.roll.bracket_difference_deg.abs() < 1e-3 && (l.pitch.bracket_difference_deg - 0.2).abs() < 1e-3, "{l:?}");
         assert!(l.pitch.bracket_ci95_deg >= 0.3 && l.pitch.bracket_covers && !l.pitch.covers, "{l:?}");
+        // the change's interval is the two rests' standard errors combined, 1.96·√(se_a² + se_b²)
+        let change_ci = 1.959964 * after.roll_se_deg.hypot(raw.roll_se_deg);
+        assert!(change_ci > 0.0 && (l.roll.change_ci95_deg / change_ci - 1.0).abs() < 1e-5, "{l:?} vs {change_ci}");
         // this flight sits between its rests (before − flight: +0.1 roll, −0.1 pitch; after −
         // flight: −0.1, +0.5); one at pitch −1.2 does not in pitch (+0.2, +0.8; bracket +0.5)
         // a flight at pitch −0.6 disagrees with the rest before (−0.4) and agrees with the
