@@ -286,6 +286,35 @@ mod tests {
         assert!(Cdr::new(&[0, 1]).is_err());
     }
 
+    /// A Float64MultiArray of motor commands by hand (no dimensions, offset 0, n values from
+    /// byte 12, already aligned to 8): 4 values are read; 0 and 9 are refused with their count,
+    /// and so is a count that changes between messages.
+    #[test]
+    fn motor_arrays_hold_one_to_eight_values() {
+        let array = |n: u32| {
+            let mut b = vec![0u8, 1, 0, 0];
+            b.extend(0u32.to_le_bytes());
+            b.extend(0u32.to_le_bytes());
+            b.extend(n.to_le_bytes());
+            b.extend([0u8; 4]);
+            for k in 0..n {
+                b.extend((k as f64 + 0.5).to_le_bytes());
+            }
+            b
+        };
+        let schema = "std_msgs/msg/Float64MultiArray";
+        let four = array(4);
+        let (n, v) = motors_message(&mut Cdr::new(&four).unwrap(), schema, None).unwrap();
+        assert_eq!((n, v), (4, [0.5, 1.5, 2.5, 3.5, 0.0, 0.0, 0.0, 0.0]));
+        for (bad, want) in [(0, "0 motor values; 1 to 8 expected"), (9, "9 motor values; 1 to 8 expected")] {
+            let b = array(bad);
+            let e = motors_message(&mut Cdr::new(&b).unwrap(), schema, None).unwrap_err();
+            assert_eq!(e.to_string(), want);
+        }
+        let e = motors_message(&mut Cdr::new(&four).unwrap(), schema, Some(3)).unwrap_err();
+        assert_eq!(e.to_string(), "4 motor values where earlier messages had 3");
+    }
+
     #[test]
     fn a_file_that_is_not_mcap_is_named() {
         let t = Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None };
