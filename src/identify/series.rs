@@ -315,6 +315,19 @@ pub(crate) fn correct(s: &Series, c: &Corrections) -> Corrected {
 mod tests {
     use super::*;
 
+    /// A row read `shift` rows later stays inside its segment [10, 20): row 18 + 1.5 reads
+    /// between rows 19 and 20, which is outside; 18 + 1 is row 19 exactly; 19 + 1 is row 20, the
+    /// next segment's first, so nothing; 10 − 0.5 reads before the segment, nothing.
+    #[test]
+    fn a_shifted_row_stays_inside_its_segment() {
+        assert_eq!(shifted(18, 1.0, 10, 20), Some((19, 19, 0.0)));
+        assert_eq!(shifted(18, 0.25, 10, 20), Some((18, 19, 0.25)));
+        assert_eq!(shifted(18, 1.5, 10, 20), None);
+        assert_eq!(shifted(19, 1.0, 10, 20), None);
+        assert_eq!(shifted(10, -0.5, 10, 20), None);
+        assert_eq!(shifted(11, -1.0, 10, 20), Some((10, 10, 0.0)));
+    }
+
     fn model() -> NominalModel {
         NominalModel {
             vehicle: "test".into(),
