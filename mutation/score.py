@@ -22,6 +22,7 @@ import json
 import math
 import os
 import random
+import re
 
 Z95 = 1.959963984540054
 
@@ -145,16 +146,20 @@ def census(table, survivors=False):
     if len(head) != 1 or any(len(r) != 5 or r[1] not in STAGE1.values() or r[2] not in ("1", "2") for r in rows):
         raise SystemExit(f"{table}: not a census table (one '# census of' line, rows of five columns)")
     done = sorted({int(r[0]) for r in rows})
+    # a table of another round-robin (the modules outside the census) names its shard count
+    of = re.search(r"(\d+) shards", head[0])
+    shards = int(of.group(1)) if of else SHARDS
     m, unviable = len(rows), sum(r[1] == "unviable" for r in rows)
     caught = sum(r[1] == "caught" for r in rows)
     n = m - unviable
-    print(f"{head[0][2:]}: {len(done)} of {SHARDS} shards done, {m} mutants, {n} viable")
+    print(f"{head[0][2:]}: {len(done)} of {shards} shards done, {m} mutants, {n} viable")
     if n:
-        state = "the score: every mutant of the list" if done == list(range(SHARDS)) else "progress, not the score: the census decides when all shards are done"
+        state = "the score: every mutant of the list" if done == list(range(shards)) else "progress, not the score: the census decides when all shards are done"
         print(f"caught: {caught} of {n} = {100 * caught / n:.1f} % ({state})")
         print(f"by stage: {sum(r[1] == 'caught' and r[2] == '1' for r in rows)} by the unit tests, {sum(r[1] == 'caught' and r[2] == '2' for r in rows)} by the whole suite; not caught: {sum(r[1] == 'missed' for r in rows)} missed ({sum(r[4].startswith('unconfirmed') for r in rows)} of them failed a test that then passed alone), {sum(r[1] == 'timeout' for r in rows)} timeouts")
         # the shards no earlier sample measured: mutants the suite was never tuned on
-        sampled = {int(x.split("\t")[0]) for x in open(SHARDS_TABLE, encoding="utf-8") if x[:1].isdigit()}
+        # (the earlier sample's shards are the census's; no test was tuned on another set)
+        sampled = {int(x.split("\t")[0]) for x in open(SHARDS_TABLE, encoding="utf-8") if x[:1].isdigit()} if not of else set()
         fresh = [r for r in rows if int(r[0]) not in sampled and r[1] != "unviable"]
         if fresh:
             kf = sum(r[1] == "caught" for r in fresh)
