@@ -124,9 +124,8 @@ pub struct Station {
     estimator: VelocityEstimator,
     offset: OffsetEstimate,
     hover: HoverAverager,
-    /// Σφ_com and the count over the hover average, for the trim.
-    hover_roll_com: (f64, u64),
-    roll_trim: Option<f64>,
+    /// The commanded angles over the hover average, for the trim.
+    hover_com: HoverAverager,
     north: Vec<f64>,
     east: Vec<f64>,
     rls: Rls,
@@ -176,8 +175,7 @@ impl Station {
             estimator: VelocityEstimator::new(velocity_cutoff_hz),
             offset: OffsetEstimate::default(),
             hover: HoverAverager::default(),
-            hover_roll_com: (0.0, 0),
-            roll_trim: None,
+            hover_com: HoverAverager::default(),
             north: Vec::with_capacity(yaw_samples),
             east: Vec::with_capacity(yaw_samples),
             rls,
@@ -338,11 +336,8 @@ impl Station {
         self.command = control(&self.gains, &reference, f.pos, vel, att);
         if self.settings.hover_trim {
             match window {
-                Window::HoverAverage => {
-                    self.hover_roll_com.0 += self.command.angles_com.roll;
-                    self.hover_roll_com.1 += 1;
-                }
-                _ if reference.lateral == LateralMode::RollZero => self.command.angles_com.roll = self.roll_trim.unwrap_or(0.0),
+                Window::HoverAverage => self.hover_com.add(self.command.angles_com),
+                _ if reference.lateral == LateralMode::RollZero => self.command.angles_com.roll = self.report.roll_trim.unwrap_or(0.0),
                 _ => {}
             }
         }
@@ -360,11 +355,10 @@ impl Station {
                     }
                 }
                 self.hover = HoverAverager::default();
-                if self.hover_roll_com.1 > 0 {
-                    self.roll_trim = Some(self.hover_roll_com.0 / self.hover_roll_com.1 as f64);
-                    self.report.roll_trim = self.roll_trim;
+                if let Some((roll, _)) = self.hover_com.mean() {
+                    self.report.roll_trim = Some(roll);
                 }
-                self.hover_roll_com = (0.0, 0);
+                self.hover_com = HoverAverager::default();
             }
             Window::YawFlight => {
                 let validity = self.validity.verdict(self.settings.eps_yaw, self.settings.eps_roll);
