@@ -6,19 +6,26 @@ use flyarena::identify::{Effect, Options, identify};
 use std::path::Path;
 use std::process::Command;
 
-/// Writes `flight` (a NanoBench CSV) as a bag with `scripts/nanobench-to-mcap.py`. Without
-/// Python's `mcap_ros2` the test fails under CI (where `.ci/run` installs it) and is skipped,
-/// said on stderr, elsewhere.
+/// Writes `flight` (a NanoBench CSV) as a bag with `scripts/nanobench-to-mcap.py` ([`have_writer`]
+/// says what happens without the writer).
 fn bag_of(flight: &Path, out: &Path) -> Option<()> {
-    let have = Command::new("python3").args(["-c", "import mcap_ros2.writer"]).status().is_ok_and(|s| s.success());
-    if !have {
-        assert!(std::env::var("CI").is_err(), "CI must have Python's mcap-ros2-support (pip install mcap-ros2-support==0.6.0, as .ci/run does)");
-        eprintln!("skipped: no Python mcap-ros2-support here (pip install mcap-ros2-support==0.6.0)");
+    if !have_writer() {
         return None;
     }
     let st = Command::new("python3").arg(super::root().join("scripts/nanobench-to-mcap.py")).arg(flight).arg(out).status().unwrap();
     assert!(st.success(), "the bag writer failed on {}", flight.display());
     Some(())
+}
+
+/// Whether Python has the independent writer `mcap_ros2`. Without it a test fails under CI
+/// (where `.ci/run` installs it) and is skipped, said on stderr, elsewhere.
+fn have_writer() -> bool {
+    let have = Command::new("python3").args(["-c", "import mcap_ros2.writer"]).status().is_ok_and(|s| s.success());
+    if !have {
+        assert!(std::env::var("CI").is_err(), "CI must have Python's mcap-ros2-support (pip install mcap-ros2-support==0.6.0, as .ci/run does)");
+        eprintln!("skipped: no Python mcap-ros2-support here (pip install mcap-ros2-support==0.6.0)");
+    }
+    have
 }
 
 fn tmp(name: &str) -> super::Scratch {
@@ -123,10 +130,7 @@ fn poses_are_interpolated_onto_the_imu_clock_and_not_across_a_dropped_frame() {
 /// those channels' last value and has none yet).
 #[test]
 fn poses_are_interpolated_on_a_bag_whose_topics_have_their_own_clocks() {
-    let have = Command::new("python3").args(["-c", "import mcap_ros2.writer"]).status().is_ok_and(|s| s.success());
-    if !have {
-        assert!(std::env::var("CI").is_err(), "CI must have Python's mcap-ros2-support (pip install mcap-ros2-support==0.6.0, as .ci/run does)");
-        eprintln!("skipped: no Python mcap-ros2-support here (pip install mcap-ros2-support==0.6.0)");
+    if !have_writer() {
         return;
     }
     let d = tmp("clocks");

@@ -254,6 +254,16 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
     assert!((roll - 3.0).abs() < 0.3 && (pitch - 2.0).abs() < 0.3, "cf1 reads roll {roll:.2}°, pitch {pitch:.2}°");
 }
 
+/// The fixture with cf1's `markers:` line replaced by `cf1_lines`, written as `name` in `out`.
+fn fixture_with_cf1(out: &Path, name: &str, cf1_lines: &str) -> PathBuf {
+    let text = std::fs::read_to_string(fixture()).unwrap();
+    let variant = text.replace("    markers: { rotation_deg: [3, -2, 10] }\n", cf1_lines);
+    assert_ne!(variant, text);
+    let path = out.join(name);
+    std::fs::write(&path, variant).unwrap();
+    path
+}
+
 /// The latency stamps carry what a mocap system knows of itself. cf1 of the test flight hides a
 /// 10 ms mocap delay (`undeclared.mocap_delay_ms`: its poses reach the station late, which no
 /// mocap system knows of); every frame's data-received stamp must still be its mid-exposure stamp
@@ -264,11 +274,7 @@ fn the_latency_stamps_hold_the_declared_latency_not_a_hidden_delay() {
         return;
     }
     let ([port, data_port], out) = (free_ports::<2>(), tmp("natnet-hidden-delay"));
-    let text = std::fs::read_to_string(fixture()).unwrap();
-    let hidden = text.replace("    markers: { rotation_deg: [3, -2, 10] }\n", "    markers: { rotation_deg: [3, -2, 10] }\n    undeclared: { mocap_delay_ms: 10 }\n");
-    assert_ne!(hidden, text);
-    let path = out.join("hidden-delay.yaml");
-    std::fs::write(&path, hidden).unwrap();
+    let path = fixture_with_cf1(&out, "hidden-delay.yaml", "    markers: { rotation_deg: [3, -2, 10] }\n    undeclared: { mocap_delay_ms: 10 }\n");
     let s = flyarena::scenario::Scenario::load(&path).unwrap();
     let latency_ns = (s.mocap.latency_ms * 1e6) as u64;
     let mut srv = server_of(&path, port, data_port, &out, &[]);
@@ -295,12 +301,8 @@ fn a_lost_body_is_sent_with_its_tracking_flag_cleared() {
         return;
     }
     let ([port, data_port], out) = (free_ports::<2>(), tmp("natnet-lost"));
-    let text = std::fs::read_to_string(fixture()).unwrap();
     let hidden = "    markers: { rotation_deg: [3, -2, 10], occlusions: [{ marker: 0, from_s: 2.5, to_s: 3.0 }, { marker: 1, from_s: 2.5, to_s: 3.0 }] }\n";
-    let lost = text.replace("    markers: { rotation_deg: [3, -2, 10] }\n", hidden);
-    assert_ne!(lost, text);
-    let path = out.join("lost.yaml");
-    std::fs::write(&path, lost).unwrap();
+    let path = fixture_with_cf1(&out, "lost.yaml", hidden);
     let mut srv = server_of(&path, port, data_port, &out, &[]);
     let got = client("natnet_client.py", &[port.to_string(), "3.2".into()], Duration::from_secs(60));
     srv.exits_ok(Duration::from_secs(60));
@@ -569,8 +571,12 @@ fn a_silent_controller_is_failed_safe_and_resumes_when_it_answers() {
     assert_eq!((k.applied, k.duplicates, k.out_of_order, k.missing), (ticks - 70, 0, 0, 70), "{k:?} of {ticks} ticks");
     // the thrust the radio sent: held full thrust into the silence, the failsafe's zero from
     // 0.5 s after the last command, the resumed controller's 1 at the end
-    let thrust_at = |t_s: f64| out.vehicles[0].trace.iter().rfind(|x| x.t.as_secs_f64() <= t_s).and_then(|x| x.ppm).map(|f| f.channels[3]);
-    assert_eq!([thrust_at(1.2), thrust_at(2.0), thrust_at(out.duration.as_secs_f64())], [Some(255), Some(0), Some(1)]);
+    assert_eq!([1.2, 2.0, out.duration.as_secs_f64()].map(|t| thrust_sent(&out, t)), [Some(255), Some(0), Some(1)]);
+}
+
+/// The thrust count the radio last sent at or before `t_s`.
+fn thrust_sent(out: &flyarena::engine::RunOutput, t_s: f64) -> Option<u8> {
+    out.vehicles[0].trace.iter().rfind(|x| x.t.as_secs_f64() <= t_s).and_then(|x| x.ppm).map(|f| f.channels[3])
 }
 
 const SILENT_HOVER: &str = "name: silent\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 4 }\n";
@@ -594,8 +600,7 @@ fn a_silent_controller_is_failed_safe_in_real_time_too() {
     let (out, k) = serve_scripted(SILENT_HOVER, None, 7, silent_from_50_to_119);
     assert_eq!(k.timeouts, 0, "{k:?}");
     assert!((40..=52).contains(&k.failsafe), "{k:?}");
-    let thrust_at = |t_s: f64| out.vehicles[0].trace.iter().rfind(|x| x.t.as_secs_f64() <= t_s).and_then(|x| x.ppm).map(|f| f.channels[3]);
-    assert_eq!([thrust_at(1.2), thrust_at(2.0), thrust_at(out.duration.as_secs_f64())], [Some(255), Some(0), Some(1)]);
+    assert_eq!([1.2, 2.0, out.duration.as_secs_f64()].map(|t| thrust_sent(&out, t)), [Some(255), Some(0), Some(1)]);
 }
 
 /// `run` cannot fly a vehicle that an external controller flies: exit 2, saying to serve it.
