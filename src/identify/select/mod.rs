@@ -134,6 +134,17 @@ pub(crate) fn enough_to_select(train_samples: usize) -> bool {
     train_samples >= MIN_TRAIN_SAMPLES
 }
 
+/// The tilt-only form of a world tilt R_w: the rotation R_y(θ)·R_x(φ) (Z-Y-X Euler angles with
+/// no yaw) that takes gravity's direction e_D where R_w does, u = R_w·e_D, so φ = −asin u_y and
+/// θ = atan2(u_x, u_z). A yaw of the world about gravity, R_w·R_z(ε), is seen by no channel
+/// (gravity and the body's rates do not change; positions and attitudes turn together), so
+/// every R_w with the same u is one tilt; composing increments about x and y gathers such a yaw
+/// (of the order of τ_x·τ_y), which would move the reported roll and pitch off the tilt.
+pub(crate) fn level_tilt(r_w: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    let u = r_w * Vector3::z();
+    UnitQuaternion::from_euler_angles(-u.y.clamp(-1.0, 1.0).asin(), u.x.atan2(u.z), 0.0)
+}
+
 /// Folds the linear increments of the correction effects into the corrections; zeroes them.
 fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
     for e in selected {
@@ -145,7 +156,7 @@ fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
             }
             Effect::WorldTilt => {
                 let d = Vector3::new(theta[r.start], theta[r.start + 1], 0.0);
-                corr.world_tilt *= UnitQuaternion::from_scaled_axis(d);
+                corr.world_tilt = level_tilt(&(corr.world_tilt * UnitQuaternion::from_scaled_axis(d)));
             }
             Effect::MocapDelay => corr.mocap_delay_s += theta[r.start],
             Effect::GyroDelay => corr.gyro_delay_s += theta[r.start],
@@ -842,6 +853,28 @@ fn ground(
 mod tests {
     use super::*;
 
+    /// The level form of a world tilt keeps gravity's direction in the mocap world and has no
+    /// yaw: R_w·R_z(ε) (the same tilt under a yaw no sensor sees) levels to R_y(θ)·R_x(φ) itself,
+    /// for tilts of 6° and 40°. Composing increments about x and y (the fold) gathers such a yaw:
+    /// 6° of roll then 2° of pitch, as increments, carry a yaw of about τ_x·τ_y/2 = 0.1°, and
+    /// leave roll and pitch off the tilt's by 0.005–0.01° unless levelled.
+    #[test]
+    fn a_world_tilt_levels_to_its_gravity_direction_without_yaw() {
+        for (phi, theta) in [(6f64.to_radians(), -2f64.to_radians()), (0.7, 0.3)] {
+            let level = UnitQuaternion::from_euler_angles(phi, theta, 0.0);
+            for eps in [0.0, 0.3, -1.2] {
+                let got = level_tilt(&(level * UnitQuaternion::from_euler_angles(0.0, 0.0, eps)));
+                assert!(got.angle_to(&level) < 1e-12, "φ {phi} θ {theta} ε {eps}: {:?}", got.euler_angles());
+            }
+        }
+        let composed = UnitQuaternion::from_scaled_axis(Vector3::new(6f64.to_radians(), 0.0, 0.0)) * UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 2f64.to_radians(), 0.0));
+        let (r, p, y) = composed.euler_angles();
+        let (lr, lp, ly) = level_tilt(&composed).euler_angles();
+        let u = composed * Vector3::z();
+        assert!(ly.abs() < 1e-15 && (level_tilt(&composed) * Vector3::z() - u).norm() < 1e-15, "{lr} {lp} {ly}");
+        assert!(y.abs() > 1e-3 && ((r - lr).abs() + (p - lp).abs()).to_degrees() > 1e-3, "{r} {p} {y} against {lr} {lp}");
+    }
+
     /// `refine` folds a correction over its iterations. The swing of [`Series::swing_for_tests`] (a
     /// ±0.01 m/s² alternation on the IMU) is seen through markers turned by R_off = (0.6°, −0.4°,
     /// 1.0°); with the body offset selected, three iterations bring corr.body_offset to R_off (to
@@ -1382,7 +1415,8 @@ mod tests {
     }
 
     /// The corrections' fold by hand: the body offset's increment d composes on the left, R_off ←
-    /// exp(d)·R_off; the world tilt's (d_x, d_y, 0) on the right, R_w ← R_w·exp(d); the two delays
+    /// exp(d)·R_off; the world tilt's (d_x, d_y, 0) on the right and levelled, R_w ← level(R_w·exp(d))
+    /// ([`level_tilt`]); the two delays
     /// and the lever arm add. Each folded column is zeroed; an effect that is no correction (the
     /// thrust scale) or is not selected (the accelerometer bias) keeps its θ. A bug it catches:
     /// `fold` doing nothing, each of its arms deleted and an index r.start + 1 as r.start − 1
@@ -1408,11 +1442,11 @@ mod tests {
         let mut corr = Corrections { body_offset: off0, world_tilt: w0, mocap_delay_s: 0.010, gyro_delay_s: -0.001, lever_arm_m: Vector3::new(0.1, 0.0, 0.0) };
         let selected = [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::GyroDelay, Effect::LeverArm, Effect::ThrustScale];
         fold(&mut corr, &mut theta, &selected);
-        let (off, w) = (UnitQuaternion::from_scaled_axis(d_off) * off0, w0 * UnitQuaternion::from_scaled_axis(d_w));
+        let (off, w) = (UnitQuaternion::from_scaled_axis(d_off) * off0, level_tilt(&(w0 * UnitQuaternion::from_scaled_axis(d_w))));
         assert!(corr.body_offset.angle_to(&off) < 1e-15 && corr.world_tilt.angle_to(&w) < 1e-15, "{corr:?}");
-        // the order of composition is visible at these sizes
+        // the order of composition, and the levelling, are visible at these sizes
         assert!((off0 * UnitQuaternion::from_scaled_axis(d_off)).angle_to(&off) > 1e-5);
-        assert!((UnitQuaternion::from_scaled_axis(d_w) * w0).angle_to(&w) > 1e-6);
+        assert!((w0 * UnitQuaternion::from_scaled_axis(d_w)).angle_to(&w) > 1e-7);
         assert!((corr.mocap_delay_s - 0.015).abs() < 1e-15 && (corr.gyro_delay_s - 0.001).abs() < 1e-15, "{corr:?}");
         assert!((corr.lever_arm_m - Vector3::new(0.11, 0.02, -0.03)).amax() < 1e-15, "{corr:?}");
         for e in [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::GyroDelay, Effect::LeverArm] {
