@@ -88,6 +88,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
             gravity_m_s2: GRAVITY,
             thrust_rel_sd: THRUST_REL_SD,
             imu_range: p.imu_range,
+            rigid_body: false,
         },
         repairs: log.repairs.clone(),
     })

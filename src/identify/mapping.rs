@@ -159,6 +159,22 @@ pub enum VehiclePreset {
     Crazyflie21,
     /// AscTec X3D (no PWM map).
     X3d,
+    /// A rigid body that is not a vehicle: a hand-held sensor rig, a tool on a robot arm, a
+    /// ground robot. No force model (motor columns are an error), no floor (no sample is left
+    /// out for its height), and an IMU read as ±16 g and ±2000 °/s
+    /// ([`ImuRange::wide_mems`](crate::vehicle::params::ImuRange::wide_mems)).
+    RigidBody,
+}
+
+impl VehiclePreset {
+    /// The preset's name in a mapping file.
+    pub fn name(self) -> &'static str {
+        match self {
+            VehiclePreset::Crazyflie21 => "crazyflie21",
+            VehiclePreset::X3d => "x3d",
+            VehiclePreset::RigidBody => "rigid_body",
+        }
+    }
 }
 
 /// One column of the log.
@@ -350,6 +366,9 @@ impl Mapping {
         if m.motors.is_some() && m.vehicle == VehiclePreset::X3d {
             return Err(InputError::invalid(&file, "the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`"));
         }
+        if m.motors.is_some() && m.vehicle == VehiclePreset::RigidBody {
+            return Err(InputError::invalid(&file, "`vehicle: rigid_body` declares no force model; motors need `vehicle: crazyflie21`"));
+        }
         m.factors(&file)?;
         Ok(m)
     }
@@ -436,11 +455,12 @@ impl Mapping {
     fn empty_series(&self, file: &str, cols: &ColumnIndex) -> Result<(Series, Option<PwmThrustMap>), InputError> {
         let (params, map) = match self.vehicle {
             VehiclePreset::Crazyflie21 => (VehicleParams::crazyflie21(), Some(PwmThrustMap::crazyflie21())),
-            VehiclePreset::X3d => (VehicleParams::x3d(), None),
+            VehiclePreset::X3d | VehiclePreset::RigidBody => (VehicleParams::x3d(), None),
         };
         if !cols.motors.is_empty() && map.is_none() {
-            return Err(InputError::invalid("the mapping", "the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`"));
+            return Err(InputError::invalid("the mapping", format!("the `{}` preset has no PWM thrust map; motors need `vehicle: crazyflie21`", self.vehicle.name())));
         }
+        let rigid_body = self.vehicle == VehiclePreset::RigidBody;
         let s = Series {
             source: file.to_string(),
             t_s: Vec::new(),
@@ -453,18 +473,20 @@ impl Mapping {
             vbat_v: cols.battery.map(|_| Vec::new()),
             segments: Vec::new(),
             model: NominalModel {
-                vehicle: format!("{:?} preset", self.vehicle).to_lowercase(),
-                mass_kg: self.mass_kg.unwrap_or(params.mass_kg),
+                vehicle: if rigid_body { "a rigid body (no vehicle)".to_string() } else { format!("{:?} preset", self.vehicle).to_lowercase() },
+                mass_kg: if rigid_body { 0.0 } else { self.mass_kg.unwrap_or(params.mass_kg) },
                 rotor_drag_per_s: params.rotor_drag_per_s,
                 rotor_radius_m: match self.vehicle {
                     VehiclePreset::Crazyflie21 => CRAZYFLIE21_ROTOR_RADIUS_M,
                     VehiclePreset::X3d => super::flyarena_log::X3D_ROTOR_RADIUS_M,
+                    VehiclePreset::RigidBody => 0.0,
                 },
                 vbat_ref_v: map.map_or(0.0, |m| m.vbat_ref_v),
                 gravity_m_s2: GRAVITY,
                 // the PWM map's own error is a thrust scale, which identify fits
                 thrust_rel_sd: 0.0,
-                imu_range: params.imu_range,
+                imu_range: if rigid_body { crate::vehicle::params::ImuRange::wide_mems() } else { params.imu_range },
+                rigid_body,
             },
             repairs: Vec::new(),
         };

@@ -55,10 +55,11 @@ pub fn verdict(r: &Report) -> String {
 /// The header (samples, split, nominal model, repairs) and the selection, step by step.
 fn render_steps(s: &mut String, r: &Report) {
     let _ = writeln!(s, "identify: {}", r.source);
+    let mass = if r.model.rigid_body { String::new() } else { format!(", m = {} kg", r.model.mass_kg) };
     let _ = writeln!(
         s,
-        "  {} samples; after smoothing and decimation {} for training and {} held out (the last of every {} blocks of {} s); nominal model: {}, m = {} kg",
-        r.samples, r.train_samples, r.heldout_samples, r.options.holdout_every, r.options.block_s, r.model.vehicle, r.model.mass_kg
+        "  {} samples; after smoothing and decimation {} for training and {} held out (the last of every {} blocks of {} s); nominal model: {}{mass}",
+        r.samples, r.train_samples, r.heldout_samples, r.options.holdout_every, r.options.block_s, r.model.vehicle
     );
     for rep in &r.repairs {
         let _ = writeln!(s, "  read: {rep}");
@@ -70,8 +71,10 @@ fn render_steps(s: &mut String, r: &Report) {
             r.train_samples,
             super::select::MIN_TRAIN_SAMPLES
         );
-    } else if r.steps.is_empty() {
+    } else if r.steps.is_empty() && r.options.forced.is_empty() {
         let _ = writeln!(s, "\n  no effect passes the tests: the nominal model explains the data");
+    } else if r.steps.is_empty() {
+        let _ = writeln!(s, "\n  no effect besides those fitted untested passes the tests");
     }
     for (k, st) in r.steps.iter().enumerate() {
         let _ = writeln!(

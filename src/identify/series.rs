@@ -25,6 +25,11 @@ pub struct NominalModel {
     pub thrust_rel_sd: f64,
     /// Full scale of the vehicle's IMU (from its preset), for the data-quality gate.
     pub imu_range: crate::vehicle::params::ImuRange,
+    /// The log is of a rigid body that is not a vehicle (a hand-held rig, a tool on an arm):
+    /// declared without a force model, and without a floor (a vehicle's log starts at rest on
+    /// the ground, a rig's anywhere), so no sample is left out for its height.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub rigid_body: bool,
 }
 
 #[cfg(test)]
@@ -41,6 +46,7 @@ impl NominalModel {
             gravity_m_s2: g,
             thrust_rel_sd: 0.0,
             imu_range: crate::vehicle::params::ImuRange::x3d(),
+            rigid_body: false,
         }
     }
 }
@@ -174,9 +180,12 @@ impl Series {
 /// The floor (NED z of the resting vehicle, m) for positions `pos_nav` of the log's rows: the
 /// lowest point (largest z) while the motors are off; without a thrust column, the lowest point
 /// of the first half second of the first segment (a log is taken to start at rest). None for a
-/// log that starts in the air with the motors on.
+/// log that starts in the air with the motors on, and for a rigid body's (no floor).
 pub(crate) fn floor_z(s: &Series, pos_nav: &[Vector3<f64>]) -> Option<f64> {
     let n = s.len();
+    if s.model.rigid_body {
+        return None;
+    }
     match &s.thrust_n {
         Some(t) => (0..n).filter(|&i| t[i] == 0.0).map(|i| pos_nav[i].z).reduce(f64::max),
         None => {
@@ -338,6 +347,7 @@ mod tests {
             gravity_m_s2: 9.81,
             thrust_rel_sd: 0.0,
             imu_range: crate::vehicle::params::ImuRange::x3d(),
+            rigid_body: false,
         }
     }
 

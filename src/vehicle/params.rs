@@ -87,6 +87,12 @@ impl ImuRange {
     pub fn x3d() -> Self {
         ImuRange { accel_m_s2: 6.0 * GRAVITY, gyro_rad_s: 300f64.to_radians() }
     }
+    /// An IMU of unknown make on a rig that is not a vehicle: ±16 g and ±2000 °/s, the widest
+    /// setting of the common MEMS parts (BMI088's gyro, ICM-20602, MPU-6000), so that the
+    /// data-quality gate's saturation check flags only what such a part cannot read.
+    pub fn wide_mems() -> Self {
+        ImuRange { accel_m_s2: 16.0 * GRAVITY, gyro_rad_s: 2000f64.to_radians() }
+    }
 }
 
 /// Standard gravity used throughout (m/s²).

@@ -730,10 +730,14 @@ fn tests_with_pairs(singles: usize, near: usize) -> usize {
 
 /// Notes on the nominal fit's data (too few usable samples, glitches left out); true when
 /// there are too few samples to select anything.
-fn gate_notes(nominal: &Problem, o: &Options, notes: &mut Vec<String>) -> bool {
+fn gate_notes(s: &Series, nominal: &Problem, o: &Options, notes: &mut Vec<String>) -> bool {
     let usable = nominal.train.iter().filter(|x| **x).count();
     let too_few = !enough_to_select(usable);
-    if !nominal.design.has_force {
+    if s.model.rigid_body {
+        notes.push(
+            "a rigid body (`vehicle: rigid_body`): no force model by declaration, so the effects are fitted on the accelerometer against the mocap (accel_kin) and the gyro; those that act only through the thrust are not tried".into(),
+        );
+    } else if !nominal.design.has_force {
         notes.push(
             "no motor commands in the log: no force model, so the effects are fitted on the accelerometer against the mocap (accel_kin) and the gyro; those that act only through the thrust are not tried".into(),
         );
@@ -760,7 +764,7 @@ fn select(s: &Series, o: &Options) -> Report {
     let mut notes = Vec::new();
     let mut corr = Corrections::default();
     let nominal = refine(s, o, &mut corr, &[], 0);
-    let too_few = gate_notes(&nominal, o, &mut notes);
+    let too_few = gate_notes(s, &nominal, o, &mut notes);
     let mut search = Search { selected: Vec::new(), state: nominal, corr, steps: Vec::new(), removed: Vec::new(), final_candidates: Vec::new() };
     if !too_few {
         search.force(s, o, &mut notes);
