@@ -70,7 +70,7 @@ fn nominal_tree(tree: &Value, i: usize) -> Value {
 
 /// Decimals that print a 95 % half-width `ci` to two significant digits (0 for a half-width of
 /// 10 or more; 6 for one that is 0 or not finite).
-fn decimals_for(ci: f64) -> usize {
+pub(crate) fn decimals_for(ci: f64) -> usize {
     if !(ci.is_finite() && ci > 0.0) {
         return 6;
     }
@@ -84,7 +84,7 @@ fn round_to(x: f64, ci: f64) -> f64 {
 }
 
 /// `value ± ci` to the precision of the interval.
-fn with_interval(value: f64, ci: f64) -> String {
+pub(crate) fn with_interval(value: f64, ci: f64) -> String {
     let d = decimals_for(ci);
     format!("{value:.d$} ± {ci:.d$}")
 }

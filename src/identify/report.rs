@@ -16,12 +16,20 @@ fn pct(x: Option<f64>) -> String {
     x.map_or("—".into(), |v| format!("{v:.1}%"))
 }
 
-/// One parameter as printed: "name value ± half-width unit", or "name value unit (not
-/// identifiable)" when the flight cannot back an interval; `num` formats the numbers.
+/// One parameter as printed: "name value ± half-width unit", the half-width to two significant
+/// digits and the value to the same decimals (a figure keeps the precision of its interval), or
+/// "name value unit (not identifiable)" when the flight cannot back an interval, the value then
+/// formatted by `num`.
 pub(crate) fn param_text(p: &super::select::Param, num: impl Fn(f64) -> String) -> String {
-    if p.identifiable { format!("{} {} ± {} {}", p.name, num(p.value), num(p.ci95), p.unit) } else { format!("{} {} {} (not identifiable)", p.name, num(p.value), p.unit) }
-        .trim_end()
-        .to_string()
+    if p.identifiable && p.ci95.is_finite() && p.ci95 > 0.0 {
+        format!("{} {} {}", p.name, super::feedback::with_interval(p.value, p.ci95), p.unit)
+    } else if p.identifiable {
+        format!("{} {} ± {} {}", p.name, num(p.value), num(p.ci95), p.unit)
+    } else {
+        format!("{} {} {} (not identifiable)", p.name, num(p.value), p.unit)
+    }
+    .trim_end()
+    .to_string()
 }
 
 /// The report as the terminal shows it: steps, effects with their intervals, errors before and
@@ -226,5 +234,28 @@ fn render_ground(s: &mut String, r: &Report) {
                 if t.bracket_covers { "(agree)" } else { "(DISAGREE)" }
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::select::Param;
+
+    fn param(value: f64, ci95: f64, identifiable: bool) -> Param {
+        Param { name: "x".into(), value, ci95, unit: "mm".into(), identifiable }
+    }
+
+    /// A parameter keeps the precision of its interval: the half-width to two significant
+    /// digits, the value to the same decimals (a −3.02 ms delay ± 0.035 is not "−3.0 ± 0.04"
+    /// nor "−3.0213 ± 0.0354"). Without an interval (not identifiable) the caller's format holds.
+    #[test]
+    fn a_parameter_is_printed_to_the_precision_of_its_interval() {
+        let sig3 = |x: f64| format!("{x:.3}");
+        assert_eq!(param_text(&param(-115.97, 1.82, true), sig3), "x -116.0 ± 1.8 mm");
+        assert_eq!(param_text(&param(-3.0213, 0.0354, true), sig3), "x -3.021 ± 0.035 mm");
+        assert_eq!(param_text(&param(0.34937, 0.00176, true), sig3), "x 0.3494 ± 0.0018 mm");
+        assert_eq!(param_text(&param(161.98, 12.4, true), sig3), "x 162 ± 12 mm");
+        assert_eq!(param_text(&param(0.0358, 0.0, false), sig3), "x 0.036 mm (not identifiable)");
     }
 }
