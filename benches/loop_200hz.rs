@@ -120,5 +120,18 @@ fn identify(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, loop_200hz, fleet, scenario, identify);
+/// `identify --calibrate` on a hand-held rig's 64 s log at MoCap2GT's setting (32,001 rows at
+/// 500 Hz, read through `mappings/handheld.yaml`): the target is under 1 s per minute of data on
+/// one core (docs/calibration.md).
+fn handheld(c: &mut Criterion) {
+    use flyarena::identify::handheld;
+    let series = handheld::draw(1, 0).series(&handheld::Setting::default()).expect("a drawn rig reads");
+    let mut g = c.benchmark_group("identify");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(series.len() as u64));
+    g.bench_function("handheld_64s_calibrate", |b| b.iter(|| flyarena::identify::identify(&series, &handheld::options()).expect("clean data")));
+    g.finish();
+}
+
+criterion_group!(benches, loop_200hz, fleet, scenario, identify, handheld);
 criterion_main!(benches);

@@ -64,6 +64,18 @@ enum Command {
         /// DIR/trials-<seed>-<N>.shard-K-of-N.json; `flyarena merge` combines the shards
         #[arg(long, value_name = "K/N", value_parser = parse_shard)]
         shard: Option<(u64, u64)>,
+        /// Hand-held mocap + IMU rigs at MoCap2GT's simulated setting instead of flights, each
+        /// calibrated by `identify --calibrate`: the error and 95 % coverage of the rotation,
+        /// world tilt, lever arm and time offset (DIR/handheld-<seed>-<N>.json; docs/calibration.md)
+        #[arg(long, conflicts_with = "shard")]
+        handheld: bool,
+        /// With --handheld: also write each rig's log (DIR/handheld-<seed>-<N>/flight-<i>.csv,
+        /// read by mappings/handheld.yaml)
+        #[arg(long, requires = "handheld")]
+        logs: bool,
+        /// With --handheld: σ of the smoothing kernel (ms; default the mapping's 50)
+        #[arg(long, value_name = "MS", value_parser = parse_smoothing, requires = "handheld")]
+        smoothing_ms: Option<f64>,
         /// Output folder
         #[arg(long, default_value = "out", value_name = "DIR")]
         out: PathBuf,
@@ -252,6 +264,11 @@ struct IdentifyArgs {
     /// they are fitted only when named here
     #[arg(long = "with", value_name = "EFFECT,...", value_delimiter = ',', value_parser = parse_effect)]
     forced: Vec<flyarena::identify::Effect>,
+    /// Fit the mocap–IMU calibration without testing it (body_offset, world_tilt, mocap_delay,
+    /// accel_bias, gyro_bias, lever_arm; added to --with) and select any other effect on top:
+    /// a calibration of a rig estimates those whatever their size (docs/calibration.md)
+    #[arg(long)]
+    calibrate: bool,
     /// The vehicle to identify (a scenario with several)
     #[arg(long)]
     vehicle: Option<String>,
@@ -609,8 +626,12 @@ fn check_identify(a: &IdentifyArgs) -> Result<(), Error> {
     Ok(())
 }
 
-fn cmd_identify(a: IdentifyArgs) -> Result<i32, Error> {
+fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
     check_identify(&a)?;
+    if a.calibrate {
+        let extra: Vec<_> = flyarena::identify::Effect::CALIBRATION.into_iter().filter(|e| !a.forced.contains(e)).collect();
+        a.forced.extend(extra);
+    }
     if a.inputs.len() > 1 {
         let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
         let m = flyarena::identify::workflow::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced)?;
@@ -703,6 +724,33 @@ fn cmd_trials(flights: u64, seed: u64, shard: Option<(u64, u64)>, out: &Path) ->
     finish_trials(seed, flights, &outcomes, out)
 }
 
+/// Hand-held rigs calibrated (DIR/handheld-<seed>-<N>.json), and with `logs` their logs.
+fn cmd_handheld(flights: u64, seed: u64, logs: bool, smoothing_ms: Option<f64>, out: &Path) -> Result<i32, Error> {
+    use flyarena::identify::handheld;
+    let set = handheld::Setting::default();
+    let name = format!("handheld-{seed}-{flights}");
+    if logs {
+        for i in 0..flights {
+            write_output(&out.join(&name).join(format!("flight-{i}.csv")), handheld::draw(seed, i).log(&set).as_bytes())?;
+        }
+    }
+    let mut options = handheld::options();
+    if let Some(ms) = smoothing_ms {
+        options.design.smoothing_s = ms * 1e-3;
+    }
+    let outcomes = handheld::run_many(seed, flights, &set, &options);
+    let table = handheld::render(&outcomes, &set);
+    let json = serde_json::json!({ "seed": seed, "flights": flights, "setting": set, "table": table, "outcomes": outcomes });
+    let path = out.join(format!("{name}.json"));
+    write_output(&path, &serde_json::to_vec_pretty(&json).expect("serialises"))?;
+    print!("{table}");
+    if logs {
+        println!("\nlogs: {} (`flyarena identify FLIGHT.csv --mapping mappings/handheld.yaml --calibrate`)", out.join(&name).display());
+    }
+    println!("\nreport: {}", path.display());
+    Ok(PASS)
+}
+
 /// The batch's table and report (DIR/trials-<seed>-<N>.json), from all its outcomes.
 fn finish_trials(seed: u64, flights: u64, outcomes: &[flyarena::identify::trials::Outcome], out: &Path) -> Result<i32, Error> {
     let table = flyarena::identify::trials::render(outcomes);
@@ -765,7 +813,8 @@ pub fn main() -> i32 {
         Command::Sweep(a) => cmd_sweep(a),
         Command::Merge { shards, out } => cmd_merge(&shards, &out),
         Command::Identify(a) => cmd_identify(a),
-        Command::Trials { flights, seed, shard, out } => cmd_trials(flights, seed, shard, &out),
+        Command::Trials { flights, seed, handheld: true, logs, smoothing_ms, out, .. } => cmd_handheld(flights, seed, logs, smoothing_ms, &out),
+        Command::Trials { flights, seed, shard, out, .. } => cmd_trials(flights, seed, shard, &out),
         Command::Slurm { job } => cmd_slurm(job),
         Command::Completions { shell } => {
             clap_complete::generate(shell, &mut Cli::command(), "flyarena", &mut std::io::stdout());

@@ -83,6 +83,12 @@ pub enum Effect {
 }
 
 impl Effect {
+    /// A mocap–IMU calibration: the rotation between the mocap body and the IMU, the tilt of
+    /// the mocap world, the lever arm from the tracked point to the IMU, the time offset of the
+    /// streams, and the IMU's biases that every calibration estimates beside them (in
+    /// [`Effect::ALL`] order). `identify --calibrate` fits them without testing them.
+    pub const CALIBRATION: [Effect; 6] = [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::AccelBias, Effect::GyroBias, Effect::LeverArm];
+
     /// Every effect, in the order of the design's columns.
     pub const ALL: [Effect; 17] = [
         Effect::BodyOffset,

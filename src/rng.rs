@@ -34,6 +34,8 @@ pub enum Component {
     TelemetryJitter = 6,
     /// Per-run draws of a sweep (varied parameters and the run's seed); "vehicle" = run index.
     Sweep = 7,
+    /// A hand-held trial's draws (calibration, motion, noise seed); "vehicle" = trial index.
+    Handheld = 8,
 }
 
 fn splitmix64(x: &mut u64) -> u64 {

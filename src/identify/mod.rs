@@ -42,6 +42,7 @@ mod error;
 pub mod feedback;
 pub mod flyarena_log;
 pub mod ground;
+pub mod handheld;
 mod joined;
 pub mod mapping;
 pub mod px4;

@@ -2,6 +2,7 @@
 //! dependency tree again).
 
 mod alloc;
+mod calibration;
 mod cli;
 mod determinism;
 mod faults;

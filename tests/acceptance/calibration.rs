@@ -1,0 +1,85 @@
+//! Mocap–IMU calibration of a rig that is not a vehicle, from the command line: hand-held logs
+//! written by `trials --handheld --logs`, read through `mappings/handheld.yaml`
+//! (`vehicle: rigid_body`) and calibrated by `identify --calibrate`.
+
+use std::path::Path;
+use std::process::Command;
+
+fn flyarena(args: &[&str], dir: &Path) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).unwrap()
+}
+
+/// The guide's worked example: a rig's log written, then calibrated as a user would. The
+/// report fits the six calibration effects, says it had no force model because the mapping
+/// declared a rigid body, and lands every parameter of the rotation, tilt, lever arm and
+/// delay within three half-widths of the truth the batch's JSON holds (on this seed each lies
+/// within its 95 % interval but one; a sign or an axis lost between the generator's definitions
+/// and identify's moves a parameter by its own size, tens of half-widths). Without
+/// `--calibrate` the same log's selection runs on its own and fits none of them untested.
+#[test]
+fn a_hand_held_rig_is_calibrated_from_its_log() {
+    let d = super::Scratch::new("calibration-cli");
+    let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "4", "--logs", "--out", "o"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("| rotation (angle) | 1/1 |") && out.contains("logs: o/handheld-4-1 ") && d.join("o/handheld-4-1/flight-0.csv").is_file(), "{out}");
+    let batch = json(&d.join("o/handheld-4-1.json"));
+    let truth = &batch["outcomes"][0]["trial"]["truth"];
+    let mapping = super::root().join("mappings/handheld.yaml");
+    let (code, out, err) = flyarena(&["identify", "o/handheld-4-1/flight-0.csv", "--mapping", mapping.to_str().unwrap(), "--calibrate", "--out", "c", "--no-rrd"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("a rigid body (`vehicle: rigid_body`): no force model") && out.contains("fitted without testing (forced)"), "{out}");
+    let report = json(&d.join("c/flight-0.identify.json"));
+    let effects = report["report"]["effects"].as_array().unwrap();
+    let keys: Vec<&str> = effects.iter().map(|e| e["effect"].as_str().unwrap()).collect();
+    for key in ["body_offset", "world_tilt", "mocap_delay", "accel_bias", "gyro_bias", "lever_arm"] {
+        assert!(keys.contains(&key), "{key} not in {keys:?}");
+    }
+    let param = |effect: &str, k: usize| {
+        let p = &effects.iter().find(|e| e["effect"] == effect).unwrap()["params"][k];
+        (p["value"].as_f64().unwrap(), p["ci95"].as_f64().unwrap())
+    };
+    let checks = [("body_offset", "body_offset_deg", 3), ("world_tilt", "world_tilt_deg", 2), ("lever_arm", "lever_arm_mm", 3)];
+    for (effect, field, n) in checks {
+        for k in 0..n {
+            let ((v, ci), t) = (param(effect, k), truth[field][k].as_f64().unwrap());
+            assert!((v - t).abs() <= 3.0 * ci && ci > 0.0, "{effect}[{k}]: {v} ± {ci} against {t}");
+        }
+    }
+    let ((v, ci), t) = (param("mocap_delay", 0), truth["mocap_delay_ms"].as_f64().unwrap());
+    assert!((v - t).abs() <= 3.0 * ci, "delay {v} ± {ci} against {t}");
+    let (code, out, err) = flyarena(&["identify", "o/handheld-4-1/flight-0.csv", "--mapping", mapping.to_str().unwrap(), "--out", "s", "--no-rrd"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(!out.contains("fitted without testing"), "{out}");
+}
+
+/// A rigid body has no floor: a hand-held log moves below where it started, and read as the
+/// `x3d` vehicle (a log taken to start at rest on the ground) every row more than 8 cm below its
+/// first half second is left out as "under the floor"; read as `rigid_body` none is. The rows
+/// the fit trains on are then more. A rigid body's mapping with motors is a usage error.
+#[test]
+fn a_rigid_body_has_no_floor_and_no_motors() {
+    let d = super::Scratch::new("calibration-floor");
+    let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "2", "--logs", "--out", "o"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    let rigid = std::fs::read_to_string(super::root().join("mappings/handheld.yaml")).unwrap();
+    std::fs::write(d.join("x3d.yaml"), rigid.replace("vehicle: rigid_body", "vehicle: x3d")).unwrap();
+    std::fs::write(d.join("rigid.yaml"), &rigid).unwrap();
+    let mut train = Vec::new();
+    for m in ["x3d.yaml", "rigid.yaml"] {
+        let (code, out, err) =
+            flyarena(&["identify", "o/handheld-2-1/flight-0.csv", "--mapping", m, "--calibrate", "--out", &format!("out-{m}"), "--no-rrd", "--json", &format!("{m}.json")], &d);
+        assert_eq!(code, 0, "{out}{err}");
+        train.push(json(&d.join(format!("{m}.json")))["report"]["train_samples"].as_u64().unwrap());
+    }
+    // on this seed 776 against 873 (one decimated sample per 50 ms: about 5 s of the log)
+    assert!(train[1] >= train[0] + 50, "train samples x3d {} rigid body {}", train[0], train[1]);
+    std::fs::write(d.join("motors.yaml"), rigid + "motors: { columns: [m1, m2, m3, m4] }\n").unwrap();
+    let (code, out, err) = flyarena(&["identify", "o/handheld-2-1/flight-0.csv", "--mapping", "motors.yaml", "--out", "m", "--no-rrd"], &d);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(err.contains("motors.yaml") && err.contains("`vehicle: rigid_body` declares no force model"), "{err}");
+}
