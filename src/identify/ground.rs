@@ -2,6 +2,8 @@
 //! take-off. There the accelerometer reads f = −g·C_n^b·e_D in the IMU frame and the mocap
 //! predicts f̂ = −g·R_mᵀ·e_D in the marker frame; the rotation from f̂ to f is the marker
 //! offset's roll and pitch, δ = f̂ × f / |f̂|² (small angles; its yaw is unobservable at rest).
+//! Roll and pitch are about a body x and y that are level at rest: a body resting more
+//! than [`MAX_REST_OFF_LEVEL_DEG`] off a level z axis gets no ground check.
 //!
 //! It assumes no accelerometer bias: a bias b reads as a tilt of b/g rad (0.1 m/s² ≈ 0.58°), and
 //! the check cannot tell them apart. It needs ≥ 0.5 s of rest (thrust zero, or within 1 cm of
@@ -158,9 +160,28 @@ pub fn rest_yaw(s: &Series) -> Option<f64> {
     Some(sy.atan2(sx))
 }
 
+/// How far the mocap body's z axis is from vertical at rest (deg, the mean over the rest):
+/// the angle between the specific force the mocap predicts there, f̂ = R_mᵀ·(−g·e_D), and the
+/// body's −z. `None` without a rest.
+pub fn rest_off_level_deg(s: &Series) -> Option<f64> {
+    let (start, end) = rest(s)?;
+    let up = (start..end).map(|i| s.att_mocap[i].inverse_transform_vector(&-nalgebra::Vector3::z())).sum::<nalgebra::Vector3<f64>>();
+    Some(up.angle(&-nalgebra::Vector3::z()).to_degrees())
+}
+
+/// The rest attitude beyond which the ground check is left out (deg from a level z axis): its
+/// roll and pitch are rotations about a body x and y that are level at rest; a rig resting on
+/// another face (x or y up) turns one of them into a rotation about the vertical, which gravity
+/// does not show, and the other into a yaw.
+pub const MAX_REST_OFF_LEVEL_DEG: f64 = 30.0;
+
 /// The ground check with an accelerometer bias `accel_bias_body` (IMU frame, m/s²) removed from
-/// every sample first: δ = f̂ × (f − b) / |f̂|².
+/// every sample first: δ = f̂ × (f − b) / |f̂|². `None` without a rest, or when the body
+/// rests more than [`MAX_REST_OFF_LEVEL_DEG`] off a level z axis.
 pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
+    if rest_off_level_deg(s)? > MAX_REST_OFF_LEVEL_DEG {
+        return None;
+    }
     let (start, end) = rest(s)?;
     let (start, end) = still_accel(s, start, end)?;
     Some(tilt_over(s, start, end, accel_bias_body))
@@ -886,6 +907,61 @@ mod tests {
         // a bias removed from every sample moves both alike: b_y/g in roll
         let b = spin_up(&s, &Vector3::new(0.0, 0.0981, 0.0)).unwrap();
         assert!((sp.check.roll_deg - b.check.roll_deg - 0.0981f64.atan2(G).to_degrees()).abs() < 0.01, "{b:?}");
+    }
+
+    /// A body that rests on another face gets no ground check: the same rest with the markers'
+    /// frame turned 90° about y (the body's x axis up, 90° off level) or 40° about x, where roll
+    /// and pitch about a level x and y do not describe the tilt gravity shows; 20° off level still
+    /// reads the part of the accelerometer's 0.4°/−1° offset that gravity shows. (Read anyway, the
+    /// 90° rest gave a roll of 0 for the 0.4°, a rotation about the vertical there, which a flight
+    /// that measures 0.4° would have been called in disagreement with.)
+    #[test]
+    fn a_body_resting_on_another_face_gets_no_ground_check() {
+        for (turn, checked) in [
+            (UnitQuaternion::from_euler_angles(0.0, 90f64.to_radians(), 0.0), false),
+            (UnitQuaternion::from_euler_angles(40f64.to_radians(), 0.0, 0.0), false),
+            (UnitQuaternion::from_euler_angles(20f64.to_radians(), 0.0, 0.0), true),
+        ] {
+            let mut s = flight([0.4, -1.0], [0.0; 2], 0.9);
+            // the markers' frame turned by `turn`: the mocap reports R_m = turn, and the IMU, at
+            // the same small offset C from the markers' frame, reads C·R_mᵀ·(−g·e_D)
+            let c = UnitQuaternion::from_euler_angles(0.4f64.to_radians(), -1f64.to_radians(), 0.0);
+            for i in 0..s.len() {
+                s.att_mocap[i] = turn;
+                s.accel_body[i] = c * turn.inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 };
+            }
+            let off = rest_off_level_deg(&s).unwrap();
+            assert!((off - turn.angle().to_degrees()).abs() < 1e-9, "{off}");
+            match ground_check(&s) {
+                Some(g) => {
+                    assert!(checked, "{off}° off level: {g:?}");
+                    // the part of the offset's rotation vector γ that gravity shows: γ less its
+                    // component along the body's up û (to first order in |γ| = 1.1°: 0.01°)
+                    let (gamma, up) = (c.scaled_axis(), turn.inverse_transform_vector(&-Vector3::z()));
+                    let want = (gamma - up * gamma.dot(&up)).map(f64::to_degrees);
+                    assert!((g.roll_deg - want.x).abs() < 0.02 && (g.pitch_deg - want.y).abs() < 0.02 && want.y.abs() > 0.5, "{g:?} against {want:?}");
+                }
+                None => {
+                    assert!(!checked, "{off}° off level: no check");
+                    // long enough to select (the note comes with a full report): the climb goes on for 40 s
+                    let mut s = s;
+                    let n = 4300;
+                    for i in s.len()..n {
+                        s.t_s.push(i as f64 * 0.01);
+                        s.pos_mocap_nav.push(Vector3::new(0.0, 0.0, -0.01 * (i - 160) as f64));
+                        s.att_mocap.push(turn);
+                        s.mocap_ok.push(true);
+                        s.gyro_body.push(Vector3::zeros());
+                        s.accel_body.push(s.accel_body[i - 2]);
+                        s.thrust_n.as_mut().unwrap().push(0.9 * G);
+                    }
+                    s.segments = vec![(0, n)];
+                    let r = crate::identify::identify(&s, &crate::identify::Options::default()).unwrap();
+                    let said = format!("the log rests with the body's z axis {:.0}° from vertical", turn.angle().to_degrees());
+                    assert!(r.ground_check.is_none() && r.notes.iter().any(|n| n.starts_with(&said)), "{:?}", r.notes);
+                }
+            }
+        }
     }
 
     /// No spin-up without a thrust column, or when the vehicle lifts within 0.3 s of the motors.

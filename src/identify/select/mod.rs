@@ -850,6 +850,11 @@ fn ground(
     if let Some(a) = &ground_agreement {
         notes.extend(super::ground::agreement_notes(a));
     }
+    if let Some(off) = super::ground::rest_off_level_deg(s).filter(|off| ground_check.is_none() && *off > super::ground::MAX_REST_OFF_LEVEL_DEG) {
+        notes.push(format!(
+            "the log rests with the body's z axis {off:.0}° from vertical: the ground check reads roll and pitch about a level x and y, so it is left out (the fit assumes nothing about the rest attitude)"
+        ));
+    }
     (ground_check, ground_agreement)
 }
 
