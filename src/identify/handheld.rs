@@ -520,6 +520,29 @@ mod tests {
         }
     }
 
+    /// The calibrations drawn are those the module doc and the guide state, over 300 draws: a
+    /// rotation of 3–5°, a tilt of 5–7°, a lever arm of (100, 50, 150) mm × 0.8–1.2 per axis, a
+    /// delay of 2–4 ms either way (both signs drawn), biases within ±0.2 m/s² and ±0.5 °/s.
+    #[test]
+    fn the_calibrations_drawn_lie_in_the_stated_ranges() {
+        let within = |x: f64, lo: f64, hi: f64| (lo..=hi).contains(&x);
+        let mut signs = [0usize; 2];
+        for i in 0..300 {
+            let t = draw(11, i).truth;
+            let [r, p, y] = t.body_offset_deg.map(f64::to_radians);
+            let angle = UnitQuaternion::from_euler_angles(r, p, y).angle().to_degrees();
+            let tilt = t.world_tilt_deg[0].hypot(t.world_tilt_deg[1]);
+            assert!(within(angle, 3.0, 5.0) && within(tilt, 5.0, 7.0), "trial {i}: rotation {angle}°, tilt {tilt}°");
+            for (v, nominal) in t.lever_arm_mm.iter().zip([100.0, 50.0, 150.0]) {
+                assert!(within(v.abs() / nominal, 0.8, 1.2), "trial {i}: lever arm {v} mm for {nominal}");
+            }
+            assert!(within(t.mocap_delay_ms.abs(), 2.0, 4.0), "trial {i}: delay {} ms", t.mocap_delay_ms);
+            signs[usize::from(t.mocap_delay_ms > 0.0)] += 1;
+            assert!(t.accel_bias_m_s2.iter().all(|b| b.abs() <= 0.2) && t.gyro_bias_deg_s.iter().all(|b| b.abs() <= 0.5), "trial {i}: {t:?}");
+        }
+        assert!(signs.iter().all(|n| *n > 100), "delay signs {signs:?}");
+    }
+
     /// A trial is a pure function of (seed, index): the same log twice, another for another index.
     #[test]
     fn a_trial_is_a_function_of_seed_and_index() {
