@@ -83,3 +83,43 @@ fn a_rigid_body_has_no_floor_and_no_motors() {
     assert_eq!(code, 2, "{out}{err}");
     assert!(err.contains("motors.yaml") && err.contains("`vehicle: rigid_body` declares no force model"), "{err}");
 }
+
+/// The Monte Carlo table of docs/calibration.md, rig for rig: 100 hand-held rigs of seed 1 at
+/// MoCap2GT's setting, calibrated as `trials --handheld --flights 100 --seed 1` does, give the
+/// guide's medians, 90th percentiles and largest errors (to their printed digit) and its
+/// coverage counts exactly. A change in the generator, the reader or the method moves one of
+/// them; then the guide's table is rerun with it.
+#[test]
+fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
+    use flyarena::identify::handheld::{Outcome, Setting, options, run_many};
+    let set = Setting::default();
+    let out = run_many(1, 100, &set, &options());
+    assert!(out.iter().all(|o| o.error.is_none()));
+    let q = |mut v: Vec<f64>, p: f64| {
+        v.sort_by(f64::total_cmp);
+        let h = p * (v.len() - 1) as f64;
+        let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+        v[lo] + (v[hi] - v[lo]) * (h - lo as f64)
+    };
+    type Err = fn(&Outcome) -> Option<f64>;
+    let rows: [(&str, Err, [f64; 3], f64); 4] = [
+        ("rotation", |o| o.rotation_err_deg, [0.0079, 0.0120, 0.0218], 1e-4),
+        ("tilt", |o| o.tilt_err_deg, [0.075, 0.155, 0.599], 1e-3),
+        ("lever arm", |o| o.lever_err_mm, [0.94, 1.75, 3.28], 1e-2),
+        ("time offset", |o| o.delay_err_us, [11.2, 25.2, 50.7], 0.1),
+    ];
+    for (name, err, want, digit) in rows {
+        let e: Vec<f64> = out.iter().filter_map(err).collect();
+        assert_eq!(e.len(), 100, "{name}");
+        for (p, w) in [0.5, 0.9, 1.0].into_iter().zip(want) {
+            let got = q(e.clone(), p);
+            assert!((got - w).abs() <= digit / 2.0 + 1e-12, "{name} q{p}: {got} against the guide's {w}");
+        }
+    }
+    for (prefix, covered, of) in
+        [("body_offset.", 290, 300), ("world_tilt.", 191, 200), ("lever_arm.", 282, 300), ("mocap_delay.", 93, 100), ("accel_bias.", 284, 300), ("gyro_bias.", 296, 300)]
+    {
+        let est: Vec<_> = out.iter().flat_map(|o| &o.estimates).filter(|e| e.name.starts_with(prefix)).collect();
+        assert_eq!((est.iter().filter(|e| e.covered()).count(), est.len()), (covered, of), "{prefix}");
+    }
+}
