@@ -82,6 +82,8 @@ fn scenario(c: &mut Criterion) {
     let mut g = c.benchmark_group("scenario");
     g.sample_size(20);
     g.bench_function("fig6", |b| b.iter(|| flyarena::run::run_scenario(&s, false)));
+    // the recording needs the `record` feature (Rerun); the build without it benches the rest
+    #[cfg(feature = "record")]
     g.bench_function("fig6_recorded", |b| {
         b.iter(|| {
             let flyarena::run::Outcome { main, uncompensated: unc, report } = flyarena::run::run_scenario(&s, true);

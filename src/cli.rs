@@ -445,6 +445,8 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
 fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Duration) -> Result<i32, Error> {
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name)));
     let json = serde_json::to_vec_pretty(&outcome.summary(s)).expect("summary serialises");
+    // the uncompensated twin is only recorded (`record` feature)
+    #[cfg_attr(not(feature = "record"), allow(unused_variables))]
     let Outcome { main, uncompensated: unc, report } = outcome;
     write_output(&json_path, &json)?;
     let mut log_paths = Vec::new();
