@@ -796,9 +796,16 @@ fn cmd_slurm(job: SlurmJob) -> Result<i32, Error> {
     Ok(PASS)
 }
 
-/// Parses the arguments, runs the command and returns the process exit code (clap's own
-/// errors exit 2, `--help` and `--version` 0).
-pub fn main() -> i32 {
+/// The process's exit code for the command line it was given (clap's own errors exit 2,
+/// `--help` and `--version` 0).
+pub fn main() -> std::process::ExitCode {
+    // every code is 0 (pass), 1 (a requirement failed), 2 (bad input) or 130 (interrupted)
+    std::process::ExitCode::from(u8::try_from(run()).unwrap_or(BAD_INPUT as u8))
+}
+
+/// Parses the command line, runs the command, and gives its exit code; an error is printed
+/// to stderr here, the one place every command's error reaches.
+fn run() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
