@@ -39,6 +39,7 @@
 
 use super::design::Effect;
 use super::select::{MIN_TRAIN_SAMPLES, Report};
+use super::stats::median;
 use super::stats::{Z_975, chi2_sf};
 
 /// Ground tilts closer than this (deg) are one mounting, by default.
@@ -220,15 +221,6 @@ fn has_interval(p: &super::select::Param) -> bool {
 /// nor a test of one).
 fn fitted(r: &Report) -> bool {
     super::select::enough_to_select(r.train_samples)
-}
-
-pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    Some(if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) })
 }
 
 /// The consistency of flights `reports` (name, report) with their accel_kin cross-validation
@@ -430,12 +422,5 @@ mod tests {
         assert!(!has_interval(&p(true, 0.0)), "no interval");
         assert!(!has_interval(&p(true, f64::INFINITY)), "an infinite interval");
         assert!(!has_interval(&p(true, f64::NAN)), "NaN");
-    }
-
-    #[test]
-    fn the_median_of_an_even_count_is_the_mean_of_the_middle_two() {
-        assert_eq!(median(vec![3.0, 1.0, 2.0, 10.0]), Some(2.5));
-        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
-        assert_eq!(median(vec![]), None);
     }
 }

@@ -121,7 +121,7 @@ pub fn tilt_after_landing(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) 
 fn still_accel(s: &Series, start: usize, end: usize) -> Option<(usize, usize)> {
     // (fewer than 2 rows are no 0.5 s run: None below)
     let f = &s.accel_body[start..end];
-    let median = |v: Vec<f64>| super::consistency::median(v).unwrap_or(0.0);
+    let median = |v: Vec<f64>| super::stats::median(v).unwrap_or(0.0);
     let mid = nalgebra::Vector3::from_fn(|k, _| median(f.iter().map(|x| x[k]).collect()));
     let sigma = (0..3).map(|k| median(f.windows(2).map(|w| (w[1][k] - w[0][k]).abs()).collect()) * 1.4826 / std::f64::consts::SQRT_2).fold(0.0, f64::max);
     let tol = REST_ACCEL_TOL_M_S2.max(8.0 * sigma);
@@ -525,8 +525,8 @@ pub fn spin_up_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreem
         // the flight lies at rest − difference: toward it is a change of the opposite sign
         let toward = pairs.iter().filter(|(a, sp)| pick_spin(sp).change_deg * pick(a).difference_deg < 0.0).count();
         SpinUpAxisSummary {
-            median_rest_deg: super::consistency::median(rest).unwrap_or(f64::NAN),
-            median_spin_up_deg: super::consistency::median(spin).unwrap_or(f64::NAN),
+            median_rest_deg: super::stats::median(rest).unwrap_or(f64::NAN),
+            median_spin_up_deg: super::stats::median(spin).unwrap_or(f64::NAN),
             toward_flight: toward,
             sign_test_p: binomial_upper_tail(n, toward),
         }
@@ -579,7 +579,7 @@ pub fn landed_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreeme
     if both.len() < 3 {
         return None;
     }
-    let median = |v: Vec<f64>| super::consistency::median(v).unwrap_or(f64::NAN);
+    let median = |v: Vec<f64>| super::stats::median(v).unwrap_or(f64::NAN);
     let axis = |pick: fn(&GroundAgreement) -> &TiltAgreement, pick_l: fn(&LandedAgreement) -> &LandedAxis| {
         let reference = |a: &GroundAgreement| match &a.after_landing {
             Some(l) => (pick_l(l).bracket_difference_deg, pick_l(l).bracket_covers),
@@ -666,7 +666,7 @@ pub fn rest_pose_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgre
     if hi.len() < 2 || lo.len() < 2 {
         return None;
     }
-    let median = |v: Vec<f64>| super::consistency::median(v).unwrap_or(f64::NAN);
+    let median = |v: Vec<f64>| super::stats::median(v).unwrap_or(f64::NAN);
     let axis = |pick: fn(&GroundAgreement) -> &TiltAgreement| {
         let d = |g: &[&GroundAgreement]| g.iter().map(|a| pick(a).difference_deg.abs()).collect::<Vec<f64>>();
         let beyond = |g: &[&GroundAgreement]| g.iter().filter(|a| pick(a).difference_deg.abs() > 1.0).map(|a| pick(a).covers).collect::<Vec<bool>>();

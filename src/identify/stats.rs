@@ -118,6 +118,16 @@ fn incomplete_gamma(a: f64, x: f64) -> f64 {
     }
 }
 
+/// The median of `v` (the mean of the middle two for an even count); `None` for no values.
+pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    Some(if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) })
+}
+
 /// P(F > f) for F ~ F(d1, d2).
 pub(crate) fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
     if f <= 0.0 {
@@ -333,6 +343,13 @@ pub(crate) fn ljung_box(x: &[f64], lags: usize, fitted: usize) -> LjungBox {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_median_of_an_even_count_is_the_mean_of_the_middle_two() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0, 10.0]), Some(2.5));
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(vec![]), None);
+    }
 
     /// The Lentz guard by hand: zero and anything smaller in size than 10⁻³⁰⁰ (either sign) becomes
     /// 10⁻³⁰⁰, anything else passes unchanged. A bug it catches: `|v| < tiny` as `|v| == tiny` let
