@@ -632,7 +632,7 @@ impl VehicleLoop {
         let p = self.x3d.params();
         let mut vbat = f64::NAN;
         if trace || p.thrust_voltage_per_v != 0.0 {
-            vbat = self.battery.step(battery::rotor_power_w(p, &s.rotor_speed), dt.as_secs_f64());
+            vbat = self.battery.step(p.rotor_power_w(&s.rotor_speed), dt.as_secs_f64());
             let speed = battery::speed_factor(p.thrust_voltage_per_v, vbat, p.battery.v_ref);
             if speed != 1.0 {
                 rotor_cmd = rotor_cmd.map(|w| w * speed);

@@ -22,8 +22,6 @@
 //! ([`super::params::PwmThrustMap`]) gives c = b·u·/(a·u² + b·u·V + c₀) ≈ 0.14 /V at hover. The
 //! declared model has c = 0: `identify`'s candidate `thrust_voltage` is this c.
 
-use super::params::VehicleParams;
-
 /// A battery pack (declared: the station and `identify` know it).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct BatteryParams {
@@ -110,11 +108,6 @@ impl Battery {
     }
 }
 
-/// Shaft power of the rotors at speeds `omega` (W): Σ k_m·k_f·Ω_i³.
-pub fn rotor_power_w(p: &VehicleParams, omega: &[f64; 4]) -> f64 {
-    omega.iter().map(|w| p.k_torque_m * p.k_thrust * w * w * w.abs()).sum()
-}
-
 /// The speed factor √(1 + c·(V − V_ref)) the motors reach against their command at voltage `v`
 /// (exactly 1 when c = 0; never negative).
 pub fn speed_factor(c_per_v: f64, v: f64, v_ref: f64) -> f64 {
@@ -127,7 +120,7 @@ pub fn speed_factor(c_per_v: f64, v: f64, v_ref: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vehicle::params::GRAVITY;
+    use crate::vehicle::params::{GRAVITY, VehicleParams};
 
     /// The declared thrust model's reference voltage is the pack's nominal one, 3.7 V per Li-ion
     /// cell: 11.1 V for the X3D's three cells, 3.7 V for the Crazyflie's one; and it lies
@@ -167,7 +160,7 @@ mod tests {
     fn hover_draw_of_the_x3d_in_closed_form() {
         let vp = VehicleParams::x3d();
         let w = (vp.mass_kg * GRAVITY / (4.0 * vp.k_thrust)).sqrt();
-        let p = rotor_power_w(&vp, &[w; 4]);
+        let p = vp.rotor_power_w(&[w; 4]);
         let by_hand = 4.0 * 0.016 * (0.68 * 9.81 / 4.0) * w;
         assert!((p - by_hand).abs() < 1e-9 && (p - 47.1).abs() < 0.1, "{p} W");
         let mut b = Battery::new(BatteryParams::x3d());

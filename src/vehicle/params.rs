@@ -143,6 +143,12 @@ impl PwmThrustMap {
 }
 
 impl VehicleParams {
+    /// Shaft power of the rotors at speeds `omega` (rad/s), in W: Σ k_m·k_f·Ω_i³ (each rotor's
+    /// drag torque k_m·k_f·Ω² times its speed).
+    pub fn rotor_power_w(&self, omega: &[f64; 4]) -> f64 {
+        omega.iter().map(|w| self.k_torque_m * self.k_thrust * w * w * w.abs()).sum()
+    }
+
     /// The Ascending Technologies X3D of the paper.
     pub fn x3d() -> Self {
         VehicleParams {
