@@ -1,5 +1,6 @@
 //! The crate's layout: the library's top-level modules depend on each other in one
-//! direction only, and none of them reaches the command line.
+//! direction only, and so do the files inside each module folder; none of them reaches the
+//! command line.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -76,6 +77,94 @@ fn the_library_modules_depend_one_way() {
     }
     for (m, deps) in &g {
         assert!(!deps.contains("cli"), "{m} imports the command line");
+    }
+}
+
+/// Inside module folder `dir` (one with a `mod.rs`): each child (a file, or a sub-folder as one
+/// node) → the children its non-test code names, as `super::x` from the folder's own files,
+/// `super::super::x` from a sub-folder's, or the full `crate::…::x` path. `mod.rs` is the
+/// folder's façade and not a node.
+fn file_graph(src: &Path, dir: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let module: Vec<String> = dir.strip_prefix(src).unwrap().components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+    let full = format!("crate::{}::", module.join("::"));
+    let children: BTreeSet<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_dir() || p.extension().is_some_and(|x| x == "rs"))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .filter(|n| n != "mod")
+        .collect();
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                files.push(p);
+            }
+        }
+    }
+    for f in files {
+        let rel: Vec<String> = f.strip_prefix(dir).unwrap().components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+        if rel == ["mod.rs"] {
+            continue;
+        }
+        let node = rel[0].trim_end_matches(".rs").to_string();
+        // `super::` of a file directly in the folder, or of a sub-folder's mod.rs, is the folder;
+        // one level deeper it takes `super::super::`
+        let depth = rel.len() - usize::from(rel.last().is_some_and(|l| l == "mod.rs"));
+        let up = "super::".repeat(depth);
+        let text = std::fs::read_to_string(&f).unwrap();
+        let code = text.split("#[cfg(test)]").next().unwrap();
+        let deps = g.entry(node.clone()).or_default();
+        for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
+            for prefix in [up.as_str(), full.as_str()] {
+                for (i, _) in line.match_indices(prefix) {
+                    // `super::super::x` also contains `super::x`: only the whole chain counts
+                    if prefix == up && line[..i].ends_with("super::") {
+                        continue;
+                    }
+                    let name: String = line[i + prefix.len()..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                    if children.contains(&name) && name != node {
+                        deps.insert(name);
+                    }
+                }
+            }
+        }
+    }
+    g
+}
+
+/// Inside every module folder the files depend on each other in one direction only: a reader
+/// can start from the leaves (identify's `series`, `stats`) and never meet a file that needs
+/// one not yet read.
+#[test]
+fn the_files_of_each_module_depend_one_way() {
+    let src = super::root().join("src");
+    let mut folders = Vec::new();
+    let mut stack = vec![src.clone()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                if p.join("mod.rs").is_file() {
+                    folders.push(p.clone());
+                }
+                stack.push(p);
+            }
+        }
+    }
+    assert!(folders.iter().any(|f| f.ends_with("identify/select")), "{folders:?}");
+    let identify = file_graph(&src, &src.join("identify"));
+    assert!(identify["ground"].contains("stats") && identify["select"].contains("ground") && identify["report"].contains("select"), "the scan finds the files: {identify:?}");
+    for dir in folders {
+        let g = file_graph(&src, &dir);
+        if let Some(c) = find_cycle(&g) {
+            panic!("file cycle in {}: {}", dir.strip_prefix(&src).unwrap().display(), c.join(" → "));
+        }
     }
 }
 
