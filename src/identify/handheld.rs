@@ -543,6 +543,17 @@ mod tests {
         assert!(signs.iter().all(|n| *n > 100), "delay signs {signs:?}");
     }
 
+    /// The table's quantiles interpolate between order statistics: of 0, 1, …, 10 the median is
+    /// 5 and the 90th percentile 9; of 1, 2, 3, 4 the median is 2.5 and the 90th 3.7.
+    #[test]
+    fn quantiles_interpolate_between_order_statistics() {
+        let ten: Vec<f64> = (0..=10).rev().map(f64::from).collect();
+        assert_eq!((quantile(&ten, 0.5), quantile(&ten, 0.9), quantile(&ten, 1.0)), (5.0, 9.0, 10.0));
+        let four = [4.0, 1.0, 3.0, 2.0];
+        assert!((quantile(&four, 0.5) - 2.5).abs() < 1e-12 && (quantile(&four, 0.9) - 3.7).abs() < 1e-12);
+        assert!(quantile(&[], 0.5).is_nan());
+    }
+
     /// A trial is a pure function of (seed, index): the same log twice, another for another index.
     #[test]
     fn a_trial_is_a_function_of_seed_and_index() {

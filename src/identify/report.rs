@@ -257,5 +257,7 @@ mod tests {
         assert_eq!(param_text(&param(0.34937, 0.00176, true), sig3), "x 0.3494 ± 0.0018 mm");
         assert_eq!(param_text(&param(161.98, 12.4, true), sig3), "x 162 ± 12 mm");
         assert_eq!(param_text(&param(0.0358, 0.0, false), sig3), "x 0.036 mm (not identifiable)");
+        // not identifiable claims no interval, even where the fit computed one
+        assert_eq!(param_text(&param(0.0358, 0.3, false), sig3), "x 0.036 mm (not identifiable)");
     }
 }

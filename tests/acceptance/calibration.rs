@@ -33,6 +33,8 @@ fn a_hand_held_rig_is_calibrated_from_its_log() {
     let (code, out, err) = flyarena(&["identify", "o/handheld-4-1/flight-0.csv", "--mapping", mapping.to_str().unwrap(), "--calibrate", "--out", "c", "--no-rrd"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("a rigid body (`vehicle: rigid_body`): no force model") && out.contains("fitted without testing (forced)"), "{out}");
+    // effects were fitted: the nominal model is not what explains this log
+    assert!(out.contains("no effect besides those fitted untested passes the tests") && !out.contains("explains the data"), "{out}");
     let report = json(&d.join("c/flight-0.identify.json"));
     let effects = report["report"]["effects"].as_array().unwrap();
     let keys: Vec<&str> = effects.iter().map(|e| e["effect"].as_str().unwrap()).collect();
