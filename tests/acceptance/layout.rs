@@ -5,22 +5,25 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
+/// Every `.rs` file under `dir`, at any depth.
+fn rs_files(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            files.extend(rs_files(&p));
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            files.push(p);
+        }
+    }
+    files
+}
+
 /// Top-level module → the top-level modules its non-test code names as `crate::m` (comments
 /// and `#[cfg(test)]` parts left out; `lib.rs` and the binary's `main.rs`, `cli.rs` are not
 /// library modules).
 fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
-    fn walk(dir: &Path, files: &mut Vec<std::path::PathBuf>) {
-        for e in std::fs::read_dir(dir).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                walk(&p, files);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                files.push(p);
-            }
-        }
-    }
-    let mut files = Vec::new();
-    walk(src, &mut files);
+    let files = rs_files(src);
     let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     for f in files {
         let rel = f.strip_prefix(src).unwrap();
@@ -95,19 +98,7 @@ fn file_graph(src: &Path, dir: &Path) -> BTreeMap<String, BTreeSet<String>> {
         .filter(|n| n != "mod")
         .collect();
     let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    let mut files = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                files.push(p);
-            }
-        }
-    }
-    for f in files {
+    for f in rs_files(dir) {
         let rel: Vec<String> = f.strip_prefix(dir).unwrap().components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
         if rel == ["mod.rs"] {
             continue;
@@ -144,19 +135,7 @@ fn file_graph(src: &Path, dir: &Path) -> BTreeMap<String, BTreeSet<String>> {
 #[test]
 fn the_files_of_each_module_depend_one_way() {
     let src = super::root().join("src");
-    let mut folders = Vec::new();
-    let mut stack = vec![src.clone()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                if p.join("mod.rs").is_file() {
-                    folders.push(p.clone());
-                }
-                stack.push(p);
-            }
-        }
-    }
+    let folders: Vec<_> = rs_files(&src).into_iter().filter(|f| f.ends_with("mod.rs")).map(|f| f.parent().unwrap().to_path_buf()).collect();
     assert!(folders.iter().any(|f| f.ends_with("identify/select")), "{folders:?}");
     let identify = file_graph(&src, &src.join("identify"));
     assert!(identify["ground"].contains("stats") && identify["select"].contains("ground") && identify["report"].contains("select"), "the scan finds the files: {identify:?}");
@@ -251,18 +230,7 @@ fn function_lengths(text: &str) -> Vec<(String, usize)> {
 /// holds several jobs; ripgrep keeps under 1 % of its functions above 80 lines).
 #[test]
 fn no_function_is_longer_than_100_lines() {
-    let mut files = Vec::new();
-    let mut stack = vec![super::root().join("src")];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                files.push(p);
-            }
-        }
-    }
+    let files = rs_files(&super::root().join("src"));
     let (mut total, mut over_80, mut long) = (0, 0, Vec::new());
     for f in &files {
         for (name, n) in function_lengths(&std::fs::read_to_string(f).unwrap()) {
