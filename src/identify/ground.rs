@@ -164,9 +164,13 @@ pub fn rest_yaw(s: &Series) -> Option<f64> {
 /// the angle between the specific force the mocap predicts there, f̂ = R_mᵀ·(−g·e_D), and the
 /// body's −z. `None` without a rest.
 pub fn rest_off_level_deg(s: &Series) -> Option<f64> {
-    let (start, end) = rest(s)?;
+    rest(s).map(|(start, end)| off_level_deg(s, start, end))
+}
+
+/// [`rest_off_level_deg`] over rows [start, end).
+fn off_level_deg(s: &Series, start: usize, end: usize) -> f64 {
     let up = (start..end).map(|i| s.att_mocap[i].inverse_transform_vector(&-nalgebra::Vector3::z())).sum::<nalgebra::Vector3<f64>>();
-    Some(up.angle(&-nalgebra::Vector3::z()).to_degrees())
+    up.angle(&-nalgebra::Vector3::z()).to_degrees()
 }
 
 /// The rest attitude beyond which the ground check is left out (deg from a level z axis): its
@@ -179,10 +183,10 @@ pub const MAX_REST_OFF_LEVEL_DEG: f64 = 30.0;
 /// every sample first: δ = f̂ × (f − b) / |f̂|². `None` without a rest, or when the body
 /// rests more than [`MAX_REST_OFF_LEVEL_DEG`] off a level z axis.
 pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
-    if rest_off_level_deg(s)? > MAX_REST_OFF_LEVEL_DEG {
+    let (start, end) = rest(s)?;
+    if off_level_deg(s, start, end) > MAX_REST_OFF_LEVEL_DEG {
         return None;
     }
-    let (start, end) = rest(s)?;
     let (start, end) = still_accel(s, start, end)?;
     Some(tilt_over(s, start, end, accel_bias_body))
 }
