@@ -473,7 +473,7 @@ impl Mapping {
             vbat_v: cols.battery.map(|_| Vec::new()),
             segments: Vec::new(),
             model: NominalModel {
-                vehicle: if rigid_body { "a rigid body (no vehicle)".to_string() } else { format!("{:?} preset", self.vehicle).to_lowercase() },
+                vehicle: if rigid_body { "a rigid body (no vehicle)".to_string() } else { format!("{} preset", self.vehicle.name()) },
                 mass_kg: if rigid_body { 0.0 } else { self.mass_kg.unwrap_or(params.mass_kg) },
                 rotor_drag_per_s: params.rotor_drag_per_s,
                 rotor_radius_m: match self.vehicle {
