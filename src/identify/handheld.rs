@@ -230,7 +230,7 @@ impl Trial {
             bg_sum += bg;
             let t = j as f64 * dt;
             let (q, w, dw) = attitude(&self.euler, t);
-            let acc = Vector3::from(self.position.clone().map(|p| p.at(t)[2]));
+            let acc = Vector3::from_fn(|k, _| self.position[k].at(t)[2]);
             let f = q.inverse() * (acc - Vector3::new(0.0, 0.0, GRAVITY)) + dw.cross(&lever) + w.cross(&w.cross(&lever));
             let gyro = w + bg + normal3(&mut rng) * (set.gyro_noise_density / dt.sqrt());
             let accel = f + ba + normal3(&mut rng) * (set.accel_noise_density / dt.sqrt());
@@ -244,7 +244,7 @@ impl Trial {
         for k in 0..=n_mocap {
             let t = k as f64 / set.mocap_hz;
             let (q, _, _) = attitude(&self.euler, t);
-            let p = Vector3::new(0.0, 0.0, -1.2) + Vector3::from(self.position.clone().map(|w| w.at(t)[0]));
+            let p = Vector3::new(0.0, 0.0, -1.2) + Vector3::from_fn(|k, _| self.position[k].at(t)[0]);
             let p_m = r_w * p + normal3(&mut rng) * set.mocap_pos_sd_m;
             let q_m = r_w * q * r_off * UnitQuaternion::from_scaled_axis(normal3(&mut rng) * set.mocap_att_sd_rad);
             let _ = pose.push(ns(t + delay), [p_m.x, p_m.y, p_m.z, q_m.i, q_m.j, q_m.k, q_m.w]);
@@ -265,7 +265,12 @@ impl Trial {
     /// # Errors
     /// None for a drawn trial; the reader's, were the rows malformed.
     pub fn series(&self, set: &Setting) -> Result<Series, super::InputError> {
-        mapping().read_str(&self.log(set), &format!("handheld flight {}", self.index))
+        self.read(&self.streams(set).0)
+    }
+
+    /// The streams joined and read through `mappings/handheld.yaml`.
+    fn read(&self, streams: &Streams) -> Result<Series, super::InputError> {
+        mapping().read_str(&streams.join().0, &format!("handheld flight {}", self.index))
     }
 }
 
@@ -278,9 +283,6 @@ fn ns(t: f64) -> i128 {
 pub fn mapping() -> Mapping {
     Mapping::parse(include_str!("../../mappings/handheld.yaml"), std::path::Path::new("mappings/handheld.yaml")).expect("the shipped mapping parses")
 }
-
-/// The effects a hand-held trial hides: the four of the calibration and the two biases.
-pub const HIDDEN: [Effect; 6] = Effect::CALIBRATION;
 
 /// What the trials run: `identify --calibrate` with the defaults of `mappings/handheld.yaml`
 /// (the calibration fitted without testing, any other effect selected on top).
@@ -347,7 +349,7 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
         error: None,
     };
     let (streams, accel_bias, gyro_bias) = trial.streams(set);
-    let read = mapping().read_str(&streams.join().0, &format!("handheld flight {}", trial.index));
+    let read = trial.read(&streams);
     let report = match read.map_err(|e| e.to_string()).and_then(|s| identify(&s, o).map_err(|e| e.to_string())) {
         Ok(r) => r,
         Err(e) => {
@@ -450,7 +452,7 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     }
     let mut extra: Vec<(Effect, usize)> = Vec::new();
     for o in &ok {
-        for e in o.selected.iter().filter(|e| !HIDDEN.contains(e)) {
+        for e in o.selected.iter().filter(|e| !Effect::CALIBRATION.contains(e)) {
             match extra.iter_mut().find(|x| x.0 == *e) {
                 Some(x) => x.1 += 1,
                 None => extra.push((*e, 1)),
