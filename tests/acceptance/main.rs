@@ -84,6 +84,18 @@ pub fn inline(yaml: &str) -> Scenario {
     Scenario::parse(yaml, Path::new("inline.yaml")).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Whether Python imports `module`. Without it a test fails under CI (where `.ci/run` installs
+/// it, as `pip install {pip}`) and is skipped, said on stderr, elsewhere; `what` names it in
+/// both messages.
+pub fn python_module(module: &str, what: &str, pip: &str) -> bool {
+    let have = std::process::Command::new("python3").args(["-c", &format!("import {module}")]).status().is_ok_and(|s| s.success());
+    if !have {
+        assert!(std::env::var_os("CI").is_none(), "CI must have Python's {what} (pip install {pip}, as .ci/run does)");
+        eprintln!("skipped: no Python {what} here (pip install {pip})");
+    }
+    have
+}
+
 /// The real flight data the tests read: `FLYARENA_DATA`, else `data/` in the checkout (where
 /// `scripts/fetch-data` puts it), else `../shared/data` beside the checkout. Missing, a test
 /// that needs it is skipped (one line on stderr for the whole run says how to get it), except under

@@ -17,15 +17,9 @@ fn bag_of(flight: &Path, out: &Path) -> Option<()> {
     Some(())
 }
 
-/// Whether Python has the independent writer `mcap_ros2`. Without it a test fails under CI
-/// (where `.ci/run` installs it) and is skipped, said on stderr, elsewhere.
+/// Whether Python has the independent writer `mcap_ros2` (see [`super::python_module`]).
 fn have_writer() -> bool {
-    let have = Command::new("python3").args(["-c", "import mcap_ros2.writer"]).status().is_ok_and(|s| s.success());
-    if !have {
-        assert!(std::env::var("CI").is_err(), "CI must have Python's mcap-ros2-support (pip install mcap-ros2-support==0.6.0, as .ci/run does)");
-        eprintln!("skipped: no Python mcap-ros2-support here (pip install mcap-ros2-support==0.6.0)");
-    }
-    have
+    super::python_module("mcap_ros2.writer", "mcap-ros2-support", "mcap-ros2-support==0.6.0")
 }
 
 fn tmp(name: &str) -> super::Scratch {

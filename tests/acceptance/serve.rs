@@ -27,15 +27,9 @@ fn free_ports<const N: usize>() -> [u16; N] {
     std::array::from_fn(|i| held[i].local_addr().unwrap().port())
 }
 
-/// Whether Python has `module`. Without it the test fails under CI (where `.ci/run` installs
-/// it) and is skipped, said on stderr, elsewhere.
+/// Whether Python has `module`, one of the clients `.ci/run` installs (see [`super::python_module`]).
 fn python_has(module: &str) -> bool {
-    let have = Command::new("python3").args(["-c", &format!("import {module}")]).status().is_ok_and(|s| s.success());
-    if !have {
-        assert!(std::env::var("CI").is_err(), "CI must have Python's {module} (pip install motioncapture==1.1 natnet==0.3.0, as .ci/run does)");
-        eprintln!("skipped: no Python {module} here (pip install motioncapture==1.1 natnet==0.3.0)");
-    }
-    have
+    super::python_module(module, module, "motioncapture==1.1 natnet==0.3.0")
 }
 
 /// A child process killed when dropped (a failed assertion must not leave a server running),

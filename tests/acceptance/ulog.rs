@@ -9,15 +9,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// Whether Python has pyulog. Without it the test fails under CI (where `.ci/run` installs it)
-/// and is skipped, said on stderr, elsewhere.
+/// Whether Python has pyulog (see [`super::python_module`]).
 fn have_pyulog() -> bool {
-    let have = Command::new("python3").args(["-c", "import pyulog"]).status().is_ok_and(|s| s.success());
-    if !have {
-        assert!(std::env::var_os("CI").is_none(), "CI must have Python's pyulog (pip install pyulog==1.2.1, as .ci/run does)");
-        eprintln!("skipped: no Python pyulog here (pip install pyulog==1.2.1)");
-    }
-    have
+    super::python_module("pyulog", "pyulog", "pyulog==1.2.1")
 }
 
 /// The real ULog files of pyulog 1.2.1's source distribution (`FLYARENA_PYULOG_SAMPLES`, which
