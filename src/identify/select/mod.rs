@@ -733,14 +733,15 @@ fn tests_with_pairs(singles: usize, near: usize) -> usize {
 fn gate_notes(s: &Series, nominal: &Problem, o: &Options, notes: &mut Vec<String>) -> bool {
     let usable = nominal.train.iter().filter(|x| **x).count();
     let too_few = !enough_to_select(usable);
-    if s.model.rigid_body {
-        notes.push(
-            "a rigid body (`vehicle: rigid_body`): no force model by declaration, so the effects are fitted on the accelerometer against the mocap (accel_kin) and the gyro; those that act only through the thrust are not tried".into(),
-        );
-    } else if !nominal.design.has_force {
-        notes.push(
-            "no motor commands in the log: no force model, so the effects are fitted on the accelerometer against the mocap (accel_kin) and the gyro; those that act only through the thrust are not tried".into(),
-        );
+    let no_force = if s.model.rigid_body {
+        Some("a rigid body (`vehicle: rigid_body`): no force model by declaration")
+    } else {
+        (!nominal.design.has_force).then_some("no motor commands in the log: no force model")
+    };
+    if let Some(why) = no_force {
+        notes.push(format!(
+            "{why}, so the effects are fitted on the accelerometer against the mocap (accel_kin) and the gyro; those that act only through the thrust are not tried"
+        ));
     }
     if too_few {
         notes.push(format!(
