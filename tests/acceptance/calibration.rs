@@ -27,6 +27,8 @@ fn a_hand_held_rig_is_calibrated_from_its_log() {
     let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "4", "--logs", "--out", "o"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("| rotation (angle) | 1/1 |") && out.contains("logs: o/handheld-4-1 ") && d.join("o/handheld-4-1/flight-0.csv").is_file(), "{out}");
+    // the six fitted untested are the hidden ones, not effects besides them
+    assert!(out.contains("selected besides the hidden effects: none"), "{out}");
     let batch = json(&d.join("o/handheld-4-1.json"));
     let truth = &batch["outcomes"][0]["trial"]["truth"];
     let mapping = super::root().join("mappings/handheld.yaml");
