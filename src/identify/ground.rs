@@ -1,9 +1,13 @@
 //! An independent check of the roll/pitch misalignment: the vehicle resting on the floor before
 //! take-off. There the accelerometer reads f = −g·C_n^b·e_D in the IMU frame and the mocap
-//! predicts f̂ = −g·R_mᵀ·e_D in the marker frame; the rotation from f̂ to f is the marker
-//! offset's roll and pitch, δ = f̂ × f / |f̂|² (small angles; its yaw is unobservable at rest).
-//! Roll and pitch are about a body x and y that are level at rest: a body resting more
-//! than [`MAX_REST_OFF_LEVEL_DEG`] off a level z axis gets no ground check.
+//! predicts f̂ = −g·R_mᵀ·e_D in the marker frame; the rotation from f̂ to f ([`rotation_between`]:
+//! axis f̂ × f, angle atan2(|f̂ × f|, f̂·f), exact at any size) is the marker offset's tilt (its
+//! rotation about the vertical is unobservable at rest). Its two components are about the body
+//! axes that are level at rest ([`UpAxis`]: roll and pitch for a vehicle on its legs, z up; a rig
+//! may rest with any axis up); a body whose nearest axis is more than [`MAX_REST_OFF_AXIS_DEG`]
+//! from the vertical gets no ground check. The flight's side is the same rotation between f̂ and
+//! the f the fitted frames predict ([`predicted_tilt`]), so the two compare like with like
+//! whatever the sizes of the offset, the world tilt and the bias.
 //!
 //! It assumes no accelerometer bias: a bias b reads as a tilt of b/g rad (0.1 m/s² ≈ 0.58°), and
 //! the check cannot tell them apart. It needs ≥ 0.5 s of rest (thrust zero, or within 1 cm of
@@ -19,17 +23,22 @@
 use super::series::Series;
 
 /// The tilt the accelerometer reads against the markers while the vehicle rests on the floor before
-/// take-off (roll and pitch of the measured gravity in the mocap body frame, deg).
+/// take-off (the rotation from the gravity the mocap predicts to the one the accelerometer
+/// measures, about the body axes level at rest, deg).
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct GroundCheck {
-    /// Roll of the accelerometer's frame against the mocap body frame (deg).
+    /// Tilt of the accelerometer's frame against the mocap body frame about the first level axis
+    /// (the roll, about x, when z is up; [`UpAxis::level`]), deg.
     pub roll_deg: f64,
-    /// Pitch of the accelerometer's frame against the mocap body frame (deg).
+    /// Tilt about the second level axis (the pitch, about y, when z is up), deg.
     pub pitch_deg: f64,
     /// Standard error of the mean, from the sample scatter (deg).
     pub roll_se_deg: f64,
     /// Standard error of the pitch mean (deg).
     pub pitch_se_deg: f64,
+    /// The body axis nearest the vertical at rest (left out of the JSON when it is z).
+    #[serde(skip_serializing_if = "UpAxis::is_z")]
+    pub up_axis: UpAxis,
     /// Rows averaged.
     pub samples: usize,
     /// Standard deviation of the mocap's own tilt over these rows, roll and pitch (deg, per
@@ -38,9 +47,69 @@ pub struct GroundCheck {
     pub mocap_sd_deg: [f64; 2],
 }
 
+/// The body axis nearest the vertical while the body rests; the ground check's two tilts are
+/// rotations about the other two, in cyclic order ([`UpAxis::level`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UpAxis {
+    /// x up (a rig on its back or front face): tilts about y and z.
+    X,
+    /// y up (a rig on its side): tilts about z and x.
+    Y,
+    /// z up (a vehicle on its legs, or upside down): roll about x and pitch about y.
+    #[default]
+    Z,
+}
+
+impl UpAxis {
+    /// z is up.
+    pub fn is_z(&self) -> bool {
+        *self == UpAxis::Z
+    }
+
+    /// The body axes the two tilts are about (0 = x, 1 = y, 2 = z), in cyclic order after the
+    /// up axis: (x, y) for z, (y, z) for x, (z, x) for y.
+    pub fn level(self) -> [usize; 2] {
+        let k = self as usize;
+        [(k + 1) % 3, (k + 2) % 3]
+    }
+
+    /// The names of the two tilts: roll and pitch for z up, else the axes they turn about.
+    pub fn tilt_names(self) -> [&'static str; 2] {
+        match self {
+            UpAxis::Z => ["roll", "pitch"],
+            UpAxis::X => ["about y", "about z"],
+            UpAxis::Y => ["about z", "about x"],
+        }
+    }
+}
+
+/// A rest the ground check reads: rows [start, end) and the body axis that is up there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rest {
+    /// First row.
+    pub start: usize,
+    /// One past the last row.
+    pub end: usize,
+    /// The body axis nearest the vertical.
+    pub up: UpAxis,
+}
+
 /// The ground check as the accelerometer reads it, with no bias removed.
 pub fn ground_check(s: &Series) -> Option<GroundCheck> {
     tilt_at_rest(s, &nalgebra::Vector3::zeros())
+}
+
+/// The rotation that takes the direction of `a` to that of `b`, as a rotation vector (rad): axis
+/// a × b / |a × b|, angle atan2(|a × b|, a·b), exact at any angle below 180°; zero for parallel
+/// (or opposite) vectors. For small angles it is a × b / (|a|·|b|).
+pub fn rotation_between(a: &nalgebra::Vector3<f64>, b: &nalgebra::Vector3<f64>) -> nalgebra::Vector3<f64> {
+    let c = a.cross(b);
+    let n = c.norm();
+    if n == 0.0 {
+        return nalgebra::Vector3::zeros();
+    }
+    c * (n.atan2(a.dot(b)) / n)
 }
 
 /// The rest before take-off: rows [start, end) inside the first segment, ≥ 0.5 s.
@@ -104,10 +173,12 @@ fn rest_after_landing(s: &Series) -> Option<(usize, usize)> {
 }
 
 /// The ground check again after landing, with `accel_bias_body` removed as for the rest before.
+/// Its tilts are about the level axes of the rest before take-off.
 pub fn tilt_after_landing(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
+    let up = rest_before_takeoff(s)?.up;
     let (start, end) = rest_after_landing(s)?;
     let (start, end) = still_accel(s, start, end)?;
-    Some(tilt_over(s, start, end, accel_bias_body))
+    Some(tilt_over(s, Rest { start, end, up }, accel_bias_body))
 }
 
 /// A still vehicle's accelerometer reads the same specific force row after row, its noise aside.
@@ -152,58 +223,99 @@ pub const LANDED_M: f64 = 0.05;
 /// Rows this long after landing are left out of the rest after it (s).
 pub const SETTLE_AFTER_LANDING_S: f64 = 0.5;
 
-/// The mocap yaw at rest (rad, circular mean), where the ground check was taken: a world tilt
-/// reads as a body tilt turned by it.
-pub fn rest_yaw(s: &Series) -> Option<f64> {
-    let (start, end) = rest(s)?;
-    let (sx, sy) = (start..end).map(|i| s.att_mocap[i].euler_angles().2).fold((0.0, 0.0), |(x, y), a| (x + a.cos(), y + a.sin()));
-    Some(sy.atan2(sx))
+/// The specific force the mocap predicts at rest in the marker frame, f̂ = R_mᵀ·(−g·e_D) (m/s²).
+fn predicted_at_rest(s: &Series, i: usize) -> nalgebra::Vector3<f64> {
+    s.att_mocap[i].inverse_transform_vector(&nalgebra::Vector3::new(0.0, 0.0, -s.model.gravity_m_s2))
 }
 
-/// How far the mocap body's z axis is from vertical at rest (deg, the mean over the rest):
-/// the angle between the specific force the mocap predicts there, f̂ = R_mᵀ·(−g·e_D), and the
-/// body's −z. `None` without a rest.
-pub fn rest_off_level_deg(s: &Series) -> Option<f64> {
-    rest(s).map(|(start, end)| off_level_deg(s, start, end))
-}
-
-/// [`rest_off_level_deg`] over rows [start, end).
-fn off_level_deg(s: &Series, start: usize, end: usize) -> f64 {
+/// The body axis nearest the vertical over rows [start, end) and how far from it the vertical is
+/// (deg): the mean of the up direction the mocap gives, R_mᵀ·(−e_D), against its largest
+/// component's axis.
+fn up_over(s: &Series, start: usize, end: usize) -> (UpAxis, f64) {
     let up = (start..end).map(|i| s.att_mocap[i].inverse_transform_vector(&-nalgebra::Vector3::z())).sum::<nalgebra::Vector3<f64>>();
-    up.angle(&-nalgebra::Vector3::z()).to_degrees()
+    let k = up.iamax();
+    let mut axis = nalgebra::Vector3::zeros();
+    axis[k] = up[k].signum();
+    let up_axis = [UpAxis::X, UpAxis::Y, UpAxis::Z][k];
+    (up_axis, up.angle(&axis).to_degrees())
 }
 
-/// The rest attitude beyond which the ground check is left out (deg from a level z axis): its
-/// roll and pitch are rotations about a body x and y that are level at rest; a rig resting on
-/// another face (x or y up) turns one of them into a rotation about the vertical, which gravity
-/// does not show, and the other into a yaw.
-pub const MAX_REST_OFF_LEVEL_DEG: f64 = 30.0;
+/// How far the vertical is from the body axis nearest it at rest (deg, the mean over the rest):
+/// 0 for a vehicle level on its legs or a rig lying on any face, at most 54.7° (the vertical
+/// along a body diagonal). `None` without a rest.
+pub fn rest_off_axis_deg(s: &Series) -> Option<f64> {
+    rest(s).map(|(start, end)| up_over(s, start, end).1)
+}
 
-/// The ground check with an accelerometer bias `accel_bias_body` (IMU frame, m/s²) removed from
-/// every sample first: δ = f̂ × (f − b) / |f̂|². `None` without a rest, or when the body
-/// rests more than [`MAX_REST_OFF_LEVEL_DEG`] off a level z axis.
-pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
+/// The rest beyond which the ground check is left out (deg between the vertical and the body axis
+/// nearest it): its two tilts are rotations about the other two body axes, and a vertical far
+/// from every axis leaves neither of them level, so gravity shows only a mix of them.
+pub const MAX_REST_OFF_AXIS_DEG: f64 = 30.0;
+
+/// The rest before take-off as the ground check reads it: its still rows ([`still_accel`]) and
+/// its up axis. `None` without a rest, or when the vertical is more than
+/// [`MAX_REST_OFF_AXIS_DEG`] from every body axis there.
+pub fn rest_before_takeoff(s: &Series) -> Option<Rest> {
     let (start, end) = rest(s)?;
-    if off_level_deg(s, start, end) > MAX_REST_OFF_LEVEL_DEG {
+    let (up, off) = up_over(s, start, end);
+    if off > MAX_REST_OFF_AXIS_DEG {
         return None;
     }
     let (start, end) = still_accel(s, start, end)?;
-    Some(tilt_over(s, start, end, accel_bias_body))
+    Some(Rest { start, end, up })
 }
 
-/// δ = f̂ × (f − b) / |f̂|² averaged over rows [start, end) (≥ 2 rows), with its standard error.
-fn tilt_over(s: &Series, start: usize, end: usize, accel_bias_body: &nalgebra::Vector3<f64>) -> GroundCheck {
-    let g = s.model.gravity_m_s2;
+/// The ground check with an accelerometer bias `accel_bias_body` (IMU frame, m/s²) removed from
+/// every sample first: the rotation from f̂ to f − b. `None` without a rest
+/// ([`rest_before_takeoff`]).
+pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
+    rest_before_takeoff(s).map(|r| tilt_over(s, r, accel_bias_body))
+}
+
+/// The tilt a model of the frames predicts over `rest`'s rows, about its level axes (rad): the
+/// mean of the rotation from f̂_i to the specific force the model says the IMU reads there,
+/// f_i = O·R_m,iᵀ·W·(−g·e_D) + b, with O the body offset (marker frame → IMU frame), W the world
+/// tilt (the mocap world's gravity direction W·e_D) and b the accelerometer bias: the IMU's
+/// attitude is C = W⁻¹·R_m·O⁻¹ and at rest it reads Cᵀ·(−g·e_D) + b. The ground check reads the
+/// same rotation with the measured f, so the two compare exactly, whatever an offset's yaw does
+/// to the direction of its tilt.
+pub fn predicted_tilt(
+    s: &Series,
+    rest: &Rest,
+    offset: &nalgebra::UnitQuaternion<f64>,
+    world: &nalgebra::UnitQuaternion<f64>,
+    accel_bias_body: &nalgebra::Vector3<f64>,
+) -> [f64; 2] {
+    let down = world.transform_vector(&nalgebra::Vector3::new(0.0, 0.0, -s.model.gravity_m_s2));
+    let [a, b] = rest.up.level();
+    let mut sum = [0.0; 2];
+    for i in rest.start..rest.end {
+        let f = offset.transform_vector(&s.att_mocap[i].inverse_transform_vector(&down)) + accel_bias_body;
+        let d = rotation_between(&predicted_at_rest(s, i), &f);
+        sum = [sum[0] + d[a], sum[1] + d[b]];
+    }
+    let m = (rest.end - rest.start) as f64;
+    sum.map(|x| x / m)
+}
+
+/// The rotation from f̂ to f − b averaged over `rest`'s rows (≥ 2 rows), about its level axes,
+/// with its standard error.
+fn tilt_over(s: &Series, rest: Rest, accel_bias_body: &nalgebra::Vector3<f64>) -> GroundCheck {
+    let Rest { start, end, up } = rest;
+    let [a, b] = up.level();
+    let mut axis_up = nalgebra::Vector3::zeros();
     let mut rp: Vec<(f64, f64)> = Vec::with_capacity(end - start);
-    // the mocap's tilt alone: f̂'s direction, (y, −x)/|f̂| ≈ (roll, pitch) for small angles
+    // the mocap's tilt alone: the rotation from the up axis to f̂'s direction
     let mut mocap: Vec<[f64; 2]> = Vec::with_capacity(end - start);
     for i in start..end {
-        let f_hat = s.att_mocap[i].inverse_transform_vector(&nalgebra::Vector3::new(0.0, 0.0, -g));
-        let f = s.accel_body[i] - accel_bias_body;
-        let d = f_hat.cross(&f) / f_hat.norm_squared();
-        rp.push((d.x, d.y));
-        let u = f_hat / f_hat.norm();
-        mocap.push([u.y, -u.x]);
+        let f_hat = predicted_at_rest(s, i);
+        if i == start {
+            axis_up[up as usize] = f_hat[up as usize].signum();
+        }
+        let d = rotation_between(&f_hat, &(s.accel_body[i] - accel_bias_body));
+        rp.push((d[a], d[b]));
+        let u = rotation_between(&axis_up, &f_hat);
+        mocap.push([u[a], u[b]]);
     }
     let mocap_sd_deg = [0, 1].map(|k| {
         let m = mocap.len() as f64;
@@ -218,6 +330,7 @@ fn tilt_over(s: &Series, start: usize, end: usize, accel_bias_body: &nalgebra::V
         pitch_deg: mp.to_degrees(),
         roll_se_deg: (vr / m).sqrt().to_degrees(),
         pitch_se_deg: (vp / m).sqrt().to_degrees(),
+        up_axis: up,
         samples: rp.len(),
         mocap_sd_deg,
     }
@@ -246,6 +359,7 @@ pub struct SpinUp {
 pub fn spin_up(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<SpinUp> {
     let thrust = s.thrust_n.as_ref()?;
     let (start, _) = rest(s)?;
+    let up = rest_before_takeoff(s)?.up;
     let seg_end = s.segments.first()?.1;
     let on = (start..seg_end).find(|&i| thrust[i] > 0.0)?;
     let z_rest = s.pos_mocap_nav[start..on].iter().map(|p| p.z).sum::<f64>() / (on - start) as f64;
@@ -256,7 +370,7 @@ pub fn spin_up(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<S
     }
     let weight = s.model.mass_kg * s.model.gravity_m_s2;
     Some(SpinUp {
-        check: tilt_over(s, from, to, accel_bias_body),
+        check: tilt_over(s, Rest { start: from, end: to, up }, accel_bias_body),
         thrust_fraction: thrust[from..to].iter().sum::<f64>() / (to - from) as f64 / weight,
         duration_s: (to - from) as f64 * s.dt(),
     })
@@ -319,6 +433,10 @@ pub struct GroundAgreement {
     /// The still pose scatters in roll by more than [`STILL_POSE_SD_DEG`]: the cameras see the
     /// markers badly at rest, and the rest's tilt is not a reliable reference.
     pub rest_pose_scatters: bool,
+    /// The body axis nearest the vertical at rest: roll and pitch are the tilts about the other
+    /// two ([`UpAxis::level`]; left out of the JSON when it is z).
+    #[serde(skip_serializing_if = "UpAxis::is_z")]
+    pub up_axis: UpAxis,
 }
 
 /// A still vehicle's mocap roll that scatters by more than this per sample (deg) is a pose the
@@ -327,7 +445,7 @@ pub struct GroundAgreement {
 /// 0.005–0.014°, and the three flights above 0.09° were the ones whose two rests both disagree
 /// with the flight in roll. The threshold was set there; on 68 held-out flights (docs/nanobench.md, *A still
 /// pose that scatters*, with its caveat) the ground check disagrees with the flight by a median
-/// 0.31° in roll above it and 0.08° below it, one-sided Mann–Whitney p = 3·10⁻⁵.
+/// 0.33° in roll above it and 0.08° below it, one-sided Mann–Whitney p = 1·10⁻⁴.
 pub const STILL_POSE_SD_DEG: f64 = 0.02;
 
 /// The rest after landing: a second ground check that brackets the flight with the first.
@@ -485,6 +603,7 @@ pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt
         after_landing,
         rest_pose_sd_deg: raw.mocap_sd_deg,
         rest_pose_scatters: raw.mocap_sd_deg[0] > STILL_POSE_SD_DEG,
+        up_axis: raw.up_axis,
     }
 }
 
@@ -811,7 +930,8 @@ pub(crate) fn render_spin_up_summary(s: &SpinUpSummary) -> String {
 /// covers (the flight cannot pin its tilt down), or a disagreement.
 pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
     let mut notes = Vec::new();
-    for (name, t) in [("roll", &a.roll), ("pitch", &a.pitch)] {
+    let [first, _] = a.up_axis.tilt_names();
+    for (name, t) in a.up_axis.tilt_names().into_iter().zip([&a.roll, &a.pitch]) {
         if t.difference_deg.abs() > 1.0 && t.covers {
             notes.push(format!(
                 "ground check and flight differ by {:.2}° in {name}, within what this flight determines (±{:.2}°): the flight cannot pin its tilt down to 1°",
@@ -827,8 +947,8 @@ pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
                 t.ci95_deg
             );
             // the other references, where they agree: the next lead for this flight
-            let spin = a.spin_up.as_ref().map(|s| if name == "roll" { &s.roll } else { &s.pitch });
-            let landed = a.after_landing.as_ref().map(|l| if name == "roll" { &l.roll } else { &l.pitch });
+            let spin = a.spin_up.as_ref().map(|s| if name == first { &s.roll } else { &s.pitch });
+            let landed = a.after_landing.as_ref().map(|l| if name == first { &l.roll } else { &l.pitch });
             // the spin-up counts only where it moved significantly from the rest, toward the
             // flight, and lands within its interval of it (a wide interval alone agrees with anything)
             let toward = |s: &&SpinUpAxis| s.covers && s.change_deg.abs() > s.change_ci95_deg && s.change_deg * t.difference_deg < 0.0;
@@ -913,59 +1033,104 @@ mod tests {
         assert!((sp.check.roll_deg - b.check.roll_deg - 0.0981f64.atan2(G).to_degrees()).abs() < 0.01, "{b:?}");
     }
 
-    /// A body that rests on another face gets no ground check: the same rest with the markers'
-    /// frame turned 90° about y (the body's x axis up, 90° off level) or 40° about x, where roll
-    /// and pitch about a level x and y do not describe the tilt gravity shows; 20° off level still
-    /// reads the part of the accelerometer's 0.4°/−1° offset that gravity shows. (Read anyway, the
-    /// 90° rest gave a roll of 0 for the 0.4°, a rotation about the vertical there, which a flight
-    /// that measures 0.4° would have been called in disagreement with.)
-    #[test]
-    fn a_body_resting_on_another_face_gets_no_ground_check() {
-        for (turn, checked) in [
-            (UnitQuaternion::from_euler_angles(0.0, 90f64.to_radians(), 0.0), false),
-            (UnitQuaternion::from_euler_angles(40f64.to_radians(), 0.0, 0.0), false),
-            (UnitQuaternion::from_euler_angles(20f64.to_radians(), 0.0, 0.0), true),
-        ] {
-            let mut s = flight([0.4, -1.0], [0.0; 2], 0.9);
-            // the markers' frame turned by `turn`: the mocap reports R_m = turn, and the IMU, at
-            // the same small offset C from the markers' frame, reads C·R_mᵀ·(−g·e_D)
-            let c = UnitQuaternion::from_euler_angles(0.4f64.to_radians(), -1f64.to_radians(), 0.0);
-            for i in 0..s.len() {
-                s.att_mocap[i] = turn;
-                s.accel_body[i] = c * turn.inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 };
-            }
-            let off = rest_off_level_deg(&s).unwrap();
-            assert!((off - turn.angle().to_degrees()).abs() < 1e-9, "{off}");
-            match ground_check(&s) {
-                Some(g) => {
-                    assert!(checked, "{off}° off level: {g:?}");
-                    // the part of the offset's rotation vector γ that gravity shows: γ less its
-                    // component along the body's up û (to first order in |γ| = 1.1°: 0.01°)
-                    let (gamma, up) = (c.scaled_axis(), turn.inverse_transform_vector(&-Vector3::z()));
-                    let want = (gamma - up * gamma.dot(&up)).map(f64::to_degrees);
-                    assert!((g.roll_deg - want.x).abs() < 0.02 && (g.pitch_deg - want.y).abs() < 0.02 && want.y.abs() > 0.5, "{g:?} against {want:?}");
-                }
-                None => {
-                    assert!(!checked, "{off}° off level: no check");
-                    // long enough to select (the note comes with a full report): the climb goes on for 40 s
-                    let mut s = s;
-                    let n = 4300;
-                    for i in s.len()..n {
-                        s.t_s.push(i as f64 * 0.01);
-                        s.pos_mocap_nav.push(Vector3::new(0.0, 0.0, -0.01 * (i - 160) as f64));
-                        s.att_mocap.push(turn);
-                        s.mocap_ok.push(true);
-                        s.gyro_body.push(Vector3::zeros());
-                        s.accel_body.push(s.accel_body[i - 2]);
-                        s.thrust_n.as_mut().unwrap().push(0.9 * G);
-                    }
-                    s.segments = vec![(0, n)];
-                    let r = crate::identify::identify(&s, &crate::identify::Options::default()).unwrap();
-                    let said = format!("the log rests with the body's z axis {:.0}° from vertical", turn.angle().to_degrees());
-                    assert!(r.ground_check.is_none() && r.notes.iter().any(|n| n.starts_with(&said)), "{:?}", r.notes);
-                }
-            }
+    /// The markers' frame turned by `turn` over the whole flight, and the IMU offset from it by
+    /// `c`: the mocap reports R_m = turn and the accelerometer reads c·R_mᵀ·(−g·e_D), noise-free.
+    fn turned(turn: UnitQuaternion<f64>, c: UnitQuaternion<f64>) -> Series {
+        let mut s = flight([0.0; 2], [0.0; 2], 0.9);
+        for i in 0..s.len() {
+            s.att_mocap[i] = turn;
+            s.accel_body[i] = c * turn.inverse_transform_vector(&Vector3::new(0.0, 0.0, -G));
         }
+        s
+    }
+
+    /// The ground check is the exact rotation between the two forces, about the body axes that
+    /// are level at rest, whichever axis is up: an IMU turned from the markers by α = 6° about a
+    /// level axis n reads α·n, by hand (a rotation about an axis perpendicular to gravity turns
+    /// it by exactly its angle), where the small-angle f̂ × f/|f̂|² read sin α (0.02° less). With
+    /// the markers level (z up) n = (cos β, sin β, 0) reads as roll and pitch; with the body on
+    /// its front face (turned 90° about y: x up) n = (0, cos β, sin β) reads about y and z; on its
+    /// side (turned −90° about x: y up) n = (sin β, 0, cos β) reads about z and x.
+    #[test]
+    fn the_ground_check_is_the_exact_rotation_about_the_level_axes() {
+        let (alpha, beta) = (6f64.to_radians(), 0.7_f64);
+        let (cb, sb) = (beta.cos(), beta.sin());
+        for (turn, n, up) in [
+            (UnitQuaternion::identity(), Vector3::new(cb, sb, 0.0), UpAxis::Z),
+            (UnitQuaternion::from_euler_angles(0.0, 90f64.to_radians(), 0.0), Vector3::new(0.0, cb, sb), UpAxis::X),
+            (UnitQuaternion::from_euler_angles(-90f64.to_radians(), 0.0, 0.0), Vector3::new(sb, 0.0, cb), UpAxis::Y),
+        ] {
+            let s = turned(turn, UnitQuaternion::from_scaled_axis(n * alpha));
+            let g = ground_check(&s).unwrap();
+            let [a, b] = up.level();
+            let want = [n[a], n[b]].map(|x| (x * alpha).to_degrees());
+            assert_eq!(g.up_axis, up);
+            assert!((g.roll_deg - want[0]).abs() < 1e-9 && (g.pitch_deg - want[1]).abs() < 1e-9, "{up:?} up: {g:?} against {want:?}");
+            assert!(rest_off_axis_deg(&s).unwrap() < 1e-9);
+        }
+        assert_eq!(UpAxis::X.tilt_names(), ["about y", "about z"]);
+    }
+
+    /// The flight's side reads what the ground check reads when the frames are the model's: an
+    /// accelerometer that measures Cᵀ·(−g·e_D) + b, C the IMU attitude the corrections give
+    /// (series::correct: W⁻¹·R_m·O⁻¹), at a rest turned 35° in yaw, with an offset of 5° roll,
+    /// −4° pitch and 30° yaw, a 6° world tilt and a 0.3 m/s² bias. The ground check of f − b is
+    /// the frame part, that of f the whole; a frame
+    /// composed the other way round (O·R_mᵀ·W⁻¹) misses by degrees.
+    #[test]
+    fn the_predicted_tilt_is_what_the_ground_check_reads_of_the_model() {
+        use crate::identify::series::{Corrections, correct};
+        let turn = UnitQuaternion::from_euler_angles(0.0, 0.0, 35f64.to_radians());
+        let offset = UnitQuaternion::from_euler_angles(5f64.to_radians(), -4f64.to_radians(), 30f64.to_radians());
+        let world = UnitQuaternion::from_euler_angles(6f64.to_radians(), -2f64.to_radians(), 0.0);
+        let bias = Vector3::new(0.3, -0.2, 0.1);
+        let mut s = turned(turn, UnitQuaternion::identity());
+        let corr = Corrections { body_offset: offset, world_tilt: world, ..Corrections::default() };
+        let att = correct(&s, &corr).att_body;
+        for i in 0..s.len() {
+            s.accel_body[i] = att[i].inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)) + bias;
+        }
+        let rest = rest_before_takeoff(&s).unwrap();
+        for (b, read) in [(Vector3::zeros(), tilt_at_rest(&s, &bias).unwrap()), (bias, ground_check(&s).unwrap())] {
+            let p = predicted_tilt(&s, &rest, &offset, &world, &b).map(f64::to_degrees);
+            assert!((p[0] - read.roll_deg).abs() < 1e-9 && (p[1] - read.pitch_deg).abs() < 1e-9, "{p:?} against {read:?}");
+            let swapped = predicted_tilt(&s, &rest, &offset, &world.inverse(), &b).map(f64::to_degrees);
+            assert!((swapped[0] - read.roll_deg).abs().max((swapped[1] - read.pitch_deg).abs()) > 1.0, "{swapped:?}");
+        }
+    }
+
+    /// A body whose vertical is far from every body axis at rest gets no ground check: turned
+    /// 40° about x the vertical is 40° from z, where neither y nor z is level and gravity shows
+    /// only a mix of the tilts about them; 20° still reads, about x and y, the part of the
+    /// accelerometer's 0.4°/−1° offset that gravity shows (the offset's rotation vector less its
+    /// component along the body's up, to second order in 1.1°: 0.02°).
+    #[test]
+    fn a_body_resting_between_its_axes_gets_no_ground_check() {
+        let c = UnitQuaternion::from_euler_angles(0.4f64.to_radians(), -1f64.to_radians(), 0.0);
+        let s = turned(UnitQuaternion::from_euler_angles(20f64.to_radians(), 0.0, 0.0), c);
+        let g = ground_check(&s).unwrap();
+        let (gamma, up) = (c.scaled_axis(), s.att_mocap[0].inverse_transform_vector(&-Vector3::z()));
+        let want = (gamma - up * gamma.dot(&up)).map(f64::to_degrees);
+        assert!((g.roll_deg - want.x).abs() < 0.02 && (g.pitch_deg - want.y).abs() < 0.02 && want.y.abs() > 0.5, "{g:?} against {want:?}");
+        let turn = UnitQuaternion::from_euler_angles(40f64.to_radians(), 0.0, 0.0);
+        let mut s = turned(turn, c);
+        let off = rest_off_axis_deg(&s).unwrap();
+        assert!((off - 40.0).abs() < 1e-9, "{off}");
+        assert!(ground_check(&s).is_none());
+        // long enough to select (the note comes with a full report): the climb goes on for 40 s
+        let n = 4300;
+        for i in s.len()..n {
+            s.t_s.push(i as f64 * 0.01);
+            s.pos_mocap_nav.push(Vector3::new(0.0, 0.0, -0.01 * (i - 160) as f64));
+            s.att_mocap.push(turn);
+            s.mocap_ok.push(true);
+            s.gyro_body.push(Vector3::zeros());
+            s.accel_body.push(s.accel_body[i - 2]);
+            s.thrust_n.as_mut().unwrap().push(0.9 * G);
+        }
+        s.segments = vec![(0, n)];
+        let r = crate::identify::identify(&s, &crate::identify::Options::default()).unwrap();
+        assert!(r.ground_check.is_none() && r.notes.iter().any(|n| n.starts_with("the log rests with the vertical 40° from the nearest body axis")), "{:?}", r.notes);
     }
 
     /// No spin-up without a thrust column, or when the vehicle lifts within 0.3 s of the motors.

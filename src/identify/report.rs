@@ -1,5 +1,6 @@
 //! The human table of an identification [`Report`].
 
+use super::ground::UpAxis;
 use super::select::Report;
 use std::fmt::Write as _;
 
@@ -185,9 +186,11 @@ fn render_ground(s: &mut String, r: &Report) {
     if let Some(a) = &r.ground_agreement {
         let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs the frame tilt, body offset + world tilt):");
         if let Some(g) = &r.ground_check {
-            let _ = writeln!(s, "    the still vehicle's mocap tilt scatters {:.3}° roll, {:.3}° pitch per sample at rest", g.mocap_sd_deg[0], g.mocap_sd_deg[1]);
+            let [r, p] = g.up_axis.tilt_names();
+            let _ = writeln!(s, "    the still vehicle's mocap tilt scatters {:.3}° {r}, {:.3}° {p} per sample at rest", g.mocap_sd_deg[0], g.mocap_sd_deg[1]);
         }
-        for (name, t) in [("roll", &a.roll), ("pitch", &a.pitch)] {
+        let names = a.up_axis.tilt_names();
+        for (name, t) in names.into_iter().zip([&a.roll, &a.pitch]) {
             let _ = writeln!(
                 s,
                 "    {name:<5} ground {:+.2}, bias tilt {:+.2}, corrected {:+.2}; flight {:+.2}{}; difference {:+.2} ± {:.2} {}",
@@ -203,7 +206,7 @@ fn render_ground(s: &mut String, r: &Report) {
         }
         if let Some(sp) = &a.spin_up {
             let _ = writeln!(s, "  spin-up (motors on at {:.0} % of the weight, still on the floor, {:.2} s) as the ground check:", 100.0 * sp.thrust_fraction, sp.duration_s);
-            for (name, t) in [("roll", &sp.roll), ("pitch", &sp.pitch)] {
+            for (name, t) in names.into_iter().zip([&sp.roll, &sp.pitch]) {
                 let _ = writeln!(
                     s,
                     "    {name:<5} spin-up {:+.2} (spin-up − rest {:+.2} ± {:.2}); difference to the flight {:+.2} ± {:.2} {}",
@@ -219,7 +222,7 @@ fn render_ground(s: &mut String, r: &Report) {
     }
     if let Some(l) = r.ground_agreement.as_ref().and_then(|a| a.after_landing.as_ref()) {
         let _ = writeln!(s, "  rest after landing ({} samples) as the ground check, and the two rests' mean:", l.samples);
-        for (name, t) in [("roll", &l.roll), ("pitch", &l.pitch)] {
+        for (name, t) in r.ground_agreement.as_ref().map_or(UpAxis::Z, |a| a.up_axis).tilt_names().into_iter().zip([&l.roll, &l.pitch]) {
             let _ = writeln!(
                 s,
                 "    {name:<5} after {:+.2} (after − before {:+.2} ± {:.2}); difference to the flight {:+.2} ± {:.2} {}; mean of the rests {:+.2} ± {:.2} {}",

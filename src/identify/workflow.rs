@@ -293,12 +293,13 @@ fn per_flight_text(reports: &[(String, super::Report)], excluded: &[(String, Str
             text += &format!("    {:<34} {}\n", f.name, ps.join(", "));
         }
         if let Some(g) = &r.ground_check {
-            text +=
-                &format!("    ground check (at rest, {} samples): roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°\n", g.samples, g.roll_deg, g.roll_se_deg, g.pitch_deg, g.pitch_se_deg);
+            let [r, p] = g.up_axis.tilt_names();
+            text += &format!("    ground check (at rest, {} samples): {r} {:.2} ± {:.2}°, {p} {:.2} ± {:.2}°\n", g.samples, g.roll_deg, g.roll_se_deg, g.pitch_deg, g.pitch_se_deg);
         }
         if let Some(a) = &r.ground_agreement {
+            let [r, p] = a.up_axis.tilt_names();
             text += &format!(
-                "    ground − bias tilt vs flight offset: roll {:+.2} ± {:.2}°, pitch {:+.2} ± {:.2}°{}\n",
+                "    ground − bias tilt vs flight offset: {r} {:+.2} ± {:.2}°, {p} {:+.2} ± {:.2}°{}\n",
                 a.roll.difference_deg,
                 a.roll.ci95_deg,
                 a.pitch.difference_deg,

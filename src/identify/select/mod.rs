@@ -52,6 +52,7 @@
 //! already taken that axis from 3.3 to 0.26 m/s².)
 
 use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build, column_offsets};
+use super::ground::Rest;
 use super::series::{Corrections, NominalModel, Series};
 use super::stats::{Ar, LjungBox, Z_975, Z_995, autocorrelation, f_sf, inverse_spd, ljung_box, schur_complement, solve_spd};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
@@ -232,52 +233,81 @@ fn unavailable_reason(d: &Design, e: Effect) -> Option<String> {
     })
 }
 
-/// The whole tilt at rest (roll, pitch; rad): the frame part plus the tilt (b_y/g, −b_x/g) an
-/// accelerometer bias b implies (see [`rest_tilt`]).
-fn total_tilt(frame: [f64; 2], bias: &Vector3<f64>, g: f64) -> [f64; 2] {
-    [frame[0] + bias.y / g, frame[1] - bias.x / g]
-}
-
-/// The tilt at rest that the fitted model predicts, per axis (roll, pitch), in rad. The frame
-/// part is the body offset δ plus the world tilt τ as the vehicle sees it at its rest yaw ψ,
-/// (τ_x·cos ψ + τ_y·sin ψ, −τ_x·sin ψ + τ_y·cos ψ) (the `accel_kin` column Rᵀ(g·e_D × e_j) at a
-/// level attitude, read by the ground check's δ = f̂ × r/g²); the accelerometer bias adds
-/// (b_y/g, −b_x/g), as [`super::ground`] derives. Returns (frame part, bias); [`rest_tilt_sd`]
-/// gives the spread of their sum.
-fn rest_tilt(selected: &[Effect], theta: &[f64], corr: &Corrections, yaw: f64) -> ([f64; 2], nalgebra::Vector3<f64>) {
+/// What the fitted model says of the frames at rest: the body offset O and the world tilt W
+/// (identity unless selected) and the accelerometer bias b (zero unless selected), from the
+/// folded corrections and the OLS parameters `theta`.
+fn rest_frames(selected: &[Effect], theta: &[f64], corr: &Corrections) -> (UnitQuaternion<f64>, UnitQuaternion<f64>, Vector3<f64>) {
     let has = |e: Effect| selected.contains(&e);
-    let (c, s) = (yaw.cos(), yaw.sin());
-    let mut frame = [0.0, 0.0];
-    if has(Effect::BodyOffset) {
-        let (r, p, _) = corr.body_offset.euler_angles();
-        frame = [r, p];
-    }
-    if has(Effect::WorldTilt) {
-        let (tx, ty, _) = corr.world_tilt.euler_angles();
-        frame[0] += tx * c + ty * s;
-        frame[1] += -tx * s + ty * c;
-    }
+    let offset = if has(Effect::BodyOffset) { corr.body_offset } else { UnitQuaternion::identity() };
+    let world = if has(Effect::WorldTilt) { corr.world_tilt } else { UnitQuaternion::identity() };
     let b = cols_of(Effect::AccelBias);
-    let bias = if has(Effect::AccelBias) { nalgebra::Vector3::new(theta[b.start], theta[b.start + 1], theta[b.start + 2]) } else { nalgebra::Vector3::zeros() };
-    (frame, bias)
+    let bias = if has(Effect::AccelBias) { Vector3::new(theta[b.start], theta[b.start + 1], theta[b.start + 2]) } else { Vector3::zeros() };
+    (offset, world, bias)
 }
 
-/// The standard deviation (rad) of the whole rest tilt, frame part plus bias, per axis, by the
-/// delta method over the columns of `set` with covariance `cov` (in `set`'s order): offset and
-/// bias trade off in a hover, their sum does not.
-fn rest_tilt_sd(set: &[usize], cov: &DMatrix<f64>, g: f64, yaw: f64) -> [f64; 2] {
-    let (c, s) = (yaw.cos(), yaw.sin());
-    let b = cols_of(Effect::AccelBias);
-    let o = cols_of(Effect::BodyOffset);
-    let w = cols_of(Effect::WorldTilt);
-    // gradients of the two sums with respect to the columns
-    let grads = [[(o.start, 1.0), (w.start, c), (w.start + 1, s), (b.start + 1, 1.0 / g)], [(o.start + 1, 1.0), (w.start, -s), (w.start + 1, c), (b.start, -1.0 / g)]];
-    grads.map(|grad| {
-        let pos: Vec<(usize, f64)> = grad.iter().filter_map(|(j, c)| set.iter().position(|x| x == j).map(|p| (p, *c))).collect();
+/// The tilt at rest that the fitted model predicts over the ground check's rows, about their
+/// level axes (rad; [`super::ground::predicted_tilt`], exact rotations): the frame part (body
+/// offset and world tilt) and the whole (with the bias b), and b itself. Zero without a rest.
+fn rest_tilt(s: &Series, rest: Option<&Rest>, selected: &[Effect], theta: &[f64], corr: &Corrections) -> RestTilt {
+    let (offset, world, bias) = rest_frames(selected, theta, corr);
+    let Some(rest) = rest else {
+        return RestTilt { frame: [0.0; 2], total: [0.0; 2], bias };
+    };
+    let frame = super::ground::predicted_tilt(s, rest, &offset, &world, &Vector3::zeros());
+    let total = super::ground::predicted_tilt(s, rest, &offset, &world, &bias);
+    RestTilt { frame, total, bias }
+}
+
+/// The model's tilt at rest ([`rest_tilt`]).
+struct RestTilt {
+    /// Body offset and world tilt (rad).
+    frame: [f64; 2],
+    /// With the accelerometer bias too (rad): what the ground check reads if the model holds.
+    total: [f64; 2],
+    /// The accelerometer bias (IMU frame, m/s²).
+    bias: Vector3<f64>,
+}
+
+/// The standard deviation (rad) of the whole rest tilt (frame part plus bias, per level axis) by
+/// the delta method over the columns of `set` with covariance `cov` (in `set`'s order): the
+/// gradient of [`rest_tilt`]'s total with respect to the columns of the body offset (an increment
+/// d turns O into exp(d)·O), the world tilt (W·exp(d)) and the bias (b + d), by central
+/// differences. Offset and bias trade off in a hover, their sum does not. Zero without a rest.
+fn rest_tilt_sd(s: &Series, rest: Option<&Rest>, selected: &[Effect], theta: &[f64], corr: &Corrections, set: &[usize], cov: &DMatrix<f64>) -> [f64; 2] {
+    let Some(rest) = rest else {
+        return [0.0; 2];
+    };
+    let (offset, world, bias) = rest_frames(selected, theta, corr);
+    let (o, w, b) = (cols_of(Effect::BodyOffset), cols_of(Effect::WorldTilt), cols_of(Effect::AccelBias));
+    const H: f64 = 1e-6;
+    let total_at = |j: usize, h: f64| {
+        let (mut oq, mut wq, mut bv) = (offset, world, bias);
+        let mut d = Vector3::zeros();
+        if o.contains(&j) {
+            d[j - o.start] = h;
+            oq = UnitQuaternion::from_scaled_axis(d) * oq;
+        } else if w.contains(&j) {
+            d[j - w.start] = h;
+            wq *= UnitQuaternion::from_scaled_axis(d);
+        } else {
+            bv[j - b.start] += h;
+        }
+        super::ground::predicted_tilt(s, rest, &oq, &wq, &bv)
+    };
+    let grads: Vec<(usize, [f64; 2])> = set
+        .iter()
+        .enumerate()
+        .filter(|(_, j)| o.contains(*j) || w.contains(*j) || b.contains(*j))
+        .map(|(p, j)| {
+            let (plus, minus) = (total_at(*j, H), total_at(*j, -H));
+            (p, [0, 1].map(|k| (plus[k] - minus[k]) / (2.0 * H)))
+        })
+        .collect();
+    [0, 1].map(|k| {
         let mut v = 0.0;
-        for (p, cp) in &pos {
-            for (q, cq) in &pos {
-                v += cp * cq * cov[(*p, *q)];
+        for (p, gp) in &grads {
+            for (q, gq) in &grads {
+                v += gp[k] * gq[k] * cov[(*p, *q)];
             }
         }
         v.max(0.0).sqrt()
@@ -824,36 +854,34 @@ fn ground(
     notes: &mut Vec<String>,
 ) -> (Option<super::ground::GroundCheck>, Option<super::ground::GroundAgreement>) {
     let (state, selected) = (&search.state, &search.selected);
-    let g = s.model.gravity_m_s2;
-    let rest_yaw = super::ground::rest_yaw(s).unwrap_or(0.0);
-    let (tilt_offset, tilt_bias) = rest_tilt(selected, &state.fit.theta, &search.corr, rest_yaw);
-    let tilt_sd = rest_tilt_sd(&state.fit.set, &state.cov, g, rest_yaw);
-    let tilt_total = total_tilt(tilt_offset, &tilt_bias, g);
+    let rest = super::ground::rest_before_takeoff(s);
+    let tilt = rest_tilt(s, rest.as_ref(), selected, &state.fit.theta, &search.corr);
+    let tilt_sd = rest_tilt_sd(s, rest.as_ref(), selected, &state.fit.theta, &search.corr, &state.fit.set, &state.cov);
     let mut tilt_widen = [0.0f64; 2];
-    let fin = widen::Final { s, o, state, corr: search.corr, selected, g, rest_yaw };
-    widen::swaps(&fin, |e, c| named_at_step(&search.steps, &search.removed, e, c), tilt_total, yaw_spread_deg, not_identifiable, effects, &mut tilt_widen, notes);
+    let fin = widen::Final { s, o, state, corr: search.corr, selected, rest };
+    widen::swaps(&fin, |e, c| named_at_step(&search.steps, &search.removed, e, c), tilt.total, yaw_spread_deg, not_identifiable, effects, &mut tilt_widen, notes);
     widen::half_supported(&fin, &search.final_candidates, tilt_sd, effects, &mut tilt_widen, notes);
     // the widening is an extra half-width beyond the fit's own
     let tilt_widen = [0, 1].map(|k| widen::beyond_own(tilt_widen[k], Z_975 * tilt_sd[k]));
     let ground_check = super::ground::ground_check(s);
     let ground_agreement = ground_check.as_ref().and_then(|raw| {
-        super::ground::tilt_at_rest(s, &tilt_bias).map(|corrected| {
+        super::ground::tilt_at_rest(s, &tilt.bias).map(|corrected| {
             let flight = super::ground::FlightTilt {
-                offset_rad: tilt_offset,
+                offset_rad: tilt.frame,
                 sd_rad: tilt_sd,
                 widen_rad: tilt_widen,
                 frame_fitted: selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt),
                 accel_bias_fitted: selected.contains(&Effect::AccelBias),
             };
-            super::ground::agreement(raw, &corrected, &flight, super::ground::spin_up(s, &tilt_bias).as_ref(), super::ground::tilt_after_landing(s, &tilt_bias).as_ref())
+            super::ground::agreement(raw, &corrected, &flight, super::ground::spin_up(s, &tilt.bias).as_ref(), super::ground::tilt_after_landing(s, &tilt.bias).as_ref())
         })
     });
     if let Some(a) = &ground_agreement {
         notes.extend(super::ground::agreement_notes(a));
     }
-    if let Some(off) = super::ground::rest_off_level_deg(s).filter(|off| ground_check.is_none() && *off > super::ground::MAX_REST_OFF_LEVEL_DEG) {
+    if let Some(off) = super::ground::rest_off_axis_deg(s).filter(|off| ground_check.is_none() && *off > super::ground::MAX_REST_OFF_AXIS_DEG) {
         notes.push(format!(
-            "the log rests with the body's z axis {off:.0}° from vertical: the ground check reads roll and pitch about a level x and y, so it is left out (the fit assumes nothing about the rest attitude)"
+            "the log rests with the vertical {off:.0}° from the nearest body axis: the ground check reads tilts about two body axes that are level at rest, so it is left out (the fit assumes nothing about the rest attitude)"
         ));
     }
     (ground_check, ground_agreement)
@@ -919,72 +947,109 @@ mod tests {
         assert!((0.0025..0.0025 * (1.0 + 1e-6)).contains(&var), "thrust-scale variance {var}, want 0.0025 plus a statistical part under 3e-10");
     }
 
-    /// The rest tilt of the ground agreement by hand: the frame's roll and pitch are the body
-    /// offset's plus the world tilt turned by the yaw, (t_x·c + t_y·s, −t_x·s + t_y·c), and their
-    /// standard deviations are the delta method over the columns they sum: roll over (o_x, w_x·c,
-    /// w_y·s, b_y/g), pitch over (o_y, −w_x·s, w_y·c, −b_x/g), with the covariances' cross terms.
-    /// Every column has its own variance, so a gradient that picks the wrong column (b_x for roll's
-    /// b_y) or drops one changes the result; the covariances of pitch's w_x and of roll's w_y with
-    /// the offset give each world-tilt gradient's sign a cross term (a bug it catches: −s as s,
-    /// which the variances alone square away).
+    /// A still rest of 100 rows at yaw `yaw` (rad), markers level: the mocap reports R_z(yaw).
+    fn rest_at_yaw(yaw: f64) -> (Series, Rest) {
+        let n = 100;
+        let s = Series {
+            source: "rest".into(),
+            t_s: (0..n).map(|i| i as f64 * 0.01).collect(),
+            pos_mocap_nav: vec![Vector3::zeros(); n],
+            att_mocap: vec![UnitQuaternion::from_euler_angles(0.0, 0.0, yaw); n],
+            mocap_ok: vec![true; n],
+            gyro_body: vec![Vector3::zeros(); n],
+            accel_body: vec![Vector3::new(0.0, 0.0, -9.81); n],
+            thrust_n: None,
+            vbat_v: None,
+            segments: vec![(0, n)],
+            model: NominalModel::for_tests(9.81),
+            repairs: vec![],
+        };
+        (s, Rest { start: 0, end: n, up: super::super::ground::UpAxis::Z })
+    }
+
+    /// The model's tilt at rest composes rotations exactly, by hand for rotations about level
+    /// axes (a rotation by α about a horizontal n turns gravity by exactly α·n):
+    /// - a world tilt exp(α·n) (6°) seen at rest yaw ψ is α·R_z(−ψ)·n in the body;
+    /// - a body offset's yaw ψ_o turns it further, α·R_z(ψ_o − ψ)·n: a mocap body defined 60°
+    ///   off the IMU in yaw turns the tilt by 60°, which the offset's Euler roll and pitch leave
+    ///   out (3° of yaw on a 6° tilt already moves it by 0.3°);
+    /// - a body offset exp(α·m) alone is α·m, where its Euler roll and pitch are off by ~α²/4;
+    /// - a level bias b reads as atan(|b|/g) about (b_y, −b_x, 0)/|b| (f = −g·e_z + b), and as
+    ///   b_y/g in roll only to first order;
+    /// - effects not selected add nothing, whatever the corrections hold.
     #[test]
-    fn rest_tilt_is_the_frame_sum_and_its_delta_method_spread() {
+    fn the_rest_tilt_composes_the_frames_exactly() {
+        let (g, yaw, alpha, beta) = (9.81, 0.3_f64, 6f64.to_radians(), 0.7_f64);
+        let (s, rest) = rest_at_yaw(yaw);
+        let n = Vector3::new(beta.cos(), beta.sin(), 0.0);
+        let tilt = UnitQuaternion::from_scaled_axis(n * alpha);
+        let theta = vec![0.0; N_COLUMNS];
+        let near = |got: [f64; 2], want: Vector3<f64>| (got[0] - want.x).abs() < 1e-12 && (got[1] - want.y).abs() < 1e-12;
+        let corr = Corrections { world_tilt: tilt, ..Corrections::default() };
+        let t = rest_tilt(&s, Some(&rest), &[Effect::WorldTilt], &theta, &corr);
+        let want = UnitQuaternion::from_euler_angles(0.0, 0.0, -yaw) * n * alpha;
+        assert!(near(t.frame, want) && near(t.total, want), "{:?} against {want:?}", t.frame);
+        let psi_o = 60f64.to_radians();
+        let corr = Corrections { world_tilt: tilt, body_offset: UnitQuaternion::from_euler_angles(0.0, 0.0, psi_o), ..Corrections::default() };
+        let t = rest_tilt(&s, Some(&rest), &[Effect::BodyOffset, Effect::WorldTilt], &theta, &corr);
+        let want = UnitQuaternion::from_euler_angles(0.0, 0.0, psi_o - yaw) * n * alpha;
+        assert!(near(t.frame, want), "{:?} against {want:?}", t.frame);
+        let corr = Corrections { body_offset: tilt, ..Corrections::default() };
+        let t = rest_tilt(&s, Some(&rest), &[Effect::BodyOffset], &theta, &corr);
+        assert!(near(t.frame, n * alpha), "{:?}", t.frame);
+        let (r, p, _) = tilt.euler_angles();
+        assert!((r - alpha * n.x).abs() > 1e-5 || (p - alpha * n.y).abs() > 1e-5, "the Euler angles would have done");
+        let b = cols_of(Effect::AccelBias);
+        let mut theta_b = theta.clone();
+        let bias = Vector3::new(-1.5, 2.5, 0.0);
+        theta_b[b.start..b.end].copy_from_slice(bias.as_slice());
+        let t = rest_tilt(&s, Some(&rest), &[Effect::AccelBias], &theta_b, &Corrections::default());
+        let want = Vector3::new(bias.y, -bias.x, 0.0).normalize() * (bias.norm() / g).atan();
+        assert!(near(t.total, want) && t.frame == [0.0; 2] && t.bias == bias, "{:?} against {want:?}", t.total);
+        assert!((t.total[0] - bias.y / g).abs() > 1e-3, "first order would have done");
+        // nothing selected: nothing, and no rest: nothing
+        let corr = Corrections { world_tilt: tilt, body_offset: tilt, ..Corrections::default() };
+        let t = rest_tilt(&s, Some(&rest), &[], &theta_b, &corr);
+        assert_eq!((t.frame, t.total, t.bias), ([0.0; 2], [0.0; 2], Vector3::zeros()));
+        let t = rest_tilt(&s, None, &[Effect::BodyOffset, Effect::WorldTilt], &theta_b, &corr);
+        assert_eq!((t.frame, t.total), ([0.0; 2], [0.0; 2]));
+    }
+
+    /// The spread of the whole rest tilt by the delta method, at a level rest at yaw ψ with no
+    /// offset, tilt or bias yet, where the gradients are by hand: roll over (o_x, w_x·c, w_y·s,
+    /// b_y/g), pitch over (o_y, −w_x·s, w_y·c, −b_x/g), the offset's yaw none; with the
+    /// covariances' cross terms. Every column has its own variance, so a gradient that picks the
+    /// wrong column (b_x for roll's b_y) or drops one changes the result; the covariances of
+    /// pitch's w_x and of roll's w_y with the offset give each world-tilt gradient's sign a cross
+    /// term (a bug it catches: −s as s, which the variances alone square away).
+    #[test]
+    fn the_rest_tilt_spread_is_the_delta_method_over_the_frames() {
         let (g, yaw) = (9.81, 0.3_f64);
         let (c, s) = (yaw.cos(), yaw.sin());
+        let (series, rest) = rest_at_yaw(yaw);
         let selected = [Effect::BodyOffset, Effect::WorldTilt, Effect::AccelBias];
         let set = set_of(&selected);
         let (o, w, b) = (cols_of(Effect::BodyOffset), cols_of(Effect::WorldTilt), cols_of(Effect::AccelBias));
         let at = |j: usize| set.iter().position(|x| *x == j).unwrap();
         let var = |j: usize| 1e-4 * (1.0 + at(j) as f64);
         let mut cov = DMatrix::from_fn(set.len(), set.len(), |p, q| if p == q { 1e-4 * (1.0 + p as f64) } else { 0.0 });
-        let (k1, k2) = (3e-5, -2e-5);
-        cov[(at(o.start), at(b.start + 1))] = k1;
-        cov[(at(b.start + 1), at(o.start))] = k1;
-        cov[(at(o.start + 1), at(b.start))] = k2;
-        cov[(at(b.start), at(o.start + 1))] = k2;
-        let (k3, k4) = (1.5e-5, -2.5e-5);
-        cov[(at(o.start + 1), at(w.start))] = k3;
-        cov[(at(w.start), at(o.start + 1))] = k3;
-        cov[(at(o.start), at(w.start + 1))] = k4;
-        cov[(at(w.start + 1), at(o.start))] = k4;
-        let mut theta = vec![0.0; N_COLUMNS];
-        theta[b.start..b.end].copy_from_slice(&[0.05, -0.07, 0.11]);
-        let corr = Corrections {
-            body_offset: UnitQuaternion::from_euler_angles(0.01, -0.02, 0.5),
-            world_tilt: UnitQuaternion::from_euler_angles(0.003, 0.004, 0.0),
-            ..Corrections::default()
+        let mut put = |i: usize, j: usize, k: f64| {
+            cov[(at(i), at(j))] = k;
+            cov[(at(j), at(i))] = k;
         };
-        let (frame, bias) = rest_tilt(&selected, &theta, &corr, yaw);
-        let sd = rest_tilt_sd(&set, &cov, g, yaw);
-        assert!((frame[0] - (0.01 + 0.003 * c + 0.004 * s)).abs() < 1e-12, "{frame:?}");
-        assert!((frame[1] - (-0.02 - 0.003 * s + 0.004 * c)).abs() < 1e-12, "{frame:?}");
-        assert_eq!(bias, Vector3::new(0.05, -0.07, 0.11));
+        let (k1, k2, k3, k4, k5) = (3e-5, -2e-5, 1.5e-5, -2.5e-5, 4e-5);
+        put(o.start, b.start + 1, k1);
+        put(o.start + 1, b.start, k2);
+        put(o.start + 1, w.start, k3);
+        put(o.start, w.start + 1, k4);
+        // the offset's yaw with the roll: no gradient, so no term
+        put(o.start + 2, o.start, k5);
+        let theta = vec![0.0; N_COLUMNS];
+        let sd = rest_tilt_sd(&series, Some(&rest), &selected, &theta, &Corrections::default(), &set, &cov);
         let roll = var(o.start) + c * c * var(w.start) + s * s * var(w.start + 1) + var(b.start + 1) / (g * g) + 2.0 * k1 / g + 2.0 * k4 * s;
         let pitch = var(o.start + 1) + s * s * var(w.start) + c * c * var(w.start + 1) + var(b.start) / (g * g) - 2.0 * k2 / g - 2.0 * k3 * s;
-        assert!((sd[0] - roll.sqrt()).abs() < 1e-15 && (sd[1] - pitch.sqrt()).abs() < 1e-15, "{sd:?} against {} {}", roll.sqrt(), pitch.sqrt());
-        // none of the effects selected: no frame and no bias, whatever the corrections hold
-        let (frame, bias) = rest_tilt(&[], &theta, &corr, yaw);
-        assert_eq!((frame, bias), ([0.0, 0.0], Vector3::zeros()));
-    }
-
-    /// The total rest tilt is what the ground check reads: at rest the mocap predicts f̂ = (0, 0,
-    /// −g) (a level marker frame), the ground check's δ = f̂ × f/|f̂|², and an IMU frame that δ
-    /// reads as (r, p) with no bias measures f₀ = (−g·p, g·r, −g) (f̂ × f₀/g² = (r, p, 0) exactly:
-    /// the cross product with f̂ takes f's x and y alone). A bias b adds to f, so the ground check
-    /// reads f₀ + b, and total_tilt must be the same sum (a bug it catches: pitch's −b_x/g as
-    /// +b_x/g survived the suite, since the widening compares two totals whose bias rarely
-    /// differs).
-    #[test]
-    fn the_total_rest_tilt_is_what_the_ground_check_reads_with_a_bias() {
-        let g = 9.81;
-        let frame = [0.012, -0.021];
-        let f_hat = Vector3::new(0.0, 0.0, -g);
-        for bias in [Vector3::new(0.05, -0.07, 0.11), Vector3::new(-0.2, 0.0, 0.0), Vector3::new(0.0, 0.3, 0.0)] {
-            let f = Vector3::new(-g * frame[1], g * frame[0], -g) + bias;
-            let read = f_hat.cross(&f) / f_hat.norm_squared();
-            let total = total_tilt(frame, &bias, g);
-            assert!((total[0] - read.x).abs() < 1e-15 && (total[1] - read.y).abs() < 1e-15, "{total:?} against the ground check's {read:?} with bias {bias:?}");
-        }
+        assert!((sd[0] - roll.sqrt()).abs() < 1e-9 && (sd[1] - pitch.sqrt()).abs() < 1e-9, "{sd:?} against {} {}", roll.sqrt(), pitch.sqrt());
+        assert_eq!(rest_tilt_sd(&series, None, &selected, &theta, &Corrections::default(), &set, &cov), [0.0; 2]);
     }
 
     /// The F-test by hand: RSS 120 → 100 with k = 2 added of p = 4, n = 54: F = (20/2)/(100/50) =

@@ -11,9 +11,8 @@ pub(super) struct Final<'a> {
     pub(super) state: &'a Problem,
     pub(super) corr: Corrections,
     pub(super) selected: &'a [Effect],
-    /// Gravity (m/s²) and the yaw at rest (rad), for the tilt the ground check compares with.
-    pub(super) g: f64,
-    pub(super) rest_yaw: f64,
+    /// The rest the ground check reads, for the tilt it compares with.
+    pub(super) rest: Option<Rest>,
 }
 
 /// swaps the final model cannot tell apart: a selected effect E and a candidate C outside the
@@ -72,9 +71,8 @@ pub(super) fn swaps(
             alt.push(c);
             let mut alt_corr = Corrections::default();
             let alt_state = refine(fin.s, fin.o, &mut alt_corr, &alt, fin.o.refine_iterations);
-            let (ao, ab) = rest_tilt(&alt, &alt_state.fit.theta, &alt_corr, fin.rest_yaw);
-            let asd = rest_tilt_sd(&alt_state.fit.set, &alt_state.cov, fin.g, fin.rest_yaw);
-            let alt_total = total_tilt(ao, &ab, fin.g);
+            let alt_total = rest_tilt(fin.s, fin.rest.as_ref(), &alt, &alt_state.fit.theta, &alt_corr).total;
+            let asd = rest_tilt_sd(fin.s, fin.rest.as_ref(), &alt, &alt_state.fit.theta, &alt_corr, &alt_state.fit.set, &alt_state.cov);
             for k in 0..2 {
                 tilt_widen[k] = tilt_widen[k].max(covering(tilt_total[k], alt_total[k], Z_975 * asd[k]));
             }
@@ -129,15 +127,13 @@ pub(super) fn half_supported(fin: &Final, final_candidates: &[Candidate], tilt_s
     let base_set = &fin.state.fit.set;
     let (bt, bc) = folded(base_set, fin.selected);
     // the tilt at rest the ground check compares with moves too
-    let (base_offset, base_bias) = rest_tilt(fin.selected, &bt, &bc, fin.rest_yaw);
-    let base_total = total_tilt(base_offset, &base_bias, fin.g);
+    let base_total = rest_tilt(fin.s, fin.rest.as_ref(), fin.selected, &bt, &bc).total;
     for c in near {
         let mut with_c = fin.selected.to_vec();
         with_c.push(c.effect);
         let alt_set = set_of(&with_c);
         let (at, ac) = folded(&alt_set, &with_c);
-        let (alt_offset, alt_bias) = rest_tilt(&with_c, &at, &ac, fin.rest_yaw);
-        let alt_total = total_tilt(alt_offset, &alt_bias, fin.g);
+        let alt_total = rest_tilt(fin.s, fin.rest.as_ref(), &with_c, &at, &ac).total;
         for k in 0..2 {
             tilt_widen[k] = tilt_widen[k].max(covering(base_total[k], alt_total[k], Z_975 * tilt_sd[k]));
         }
