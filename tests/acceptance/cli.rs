@@ -124,6 +124,8 @@ fn identify_exit_codes_outputs_and_the_fragment_round_trip() {
     assert!(out.contains("constant force") && out.contains("closed loop") && out.contains("R5") && out.contains("PASS"), "{out}");
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("o/identify-wind.identify.json")).unwrap()).unwrap();
     assert_eq!(json["report"]["effects"][0]["effect"], "constant_force");
+    // a vehicle with motor commands: the force model's channel too
+    assert_eq!(json["report"]["channels"], serde_json::json!(["accel_kin", "gyro", "force"]));
     let frag = std::fs::read_to_string(d.join("o/identify-wind.effects.yaml")).unwrap();
     assert!(frag.contains("vehicles[0].disturbance.force_n"), "{frag}");
     // the fragment is accepted by run and puts the wind into the nominal scenario

@@ -821,6 +821,7 @@ fn select(s: &Series, o: &Options) -> Report {
         samples: s.len(),
         train_samples: state.train.iter().filter(|x| **x).count(),
         heldout_samples: state.test.iter().filter(|x| **x).count(),
+        channels: Channel::ALL.into_iter().filter(|c| *c != Channel::Force || state.design.has_force).collect(),
         model: s.model.clone(),
         options: o.clone(),
         final_candidates: search.final_candidates,

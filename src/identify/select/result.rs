@@ -166,6 +166,10 @@ pub struct Report {
     pub train_samples: usize,
     /// And held out to judge it.
     pub heldout_samples: usize,
+    /// The residual channels the fit compared, in report order: the accelerometer against the
+    /// mocap (accel_kin) and the gyro always, the force model only where the log has motor
+    /// commands and the vehicle is not declared a rigid body.
+    pub channels: Vec<Channel>,
     /// The declared model the effects are added to.
     pub model: NominalModel,
     /// The options it ran with.
