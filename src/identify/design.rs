@@ -598,6 +598,7 @@ fn accel_kin_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Chan
     ch.columns[c][a].push((col(Effect::MocapDelay, 0), f_dot.iter().map(|v| v[a]).collect()));
     ch.columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * f_dot[i][a]).collect()));
     ch.columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+    ch.columns[c][a].push((col(Effect::AccelBiasDrift, a), (0..n).map(|i| s.t_s[i] - t_mid).collect()));
     // the accelerometer's own frame: turned against the gyro's (the gyro carries the body
     // offset), and its z scaled
     for j in 0..2 {
@@ -630,6 +631,7 @@ fn gyro_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Channels)
     ch.columns[c][a].push((col(Effect::MocapDelay, 0), omega_dot.iter().map(|v| v[a]).collect()));
     ch.columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * omega_dot[i][a]).collect()));
     ch.columns[c][a].push((col(Effect::GyroBias, a), vec![1.0; n]));
+    ch.columns[c][a].push((col(Effect::GyroBiasDrift, a), (0..n).map(|i| s.t_s[i] - t_mid).collect()));
     // the gyro's samples τ_g later than the accelerometer's: ω(t − τ_g) ≈ ω − τ_g·ω̇
     ch.columns[c][a].push((col(Effect::GyroDelay, 0), omega_dot.iter().map(|v| -v[a]).collect()));
 }
@@ -640,7 +642,7 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
     let n = s.len();
     let m = &s.model;
     let Smoothed { accel_s, v_body, nav_axes, height, rigid_point, .. } = x;
-    let col = |e: Effect, j: usize| cols.of(e, j);
+    let (col, t_mid) = (|e: Effect, j: usize| cols.of(e, j), cols.t_mid);
     let c = Channel::Force.index();
     ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
     ch.predicted[c][a] = (0..n)
@@ -650,6 +652,7 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
         })
         .collect();
     ch.columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
+    ch.columns[c][a].push((col(Effect::AccelBiasDrift, a), (0..n).map(|i| s.t_s[i] - t_mid).collect()));
     if a == 2 {
         ch.columns[c][a].push((col(Effect::AccelScale, 0), ch.predicted[c][a].clone()));
     }

@@ -139,7 +139,7 @@ fn fragment_of(source: &str, effects: &[super::select::Found], i: usize, mocap_r
             Effect::ImuOffset => set.push((format!("{vi}.imu.position_mm"), json!(v))),
             Effect::ThrustVoltage => set.push((format!("{vi}.undeclared.thrust_voltage_per_v"), json!(v[0].max(0.0)))),
             // hypotheses the simulator has no counterpart for: said, not set
-            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift => {
+            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift | Effect::AccelBiasDrift | Effect::GyroBiasDrift => {
                 lines.push(format!("# {} {:?} is not simulated: left out", f.effect.key(), v));
             }
         }

@@ -47,9 +47,11 @@ use crate::scenario::Scenario;
 use std::fmt::Write as _;
 
 /// The effects drawn as 0–3 of a flight's hidden effects, in [`Effect::ALL`] order: every
-/// searched candidate but the ground effect (drawn on its own, only for flights with a low hover).
+/// searched candidate but the ground effect (drawn on its own, only for flights with a low
+/// hover) and the bias drifts (the simulated IMU holds its biases still, and a trial flight is
+/// shorter than a drift is offered on).
 pub fn simulated() -> Vec<Effect> {
-    Effect::ALL.iter().copied().filter(|e| e.searched() && !matches!(e, Effect::GroundEffect)).collect()
+    Effect::ALL.iter().copied().filter(|e| e.searched() && !matches!(e, Effect::GroundEffect | Effect::AccelBiasDrift | Effect::GyroBiasDrift)).collect()
 }
 
 /// One drawn trial.
@@ -233,7 +235,9 @@ fn trial_yaml(index: u64, run_seed: u64, preset: &str, plan: &[String], hidden: 
             Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
             Effect::ThrustVoltage => undeclared.push(format!("thrust_voltage_per_v: {}", v[0])),
             Effect::GyroDelay => undeclared.push(format!("gyro_delay_ms: {}", v[0])),
-            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift | Effect::ImuOffset => unreachable!("only simulated effects are hidden"),
+            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift | Effect::ImuOffset | Effect::AccelBiasDrift | Effect::GyroBiasDrift => {
+                unreachable!("only simulated effects are hidden")
+            }
         }
     }
     if !markers.is_empty() {

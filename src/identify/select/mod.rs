@@ -217,7 +217,18 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
 fn available(d: &Design, e: Effect) -> bool {
     match e {
         Effect::ThrustVoltage => d.has_force && d.has_vbat,
+        Effect::AccelBiasDrift | Effect::GyroBiasDrift => usable_span_s(d) >= crate::effects::DRIFT_MIN_S,
         _ => e.channels().iter().any(|c| *c != Channel::Force || d.has_force),
+    }
+}
+
+/// The time from the first to the last usable sample of the design (s); 0 without any.
+fn usable_span_s(d: &Design) -> f64 {
+    let first = d.ok.iter().position(|ok| *ok);
+    let last = d.ok.iter().rposition(|ok| *ok);
+    match (first, last) {
+        (Some(a), Some(b)) => d.t[b] - d.t[a],
+        _ => 0.0,
     }
 }
 
@@ -228,6 +239,8 @@ fn unavailable_reason(d: &Design, e: Effect) -> Option<String> {
     }
     Some(if e == Effect::ThrustVoltage && d.has_force {
         format!("--with {}: left out, the log has no battery voltage", e.key())
+    } else if matches!(e, Effect::AccelBiasDrift | Effect::GyroBiasDrift) {
+        format!("--with {}: left out, the log's usable samples span {:.0} s and a drift is fitted on {:.0} s or more", e.key(), usable_span_s(d), crate::effects::DRIFT_MIN_S)
     } else {
         format!("--with {}: left out, it acts only through the thrust model and the log has no motor commands", e.key())
     })
