@@ -42,7 +42,7 @@ pub fn check(r: &Report, req: &IdentifyReq, vehicle: &str) -> requirements::Repo
             let err = (p.value - v).abs();
             rows.push(row(
                 format!("{} {} (truth {v} {})", e.effect.key(), p.name, p.unit).replace(" )", ")"),
-                format!("{:.4} ± {:.4} {}", p.value, p.ci95, p.unit).trim_end().to_string(),
+                format!("{} {}", super::precision::with_interval(p.value, p.ci95), p.unit).trim_end().to_string(),
                 format!("|err| ≤ {tol}"),
                 err <= *tol,
             ));

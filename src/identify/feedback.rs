@@ -17,6 +17,7 @@
 
 use super::design::Effect;
 use super::error::InputError;
+use super::precision::{decimals_for, with_interval};
 use super::select::Report;
 use super::series::Series;
 use crate::scenario::Scenario;
@@ -68,25 +69,10 @@ fn nominal_tree(tree: &Value, i: usize) -> Value {
     t
 }
 
-/// Decimals that print a 95 % half-width `ci` to two significant digits (0 for a half-width of
-/// 10 or more; 6 for one that is 0 or not finite).
-pub(crate) fn decimals_for(ci: f64) -> usize {
-    if !(ci.is_finite() && ci > 0.0) {
-        return 6;
-    }
-    (1 - ci.log10().floor() as i64).clamp(0, 12) as usize
-}
-
 /// `x` rounded to the precision of its interval, and to at least 4 decimals.
 fn round_to(x: f64, ci: f64) -> f64 {
     let scale = 10f64.powi(decimals_for(ci).max(4) as i32);
     (x * scale).round() / scale
-}
-
-/// `value ± ci` to the precision of the interval.
-pub(crate) fn with_interval(value: f64, ci: f64) -> String {
-    let d = decimals_for(ci);
-    format!("{value:.d$} ± {ci:.d$}")
 }
 
 /// The fragment of a report for vehicle `i` (with `n_markers` markers): one scenario field per

@@ -930,6 +930,7 @@ pub(crate) fn render_spin_up_summary(s: &SpinUpSummary) -> String {
 /// covers (the flight cannot pin its tilt down), or a disagreement.
 pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
     let mut notes = Vec::new();
+    let pm = super::precision::signed_with_interval;
     let [first, _] = a.up_axis.tilt_names();
     for (name, t) in a.up_axis.tilt_names().into_iter().zip([&a.roll, &a.pitch]) {
         if t.difference_deg.abs() > 1.0 && t.covers {
@@ -939,12 +940,11 @@ pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
             ));
         } else if !t.covers {
             let mut note = format!(
-                "ground check and flight disagree in {name}: the ground reads {:.2}°{}, the flight {:.2}° (difference {:.2} ± {:.2}°): the markers or the IMU board moved between rest and flight, or the flight holds an effect the candidate library lacks",
+                "ground check and flight disagree in {name}: the ground reads {:.2}°{}, the flight {:.2}° (difference {}°): the markers or the IMU board moved between rest and flight, or the flight holds an effect the candidate library lacks",
                 t.ground_deg,
                 if t.bias_tilt_deg != 0.0 { format!(" ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg) } else { String::new() },
                 t.flight_deg,
-                t.difference_deg,
-                t.ci95_deg
+                super::precision::with_interval(t.difference_deg, t.ci95_deg)
             );
             // the other references, where they agree: the next lead for this flight
             let spin = a.spin_up.as_ref().map(|s| if name == first { &s.roll } else { &s.pitch });
@@ -954,13 +954,14 @@ pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
             let toward = |s: &&SpinUpAxis| s.covers && s.change_deg.abs() > s.change_ci95_deg && s.change_deg * t.difference_deg < 0.0;
             if let Some(sp) = spin.filter(toward) {
                 note += &format!(
-                    "; the spin-up (motors on, still on the floor) moved {:+.2} ± {:.2}° from the rest toward the flight and agrees with it ({:+.2} ± {:.2}°): consistent with a tilt the spinning rotors add, which the flight carries too (rectified vibration, a mount that bends under thrust) and a rest with the motors off cannot see",
-                    sp.change_deg, sp.change_ci95_deg, sp.difference_deg, sp.ci95_deg
+                    "; the spin-up (motors on, still on the floor) moved {}° from the rest toward the flight and agrees with it ({}°): consistent with a tilt the spinning rotors add, which the flight carries too (rectified vibration, a mount that bends under thrust) and a rest with the motors off cannot see",
+                    pm(sp.change_deg, sp.change_ci95_deg),
+                    pm(sp.difference_deg, sp.ci95_deg)
                 );
             } else if let Some(l) = landed.filter(|l| l.bracket_covers) {
                 note += &format!(
-                    "; the mean of the rests before and after the flight agrees with it ({:+.2} ± {:.2}°): the tilt at rest moved during the flight",
-                    l.bracket_difference_deg, l.bracket_ci95_deg
+                    "; the mean of the rests before and after the flight agrees with it ({}°): the tilt at rest moved during the flight",
+                    pm(l.bracket_difference_deg, l.bracket_ci95_deg)
                 );
             }
             if a.rest_pose_scatters {
@@ -1178,7 +1179,7 @@ mod tests {
         assert_eq!(notes.len(), 1, "{notes:?}");
         assert!(
             notes[0].contains("disagree in pitch")
-                && notes[0].contains("the spin-up (motors on, still on the floor) moved +0.50 ±")
+                && notes[0].contains("the spin-up (motors on, still on the floor) moved +0.501 ± 0.020°")
                 && notes[0].contains("agrees with it (+0.00 ±"),
             "{notes:?}"
         );

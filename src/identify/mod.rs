@@ -45,6 +45,7 @@ pub mod ground;
 pub mod handheld;
 mod joined;
 pub mod mapping;
+mod precision;
 pub mod px4;
 pub mod quality;
 pub mod report;

@@ -23,7 +23,7 @@ fn pct(x: Option<f64>) -> String {
 /// formatted by `num`.
 pub(crate) fn param_text(p: &super::select::Param, num: impl Fn(f64) -> String) -> String {
     if p.identifiable && p.ci95.is_finite() && p.ci95 > 0.0 {
-        format!("{} {} {}", p.name, super::feedback::with_interval(p.value, p.ci95), p.unit)
+        format!("{} {} {}", p.name, super::precision::with_interval(p.value, p.ci95), p.unit)
     } else if p.identifiable {
         format!("{} {} ± {} {}", p.name, num(p.value), num(p.ci95), p.unit)
     } else {
@@ -181,8 +181,10 @@ fn render_left(s: &mut String, r: &Report) {
     }
 }
 
-/// The ground check against the flight: at rest, at spin-up and after landing.
+/// The ground check against the flight: at rest, at spin-up and after landing; each difference
+/// at the precision of its interval.
 fn render_ground(s: &mut String, r: &Report) {
+    let pm = super::precision::signed_with_interval;
     if let Some(a) = &r.ground_agreement {
         let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs the frame tilt, body offset + world tilt):");
         if let Some(g) = &r.ground_check {
@@ -193,14 +195,13 @@ fn render_ground(s: &mut String, r: &Report) {
         for (name, t) in names.into_iter().zip([&a.roll, &a.pitch]) {
             let _ = writeln!(
                 s,
-                "    {name:<5} ground {:+.2}, bias tilt {:+.2}, corrected {:+.2}; flight {:+.2}{}; difference {:+.2} ± {:.2} {}",
+                "    {name:<5} ground {:+.2}, bias tilt {:+.2}, corrected {:+.2}; flight {:+.2}{}; difference {} {}",
                 t.ground_deg,
                 t.bias_tilt_deg,
                 t.ground_corrected_deg,
                 t.flight_deg,
                 if a.frame_fitted { "" } else { " (no body offset or world tilt selected)" },
-                t.difference_deg,
-                t.ci95_deg,
+                pm(t.difference_deg, t.ci95_deg),
                 if t.covers { "(agree)" } else { "(DISAGREE)" }
             );
         }
@@ -209,12 +210,10 @@ fn render_ground(s: &mut String, r: &Report) {
             for (name, t) in names.into_iter().zip([&sp.roll, &sp.pitch]) {
                 let _ = writeln!(
                     s,
-                    "    {name:<5} spin-up {:+.2} (spin-up − rest {:+.2} ± {:.2}); difference to the flight {:+.2} ± {:.2} {}",
+                    "    {name:<5} spin-up {:+.2} (spin-up − rest {}); difference to the flight {} {}",
                     t.ground_corrected_deg,
-                    t.change_deg,
-                    t.change_ci95_deg,
-                    t.difference_deg,
-                    t.ci95_deg,
+                    pm(t.change_deg, t.change_ci95_deg),
+                    pm(t.difference_deg, t.ci95_deg),
                     if t.covers { "(agree)" } else { "(DISAGREE)" }
                 );
             }
@@ -225,15 +224,12 @@ fn render_ground(s: &mut String, r: &Report) {
         for (name, t) in r.ground_agreement.as_ref().map_or(UpAxis::Z, |a| a.up_axis).tilt_names().into_iter().zip([&l.roll, &l.pitch]) {
             let _ = writeln!(
                 s,
-                "    {name:<5} after {:+.2} (after − before {:+.2} ± {:.2}); difference to the flight {:+.2} ± {:.2} {}; mean of the rests {:+.2} ± {:.2} {}",
+                "    {name:<5} after {:+.2} (after − before {}); difference to the flight {} {}; mean of the rests {} {}",
                 t.ground_corrected_deg,
-                t.change_deg,
-                t.change_ci95_deg,
-                t.difference_deg,
-                t.ci95_deg,
+                pm(t.change_deg, t.change_ci95_deg),
+                pm(t.difference_deg, t.ci95_deg),
                 if t.covers { "(agree)" } else { "(DISAGREE)" },
-                t.bracket_difference_deg,
-                t.bracket_ci95_deg,
+                pm(t.bracket_difference_deg, t.bracket_ci95_deg),
                 if t.bracket_covers { "(agree)" } else { "(DISAGREE)" }
             );
         }

@@ -4,6 +4,7 @@
 
 use super::error::InputError;
 use super::feedback::{TrajectoryError, fragment, nominal_and_fed_back, trajectory_error};
+use super::precision::{signed_with_interval as pm, with_interval};
 use super::{Options, flyarena_log, identify, report};
 use crate::scenario::Scenario;
 use serde_json::{Value, json};
@@ -294,31 +295,26 @@ fn per_flight_text(reports: &[(String, super::Report)], excluded: &[(String, Str
         }
         if let Some(g) = &r.ground_check {
             let [r, p] = g.up_axis.tilt_names();
-            text += &format!("    ground check (at rest, {} samples): {r} {:.2} ± {:.2}°, {p} {:.2} ± {:.2}°\n", g.samples, g.roll_deg, g.roll_se_deg, g.pitch_deg, g.pitch_se_deg);
+            let (rv, pv) = (with_interval(g.roll_deg, g.roll_se_deg), with_interval(g.pitch_deg, g.pitch_se_deg));
+            text += &format!("    ground check (at rest, {} samples; ± standard error): {r} {rv}°, {p} {pv}°\n", g.samples);
         }
         if let Some(a) = &r.ground_agreement {
             let [r, p] = a.up_axis.tilt_names();
             text += &format!(
-                "    ground − bias tilt vs flight offset: {r} {:+.2} ± {:.2}°, {p} {:+.2} ± {:.2}°{}\n",
-                a.roll.difference_deg,
-                a.roll.ci95_deg,
-                a.pitch.difference_deg,
-                a.pitch.ci95_deg,
+                "    ground − bias tilt vs flight offset: {r} {}°, {p} {}°{}\n",
+                pm(a.roll.difference_deg, a.roll.ci95_deg),
+                pm(a.pitch.difference_deg, a.pitch.ci95_deg),
                 if a.roll.covers && a.pitch.covers { "" } else { " (disagree)" }
             );
             if let Some(sp) = &a.spin_up {
                 text += &format!(
-                    "    spin-up ({:.0} % of the weight, {:.2} s) − rest: roll {:+.2} ± {:.2}°, pitch {:+.2} ± {:.2}°; spin-up − bias tilt vs flight offset: roll {:+.2} ± {:.2}°, pitch {:+.2} ± {:.2}°\n",
+                    "    spin-up ({:.0} % of the weight, {:.2} s) − rest: roll {}°, pitch {}°; spin-up − bias tilt vs flight offset: roll {}°, pitch {}°\n",
                     100.0 * sp.thrust_fraction,
                     sp.duration_s,
-                    sp.roll.change_deg,
-                    sp.roll.change_ci95_deg,
-                    sp.pitch.change_deg,
-                    sp.pitch.change_ci95_deg,
-                    sp.roll.difference_deg,
-                    sp.roll.ci95_deg,
-                    sp.pitch.difference_deg,
-                    sp.pitch.ci95_deg
+                    pm(sp.roll.change_deg, sp.roll.change_ci95_deg),
+                    pm(sp.pitch.change_deg, sp.pitch.change_ci95_deg),
+                    pm(sp.roll.difference_deg, sp.roll.ci95_deg),
+                    pm(sp.pitch.difference_deg, sp.pitch.ci95_deg)
                 );
             }
         }
