@@ -1,7 +1,10 @@
 //! The covariance of the estimates: Newey–West (Bartlett) over the weighted scores summed per
 //! time sample, plus the systematic of the nominal thrust.
 
-use super::*;
+use super::gram::{Gram, active, cols_of, residual_of, system_raw};
+use crate::identify::design::{Channel, Design, Effect};
+use crate::identify::stats::inverse_spd;
+use nalgebra::{DMatrix, DVector};
 
 /// Newey–West (Bartlett, `lags`) covariance of the OLS parameters: (XᵀX)⁻¹·S·(XᵀX)⁻¹ with
 /// S = Σ_l w_l Σ_t (u_t u_{t−l}ᵀ + u_{t−l} u_tᵀ) (l = 0 counted once), w_l = 1 − l/(lags+1), and
@@ -80,6 +83,7 @@ pub(super) fn thrust_systematic(d: &Design, train: &[bool], gs: &[Gram], set: &[
 
 #[cfg(test)]
 mod tests {
+    use super::super::{Ar, N_COLUMNS, grams};
     use super::*;
 
     /// The Bartlett weights by hand for 3 lags: 1, 3/4, 1/2, 1/4. A bug it catches: `lags + 1` as

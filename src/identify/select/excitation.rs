@@ -1,7 +1,12 @@
 //! How strongly a flight excites an effect, decided before any outcome (used by the trials to
 //! score recall only on flights that could show the effect).
 
-use super::*;
+use super::gram::{Gram, active, add_at, ar_models, fit, grams, heldout_rss, positions, set_of, system};
+use super::{Options, available, gated, refine};
+use crate::identify::design::Effect;
+use crate::identify::series::{Corrections, Series};
+use crate::identify::stats::{Ar, schur_complement};
+use nalgebra::{DMatrix, DVector};
 
 /// How strongly one flight excites an effect, decided from the data's information matrix
 /// and the effect's size, not from what `identify` found.

@@ -2,7 +2,11 @@
 //! (prewhitened training part, raw training part, raw held-out part), fits of column sets,
 //! held-out errors and canonical correlations between column sets.
 
-use super::*;
+use super::Options;
+use crate::identify::design::{Channel, Design, Effect, N_COLUMNS, column_offsets};
+use crate::identify::series::Series;
+use crate::identify::stats::{Ar, inverse_spd, solve_spd};
+use nalgebra::{DMatrix, DVector};
 
 /// Normal equations of one channel axis: whitened training part and raw held-out part.
 #[derive(Clone)]

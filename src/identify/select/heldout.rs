@@ -1,7 +1,11 @@
 //! The held-out errors of a report on a flight (the report's own or another's: cross-validation)
 //! and the residual series for plotting.
 
-use super::*;
+use super::gram::{active, residual_of};
+use super::result::{AxisError, Report};
+use super::{AXES, Options, gated};
+use crate::identify::design::{Channel, Design, build};
+use crate::identify::series::{Corrections, Series};
 
 /// RMSE and NRMSE fit of the residuals `before` and `after` over the samples `idx` of the
 /// measured signal `y`.

@@ -2,7 +2,12 @@
 //! measured signals it follows (the leads), with the effective sample size of two
 //! autocorrelated series (Bartlett) for the significance.
 
-use super::*;
+use super::AXES;
+use super::gram::{active, residual_of};
+use super::heldout::axis_error;
+use super::result::{AxisError, Correlate, Left, Whiteness};
+use crate::identify::design::{Channel, Design, Effect};
+use crate::identify::stats::{Ar, Z_995, autocorrelation, ljung_box};
 
 /// Weaker correlations than this are not named as leads (significant but explaining < 1 % of
 /// the residual's variance is no lead).

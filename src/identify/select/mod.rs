@@ -51,10 +51,10 @@
 //! the remaining force z error of a real flight by 75 % counted for 0.6 %: thrust scale had
 //! already taken that axis from 3.3 to 0.26 m/s².)
 
-use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build, column_offsets};
+use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build};
 use super::ground::Rest;
-use super::series::{Corrections, NominalModel, Series};
-use super::stats::{Ar, LjungBox, Z_975, Z_995, autocorrelation, f_sf, inverse_spd, ljung_box, schur_complement, solve_spd};
+use super::series::{Corrections, Series};
+use super::stats::{Ar, Z_975, f_sf};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 
 mod covariance;
@@ -65,14 +65,13 @@ mod left;
 mod result;
 mod widen;
 
-use covariance::*;
+use covariance::{hac, thrust_systematic};
 pub use excitation::{Excitation, excitation};
-use gram::*;
-use heldout::axis_error;
+use gram::{Fit, Gram, active, ar_models, canonical_corr, cols_of, fit, grams, heldout_rss, masks, set_of, system};
 pub use heldout::{ResidualSeries, channel_cut, evaluate, residual_series};
-use left::*;
 pub use left::{LEAD_MAX, LEAD_MIN_CORR};
-pub use result::*;
+use left::{final_residuals, hypothesis_hints, lead_signals};
+pub use result::{AxisError, Candidate, Correlate, Found, Left, Param, Removal, Report, Step, Whiteness};
 
 /// The method's settings: design, data-quality gate, gates of the selection, held-out split and
 /// noise models.
@@ -904,6 +903,7 @@ fn ground(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::identify::series::NominalModel;
 
     /// The level form of a world tilt keeps gravity's direction in the mocap world and has no
     /// yaw: R_w·R_z(ε) (the same tilt under a yaw no sensor sees) levels to R_y(θ)·R_x(φ) itself,

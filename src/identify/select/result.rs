@@ -1,7 +1,10 @@
 //! What the selection reports: the estimates with their intervals, each step's scoreboard,
 //! the held-out errors, the whiteness and what is left of the residual.
 
-use super::*;
+use super::Options;
+use crate::identify::design::{Channel, Effect};
+use crate::identify::series::{Corrections, NominalModel};
+use crate::identify::stats::LjungBox;
 
 /// One parameter, in the reported unit.
 #[derive(Clone, Debug, serde::Serialize)]

@@ -2,7 +2,13 @@
 //! explanations apart (a swap of a selected effect for one outside), or where a candidate the
 //! data half-supports would move the estimates.
 
-use super::*;
+use super::gram::{canonical_corr, fit, set_of};
+use super::result::{Candidate, Found};
+use super::{Options, Problem, available, fold, params_of, refine, rest_tilt, rest_tilt_sd, values_of};
+use crate::identify::design::Effect;
+use crate::identify::ground::Rest;
+use crate::identify::series::{Corrections, Series};
+use crate::identify::stats::Z_975;
 
 /// The final model, as the widening checks read it.
 pub(super) struct Final<'a> {
