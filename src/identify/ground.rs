@@ -1070,6 +1070,10 @@ mod tests {
             assert!(rest_off_axis_deg(&s).unwrap() < 1e-9);
         }
         assert_eq!(UpAxis::X.tilt_names(), ["about y", "about z"]);
+        // the JSON names the up axis only when it is not z
+        let json = |turn| serde_json::to_string(&ground_check(&turned(turn, UnitQuaternion::identity())).unwrap()).unwrap();
+        assert!(json(UnitQuaternion::from_euler_angles(0.0, 90f64.to_radians(), 0.0)).contains(r#""up_axis":"x""#));
+        assert!(!json(UnitQuaternion::identity()).contains("up_axis"));
     }
 
     /// The flight's side reads what the ground check reads when the frames are the model's: an
