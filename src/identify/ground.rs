@@ -252,7 +252,7 @@ pub fn rest_off_axis_deg(s: &Series) -> Option<f64> {
 /// from every axis leaves neither of them level, so gravity shows only a mix of them.
 pub const MAX_REST_OFF_AXIS_DEG: f64 = 30.0;
 
-/// The rest before take-off as the ground check reads it: its still rows ([`still_accel`]) and
+/// The rest before take-off as the ground check reads it: its still rows (the longest run the accelerometer holds still) and
 /// its up axis. `None` without a rest, or when the vertical is more than
 /// [`MAX_REST_OFF_AXIS_DEG`] from every body axis there.
 pub fn rest_before_takeoff(s: &Series) -> Option<Rest> {

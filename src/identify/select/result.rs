@@ -149,9 +149,9 @@ pub struct Left {
     pub unit: String,
     /// Ljung–Box p-value of the prewhitened final residual (from [`Whiteness`]).
     pub ljung_box_p: f64,
-    /// The signals the residual follows: |r| ≥ [`LEAD_MIN_CORR`] and r ≠ 0 at the 1 % level
+    /// The signals the residual follows: |r| ≥ [`LEAD_MIN_CORR`](super::LEAD_MIN_CORR) and r ≠ 0 at the 1 % level
     /// Bonferroni-corrected over the signals (r·√n_eff against N(0, 1)), strongest first, at
-    /// most [`LEAD_MAX`].
+    /// most [`LEAD_MAX`](super::LEAD_MAX).
     pub correlates: Vec<Correlate>,
     /// The residual is not noise: it follows a measured signal of the flight (not only a
     /// measurement's own error), or fails Ljung–Box at 1 %.
