@@ -30,6 +30,7 @@
 //! An effect not found, or found but not identifiable, gives no value: a parameter not written
 //! keeps whatever the vehicle has.
 
+use super::precision::{signed_with_interval, with_interval};
 use super::select::Found;
 use super::{Effect, Report};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
@@ -137,8 +138,8 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
             f.params[0].value
         )),
         Some(f) if f.params[0].value < 0.0 => out.notes.push(format!(
-            "EKF2_EV_DELAY not written: the poses are stamped {:.2} ± {:.2} ms before the IMU's time of the same motion, which no delay (PX4: 0 to 300 ms) makes up for; the pose's stamps are off (a clock offset between the mocap and the flight controller)",
-            -f.params[0].value, f.params[0].ci95
+            "EKF2_EV_DELAY not written: the poses are stamped {} ms before the IMU's time of the same motion, which no delay (PX4: 0 to 300 ms) makes up for; the pose's stamps are off (a clock offset between the mocap and the flight controller)",
+            with_interval(-f.params[0].value, f.params[0].ci95)
         )),
         Some(f) => out.params.push(Px4Param { name: "EKF2_EV_DELAY", value: f.params[0].value, ci95: f.params[0].ci95, unit: "ms", from: "mocap_delay" }),
         None => out.notes.push("EKF2_EV_DELAY not written: the mocap delay was not fitted (identify --px4 always fits it)".to_string()),
@@ -181,8 +182,10 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
             let p = &f.params;
             let fix = body_offset_fix([0, 1, 2].map(|k| p[k].value.to_radians()), [0, 1, 2].map(|k| p[k].ci95.to_radians()), axes);
             out.notes.push(format!(
-                "the body offset (roll {:.2} ± {:.2}°, pitch {:.2} ± {:.2}°, yaw {:.2} ± {:.2}°, FRD, Z-Y-X: the mocap's body frame against the IMU's) has no PX4 parameter: turn the rigid body's axes in the mocap software as below",
-                p[0].value, p[0].ci95, p[1].value, p[1].ci95, p[2].value, p[2].ci95
+                "the body offset (roll {}°, pitch {}°, yaw {}°, FRD, Z-Y-X: the mocap's body frame against the IMU's) has no PX4 parameter: turn the rigid body's axes in the mocap software as below",
+                with_interval(p[0].value, p[0].ci95),
+                with_interval(p[1].value, p[1].ci95),
+                with_interval(p[2].value, p[2].ci95)
             ));
             out.body_offset_fix = Some(fix);
         }
@@ -220,14 +223,11 @@ pub fn render(p: &Px4Parameters) -> String {
         let q = f.quaternion_xyzw;
         let _ = writeln!(
             s,
-            "  rigid body ({}): turn its axes about themselves by the rotation vector ({:+.3} ± {:.3}°, {:+.3} ± {:.3}°, {:+.3} ± {:.3}°); as a quaternion (x, y, z, w) = ({:.6}, {:.6}, {:.6}, {:.6}), applied as q·r to each pose in a bridge",
+            "  rigid body ({}): turn its axes about themselves by the rotation vector ({}°, {}°, {}°); as a quaternion (x, y, z, w) = ({:.6}, {:.6}, {:.6}, {:.6}), applied as q·r to each pose in a bridge",
             f.axes.describe(),
-            x.0,
-            x.1,
-            y.0,
-            y.1,
-            z.0,
-            z.1,
+            signed_with_interval(x.0, x.1),
+            signed_with_interval(y.0, y.1),
+            signed_with_interval(z.0, z.1),
             q[0],
             q[1],
             q[2],
