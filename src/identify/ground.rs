@@ -935,8 +935,8 @@ pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
     for (name, t) in a.up_axis.tilt_names().into_iter().zip([&a.roll, &a.pitch]) {
         if t.difference_deg.abs() > 1.0 && t.covers {
             notes.push(format!(
-                "ground check and flight differ by {:.2}° in {name}, within what this flight determines (±{:.2}°): the flight cannot pin its tilt down to 1°",
-                t.difference_deg, t.ci95_deg
+                "ground check and flight differ by {}° in {name}, within what this flight determines: the flight cannot pin its tilt down to 1°",
+                super::precision::with_interval(t.difference_deg, t.ci95_deg)
             ));
         } else if !t.covers {
             let mut note = format!(
@@ -1188,6 +1188,11 @@ mod tests {
     fn the_spin_up_agreement_compares_with_rest_and_flight() {
         let s = flight([0.4, -1.0], [0.0, 0.5], 0.9);
         let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, &Vector3::zeros()).unwrap());
+        // a flight that pins its tilt down only to ±2.2° (σ 0.02 rad) covers a 1.2° difference,
+        // and the note says so at the interval's precision
+        let loose = FlightTilt { sd_rad: [0.02; 2], ..tilt([0.4, 0.2]) };
+        let notes = agreement_notes(&agreement(&raw, &raw, &loose, None, None));
+        assert_eq!(notes, ["ground check and flight differ by -1.2 ± 2.2° in pitch, within what this flight determines: the flight cannot pin its tilt down to 1°"]);
         let a = agreement(&raw, &raw, &tilt([0.4, -0.6]), Some(&sp), None);
         let su = a.spin_up.unwrap();
         assert!((su.pitch.change_deg - 0.5).abs() < 1e-3 && su.roll.change_deg.abs() < 1e-3, "{su:?}");
