@@ -144,8 +144,8 @@ fn rest(s: &Series) -> Option<(usize, usize)> {
 /// end, ≥ 0.5 s; only if it ended on the floor (its last height within [`LANDED_M`] of the rest
 /// before take-off, or [`FLOOR_M`] without a thrust column to say the motors are off) and left the
 /// floor in between. A landing spot may sit a centimetre or two off the take-off's.
-fn rest_after_landing(s: &Series) -> Option<(usize, usize)> {
-    let (before, before_end) = rest(s)?;
+/// `before` is the rest before take-off's rows ([`rest`]).
+fn rest_after_landing(s: &Series, (before, before_end): (usize, usize)) -> Option<(usize, usize)> {
     let floor = s.pos_mocap_nav[before..before_end].iter().map(|p| p.z).sum::<f64>() / (before_end - before) as f64;
     let (seg_start, end) = *s.segments.last()?;
     let last = s.pos_mocap_nav[end.checked_sub(1)?].z;
@@ -175,8 +175,8 @@ fn rest_after_landing(s: &Series) -> Option<(usize, usize)> {
 /// The ground check again after landing, with `accel_bias_body` removed as for the rest before.
 /// Its tilts are about the level axes of the rest before take-off.
 pub fn tilt_after_landing(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
-    let up = rest_before_takeoff(s)?.up;
-    let (start, end) = rest_after_landing(s)?;
+    let (before, Rest { up, .. }) = checked_rest(s)?;
+    let (start, end) = rest_after_landing(s, before)?;
     let (start, end) = still_accel(s, start, end)?;
     Some(tilt_over(s, Rest { start, end, up }, accel_bias_body))
 }
@@ -252,17 +252,23 @@ pub fn rest_off_axis_deg(s: &Series) -> Option<f64> {
 /// from every axis leaves neither of them level, so gravity shows only a mix of them.
 pub const MAX_REST_OFF_AXIS_DEG: f64 = 30.0;
 
-/// The rest before take-off as the ground check reads it: its still rows (the longest run the accelerometer holds still) and
-/// its up axis. `None` without a rest, or when the vertical is more than
-/// [`MAX_REST_OFF_AXIS_DEG`] from every body axis there.
+/// The rest before take-off as the ground check reads it: its still rows (the longest run the
+/// accelerometer holds still) and its up axis. `None` without a rest, or when the vertical is
+/// more than [`MAX_REST_OFF_AXIS_DEG`] from every body axis there.
 pub fn rest_before_takeoff(s: &Series) -> Option<Rest> {
+    checked_rest(s).map(|(_, r)| r)
+}
+
+/// The rest before take-off in one scan: its rows as [`rest`] finds them (the spin-up and the
+/// rest after landing measure heights from them) and [`rest_before_takeoff`]'s still rows.
+fn checked_rest(s: &Series) -> Option<((usize, usize), Rest)> {
     let (start, end) = rest(s)?;
     let (up, off) = up_over(s, start, end);
     if off > MAX_REST_OFF_AXIS_DEG {
         return None;
     }
-    let (start, end) = still_accel(s, start, end)?;
-    Some(Rest { start, end, up })
+    let (a, b) = still_accel(s, start, end)?;
+    Some(((start, end), Rest { start: a, end: b, up }))
 }
 
 /// The ground check with an accelerometer bias `accel_bias_body` (IMU frame, m/s²) removed from
@@ -303,15 +309,14 @@ pub fn predicted_tilt(
 fn tilt_over(s: &Series, rest: Rest, accel_bias_body: &nalgebra::Vector3<f64>) -> GroundCheck {
     let Rest { start, end, up } = rest;
     let [a, b] = up.level();
+    // the up axis as a signed unit vector of the body (−z for a vehicle on its legs)
     let mut axis_up = nalgebra::Vector3::zeros();
+    axis_up[up as usize] = predicted_at_rest(s, start)[up as usize].signum();
     let mut rp: Vec<(f64, f64)> = Vec::with_capacity(end - start);
     // the mocap's tilt alone: the rotation from the up axis to f̂'s direction
     let mut mocap: Vec<[f64; 2]> = Vec::with_capacity(end - start);
     for i in start..end {
         let f_hat = predicted_at_rest(s, i);
-        if i == start {
-            axis_up[up as usize] = f_hat[up as usize].signum();
-        }
         let d = rotation_between(&f_hat, &(s.accel_body[i] - accel_bias_body));
         rp.push((d[a], d[b]));
         let u = rotation_between(&axis_up, &f_hat);
@@ -358,8 +363,7 @@ pub struct SpinUp {
 /// Needs a thrust column and the rest before it; `None` when fewer than [`SPIN_UP_MIN_S`] remain.
 pub fn spin_up(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<SpinUp> {
     let thrust = s.thrust_n.as_ref()?;
-    let (start, _) = rest(s)?;
-    let up = rest_before_takeoff(s)?.up;
+    let ((start, _), Rest { up, .. }) = checked_rest(s)?;
     let seg_end = s.segments.first()?.1;
     let on = (start..seg_end).find(|&i| thrust[i] > 0.0)?;
     let z_rest = s.pos_mocap_nav[start..on].iter().map(|p| p.z).sum::<f64>() / (on - start) as f64;

@@ -1,6 +1,5 @@
 //! The human table of an identification [`Report`].
 
-use super::ground::UpAxis;
 use super::select::Report;
 use std::fmt::Write as _;
 
@@ -219,9 +218,9 @@ fn render_ground(s: &mut String, r: &Report) {
             }
         }
     }
-    if let Some(l) = r.ground_agreement.as_ref().and_then(|a| a.after_landing.as_ref()) {
+    if let Some((a, l)) = r.ground_agreement.as_ref().and_then(|a| a.after_landing.as_ref().map(|l| (a, l))) {
         let _ = writeln!(s, "  rest after landing ({} samples) as the ground check, and the two rests' mean:", l.samples);
-        for (name, t) in r.ground_agreement.as_ref().map_or(UpAxis::Z, |a| a.up_axis).tilt_names().into_iter().zip([&l.roll, &l.pitch]) {
+        for (name, t) in a.up_axis.tilt_names().into_iter().zip([&l.roll, &l.pitch]) {
             let _ = writeln!(
                 s,
                 "    {name:<5} after {:+.2} (after − before {}); difference to the flight {} {}; mean of the rests {} {}",
