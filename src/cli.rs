@@ -76,6 +76,11 @@ enum Command {
         /// With --handheld: σ of the smoothing kernel (ms; default the mapping's 50)
         #[arg(long, value_name = "MS", value_parser = parse_smoothing, requires = "handheld")]
         smoothing_ms: Option<f64>,
+        /// With --handheld: the rig's rates, noise densities, length and bias drift from a YAML
+        /// file of SI fields (`imu_hz: 200`, `accel_noise_density: 2e-3`, …); a field left out
+        /// keeps MoCap2GT's value (docs/calibration.md)
+        #[arg(long, value_name = "FILE", requires = "handheld")]
+        setting: Option<PathBuf>,
         /// Output folder
         #[arg(long, default_value = "out", value_name = "DIR")]
         out: PathBuf,
@@ -727,9 +732,12 @@ fn cmd_trials(flights: u64, seed: u64, shard: Option<(u64, u64)>, out: &Path) ->
 }
 
 /// Hand-held rigs calibrated (DIR/handheld-<seed>-<N>.json), and with `logs` their logs.
-fn cmd_handheld(flights: u64, seed: u64, logs: bool, smoothing_ms: Option<f64>, out: &Path) -> Result<i32, Error> {
+fn cmd_handheld(flights: u64, seed: u64, logs: bool, smoothing_ms: Option<f64>, setting: Option<&Path>, out: &Path) -> Result<i32, Error> {
     use flyarena::identify::handheld;
-    let set = handheld::Setting::default();
+    let set = match setting {
+        Some(path) => handheld::Setting::read(path)?,
+        None => handheld::Setting::default(),
+    };
     let name = format!("handheld-{seed}-{flights}");
     if logs {
         for i in 0..flights {
@@ -822,7 +830,7 @@ fn run() -> i32 {
         Command::Sweep(a) => cmd_sweep(a),
         Command::Merge { shards, out } => cmd_merge(&shards, &out),
         Command::Identify(a) => cmd_identify(a),
-        Command::Trials { flights, seed, handheld: true, logs, smoothing_ms, out, .. } => cmd_handheld(flights, seed, logs, smoothing_ms, &out),
+        Command::Trials { flights, seed, handheld: true, logs, smoothing_ms, setting, out, .. } => cmd_handheld(flights, seed, logs, smoothing_ms, setting.as_deref(), &out),
         Command::Trials { flights, seed, shard, out, .. } => cmd_trials(flights, seed, shard, &out),
         Command::Slurm { job } => cmd_slurm(job),
         Command::Completions { shell } => {

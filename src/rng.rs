@@ -36,6 +36,8 @@ pub enum Component {
     Sweep = 7,
     /// A hand-held trial's draws (calibration, motion, noise seed); "vehicle" = trial index.
     Handheld = 8,
+    /// Errors drawn from a hand-held trial's Cramér–Rao bound; "vehicle" = trial index.
+    Bound = 9,
 }
 
 fn splitmix64(x: &mut u64) -> u64 {

@@ -9,8 +9,8 @@
 //! sample); 64 s of motion.
 //!
 //! **The motion.** The IMU body's attitude R(t) = R_z(ψ)·R_y(θ)·R_x(φ) (body FRD → world NED),
-//! each Euler angle a sum of three sinusoids of 0.15–1 Hz (rate amplitudes 0.3–1 rad/s, angle
-//! amplitudes at most 0.35 rad in roll and pitch and 0.9 rad in yaw); its body rate
+//! each Euler angle a sum of three sinusoids of 0.2–1.2 Hz (rate amplitudes 0.5–1.5 rad/s, angle
+//! amplitudes at most 0.45 rad in roll and pitch and 1 rad in yaw); its body rate
 //! ω = (φ̇ − ψ̇·sin θ, θ̇·cos φ + ψ̇·cos θ·sin φ, −θ̇·sin φ + ψ̇·cos θ·cos φ) and ω̇ in closed form.
 //! The point the mocap tracks moves around (0, 0, −1.2) m by three sinusoids per axis of
 //! 0.1–0.8 Hz (acceleration amplitudes 0.5–2.5 m/s², displacement at most 0.4 m each).
@@ -35,6 +35,12 @@
 //! is the angle of R̂_off⁻¹·R_off, the tilt error the angle between gravity's directions in the
 //! mocap world, R̂_w·e_D and R_w·e_D (a yaw of the world about gravity is seen by no sensor), the lever-arm error
 //! ‖r̂ − r‖; a parameter is covered when its 95 % interval holds the truth.
+//!
+//! **The floor** ([`bound`]): per trial, the Cramér–Rao bound of the calibration with a perfect
+//! mocap and constant biases, what no unbiased estimator can beat on that motion.
+//!
+//! **Any rig** ([`Setting::parse`]): the rates, noise densities, length and drift are read from
+//! YAML (`rigs/mocap2gt.yaml` is the default, field for field).
 
 use super::design::Effect;
 use super::joined::{Stream, Streams};
@@ -42,39 +48,82 @@ use super::mapping::Mapping;
 use super::select::{Options, identify};
 use super::series::Series;
 use crate::rng::{Component, Stream as Rng};
+use crate::scenario::ranges;
 use crate::vehicle::params::GRAVITY;
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3xX, UnitQuaternion, Vector3};
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
 
-/// The rates, noise and length of a hand-held log (SI units).
+/// The rates, noise and length of a hand-held log (SI units). Read from YAML by
+/// [`Setting::parse`] (`trials --handheld --setting FILE`): every field optional, a missing one
+/// MoCap2GT's ([`Setting::default`]), each checked against its range as it is read.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Setting {
-    /// Mocap frame rate (Hz).
+    /// Mocap frame rate (Hz), (0, 10 000].
+    #[serde(with = "ranges::sample_rate_hz")]
     pub mocap_hz: f64,
-    /// IMU sample rate (Hz).
+    /// IMU sample rate (Hz), (0, 10 000].
+    #[serde(with = "ranges::sample_rate_hz")]
     pub imu_hz: f64,
-    /// Length of the log (s).
+    /// Length of the log (s), (0, 3600].
+    #[serde(with = "ranges::duration_s")]
     pub duration_s: f64,
-    /// Mocap position noise per axis and frame (m).
+    /// Mocap position noise per axis and frame (m), [0, 0.1].
+    #[serde(with = "ranges::rig_pos_sd_m")]
     pub mocap_pos_sd_m: f64,
-    /// Mocap attitude noise per axis and frame (rad).
+    /// Mocap attitude noise per axis and frame (rad), [0, 0.1].
+    #[serde(with = "ranges::rig_att_sd_rad")]
     pub mocap_att_sd_rad: f64,
-    /// Accelerometer white-noise density (m/s²/√Hz).
+    /// Accelerometer white-noise density (m/s²/√Hz), [0, 1].
+    #[serde(with = "ranges::accel_density")]
     pub accel_noise_density: f64,
-    /// Accelerometer bias random walk (m/s³/√Hz).
+    /// Accelerometer bias random walk (m/s³/√Hz), [0, 1].
+    #[serde(with = "ranges::accel_walk")]
     pub accel_bias_walk: f64,
-    /// Gyro white-noise density (rad/s/√Hz).
+    /// Gyro white-noise density (rad/s/√Hz), [0, 0.1].
+    #[serde(with = "ranges::gyro_density")]
     pub gyro_noise_density: f64,
-    /// Gyro bias random walk (rad/s²/√Hz).
+    /// Gyro bias random walk (rad/s²/√Hz), [0, 0.1].
+    #[serde(with = "ranges::gyro_walk")]
     pub gyro_bias_walk: f64,
-    /// Accelerometer bias drift, body (m/s² per s): the bias grows by this each second on top of
-    /// its walk (a board warming up). None in MoCap2GT's setting.
-    #[serde(default)]
+    /// Accelerometer bias drift, body (m/s² per s, each in [−0.1, 0.1]): the bias grows by this
+    /// each second on top of its walk (a board warming up). None in MoCap2GT's setting.
+    #[serde(with = "ranges::accel_drift::arr")]
     pub accel_bias_drift: [f64; 3],
-    /// Gyro bias drift, body (rad/s per s).
-    #[serde(default)]
+    /// Gyro bias drift, body (rad/s per s, each in [−0.01, 0.01]).
+    #[serde(with = "ranges::gyro_drift::arr")]
     pub gyro_bias_drift: [f64; 3],
+}
+
+/// The most IMU samples a generated log may hold (an hour at 500 Hz).
+pub const MAX_IMU_SAMPLES: f64 = 2e6;
+
+impl Setting {
+    /// [`Setting::parse`] of a file.
+    ///
+    /// # Errors
+    /// The file cannot be read, or [`Setting::parse`]'s.
+    pub fn read(path: &std::path::Path) -> Result<Setting, super::InputError> {
+        let src = std::fs::read_to_string(path).map_err(|e| super::InputError::io(path.display(), e))?;
+        Setting::parse(&src, &path.display().to_string())
+    }
+
+    /// A setting from YAML text (`file` names it in errors): SI fields as [`Setting`] names
+    /// them, any left out at MoCap2GT's value.
+    ///
+    /// # Errors
+    /// The file, line and column of a field that is unknown, not a number or out of its range;
+    /// a length and IMU rate whose log would exceed [`MAX_IMU_SAMPLES`].
+    pub fn parse(src: &str, file: &str) -> Result<Setting, super::InputError> {
+        let err = |e: serde_saphyr::Error| super::InputError::invalid(file, crate::scenario::error::with_suggestion(&e.to_string()));
+        let set: Setting = if src.trim().is_empty() { Setting::default() } else { serde_saphyr::from_str(src).map_err(err)? };
+        let n = set.duration_s * set.imu_hz;
+        if n > MAX_IMU_SAMPLES {
+            return Err(super::InputError::invalid(file, format!("duration_s × imu_hz = {n} IMU samples; at most {MAX_IMU_SAMPLES} are generated (an hour at 500 Hz)")));
+        }
+        Ok(set)
+    }
 }
 
 impl Default for Setting {
@@ -310,6 +359,108 @@ impl Trial {
     }
 }
 
+/// The Cramér–Rao bound of a trial's calibration: the covariance below which no unbiased
+/// estimator can go on that log, computed as if the mocap were perfect and the biases constant.
+/// Both only remove uncertainty, so the bound of the log as recorded is at least this large.
+///
+/// With the mocap trajectory known, the IMU samples are the only noisy data: a_k = f(t_k; θ) +
+/// b_a + n_a and ω_k = ω(t_k; θ) + b_g + n_g, white, of variance σ_a²/Δt and σ_g²/Δt per
+/// sample (the setting's densities). The Fisher information of θ is
+/// F = Σ_k Δt·(J_aᵀJ_a/σ_a² + J_gᵀJ_g/σ_g²), with the first-order sensitivities at the truth
+/// (IMU body FRD, f the specific force of the IMU's point, g·e_D gravity in NED):
+///
+/// | θ (15) | J_a, column j | J_g, column j |
+/// |---|---|---|
+/// | rotation δ (rad), an error Exp(δ) of R_off | e_j × f | e_j × ω |
+/// | world tilt τ_x, τ_y (rad) | Rᵀ(g·e_D × e_j) | 0 |
+/// | time offset (s) | ḟ (central difference, h = 10⁻⁴ s) | ω̇ |
+/// | lever arm r (m) | ω̇ × e_j + ω × (ω × e_j) | 0 |
+/// | accelerometer bias (m/s²) | e_j | 0 |
+/// | gyro bias (rad/s) | 0 | e_j |
+///
+/// and the bound is F⁻¹, of which the four calibration blocks are kept. A column's sign does not
+/// change the norms scored. `None` when F is singular: the motion leaves a parameter unseen.
+pub fn bound(trial: &Trial, set: &Setting) -> Option<Bound> {
+    let cov = fisher(trial, set).cholesky()?.inverse();
+    let block = |i: usize, n: usize| cov.view((i, i), (n, n)).clone_owned();
+    let (rotation, tilt, lever) = (block(0, 3), block(3, 2), block(6, 3));
+    Some(Bound {
+        rotation: [0, 1, 2].map(|i| [0, 1, 2].map(|j| rotation[(i, j)])),
+        tilt: [0, 1].map(|i| [0, 1].map(|j| tilt[(i, j)])),
+        delay: cov[(5, 5)],
+        lever: [0, 1, 2].map(|i| [0, 1, 2].map(|j| lever[(i, j)])),
+    })
+}
+
+/// The Fisher information F of [`bound`], in the order rotation δ (3), tilt (2), time offset,
+/// lever arm (3), accelerometer bias (3), gyro bias (3).
+fn fisher(trial: &Trial, set: &Setting) -> DMatrix<f64> {
+    let (_, _, lever, _) = trial.calibration();
+    let g = Vector3::new(0.0, 0.0, GRAVITY);
+    let state = |t: f64| {
+        let (q, w, dw) = attitude(&trial.euler, t);
+        let acc = Vector3::from_fn(|k, _| trial.position[k].at(t)[2]);
+        (q, w, dw, q.inverse() * (acc - g) + dw.cross(&lever) + w.cross(&w.cross(&lever)))
+    };
+    let dt = 1.0 / set.imu_hz;
+    let (wa, wg) = (dt / set.accel_noise_density.powi(2), dt / set.gyro_noise_density.powi(2));
+    let (h, n) = (1e-4, (set.duration_s * set.imu_hz).round() as i64);
+    let mut fisher = DMatrix::<f64>::zeros(15, 15);
+    let (mut ja, mut jg) = (Matrix3xX::<f64>::zeros(15), Matrix3xX::<f64>::zeros(15));
+    for k in 0..=n {
+        let t = k as f64 * dt;
+        let (q, w, dw, f) = state(t);
+        let df = (state(t + h).3 - state(t - h).3) / (2.0 * h);
+        for j in 0..3 {
+            let e = Vector3::ith(j, 1.0);
+            ja.set_column(j, &e.cross(&f));
+            jg.set_column(j, &e.cross(&w));
+            if j < 2 {
+                ja.set_column(3 + j, &(q.inverse() * g.cross(&e)));
+            }
+            ja.set_column(6 + j, &(dw.cross(&e) + w.cross(&w.cross(&e))));
+            ja.set_column(9 + j, &e);
+            jg.set_column(12 + j, &e);
+        }
+        ja.set_column(5, &df);
+        jg.set_column(5, &dw);
+        fisher += ja.tr_mul(&ja) * wa + jg.tr_mul(&jg) * wg;
+    }
+    fisher
+}
+
+/// A trial's Cramér–Rao bound ([`bound`]): the covariances of the four calibration parameters'
+/// errors (SI units).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Bound {
+    /// Rotation error δ, an error Exp(δ) of the body offset (rad², IMU body FRD).
+    pub rotation: [[f64; 3]; 3],
+    /// World tilt error about the mocap world's x and y (rad²).
+    pub tilt: [[f64; 2]; 2],
+    /// Time offset error (s²).
+    pub delay: f64,
+    /// Lever-arm error (m², IMU body FRD).
+    pub lever: [[f64; 3]; 3],
+}
+
+impl Bound {
+    /// `n` sets of errors an efficient estimator makes on the trial, drawn from the bound's
+    /// normal distributions (stream [`Component::Bound`] of trial `index`): the rotation's angle
+    /// (deg), the tilt's angle (deg), the lever arm's norm (mm) and the time offset's size (µs),
+    /// as [`Outcome`] scores the fit's. `None` where a block is not positive definite.
+    pub fn draws(&self, index: u64, n: usize) -> Option<Vec<[f64; 4]>> {
+        let factor = |m: DMatrix<f64>| m.cholesky().map(|c| c.l());
+        let rot = factor(DMatrix::from_fn(3, 3, |i, j| self.rotation[i][j]))?;
+        let tilt = factor(DMatrix::from_fn(2, 2, |i, j| self.tilt[i][j]))?;
+        let lever = factor(DMatrix::from_fn(3, 3, |i, j| self.lever[i][j]))?;
+        let mut r = Rng::new(0, Component::Bound, index as usize);
+        let delay = DMatrix::from_element(1, 1, self.delay.sqrt());
+        let mut norm = |l: &DMatrix<f64>| (l * DVector::from_fn(l.nrows(), |_, _| r.normal())).norm();
+        let out = (0..n).map(|_| [norm(&rot).to_degrees(), norm(&tilt).to_degrees(), norm(&lever) * 1e3, norm(&delay) * 1e6]).collect();
+        Some(out)
+    }
+}
+
 /// The time t (s) as integer nanoseconds.
 fn ns(t: f64) -> i128 {
     (t * 1e9).round() as i128
@@ -368,6 +519,8 @@ pub struct Outcome {
     /// Every parameter of the four calibration effects and the two biases that was found (the
     /// biases' truth is their mean over the log).
     pub estimates: Vec<Estimate>,
+    /// The trial's Cramér–Rao bound ([`bound`]); `None` when the motion leaves a parameter unseen.
+    pub bound: Option<Bound>,
     /// Why the trial could not be identified, if it could not.
     pub error: Option<String>,
 }
@@ -382,6 +535,7 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
         lever_err_mm: None,
         delay_err_us: None,
         estimates: Vec::new(),
+        bound: bound(trial, set),
         error: None,
     };
     let (streams, bias) = trial.streams(set);
@@ -396,13 +550,15 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
     };
     out.selected = report.effects.iter().map(|f| f.effect).collect();
     let t = &trial.truth;
-    let truths: [(Effect, Vec<f64>); 6] = [
+    let truths: [(Effect, Vec<f64>); 8] = [
         (Effect::BodyOffset, t.body_offset_deg.to_vec()),
         (Effect::WorldTilt, t.world_tilt_deg.to_vec()),
         (Effect::MocapDelay, vec![t.mocap_delay_ms]),
         (Effect::AccelBias, accel_bias.to_vec()),
         (Effect::GyroBias, gyro_bias.to_vec()),
         (Effect::LeverArm, t.lever_arm_mm.to_vec()),
+        (Effect::AccelBiasDrift, bias.accel_drift_m_s2_min.to_vec()),
+        (Effect::GyroBiasDrift, bias.gyro_drift_deg_s_min.to_vec()),
     ];
     for (effect, truth) in truths {
         let Some(found) = report.effect(effect) else { continue };
@@ -442,6 +598,9 @@ fn quantile(x: &[f64], q: f64) -> f64 {
     v[lo] + (v[hi] - v[lo]) * (h - lo as f64)
 }
 
+/// Draws per rig of an efficient estimator's errors in the table's Cramér–Rao column.
+pub const BOUND_DRAWS: usize = 1000;
+
 /// One outcome's error in a parameter, if it was found.
 type ErrorOf = fn(&Outcome) -> Option<f64>;
 
@@ -451,36 +610,43 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     let mut s = String::new();
     let ok: Vec<&Outcome> = outcomes.iter().filter(|o| o.error.is_none()).collect();
     let _ = writeln!(s, "{} hand-held flights of {} s (mocap {} Hz, IMU {} Hz), {} identified\n", outcomes.len(), set.duration_s, set.mocap_hz, set.imu_hz, ok.len());
-    let _ = writeln!(s, "| parameter | found | median error | p90 error | largest error | 95 % coverage |\n|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| parameter | found | median error | p90 error | largest error | 95 % coverage | Cramér–Rao median |\n|---|---|---|---|---|---|---|");
+    let efficient: Vec<[f64; 4]> = ok.iter().filter_map(|o| o.bound.as_ref()?.draws(o.trial.index, BOUND_DRAWS)).flatten().collect();
     let rows: [(&str, &str, ErrorOf, &str); 4] = [
         ("rotation (angle)", "°", |o| o.rotation_err_deg, "body_offset."),
         ("world tilt (angle)", "°", |o| o.tilt_err_deg, "world_tilt."),
         ("lever arm (norm)", "mm", |o| o.lever_err_mm, "lever_arm."),
         ("time offset", "µs", |o| o.delay_err_us, "mocap_delay."),
     ];
-    for (name, unit, err, prefix) in rows {
+    for (i, (name, unit, err, prefix)) in rows.into_iter().enumerate() {
         let e: Vec<f64> = ok.iter().filter_map(|o| err(o)).collect();
         let est: Vec<&Estimate> = ok.iter().flat_map(|o| &o.estimates).filter(|x| x.name.starts_with(prefix)).collect();
         let covered = est.iter().filter(|x| x.covered()).count();
+        let bound: Vec<f64> = efficient.iter().map(|d| d[i]).collect();
         let _ = writeln!(
             s,
-            "| {name} | {}/{} | {:.4} {unit} | {:.4} {unit} | {:.4} {unit} | {:.1} % ({covered}/{}) |",
+            "| {name} | {}/{} | {:.4} {unit} | {:.4} {unit} | {:.4} {unit} | {:.1} % ({covered}/{}) | {:.4} {unit} |",
             e.len(),
             ok.len(),
             quantile(&e, 0.5),
             quantile(&e, 0.9),
             quantile(&e, 1.0),
             100.0 * covered as f64 / est.len().max(1) as f64,
-            est.len()
+            est.len(),
+            quantile(&bound, 0.5),
         );
     }
-    for prefix in ["accel_bias.", "gyro_bias."] {
+    for prefix in ["accel_bias.", "gyro_bias.", "accel_bias_drift.", "gyro_bias_drift."] {
         let est: Vec<&Estimate> = ok.iter().flat_map(|o| &o.estimates).filter(|x| x.name.starts_with(prefix)).collect();
+        if est.is_empty() && prefix.contains("drift") {
+            continue;
+        }
         let covered = est.iter().filter(|x| x.covered()).count();
         let _ = writeln!(
             s,
-            "| {} (mean) | {}/{} | | | | {:.1} % ({covered}/{}) |",
+            "| {} ({}) | {}/{} | | | | {:.1} % ({covered}/{}) | |",
             &prefix[..prefix.len() - 1],
+            if prefix.contains("drift") { "slope" } else { "mean" },
             est.len() / 3,
             ok.len(),
             100.0 * covered as f64 / est.len().max(1) as f64,
@@ -497,7 +663,13 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         }
     }
     let extra = if extra.is_empty() { "none".to_string() } else { extra.iter().map(|(e, n)| format!("{} in {n}", e.key())).collect::<Vec<_>>().join(", ") };
-    let _ = writeln!(s, "\nselected besides the hidden effects: {extra}");
+    let unseen = ok.iter().filter(|o| o.bound.is_none()).count();
+    let _ = writeln!(
+        s,
+        "\nCramér–Rao median: the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound (perfect mocap, constant biases){}",
+        if unseen > 0 { format!("; {unseen} rigs whose motion leaves a parameter unseen are left out") } else { String::new() }
+    );
+    let _ = writeln!(s, "selected besides the hidden effects: {extra}");
     s
 }
 
@@ -602,6 +774,68 @@ mod tests {
             "{:?}",
             r.notes
         );
+    }
+
+    /// The bound's information in closed form, on a rig that only yaws, ψ = A·sin Ωt over whole
+    /// periods T, with no lever arm: ω = ψ̇·e_z and f = −g·e_D are the only signals. The rotation
+    /// about z and the lever arm along z are then unseen, and [`bound`] says so. Without them,
+    /// the gyro alone sees the rotation about x and y (its accelerometer column, g·e_y, is the
+    /// bias's), so var δ_x = var δ_y = σ_g²/∫ψ̇² = σ_g²/(A²Ω²T/2); the time offset only in
+    /// ω̇, var = σ_g²/(A²Ω⁴T/2); and the biases along axes no other column reaches,
+    /// var b_g,x = σ_g²/T and var b_a,z = σ_a²/T. A per-sample weight without Δt, a gyro weight
+    /// of the accelerometer's density or a column on the wrong axis moves these by orders of
+    /// magnitude.
+    #[test]
+    fn the_bound_is_the_closed_form_on_a_rig_that_only_yaws() {
+        let (a, hz, duration) = (0.8, 0.5, 8.0);
+        let set = Setting { duration_s: duration, ..Setting::default() };
+        let mut trial = draw(1, 0);
+        trial.truth.lever_arm_mm = [0.0; 3];
+        trial.euler = [Wave(vec![]), Wave(vec![]), Wave(vec![[a, hz, 0.0]])];
+        trial.position = [Wave(vec![]), Wave(vec![]), Wave(vec![])];
+        assert!(bound(&trial, &set).is_none(), "the rotation about z and the lever arm along z are unseen");
+        let keep: Vec<usize> = (0..15).filter(|i| *i != 2 && *i != 8).collect();
+        let f = fisher(&trial, &set).select_rows(&keep).select_columns(&keep);
+        let cov = f.cholesky().expect("the rest is seen").inverse();
+        let w = TAU * hz;
+        let (sg2, sa2) = (set.gyro_noise_density.powi(2), set.accel_noise_density.powi(2));
+        // indices after dropping 2 and 8: δ_x 0, δ_y 1, delay 4, b_a,z 9, b_g,x 10
+        for (i, want, what) in [
+            (0, sg2 / (a * a * w * w * duration / 2.0), "δ_x"),
+            (1, sg2 / (a * a * w * w * duration / 2.0), "δ_y"),
+            (4, sg2 / (a * a * w.powi(4) * duration / 2.0), "time offset"),
+            (9, sa2 / duration, "b_a,z"),
+            (10, sg2 / duration, "b_g,x"),
+        ] {
+            assert!((cov[(i, i)] / want - 1.0).abs() < 2e-3, "{what}: {} against {want}", cov[(i, i)]);
+        }
+    }
+
+    /// The shipped rig files read, and `rigs/mocap2gt.yaml`, the template a user copies, is the
+    /// default setting field for field (a default changed without its template, or a template
+    /// edited, fails here). A field out of its range, an unknown field and a log too long are
+    /// refused with the file, line and column or the limit.
+    #[test]
+    fn the_rig_files_read_and_the_template_is_the_default() {
+        let rig = |name: &str| std::fs::read_to_string(format!("{}/rigs/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap();
+        let template = Setting::parse(&rig("mocap2gt.yaml"), "mocap2gt.yaml").unwrap();
+        assert_eq!(serde_json::to_value(template).unwrap(), serde_json::to_value(Setting::default()).unwrap());
+        for name in ["drift-180s.yaml", "long-180s.yaml", "imu-white-noise-only.yaml"] {
+            let set = Setting::parse(&rig(name), name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(set.imu_hz == 500.0 && set.mocap_hz == 300.0, "{name}: {set:?}");
+        }
+        let drift = Setting::parse(&rig("drift-180s.yaml"), "d").unwrap();
+        assert!((drift.accel_bias_drift[0] * 60.0 - 0.1).abs() < 1e-5 && (drift.gyro_bias_drift[2].to_degrees() * 60.0 - 0.25).abs() < 1e-5, "{drift:?}");
+        for (src, want) in [
+            ("mocap_hz: 0\n", "line 1 column 11: 0 Hz is outside the allowed range (0, 10000]"),
+            ("accel_bias_drift: [0, 0.2, 0]\n", "0.2 m/s² per s is outside the allowed range [-0.1, 0.1]"),
+            ("imu_rate: 200\n", "unknown field `imu_rate`"),
+            ("duration_s: 3600\nimu_hz: 1000\n", "3600000 IMU samples; at most 2000000"),
+        ] {
+            let e = Setting::parse(src, "rig.yaml").unwrap_err().to_string();
+            assert!(e.starts_with("rig.yaml") && e.contains(want), "{src:?}: {e}");
+        }
+        assert_eq!(serde_json::to_value(Setting::parse("", "empty.yaml").unwrap()).unwrap(), serde_json::to_value(Setting::default()).unwrap());
     }
 
     /// The calibrations drawn are those the module doc and the guide state, over 300 draws: a

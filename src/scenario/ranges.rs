@@ -138,6 +138,15 @@ ranged! {
     force_n: -100.0, 100.0, false, "N";
     torque_nm: -10.0, 10.0, false, "N·m";
     gyro_noise_deg_s: 0.0, 100.0, false, "°/s";
+    sample_rate_hz: 0.0, 10000.0, true, "Hz";
+    rig_pos_sd_m: 0.0, 0.1, false, "m";
+    rig_att_sd_rad: 0.0, 0.1, false, "rad";
+    accel_density: 0.0, 1.0, false, "m/s²/√Hz";
+    accel_walk: 0.0, 1.0, false, "m/s³/√Hz";
+    gyro_density: 0.0, 0.1, false, "rad/s/√Hz";
+    gyro_walk: 0.0, 0.1, false, "rad/s²/√Hz";
+    accel_drift: -0.1, 0.1, false, "m/s² per s";
+    gyro_drift: -0.01, 0.01, false, "rad/s per s";
     gyro_bias_deg_s: -100.0, 100.0, false, "°/s";
     accel_m_s2_signed: -50.0, 50.0, false, "m/s²";
     accel_noise: 0.0, 50.0, false, "m/s²";

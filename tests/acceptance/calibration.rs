@@ -93,11 +93,12 @@ fn a_rigid_body_has_no_floor_and_no_motors() {
 /// The Monte Carlo table of docs/calibration.md, rig for rig: 100 hand-held rigs of seed 1 at
 /// MoCap2GT's setting, calibrated as `trials --handheld --flights 100 --seed 1` does, give the
 /// guide's medians, 90th percentiles and largest errors (to their printed digit) and its
-/// coverage counts exactly. A change in the generator, the reader or the method moves one of
-/// them; then the guide's table is rerun with it.
+/// coverage counts exactly, and its Cramér–Rao column (an efficient estimator's median errors
+/// under each rig's bound) to its digit, each below the fit's median. A change in the generator,
+/// the reader, the method or the bound moves one of them; then the guide's table is rerun with it.
 #[test]
 fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
-    use flyarena::identify::handheld::{Outcome, Setting, options, run_many};
+    use flyarena::identify::handheld::{BOUND_DRAWS, Outcome, Setting, options, run_many};
     let set = Setting::default();
     let out = run_many(1, 100, &set, &options());
     assert!(out.iter().all(|o| o.error.is_none()));
@@ -128,4 +129,31 @@ fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
         let est: Vec<_> = out.iter().flat_map(|o| &o.estimates).filter(|e| e.name.starts_with(prefix)).collect();
         assert_eq!((est.iter().filter(|e| e.covered()).count(), est.len()), (covered, of), "{prefix}");
     }
+    // the Cramér–Rao column: an efficient estimator's median errors, below the fit's
+    let draws: Vec<[f64; 4]> = out.iter().flat_map(|o| o.bound.as_ref().expect("every rig's motion sees every parameter").draws(o.trial.index, BOUND_DRAWS).unwrap()).collect();
+    let bounds = [(0.0054, 1e-4), (0.0477, 1e-4), (0.540, 1e-3), (6.7, 0.1)];
+    for (i, ((name, err, _, _), (want, digit))) in rows.into_iter().zip(bounds).enumerate() {
+        let bound = q(draws.iter().map(|d| d[i]).collect(), 0.5);
+        let achieved = q(out.iter().filter_map(err).collect(), 0.5);
+        assert!((bound - want).abs() <= digit / 2.0 + 1e-12 && bound < achieved, "{name}: bound {bound} against the guide's {want}, the fit's {achieved}");
+    }
+}
+
+/// `trials --handheld --setting FILE` runs rigs at a setting the user writes, the fields left
+/// out at MoCap2GT's; a field out of its range is refused with the file, line, column and the
+/// allowed range (exit 2), and nothing is written.
+#[test]
+fn a_rig_setting_is_read_from_yaml_and_checked() {
+    let d = super::Scratch::new("rig-setting");
+    std::fs::write(d.join("short.yaml"), "duration_s: 20\nimu_hz: 200\n").unwrap();
+    let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "3", "--setting", "short.yaml", "--out", "o"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.starts_with("1 hand-held flights of 20 s (mocap 300 Hz, IMU 200 Hz), 1 identified"), "{out}");
+    let setting = &json(&d.join("o/handheld-3-1.json"))["setting"];
+    assert_eq!((setting["imu_hz"].as_f64(), setting["mocap_hz"].as_f64(), setting["gyro_noise_density"].as_f64()), (Some(200.0), Some(300.0), Some(8.39e-4)));
+    std::fs::write(d.join("bad.yaml"), "imu_hz: 200\ngyro_noise_density: 0.5\n").unwrap();
+    let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--setting", "bad.yaml", "--out", "bad"], &d);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(err.contains("bad.yaml") && err.contains("line 2 column 21") && err.contains("0.5 rad/s/√Hz is outside the allowed range [0, 0.1]"), "{err}");
+    assert!(!d.join("bad").exists());
 }
