@@ -38,9 +38,6 @@ pub const REQUIREMENTS: [&str; 4] = ["R1", "R2", "R3", "R4"];
 /// Why a sweep cannot run, merge or keep its journal.
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
-    /// The scenario itself is not valid.
-    #[error("{0}")]
-    Scenario(#[from] ScenarioError),
     /// The `sweep:` section is not valid (which entry, and why).
     #[error("{file}: sweep: {message}")]
     Spec {
@@ -123,11 +120,15 @@ pub struct Sweep {
 
 impl Sweep {
     /// Reads a scenario with a `sweep:` section.
-    pub fn load(path: &Path) -> Result<Sweep, SweepError> {
+    ///
+    /// # Errors
+    /// The scenario's own ([`crate::Error::Scenario`]) or its `sweep:` section's
+    /// ([`crate::Error::Sweep`]).
+    pub fn load(path: &Path) -> crate::Result<Sweep> {
         let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;
         let scenario = Scenario::parse(&src, path)?;
         let file = path.display().to_string();
-        let spec = |message: String| SweepError::Spec { file: file.clone(), message };
+        let spec = |message: String| crate::Error::from(SweepError::Spec { file: file.clone(), message });
         let cfg = scenario.sweep.clone().ok_or_else(|| spec("the scenario has no `sweep:` section (see docs/sweeps.md)".into()))?;
         if cfg.vary.is_empty() {
             return Err(spec("`vary` is empty: name at least one field to vary".into()));
@@ -151,7 +152,7 @@ impl Sweep {
                 Variation::Grid(g) => g.clone(),
             };
             for x in reached {
-                let mut check = |x: f64| -> Result<(), SweepError> {
+                let mut check = |x: f64| -> crate::Result<()> {
                     set_path(&mut t, &v.field, x).map_err(|m| spec(format!("vary[{k}]: {m}")))?;
                     Scenario::parse(&serde_json::to_string(&t).expect("a JSON tree serialises"), path)
                         .map(drop)

@@ -1,11 +1,10 @@
 //! Why an input of `identify` cannot be used: a mapping, a log of another tool, a ROS 2 bag, a
 //! flyarena log with its scenario, a scenario with an effects fragment. Every variant names the
 //! file, and the line and column where the defect has one; nothing here is a number made from
-//! bad data (the data-quality gate's own verdict is [`IdentifyError`]).
+//! bad data (the data-quality gate's own verdict is [`IdentifyError`](super::IdentifyError)).
+//! A step that reads a scenario or a flyarena log too returns [`crate::Error`], whose variants
+//! carry those errors: each error reaches the caller by one route.
 
-use super::select::IdentifyError;
-use crate::log::LogError;
-use crate::scenario::ScenarioError;
 use std::fmt::Display;
 
 /// An `identify` input that cannot be used, with where and why.
@@ -64,18 +63,9 @@ pub enum InputError {
         /// What is wrong.
         reason: String,
     },
-    /// The scenario (of a run, of a flyarena log, or patched by a fragment) is not valid.
-    #[error("{0}")]
-    Scenario(#[from] ScenarioError),
-    /// A flyarena log that does not read.
-    #[error("{0}")]
-    FlightLog(#[from] LogError),
     /// Every flight of a cross-validation failed the data-quality gate (each one's reason).
     #[error("{}", .0.join("\n"))]
     NoFlightPasses(Vec<String>),
-    /// The data passed the reader but not the data-quality gate.
-    #[error("{0}")]
-    Identify(#[from] IdentifyError),
 }
 
 impl InputError {

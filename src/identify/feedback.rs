@@ -138,7 +138,7 @@ fn fragment_of(source: &str, effects: &[super::select::Found], i: usize, mocap_r
 }
 
 /// Reads a scenario and applies a fragment to it.
-pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, InputError> {
+pub fn load_with_effects(scenario: &Path, fragment: &Path) -> crate::Result<Scenario> {
     let src = std::fs::read_to_string(scenario).map_err(|e| InputError::io(scenario.display(), e))?;
     let fsrc = std::fs::read_to_string(fragment).map_err(|e| InputError::io(fragment.display(), e))?;
     let frag: Fragment = serde_saphyr::from_str(&fsrc).map_err(|e| InputError::invalid(fragment.display(), e))?;
@@ -159,7 +159,7 @@ pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, I
             if let Err(e) = merged(&t) {
                 let message = e.what();
                 let line = fsrc.lines().position(|l| l.trim_start().starts_with(path.as_str())).map_or(String::new(), |k| format!(":{}", k + 1));
-                return Err(InputError::invalid(format!("{}{line}", fragment.display()), format!("`{path}`: {message}")));
+                return Err(InputError::invalid(format!("{}{line}", fragment.display()), format!("`{path}`: {message}")).into());
             }
         }
         Err(whole.into())
@@ -195,7 +195,7 @@ pub(crate) fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
 }
 
 /// The scenario with its undeclared effects removed, and with the fragment applied to that.
-pub(crate) fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str, name: &str) -> Result<(Scenario, Scenario), InputError> {
+pub(crate) fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str, name: &str) -> crate::Result<(Scenario, Scenario)> {
     let nominal = nominal_tree(scenario_src, i);
     let frag: Fragment = serde_saphyr::from_str(fragment_text).map_err(|e| InputError::invalid("fragment", e))?;
     let mut fed = nominal.clone();

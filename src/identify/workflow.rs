@@ -97,7 +97,7 @@ impl<'a> Request<'a> {
 /// Identifies from a scenario (flown here), a flyarena log with its scenario, or a mapped log;
 /// for a scenario or a flyarena log, also flies the nominal and the fed-back model against
 /// the data (closed loop) and checks R5 when the scenario declares it.
-pub fn run(req: &Request) -> Result<Identified, InputError> {
+pub fn run(req: &Request) -> crate::Result<Identified> {
     let (forced, smoothing_ms, vehicle, seed) = (&req.forced[..], req.smoothing_ms, req.vehicle, req.seed);
     let opts = options(forced, smoothing_ms, None);
     let (input, scenario) = match req.source {
@@ -170,7 +170,7 @@ pub struct CrossValidated {
 
 /// Identifies every log through one mapping, then evaluates each flight's model on every other
 /// flight and checks the offsets' consistency per mounting.
-pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> Result<CrossValidated, InputError> {
+pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> crate::Result<CrossValidated> {
     use super::design::Channel;
     use super::select::{channel_cut, evaluate};
     let map = super::mapping::Mapping::load(mapping)?;
