@@ -2,12 +2,17 @@
 //! effect the model lacks, that effect added, and the error before and after.
 //!
 //! ```text
-//! flight log (flyarena CSV + scenario, or any CSV + a column mapping)
-//!   ─► Series (mocap world NED, body FRD, SI)           series, flyarena_log, mapping
-//!   ─► residual channels + candidate regressors         design
-//!   ─► prewhitened forward selection, held-out errors   select, stats
-//!   ─► Report (table, JSON) and a scenario fragment     report, feedback
+//! flight log (flyarena CSV + scenario, any CSV + a column mapping, a ROS 2 bag, a PX4 log)
+//!   ─► input/   Series (mocap world NED, body FRD, SI)          series, flyarena_log, mapping, ros2, ulog
+//!   ─► fit/     data-quality gate, residual channels and        quality, design,
+//!               candidate regressors, prewhitened forward       select, stats,
+//!               selection with held-out errors, ground check    ground
+//!   ─► checks/  across flights, R5, batches with a known truth  consistency, check, trials, handheld
+//!   ─► output/  report text, scenario fragment, PX4 parameters  report, feedback, px4
 //! ```
+//!
+//! `workflow` runs the stages for the command line and for Rust callers; the modules above are
+//! reached as `identify::series`, `identify::select`, … whatever folder holds them.
 //!
 //! The same code runs on flyarena's own runs (where the truth is known and the tests check that
 //! the hidden effect is found) and on real flights (NanoBench, docs/nanobench.md).
@@ -35,29 +40,20 @@
 //! assert!((k_x - 0.3).abs() < 0.02, "{k_x}");
 //! ```
 
-pub mod check;
-pub mod consistency;
-pub mod design;
-mod error;
-pub mod feedback;
-pub mod flyarena_log;
-pub mod ground;
-pub mod handheld;
-mod joined;
-pub mod mapping;
+mod checks;
+mod fit;
+mod input;
+mod output;
 mod precision;
-pub mod px4;
-pub mod quality;
-pub mod report;
-pub mod ros2;
-pub mod select;
-pub mod series;
-pub(crate) mod stats;
-pub mod trials;
-pub mod ulog;
 pub mod workflow;
 
+pub use checks::{check, consistency, handheld, trials};
+pub(crate) use fit::stats;
+pub use fit::{design, ground, quality, select};
+pub use input::{flyarena_log, mapping, ros2, series, ulog};
+pub use output::{feedback, px4, report};
+
 pub use design::{Channel, DesignOptions, Effect};
-pub use error::InputError;
+pub use input::error::InputError;
 pub use select::{IdentifyError, Options, Report, identify};
 pub use series::{Corrections, NominalModel, Series};

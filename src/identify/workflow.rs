@@ -2,10 +2,12 @@
 //! to run, a flyarena log with its scenario, or another tool's log through a mapping), identify,
 //! compare the closed loop, and return the report, its text, its JSON and the fragment.
 
-use super::error::InputError;
-use super::feedback::{TrajectoryError, fragment, nominal_and_fed_back, trajectory_error};
+use super::input::error::InputError;
+use super::input::flyarena_log;
+use super::output::feedback::{TrajectoryError, fragment, nominal_and_fed_back, trajectory_error};
+use super::output::report;
 use super::precision::{signed_with_interval as pm, with_interval};
-use super::{Options, flyarena_log, identify, report};
+use super::{Options, identify};
 use crate::scenario::Scenario;
 use serde_json::{Value, json};
 use std::path::Path;
@@ -26,7 +28,7 @@ pub struct Identified {
     /// was flown from a scenario.
     pub closed_loop: Option<(TrajectoryError, TrajectoryError)>,
     /// Residuals before and after, for the recording.
-    pub residuals: Vec<super::select::ResidualSeries>,
+    pub residuals: Vec<super::fit::select::ResidualSeries>,
 }
 
 fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize, InputError> {
@@ -43,7 +45,7 @@ fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize,
 
 /// The options of a request: the forced effects, and the smoothing from the request, else from
 /// the mapping, else the default.
-fn options(forced: &[super::Effect], smoothing_ms: Option<f64>, map: Option<&super::mapping::Mapping>) -> Options {
+fn options(forced: &[super::Effect], smoothing_ms: Option<f64>, map: Option<&super::input::mapping::Mapping>) -> Options {
     let mut opts = Options { forced: forced.to_vec(), ..Options::default() };
     if let Some(sm) = smoothing_ms.or(map.and_then(|m| m.smoothing_ms)) {
         opts.design.smoothing_s = sm * 1e-3;
@@ -104,7 +106,7 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
         Source::Scenario(p) => (p, None),
         Source::FlyarenaLog { log, scenario } => (log, Some(scenario)),
         Source::Mapped { log: input, mapping: m } => {
-            let map = super::mapping::Mapping::load(m)?;
+            let map = super::input::mapping::Mapping::load(m)?;
             let opts = options(forced, smoothing_ms, Some(&map));
             let series = map.read(input)?;
             let report = identify(&series, &opts)?;
@@ -113,7 +115,7 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
             // (and four markers, the common pattern, for a lever arm: the log names no template)
             let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32, 4);
             let json = json!({ "report": report, "closed_loop": null });
-            let residuals = super::select::residual_series(&series, &opts, &report);
+            let residuals = super::fit::select::residual_series(&series, &opts, &report);
             return Ok(Identified { report, requirements: None, text, json, fragment, closed_loop: None, residuals });
         }
     };
@@ -147,9 +149,9 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
         before.attitude_rmse_deg,
         after.attitude_rmse_deg
     );
-    let requirements = s.requirements.identify.as_ref().map(|req| super::check::check(&report, req, &s.vehicle(i).name));
+    let requirements = s.requirements.identify.as_ref().map(|req| super::checks::check::check(&report, req, &s.vehicle(i).name));
     let json = json!({ "report": report, "closed_loop": { "nominal": before, "with_effects": after }, "requirements": requirements });
-    let residuals = super::select::residual_series(&data, &opts, &report);
+    let residuals = super::fit::select::residual_series(&data, &opts, &report);
     Ok(Identified { report, requirements, text, json, fragment: frag, closed_loop: Some((before, after)), residuals })
 }
 
@@ -161,7 +163,7 @@ pub struct CrossValidated {
     /// [fitted on][evaluated on] → cut of the accel_kin and force errors (None: channel missing)
     pub cross: Vec<Vec<(Option<f64>, Option<f64>)>>,
     /// Mountings from the ground check, the body offsets' agreement inside each, and transfer.
-    pub consistency: super::consistency::Consistency,
+    pub consistency: super::checks::consistency::Consistency,
     /// The cross-validation as text.
     pub text: String,
     /// The cross-validation as JSON.
@@ -171,9 +173,9 @@ pub struct CrossValidated {
 /// Identifies every log through one mapping, then evaluates each flight's model on every other
 /// flight and checks the offsets' consistency per mounting.
 pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> crate::Result<CrossValidated> {
-    use super::design::Channel;
-    use super::select::{channel_cut, evaluate};
-    let map = super::mapping::Mapping::load(mapping)?;
+    use super::fit::design::Channel;
+    use super::fit::select::{channel_cut, evaluate};
+    let map = super::input::mapping::Mapping::load(mapping)?;
     let opts = options(forced, smoothing_ms, Some(&map));
     let Each { reports, series, excluded } = identify_each(inputs, &map, &opts)?;
     let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports
@@ -197,7 +199,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             .iter()
             .zip(&accel_cross)
             .map(|((_, r), row)| {
-                let mut alt = super::consistency::without_body_offset(r);
+                let mut alt = super::checks::consistency::without_body_offset(r);
                 (0..series.len())
                     .map(|j| {
                         let alt = alt.as_mut()?;
@@ -211,18 +213,18 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     // the body offset's own share: each model again without its offset
     let offset_gain = gain(&|_| Some(nalgebra::UnitQuaternion::identity()));
     // the mounting's own part: each model again with the fleet's mean offset (j left out)
-    let fleet: Vec<_> = (0..series.len()).map(|j| super::consistency::fleet_offset_without(&reports, j)).collect();
+    let fleet: Vec<_> = (0..series.len()).map(|j| super::checks::consistency::fleet_offset_without(&reports, j)).collect();
     let mounting_gain = gain(&|j| fleet[j]);
-    let transfer = super::consistency::Transfer { cut: &accel_cross, offset_gain: &offset_gain, mounting_gain: &mounting_gain };
-    let consistency = super::consistency::consistency(&reports, &transfer, super::consistency::LINK_DEG);
-    text += &super::consistency::render(&consistency);
+    let transfer = super::checks::consistency::Transfer { cut: &accel_cross, offset_gain: &offset_gain, mounting_gain: &mounting_gain };
+    let consistency = super::checks::consistency::consistency(&reports, &transfer, super::checks::consistency::LINK_DEG);
+    text += &super::checks::consistency::render(&consistency);
     let agreements = || reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref());
-    let spin_up = super::ground::spin_up_summary(agreements());
-    let landed = super::ground::landed_summary(agreements());
-    let rest_pose = super::ground::rest_pose_summary(agreements());
-    text += &spin_up.as_ref().map_or(String::new(), super::ground::render_spin_up_summary);
-    text += &landed.as_ref().map_or(String::new(), super::ground::render_landed_summary);
-    text += &rest_pose.as_ref().map_or(String::new(), super::ground::render_rest_pose_summary);
+    let spin_up = super::fit::ground::spin_up_summary(agreements());
+    let landed = super::fit::ground::landed_summary(agreements());
+    let rest_pose = super::fit::ground::rest_pose_summary(agreements());
+    text += &spin_up.as_ref().map_or(String::new(), super::fit::ground::render_spin_up_summary);
+    text += &landed.as_ref().map_or(String::new(), super::fit::ground::render_landed_summary);
+    text += &rest_pose.as_ref().map_or(String::new(), super::fit::ground::render_rest_pose_summary);
     let json = json!({
         "reports": reports.iter().map(|(n, r)| json!({"flight": n, "report": r})).collect::<Vec<_>>(),
         "consistency": consistency,
@@ -252,7 +254,7 @@ struct Each {
 /// samples under another name: published datasets hold such copies, which would agree with
 /// themselves and count twice) or one the data-quality gate rejects. An error only when no
 /// flight is left.
-fn identify_each(inputs: &[&Path], map: &super::mapping::Mapping, opts: &super::Options) -> Result<Each, InputError> {
+fn identify_each(inputs: &[&Path], map: &super::input::mapping::Mapping, opts: &super::Options) -> Result<Each, InputError> {
     let mut read: Vec<(String, super::Series)> = Vec::new();
     let mut excluded: Vec<(String, String)> = Vec::new();
     for p in inputs {
@@ -283,8 +285,8 @@ fn identify_each(inputs: &[&Path], map: &super::mapping::Mapping, opts: &super::
 /// The per-flight block of a cross-validation: each flight's held-out cuts, effects, ground
 /// checks, leads and notes, then the flights left out and why.
 fn per_flight_text(reports: &[(String, super::Report)], excluded: &[(String, String)]) -> String {
-    use super::design::Channel;
-    use super::select::channel_cut;
+    use super::fit::design::Channel;
+    use super::fit::select::channel_cut;
     let mut text = String::from("per flight (held-out error cut per channel; effects with 95 % intervals):\n");
     for (name, r) in reports {
         let cuts: Vec<String> = Channel::ALL.iter().map(|c| format!("{} {}", c.name(), pct(channel_cut(&r.errors, *c)))).collect();

@@ -130,15 +130,22 @@ fn file_graph(src: &Path, dir: &Path) -> BTreeMap<String, BTreeSet<String>> {
 }
 
 /// Inside every module folder the files depend on each other in one direction only: a reader
-/// can start from the leaves (identify's `series`, `stats`) and never meet a file that needs
-/// one not yet read.
+/// can start from the leaves (identify's `input/`, `fit/stats.rs`) and never meet a file that
+/// needs one not yet read. Between identify's stages too: `input/` needs no other stage, `fit/`
+/// only `input/`, `checks/` and `output/` what comes before them.
 #[test]
 fn the_files_of_each_module_depend_one_way() {
     let src = super::root().join("src");
     let folders: Vec<_> = rs_files(&src).into_iter().filter(|f| f.ends_with("mod.rs")).map(|f| f.parent().unwrap().to_path_buf()).collect();
-    assert!(folders.iter().any(|f| f.ends_with("identify/select")), "{folders:?}");
+    assert!(folders.iter().any(|f| f.ends_with("identify/fit/select")), "{folders:?}");
+    // identify's stages are folders, and the scan sees the edges between them and inside them
     let identify = file_graph(&src, &src.join("identify"));
-    assert!(identify["ground"].contains("stats") && identify["select"].contains("ground") && identify["report"].contains("select"), "the scan finds the files: {identify:?}");
+    let fit = file_graph(&src, &src.join("identify/fit"));
+    assert!(
+        identify["fit"].contains("input") && identify["checks"].contains("fit") && identify["output"].contains("fit") && !identify["input"].contains("fit"),
+        "the scan finds the stages: {identify:?}"
+    );
+    assert!(fit["ground"].contains("stats") && fit["select"].contains("ground"), "the scan finds the files: {fit:?}");
     for dir in folders {
         let g = file_graph(&src, &dir);
         if let Some(c) = find_cycle(&g) {

@@ -35,7 +35,7 @@
 //! the log unusable.
 
 use super::design::{body_rates, gaussian_kernel, glitches, second_difference, smooth_vec3};
-use super::series::{Series, floor_z};
+use crate::identify::input::series::{Series, floor_z};
 use nalgebra::Vector3;
 
 /// The gate's bounds (see the module documentation for why they are where they are).

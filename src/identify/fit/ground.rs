@@ -20,7 +20,7 @@
 //! own tilt scatter at rest ([`GroundCheck::mocap_sd_deg`]) tells a still pose that the
 //! cameras see badly.
 
-use super::series::Series;
+use crate::identify::input::series::Series;
 
 /// The tilt the accelerometer reads against the markers while the vehicle rests on the floor before
 /// take-off (the rotation from the gravity the mocap predicts to the one the accelerometer
@@ -934,13 +934,13 @@ pub(crate) fn render_spin_up_summary(s: &SpinUpSummary) -> String {
 /// covers (the flight cannot pin its tilt down), or a disagreement.
 pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
     let mut notes = Vec::new();
-    let pm = super::precision::signed_with_interval;
+    let pm = crate::identify::precision::signed_with_interval;
     let [first, _] = a.up_axis.tilt_names();
     for (name, t) in a.up_axis.tilt_names().into_iter().zip([&a.roll, &a.pitch]) {
         if t.difference_deg.abs() > 1.0 && t.covers {
             notes.push(format!(
                 "ground check and flight differ by {}° in {name}, within what this flight determines: the flight cannot pin its tilt down to 1°",
-                super::precision::with_interval(t.difference_deg, t.ci95_deg)
+                crate::identify::precision::with_interval(t.difference_deg, t.ci95_deg)
             ));
         } else if !t.covers {
             let mut note = format!(
@@ -948,7 +948,7 @@ pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
                 t.ground_deg,
                 if t.bias_tilt_deg != 0.0 { format!(" ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg) } else { String::new() },
                 t.flight_deg,
-                super::precision::with_interval(t.difference_deg, t.ci95_deg)
+                crate::identify::precision::with_interval(t.difference_deg, t.ci95_deg)
             );
             // the other references, where they agree: the next lead for this flight
             let spin = a.spin_up.as_ref().map(|s| if name == first { &s.roll } else { &s.pitch });

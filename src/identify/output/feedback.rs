@@ -15,11 +15,11 @@
 //! scenario plus the fragment with the data's seed, and reports how far each closed-loop
 //! trajectory is from the data.
 
-use super::design::Effect;
-use super::error::InputError;
-use super::precision::{decimals_for, with_interval};
-use super::select::Report;
-use super::series::Series;
+use crate::identify::fit::design::Effect;
+use crate::identify::fit::select::Report;
+use crate::identify::input::error::InputError;
+use crate::identify::input::series::Series;
+use crate::identify::precision::{decimals_for, with_interval};
 use crate::scenario::Scenario;
 use crate::scenario::patch::set_in;
 use serde_json::{Value, json};
@@ -84,7 +84,7 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
 /// [`fragment`] from the effects found: every value keeps the precision of its interval (at
 /// least 4 decimals), and a value the scenario cannot express (a negative delay: poses stamped
 /// before their capture) is said with its interval and left out, not set to the nearest it can.
-fn fragment_of(source: &str, effects: &[super::select::Found], i: usize, mocap_rate_hz: u32, n_markers: usize) -> String {
+fn fragment_of(source: &str, effects: &[crate::identify::fit::select::Found], i: usize, mocap_rate_hz: u32, n_markers: usize) -> String {
     let mut lines = vec![format!("# flyarena identify: the effects found in {source}"), "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string()];
     let mut set = Vec::new();
     let imu_offset = effects.iter().find(|f| f.effect == Effect::ImuOffset);

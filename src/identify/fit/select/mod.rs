@@ -36,7 +36,7 @@
 //! Their 95 % intervals are ±1.96·σ from the Newey–West covariance (Bartlett, `hac_lags`) of
 //! the weighted scores summed over channel axes per time sample, which allows for the
 //! residual's colour and for channels that share a sensor's noise, plus the systematic of the
-//! nominal thrust ([`NominalModel::thrust_rel_sd`](super::series::NominalModel), one factor for
+//! nominal thrust ([`NominalModel::thrust_rel_sd`](crate::identify::input::series::NominalModel), one factor for
 //! the whole flight, which no amount of data averages away).
 //!
 //! After the selection, each selected effect is compared with each effect outside the model
@@ -53,8 +53,8 @@
 
 use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build};
 use super::ground::Rest;
-use super::series::{Corrections, Series};
 use super::stats::{Ar, Z_975, f_sf};
+use crate::identify::input::series::{Corrections, Series};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 
 mod covariance;

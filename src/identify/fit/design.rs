@@ -54,8 +54,8 @@
 //! In flyarena's simulator the IMU sits at `imu.position_mm` = r_c from the centre of mass and
 //! the markers' origin at `markers.displacement_mm` = d, so the lever arm is r = r_c − d.
 
-use super::series::{Corrected, Corrections, Series, correct};
 pub use crate::effects::{Channel, Effect};
+use crate::identify::input::series::{Corrected, Corrections, Series, correct};
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// Where an effect's columns sit in the full design.
@@ -152,7 +152,7 @@ pub fn glitches(s: &Series) -> Vec<usize> {
             if s.mocap_ok[i - 1] && s.mocap_ok[i] && s.mocap_ok[i + 1] {
                 let mid = (s.pos_mocap_nav[i - 1] + s.pos_mocap_nav[i + 1]) * 0.5;
                 jp[i] = (s.pos_mocap_nav[i] - mid).norm();
-                jq[i] = s.att_mocap[i].angle_to(&super::series::interpolate_attitude(&s.att_mocap[i - 1], &s.att_mocap[i + 1], 0.5));
+                jq[i] = s.att_mocap[i].angle_to(&crate::identify::input::series::interpolate_attitude(&s.att_mocap[i - 1], &s.att_mocap[i + 1], 0.5));
             }
         }
     }
@@ -315,7 +315,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     }
     let outliers = glitch_events(&glitches);
     // the gyro with its delay against the accelerometer taken out (rows it cannot reach are out)
-    let gyro_raw = super::series::gyro_advanced(s, corr.gyro_delay_s, &mut pose_ok);
+    let gyro_raw = crate::identify::input::series::gyro_advanced(s, corr.gyro_delay_s, &mut pose_ok);
     let (ok, height) = usable_rows(s, opt, &pos_nav, &pose_ok, h + 2);
     // decimation keeps one row per σ (below); what is not differentiated is smoothed only there
     let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
@@ -357,7 +357,7 @@ fn usable_rows(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], pose_o
     // column, the lowest point of the first half second (a log is taken to start at rest). A
     // log that starts in the air with the motors on has no floor: nothing is masked for height
     // and the ground-effect regressor is zero.
-    let floor_z = super::series::floor_z(s, pos_nav);
+    let floor_z = crate::identify::input::series::floor_z(s, pos_nav);
     let height: Vec<f64> = pos_nav.iter().map(|p| floor_z.map_or(f64::INFINITY, |f| f - p.z)).collect();
     for i in 0..n {
         if height[i] < opt.min_height_m {

@@ -1,7 +1,7 @@
 //! Why an input of `identify` cannot be used: a mapping, a log of another tool, a ROS 2 bag, a
 //! flyarena log with its scenario, a scenario with an effects fragment. Every variant names the
 //! file, and the line and column where the defect has one; nothing here is a number made from
-//! bad data (the data-quality gate's own verdict is [`IdentifyError`](super::IdentifyError)).
+//! bad data (the data-quality gate's own verdict is [`IdentifyError`](crate::identify::IdentifyError)).
 //! A step that reads a scenario or a flyarena log too returns [`crate::Error`], whose variants
 //! carry those errors: each error reaches the caller by one route.
 

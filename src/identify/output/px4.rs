@@ -30,9 +30,9 @@
 //! An effect not found, or found but not identifiable, gives no value: a parameter not written
 //! keeps whatever the vehicle has.
 
-use super::precision::{signed_with_interval, with_interval};
-use super::select::Found;
-use super::{Effect, Report};
+use crate::identify::fit::select::Found;
+use crate::identify::precision::{signed_with_interval, with_interval};
+use crate::identify::{Effect, Report};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use std::fmt::Write as _;
 

@@ -111,7 +111,7 @@ impl Px4File {
     }
 }
 
-/// The CSV mapping of the rows a bag or a PX4 log is joined into (`identify/joined.rs`):
+/// The CSV mapping of the rows a bag or a PX4 log is joined into (`identify/input/joined.rs`):
 /// SI units, an x, y, z, w quaternion, the given frames. The motor columns are named when the
 /// log is read (their count is the messages').
 fn joined_mapping(vehicle: VehiclePreset, world: WorldUp, body: BodyAxes, motors: bool, battery: bool, mass_kg: Option<f64>, smoothing_ms: Option<f64>) -> Mapping {
@@ -409,7 +409,7 @@ impl Mapping {
         }
     }
 
-    /// Reads the rows a bag or a PX4 log was joined into (`identify/joined.rs`): the motor columns
+    /// Reads the rows a bag or a PX4 log was joined into (`identify/input/joined.rs`): the motor columns
     /// are named by the header, and the route's repairs come first.
     fn read_joined(&self, text: &str, repairs: Vec<String>, file: &str) -> Result<Series, InputError> {
         let header = text.lines().next().unwrap_or("");

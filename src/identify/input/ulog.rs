@@ -37,7 +37,7 @@
 //!   `motor_count` (default: as many as ever hold a number, at most 8).
 //! - the battery, `BatteryStatus`: `voltage_v` (V); a sample at 0 V (no battery) is left out.
 //!
-//! The streams are then joined onto the IMU's clock (`identify/joined.rs`) and go through the same
+//! The streams are then joined onto the IMU's clock (`identify/input/joined.rs`) and go through the same
 //! reader as a CSV log, as a ROS 2 bag does, so all three routes give one report. Nothing read
 //! from the file can panic: a parser failure, a missing topic or field is an error that names
 //! the file and, for a missing topic, the `SDLOG_PROFILE` bit that logs it.
@@ -208,7 +208,7 @@ fn ns(us: f64) -> i128 {
 }
 
 /// Reads the log at `path` through `topics` into the rows of a CSV log
-/// (`t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, see `identify/joined.rs`), and
+/// (`t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, see `identify/input/joined.rs`), and
 /// the repairs and notes made.
 pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<String>), InputError> {
     let file = path.display().to_string();

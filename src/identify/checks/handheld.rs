@@ -30,7 +30,7 @@
 //! with its noise (the attitude's as R_w·R·R_off·Exp(n)).
 //!
 //! **The route** is a user's: the two streams are joined onto the IMU's clock as a bag or a PX4
-//! log is (`identify/joined.rs`) and read through `mappings/handheld.yaml` (`vehicle: rigid_body`),
+//! log is (`identify/input/joined.rs`) and read through `mappings/handheld.yaml` (`vehicle: rigid_body`),
 //! then `identify` runs with its defaults and no effect named. **Scoring**: the rotation error
 //! is the angle of R̂_off⁻¹·R_off, the tilt error the angle between gravity's directions in the
 //! mocap world, R̂_w·e_D and R_w·e_D (a yaw of the world about gravity is seen by no sensor), the lever-arm error
@@ -42,11 +42,11 @@
 //! **Any rig** ([`Setting::parse`]): the rates, noise densities, length and drift are read from
 //! YAML (`rigs/mocap2gt.yaml` is the default, field for field).
 
-use super::design::Effect;
-use super::joined::{Stream, Streams};
-use super::mapping::Mapping;
-use super::select::{Options, identify};
-use super::series::Series;
+use crate::identify::fit::design::Effect;
+use crate::identify::fit::select::{Options, identify};
+use crate::identify::input::joined::{Stream, Streams};
+use crate::identify::input::mapping::Mapping;
+use crate::identify::input::series::Series;
 use crate::rng::{Component, Stream as Rng};
 use crate::scenario::ranges;
 use crate::vehicle::params::GRAVITY;
@@ -104,8 +104,8 @@ impl Setting {
     ///
     /// # Errors
     /// The file cannot be read, or [`Setting::parse`]'s.
-    pub fn read(path: &std::path::Path) -> Result<Setting, super::InputError> {
-        let src = std::fs::read_to_string(path).map_err(|e| super::InputError::io(path.display(), e))?;
+    pub fn read(path: &std::path::Path) -> Result<Setting, crate::identify::InputError> {
+        let src = std::fs::read_to_string(path).map_err(|e| crate::identify::InputError::io(path.display(), e))?;
         Setting::parse(&src, &path.display().to_string())
     }
 
@@ -115,12 +115,12 @@ impl Setting {
     /// # Errors
     /// The file, line and column of a field that is unknown, not a number or out of its range;
     /// a length and IMU rate whose log would exceed [`MAX_IMU_SAMPLES`].
-    pub fn parse(src: &str, file: &str) -> Result<Setting, super::InputError> {
-        let err = |e: serde_saphyr::Error| super::InputError::invalid(file, crate::scenario::error::with_suggestion(&e.to_string()));
+    pub fn parse(src: &str, file: &str) -> Result<Setting, crate::identify::InputError> {
+        let err = |e: serde_saphyr::Error| crate::identify::InputError::invalid(file, crate::scenario::error::with_suggestion(&e.to_string()));
         let set: Setting = if src.trim().is_empty() { Setting::default() } else { serde_saphyr::from_str(src).map_err(err)? };
         let n = set.duration_s * set.imu_hz;
         if n > MAX_IMU_SAMPLES {
-            return Err(super::InputError::invalid(file, format!("duration_s × imu_hz = {n} IMU samples; at most {MAX_IMU_SAMPLES} are generated (an hour at 500 Hz)")));
+            return Err(crate::identify::InputError::invalid(file, format!("duration_s × imu_hz = {n} IMU samples; at most {MAX_IMU_SAMPLES} are generated (an hour at 500 Hz)")));
         }
         Ok(set)
     }
@@ -349,12 +349,12 @@ impl Trial {
     ///
     /// # Errors
     /// None for a drawn trial; the reader's, were the rows malformed.
-    pub fn series(&self, set: &Setting) -> Result<Series, super::InputError> {
+    pub fn series(&self, set: &Setting) -> Result<Series, crate::identify::InputError> {
         self.read(&self.streams(set).0)
     }
 
     /// The streams joined and read through `mappings/handheld.yaml`.
-    fn read(&self, streams: &Streams) -> Result<Series, super::InputError> {
+    fn read(&self, streams: &Streams) -> Result<Series, crate::identify::InputError> {
         mapping().read_str(&streams.join().0, &format!("handheld flight {}", self.index))
     }
 }
@@ -468,7 +468,7 @@ fn ns(t: f64) -> i128 {
 
 /// `mappings/handheld.yaml`, as shipped.
 pub fn mapping() -> Mapping {
-    Mapping::parse(include_str!("../../mappings/handheld.yaml"), std::path::Path::new("mappings/handheld.yaml")).expect("the shipped mapping parses")
+    Mapping::parse(include_str!("../../../mappings/handheld.yaml"), std::path::Path::new("mappings/handheld.yaml")).expect("the shipped mapping parses")
 }
 
 /// What the trials run: `identify --calibrate` with the defaults of `mappings/handheld.yaml`
@@ -697,7 +697,7 @@ mod tests {
     }
 
     /// On a rig without noise and with biases that do not walk, `identify --calibrate` gives the
-    /// drawn calibration back: the generator writes the definitions of [`super::super::Corrections`]
+    /// drawn calibration back: the generator writes the definitions of [`crate::identify::Corrections`]
     /// (R_w·R·R_off, R_w·p, the IMU at p + R·r, a pose stamped τ late) and identify inverts them.
     /// With a 20 ms kernel what is left is the interpolation of 300 Hz poses onto the 500 Hz IMU:
     /// 10⁻⁴° in rotation and tilt, 0.01 mm, 0.5 µs. The shipped 50 ms kernel smooths products

@@ -17,7 +17,7 @@
 //! The messages are read with the `mcap` crate (chunks compressed with zstd or lz4 or not) and
 //! decoded from CDR (XCDR1, either byte order; this module, for the message types above). They
 //! are put on the IMU's clock by each message's header stamp (the array, which has no header, by
-//! its log time) as `identify/joined.rs` says: one row per IMU message, the pose interpolated, no
+//! its log time) as `identify/input/joined.rs` says: one row per IMU message, the pose interpolated, no
 //! pose across a dropped frame, motors and battery held. The rows then go through the same
 //! reader as a CSV log ([`super::mapping`]), so that the routes cannot drift apart.
 //!

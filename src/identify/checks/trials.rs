@@ -37,11 +37,11 @@
 //! flagged is an *invention*. Each found parameter is *covered* when its 95 % interval contains
 //! the truth, and *confidently wrong* when the truth lies more than 3 half-widths from the
 //! estimate. Whether a flight excites a hidden effect enough is decided before the outcome, from
-//! the data's information matrix ([`super::select::Excitation`]).
+//! the data's information matrix ([`crate::identify::fit::select::Excitation`]).
 
-use super::design::Effect;
-use super::flyarena_log::run_and_log;
-use super::select::{Excitation, Options, excitation, identify};
+use crate::identify::fit::design::Effect;
+use crate::identify::fit::select::{Excitation, Options, excitation, identify};
+use crate::identify::input::flyarena_log::run_and_log;
 use crate::rng::{Component, Stream};
 use crate::scenario::Scenario;
 use std::fmt::Write as _;

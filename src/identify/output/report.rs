@@ -1,6 +1,6 @@
 //! The human table of an identification [`Report`].
 
-use super::select::Report;
+use crate::identify::fit::select::Report;
 use std::fmt::Write as _;
 
 fn sig(x: f64) -> String {
@@ -20,9 +20,9 @@ fn pct(x: Option<f64>) -> String {
 /// digits and the value to the same decimals (a figure keeps the precision of its interval), or
 /// "name value unit (not identifiable)" when the flight cannot back an interval, the value then
 /// formatted by `num`.
-pub(crate) fn param_text(p: &super::select::Param, num: impl Fn(f64) -> String) -> String {
+pub(crate) fn param_text(p: &crate::identify::fit::select::Param, num: impl Fn(f64) -> String) -> String {
     if p.identifiable && p.ci95.is_finite() && p.ci95 > 0.0 {
-        format!("{} {} {}", p.name, super::precision::with_interval(p.value, p.ci95), p.unit)
+        format!("{} {} {}", p.name, crate::identify::precision::with_interval(p.value, p.ci95), p.unit)
     } else if p.identifiable {
         format!("{} {} ± {} {}", p.name, num(p.value), num(p.ci95), p.unit)
     } else {
@@ -50,8 +50,8 @@ pub fn render(r: &Report) -> String {
 /// named by `--with`), or that none passed the tests, or that the flight had too few usable
 /// samples to try any.
 pub fn verdict(r: &Report) -> String {
-    if !super::select::enough_to_select(r.train_samples) {
-        return format!("nothing identified: {} usable training samples, {} needed", r.train_samples, super::select::MIN_TRAIN_SAMPLES);
+    if !crate::identify::fit::select::enough_to_select(r.train_samples) {
+        return format!("nothing identified: {} usable training samples, {} needed", r.train_samples, crate::identify::fit::select::MIN_TRAIN_SAMPLES);
     }
     if r.effects.is_empty() {
         return "no effect found: the nominal model explains the data".to_string();
@@ -72,12 +72,12 @@ fn render_steps(s: &mut String, r: &Report) {
     for rep in &r.repairs {
         let _ = writeln!(s, "  read: {rep}");
     }
-    if !super::select::enough_to_select(r.train_samples) {
+    if !crate::identify::fit::select::enough_to_select(r.train_samples) {
         let _ = writeln!(
             s,
             "\n  too few usable samples to select effects ({} for training, {} needed): none were tried, and what follows is the nominal model's",
             r.train_samples,
-            super::select::MIN_TRAIN_SAMPLES
+            crate::identify::fit::select::MIN_TRAIN_SAMPLES
         );
     } else if r.steps.is_empty() && r.options.forced.is_empty() {
         let _ = writeln!(s, "\n  no effect passes the tests: the nominal model explains the data");
@@ -183,7 +183,7 @@ fn render_left(s: &mut String, r: &Report) {
 /// The ground check against the flight: at rest, at spin-up and after landing; each difference
 /// at the precision of its interval.
 fn render_ground(s: &mut String, r: &Report) {
-    let pm = super::precision::signed_with_interval;
+    let pm = crate::identify::precision::signed_with_interval;
     if let Some(a) = &r.ground_agreement {
         let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs the frame tilt, body offset + world tilt):");
         if let Some(g) = &r.ground_check {

@@ -3,7 +3,7 @@
 //! (and not where it is not).
 //!
 //! ## Mountings from the ground check
-//! The ground check (see [`super::ground`]) reads the tilt between the accelerometer and the
+//! The ground check (see [`crate::identify::fit::ground`]) reads the tilt between the accelerometer and the
 //! markers at rest, independently of the flight fit. Two flights belong to one mounting when
 //! their ground tilts (roll, pitch) are within `link_deg` of each other, and a mounting is a
 //! group of flights *every two* of which are (complete linkage: the groups do not depend on the
@@ -37,10 +37,10 @@
 //! mountings not: i's offset beats the fleet's only where i and j share the markers (across
 //! mountings that are really one marker state split by the link, about zero).
 
-use super::design::Effect;
-use super::select::{MIN_TRAIN_SAMPLES, Report};
-use super::stats::median;
-use super::stats::{Z_975, chi2_sf};
+use crate::identify::fit::design::Effect;
+use crate::identify::fit::select::{MIN_TRAIN_SAMPLES, Report};
+use crate::identify::fit::stats::median;
+use crate::identify::fit::stats::{Z_975, chi2_sf};
 
 /// Ground tilts closer than this (deg) are one mounting, by default.
 pub(crate) const LINK_DEG: f64 = 0.5;
@@ -185,7 +185,7 @@ pub(crate) fn without_body_offset(r: &Report) -> Option<Report> {
     r.effect(Effect::BodyOffset)?;
     let mut bare = r.clone();
     bare.corrections.body_offset = nalgebra::UnitQuaternion::identity();
-    let offs = super::design::column_offsets();
+    let offs = crate::identify::fit::design::column_offsets();
     let at = Effect::BodyOffset as usize;
     for k in offs[at]..offs[at + 1] {
         if let Some(x) = bare.theta.get_mut(k) {
@@ -213,14 +213,14 @@ pub(crate) fn fleet_offset_without(reports: &[(String, Report)], j: usize) -> Op
 
 /// Whether a parameter enters the χ²: identifiable, with a finite interval (a parameter the
 /// flight cannot tell from another effect's claims none, and would weigh in with a made-up one).
-fn has_interval(p: &super::select::Param) -> bool {
+fn has_interval(p: &crate::identify::fit::select::Param) -> bool {
     p.identifiable && p.ci95 > 0.0 && p.ci95.is_finite()
 }
 
 /// Whether the flight had enough usable samples for a fit (a flight without is neither a model
 /// nor a test of one).
 fn fitted(r: &Report) -> bool {
-    super::select::enough_to_select(r.train_samples)
+    crate::identify::fit::select::enough_to_select(r.train_samples)
 }
 
 /// The consistency of flights `reports` (name, report) with their accel_kin cross-validation
@@ -416,7 +416,7 @@ mod tests {
 
     #[test]
     fn only_identifiable_parameters_with_a_finite_interval_enter_the_test() {
-        let p = |identifiable: bool, ci95: f64| super::super::select::Param { name: "roll".into(), value: 1.0, ci95, unit: "deg".into(), identifiable };
+        let p = |identifiable: bool, ci95: f64| crate::identify::fit::select::Param { name: "roll".into(), value: 1.0, ci95, unit: "deg".into(), identifiable };
         assert!(has_interval(&p(true, 0.2)));
         assert!(!has_interval(&p(false, 0.2)), "not identifiable");
         assert!(!has_interval(&p(true, 0.0)), "no interval");

@@ -14,17 +14,17 @@ use std::fmt::Write as _;
 
 /// One decoded stream: stamps (ns) and values.
 #[derive(Debug)]
-pub(super) struct Stream<const N: usize> {
-    pub(super) t: Vec<i128>,
-    pub(super) v: Vec<[f64; N]>,
+pub(in crate::identify) struct Stream<const N: usize> {
+    pub(in crate::identify) t: Vec<i128>,
+    pub(in crate::identify) v: Vec<[f64; N]>,
 }
 
 impl<const N: usize> Stream<N> {
-    pub(super) fn new() -> Self {
+    pub(in crate::identify) fn new() -> Self {
         Stream { t: Vec::new(), v: Vec::new() }
     }
     /// Appends a message's stamp (ns) and values; a value that is not finite is an error.
-    pub(super) fn push(&mut self, t: i128, v: [f64; N]) -> Result<(), &'static str> {
+    pub(in crate::identify) fn push(&mut self, t: i128, v: [f64; N]) -> Result<(), &'static str> {
         if !v.iter().all(|x| x.is_finite()) {
             return Err("a value is not finite");
         }
@@ -33,7 +33,7 @@ impl<const N: usize> Stream<N> {
         Ok(())
     }
     /// Sorted by stamp (stable: messages with one stamp keep their order).
-    pub(super) fn sorted(mut self) -> Self {
+    pub(in crate::identify) fn sorted(mut self) -> Self {
         let mut idx: Vec<usize> = (0..self.t.len()).collect();
         idx.sort_by_key(|&i| self.t[i]);
         self.t = idx.iter().map(|&i| self.t[i]).collect();
@@ -43,20 +43,20 @@ impl<const N: usize> Stream<N> {
 }
 
 /// The four topics' messages, decoded (stamps in ns).
-pub(super) struct Streams {
-    pub(super) pose: Stream<7>,
-    pub(super) imu: Stream<6>,
-    pub(super) motors: Stream<8>,
+pub(in crate::identify) struct Streams {
+    pub(in crate::identify) pose: Stream<7>,
+    pub(in crate::identify) imu: Stream<6>,
+    pub(in crate::identify) motors: Stream<8>,
     /// The number of motor values per message, the same in every message.
-    pub(super) n_motors: Option<usize>,
-    pub(super) battery: Stream<1>,
+    pub(in crate::identify) n_motors: Option<usize>,
+    pub(in crate::identify) battery: Stream<1>,
 }
 
 impl Streams {
     /// One CSV row per IMU message: the pose at its stamp (interpolated, or empty across a
     /// dropped frame), the last motor and battery values at or before it. Returns the CSV and the
     /// repairs made.
-    pub(super) fn join(&self) -> (String, Vec<String>) {
+    pub(in crate::identify) fn join(&self) -> (String, Vec<String>) {
         let (has_motors, has_battery) = (self.n_motors.is_some(), !self.battery.t.is_empty());
         let (pose, imu, motors, battery) = (&self.pose, &self.imu, &self.motors, &self.battery);
         // two poses further apart than 1.5 median intervals have a dropped frame between them:

@@ -1,13 +1,13 @@
 //! R5: did `identify` find what the scenario hid? Rows in the same table as R1–R4.
 
-use super::design::{Channel, Effect};
-use super::select::Report;
+use crate::identify::fit::design::{Channel, Effect};
+use crate::identify::fit::select::Report;
 use crate::requirements::{self, Row};
 use crate::scenario::IdentifyReq;
 
 /// 1 − ‖after‖/‖before‖ over the three axes of a channel, held out.
 pub fn heldout_cut(r: &Report, c: Channel) -> Option<f64> {
-    super::select::channel_cut(&r.errors, c)
+    crate::identify::fit::select::channel_cut(&r.errors, c)
 }
 
 /// The best held-out cut among the channels an effect lives in.
@@ -42,7 +42,7 @@ pub fn check(r: &Report, req: &IdentifyReq, vehicle: &str) -> requirements::Repo
             let err = (p.value - v).abs();
             rows.push(row(
                 format!("{} {} (truth {v} {})", e.effect.key(), p.name, p.unit).replace(" )", ")"),
-                format!("{} {}", super::precision::with_interval(p.value, p.ci95), p.unit).trim_end().to_string(),
+                format!("{} {}", crate::identify::precision::with_interval(p.value, p.ci95), p.unit).trim_end().to_string(),
                 format!("|err| ≤ {tol}"),
                 err <= *tol,
             ));

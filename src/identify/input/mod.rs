@@ -1,0 +1,12 @@
+//! Reading: every source `identify` takes becomes one [`Series`](series::Series) in flyarena's
+//! frames (mocap world NED, body FRD, SI units): flyarena's own logs with their scenario,
+//! another tool's CSV through a column mapping, ROS 2 bags and PX4 logs joined onto the IMU's
+//! clock. What cannot be read is an [`InputError`](error::InputError) naming the file and where.
+
+pub mod error;
+pub mod flyarena_log;
+pub mod joined;
+pub mod mapping;
+pub mod ros2;
+pub mod series;
+pub mod ulog;

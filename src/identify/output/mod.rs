@@ -1,0 +1,6 @@
+//! What an identification gives its user: the report as text, the scenario fragment that feeds
+//! the effects back into the simulation, and the PX4 parameters.
+
+pub mod feedback;
+pub mod px4;
+pub mod report;
