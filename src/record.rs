@@ -460,12 +460,11 @@ fn events(r: &Rec, v: &VehicleRun) -> Result<(), RecordError> {
             t,
             "INFO",
             format!(
-                "{n}: gyro alignment over {} windows: roll {:.3}°, pitch {:.3}°, yaw {:.3}° ± {:.3}° (truth yaw {:.3}°)",
+                "{n}: gyro alignment over {} windows: roll {:.3}°, pitch {:.3}°, yaw {}° (1σ; truth yaw {:.3}°)",
                 g.windows,
                 e[0],
                 e[1],
-                e[2],
-                g.sigma[2].to_degrees(),
+                crate::identify::precision::with_interval(e[2], g.sigma[2].to_degrees()),
                 v.truth.euler.yaw.to_degrees()
             ),
         )?;
@@ -594,7 +593,7 @@ pub fn encode_identify(name: &str, report: &crate::identify::Report, residuals: 
         r.event(at, "INFO", format!("step {}: + {} (ΔBIC {:.0}, p {:.1e}, held-out −{:.1} %)", k + 1, st.added.name(), st.delta_bic, st.p_value, 100.0 * st.heldout_gain))?;
     }
     for f in &report.effects {
-        let ps: Vec<String> = f.params.iter().map(|p| format!("{} {:.4} ± {:.4} {}", p.name, p.value, p.ci95, p.unit)).collect();
+        let ps: Vec<String> = f.params.iter().map(|p| format!("{} {} {}", p.name, crate::identify::precision::with_interval(p.value, p.ci95), p.unit)).collect();
         r.event(at, "INFO", format!("{}: {}", f.name, ps.join(", ")))?;
     }
     if report.effects.is_empty() {

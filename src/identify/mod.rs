@@ -44,7 +44,7 @@ mod checks;
 mod fit;
 mod input;
 mod output;
-mod precision;
+pub(crate) mod precision;
 pub mod workflow;
 
 pub use checks::{check, consistency, handheld, trials};
