@@ -836,6 +836,34 @@ mod tests {
             assert!(e.starts_with("rig.yaml") && e.contains(want), "{src:?}: {e}");
         }
         assert_eq!(serde_json::to_value(Setting::parse("", "empty.yaml").unwrap()).unwrap(), serde_json::to_value(Setting::default()).unwrap());
+        // the limit itself is allowed
+        assert!(Setting::parse("duration_s: 2000\nimu_hz: 1000\n", "rig.yaml").is_ok());
+    }
+
+    /// The accelerometer's side of the bound in closed form, on a rig that does not turn and
+    /// moves along x as p = A·sin Ωt over whole periods: f = (−AΩ²·sin Ωt, 0, −g). Without a
+    /// turn the lever arm, the world tilt and the rotation about x are unseen (zero columns, or
+    /// the bias's); of the rest, the time offset is seen only in ḟ = (−AΩ³·cos Ωt, 0, 0), so
+    /// var = σ_a²/(A²Ω⁶T/2), and the rotation about z only in e_z × f = (0, −AΩ²·sin Ωt, 0), so
+    /// var = σ_a²/(A²Ω⁴T/2). A ḟ by a wrong difference or step moves the first by orders of
+    /// magnitude.
+    #[test]
+    fn the_bound_is_the_closed_form_on_a_rig_that_only_translates() {
+        let (a, hz, duration) = (0.3, 0.5, 8.0);
+        let set = Setting { duration_s: duration, ..Setting::default() };
+        let mut trial = draw(1, 0);
+        trial.euler = [Wave(vec![]), Wave(vec![]), Wave(vec![])];
+        let w = TAU * hz;
+        // the wave's amplitude is the displacement's: A·sin Ωt
+        trial.position = [Wave(vec![[a, hz, 0.0]]), Wave(vec![]), Wave(vec![])];
+        assert!(bound(&trial, &set).is_none(), "without a turn the lever arm is unseen");
+        // kept: δ_y, δ_z, time offset, both biases
+        let keep = [1, 2, 5, 9, 10, 11, 12, 13, 14];
+        let cov = fisher(&trial, &set).select_rows(&keep).select_columns(&keep).cholesky().expect("the rest is seen").inverse();
+        let sa2 = set.accel_noise_density.powi(2);
+        for (i, want, what) in [(2, sa2 / (a * a * w.powi(6) * duration / 2.0), "time offset"), (1, sa2 / (a * a * w.powi(4) * duration / 2.0), "δ_z")] {
+            assert!((cov[(i, i)] / want - 1.0).abs() < 2e-3, "{what}: {} against {want}", cov[(i, i)]);
+        }
     }
 
     /// The efficient errors drawn from a bound have the distributions of their norms, in the
