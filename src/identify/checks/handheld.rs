@@ -379,8 +379,12 @@ impl Trial {
 /// | gyro bias (rad/s) | 0 | e_j |
 ///
 /// and the bound is F⁻¹, of which the four calibration blocks are kept. A column's sign does not
-/// change the norms scored. `None` when F is singular: the motion leaves a parameter unseen.
+/// change the norms scored. `None` when F is singular (the motion leaves a parameter unseen) or
+/// the IMU has no white noise (then, with a perfect mocap, there is no floor above zero).
 pub fn bound(trial: &Trial, set: &Setting) -> Option<Bound> {
+    if !(set.accel_noise_density > 0.0 && set.gyro_noise_density > 0.0) {
+        return None;
+    }
     let cov = fisher(trial, set).cholesky()?.inverse();
     let block = |i: usize, n: usize| cov.view((i, i), (n, n)).clone_owned();
     let (rotation, tilt, lever) = (block(0, 3), block(3, 2), block(6, 3));
@@ -625,7 +629,7 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         let bound: Vec<f64> = efficient.iter().map(|d| d[i]).collect();
         let _ = writeln!(
             s,
-            "| {name} | {}/{} | {:.4} {unit} | {:.4} {unit} | {:.4} {unit} | {:.1} % ({covered}/{}) | {:.4} {unit} |",
+            "| {name} | {}/{} | {:.4} {unit} | {:.4} {unit} | {:.4} {unit} | {:.1} % ({covered}/{}) | {} |",
             e.len(),
             ok.len(),
             quantile(&e, 0.5),
@@ -633,7 +637,7 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
             quantile(&e, 1.0),
             100.0 * covered as f64 / est.len().max(1) as f64,
             est.len(),
-            quantile(&bound, 0.5),
+            if bound.is_empty() { "—".to_string() } else { format!("{:.4} {unit}", quantile(&bound, 0.5)) },
         );
     }
     for prefix in ["accel_bias.", "gyro_bias.", "accel_bias_drift.", "gyro_bias_drift."] {
@@ -664,10 +668,18 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     }
     let extra = if extra.is_empty() { "none".to_string() } else { extra.iter().map(|(e, n)| format!("{} in {n}", e.key())).collect::<Vec<_>>().join(", ") };
     let unseen = ok.iter().filter(|o| o.bound.is_none()).count();
+    let noiseless = !(set.accel_noise_density > 0.0 && set.gyro_noise_density > 0.0);
     let _ = writeln!(
         s,
-        "\nCramér–Rao median: the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound (perfect mocap, constant biases){}",
-        if unseen > 0 { format!("; {unseen} rigs whose motion leaves a parameter unseen are left out") } else { String::new() }
+        "\nCramér–Rao median: {}",
+        if noiseless {
+            "none, the IMU of this setting has no white noise (with a perfect mocap the floor is zero)".to_string()
+        } else {
+            format!(
+                "the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound (perfect mocap, constant biases){}",
+                if unseen > 0 { format!("; {unseen} rigs whose motion leaves a parameter unseen are left out") } else { String::new() }
+            )
+        }
     );
     let _ = writeln!(s, "selected besides the hidden effects: {extra}");
     s
@@ -704,7 +716,7 @@ mod tests {
     /// (Rᵀ·p̈, ω × (ω × r)) factor by factor, which at these rates of 2 rad/s costs up to 0.15 mm
     /// and 0.002° (pinned below 0.3 mm and 0.005°: a sixth of the noise's median error). A sign
     /// or an axis of any definition wrong on one side moves its parameter by its own size
-    /// (3–7°, 100 mm, 3 ms).
+    /// (3–7°, 100 mm, 3 ms). Such a rig has no Cramér–Rao floor, and the table says so.
     #[test]
     fn a_rig_without_noise_gives_its_calibration_back() {
         let clean = Setting {
@@ -727,6 +739,11 @@ mod tests {
                 for e in out.estimates.iter().filter(|e| e.name.contains("bias")) {
                     assert!((e.value - e.truth).abs() < 1e-3, "{e:?}");
                 }
+                // an IMU without white noise has no floor above zero, and the table says so
+                assert!(out.bound.is_none());
+                let table = render(&[out], &clean);
+                let no_floor = table.lines().filter(|l| l.ends_with("| — |")).count();
+                assert!(no_floor == 4 && table.contains("Cramér–Rao median: none, the IMU"), "{table}");
             }
         }
     }
