@@ -24,7 +24,7 @@ fn product_files() -> Vec<PathBuf> {
     }
     let root = super::root();
     let mut files = vec![root.join("README.md"), root.join("Cargo.toml")];
-    for d in ["docs", "src", "tests", "scripts", "scenarios", "mappings", "benches", "fuzz", "mutation", ".ci"] {
+    for d in ["docs", "src", "tests", "scripts", "scenarios", "mappings", "rigs", "benches", "fuzz", "mutation", ".ci"] {
         walk(&root.join(d), &mut files);
     }
     files
