@@ -605,6 +605,11 @@ fn quantile(x: &[f64], q: f64) -> f64 {
 /// Draws per rig of an efficient estimator's errors in the table's Cramér–Rao column.
 pub const BOUND_DRAWS: usize = 1000;
 
+/// "95.5 % (191/200)", or a dash when there is nothing to cover.
+fn coverage(covered: usize, of: usize) -> String {
+    if of == 0 { "—".to_string() } else { format!("{:.1} % ({covered}/{of})", 100.0 * covered as f64 / of as f64) }
+}
+
 /// One outcome's error in a parameter, if it was found.
 type ErrorOf = fn(&Outcome) -> Option<f64>;
 
@@ -627,18 +632,10 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         let est: Vec<&Estimate> = ok.iter().flat_map(|o| &o.estimates).filter(|x| x.name.starts_with(prefix)).collect();
         let covered = est.iter().filter(|x| x.covered()).count();
         let bound: Vec<f64> = efficient.iter().map(|d| d[i]).collect();
-        let _ = writeln!(
-            s,
-            "| {name} | {}/{} | {:.4} {unit} | {:.4} {unit} | {:.4} {unit} | {:.1} % ({covered}/{}) | {} |",
-            e.len(),
-            ok.len(),
-            quantile(&e, 0.5),
-            quantile(&e, 0.9),
-            quantile(&e, 1.0),
-            100.0 * covered as f64 / est.len().max(1) as f64,
-            est.len(),
-            if bound.is_empty() { "—".to_string() } else { format!("{:.4} {unit}", quantile(&bound, 0.5)) },
-        );
+        // a parameter no rig gave has no distribution: a dash, not NaN
+        let at = |v: &[f64], q: f64| if v.is_empty() { "—".to_string() } else { format!("{:.4} {unit}", quantile(v, q)) };
+        let _ =
+            writeln!(s, "| {name} | {}/{} | {} | {} | {} | {} | {} |", e.len(), ok.len(), at(&e, 0.5), at(&e, 0.9), at(&e, 1.0), coverage(covered, est.len()), at(&bound, 0.5),);
     }
     for prefix in ["accel_bias.", "gyro_bias.", "accel_bias_drift.", "gyro_bias_drift."] {
         let est: Vec<&Estimate> = ok.iter().flat_map(|o| &o.estimates).filter(|x| x.name.starts_with(prefix)).collect();
@@ -648,13 +645,12 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         let covered = est.iter().filter(|x| x.covered()).count();
         let _ = writeln!(
             s,
-            "| {} ({}) | {}/{} | | | | {:.1} % ({covered}/{}) | |",
+            "| {} ({}) | {}/{} | | | | {} | |",
             &prefix[..prefix.len() - 1],
             if prefix.contains("drift") { "slope" } else { "mean" },
             est.len() / 3,
             ok.len(),
-            100.0 * covered as f64 / est.len().max(1) as f64,
-            est.len()
+            coverage(covered, est.len())
         );
     }
     let mut extra: Vec<(Effect, usize)> = Vec::new();
@@ -881,6 +877,17 @@ mod tests {
         for (i, want, what) in [(2, sa2 / (a * a * w.powi(6) * duration / 2.0), "time offset"), (1, sa2 / (a * a * w.powi(4) * duration / 2.0), "δ_z")] {
             assert!((cov[(i, i)] / want - 1.0).abs() < 2e-3, "{what}: {} against {want}", cov[(i, i)]);
         }
+    }
+
+    /// A rig whose log is too short to calibrate gives a table of dashes, not NaN: at 1 Hz for
+    /// 10 s identify fits nothing, and every error, quantile and coverage has no sample.
+    #[test]
+    fn a_rig_too_short_to_calibrate_prints_dashes_not_nan() {
+        let set = Setting { imu_hz: 1.0, mocap_hz: 1.0, duration_s: 10.0, ..Setting::default() };
+        let out = run(&draw(1, 0), &set, &options());
+        assert!(out.rotation_err_deg.is_none(), "{out:?}");
+        let table = render(&[out], &set);
+        assert!(!table.contains("NaN") && table.contains("| rotation (angle) | 0/1 | — | — | — | — |"), "{table}");
     }
 
     /// The efficient errors drawn from a bound have the distributions of their norms, in the
