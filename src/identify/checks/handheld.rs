@@ -100,6 +100,12 @@ pub struct Setting {
 pub const MAX_IMU_SAMPLES: f64 = 2e6;
 
 impl Setting {
+    /// Both IMU sensors have white noise: without it, and with a perfect mocap, no floor lies
+    /// above zero ([`bound`] gives none).
+    pub fn imu_has_white_noise(&self) -> bool {
+        self.accel_noise_density > 0.0 && self.gyro_noise_density > 0.0
+    }
+
     /// [`Setting::parse`] of a file.
     ///
     /// # Errors
@@ -382,7 +388,7 @@ impl Trial {
 /// change the norms scored. `None` when F is singular (the motion leaves a parameter unseen) or
 /// the IMU has no white noise (then, with a perfect mocap, there is no floor above zero).
 pub fn bound(trial: &Trial, set: &Setting) -> Option<Bound> {
-    if !(set.accel_noise_density > 0.0 && set.gyro_noise_density > 0.0) {
+    if !set.imu_has_white_noise() {
         return None;
     }
     let cov = fisher(trial, set).cholesky()?.inverse();
@@ -520,10 +526,11 @@ pub struct Outcome {
     pub lever_err_mm: Option<f64>,
     /// Time-offset error |τ̂ − τ| (µs).
     pub delay_err_us: Option<f64>,
-    /// Every parameter of the four calibration effects and the two biases that was found (the
-    /// biases' truth is their mean over the log).
+    /// Every parameter of the four calibration effects, the two biases and their drifts that was
+    /// found (a bias's truth is its mean over the log, a drift's the slope of its path).
     pub estimates: Vec<Estimate>,
-    /// The trial's Cramér–Rao bound ([`bound`]); `None` when the motion leaves a parameter unseen.
+    /// The trial's Cramér–Rao bound ([`bound`]); `None` when the motion leaves a parameter unseen
+    /// or the IMU has no white noise.
     pub bound: Option<Bound>,
     /// Why the trial could not be identified, if it could not.
     pub error: Option<String>,
@@ -664,7 +671,7 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     }
     let extra = if extra.is_empty() { "none".to_string() } else { extra.iter().map(|(e, n)| format!("{} in {n}", e.key())).collect::<Vec<_>>().join(", ") };
     let unseen = ok.iter().filter(|o| o.bound.is_none()).count();
-    let noiseless = !(set.accel_noise_density > 0.0 && set.gyro_noise_density > 0.0);
+    let noiseless = !set.imu_has_white_noise();
     let _ = writeln!(
         s,
         "\nCramér–Rao median: {}",
