@@ -856,6 +856,10 @@ mod tests {
             assert!(e.starts_with("rig.yaml") && e.contains(want), "{src:?}: {e}");
         }
         assert_eq!(serde_json::to_value(Setting::parse("", "empty.yaml").unwrap()).unwrap(), serde_json::to_value(Setting::default()).unwrap());
+        // an IMU is noiseless for the floor when either sensor is
+        let quiet = |a: f64, g: f64| Setting { accel_noise_density: a, gyro_noise_density: g, ..Setting::default() };
+        assert!(quiet(2e-2, 8e-4).imu_has_white_noise());
+        assert!(!quiet(0.0, 8e-4).imu_has_white_noise() && !quiet(2e-2, 0.0).imu_has_white_noise());
         // the limit itself is allowed
         assert!(Setting::parse("duration_s: 2000\nimu_hz: 1000\n", "rig.yaml").is_ok());
     }
