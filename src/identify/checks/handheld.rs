@@ -814,6 +814,7 @@ mod tests {
         trial.euler = [Wave(vec![]), Wave(vec![]), Wave(vec![[a, hz, 0.0]])];
         trial.position = [Wave(vec![]), Wave(vec![]), Wave(vec![])];
         assert!(bound(&trial, &set).is_none(), "the rotation about z and the lever arm along z are unseen");
+        assert!(bound(&draw(1, 0), &set).is_some(), "a drawn rig turns about every axis and sees all fifteen");
         let keep: Vec<usize> = (0..15).filter(|i| *i != 2 && *i != 8).collect();
         let f = fisher(&trial, &set).select_rows(&keep).select_columns(&keep);
         let cov = f.cholesky().expect("the rest is seen").inverse();
