@@ -21,7 +21,7 @@ const NO_TRACE: RunOptions = RunOptions { trace: false, apply_calibration: None 
 
 /// Steps an arena in flight, five ticks (one Vicon period) per iteration.
 fn bench_periods(b: &mut criterion::Bencher, s: &Scenario) {
-    let mut arena = Arena::new(s, NO_TRACE);
+    let mut arena = Arena::new(s.spec(), NO_TRACE);
     // fly into the hover first so that the benchmark measures flight, not the floor
     for _ in 0..6000 {
         arena.step();
@@ -31,7 +31,7 @@ fn bench_periods(b: &mut criterion::Bencher, s: &Scenario) {
             arena.step();
         }
         if arena.done() {
-            arena = Arena::new(s, NO_TRACE);
+            arena = Arena::new(s.spec(), NO_TRACE);
         }
     })
 }

@@ -347,14 +347,14 @@ fn write_output(path: &Path, bytes: &[u8]) -> Result<(), Error> {
 
 /// The scenario `run` and `serve` fly: the file, an `identify` fragment applied, the seed.
 fn load_for_run(a: &RunArgs) -> Result<Scenario, Error> {
-    let mut s = match &a.effects {
+    let s = match &a.effects {
         Some(f) => flyarena::identify::feedback::load_with_effects(&a.scenario, f)?,
         None => Scenario::load(&a.scenario)?,
     };
-    if let Some(seed) = a.seed {
-        s.seed = seed;
-    }
-    Ok(s)
+    Ok(match a.seed {
+        Some(seed) => s.with_seed(seed),
+        None => s,
+    })
 }
 
 fn cmd_run(a: RunArgs) -> Result<i32, Error> {
@@ -438,10 +438,7 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
     }
     // the uncompensated counterpart R2 compares with is flown by flyarena's own station: an
     // external controller's uncompensated flight is not at hand
-    let mut twin = load_for_run(&a.run)?;
-    for v in twin.vehicle_cfgs_mut() {
-        v.station = flyarena::scenario::StationKind::Builtin;
-    }
+    let twin = load_for_run(&a.run)?.with_builtin_stations();
     let outcome = flyarena::run::evaluate(&twin, main, record);
     write_run(a.run, &s, outcome, elapsed)
 }
@@ -478,7 +475,7 @@ fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Dur
     }
     let verdict = if report.passed() { "PASS" } else { "FAIL" };
     if !a.quiet {
-        println!("{} (seed {}): {:.1} s simulated in {:.2} s wall\n", s.name, s.seed, main.duration.as_secs_f64(), elapsed.as_secs_f64());
+        println!("{} (seed {}): {:.1} s simulated in {:.2} s wall\n", s.name, s.seed(), main.duration.as_secs_f64(), elapsed.as_secs_f64());
         if report.rows.is_empty() && s.requirements.identify.is_some() {
             println!("(R5 is checked by `flyarena identify {}`)\n", a.scenario.display());
         } else if report.rows.is_empty() {
@@ -515,7 +512,7 @@ fn cmd_check(args: &[PathBuf]) -> i32 {
     let mut code = PASS;
     for p in args {
         match Scenario::load(p) {
-            Ok(s) => println!("{}: ok ({} vehicle(s), {} phase(s), {:.1} s)", p.display(), s.vehicle_cfgs().len(), s.plan().len(), s.run_time_s()),
+            Ok(s) => println!("{}: ok ({} vehicle(s), {} phase(s), {:.1} s)", p.display(), s.vehicle_cfgs().len(), s.plan().len(), s.spec().run_time.as_secs_f64()),
             Err(e) => {
                 eprintln!("error: {e}");
                 code = BAD_INPUT;

@@ -77,11 +77,11 @@ pub struct Rate {
 
 impl Rate {
     /// `None` unless `hz` is positive and divides 1e9 (a whole-nanosecond period).
-    pub fn from_hz(hz: u32) -> Option<Self> {
-        (hz > 0 && 1_000_000_000 % hz == 0).then_some(Rate { hz })
+    pub const fn from_hz(hz: u32) -> Option<Self> {
+        if hz > 0 && 1_000_000_000 % hz == 0 { Some(Rate { hz }) } else { None }
     }
     /// The rate (Hz).
-    pub fn hz(self) -> u32 {
+    pub const fn hz(self) -> u32 {
         self.hz
     }
     /// One period, exactly.

@@ -45,8 +45,9 @@
 //!
 //! ## A run, end to end
 //!
-//! The types a user starts from are re-exported at the top: [`Scenario`], [`engine::run`]'s
-//! [`RunOptions`], [`run_scenario`] (with the requirements), [`Sweep`], [`identify()`] and its
+//! The types a user starts from are re-exported at the top: [`Scenario`] (what the YAML says;
+//! [`Scenario::spec`] is what it became once checked, in SI units and radians, and what the
+//! engine runs), [`engine::run`]'s [`RunOptions`], [`run_scenario`] (with the requirements), [`Sweep`], [`identify()`] and its
 //! [`IdentifyReport`], the frames and (feature `record`) [`encode_recording`].
 //!
 //! ```
@@ -60,7 +61,7 @@
 //!   - calibrate_roll_pitch: { settle_s: 4, average_s: 4 }
 //! ";
 //! let s = Scenario::parse(yaml, std::path::Path::new("doc.yaml")).unwrap();
-//! let out = run(&s, RunOptions::default());
+//! let out = run(s.spec(), RunOptions::default());
 //! let (roll, _, _) = out.vehicles[0].calibration.roll_pitch.unwrap();
 //! // the hover average finds the 2° the markers were turned by
 //! assert!((roll.to_degrees() - 2.0).abs() < 0.05);

@@ -444,7 +444,7 @@ mod tests {
     /// estimate yet, no phase flown; each test sets what it checks.
     fn unflown() -> VehicleRun {
         let s = crate::scenario::Scenario::parse(include_str!("../scenarios/fig6-roll-pitch-offsets.yaml"), std::path::Path::new("fig6-roll-pitch-offsets.yaml")).unwrap();
-        let mut v = crate::engine::Arena::new(&s, crate::engine::RunOptions::default()).finish().vehicles.remove(0);
+        let mut v = crate::engine::Arena::new(s.spec(), crate::engine::RunOptions::default()).finish().vehicles.remove(0);
         v.phases.clear();
         v
     }

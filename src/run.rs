@@ -47,14 +47,14 @@ pub struct Summary {
 /// Runs a scenario (and its uncompensated counterpart when R2 asks for it) and evaluates it.
 /// `trace_uncompensated` keeps the counterpart's trajectory (for the recording).
 pub fn run_scenario(s: &Scenario, trace_uncompensated: bool) -> Outcome {
-    evaluate(s, run(s, RunOptions::default()), trace_uncompensated)
+    evaluate(s, run(s.spec(), RunOptions::default()), trace_uncompensated)
 }
 
 /// [`run_scenario`] for a main run flown elsewhere (e.g. served over the network by
 /// [`crate::serve::serve`]): the uncompensated counterpart when a requirement needs it, and the
 /// requirements evaluated.
 pub fn evaluate(s: &Scenario, main: RunOutput, trace_uncompensated: bool) -> Outcome {
-    let uncompensated = requirements::needs_uncompensated(&s.requirements).then(|| run(s, RunOptions { trace: trace_uncompensated, apply_calibration: Some(false) }));
+    let uncompensated = requirements::needs_uncompensated(&s.requirements).then(|| run(s.spec(), RunOptions { trace: trace_uncompensated, apply_calibration: Some(false) }));
     let report = requirements::evaluate(&s.requirements, &main, uncompensated.as_ref());
     Outcome { main, uncompensated, report }
 }

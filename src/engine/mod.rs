@@ -24,19 +24,18 @@
 
 pub mod station;
 
-pub use station::{CalibrationReport, CalibrationSettings, FailsafeReport, FailsafeSettings, HoverSample, RlsSample, Station};
+pub use station::{CalibrationReport, FailsafeReport, HoverSample, RlsSample, Station};
 
-use crate::clock::{Clock, Every, Nanos, Rate};
-use crate::control::Gains;
+use crate::clock::{Clock, Every, Nanos};
 use crate::frames::{Body, Euler, MocapBody, MocapNav, Nav, Rot, Vec3};
-use crate::guidance::{Phase, Plan, Window};
-use crate::link::{Link, LinkParams, LinkStats};
-use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, Occlusion, TrueOffset};
-use crate::radio::{PpmFrame, Radio, RadioParams, Received};
+use crate::guidance::{Plan, Window};
+use crate::link::{Link, LinkStats};
+use crate::mocap::{CameraError, MarkerSet, Mocap, MocapFrame, TrueOffset};
+use crate::radio::{PpmFrame, Radio, Received};
 use crate::rng::{Component, Stream};
-use crate::scenario::{PHYSICS_HZ, Scenario, StationKind};
+use crate::scenario::{ArenaSpec, CalibrationSettings, StationKind, VehicleSpec};
 use crate::vehicle::battery;
-use crate::vehicle::{AttitudeLoop, Battery, Disturbance, Downlink, Imu, ImuParams, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
+use crate::vehicle::{AttitudeLoop, Battery, Downlink, Imu, ImuSample, RateLoop, TelemetryFrame, VehicleParams, X3d};
 use std::collections::VecDeque;
 
 /// Options that are not part of the scenario.
@@ -229,41 +228,21 @@ pub struct Arena {
     pending: Option<(bool, bool)>,
 }
 
-fn rate(hz: u32) -> Rate {
-    Rate::from_hz(hz).expect("validated by the scenario")
-}
-
 impl Arena {
-    /// Builds the arena of a validated scenario.
-    pub fn new(s: &Scenario, opts: RunOptions) -> Arena {
-        let physics = rate(PHYSICS_HZ);
-        let mocap_every = rate(s.mocap.rate_hz()).ticks_of(physics).expect("validated");
-        let radio_every = rate(s.radio.rate_hz()).ticks_of(physics).expect("validated");
-        let ms = |x: f64| Nanos::from_secs_f64(x * 1e-3);
-        let cam = &s.mocap.camera_error;
-        let camera = CameraError {
-            rotation: Rot::from_euler(Euler::from_degrees(cam.rotation_deg[0], cam.rotation_deg[1], cam.rotation_deg[2])),
-            translation: Vec3::from_array(cam.translation_mm.map(|x| x * 1e-3)),
-        };
-        let link = LinkParams { latency: ms(s.link.latency_ms), jitter: ms(s.link.jitter_ms), loss: s.link.loss.model() };
-        let outages: Vec<(Nanos, Option<Nanos>)> = s.link.outages().map(|o| (Nanos::from_secs_f64(o.from_s), o.to_s.map(Nanos::from_secs_f64))).collect();
-        let tm = &s.telemetry;
-        let telemetry = LinkParams { latency: ms(tm.latency_ms), jitter: ms(tm.jitter_ms), loss: tm.loss.model() };
-        let telemetry_every = rate(tm.rate_hz()).ticks_of(physics).expect("validated") as u32;
-        let phases: Vec<Phase> = s.plan().iter().map(|p| p.to_phase()).collect();
-        let fleet = Fleet { physics, camera, link, outages, telemetry, telemetry_every, phases };
-        let vehicles = (0..s.vehicle_cfgs().len()).map(|i| VehicleLoop::build(s, i, &opts, &fleet)).collect();
-        let end = Nanos::from_secs_f64(s.run_time_s());
+    /// Builds the arena of a validated scenario ([`Scenario::spec`](crate::Scenario::spec)).
+    pub fn new(spec: &ArenaSpec, opts: RunOptions) -> Arena {
+        let physics = spec.physics;
+        let vehicles = spec.vehicles.iter().enumerate().map(|(i, v)| VehicleLoop::build(spec, v, i, &opts)).collect();
         Arena {
             clock: Clock::new(physics),
-            end_tick: (end.0 / physics.period().0) as u64,
-            mocap_every: Every::new(mocap_every),
-            radio_every: Every::new(radio_every),
+            end_tick: (spec.run_time.0 / physics.period().0) as u64,
+            mocap_every: Every::new(spec.mocap.every),
+            radio_every: Every::new(spec.radio_every),
             dt: physics.period(),
             trace: opts.trace,
             vehicles,
-            name: s.name.clone(),
-            seed: s.seed,
+            name: spec.name.clone(),
+            seed: spec.seed,
             pending: None,
         }
     }
@@ -425,99 +404,36 @@ impl Arena {
     }
 }
 
-/// What every vehicle of a scenario shares: the clocks, the camera system, the links' models, the
-/// plan.
-struct Fleet {
-    physics: Rate,
-    camera: CameraError,
-    link: LinkParams,
-    outages: Vec<(Nanos, Option<Nanos>)>,
-    telemetry: LinkParams,
-    telemetry_every: u32,
-    phases: Vec<Phase>,
-}
-
 impl VehicleLoop {
-    /// Vehicle `i` of `s`, wired: its model with the undeclared effects, markers and cameras,
-    /// links, radio, onboard loops and ground station.
-    fn build(s: &Scenario, i: usize, opts: &RunOptions, fleet: &Fleet) -> VehicleLoop {
-        let Fleet { physics, camera, link, outages, telemetry, telemetry_every, phases } = fleet;
-        let (physics, camera, link, telemetry, telemetry_every) = (*physics, *camera, *link, *telemetry, *telemetry_every);
-        let v = s.vehicle(i);
-        let (c, cal, tm) = (&s.controller, &s.calibration, &s.telemetry);
-        let ms = |x: f64| Nanos::from_secs_f64(x * 1e-3);
-        let params = s.vehicle_params(i);
-        let template = s.template(i);
-        let n = template.len();
-        let disp: Vec<Vec3<_>> = match v.markers.displacement_mm() {
-            Some(d) => d.iter().map(|a| Vec3::from_array(a.map(|x| x * 1e-3))).collect(),
-            None => vec![Vec3::zeros(); n],
-        };
-        let r = v.markers.rotation_deg;
-        let markers = MarkerSet::displaced(template, Euler::from_degrees(r[0], r[1], r[2]), &disp);
-        let truth = markers.true_offset().expect("validated");
-        let occlusions = v.markers.occlusions().map(|o| Occlusion { marker: o.marker as usize, from: Nanos::from_secs_f64(o.from_s), to: Nanos::from_secs_f64(o.to_s) }).collect();
-        let mocap = Mocap::new(markers, occlusions, camera, s.mocap.noise_mm * 1e-3, Stream::new(s.seed, Component::MocapNoise, i));
-        let thrust_max = s.radio.thrust_max_n.unwrap_or(params.thrust_max());
-        let radio = Radio::new(RadioParams {
-            channels: s.radio.channels() as usize,
-            latency: ms(s.radio.latency_ms),
-            rate_scale_rad_s: s.radio.rate_scale_deg_s.to_radians(),
-            angle_scale_rad: s.radio.angle_scale_deg.to_radians(),
-            thrust_max_n: thrust_max,
-            mode: params.onboard_mode,
-        });
-        let gains = Gains { k_x: c.k_x, k_v: c.k_v, k_att: c.k_att, max_tilt: [c.max_tilt_deg.to_radians(); 2], thrust_max_n: thrust_max, mass_kg: params.mass_kg };
-        let home = Vec3::<MocapNav>::new(v.home_m[0], v.home_m[1], 0.0);
-        let yaw0 = v.yaw0_deg.to_radians();
-        let plan = Plan::schedule(phases, home, yaw0);
-        let settings = CalibrationSettings {
-            apply: opts.apply_calibration.unwrap_or(cal.apply),
-            compensation: c.compensation,
-            eps_yaw: cal.validity_max_mean_yaw_deg.to_radians(),
-            eps_roll: cal.validity_max_mean_roll_deg.to_radians(),
-            rls_min_spread_m: cal.rls_min_spread_m,
-            mocap_period: rate(s.mocap.rate_hz()).period(),
-            telemetry_period: rate(tm.rate_hz()).period(),
-            estimate_telemetry_clock: tm.clock.estimate,
-            hover_trim: cal.hover_trim && params.onboard_mode == crate::vehicle::OnboardMode::Attitude,
-        };
-        let fs =
-            FailsafeSettings { timeout: ms(c.failsafe_timeout_ms), thrust_fraction: c.failsafe_thrust_fraction, motors_off_after: Nanos::from_secs_f64(c.failsafe_motors_off_s) };
-        let station = Station::new(plan, gains, settings, fs, c.velocity_cutoff_hz, opts.trace);
-        let imu = ImuParams {
-            gyro_noise_rad_s: v.imu.gyro_noise_deg_s.to_radians(),
-            accel_noise_m_s2: v.imu.accel_noise_m_s2,
-            gyro_bias_rad_s: v.imu.gyro_bias_deg_s.map(f64::to_radians),
-            accel_bias_m_s2: v.imu.accel_bias_m_s2,
-            position_m: v.imu.position_mm.map(|x| x * 1e-3),
-        };
-        // the truth: the declared parameters with the undeclared effects added
-        let u = &v.undeclared;
-        let mut true_params = params.clone();
-        true_params.k_thrust *= u.thrust_scale;
-        true_params.ground_effect += u.ground_effect;
-        true_params.thrust_voltage_per_v += u.thrust_voltage_per_v;
-        true_params.rotor_drag_per_s = [params.rotor_drag_per_s[0] + u.rotor_drag_per_s[0], params.rotor_drag_per_s[1] + u.rotor_drag_per_s[1]];
-        let dist = Disturbance { force_nav_n: v.disturbance.force_n, torque_body_nm: v.disturbance.torque_nm };
-        let home_nav = camera.to_nav(home);
+    /// Vehicle `v` (number `i`, which picks its random streams) of `spec`, wired: its true
+    /// model, markers and cameras, links, radio, onboard loops and ground station.
+    fn build(spec: &ArenaSpec, v: &VehicleSpec, i: usize, opts: &RunOptions) -> VehicleLoop {
+        let (physics, seed) = (spec.physics, spec.seed);
+        let mocap = Mocap::new(v.markers.clone(), v.occlusions.clone(), spec.mocap.camera, spec.mocap.noise_m, Stream::new(seed, Component::MocapNoise, i));
+        let radio = Radio::new(v.radio);
+        let plan = Plan::schedule(&spec.phases, v.home, v.yaw0_rad);
+        let settings = CalibrationSettings { apply: opts.apply_calibration.unwrap_or(v.calibration.apply), ..v.calibration.clone() };
+        let station = Station::new(plan, v.gains.clone(), settings, v.failsafe, v.velocity_cutoff_hz, opts.trace);
+        let true_params = v.true_params.clone();
+        let home_nav = spec.mocap.camera.to_nav(v.home);
+        let tm = &spec.telemetry;
         VehicleLoop {
             name: v.name.clone(),
             battery: Battery::new(true_params.battery),
-            x3d: X3d::on_floor(true_params, dist, home_nav, yaw0),
-            rate_loop: RateLoop::new(&params, physics.period().as_secs_f64()),
-            attitude_loop: AttitudeLoop::new(params.attitude_loop_gain_per_s, physics.period().as_secs_f64(), yaw0),
-            imu: Imu::new(imu, Stream::new(s.seed, Component::ImuNoise, i)),
+            x3d: X3d::on_floor(true_params, v.disturbance, home_nav, v.yaw0_rad),
+            rate_loop: RateLoop::new(&v.params, physics.period().as_secs_f64()),
+            attitude_loop: AttitudeLoop::new(v.params.attitude_loop_gain_per_s, physics.period().as_secs_f64(), v.yaw0_rad),
+            imu: Imu::new(v.imu.clone(), Stream::new(seed, Component::ImuNoise, i)),
             mocap,
-            mocap_latency: ms(s.mocap.latency_ms + u.mocap_delay_ms),
-            declared_mocap_latency: ms(s.mocap.latency_ms),
-            log_delay_frames: (u.mocap_delay_ms * s.mocap.rate_hz() as f64 / 1000.0).round() as usize,
-            gyro_log_delay_frames: (u.gyro_delay_ms * s.mocap.rate_hz() as f64 / 1000.0).round() as usize,
-            link: Link::new(link, Stream::new(s.seed, Component::LinkLoss, i), Stream::new(s.seed, Component::LinkJitter, i)).with_outages(outages.clone()),
-            downlink: Downlink::new(telemetry_every).with_clock(ms(tm.clock.offset_ms), tm.clock.drift_ppm),
-            telemetry: Link::new(telemetry, Stream::new(s.seed, Component::TelemetryLoss, i), Stream::new(s.seed, Component::TelemetryJitter, i)),
+            mocap_latency: v.mocap_latency,
+            declared_mocap_latency: spec.mocap.latency,
+            log_delay_frames: v.log_delay_frames,
+            gyro_log_delay_frames: v.gyro_log_delay_frames,
+            link: Link::new(spec.link, Stream::new(seed, Component::LinkLoss, i), Stream::new(seed, Component::LinkJitter, i)).with_outages(spec.outages.clone()),
+            downlink: Downlink::new(tm.every).with_clock(tm.clock_offset, tm.clock_drift_ppm),
+            telemetry: Link::new(tm.link, Stream::new(seed, Component::TelemetryLoss, i), Stream::new(seed, Component::TelemetryJitter, i)),
             station,
-            truth,
+            truth: v.truth,
             last_frame: None,
             spin_max: None,
             thrust_sum: 0.0,
@@ -670,7 +586,7 @@ impl VehicleLoop {
     }
 }
 
-/// Convenience: build and run.
-pub fn run(s: &Scenario, opts: RunOptions) -> RunOutput {
-    Arena::new(s, opts).run()
+/// Builds the arena of `spec` and runs it to the end.
+pub fn run(spec: &ArenaSpec, opts: RunOptions) -> RunOutput {
+    Arena::new(spec, opts).run()
 }

@@ -2,57 +2,19 @@
 //! Vicon packet arrives — velocity estimation, guidance, the paper's calibration, and the
 //! controller of (1)–(5) fed with the offset-compensated attitude.
 
-use crate::calibrate::{ClockSearch, Compensation, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
+use crate::calibrate::{ClockSearch, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
 use crate::clock::Nanos;
 use crate::control::{ControlOutput, Gains, LateralMode, Reference, control, failsafe};
 use crate::estimate::VelocityEstimator;
 use crate::frames::{Body, Euler, MocapNav, Rot, Vec3};
 use crate::guidance::{Plan, Window};
 use crate::mocap::MocapFrame;
+use crate::scenario::{CalibrationSettings, FailsafeSettings};
 use crate::vehicle::TelemetryFrame;
 
 /// Shortest window of the gyro alignment (attitude increments over ≥ 40 ms: long enough that
 /// the mocap noise is small against the rotation, short enough that composition stays exact).
 const GYRO_WINDOW_MIN: Nanos = Nanos(40_000_000);
-
-/// Calibration settings of the station.
-#[derive(Clone, Debug)]
-pub struct CalibrationSettings {
-    /// Whether the estimated offset is removed from the measured attitude (`calibration.apply`).
-    pub apply: bool,
-    /// How it is removed.
-    pub compensation: Compensation,
-    /// The validity check (7): the largest mean |ψ| of the straight flight (rad).
-    pub eps_yaw: f64,
-    /// The validity check (7): the largest mean |φ| of the straight flight (rad).
-    pub eps_roll: f64,
-    /// How far X_N must have moved before the RLS of (9) starts (m).
-    pub rls_min_spread_m: f64,
-    /// The mocap frame period.
-    pub mocap_period: Nanos,
-    /// The telemetry (body-rate downlink) period.
-    pub telemetry_period: Nanos,
-    /// The gyro alignment fits the telemetry clock (offset, drift) instead of assuming the Vicon's.
-    pub estimate_telemetry_clock: bool,
-    /// The straight flight (6) commands the hover's mean roll command, φ_com = φ̄_com,hover,
-    /// instead of 0 (`calibration.hover_trim`, attitude mode only): hovering on the spot the true
-    /// body is level on average, so the mean roll it was commanded is the roll at which the
-    /// onboard estimate holds the body level (minus the onboard level's error).
-    pub hover_trim: bool,
-}
-
-/// When the mocap falls silent: after `timeout` without a pose the station commands the
-/// failsafe ([`failsafe`]) on the attitude dead-reckoned from the telemetry gyro; after
-/// `motors_off_after` in failsafe it cuts the motors; the first pose that arrives ends it.
-#[derive(Clone, Copy, Debug)]
-pub struct FailsafeSettings {
-    /// Silence of the mocap after which the failsafe takes over.
-    pub timeout: Nanos,
-    /// The failsafe's thrust as a fraction of the weight (a sink at (1 − f)·g).
-    pub thrust_fraction: f64,
-    /// Time in failsafe after which the motors are cut.
-    pub motors_off_after: Nanos,
-}
 
 /// What the failsafe did during a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]

@@ -124,7 +124,7 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
     let mut s = Scenario::parse(&src, scen_path)?;
     let mut tree: Value = serde_saphyr::from_str(&src).map_err(|e| InputError::invalid(scen_path.display(), e))?;
     if let Some(seed) = seed {
-        s.seed = seed;
+        s = s.with_seed(seed);
         tree["seed"] = json!(seed);
     }
     let i = vehicle_index(&s, scen_path, vehicle)?;
@@ -136,7 +136,7 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
         flyarena_log::run_and_log(&s, i, &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicle(i).name))?.1
     };
     let report = identify(&data, &opts)?;
-    let frag = fragment(&report, i, s.mocap.rate_hz(), s.template(i).len());
+    let frag = fragment(&report, i, s.mocap.rate_hz(), s.spec().vehicles[i].template.len());
     // closed loop: the nominal scenario and the nominal scenario with the effects, same seed
     let (nominal, fed) = nominal_and_fed_back(&tree, i, &frag, &scen_path.display().to_string())?;
     let before = trajectory_error(&data, &flyarena_log::run_and_log(&nominal, i, "nominal")?.1);

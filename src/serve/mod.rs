@@ -370,9 +370,11 @@ impl Server {
 
 /// The rigid-body definitions of a scenario's fleet in the convention `up`.
 fn rigid_bodies(s: &Scenario, up: Up) -> Vec<natnet::RigidBodyDef> {
-    s.vehicle_cfgs()
+    s.spec()
+        .vehicles
+        .iter()
         .enumerate()
-        .map(|(i, v)| natnet::RigidBodyDef { name: v.name.clone(), id: i as i32 + 1, markers_m: s.template(i).into_iter().map(|m| up.body_vector(m)).collect() })
+        .map(|(i, v)| natnet::RigidBodyDef { name: v.name.clone(), id: i as i32 + 1, markers_m: v.template.iter().map(|m| up.body_vector(*m)).collect() })
         .collect()
 }
 
@@ -385,7 +387,7 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
     if !(opts.speed.is_finite() && opts.speed > 0.0) {
         return Err(ServeError::Speed(opts.speed));
     }
-    let mut arena = Arena::new(s, run);
+    let mut arena = Arena::new(s.spec(), run);
     arena.tap_delivered();
     let n = arena.vehicle_count();
     let external: Vec<bool> = (0..n).map(|i| arena.is_external(i)).collect();

@@ -36,7 +36,7 @@ fn the_loop_does_not_allocate() {
     let mut s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/yaw-offset.yaml")).unwrap();
     s.link.jitter_ms = 3.0;
     s.link.loss = flyarena::scenario::LossCfg::Bernoulli(0.05);
-    let mut arena = Arena::new(&s, RunOptions { trace: false, apply_calibration: None });
+    let mut arena = Arena::new(s.spec(), RunOptions { trace: false, apply_calibration: None });
     arena.step();
     let before = allocations();
     let mut ticks = 0;

@@ -76,6 +76,7 @@ fn bad_scenarios_exit_2_with_located_messages() {
         ("wrong-type", good.replace("altitude_m: 1.0", "altitude_m: high")),
         ("duplicate-key", good.replace("seed: 6", "seed: 6\nseed: 7")),
         ("collinear-markers", good.replace("      rotation_deg: [3, 3, 0]", "      template_m: [[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0]]")),
+        ("collinear-as-mounted", good.replace("      rotation_deg: [3, 3, 0]", "      displacement_mm: [[0, 0, 0], [0, -170, 0], [0, 0, 0], [100, 100, 20]]")),
         ("heavy-vehicle", good.replace("    markers:", "    model: { mass_kg: 3 }\n    markers:")),
         ("gyro-delay-off-period", good.replace("    markers:", "    undeclared: { gyro_delay_ms: 3 }\n    markers:")),
         (

@@ -31,8 +31,8 @@ fn load(name: &str) -> Scenario {
 #[test]
 fn two_runs_are_bit_identical() {
     let s = load("lossy-link.yaml");
-    let a = bits(&run(&s, RunOptions::default()));
-    let b = bits(&run(&s, RunOptions::default()));
+    let a = bits(&run(s.spec(), RunOptions::default()));
+    let b = bits(&run(s.spec(), RunOptions::default()));
     assert!(a.len() > 50_000);
     assert_eq!(a, b);
 }
@@ -40,9 +40,9 @@ fn two_runs_are_bit_identical() {
 #[test]
 fn runs_on_other_threads_match_the_sequential_run() {
     let s = load("fleet-4.yaml");
-    let reference = bits(&run(&s, RunOptions::default()));
+    let reference = bits(&run(s.spec(), RunOptions::default()));
     let parallel: Vec<Vec<u64>> = std::thread::scope(|sc| {
-        let hs: Vec<_> = (0..3).map(|_| sc.spawn(|| bits(&run(&s, RunOptions::default())))).collect();
+        let hs: Vec<_> = (0..3).map(|_| sc.spawn(|| bits(&run(s.spec(), RunOptions::default())))).collect();
         hs.into_iter().map(|h| h.join().unwrap()).collect()
     });
     for p in parallel {
@@ -60,9 +60,9 @@ fn the_avx2_and_the_any_cpu_step_give_the_same_bits() {
     }
     for name in ["fig6-roll-pitch-offsets.yaml", "identify-rotor-drag.yaml"] {
         let s = load(name);
-        let avx2 = bits(&run(&s, RunOptions::default()));
+        let avx2 = bits(&run(s.spec(), RunOptions::default()));
         flyarena::cpu::set_baseline_only(true);
-        let any_cpu = bits(&run(&s, RunOptions::default()));
+        let any_cpu = bits(&run(s.spec(), RunOptions::default()));
         flyarena::cpu::set_baseline_only(false);
         assert!(avx2.len() > 50_000);
         assert!(avx2 == any_cpu, "{name}: the two builds of the step differ");
@@ -71,22 +71,22 @@ fn the_avx2_and_the_any_cpu_step_give_the_same_bits() {
 
 #[test]
 fn a_different_seed_gives_a_different_trajectory() {
-    let mut s = load("fig6-roll-pitch-offsets.yaml");
-    let a = bits(&run(&s, RunOptions::default()));
-    s.seed += 1;
-    assert_ne!(a, bits(&run(&s, RunOptions::default())));
+    let s = load("fig6-roll-pitch-offsets.yaml");
+    let a = bits(&run(s.spec(), RunOptions::default()));
+    let next = s.seed() + 1;
+    assert_ne!(a, bits(&run(s.with_seed(next).spec(), RunOptions::default())));
 }
 
 /// Adding a vehicle must not change the draws of the others (one stream per component and vehicle).
 #[test]
 fn adding_a_vehicle_leaves_the_others_unchanged() {
     let fleet = load("fleet-4.yaml");
-    let out4 = run(&fleet, RunOptions::default());
+    let out4 = run(fleet.spec(), RunOptions::default());
     let y = std::fs::read_to_string(super::root().join("scenarios/fleet-4.yaml")).unwrap();
     let cut = y.find("  - name: bravo").unwrap();
     let rest = &y[y.find("plan:").unwrap()..];
     let single = super::inline(&format!("{}{}", &y[..cut], rest));
-    let out1 = run(&single, RunOptions::default());
+    let out1 = run(single.spec(), RunOptions::default());
     let a = bits(&RunOutput { vehicles: vec![out4.vehicles[0].clone()], ..out4.clone() });
     assert_eq!(a, bits(&out1));
 }

@@ -23,7 +23,7 @@ plan:
 
 fn fly(outage: &str, occlusions: &str) -> flyarena::engine::VehicleRun {
     let y = FLIGHT.replace("OUTAGE", outage).replace("OCCLUSIONS", occlusions);
-    let out = run(&inline(&y), RunOptions::default());
+    let out = run(inline(&y).spec(), RunOptions::default());
     let v = out.vehicles.into_iter().next().unwrap();
     assert!(!v.any_nan);
     v
@@ -96,7 +96,7 @@ fn a_permanent_outage_lands_and_stops_the_motors() {
 fn a_failsafe_active_at_the_end_counts_to_the_last_tick() {
     for trace in [false, true] {
         let y = FLIGHT.replace("OUTAGE", "{ from_s: 10 }").replace("OCCLUSIONS", "");
-        let out = run(&inline(&y), RunOptions { trace, apply_calibration: None });
+        let out = run(inline(&y).spec(), RunOptions { trace, apply_calibration: None });
         let f = out.vehicles[0].failsafe;
         assert!(f.active_at_end);
         let last_tick_s = out.duration.as_secs_f64() - 0.001;
@@ -148,7 +148,7 @@ plan:
   - land: { duration_s: 3 }
 "#;
     let drift_at_end = |apply: bool| {
-        let out = run(&inline(&y.replace("APPLY", &apply.to_string())), RunOptions::default());
+        let out = run(inline(&y.replace("APPLY", &apply.to_string())).spec(), RunOptions::default());
         let v = &out.vehicles[0];
         assert_eq!(v.failsafe.episodes, 1);
         assert!(v.calibration.gyro.is_some());
@@ -185,7 +185,7 @@ plan:
   - yaw_spin: { settle_s: 2, angle_deg: 360, duration_s: 20 }
   - land: { duration_s: 3 }
 "#;
-    let out = run(&inline(y), RunOptions::default());
+    let out = run(inline(y).spec(), RunOptions::default());
     let v = &out.vehicles[0];
     assert_eq!(v.failsafe.episodes, 1);
     let clock = v.calibration.gyro.and_then(|g| g.clock).expect("a fitted telemetry clock");
@@ -213,10 +213,10 @@ fn lossy_link_failsafe_episodes_are_the_closed_form() {
     let (mut total, mut expected) = (0u32, 0.0);
     for seed in 1..=60 {
         let s = inline(&text.replace("seed: 10", &format!("seed: {seed}")));
-        let frames = s.run_time_s() / 0.005;
+        let frames = s.spec().run_time.as_secs_f64() / 0.005;
         let pi_good = p_bg / (p_gb + p_bg);
         expected += frames * pi_good * p_gb * (1.0 - p_bg).powi(19);
-        total += run(&s, RunOptions { trace: false, apply_calibration: None }).vehicles[0].failsafe.episodes;
+        total += run(s.spec(), RunOptions { trace: false, apply_calibration: None }).vehicles[0].failsafe.episodes;
     }
     assert!((expected - 145.0).abs() < 1.0, "{expected}");
     assert!((total as f64 - expected).abs() < 3.0 * expected.sqrt(), "{total} episodes over 60 seeds, expected {expected:.1}");

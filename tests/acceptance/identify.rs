@@ -88,9 +88,8 @@ fn every_identify_scenario_finds_its_hidden_effect() {
 /// note where no glitch was left out.
 #[test]
 fn nothing_hidden_gives_no_effect_over_20_seeds() {
-    let mut s = Scenario::load(&scenario("none")).unwrap();
     for seed in 1..=20 {
-        s.seed = seed;
+        let s = Scenario::load(&scenario("none")).unwrap().with_seed(seed);
         let (_, series) = run_and_log(&s, 0, "none").unwrap();
         let r = identify(&series, &Options::default()).unwrap();
         assert!(r.effects.is_empty(), "seed {seed}: found {:?}\n{}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(), flyarena::identify::report::render(&r));
@@ -117,9 +116,8 @@ fn hidden_effects_are_found_first_on_other_seeds() {
         ("thrust-voltage", Effect::ThrustVoltage, &[0.14], &[0.01]),
     ];
     for (name, effect, truth, tol) in cases {
-        let mut s = Scenario::load(&scenario(name)).unwrap();
         for seed in 11..=15 {
-            s.seed = seed;
+            let s = Scenario::load(&scenario(name)).unwrap().with_seed(seed);
             let (_, series) = run_and_log(&s, 0, name).unwrap();
             let r = identify(&series, &Options::default()).unwrap();
             let found: Vec<Effect> = r.effects.iter().map(|e| e.effect).collect();
@@ -679,8 +677,7 @@ plan:
 fn the_mocap_delay_is_unbiased_over_seeds() {
     let mut errors = Vec::new();
     for seed in 11..16 {
-        let mut s = Scenario::load(&scenario("mocap-delay")).unwrap();
-        s.seed = seed;
+        let s = Scenario::load(&scenario("mocap-delay")).unwrap().with_seed(seed);
         let (_, series) = run_and_log(&s, 0, "delay").unwrap();
         let r = identify(&series, &Options { forced: vec![Effect::MocapDelay], ..Options::default() }).unwrap();
         let p = &r.effect(Effect::MocapDelay).unwrap().params[0];

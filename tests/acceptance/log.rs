@@ -7,7 +7,7 @@ use proptest::prelude::*;
 
 fn flight() -> (flyarena::engine::VehicleRun, String) {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/lost-marker.yaml")).unwrap();
-    let v = run(&s, RunOptions::default()).vehicles.remove(0);
+    let v = run(s.spec(), RunOptions::default()).vehicles.remove(0);
     let csv = write_csv(&v, 0.005);
     (v, csv)
 }

@@ -19,7 +19,7 @@ plan:
 
 fn hover(roll_deg: f64, apply: bool, kx: f64, kv: f64) -> flyarena::engine::RunOutput {
     let y = HOVER.replace("ROLL", &roll_deg.to_string()).replace("APPLY", &apply.to_string()).replace("KX", &kx.to_string()).replace("KV", &kv.to_string());
-    run(&inline(&y), RunOptions::default())
+    run(inline(&y).spec(), RunOptions::default())
 }
 
 /// In a steady hover the vertical acceleration averages zero, so the thrust the radio delivers
@@ -73,7 +73,7 @@ fn straight_flight_yaw_in(mode: &str, seed: u64, yaw_deg: f64, extra: &str) -> f
     let y = format!(
         "name: yaw-flight\nseed: {seed}\n{extra}vehicles:\n  - name: x3d\n    home_m: [-3, 0]\n    model: {{ onboard_mode: {mode} }}\n    markers: {{ rotation_deg: [0, 0, {yaw_deg}] }}\nplan:\n  - takeoff: {{ altitude_m: 1.0, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 6, average_s: 5 }}\n  - calibrate_yaw: {{ settle_s: 3, distance_m: 6, speed_m_s: 0.75 }}\n"
     );
-    run(&inline(&y), RunOptions { trace: false, apply_calibration: None }).vehicles[0].calibration.yaw_offset.unwrap().to_degrees()
+    run(inline(&y).spec(), RunOptions { trace: false, apply_calibration: None }).vehicles[0].calibration.yaw_offset.unwrap().to_degrees()
 }
 
 /// Yaw observability (docs/findings.md): with the attitude loop closed on the mocap, the thrust axis is
@@ -121,7 +121,7 @@ fn gyro_alignment_recovers_the_marker_rotation_and_the_gyro_bias() {
     let truth = [2.0, -1.5, -6.0];
     for (seed, noise_mm) in [(1, 0.0), (1, 0.1), (2, 0.1), (3, 0.1)] {
         let y = GYRO.replace("SEED", &seed.to_string()).replace("NOISE", &noise_mm.to_string());
-        let out = run(&inline(&y), RunOptions::default());
+        let out = run(inline(&y).spec(), RunOptions::default());
         let v = &out.vehicles[0];
         let g = v.calibration.gyro.expect("a gyro fit");
         let est = g.euler.to_degrees();
@@ -204,7 +204,7 @@ fn attitude_flight(vehicle: &str, plan0: &str, trim: bool) -> flyarena::engine::
     let y = format!(
         "name: att\nseed: 1\nmocap: {{ noise_mm: 0 }}\ncalibration: {{ hover_trim: {trim} }}\nvehicles:\n  - name: x3d\n    home_m: [-3, 0]\n    model: {{ onboard_mode: attitude }}\n{vehicle}plan:\n{plan0}  - takeoff: {{ altitude_m: 1.0, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 6, average_s: 5 }}\n  - calibrate_yaw: {{ settle_s: 3, distance_m: 6, speed_m_s: 0.75 }}\n"
     );
-    run(&inline(&y), RunOptions::default()).vehicles.remove(0)
+    run(inline(&y).spec(), RunOptions::default()).vehicles.remove(0)
 }
 
 /// The true roll (deg) averaged over the cruise of the straight flight (φ_com = 0): from 4 s to
@@ -283,7 +283,7 @@ plan:
   - waypoint: { pos_m: [6, 0, -1], speed_m_s: 4, accel_m_s2: 3, hold_s: 3 }
 ",
     );
-    let out = run(&s, RunOptions { trace: true, apply_calibration: None });
+    let out = run(s.spec(), RunOptions { trace: true, apply_calibration: None });
     let peak = out.vehicles[0].trace.iter().map(|t| t.att_true.roll.abs().max(t.att_true.pitch.abs())).fold(0.0, f64::max).to_degrees();
     assert!(peak > 4.9 && peak < 5.5, "peak tilt {peak}°");
 }
@@ -296,7 +296,7 @@ plan:
 #[test]
 fn calibration_circles_as_flown() {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/yaw-offset.yaml")).unwrap();
-    let out = run(&s, RunOptions { trace: true, apply_calibration: Some(true) });
+    let out = run(s.spec(), RunOptions { trace: true, apply_calibration: Some(true) });
     let v = &out.vehicles[0];
     let k = v.phases.iter().position(|(_, name)| *name == "calibrate_gyro").unwrap();
     // settle 2 s, then three turns of 2 s: the middle turn is 4–6 s into the phase
@@ -321,7 +321,7 @@ fn calibration_circles_as_flown() {
 #[test]
 fn validity_reject_yaw_stand_off_is_the_closed_form() {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/validity-reject.yaml")).unwrap();
-    let out = run(&s, RunOptions { trace: false, apply_calibration: None });
+    let out = run(s.spec(), RunOptions { trace: false, apply_calibration: None });
     let val = out.vehicles[0].calibration.validity.as_ref().expect("the yaw flight ran");
     let stand_off = (0.02f64 / (0.012 * 10.0 * 3.0)).to_degrees();
     assert!((stand_off - 3.183).abs() < 1e-3);
@@ -339,7 +339,7 @@ fn validity_reject_yaw_stand_off_is_the_closed_form() {
 #[test]
 fn an_integrating_rate_loop_removes_the_yaw_stand_off() {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/validity-integral.yaml")).unwrap();
-    let out = run(&s, RunOptions { trace: false, apply_calibration: None });
+    let out = run(s.spec(), RunOptions { trace: false, apply_calibration: None });
     let val = out.vehicles[0].calibration.validity.as_ref().expect("the yaw flight ran");
     let deadband = 1.5 / (2.0 * 3.0);
     assert!(val.mean_yaw.to_degrees().abs() <= deadband, "mean yaw {}°", val.mean_yaw.to_degrees());
@@ -405,7 +405,7 @@ fn gyro_alignment_fits_an_unsynchronised_clock_with_intervals_that_cover() {
     for k in 0..40u64 {
         let (offset_ms, drift_ppm) = ((k % 5) as f64 * 5.0, -100.0 + 5.0 * k as f64);
         let y = text.replace("seed: 11", &format!("seed: {}", 100 + k)).replace("offset_ms: 15, drift_ppm: 100", &format!("offset_ms: {offset_ms}, drift_ppm: {drift_ppm}"));
-        let out = run(&inline(&y), RunOptions::default());
+        let out = run(inline(&y).spec(), RunOptions::default());
         let g = out.vehicles[0].calibration.gyro.unwrap_or_else(|| panic!("seed {k}: no gyro fit"));
         let err = g.euler.yaw.to_degrees() - 4.0;
         assert!(err.abs() < 0.05, "seed {k}: yaw error {err}°");

@@ -76,7 +76,7 @@ plan:
   - land: {{ duration_s: 1 }}
 "#, comp = if euler_comp { "euler" } else { "rotation" }, r0 = rot[0], r1 = rot[1], r2 = rot[2], w0 = wind[0], w1 = wind[1], w2 = wind[2]);
         let s = super::inline(&y);
-        let out = run(&s, RunOptions { trace: true, apply_calibration: None });
+        let out = run(s.spec(), RunOptions { trace: true, apply_calibration: None });
         let v = &out.vehicles[0];
         prop_assert!(!v.any_nan);
         prop_assert!(v.trace.iter().all(|t| t.pos.is_finite() && t.thrust_n.is_finite()));
@@ -165,12 +165,14 @@ mod parser_fuzz {
             }
             match Scenario::parse(&src, Path::new("fuzz.yaml")) {
                 Ok(s) => {
-                    // what is accepted stays valid: every vehicle has parameters and a template
-                    for i in 0..s.vehicle_cfgs().len() {
-                        s.vehicle_params(i); // panics if parsing let an out-of-range model through
-                        prop_assert!(s.template(i).len() >= 3);
+                    // what is accepted became a runnable spec: every vehicle with a model that
+                    // can lift itself and a template the mocap can fit
+                    prop_assert_eq!(s.spec().vehicles.len(), s.vehicle_cfgs().len());
+                    for v in &s.spec().vehicles {
+                        prop_assert!(v.template.len() >= 3 && v.truth.rotation.angle().is_finite());
+                        prop_assert!(v.params.thrust_max() > v.params.hover_thrust());
                     }
-                    prop_assert!(s.run_time_s().is_finite() && s.run_time_s() > 0.0);
+                    prop_assert!(s.spec().run_time.as_secs_f64().is_finite() && s.spec().run_time.as_secs_f64() > 0.0);
                 }
                 Err(e) => {
                     let msg = e.to_string();

@@ -172,7 +172,7 @@ fn a_served_run_is_the_run_bit_for_bit() {
     let s = flyarena::scenario::Scenario::load(&fixture()).unwrap();
     let opts = ServeOptions { command_port: 0, speed: 1000.0, wait_for_client: Duration::ZERO, ..ServeOptions::default() };
     let (served, net) = serve(&s, &opts, RunOptions::default()).unwrap();
-    let plain = run(&s, RunOptions::default());
+    let plain = run(s.spec(), RunOptions::default());
     for (a, b) in served.vehicles.iter().zip(&plain.vehicles) {
         assert_eq!(a.trace.len(), b.trace.len());
         for (x, y) in a.trace.iter().zip(&b.trace) {
@@ -208,7 +208,7 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
     for (i, b) in bodies.iter().enumerate() {
         assert_eq!((b[0].as_str().unwrap(), b[1].as_i64().unwrap()), (s.vehicle(i).name.as_str(), i as i64 + 1));
         let markers: Vec<[f32; 3]> = b[2].as_array().unwrap().iter().map(f32s::<3>).collect();
-        let expected: Vec<[f32; 3]> = s.template(i).iter().map(|m| [m.x() as f32, -m.y() as f32, -m.z() as f32]).collect();
+        let expected: Vec<[f32; 3]> = s.spec().vehicles[i].template.iter().map(|m| [m.x() as f32, -m.y() as f32, -m.z() as f32]).collect();
         assert_eq!(markers, expected, "vehicle {i}'s marker template in Z-up");
     }
     let logs = [log_poses(&out.join("served-cf1.csv")), log_poses(&out.join("served-cf2.csv"))];
@@ -432,7 +432,7 @@ fn serve_with_client(s: flyarena::scenario::Scenario, opts: ServeOptions, script
 #[test]
 fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
     let (builtin, external) = fig6_builtin_and_external();
-    let plain = run(&builtin, RunOptions::default());
+    let plain = run(builtin.spec(), RunOptions::default());
     // the frames the built-in station sent: the trace's last sent frame at each radio tick
     // (50 Hz: every 20 ms, on Vicon ticks)
     let period_ns = 20_000_000;

@@ -30,7 +30,8 @@ pub const THRUST_REL_SD: f64 = 2e-4;
 /// names it in errors and the report). The commanded thrust goes through the radio latency and
 /// the motor lag of the scenario's model.
 pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Result<Series, InputError> {
-    let p = s.vehicle_params(vehicle);
+    let spec = &s.spec().vehicles[vehicle];
+    let p = &spec.params;
     let col = |name: &str| log.column(name).ok_or_else(|| InputError::log(source, format!("the log has no column `{name}`")));
     let n = log.rows();
     let t: Vec<f64> = col("t_s")?.iter().map(|x| x.unwrap_or(f64::NAN)).collect();
@@ -55,7 +56,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
         ok.push(seen);
     }
     let dt = crate::log::median_interval(&t).unwrap_or(0.005);
-    let t_max = s.radio.thrust_max_n.unwrap_or(p.thrust_max());
+    let t_max = spec.radio.thrust_max_n;
     let shift = (s.radio.latency_ms * 1e-3 / dt).round() as usize;
     let alpha = (-dt / p.motor_tau_s).exp();
     let mut thrust = Vec::with_capacity(n);
@@ -97,7 +98,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
 /// Runs a scenario and returns its flight log for vehicle `vehicle` as identification data,
 /// through the same CSV text a `run --log` writes (so the two routes cannot drift apart).
 pub fn run_and_log(s: &Scenario, vehicle: usize, source: &str) -> crate::Result<(crate::engine::RunOutput, Series)> {
-    let out = crate::engine::run(s, crate::engine::RunOptions { trace: true, apply_calibration: None });
+    let out = crate::engine::run(s.spec(), crate::engine::RunOptions { trace: true, apply_calibration: None });
     let v = out.vehicles.get(vehicle).ok_or_else(|| InputError::log(source, format!("vehicle {vehicle} does not exist (the scenario has {})", out.vehicles.len())))?;
     let text = crate::log::write_csv(v, 1.0 / s.mocap.rate_hz() as f64);
     let log = crate::log::read_csv(&text, source)?;
