@@ -8,6 +8,7 @@ use super::output::feedback::{TrajectoryError, fragment, nominal_and_fed_back, t
 use super::output::report;
 use super::precision::{signed_with_interval as pm, with_interval};
 use super::{Options, identify};
+use crate::frames::{Body, MocapBody, Rot};
 use crate::scenario::Scenario;
 use serde_json::{Value, json};
 use std::path::Path;
@@ -194,7 +195,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     text += &cross_tables(&reports, &cross);
     let accel_cross: Vec<Vec<Option<f64>>> = cross.iter().map(|row| row.iter().map(|c| c.0).collect()).collect();
     // i's accel_kin cut on flight j minus the cut with i's body offset replaced by `offset(j)`
-    let gain = |offset: &dyn Fn(usize) -> Option<nalgebra::UnitQuaternion<f64>>| -> Vec<Vec<Option<f64>>> {
+    let gain = |offset: &dyn Fn(usize) -> Option<Rot<MocapBody, Body>>| -> Vec<Vec<Option<f64>>> {
         reports
             .iter()
             .zip(&accel_cross)
@@ -211,7 +212,7 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
             .collect()
     };
     // the body offset's own share: each model again without its offset
-    let offset_gain = gain(&|_| Some(nalgebra::UnitQuaternion::identity()));
+    let offset_gain = gain(&|_| Some(Rot::identity()));
     // the mounting's own part: each model again with the fleet's mean offset (j left out)
     let fleet: Vec<_> = (0..series.len()).map(|j| super::checks::consistency::fleet_offset_without(&reports, j)).collect();
     let mounting_gain = gain(&|j| fleet[j]);

@@ -1,6 +1,7 @@
 //! `identify`: hidden effects found, named and estimated; nothing found when nothing is hidden;
 //! the column mapping's frame conversions checked by hand; the real NanoBench flights.
 
+use flyarena::frames::{Body, Euler, MocapBody, Rot, Vec3};
 use flyarena::identify::flyarena_log::run_and_log;
 use flyarena::identify::mapping::Mapping;
 use flyarena::identify::workflow::{Request, Source, run as identify_cli};
@@ -208,7 +209,7 @@ battery: {{ column: vbat }}
 /// is a positive-FLU z rate and so −30°/s on FRD z, and the accelerometer reads −g on z.
 #[test]
 fn mapping_converts_units_and_frames_as_derived_by_hand() {
-    use nalgebra::{UnitQuaternion, Vector3};
+    use nalgebra::UnitQuaternion;
     let m = Mapping::parse(&mapping_src("z_up", "flu"), Path::new("m.yaml")).unwrap();
     // FLU body nose-up: rotation about body +y (left) by −10° (FLU: +y left, so nose-up is negative about y)
     let q = UnitQuaternion::from_euler_angles(0.0, -10f64.to_radians(), 90f64.to_radians());
@@ -216,11 +217,11 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     let csv = format!("{CSV_HEADER}\n{}\n{}\n{}\n", row(0.0), row(10.0), row(20.0));
     let s = m.read_str(&csv, "by-hand.csv").unwrap();
     assert!((s.t_s[1] - 0.01).abs() < 1e-15);
-    assert!((s.pos_mocap_nav[0] - Vector3::new(0.1, -0.2, -1.0)).norm() < 1e-12, "{:?}", s.pos_mocap_nav[0]);
-    let (roll, pitch, yaw) = s.att_mocap[0].euler_angles();
+    assert!((s.pos_mocap_nav[0] - Vec3::new(0.1, -0.2, -1.0)).norm() < 1e-12, "{:?}", s.pos_mocap_nav[0]);
+    let (roll, pitch, yaw) = s.att_mocap[0].quaternion().euler_angles();
     assert!(roll.abs() < 1e-9 && (pitch - 10f64.to_radians()).abs() < 1e-9 && (yaw + 90f64.to_radians()).abs() < 1e-9, "{roll} {pitch} {yaw}");
-    assert!((s.gyro_body[0] - Vector3::new(0.0, 0.0, -30f64.to_radians())).norm() < 1e-12);
-    assert!((s.accel_body[0] - Vector3::new(0.0, 0.0, -9.81)).norm() < 1e-12);
+    assert!((s.gyro_body[0] - Vec3::new(0.0, 0.0, -30f64.to_radians())).norm() < 1e-12);
+    assert!((s.accel_body[0] - Vec3::new(0.0, 0.0, -9.81)).norm() < 1e-12);
     // thrust: four motors at PWM 30000 and 3.7 V through the stand fit (grams-force, 4 motors)
     let u = 30000.0 / 65535.0;
     let t4 = 35.407_020_21 * u * u + 5.922_264_62 * u * 3.7 - 0.075_526_67;
@@ -234,14 +235,14 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     let erow = |t: f64| format!("{t},100,200,1000,0,-10,90,0,0,30,0,0,1,30000,30000,30000,30000,3.7");
     let ecsv = format!("time_ms,x,y,z,r,p,yw,gx,gy,gz,ax,ay,az,m1,m2,m3,m4,vbat\n{}\n{}\n", erow(0.0), erow(10.0));
     let se = m3.read_str(&ecsv, "euler.csv").unwrap();
-    assert!(se.att_mocap[0].angle_to(&s.att_mocap[0]) < 1e-12);
+    assert!((se.att_mocap[0].inverse() * s.att_mocap[0]).angle() < 1e-12);
     let e = Mapping::parse(&mapping_src("z_up", "flu").replace("order: wxyz", "order: wxyz, unit: deg"), Path::new("m.yaml")).unwrap_err().to_string();
     assert!(e.contains("either a quaternion") && e.contains("euler"), "{e}");
     // z-down world and FRD body are taken as they are
     let m2 = Mapping::parse(&mapping_src("z_down", "frd"), Path::new("m.yaml")).unwrap();
     let s2 = m2.read_str(&csv, "as-is.csv").unwrap();
-    assert!((s2.pos_mocap_nav[0] - Vector3::new(0.1, 0.2, 1.0)).norm() < 1e-12);
-    assert!((s2.att_mocap[0].angle_to(&q)) < 1e-12);
+    assert!((s2.pos_mocap_nav[0] - Vec3::new(0.1, 0.2, 1.0)).norm() < 1e-12);
+    assert!(s2.att_mocap[0].quaternion().angle_to(&q) < 1e-12);
 }
 
 /// What a mapped log's cells may hold. A pose cell that is empty or `NaN` is a mocap dropout
@@ -712,24 +713,24 @@ fn thrust_model_resolution_covers_the_rate_loop_jitter() {
 /// or the mounting produces it (none of them changes how the vehicle flies, except the thrust
 /// tilt, whose flight is the same flight seen from a turned body frame).
 fn with_hypothesis(base: &flyarena::identify::Series, e: Effect, v: &[f64]) -> flyarena::identify::Series {
-    use nalgebra::{UnitQuaternion, Vector3};
     let mut s = base.clone();
     let deg = std::f64::consts::PI / 180.0;
     match e {
         // the accelerometer reads exp([ε]×)·f (ε roll, pitch; the gyro untouched)
         Effect::AccelMisalignment => {
-            let q = UnitQuaternion::from_scaled_axis(Vector3::new(v[0] * deg, v[1] * deg, 0.0));
-            s.accel_body.iter_mut().for_each(|a| *a = q * *a);
+            let q = Rot::<Body, Body>::from_rotation_vector(Vec3::new(v[0] * deg, v[1] * deg, 0.0));
+            s.accel_body.iter_mut().for_each(|a| *a = q.apply(*a));
         }
         // the accelerometer's z reads (1 + s_z)·f_z
-        Effect::AccelScale => s.accel_body.iter_mut().for_each(|a| a.z *= 1.0 + v[0] / 100.0),
+        Effect::AccelScale => s.accel_body.iter_mut().for_each(|a| *a = Vec3::new(a.x(), a.y(), a.z() * (1.0 + v[0] / 100.0))),
         // the thrust along exp([t]×)(−e_z) in the frame the IMU and the mocap report: every
         // body quantity turned by Q = exp([t]×), the mocap attitude (body → world) by Q⁻¹
         Effect::ThrustTilt => {
-            let q = UnitQuaternion::from_scaled_axis(Vector3::new(v[0] * deg, v[1] * deg, 0.0));
-            s.accel_body.iter_mut().for_each(|a| *a = q * *a);
-            s.gyro_body.iter_mut().for_each(|w| *w = q * *w);
-            s.att_mocap.iter_mut().for_each(|r| *r *= q.inverse());
+            let q = Rot::<Body, Body>::from_rotation_vector(Vec3::new(v[0] * deg, v[1] * deg, 0.0));
+            s.accel_body.iter_mut().for_each(|a| *a = q.apply(*a));
+            s.gyro_body.iter_mut().for_each(|w| *w = q.apply(*w));
+            // the markers' frame is the body's here
+            s.att_mocap.iter_mut().for_each(|r| *r = *r * q.inverse().assume_frames());
         }
         // the pose stamped t was taken at t − ρ·(t − t̄) (ρ in ms/min), t̄ the log's mid-time
         Effect::ClockDrift => {
@@ -917,11 +918,11 @@ fn injected_mocap_glitches_are_left_out_and_named() {
     let n = series.t_s.len();
     let (jumps, double, turn) = ([n / 3, n / 2, 2 * n / 3], 3 * n / 5, 3 * n / 4);
     for i in jumps {
-        series.pos_mocap_nav[i].x += 0.05;
+        series.pos_mocap_nav[i] += Vec3::new(0.05, 0.0, 0.0);
     }
-    series.pos_mocap_nav[double].y -= 0.05;
-    series.pos_mocap_nav[double + 1].y -= 0.05;
-    series.att_mocap[turn] *= nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, 3f64.to_radians());
+    series.pos_mocap_nav[double] += Vec3::new(0.0, -0.05, 0.0);
+    series.pos_mocap_nav[double + 1] += Vec3::new(0.0, -0.05, 0.0);
+    series.att_mocap[turn] = series.att_mocap[turn] * Rot::<MocapBody, MocapBody>::from_euler(Euler::new(0.0, 0.0, 3f64.to_radians()));
     let mut want: Vec<usize> = jumps.iter().chain([&turn]).flat_map(|&i| [i - 1, i, i + 1]).chain(double - 1..=double + 2).collect();
     want.sort();
     assert_eq!(glitches(&series), want);

@@ -6,6 +6,7 @@
 //!   follows (a missed effect), and names nothing on a flight the model explains (no invented
 //!   lead).
 
+use flyarena::frames::{Euler, MocapNav, Rot, Vec3};
 use flyarena::identify::design::Channel;
 use flyarena::identify::flyarena_log::run_and_log;
 use flyarena::identify::{Effect, Options, ground, identify};
@@ -30,7 +31,7 @@ fn a_rest_begins_at_the_first_pose() {
     let full = ground::ground_check(&series).expect("the flight starts at rest");
     let mut late = series.clone();
     late.mocap_ok[0] = false;
-    late.pos_mocap_nav[0] = Vector3::new(f64::NAN, f64::NAN, f64::NAN);
+    late.pos_mocap_nav[0] = Vec3::new(f64::NAN, f64::NAN, f64::NAN);
     let from_second = ground::ground_check(&late).expect("the rest begins at the first pose");
     assert_eq!(from_second.samples + 1, full.samples);
     assert!((from_second.roll_deg - full.roll_deg).abs() < 0.01 && (from_second.pitch_deg - full.pitch_deg).abs() < 0.01, "{from_second:?} vs {full:?}");
@@ -80,12 +81,12 @@ fn markers_moved_after_the_rest_are_a_disagreement() {
     // the rest: turn the IMU reading so that the ground check reads (0, 0)
     let (start, _) = series.segments[0];
     let rot = nalgebra::UnitQuaternion::from_euler_angles(-raw.roll_deg.to_radians(), -raw.pitch_deg.to_radians(), 0.0);
-    let z0 = series.pos_mocap_nav[start].z;
+    let z0 = series.pos_mocap_nav[start].z();
     for i in start..series.len() {
-        if (series.pos_mocap_nav[i].z - z0).abs() > 0.005 {
+        if (series.pos_mocap_nav[i].z() - z0).abs() > 0.005 {
             break;
         }
-        series.accel_body[i] = rot.transform_vector(&series.accel_body[i]);
+        series.accel_body[i] = Vec3::from_raw(rot.transform_vector(series.accel_body[i].raw()));
     }
     let level = ground::ground_check(&series).unwrap();
     assert!(level.roll_deg.abs() < 0.05 && level.pitch_deg.abs() < 0.05, "{level:?}");
@@ -180,13 +181,14 @@ fn ground_and_flight_agree_when_nothing_moved() {
 fn a_world_tilt_is_turned_by_the_rest_yaw() {
     let s = scenario("identify-world-tilt.yaml", |t| t);
     let (_, mut series) = run_and_log(&s, 0, "yawed").unwrap();
-    let yaw = nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2);
+    // the mocap's world turned by 90° about the vertical
+    let yaw = Rot::<MocapNav, MocapNav>::from_euler(Euler::new(0.0, 0.0, std::f64::consts::FRAC_PI_2));
     for i in 0..series.len() {
         series.att_mocap[i] = yaw * series.att_mocap[i];
-        series.pos_mocap_nav[i] = yaw * series.pos_mocap_nav[i];
+        series.pos_mocap_nav[i] = yaw.apply(series.pos_mocap_nav[i]);
     }
     let rest = ground::rest_before_takeoff(&series).unwrap();
-    assert!((series.att_mocap[rest.start].euler_angles().2 - std::f64::consts::FRAC_PI_2).abs() < 0.02);
+    assert!((series.att_mocap[rest.start].euler().yaw - std::f64::consts::FRAC_PI_2).abs() < 0.02);
     let r = identify(&series, &Options::default()).unwrap();
     assert!(r.effect(Effect::WorldTilt).is_some(), "{:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());
     // the tilt (0.8°, −0.5°) is now about the other axes of the relabelled world

@@ -2,12 +2,12 @@
 //! would not), nothing is cut from clean flights, no parameter comes out of corrupted samples,
 //! and a log with too little clean data is refused with a message that says where.
 
+use flyarena::frames::Vec3;
 use flyarena::identify::flyarena_log::run_and_log;
 use flyarena::identify::mapping::Mapping;
 use flyarena::identify::quality::{Cut, QualityChannel};
 use flyarena::identify::{Effect, Options, Series, identify};
 use flyarena::scenario::Scenario;
-use nalgebra::Vector3;
 
 const G: f64 = 9.81;
 
@@ -61,7 +61,7 @@ fn each_check_cuts_what_it_is_for() {
             11.0,
             Box::new(move |s: &mut Series| {
                 for i in rows(s, 11.0, 11.03) {
-                    s.gyro_body[i].x = 0.99 * g_fs;
+                    s.gyro_body[i] = Vec3::new(0.99 * g_fs, s.gyro_body[i].y(), s.gyro_body[i].z());
                 }
             }),
         ),
@@ -76,7 +76,7 @@ fn each_check_cuts_what_it_is_for() {
                     s.mocap_ok[i] = false;
                 }
                 let i = rows(s, 12.5, 13.0).start;
-                s.accel_body[i].z = -0.99 * s.model.imu_range.accel_m_s2;
+                s.accel_body[i] = Vec3::new(s.accel_body[i].x(), s.accel_body[i].y(), -0.99 * s.model.imu_range.accel_m_s2);
             }),
         ),
         // +5 g on the accelerometer's x for one sample: 49 m/s², under the ±6 g full scale
@@ -86,7 +86,7 @@ fn each_check_cuts_what_it_is_for() {
             15.0,
             Box::new(|s: &mut Series| {
                 let i = rows(s, 15.0, 16.0).start;
-                s.accel_body[i].x += 5.0 * G;
+                s.accel_body[i] += Vec3::new(5.0 * G, 0.0, 0.0);
             }),
         ),
         // the mocap teleports 1 m for 0.1 s (a marker swap): a jump, excluded from the IMU check
@@ -96,7 +96,7 @@ fn each_check_cuts_what_it_is_for() {
             18.0,
             Box::new(|s: &mut Series| {
                 for i in rows(s, 18.0, 18.1) {
-                    s.pos_mocap_nav[i] += Vector3::new(1.0, 0.0, 0.0);
+                    s.pos_mocap_nav[i] += Vec3::new(1.0, 0.0, 0.0);
                 }
             }),
         ),
@@ -155,7 +155,7 @@ fn gyro_that_disagrees_with_the_mocap_is_cut() {
     let scen = Scenario::parse(&src, std::path::Path::new("cf.yaml")).unwrap();
     let (_, mut s) = run_and_log(&scen, 0, "cf").unwrap();
     for i in rows(&s, 6.0, 6.05) {
-        s.gyro_body[i].y = 10.0;
+        s.gyro_body[i] = Vec3::new(s.gyro_body[i].x(), 10.0, s.gyro_body[i].z());
     }
     let r = identify(&s, &Options::default()).unwrap();
     let cuts = cuts_of(&r, QualityChannel::Gyro);
@@ -193,8 +193,8 @@ fn a_corrupted_tail_is_cut_and_a_corrupted_log_is_refused() {
         let r = rows(s, from, 1e9);
         for (k, i) in r.enumerate() {
             let w = ((k * 7919) % 97) as f64 / 97.0 - 0.5;
-            s.accel_body[i] = if k % 5 == 0 { Vector3::new(0.0, 0.0, -21.0 * G) } else { Vector3::new(8.0 * w * G, -6.0 * w * G, -G + 10.0 * w * G) };
-            s.gyro_body[i] = Vector3::new(60.0 * w, -40.0 * w, 20.0 * w);
+            s.accel_body[i] = if k % 5 == 0 { Vec3::new(0.0, 0.0, -21.0 * G) } else { Vec3::new(8.0 * w * G, -6.0 * w * G, -G + 10.0 * w * G) };
+            s.gyro_body[i] = Vec3::new(60.0 * w, -40.0 * w, 20.0 * w);
         }
     };
     let mut tail = clean.clone();
@@ -241,8 +241,8 @@ fn nanobench_gate_cuts_touchdowns_only_and_rescues_a_corrupted_flight() {
     let mut bad = s.clone();
     for (k, i) in rows(&s, 32.0, 1e9).enumerate() {
         let w = ((k * 7919) % 97) as f64 / 97.0 - 0.5;
-        bad.accel_body[i] = if k % 4 == 0 { Vector3::new(3.0 * G, 2.0 * G, -21.0 * G) } else { bad.accel_body[i] + Vector3::new(6.0 * w * G, 0.0, 5.0 * w * G) };
-        bad.gyro_body[i] = Vector3::new(90.0 * w, -60.0 * w, 30.0 * w);
+        bad.accel_body[i] = if k % 4 == 0 { Vec3::new(3.0 * G, 2.0 * G, -21.0 * G) } else { bad.accel_body[i] + Vec3::new(6.0 * w * G, 0.0, 5.0 * w * G) };
+        bad.gyro_body[i] = Vec3::new(90.0 * w, -60.0 * w, 30.0 * w);
     }
     let r = identify(&bad, &opts).unwrap();
     let c = r.data_quality.corrupted().next().expect("the corrupted stretch is listed");

@@ -156,9 +156,9 @@ fn interpolated_on_the_imu_clock(s: &flyarena::identify::Series, first: usize) {
         }
         // the mapping turns the z-up world by π about x: y and z change sign
         let x_true = 0.3 * (2.0 * (t - 0.005)).cos();
-        assert!((s.pos_mocap_nav[row].x - x_true).abs() < 1e-4, "IMU message {k}: x {} vs {x_true}", s.pos_mocap_nav[row].x);
+        assert!((s.pos_mocap_nav[row].x() - x_true).abs() < 1e-4, "IMU message {k}: x {} vs {x_true}", s.pos_mocap_nav[row].x());
         let y_true = -0.3 * (2.0 * (t - 0.005)).sin();
-        assert!((s.pos_mocap_nav[row].y - y_true).abs() < 1e-4, "IMU message {k}: y {} vs {y_true}", s.pos_mocap_nav[row].y);
+        assert!((s.pos_mocap_nav[row].y() - y_true).abs() < 1e-4, "IMU message {k}: y {} vs {y_true}", s.pos_mocap_nav[row].y());
         checked += 1;
     }
     assert!(checked > 380, "{checked}");

@@ -37,6 +37,7 @@
 //! mountings not: i's offset beats the fleet's only where i and j share the markers (across
 //! mountings that are really one marker state split by the link, about zero).
 
+use crate::frames::{Body, MocapBody, Rot};
 use crate::identify::fit::design::Effect;
 use crate::identify::fit::select::{MIN_TRAIN_SAMPLES, Report};
 use crate::identify::fit::stats::median;
@@ -184,7 +185,7 @@ pub fn agreement(axis: &'static str, values: &[(usize, f64, f64)]) -> Option<Axi
 pub(crate) fn without_body_offset(r: &Report) -> Option<Report> {
     r.effect(Effect::BodyOffset)?;
     let mut bare = r.clone();
-    bare.corrections.body_offset = nalgebra::UnitQuaternion::identity();
+    bare.corrections.body_offset = Rot::identity();
     let offs = crate::identify::fit::design::column_offsets();
     let at = Effect::BodyOffset as usize;
     for k in offs[at]..offs[at + 1] {
@@ -198,17 +199,17 @@ pub(crate) fn without_body_offset(r: &Report) -> Option<Report> {
 /// The fleet's body offset seen from flight `j`: the mean rotation vector of the fitted body
 /// offsets of every flight but `j` (small rotations: the mean of the vectors is the rotation
 /// nearest to all of them to second order); `None` when no other flight has one.
-pub(crate) fn fleet_offset_without(reports: &[(String, Report)], j: usize) -> Option<nalgebra::UnitQuaternion<f64>> {
+pub(crate) fn fleet_offset_without(reports: &[(String, Report)], j: usize) -> Option<Rot<MocapBody, Body>> {
     let v: Vec<nalgebra::Vector3<f64>> = reports
         .iter()
         .enumerate()
         .filter(|(k, (_, r))| *k != j && fitted(r) && r.effect(Effect::BodyOffset).is_some())
-        .map(|(_, (_, r))| r.corrections.body_offset.scaled_axis())
+        .map(|(_, (_, r))| r.corrections.body_offset.quaternion().scaled_axis())
         .collect();
     if v.is_empty() {
         return None;
     }
-    Some(nalgebra::UnitQuaternion::from_scaled_axis(v.iter().sum::<nalgebra::Vector3<f64>>() / v.len() as f64))
+    Some(Rot::from_quaternion(nalgebra::UnitQuaternion::from_scaled_axis(v.iter().sum::<nalgebra::Vector3<f64>>() / v.len() as f64)))
 }
 
 /// Whether a parameter enters the χ²: identifiable, with a finite interval (a parameter the

@@ -55,7 +55,7 @@
 //! the markers' origin at `markers.displacement_mm` = d, so the lever arm is r = r_c − d.
 
 pub use crate::effects::{Channel, Effect};
-use crate::identify::input::series::{Corrected, Corrections, Series, correct};
+use crate::identify::input::series::{Corrected, Corrections, Series, correct, raw_rots, raw_vecs};
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// Where an effect's columns sit in the full design.
@@ -152,7 +152,8 @@ pub fn glitches(s: &Series) -> Vec<usize> {
             if s.mocap_ok[i - 1] && s.mocap_ok[i] && s.mocap_ok[i + 1] {
                 let mid = (s.pos_mocap_nav[i - 1] + s.pos_mocap_nav[i + 1]) * 0.5;
                 jp[i] = (s.pos_mocap_nav[i] - mid).norm();
-                jq[i] = s.att_mocap[i].angle_to(&crate::identify::input::series::interpolate_attitude(&s.att_mocap[i - 1], &s.att_mocap[i + 1], 0.5));
+                let between = crate::identify::input::series::interpolate_attitude(&s.att_mocap[i - 1], &s.att_mocap[i + 1], 0.5);
+                jq[i] = s.att_mocap[i].quaternion().angle_to(between.quaternion());
             }
         }
     }
@@ -301,6 +302,8 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let kernel = gaussian_kernel(opt.smoothing_s / dt);
     let h = kernel.len() / 2;
     let Corrected { pos_nav, att_body, ok: mut pose_ok } = correct(s, corr);
+    // the frames end here: what follows is numerical (smoothing, derivatives, least squares)
+    let (pos_nav, att_body) = (raw_vecs(&pos_nav), raw_rots(&att_body));
     // mocap glitches (a marker mistaken for another for a frame) become tens of m/s² after two
     // derivatives; they are found in the raw poses, not in a residual, so that no effect can
     // be mistaken for one: a pose further from the midpoint of its neighbours than
@@ -315,7 +318,7 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     }
     let outliers = glitch_events(&glitches);
     // the gyro with its delay against the accelerometer taken out (rows it cannot reach are out)
-    let gyro_raw = crate::identify::input::series::gyro_advanced(s, corr.gyro_delay_s, &mut pose_ok);
+    let gyro_raw = raw_vecs(&crate::identify::input::series::gyro_advanced(s, corr.gyro_delay_s, &mut pose_ok));
     let (ok, height) = usable_rows(s, opt, &pos_nav, &pose_ok, h + 2);
     // decimation keeps one row per σ (below); what is not differentiated is smoothed only there
     let stride = ((opt.smoothing_s / dt).round() as usize).max(1);
@@ -357,7 +360,7 @@ fn usable_rows(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], pose_o
     // column, the lowest point of the first half second (a log is taken to start at rest). A
     // log that starts in the air with the motors on has no floor: nothing is masked for height
     // and the ground-effect regressor is zero.
-    let floor_z = crate::identify::input::series::floor_z(s, pos_nav);
+    let floor_z = crate::identify::input::series::floor_z(s, &pos_nav.iter().map(|p| p.z).collect::<Vec<f64>>());
     let height: Vec<f64> = pos_nav.iter().map(|p| floor_z.map_or(f64::INFINITY, |f| f - p.z)).collect();
     for i in 0..n {
         if height[i] < opt.min_height_m {
@@ -393,7 +396,7 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
     let g = s.model.gravity_m_s2;
     let pos_s = smooth_vec3(pos_nav, segs, &kernel);
     let gyro_s = smooth_vec3_kept_and_neighbours(gyro_raw, segs, &kernel, stride);
-    let accel_s = smooth_vec3_kept_and_neighbours(&s.accel_body, segs, &kernel, stride);
+    let accel_s = smooth_vec3_kept_and_neighbours(&raw_vecs(&s.accel_body), segs, &kernel, stride);
     // mocap body rates from neighbouring poses
     let rates = body_rates(att_body, &s.t_s, segs);
     let omega_s = smooth_vec3_kept(&rates, segs, &kernel, stride);

@@ -115,10 +115,10 @@ pub fn rotation_between(a: &nalgebra::Vector3<f64>, b: &nalgebra::Vector3<f64>) 
 /// The rest before take-off: rows [start, end) inside the first segment, ≥ 0.5 s.
 fn rest(s: &Series) -> Option<(usize, usize)> {
     // the log's first pose (without a thrust column, resting is staying at its height)
-    let z0 = s.pos_mocap_nav[s.mocap_ok.iter().position(|ok| *ok)?].z;
+    let z0 = s.pos_mocap_nav[s.mocap_ok.iter().position(|ok| *ok)?].z();
     let resting = |i: usize| match &s.thrust_n {
         Some(t) => t[i] == 0.0,
-        None => (s.pos_mocap_nav[i].z - z0).abs() < 0.01,
+        None => (s.pos_mocap_nav[i].z() - z0).abs() < 0.01,
     };
     // the rest before take-off, inside the first segment (the data-quality gate may have cut
     // its start or its end), from its first pose: a log whose mocap starts a frame after its
@@ -146,9 +146,9 @@ fn rest(s: &Series) -> Option<(usize, usize)> {
 /// floor in between. A landing spot may sit a centimetre or two off the take-off's.
 /// `before` is the rest before take-off's rows ([`rest`]).
 fn rest_after_landing(s: &Series, (before, before_end): (usize, usize)) -> Option<(usize, usize)> {
-    let floor = s.pos_mocap_nav[before..before_end].iter().map(|p| p.z).sum::<f64>() / (before_end - before) as f64;
+    let floor = s.pos_mocap_nav[before..before_end].iter().map(|p| p.z()).sum::<f64>() / (before_end - before) as f64;
     let (seg_start, end) = *s.segments.last()?;
-    let last = s.pos_mocap_nav[end.checked_sub(1)?].z;
+    let last = s.pos_mocap_nav[end.checked_sub(1)?].z();
     let landed = if s.thrust_n.is_some() { LANDED_M } else { FLOOR_M };
     if (last - floor).abs() > landed {
         return None;
@@ -156,7 +156,7 @@ fn rest_after_landing(s: &Series, (before, before_end): (usize, usize)) -> Optio
     // motors off: under 1 % of the weight (a thrust model with the rotors' lag decays toward
     // zero without reaching it)
     let off = 0.01 * s.model.mass_kg * s.model.gravity_m_s2;
-    let still = |i: usize| s.mocap_ok[i] && (s.pos_mocap_nav[i].z - last).abs() < FLOOR_M && s.thrust_n.as_ref().is_none_or(|t| t[i] < off);
+    let still = |i: usize| s.mocap_ok[i] && (s.pos_mocap_nav[i].z() - last).abs() < FLOOR_M && s.thrust_n.as_ref().is_none_or(|t| t[i] < off);
     let mut start = end;
     while start > seg_start.max(before_end) && still(start - 1) {
         start -= 1;
@@ -191,7 +191,7 @@ pub fn tilt_after_landing(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) 
 /// does not inflate it); `None` when under 0.5 s remain.
 fn still_accel(s: &Series, start: usize, end: usize) -> Option<(usize, usize)> {
     // (fewer than 2 rows are no 0.5 s run: None below)
-    let f = &s.accel_body[start..end];
+    let f = &crate::identify::input::series::raw_vecs(&s.accel_body[start..end]);
     let median = |v: Vec<f64>| super::stats::median(v).unwrap_or(0.0);
     let mid = nalgebra::Vector3::from_fn(|k, _| median(f.iter().map(|x| x[k]).collect()));
     let sigma = (0..3).map(|k| median(f.windows(2).map(|w| (w[1][k] - w[0][k]).abs()).collect()) * 1.4826 / std::f64::consts::SQRT_2).fold(0.0, f64::max);
@@ -225,14 +225,14 @@ pub const SETTLE_AFTER_LANDING_S: f64 = 0.5;
 
 /// The specific force the mocap predicts at rest in the marker frame, f̂ = R_mᵀ·(−g·e_D) (m/s²).
 fn predicted_at_rest(s: &Series, i: usize) -> nalgebra::Vector3<f64> {
-    s.att_mocap[i].inverse_transform_vector(&nalgebra::Vector3::new(0.0, 0.0, -s.model.gravity_m_s2))
+    s.att_mocap[i].quaternion().inverse_transform_vector(&nalgebra::Vector3::new(0.0, 0.0, -s.model.gravity_m_s2))
 }
 
 /// The body axis nearest the vertical over rows [start, end) and how far from it the vertical is
 /// (deg): the mean of the up direction the mocap gives, R_mᵀ·(−e_D), against its largest
 /// component's axis.
 fn up_over(s: &Series, start: usize, end: usize) -> (UpAxis, f64) {
-    let up = (start..end).map(|i| s.att_mocap[i].inverse_transform_vector(&-nalgebra::Vector3::z())).sum::<nalgebra::Vector3<f64>>();
+    let up = (start..end).map(|i| s.att_mocap[i].quaternion().inverse_transform_vector(&-nalgebra::Vector3::z())).sum::<nalgebra::Vector3<f64>>();
     let k = up.iamax();
     let mut axis = nalgebra::Vector3::zeros();
     axis[k] = up[k].signum();
@@ -296,7 +296,7 @@ pub fn predicted_tilt(
     let [a, b] = rest.up.level();
     let mut sum = [0.0; 2];
     for i in rest.start..rest.end {
-        let f = offset.transform_vector(&s.att_mocap[i].inverse_transform_vector(&down)) + accel_bias_body;
+        let f = offset.transform_vector(&s.att_mocap[i].quaternion().inverse_transform_vector(&down)) + accel_bias_body;
         let d = rotation_between(&predicted_at_rest(s, i), &f);
         sum = [sum[0] + d[a], sum[1] + d[b]];
     }
@@ -317,7 +317,7 @@ fn tilt_over(s: &Series, rest: Rest, accel_bias_body: &nalgebra::Vector3<f64>) -
     let mut mocap: Vec<[f64; 2]> = Vec::with_capacity(end - start);
     for i in start..end {
         let f_hat = predicted_at_rest(s, i);
-        let d = rotation_between(&f_hat, &(s.accel_body[i] - accel_bias_body));
+        let d = rotation_between(&f_hat, &(s.accel_body[i].raw() - accel_bias_body));
         rp.push((d[a], d[b]));
         let u = rotation_between(&axis_up, &f_hat);
         mocap.push([u[a], u[b]]);
@@ -366,9 +366,9 @@ pub fn spin_up(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<S
     let ((start, _), Rest { up, .. }) = checked_rest(s)?;
     let seg_end = s.segments.first()?.1;
     let on = (start..seg_end).find(|&i| thrust[i] > 0.0)?;
-    let z_rest = s.pos_mocap_nav[start..on].iter().map(|p| p.z).sum::<f64>() / (on - start) as f64;
+    let z_rest = s.pos_mocap_nav[start..on].iter().map(|p| p.z()).sum::<f64>() / (on - start) as f64;
     let from = on + (SPIN_UP_SKIP_S / s.dt()).round() as usize;
-    let to = (from..seg_end).find(|&i| thrust[i] <= 0.0 || !s.mocap_ok[i] || (s.pos_mocap_nav[i].z - z_rest).abs() > LIFT_M).unwrap_or(seg_end);
+    let to = (from..seg_end).find(|&i| thrust[i] <= 0.0 || !s.mocap_ok[i] || (s.pos_mocap_nav[i].z() - z_rest).abs() > LIFT_M).unwrap_or(seg_end);
     if to <= from || ((to - from) as f64) * s.dt() < SPIN_UP_MIN_S {
         return None;
     }
@@ -983,6 +983,7 @@ pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frames::{Rot, Vec3};
     use crate::identify::series::NominalModel;
     use nalgebra::{UnitQuaternion, Vector3};
 
@@ -1005,12 +1006,12 @@ mod tests {
         Series {
             source: "spin".into(),
             t_s: (0..n).map(|i| i as f64 * dt).collect(),
-            pos_mocap_nav: (0..n).map(|i| Vector3::new(0.0, 0.0, if i < rest_rows + spin_rows { 0.0 } else { -0.01 * (i - rest_rows - spin_rows) as f64 })).collect(),
-            att_mocap: vec![UnitQuaternion::identity(); n],
+            pos_mocap_nav: (0..n).map(|i| Vec3::new(0.0, 0.0, if i < rest_rows + spin_rows { 0.0 } else { -0.01 * (i - rest_rows - spin_rows) as f64 })).collect(),
+            att_mocap: vec![Rot::identity(); n],
             mocap_ok: vec![true; n],
-            gyro_body: vec![Vector3::zeros(); n],
+            gyro_body: vec![Vec3::zeros(); n],
             // a little alternating noise so that the standard errors are finite
-            accel_body: (0..n).map(|i| tilt(i) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 }).collect(),
+            accel_body: (0..n).map(|i| Vec3::from_raw(tilt(i) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 })).collect(),
             thrust_n: Some((0..n).map(|i| if i < rest_rows { 0.0 } else { fraction * G }).collect()),
             vbat_v: None,
             segments: vec![(0, n)],
@@ -1043,8 +1044,8 @@ mod tests {
     fn turned(turn: UnitQuaternion<f64>, c: UnitQuaternion<f64>) -> Series {
         let mut s = flight([0.0; 2], [0.0; 2], 0.9);
         for i in 0..s.len() {
-            s.att_mocap[i] = turn;
-            s.accel_body[i] = c * turn.inverse_transform_vector(&Vector3::new(0.0, 0.0, -G));
+            s.att_mocap[i] = Rot::from_quaternion(turn);
+            s.accel_body[i] = Vec3::from_raw(c * turn.inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)));
         }
         s
     }
@@ -1094,10 +1095,10 @@ mod tests {
         let world = UnitQuaternion::from_euler_angles(6f64.to_radians(), -2f64.to_radians(), 0.0);
         let bias = Vector3::new(0.3, -0.2, 0.1);
         let mut s = turned(turn, UnitQuaternion::identity());
-        let corr = Corrections { body_offset: offset, world_tilt: world, ..Corrections::default() };
+        let corr = Corrections { body_offset: Rot::from_quaternion(offset), world_tilt: Rot::from_quaternion(world), ..Corrections::default() };
         let att = correct(&s, &corr).att_body;
         for i in 0..s.len() {
-            s.accel_body[i] = att[i].inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)) + bias;
+            s.accel_body[i] = Vec3::from_raw(att[i].quaternion().inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)) + bias);
         }
         let rest = rest_before_takeoff(&s).unwrap();
         for (b, read) in [(Vector3::zeros(), tilt_at_rest(&s, &bias).unwrap()), (bias, ground_check(&s).unwrap())] {
@@ -1118,7 +1119,7 @@ mod tests {
         let c = UnitQuaternion::from_euler_angles(0.4f64.to_radians(), -1f64.to_radians(), 0.0);
         let s = turned(UnitQuaternion::from_euler_angles(20f64.to_radians(), 0.0, 0.0), c);
         let g = ground_check(&s).unwrap();
-        let (gamma, up) = (c.scaled_axis(), s.att_mocap[0].inverse_transform_vector(&-Vector3::z()));
+        let (gamma, up) = (c.scaled_axis(), s.att_mocap[0].quaternion().inverse_transform_vector(&-Vector3::z()));
         let want = (gamma - up * gamma.dot(&up)).map(f64::to_degrees);
         assert!((g.roll_deg - want.x).abs() < 0.02 && (g.pitch_deg - want.y).abs() < 0.02 && want.y.abs() > 0.5, "{g:?} against {want:?}");
         let turn = UnitQuaternion::from_euler_angles(40f64.to_radians(), 0.0, 0.0);
@@ -1132,7 +1133,7 @@ mod tests {
         // 0.01 m/s² a row: no 0.5 s of still rows) is not said to rest off its axes
         let mut s = turned(UnitQuaternion::identity(), c);
         for i in 0..100 {
-            s.accel_body[i].x += 0.01 * i as f64;
+            s.accel_body[i] += Vec3::new(0.01 * i as f64, 0.0, 0.0);
         }
         let r = crate::identify::identify(&climbing(s), &crate::identify::Options::default()).unwrap();
         assert!(r.ground_check.is_none() && !r.notes.iter().any(|n| n.contains("from the nearest body axis")), "{:?}", r.notes);
@@ -1145,10 +1146,10 @@ mod tests {
         let turn = s.att_mocap[0];
         for i in s.len()..n {
             s.t_s.push(i as f64 * 0.01);
-            s.pos_mocap_nav.push(Vector3::new(0.0, 0.0, -0.01 * (i - 160) as f64));
+            s.pos_mocap_nav.push(Vec3::new(0.0, 0.0, -0.01 * (i - 160) as f64));
             s.att_mocap.push(turn);
             s.mocap_ok.push(true);
-            s.gyro_body.push(Vector3::zeros());
+            s.gyro_body.push(Vec3::zeros());
             s.accel_body.push(s.accel_body[i - 2]);
             s.thrust_n.as_mut().unwrap().push(0.9 * G);
         }
@@ -1165,7 +1166,7 @@ mod tests {
         let mut s = flight([0.0; 2], [0.0; 2], 0.9);
         // lifts 0.3 s after the motors start: 0.25 s of usable rows
         for i in 130..s.len() {
-            s.pos_mocap_nav[i].z = -0.004;
+            s.pos_mocap_nav[i] = Vec3::new(s.pos_mocap_nav[i].x(), s.pos_mocap_nav[i].y(), -0.004);
         }
         assert!(spin_up(&s, &Vector3::zeros()).is_none());
     }
@@ -1176,7 +1177,7 @@ mod tests {
     fn the_lift_is_measured_from_the_rest_height() {
         let mut s = flight([0.0; 2], [0.0, 0.5], 0.9);
         for p in &mut s.pos_mocap_nav {
-            p.z -= 0.5;
+            *p += Vec3::new(0.0, 0.0, -0.5);
         }
         let sp = spin_up(&s, &Vector3::zeros()).unwrap();
         assert_eq!(sp.check.samples, 56, "{sp:?}");
@@ -1363,11 +1364,11 @@ mod tests {
         let c = UnitQuaternion::from_euler_angles(after_deg[0].to_radians(), after_deg[1].to_radians(), 0.0);
         for i in 0..100 {
             s.t_s.push((300 + i) as f64 * 0.01);
-            s.pos_mocap_nav.push(Vector3::new(0.0, 0.0, end_z));
-            s.att_mocap.push(UnitQuaternion::identity());
+            s.pos_mocap_nav.push(Vec3::new(0.0, 0.0, end_z));
+            s.att_mocap.push(Rot::identity());
             s.mocap_ok.push(true);
-            s.gyro_body.push(Vector3::zeros());
-            s.accel_body.push(c.transform_vector(&Vector3::new(0.0, 0.0, -G)) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 });
+            s.gyro_body.push(Vec3::zeros());
+            s.accel_body.push(Vec3::from_raw(c.transform_vector(&Vector3::new(0.0, 0.0, -G)) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 }));
             s.thrust_n.as_mut().unwrap().push(0.0);
         }
         s.segments = vec![(0, 400)];
@@ -1388,19 +1389,19 @@ mod tests {
         assert_eq!(clean.samples, 81);
         let mut s = flight([0.4, -1.0], [0.0; 2], 0.9);
         for i in 60..100 {
-            s.accel_body[i].x += 0.05 * (i - 60) as f64;
+            s.accel_body[i] += Vec3::new(0.05 * (i - 60) as f64, 0.0, 0.0);
         }
         let rest = ground_check(&s).unwrap();
         assert_eq!(rest.samples, 64, "{rest:?}");
         let leak = (0.30 / 64.0 / G).to_degrees();
         assert!((rest.roll_deg - 0.4).abs() < 1e-3 && (rest.pitch_deg - (-1.0 - leak)).abs() < 1e-3, "{rest:?}");
         for i in 0..100 {
-            s.accel_body[i].x += 0.05 * i as f64;
+            s.accel_body[i] += Vec3::new(0.05 * i as f64, 0.0, 0.0);
         }
         assert!(ground_check(&s).is_none());
         // a non-finite reading is not still: the rest is read after it (rows 11..81)
         let mut s = flight([0.4, -1.0], [0.0; 2], 0.9);
-        s.accel_body[10].y = f64::NAN;
+        s.accel_body[10] = Vec3::new(s.accel_body[10].x(), f64::NAN, s.accel_body[10].z());
         let rest = ground_check(&s).unwrap();
         assert!(rest.samples == 70 && (rest.roll_deg - 0.4).abs() < 1e-3, "{rest:?}");
     }
@@ -1461,7 +1462,7 @@ mod tests {
         // a log that never leaves the floor has no landing
         let mut s = landed([0.0; 2], [0.0; 2], 0.0);
         s.thrust_n = Some(vec![0.0; 400]);
-        s.pos_mocap_nav.iter_mut().for_each(|p| p.z = 0.0);
+        s.pos_mocap_nav.iter_mut().for_each(|p| *p = Vec3::new(p.x(), p.y(), 0.0));
         assert!(tilt_after_landing(&s, &Vector3::zeros()).is_none());
     }
 
@@ -1474,7 +1475,7 @@ mod tests {
         let mut s = flight([0.3, -0.2], [0.0; 2], 0.9);
         assert_eq!(ground_check(&s).unwrap().mocap_sd_deg, [0.0, 0.0]);
         for i in 0..100 {
-            s.att_mocap[i] = UnitQuaternion::from_euler_angles(if i % 2 == 0 { 0.1f64 } else { -0.1 }.to_radians(), 0.0, 0.0);
+            s.att_mocap[i] = Rot::from_quaternion(UnitQuaternion::from_euler_angles(if i % 2 == 0 { 0.1f64 } else { -0.1 }.to_radians(), 0.0, 0.0));
         }
         let g = ground_check(&s).unwrap();
         let m = g.samples as f64;

@@ -35,7 +35,8 @@
 //! the log unusable.
 
 use super::design::{body_rates, gaussian_kernel, glitches, second_difference, smooth_vec3};
-use crate::identify::input::series::{Series, floor_z};
+use crate::frames::{Frame, Vec3};
+use crate::identify::input::series::{Series, floor_z, raw_rots, raw_vecs};
 use nalgebra::Vector3;
 
 /// The gate's bounds (see the module documentation for why they are where they are).
@@ -156,7 +157,7 @@ struct Flag {
 /// segments, and what was cut. `smoothing_s` is the σ of the mocap smoothing (the same as the
 /// design's), `min_height_m` the height under which a flag counts as contact with the floor.
 pub fn gate(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64) -> (Series, DataQuality) {
-    let floor = floor_z(s, &s.pos_mocap_nav);
+    let floor = floor_z(s, &s.pos_mocap_nav.iter().map(|p| p.z()).collect::<Vec<f64>>());
     let flags = flag(s, o, smoothing_s, min_height_m, floor);
     let n = s.len();
     let mut quality = DataQuality { cuts: Vec::new(), rows_cut: 0, rows: n };
@@ -164,7 +165,7 @@ pub fn gate(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64)
         return (s.clone(), quality);
     }
     let t0 = s.t_s[0];
-    let near_floor = |i: usize| floor.is_some_and(|f| f - s.pos_mocap_nav[i].z < min_height_m);
+    let near_floor = |i: usize| floor.is_some_and(|f| f - s.pos_mocap_nav[i].z() < min_height_m);
     let mut cut_row = vec![false; n];
     for ch in [QualityChannel::Accel, QualityChannel::Gyro, QualityChannel::Mocap] {
         let mine: Vec<&Flag> = flags.iter().filter(|f| f.channel == ch).collect();
@@ -267,11 +268,11 @@ fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64, flo
 fn flag_full_scale(s: &Series, o: &QualityOptions, flags: &mut Vec<Flag>) {
     let r = &s.model.imu_range;
     for i in 0..s.len() {
-        let a = s.accel_body[i].amax();
+        let a = s.accel_body[i].raw().amax();
         if a >= o.full_scale_fraction * r.accel_m_s2 {
             flags.push(Flag { row: i, channel: QualityChannel::Accel, kind: Kind::FullScale, value: a });
         }
-        let w = s.gyro_body[i].amax();
+        let w = s.gyro_body[i].raw().amax();
         if w >= o.full_scale_fraction * r.gyro_rad_s {
             flags.push(Flag { row: i, channel: QualityChannel::Gyro, kind: Kind::FullScale, value: w });
         }
@@ -291,7 +292,7 @@ fn flag_jumps(s: &Series, o: &QualityOptions, flags: &mut Vec<Flag>) -> Vec<bool
             }
             let dti = s.t_s[i] - s.t_s[i - 1];
             let step = (s.pos_mocap_nav[i] - s.pos_mocap_nav[i - 1]).norm() / (o.max_speed_m_s * dti);
-            let turn = s.att_mocap[i].angle_to(&s.att_mocap[i - 1]) / max_turn(dti);
+            let turn = s.att_mocap[i].quaternion().angle_to(s.att_mocap[i - 1].quaternion()) / max_turn(dti);
             let worst = step.max(turn);
             if worst > 1.0 {
                 jump[i] = true;
@@ -327,19 +328,19 @@ fn flag_disagreements(s: &Series, o: &QualityOptions, smoothing_s: f64, jump: &[
             usable[i] = bad == 0;
         }
     }
-    let pos_s = smooth_vec3(&s.pos_mocap_nav, &s.segments, &kernel);
-    let omega_s = smooth_vec3(&body_rates(&s.att_mocap, &s.t_s, &s.segments), &s.segments, &kernel);
+    let pos_s = smooth_vec3(&raw_vecs(&s.pos_mocap_nav), &s.segments, &kernel);
+    let omega_s = smooth_vec3(&body_rates(&raw_rots(&s.att_mocap), &s.t_s, &s.segments), &s.segments, &kernel);
     for i in 0..n {
         if !usable[i] {
             continue;
         }
         let acc_nav = second_difference(&pos_s, &s.t_s, i);
-        let f_hat = s.att_mocap[i].inverse_transform_vector(&(acc_nav - Vector3::new(0.0, 0.0, g)));
-        let da = (s.accel_body[i] - f_hat).norm();
+        let f_hat = s.att_mocap[i].quaternion().inverse_transform_vector(&(acc_nav - Vector3::new(0.0, 0.0, g)));
+        let da = (s.accel_body[i].raw() - f_hat).norm();
         if da > o.accel_disagree_m_s2 {
             flags.push(Flag { row: i, channel: QualityChannel::Accel, kind: Kind::Disagrees, value: da });
         }
-        let dw = (s.gyro_body[i] - omega_s[i]).norm();
+        let dw = (s.gyro_body[i].raw() - omega_s[i]).norm();
         if dw > o.gyro_disagree_rad_s {
             flags.push(Flag { row: i, channel: QualityChannel::Gyro, kind: Kind::Disagrees, value: dw });
         }
@@ -351,11 +352,13 @@ fn flag_disagreements(s: &Series, o: &QualityOptions, smoothing_s: f64, jump: &[
 fn flag_stuck(s: &Series, o: &QualityOptions, min_height_m: f64, floor: Option<f64>, flags: &mut Vec<Flag>) {
     let dt = s.dt();
     let min_run = ((o.stuck_s / dt).round() as usize).max(5);
-    let same3 = |a: &Vector3<f64>, b: &Vector3<f64>| (0..3).all(|j| a[j].to_bits() == b[j].to_bits());
+    fn same3<F: Frame>(a: &Vec3<F>, b: &Vec3<F>) -> bool {
+        a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
+    }
     // an airborne IMU always shakes by more than its resolution (rotor vibration, noise): a
     // reading repeated bit for bit in the air is a sensor or logger that hangs. On the floor
     // a noise-free (simulated) IMU may legitimately repeat itself.
-    let airborne = |i: usize| floor.is_none_or(|f| f - s.pos_mocap_nav[i].z > min_height_m);
+    let airborne = |i: usize| floor.is_none_or(|f| f - s.pos_mocap_nav[i].z() > min_height_m);
     for (ch, x) in [(QualityChannel::Accel, &s.accel_body), (QualityChannel::Gyro, &s.gyro_body)] {
         for (a, b) in runs(&s.segments, |i| same3(&x[i], &x[i - 1])) {
             if b - a >= min_run && (a..b).all(airborne) {
@@ -365,7 +368,9 @@ fn flag_stuck(s: &Series, o: &QualityOptions, min_height_m: f64, floor: Option<f
             }
         }
     }
-    let frozen = |i: usize| s.mocap_ok[i] && s.mocap_ok[i - 1] && same3(&s.pos_mocap_nav[i], &s.pos_mocap_nav[i - 1]) && s.att_mocap[i].coords == s.att_mocap[i - 1].coords;
+    let frozen = |i: usize| {
+        s.mocap_ok[i] && s.mocap_ok[i - 1] && same3(&s.pos_mocap_nav[i], &s.pos_mocap_nav[i - 1]) && s.att_mocap[i].quaternion().coords == s.att_mocap[i - 1].quaternion().coords
+    };
     for (a, b) in runs(&s.segments, frozen) {
         if b - a < min_run {
             continue;

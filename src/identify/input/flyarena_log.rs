@@ -9,6 +9,7 @@
 
 use super::error::InputError;
 use super::series::{NominalModel, Series};
+use crate::frames::{Rot, Vec3};
 use crate::log::FlightLog;
 use crate::scenario::Scenario;
 use crate::vehicle::params::GRAVITY;
@@ -51,8 +52,9 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
         if seen {
             last = (Vector3::new(pn[i], pe[i], pd[i]), UnitQuaternion::from_quaternion(Quaternion::new(qw[i], qx[i], qy[i], qz[i])));
         }
-        pos.push(last.0);
-        att.push(last.1);
+        // a flyarena log's pose is the mocap's (NED, the markers' body frame)
+        pos.push(Vec3::from_raw(last.0));
+        att.push(Rot::from_quaternion(last.1));
         ok.push(seen);
     }
     let dt = crate::log::median_interval(&t).unwrap_or(0.005);
@@ -75,8 +77,8 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
         pos_mocap_nav: pos,
         att_mocap: att,
         mocap_ok: ok,
-        gyro_body: (0..n).map(|i| Vector3::new(g[0][i], g[1][i], g[2][i])).collect(),
-        accel_body: (0..n).map(|i| Vector3::new(a[0][i], a[1][i], a[2][i])).collect(),
+        gyro_body: (0..n).map(|i| Vec3::new(g[0][i], g[1][i], g[2][i])).collect(),
+        accel_body: (0..n).map(|i| Vec3::new(a[0][i], a[1][i], a[2][i])).collect(),
         thrust_n: Some(thrust),
         vbat_v: vbat,
         segments: log.segments.clone(),

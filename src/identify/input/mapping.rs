@@ -29,6 +29,7 @@
 
 use super::error::InputError;
 use super::series::{NominalModel, Series};
+use crate::frames::{Rot, Vec3};
 use crate::vehicle::params::{CRAZYFLIE21_ROTOR_RADIUS_M, GRAVITY, PwmThrustMap, VehicleParams};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::path::Path;
@@ -599,11 +600,12 @@ impl Mapping {
                 vb.push(v);
             }
             s.t_s.push(t);
-            s.pos_mocap_nav.push(last_pose.0);
-            s.att_mocap.push(last_pose.1);
+            // the mapping has turned the source's axes into the mocap's NED and the body's FRD
+            s.pos_mocap_nav.push(Vec3::from_raw(last_pose.0));
+            s.att_mocap.push(Rot::from_quaternion(last_pose.1));
             s.mocap_ok.push(seen);
-            s.gyro_body.push(gyro);
-            s.accel_body.push(acc);
+            s.gyro_body.push(Vec3::from_raw(gyro));
+            s.accel_body.push(Vec3::from_raw(acc));
         }
         if s.t_s.len() < 2 {
             return Err(too_few_rows(file, &s.repairs));

@@ -1,8 +1,33 @@
 //! The data `identify` works on, in flyarena's frames whatever the source: one sample per mocap
 //! frame, times in seconds, the mocap pose in the mocap world (NED, z down), the IMU in the body
 //! frame (FRD), and the collective thrust the declared model expects from the logged commands.
+//!
+//! The frames are in the types ([`crate::frames`]): the mocap's pose is a [`Vec3<MocapNav>`] and a
+//! [`Rot<MocapBody, MocapNav>`], the IMU's readings [`Vec3<Body>`]; the corrections map between
+//! them, so a correction applied the wrong way round does not compile:
+//!
+//! ```compile_fail
+//! use flyarena::identify::series::{Corrections, Series};
+//! # fn f(s: &Series, c: &Corrections) {
+//! // the body offset maps the markers' frame into the body frame; composing it onto the mocap's
+//! // attitude from the wrong side mixes the frames
+//! let wrong = s.att_mocap[0] * c.body_offset;
+//! # }
+//! ```
+//!
+//! The right way round turns the mocap's attitude into the true body's (what the design does to
+//! every row before it differentiates):
+//!
+//! ```
+//! use flyarena::frames::{Body, Nav, Rot};
+//! use flyarena::identify::series::{Corrections, Series};
+//! fn body_attitude(s: &Series, c: &Corrections, i: usize) -> Rot<Body, Nav> {
+//!     c.world_tilt.inverse() * s.att_mocap[i] * c.body_offset.inverse()
+//! }
+//! ```
 
-use nalgebra::{UnitQuaternion, Vector3};
+use crate::frames::{Body, Frame, MocapBody, MocapNav, Nav, Rot, Vec3};
+use nalgebra::UnitQuaternion;
 
 /// What the nominal (declared) model knows about the vehicle.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -65,15 +90,15 @@ impl Series {
         let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
         let att: Vec<UnitQuaternion<f64>> = t.iter().map(|t| UnitQuaternion::from_euler_angles(0.0, 0.0, omega * t)).collect();
         let accel = t.iter().zip(&att).enumerate().map(|(i, (t, q))| {
-            let f = q.inverse() * (Vector3::new(-a * nu * nu * (nu * t).sin(), 0.0, 0.0) - Vector3::new(0.0, 0.0, g));
-            f + Vector3::new(1.0, -1.0, 1.0) * alternation_m_s2 * if i % 2 == 0 { 1.0 } else { -1.0 }
+            let f = q.inverse() * (nalgebra::Vector3::new(-a * nu * nu * (nu * t).sin(), 0.0, 0.0) - nalgebra::Vector3::new(0.0, 0.0, g));
+            Vec3::from_raw(f + nalgebra::Vector3::new(1.0, -1.0, 1.0) * alternation_m_s2 * if i % 2 == 0 { 1.0 } else { -1.0 })
         });
         Series {
             source: "swing".into(),
-            pos_mocap_nav: t.iter().map(|t| Vector3::new(a * (nu * t).sin(), 0.0, -1.0)).collect(),
-            att_mocap: att.iter().map(|q| q * r_off).collect(),
+            pos_mocap_nav: t.iter().map(|t| Vec3::new(a * (nu * t).sin(), 0.0, -1.0)).collect(),
+            att_mocap: att.iter().map(|q| Rot::from_quaternion(q * r_off)).collect(),
             mocap_ok: vec![true; n],
-            gyro_body: vec![Vector3::new(0.0, 0.0, omega); n],
+            gyro_body: vec![Vec3::new(0.0, 0.0, omega); n],
             accel_body: accel.collect(),
             thrust_n: Some(vec![g; n]),
             vbat_v: None,
@@ -93,15 +118,15 @@ pub struct Series {
     /// Sample times (s).
     pub t_s: Vec<f64>,
     /// Mocap position in the mocap world, NED (m).
-    pub pos_mocap_nav: Vec<Vector3<f64>>,
-    /// Mocap attitude: mocap body → mocap world (scalar-first unit quaternion).
-    pub att_mocap: Vec<UnitQuaternion<f64>>,
+    pub pos_mocap_nav: Vec<Vec3<MocapNav>>,
+    /// Mocap attitude: the markers' body frame → mocap world.
+    pub att_mocap: Vec<Rot<MocapBody, MocapNav>>,
     /// The pose of this row is real (the vehicle was seen); otherwise it is a copy of the last.
     pub mocap_ok: Vec<bool>,
     /// IMU angular rate, body FRD (rad/s).
-    pub gyro_body: Vec<Vector3<f64>>,
+    pub gyro_body: Vec<Vec3<Body>>,
     /// IMU specific force, body FRD (m/s²).
-    pub accel_body: Vec<Vector3<f64>>,
+    pub accel_body: Vec<Vec3<Body>>,
     /// Collective thrust the declared model predicts from the logged commands (N), if known.
     pub thrust_n: Option<Vec<f64>>,
     /// Battery voltage (V), if logged.
@@ -122,11 +147,11 @@ impl Series {
         fn same(a: impl IntoIterator<Item = f64>, b: impl IntoIterator<Item = f64>) -> bool {
             a.into_iter().map(f64::to_bits).eq(b.into_iter().map(f64::to_bits))
         }
-        fn v3(v: &[Vector3<f64>]) -> impl Iterator<Item = f64> + '_ {
-            v.iter().flat_map(|x| [x.x, x.y, x.z])
+        fn v3<F: Frame>(v: &[Vec3<F>]) -> impl Iterator<Item = f64> + '_ {
+            v.iter().flat_map(|x| x.to_array())
         }
-        fn q4(v: &[UnitQuaternion<f64>]) -> impl Iterator<Item = f64> + '_ {
-            v.iter().flat_map(|q| [q.w, q.i, q.j, q.k])
+        fn q4<A: Frame, B: Frame>(v: &[Rot<A, B>]) -> impl Iterator<Item = f64> + '_ {
+            v.iter().map(Rot::quaternion).flat_map(|q| [q.w, q.i, q.j, q.k])
         }
         let opt = |a: &Option<Vec<f64>>, b: &Option<Vec<f64>>| match (a, b) {
             (Some(a), Some(b)) => same(a.iter().copied(), b.iter().copied()),
@@ -177,21 +202,32 @@ impl Series {
     }
 }
 
-/// The floor (NED z of the resting vehicle, m) for positions `pos_nav` of the log's rows: the
+/// The coordinates of `v` without their frame, for the numerical work (smoothing,
+/// differentiation, least squares) that follows the frames' bookkeeping.
+pub(crate) fn raw_vecs<F: Frame>(v: &[Vec3<F>]) -> Vec<nalgebra::Vector3<f64>> {
+    v.iter().map(|x| *x.raw()).collect()
+}
+
+/// The unit quaternions of `r` without their frames (see [`raw_vecs`]).
+pub(crate) fn raw_rots<A: Frame, B: Frame>(r: &[Rot<A, B>]) -> Vec<UnitQuaternion<f64>> {
+    r.iter().map(|x| *x.quaternion()).collect()
+}
+
+/// The floor (NED z of the resting vehicle, m) for the heights `z_down` (NED z, m) of the log's rows: the
 /// lowest point (largest z) while the motors are off; without a thrust column, the lowest point
 /// of the first half second of the first segment (a log is taken to start at rest). None for a
 /// log that starts in the air with the motors on, and for a rigid body's (no floor).
-pub(crate) fn floor_z(s: &Series, pos_nav: &[Vector3<f64>]) -> Option<f64> {
+pub(crate) fn floor_z(s: &Series, z_down: &[f64]) -> Option<f64> {
     let n = s.len();
     if s.model.rigid_body {
         return None;
     }
     match &s.thrust_n {
-        Some(t) => (0..n).filter(|&i| t[i] == 0.0).map(|i| pos_nav[i].z).reduce(f64::max),
+        Some(t) => (0..n).filter(|&i| t[i] == 0.0).map(|i| z_down[i]).reduce(f64::max),
         None => {
             let first = s.segments.first().map_or(0, |s| s.0);
             let settle = ((0.5 / s.dt()) as usize).max(1);
-            pos_nav[first..(first + settle).min(n)].iter().map(|p| p.z).reduce(f64::max)
+            z_down[first..(first + settle).min(n)].iter().copied().reduce(f64::max)
         }
     }
 }
@@ -200,25 +236,26 @@ pub(crate) fn floor_z(s: &Series, pos_nav: &[Vector3<f64>]) -> Option<f64> {
 /// the shorter arc). q and −q are the same attitude and sources flip between them (flyarena's
 /// mocap keeps w ≥ 0, so its sign flips where the rotation angle passes π, e.g. at a heading of
 /// 180°); interpolating across a flip without aligning the signs gives nonsense.
-pub fn interpolate_attitude(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>, t: f64) -> UnitQuaternion<f64> {
+pub fn interpolate_attitude<A: Frame, B: Frame>(a: &Rot<A, B>, b: &Rot<A, B>, t: f64) -> Rot<A, B> {
+    let (a, b) = (a.quaternion(), b.quaternion());
     let b = if a.coords.dot(&b.coords) < 0.0 { UnitQuaternion::new_unchecked(-b.into_inner()) } else { *b };
-    a.nlerp(&b, t)
+    Rot::from_quaternion(a.nlerp(&b, t))
 }
 
 /// Exact (not linearised) corrections of the mocap stream, as the nonlinear effects define them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Corrections {
     /// Body offset R_off: v_body = R_off·v_mocap_body (the paper's marker offset).
-    pub body_offset: UnitQuaternion<f64>,
+    pub body_offset: Rot<MocapBody, Body>,
     /// Mocap world tilt R_w: p_mocap = R_w·p_nav (camera calibration error).
-    pub world_tilt: UnitQuaternion<f64>,
+    pub world_tilt: Rot<Nav, MocapNav>,
     /// The mocap stream is late by this much against the IMU (s): the pose stamped t was taken at t − τ.
     pub mocap_delay_s: f64,
     /// Lever arm r from the point the mocap tracks to the IMU, body FRD (m): the corrected
     /// position is the IMU's, p_imu = p_tracked + R·r, so that its second derivative is what the
     /// accelerometer feels and its velocity what the drag sees (a rigid body's point r moves with
     /// v + ω×r and accelerates with a + ω̇×r + ω×(ω×r)).
-    pub lever_arm_m: Vector3<f64>,
+    pub lever_arm_m: Vec3<Body>,
     /// The gyro stream is late by this much against the accelerometer (s): the gyro sample
     /// stamped t was taken at t − τ_g; the corrected gyro at t is the stream read at t + τ_g.
     pub gyro_delay_s: f64,
@@ -226,7 +263,7 @@ pub struct Corrections {
 
 impl Default for Corrections {
     fn default() -> Self {
-        Corrections { body_offset: UnitQuaternion::identity(), world_tilt: UnitQuaternion::identity(), mocap_delay_s: 0.0, lever_arm_m: Vector3::zeros(), gyro_delay_s: 0.0 }
+        Corrections { body_offset: Rot::identity(), world_tilt: Rot::identity(), mocap_delay_s: 0.0, lever_arm_m: Vec3::zeros(), gyro_delay_s: 0.0 }
     }
 }
 
@@ -248,7 +285,7 @@ fn shifted(i: usize, shift: f64, a: usize, b: usize) -> Option<(usize, usize, f6
 /// The gyro with a delay τ (s) taken out: row i reads the stream at t_i + τ (linear
 /// interpolation inside the row's segment), and `ok[i]` turns false where that reaches outside
 /// it. τ = 0 returns the stream itself.
-pub(crate) fn gyro_advanced(s: &Series, delay_s: f64, ok: &mut [bool]) -> Vec<Vector3<f64>> {
+pub(crate) fn gyro_advanced(s: &Series, delay_s: f64, ok: &mut [bool]) -> Vec<Vec3<Body>> {
     if delay_s == 0.0 {
         return s.gyro_body.clone();
     }
@@ -270,9 +307,9 @@ pub(crate) fn gyro_advanced(s: &Series, delay_s: f64, ok: &mut [bool]) -> Vec<Ve
 /// or a pose was missing.
 pub struct Corrected {
     /// Corrected mocap position, nav NED (m).
-    pub pos_nav: Vec<Vector3<f64>>,
+    pub pos_nav: Vec<Vec3<Nav>>,
     /// Corrected attitude: true body → nav.
-    pub att_body: Vec<UnitQuaternion<f64>>,
+    pub att_body: Vec<Rot<Body, Nav>>,
     /// The row's corrected pose is usable.
     pub ok: Vec<bool>,
 }
@@ -298,15 +335,16 @@ pub(crate) fn correct(s: &Series, c: &Corrections) -> Corrected {
                 (s.pos_mocap_nav[i], s.att_mocap[i], false)
             };
             let att = w_inv * q * off_inv;
-            pos_nav.push(w_inv * p + att * c.lever_arm_m);
+            pos_nav.push(w_inv.apply(p) + att.apply(c.lever_arm_m));
             att_body.push(att);
             ok[i] = good;
         }
     }
-    // rows outside every segment (none from the readers) keep their raw values, invalid
+    // rows outside every segment (none from the readers) keep their raw values, invalid: the
+    // mocap's frames taken for the true ones, as nothing reads them
     if pos_nav.len() != n {
-        let mut p2 = s.pos_mocap_nav.clone();
-        let mut q2 = s.att_mocap.clone();
+        let mut p2: Vec<Vec3<Nav>> = s.pos_mocap_nav.iter().map(|p| p.assume_same_as()).collect();
+        let mut q2: Vec<Rot<Body, Nav>> = s.att_mocap.iter().map(|q| q.assume_frames()).collect();
         let mut k = 0;
         for &(a, b) in &s.segments {
             for i in a..b {
@@ -370,11 +408,11 @@ mod tests {
         let s = Series {
             source: "flips".into(),
             t_s: (0..n).map(|i| i as f64 * 0.005).collect(),
-            pos_mocap_nav: (0..n).map(|i| Vector3::new(0.001 * i as f64, 0.0, -1.0)).collect(),
-            att_mocap: att,
+            pos_mocap_nav: (0..n).map(|i| Vec3::new(0.001 * i as f64, 0.0, -1.0)).collect(),
+            att_mocap: att.iter().map(|q| Rot::from_quaternion(*q)).collect(),
             mocap_ok: vec![true; n],
-            gyro_body: vec![Vector3::zeros(); n],
-            accel_body: vec![Vector3::new(0.0, 0.0, -9.81); n],
+            gyro_body: vec![Vec3::zeros(); n],
+            accel_body: vec![Vec3::new(0.0, 0.0, -9.81); n],
             thrust_n: None,
             vbat_v: None,
             segments: vec![(0, n)],
@@ -386,7 +424,7 @@ mod tests {
         let c = correct(&s, &Corrections { mocap_delay_s: 0.0025, ..Corrections::default() });
         for i in 10..n - 10 {
             let expected = UnitQuaternion::from_euler_angles(0.01, -0.02, yaw(i) + 0.001);
-            assert!(c.att_body[i].angle_to(&expected) < 1e-6, "row {i}: {}", c.att_body[i].angle_to(&expected));
+            assert!(c.att_body[i].quaternion().angle_to(&expected) < 1e-6, "row {i}: {}", c.att_body[i].quaternion().angle_to(&expected));
         }
     }
 }

@@ -185,8 +185,8 @@ pub(crate) fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
     let (mut sp, mut sa, mut k) = (0.0, 0.0, 0usize);
     for i in 0..n {
         if data.mocap_ok[i] && sim.mocap_ok[i] {
-            sp += (data.pos_mocap_nav[i] - sim.pos_mocap_nav[i]).norm_squared();
-            sa += data.att_mocap[i].angle_to(&sim.att_mocap[i]).powi(2);
+            sp += (data.pos_mocap_nav[i] - sim.pos_mocap_nav[i]).raw().norm_squared();
+            sa += data.att_mocap[i].quaternion().angle_to(sim.att_mocap[i].quaternion()).powi(2);
             k += 1;
         }
     }

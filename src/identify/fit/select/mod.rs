@@ -54,6 +54,7 @@
 use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build};
 use super::ground::Rest;
 use super::stats::{Ar, Z_975, f_sf};
+use crate::frames::{Body, MocapNav, Nav, Rot, Vec3};
 use crate::identify::input::series::{Corrections, Series};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 
@@ -152,15 +153,18 @@ fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
         match e {
             Effect::BodyOffset => {
                 let d = Vector3::new(theta[r.start], theta[r.start + 1], theta[r.start + 2]);
-                corr.body_offset = UnitQuaternion::from_scaled_axis(d) * corr.body_offset;
+                // an increment of the body frame: exp(d)·R_off
+                corr.body_offset = Rot::<Body, Body>::from_rotation_vector(Vec3::from_raw(d)) * corr.body_offset;
             }
             Effect::WorldTilt => {
                 let d = Vector3::new(theta[r.start], theta[r.start + 1], 0.0);
-                corr.world_tilt = level_tilt(&(corr.world_tilt * UnitQuaternion::from_scaled_axis(d)));
+                // an increment of the true world: R_w·exp(d)
+                let tilted: Rot<Nav, MocapNav> = corr.world_tilt * Rot::<Nav, Nav>::from_rotation_vector(Vec3::from_raw(d));
+                corr.world_tilt = Rot::from_quaternion(level_tilt(tilted.quaternion()));
             }
             Effect::MocapDelay => corr.mocap_delay_s += theta[r.start],
             Effect::GyroDelay => corr.gyro_delay_s += theta[r.start],
-            Effect::LeverArm => corr.lever_arm_m += Vector3::new(theta[r.start], theta[r.start + 1], theta[r.start + 2]),
+            Effect::LeverArm => corr.lever_arm_m += Vec3::new(theta[r.start], theta[r.start + 1], theta[r.start + 2]),
             _ => continue,
         }
         for j in r {
@@ -250,8 +254,8 @@ fn unavailable_reason(d: &Design, e: Effect) -> Option<String> {
 /// folded corrections and the OLS parameters `theta`.
 fn rest_frames(selected: &[Effect], theta: &[f64], corr: &Corrections) -> (UnitQuaternion<f64>, UnitQuaternion<f64>, Vector3<f64>) {
     let has = |e: Effect| selected.contains(&e);
-    let offset = if has(Effect::BodyOffset) { corr.body_offset } else { UnitQuaternion::identity() };
-    let world = if has(Effect::WorldTilt) { corr.world_tilt } else { UnitQuaternion::identity() };
+    let offset = if has(Effect::BodyOffset) { *corr.body_offset.quaternion() } else { UnitQuaternion::identity() };
+    let world = if has(Effect::WorldTilt) { *corr.world_tilt.quaternion() } else { UnitQuaternion::identity() };
     let b = cols_of(Effect::AccelBias);
     let bias = if has(Effect::AccelBias) { Vector3::new(theta[b.start], theta[b.start + 1], theta[b.start + 2]) } else { Vector3::zeros() };
     (offset, world, bias)
@@ -341,16 +345,16 @@ fn values_of(e: Effect, theta: &[f64], set: &[usize], corr: &Corrections) -> Vec
     let value = |k: usize| -> f64 {
         match e {
             Effect::BodyOffset => {
-                let (r, p, y) = corr.body_offset.euler_angles();
+                let (r, p, y) = corr.body_offset.quaternion().euler_angles();
                 [r, p, y][k]
             }
             Effect::WorldTilt => {
-                let (r, p, _) = corr.world_tilt.euler_angles();
+                let (r, p, _) = corr.world_tilt.quaternion().euler_angles();
                 [r, p][k]
             }
             Effect::MocapDelay => corr.mocap_delay_s,
             Effect::GyroDelay => corr.gyro_delay_s,
-            Effect::LeverArm => corr.lever_arm_m[k],
+            Effect::LeverArm => corr.lever_arm_m.to_array()[k],
             _ => theta[r.start + k],
         }
     };
@@ -939,8 +943,8 @@ mod tests {
         let s = Series::swing_for_tests(r_off, 0.01);
         let mut corr = Corrections::default();
         refine(&s, &Options::default(), &mut corr, &[Effect::BodyOffset], 3);
-        let err = (corr.body_offset.inverse() * r_off).angle().to_degrees();
-        assert!(err < 0.01, "body offset {:?} against R_off {:?}: {err}°", corr.body_offset.euler_angles(), r_off.euler_angles());
+        let err = (corr.body_offset.quaternion().inverse() * r_off).angle().to_degrees();
+        assert!(err < 0.01, "body offset {:?} against R_off {:?}: {err}°", corr.body_offset.quaternion().euler_angles(), r_off.euler_angles());
     }
 
     /// The final fit's covariance is the statistical (Newey–West) one plus the thrust systematic,
@@ -967,11 +971,11 @@ mod tests {
         let s = Series {
             source: "rest".into(),
             t_s: (0..n).map(|i| i as f64 * 0.01).collect(),
-            pos_mocap_nav: vec![Vector3::zeros(); n],
-            att_mocap: vec![UnitQuaternion::from_euler_angles(0.0, 0.0, yaw); n],
+            pos_mocap_nav: vec![Vec3::zeros(); n],
+            att_mocap: vec![Rot::from_quaternion(UnitQuaternion::from_euler_angles(0.0, 0.0, yaw)); n],
             mocap_ok: vec![true; n],
-            gyro_body: vec![Vector3::zeros(); n],
-            accel_body: vec![Vector3::new(0.0, 0.0, -9.81); n],
+            gyro_body: vec![Vec3::zeros(); n],
+            accel_body: vec![Vec3::new(0.0, 0.0, -9.81); n],
             thrust_n: None,
             vbat_v: None,
             segments: vec![(0, n)],
@@ -999,16 +1003,17 @@ mod tests {
         let tilt = UnitQuaternion::from_scaled_axis(n * alpha);
         let theta = vec![0.0; N_COLUMNS];
         let near = |got: [f64; 2], want: Vector3<f64>| (got[0] - want.x).abs() < 1e-12 && (got[1] - want.y).abs() < 1e-12;
-        let corr = Corrections { world_tilt: tilt, ..Corrections::default() };
+        let corr = Corrections { world_tilt: Rot::from_quaternion(tilt), ..Corrections::default() };
         let t = rest_tilt(&s, Some(&rest), &[Effect::WorldTilt], &theta, &corr);
         let want = UnitQuaternion::from_euler_angles(0.0, 0.0, -yaw) * n * alpha;
         assert!(near(t.frame, want) && near(t.total, want), "{:?} against {want:?}", t.frame);
         let psi_o = 60f64.to_radians();
-        let corr = Corrections { world_tilt: tilt, body_offset: UnitQuaternion::from_euler_angles(0.0, 0.0, psi_o), ..Corrections::default() };
+        let corr =
+            Corrections { world_tilt: Rot::from_quaternion(tilt), body_offset: Rot::from_quaternion(UnitQuaternion::from_euler_angles(0.0, 0.0, psi_o)), ..Corrections::default() };
         let t = rest_tilt(&s, Some(&rest), &[Effect::BodyOffset, Effect::WorldTilt], &theta, &corr);
         let want = UnitQuaternion::from_euler_angles(0.0, 0.0, psi_o - yaw) * n * alpha;
         assert!(near(t.frame, want), "{:?} against {want:?}", t.frame);
-        let corr = Corrections { body_offset: tilt, ..Corrections::default() };
+        let corr = Corrections { body_offset: Rot::from_quaternion(tilt), ..Corrections::default() };
         let t = rest_tilt(&s, Some(&rest), &[Effect::BodyOffset], &theta, &corr);
         assert!(near(t.frame, n * alpha), "{:?}", t.frame);
         let (r, p, _) = tilt.euler_angles();
@@ -1022,7 +1027,7 @@ mod tests {
         assert!(near(t.total, want) && t.frame == [0.0; 2] && t.bias == bias, "{:?} against {want:?}", t.total);
         assert!((t.total[0] - bias.y / g).abs() > 1e-3, "first order would have done");
         // nothing selected: nothing, and no rest: nothing
-        let corr = Corrections { world_tilt: tilt, body_offset: tilt, ..Corrections::default() };
+        let corr = Corrections { world_tilt: Rot::from_quaternion(tilt), body_offset: Rot::from_quaternion(tilt), ..Corrections::default() };
         let t = rest_tilt(&s, Some(&rest), &[], &theta_b, &corr);
         assert_eq!((t.frame, t.total, t.bias), ([0.0; 2], [0.0; 2], Vector3::zeros()));
         let t = rest_tilt(&s, None, &[Effect::BodyOffset, Effect::WorldTilt], &theta_b, &corr);
@@ -1528,16 +1533,22 @@ mod tests {
         theta[col(Effect::ThrustScale)] = 0.1;
         theta[col(Effect::AccelBias)] = 0.2;
         let (off0, w0) = (UnitQuaternion::from_euler_angles(0.02, 0.01, -0.05), UnitQuaternion::from_euler_angles(0.003, 0.001, 0.0));
-        let mut corr = Corrections { body_offset: off0, world_tilt: w0, mocap_delay_s: 0.010, gyro_delay_s: -0.001, lever_arm_m: Vector3::new(0.1, 0.0, 0.0) };
+        let mut corr = Corrections {
+            body_offset: Rot::from_quaternion(off0),
+            world_tilt: Rot::from_quaternion(w0),
+            mocap_delay_s: 0.010,
+            gyro_delay_s: -0.001,
+            lever_arm_m: Vec3::new(0.1, 0.0, 0.0),
+        };
         let selected = [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::GyroDelay, Effect::LeverArm, Effect::ThrustScale];
         fold(&mut corr, &mut theta, &selected);
         let (off, w) = (UnitQuaternion::from_scaled_axis(d_off) * off0, level_tilt(&(w0 * UnitQuaternion::from_scaled_axis(d_w))));
-        assert!(corr.body_offset.angle_to(&off) < 1e-15 && corr.world_tilt.angle_to(&w) < 1e-15, "{corr:?}");
+        assert!(corr.body_offset.quaternion().angle_to(&off) < 1e-15 && corr.world_tilt.quaternion().angle_to(&w) < 1e-15, "{corr:?}");
         // the order of composition, and the levelling, are visible at these sizes
         assert!((off0 * UnitQuaternion::from_scaled_axis(d_off)).angle_to(&off) > 1e-5);
         assert!((w0 * UnitQuaternion::from_scaled_axis(d_w)).angle_to(&w) > 1e-7);
         assert!((corr.mocap_delay_s - 0.015).abs() < 1e-15 && (corr.gyro_delay_s - 0.001).abs() < 1e-15, "{corr:?}");
-        assert!((corr.lever_arm_m - Vector3::new(0.11, 0.02, -0.03)).amax() < 1e-15, "{corr:?}");
+        assert!((corr.lever_arm_m.raw() - Vector3::new(0.11, 0.02, -0.03)).amax() < 1e-15, "{corr:?}");
         for e in [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::GyroDelay, Effect::LeverArm] {
             assert!(cols_of(e).all(|j| theta[j] == 0.0), "{e:?} not zeroed");
         }
@@ -1553,11 +1564,11 @@ mod tests {
         let deg = 180.0 / std::f64::consts::PI;
         let theta = vec![0.5; N_COLUMNS];
         let corr = Corrections {
-            body_offset: UnitQuaternion::from_euler_angles(0.01, -0.02, 0.03),
-            world_tilt: UnitQuaternion::from_euler_angles(0.004, -0.003, 0.0),
+            body_offset: Rot::from_quaternion(UnitQuaternion::from_euler_angles(0.01, -0.02, 0.03)),
+            world_tilt: Rot::from_quaternion(UnitQuaternion::from_euler_angles(0.004, -0.003, 0.0)),
             mocap_delay_s: 0.012,
             gyro_delay_s: 0.002,
-            lever_arm_m: Vector3::new(0.01, 0.02, -0.03),
+            lever_arm_m: Vec3::new(0.01, 0.02, -0.03),
         };
         let all: Vec<usize> = (0..N_COLUMNS).collect();
         let cases: [(Effect, &[f64]); 5] = [
