@@ -143,8 +143,8 @@ mod tests {
 
     /// Each conversion by hand: milliseconds to nanoseconds, degrees to radians (90°, 18°/s, 9°/s), millimetres
     /// to metres, rates to physics ticks (1000/200 = 5, 1000/50 = 20, 1000/100 = 10), undeclared
-    /// delays to mocap frames (10 ms at 200 Hz = 2), the undeclared thrust scale onto the true
-    /// model only, and the markers' 3° roll as the true offset.
+    /// delays to mocap frames (10 ms at 200 Hz = 2), the undeclared effects onto the true model
+    /// only (a scale multiplies, the rest add), the run time without `duration_s`, and the markers' 3° roll as the true offset.
     #[test]
     fn the_spec_is_the_scenario_in_si_units_and_ticks() {
         let yaml = "
@@ -159,7 +159,7 @@ vehicles:
     home_m: [1, -2]
     markers: { rotation_deg: [3, 0, 0] }
     imu: { gyro_bias_deg_s: [0, 9, 0], position_mm: [10, 0, 0] }
-    undeclared: { mocap_delay_ms: 10, gyro_delay_ms: 5, thrust_scale: 1.1 }
+    undeclared: { mocap_delay_ms: 10, gyro_delay_ms: 5, thrust_scale: 1.1, ground_effect: 0.5, thrust_voltage_per_v: 0.1, rotor_drag_per_s: [0.2, 0.3] }
 plan:
   - hover: { duration_s: 1 }
 ";
@@ -181,7 +181,13 @@ plan:
         let x3d = VehicleParams::x3d();
         assert_eq!(v.params.k_thrust, x3d.k_thrust);
         assert!((v.true_params.k_thrust / x3d.k_thrust - 1.1).abs() < 1e-12);
+        assert_eq!((v.params.ground_effect, v.params.thrust_voltage_per_v, v.params.rotor_drag_per_s), (x3d.ground_effect, x3d.thrust_voltage_per_v, x3d.rotor_drag_per_s));
+        assert_eq!((v.true_params.ground_effect, v.true_params.thrust_voltage_per_v), (x3d.ground_effect + 0.5, x3d.thrust_voltage_per_v + 0.1));
+        assert_eq!(v.true_params.rotor_drag_per_s, [x3d.rotor_drag_per_s[0] + 0.2, x3d.rotor_drag_per_s[1] + 0.3]);
         assert!((v.truth.euler.roll - 3f64.to_radians()).abs() < 1e-9 && v.truth.euler.pitch.abs() < 1e-9, "{:?}", v.truth.euler);
         assert_eq!(v.template.len(), 4);
+        // without `duration_s`: the plan's end (a 1 s hover) plus 1 s
+        let s = Scenario::parse("name: d\nvehicles: [{name: a}]\nplan: [{hover: {duration_s: 1}}]\n", "d.yaml".as_ref()).unwrap();
+        assert_eq!(s.spec().run_time, Nanos(2_000_000_000));
     }
 }

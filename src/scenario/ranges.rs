@@ -50,13 +50,17 @@ macro_rules! ranged {
                 pub const HI: f64 = $hi;
                 /// The lower bound is excluded.
                 pub const OPEN_LO: bool = $open;
+                /// Checks a value against this range.
+                pub fn check(v: f64) -> Result<f64, OutOfRange> {
+                    super::check(v, $lo, $hi, $open, $unit)
+                }
                 /// Writes the value as it is.
                 pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
                     v.serialize(s)
                 }
                 /// Reads a value and checks its range.
                 pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-                    check(f64::deserialize(d)?, $lo, $hi, $open, $unit).map_err(D::Error::custom)
+                    check(f64::deserialize(d)?).map_err(D::Error::custom)
                 }
                 /// An optional value.
                 pub mod opt {
@@ -68,7 +72,7 @@ macro_rules! ranged {
                     /// Reads a value, if given, and checks its range.
                     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
                         Option::<f64>::deserialize(d)?
-                            .map(|v| check(v, $lo, $hi, $open, $unit))
+                            .map(super::check)
                             .transpose()
                             .map_err(D::Error::custom)
                     }
@@ -89,7 +93,7 @@ macro_rules! ranged {
                         [f64; N]: Deserialize<'de>,
                     {
                         let a = <[f64; N]>::deserialize(d)?;
-                        for v in a { check(v, $lo, $hi, $open, $unit).map_err(D::Error::custom)?; }
+                        for v in a { super::check(v).map_err(D::Error::custom)?; }
                         Ok(a)
                     }
                 }
@@ -164,6 +168,10 @@ ranged! {
     capacity_mah: 0.0, 100000.0, true, "mA·h";
     resistance_ohm: 0.0, 10.0, false, "Ω";
     charge: 0.0, 1.0, true, "";
+    displacement_mm: -200.0, 200.0, false, "mm";
+    template_m: -1.0, 1.0, false, "m";
+    integral_per_s2: 0.0, 1000.0, false, "1/s²";
+    cells: 1.0, 12.0, false, "cells";
 }
 
 #[cfg(test)]

@@ -127,7 +127,7 @@ impl Scenario {
         }
         if let Some(d) = &m.displacement_mm {
             for x in d.value.iter().flatten() {
-                ranges::check(*x, -200.0, 200.0, false, "mm").map_err(|e| Self::invalid(src, file, d.referenced, e.to_string()))?;
+                ranges::displacement_mm::check(*x).map_err(|e| Self::invalid(src, file, d.referenced, e.to_string()))?;
             }
         }
         for o in &m.occlusions {
@@ -185,7 +185,7 @@ impl Scenario {
                     return Err((t.referenced, format!("{} markers is outside the allowed range [3, 8]", t.value.len())));
                 }
                 for x in t.value.iter().flatten() {
-                    ranges::check(*x, -1.0, 1.0, false, "m").map_err(|e| (t.referenced, e.to_string()))?;
+                    ranges::template_m::check(*x).map_err(|e| (t.referenced, e.to_string()))?;
                 }
                 t.value.iter().map(|a| Vec3::from_array(*a)).collect()
             }
@@ -225,7 +225,7 @@ impl Scenario {
         }
         if let Some(x) = &m.inertia_kg_m2 {
             for v in x.value {
-                ranges::check(v, 0.0, 10.0, true, "kg·m²").map_err(|e| (x.referenced, e.to_string()))?;
+                ranges::inertia::check(v).map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.inertia_kg_m2 = x.value;
         }
@@ -246,19 +246,19 @@ impl Scenario {
         }
         if let Some(x) = &m.rotor_drag_per_s {
             for v in x.value {
-                ranges::check(v, 0.0, 10.0, false, "1/s").map_err(|e| (x.referenced, e.to_string()))?;
+                ranges::drag_per_s::check(v).map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.rotor_drag_per_s = x.value;
         }
         if let Some(x) = &m.rate_loop_gain_per_s {
             for v in x.value {
-                ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e.to_string()))?;
+                ranges::gain_per_s::check(v).map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.rate_loop_gain_per_s = x.value;
         }
         if let Some(x) = &m.rate_loop_integral_per_s2 {
             for v in x.value {
-                ranges::check(v, 0.0, 1000.0, false, "1/s²").map_err(|e| (x.referenced, e.to_string()))?;
+                ranges::integral_per_s2::check(v).map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.rate_loop_integral_per_s2 = x.value;
         }
@@ -267,13 +267,13 @@ impl Scenario {
         }
         if let Some(x) = &m.attitude_loop_gain_per_s {
             for v in x.value {
-                ranges::check(v, 0.0, 1000.0, true, "1/s").map_err(|e| (x.referenced, e.to_string()))?;
+                ranges::gain_per_s::check(v).map_err(|e| (x.referenced, e.to_string()))?;
             }
             p.attitude_loop_gain_per_s = x.value;
         }
         let b = &self.vehicles.value[i].value.battery;
         if let Some(x) = &b.cells {
-            ranges::check(x.value as f64, 1.0, 12.0, false, "cells").map_err(|e| (x.referenced, e.to_string()))?;
+            ranges::cells::check(x.value as f64).map_err(|e| (x.referenced, e.to_string()))?;
             p.battery.cells = x.value;
             p.battery.v_ref = 3.7 * x.value as f64;
         }
