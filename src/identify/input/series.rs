@@ -427,4 +427,30 @@ mod tests {
             assert!(c.att_body[i].quaternion().angle_to(&expected) < 1e-6, "row {i}: {}", c.att_body[i].quaternion().angle_to(&expected));
         }
     }
+
+    /// A copy under another name has the same samples; one bit changed in any one stream (a
+    /// position, an attitude, a gyro or an accelerometer sample) makes it another flight.
+    #[test]
+    fn the_same_samples_are_bit_for_bit() {
+        let a = Series::swing_for_tests(UnitQuaternion::identity(), 0.01);
+        let mut b = a.clone();
+        b.source = "copy".into();
+        assert!(a.same_samples(&b));
+        let nudge = |x: f64| f64::from_bits(x.to_bits() + 1);
+        type Change = fn(&mut Series, &dyn Fn(f64) -> f64);
+        let changed: [Change; 4] = [
+            |s, f| s.pos_mocap_nav[7] = Vec3::new(f(s.pos_mocap_nav[7].x()), s.pos_mocap_nav[7].y(), s.pos_mocap_nav[7].z()),
+            |s, f| {
+                s.att_mocap[7] =
+                    Rot::from_quaternion(UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(f(s.att_mocap[7].quaternion().w), 0.0, 0.0, s.att_mocap[7].quaternion().k)))
+            },
+            |s, f| s.gyro_body[7] = Vec3::new(s.gyro_body[7].x(), s.gyro_body[7].y(), f(s.gyro_body[7].z())),
+            |s, f| s.accel_body[7] = Vec3::new(s.accel_body[7].x(), f(s.accel_body[7].y()), s.accel_body[7].z()),
+        ];
+        for (k, change) in changed.iter().enumerate() {
+            let mut c = a.clone();
+            change(&mut c, &nudge);
+            assert!(!a.same_samples(&c), "stream {k}");
+        }
+    }
 }
