@@ -224,10 +224,7 @@ impl Scenario {
             p.mass_kg = x;
         }
         if let Some(x) = &m.inertia_kg_m2 {
-            for v in x.value {
-                ranges::inertia::check(v).map_err(|e| (x.referenced, e.to_string()))?;
-            }
-            p.inertia_kg_m2 = x.value;
+            p.inertia_kg_m2 = each_in_range(x, ranges::inertia::check)?;
         }
         if let Some(x) = m.arm_m {
             p.arm_m = x;
@@ -245,31 +242,19 @@ impl Scenario {
             p.rotor_speed_max = x;
         }
         if let Some(x) = &m.rotor_drag_per_s {
-            for v in x.value {
-                ranges::drag_per_s::check(v).map_err(|e| (x.referenced, e.to_string()))?;
-            }
-            p.rotor_drag_per_s = x.value;
+            p.rotor_drag_per_s = each_in_range(x, ranges::drag_per_s::check)?;
         }
         if let Some(x) = &m.rate_loop_gain_per_s {
-            for v in x.value {
-                ranges::gain_per_s::check(v).map_err(|e| (x.referenced, e.to_string()))?;
-            }
-            p.rate_loop_gain_per_s = x.value;
+            p.rate_loop_gain_per_s = each_in_range(x, ranges::gain_per_s::check)?;
         }
         if let Some(x) = &m.rate_loop_integral_per_s2 {
-            for v in x.value {
-                ranges::integral_per_s2::check(v).map_err(|e| (x.referenced, e.to_string()))?;
-            }
-            p.rate_loop_integral_per_s2 = x.value;
+            p.rate_loop_integral_per_s2 = each_in_range(x, ranges::integral_per_s2::check)?;
         }
         if let Some(x) = m.onboard_mode {
             p.onboard_mode = x;
         }
         if let Some(x) = &m.attitude_loop_gain_per_s {
-            for v in x.value {
-                ranges::gain_per_s::check(v).map_err(|e| (x.referenced, e.to_string()))?;
-            }
-            p.attitude_loop_gain_per_s = x.value;
+            p.attitude_loop_gain_per_s = each_in_range(x, ranges::gain_per_s::check)?;
         }
         let b = &self.vehicles.value[i].value.battery;
         if let Some(x) = &b.cells {
@@ -287,5 +272,31 @@ impl Scenario {
             p.battery.charge_start = x;
         }
         Ok(p)
+    }
+}
+
+/// The values of a written list override, each checked by its field's range (`check`); an error
+/// points at the list.
+fn each_in_range<const N: usize>(x: &Spanned<[f64; N]>, check: fn(f64) -> Result<f64, ranges::OutOfRange>) -> Result<[f64; N], (serde_saphyr::Location, String)> {
+    for v in x.value {
+        check(v).map_err(|e| (x.referenced, e.to_string()))?;
+    }
+    Ok(x.value)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::Scenario;
+
+    /// A list override with one value outside its field's range is refused, located at the list
+    /// and naming the range: an inertia of 0 (the range excludes it) and a negative integral gain.
+    #[test]
+    fn each_value_of_a_list_override_is_range_checked() {
+        let with = |model: &str| Scenario::parse(&format!("name: m\nvehicles: [{{name: a, model: {{{model}}}}}]\nplan: [{{hover: {{duration_s: 1}}}}]\n"), "m.yaml".as_ref());
+        assert!(with("inertia_kg_m2: [0.007, 0.007, 0.012]").is_ok());
+        let e = with("inertia_kg_m2: [0.007, 0, 0.012]").unwrap_err().to_string();
+        assert!(e.contains("m.yaml:2:") && e.contains("0 kg·m² is outside the allowed range (0, 10]"), "{e}");
+        let e = with("rate_loop_integral_per_s2: [1, -1, 0]").unwrap_err().to_string();
+        assert!(e.contains("-1 1/s² is outside the allowed range [0, 1000]"), "{e}");
     }
 }
