@@ -13,7 +13,9 @@ use std::path::Path;
 
 fn fig6() -> Scenario {
     // the checkout at run time, not the one this binary was built from (a shared target dir)
-    let root = std::env::var_os("CARGO_MANIFEST_DIR").map(std::path::PathBuf::from).unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into());
+    let root = std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into());
     Scenario::load(&root.join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap()
 }
 
@@ -68,8 +70,9 @@ fn fleet(c: &mut Criterion) {
         } else {
             vehicles
         };
-        let y =
-            format!("name: fleet{n}\nvehicles:\n{vehicles}plan:\n  - takeoff: {{ altitude_m: 1, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 3, average_s: 20 }}\n");
+        let y = format!(
+            "name: fleet{n}\nvehicles:\n{vehicles}plan:\n  - takeoff: {{ altitude_m: 1, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 3, average_s: 20 }}\n"
+        );
         let s = Scenario::parse(&y, Path::new("fleet.yaml")).unwrap_or_else(|e| panic!("{e}"));
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::from_parameter(n), &s, bench_periods);
@@ -87,7 +90,9 @@ fn scenario(c: &mut Criterion) {
     g.bench_function("fig6_recorded", |b| {
         b.iter(|| {
             let flyarena::run::Outcome { main, uncompensated: unc, report } = flyarena::run::run_scenario(&s, true);
-            flyarena::record::encode(&main, unc.as_ref(), &report, flyarena::record::RecordOptions::default()).unwrap().len()
+            flyarena::record::encode(&main, unc.as_ref(), &report, flyarena::record::RecordOptions::default())
+                .unwrap()
+                .len()
         })
     });
     g.finish();
@@ -118,7 +123,9 @@ fn identify(c: &mut Criterion) {
     let mut g = c.benchmark_group("identify");
     g.sample_size(10);
     g.throughput(Throughput::Elements(series.len() as u64));
-    g.bench_function("ten_minutes_200hz", |b| b.iter(|| flyarena::identify::identify(&series, &flyarena::identify::Options::default()).expect("clean data")));
+    g.bench_function("ten_minutes_200hz", |b| {
+        b.iter(|| flyarena::identify::identify(&series, &flyarena::identify::Options::default()).expect("clean data"))
+    });
     g.finish();
 }
 
@@ -131,7 +138,9 @@ fn handheld(c: &mut Criterion) {
     let mut g = c.benchmark_group("identify");
     g.sample_size(10);
     g.throughput(Throughput::Elements(series.len() as u64));
-    g.bench_function("handheld_64s_calibrate", |b| b.iter(|| flyarena::identify::identify(&series, &handheld::options()).expect("clean data")));
+    g.bench_function("handheld_64s_calibrate", |b| {
+        b.iter(|| flyarena::identify::identify(&series, &handheld::options()).expect("clean data"))
+    });
     g.finish();
 }
 

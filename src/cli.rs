@@ -14,7 +14,12 @@ use std::path::{Path, PathBuf};
 
 /// flyarena — quadrotor flight under motion capture with misaligned frames
 #[derive(Parser)]
-#[command(name = "flyarena", version, about, after_help = "EXIT CODES: 0 pass · 1 a requirement failed · 2 bad input · 130 interrupted")]
+#[command(
+    name = "flyarena",
+    version,
+    about,
+    after_help = "EXIT CODES: 0 pass · 1 a requirement failed · 2 bad input · 130 interrupted"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -226,11 +231,17 @@ enum UpArg {
 }
 
 fn parse_speed(v: &str) -> Result<f64, String> {
-    v.parse().ok().filter(|x: &f64| (0.01..=1000.0).contains(x)).ok_or_else(|| format!("takes a number from 0.01 to 1000 (simulated seconds per second), not `{v}`"))
+    v.parse()
+        .ok()
+        .filter(|x: &f64| (0.01..=1000.0).contains(x))
+        .ok_or_else(|| format!("takes a number from 0.01 to 1000 (simulated seconds per second), not `{v}`"))
 }
 
 fn parse_wait(v: &str) -> Result<f64, String> {
-    v.parse().ok().filter(|x: &f64| (0.0..=3600.0).contains(x)).ok_or_else(|| format!("takes seconds from 0 to 3600, not `{v}`"))
+    v.parse()
+        .ok()
+        .filter(|x: &f64| (0.0..=3600.0).contains(x))
+        .ok_or_else(|| format!("takes seconds from 0 to 3600, not `{v}`"))
 }
 
 #[derive(Args)]
@@ -324,15 +335,19 @@ fn parse_shard(v: &str) -> Result<(u64, u64), String> {
 }
 
 fn parse_effect(name: &str) -> Result<flyarena::identify::Effect, String> {
-    flyarena::identify::Effect::ALL
-        .iter()
-        .find(|e| e.key() == name.trim())
-        .copied()
-        .ok_or_else(|| format!("`{name}` is not an effect; the effects are {}", flyarena::identify::Effect::ALL.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")))
+    flyarena::identify::Effect::ALL.iter().find(|e| e.key() == name.trim()).copied().ok_or_else(|| {
+        format!(
+            "`{name}` is not an effect; the effects are {}",
+            flyarena::identify::Effect::ALL.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")
+        )
+    })
 }
 
 fn parse_smoothing(v: &str) -> Result<f64, String> {
-    v.parse().ok().filter(|x: &f64| (2.0..=500.0).contains(x)).ok_or_else(|| format!("takes a number of milliseconds from 2 to 500, not `{v}`"))
+    v.parse()
+        .ok()
+        .filter(|x: &f64| (2.0..=500.0).contains(x))
+        .ok_or_else(|| format!("takes a number of milliseconds from 2 to 500, not `{v}`"))
 }
 
 /// Exit codes.
@@ -406,41 +421,53 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
     let (main, net) = serve(&s, &opts, flyarena::engine::RunOptions::default())?;
     let elapsed = started.elapsed();
     if !a.run.quiet {
-        println!(
-            "served {} NatNet frames ({} poses) to {} client(s){}{}{}",
-            net.frames,
-            net.poses,
-            net.clients.len(),
-            if net.clients.is_empty() { "" } else { " " }.to_string() + &net.clients.join(", "),
-            if a.lockstep { String::new() } else { format!("; the latest tick was sent {:.1} ms late at most", net.max_lag_ms) },
-            if net.send_errors > 0 { format!("; {} datagrams could not be sent", net.send_errors) } else { String::new() }
-        );
-    }
-    if !a.run.quiet {
-        for c in &net.commands {
-            let k = &c.stats;
-            println!(
-                "{}: {} commands received, {} applied, {} duplicate, {} out of order, {} missing; {} radio ticks held the last frame{}{}",
-                c.vehicle,
-                k.received,
-                k.applied,
-                k.duplicates,
-                k.out_of_order,
-                k.missing,
-                k.held,
-                if k.failsafe > 0 { format!(", {} sent the failsafe's idle frame", k.failsafe) } else { String::new() },
-                if k.timeouts > 0 { format!("; the controller missed {} lockstep deadline(s)", k.timeouts) } else { String::new() }
-            );
-        }
-        if net.rejected > 0 {
-            println!("{} packets were neither NatNet requests nor commands for an external vehicle", net.rejected);
-        }
+        print_served(&net, a.lockstep);
     }
     // the uncompensated counterpart R2 compares with is flown by flyarena's own station: an
     // external controller's uncompensated flight is not at hand
     let twin = load_for_run(&a.run)?.with_builtin_stations();
     let outcome = flyarena::run::evaluate(&twin, main, record);
     write_run(a.run, &s, outcome, elapsed)
+}
+
+/// What `serve` served: frames, poses and clients, and per external vehicle what its controller
+/// sent and what the receiver made of it.
+fn print_served(net: &flyarena::serve::ServeReport, lockstep: bool) {
+    println!(
+        "served {} NatNet frames ({} poses) to {} client(s){}{}{}",
+        net.frames,
+        net.poses,
+        net.clients.len(),
+        if net.clients.is_empty() { "" } else { " " }.to_string() + &net.clients.join(", "),
+        if lockstep {
+            String::new()
+        } else {
+            format!("; the latest tick was sent {:.1} ms late at most", net.max_lag_ms)
+        },
+        if net.send_errors > 0 { format!("; {} datagrams could not be sent", net.send_errors) } else { String::new() }
+    );
+    for c in &net.commands {
+        let k = &c.stats;
+        println!(
+            "{}: {} commands received, {} applied, {} duplicate, {} out of order, {} missing; {} radio ticks held the last frame{}{}",
+            c.vehicle,
+            k.received,
+            k.applied,
+            k.duplicates,
+            k.out_of_order,
+            k.missing,
+            k.held,
+            if k.failsafe > 0 { format!(", {} sent the failsafe's idle frame", k.failsafe) } else { String::new() },
+            if k.timeouts > 0 {
+                format!("; the controller missed {} lockstep deadline(s)", k.timeouts)
+            } else {
+                String::new()
+            }
+        );
+    }
+    if net.rejected > 0 {
+        println!("{} packets were neither NatNet requests nor commands for an external vehicle", net.rejected);
+    }
 }
 
 /// Writes what `run` writes (summary, log, recording) and prints the table.
@@ -475,7 +502,13 @@ fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Dur
     }
     let verdict = if report.passed() { "PASS" } else { "FAIL" };
     if !a.quiet {
-        println!("{} (seed {}): {:.1} s simulated in {:.2} s wall\n", s.name, s.seed(), main.duration.as_secs_f64(), elapsed.as_secs_f64());
+        println!(
+            "{} (seed {}): {:.1} s simulated in {:.2} s wall\n",
+            s.name,
+            s.seed(),
+            main.duration.as_secs_f64(),
+            elapsed.as_secs_f64()
+        );
         if report.rows.is_empty() && s.requirements.identify.is_some() {
             println!("(R5 is checked by `flyarena identify {}`)\n", a.scenario.display());
         } else if report.rows.is_empty() {
@@ -504,7 +537,11 @@ fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Dur
             println!("recording: {} (open with `rerun {}`)", p.display(), p.display());
         }
     }
-    println!("{verdict}: {} of {} requirement checks passed", report.rows.iter().filter(|r| r.pass).count(), report.rows.len());
+    println!(
+        "{verdict}: {} of {} requirement checks passed",
+        report.rows.iter().filter(|r| r.pass).count(),
+        report.rows.len()
+    );
     Ok(if report.passed() { PASS } else { FAIL })
 }
 
@@ -512,7 +549,13 @@ fn cmd_check(args: &[PathBuf]) -> i32 {
     let mut code = PASS;
     for p in args {
         match Scenario::load(p) {
-            Ok(s) => println!("{}: ok ({} vehicle(s), {} phase(s), {:.1} s)", p.display(), s.vehicle_cfgs().len(), s.plan().len(), s.spec().run_time.as_secs_f64()),
+            Ok(s) => println!(
+                "{}: ok ({} vehicle(s), {} phase(s), {:.1} s)",
+                p.display(),
+                s.vehicle_cfgs().len(),
+                s.plan().len(),
+                s.spec().run_time.as_secs_f64()
+            ),
             Err(e) => {
                 eprintln!("error: {e}");
                 code = BAD_INPUT;
@@ -540,7 +583,12 @@ fn finish_sweep(o: &flyarena::sweep::SweepOutput, out_dir: &Path, quiet: bool) -
         print!("{}", summary.text());
         println!("\nrows: {}\nsummary: {}", csv_path.display(), json_path.display());
     }
-    println!("{}: {} of {} rows passed every requirement", if failed == 0 { "PASS" } else { "FAIL" }, o.rows.len() - failed, o.rows.len());
+    println!(
+        "{}: {} of {} rows passed every requirement",
+        if failed == 0 { "PASS" } else { "FAIL" },
+        o.rows.len() - failed,
+        o.rows.len()
+    );
     Ok(if failed == 0 { PASS } else { FAIL })
 }
 
@@ -552,7 +600,10 @@ fn cmd_sweep(a: SweepArgs) -> Result<i32, Error> {
     use std::io::IsTerminal;
     let bar = if !quiet && std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(mine);
-        b.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  {elapsed} elapsed, ETA {eta}").expect("template"));
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  {elapsed} elapsed, ETA {eta}")
+                .expect("template"),
+        );
         b
     } else {
         indicatif::ProgressBar::hidden()
@@ -610,7 +661,9 @@ fn cmd_merge(files: &[PathBuf], out: &Path) -> Result<i32, Error> {
 /// The combinations of inputs and options clap cannot declare.
 fn check_identify(a: &IdentifyArgs) -> Result<(), Error> {
     let usage = |m: &str| Error::Usage(m.to_string());
-    let first = a.inputs.first().ok_or_else(|| usage("what to identify? `flyarena identify scenarios/<x>.yaml`, or a log with --scenario or --mapping"))?;
+    let first = a.inputs.first().ok_or_else(|| {
+        usage("what to identify? `flyarena identify scenarios/<x>.yaml`, or a log with --scenario or --mapping")
+    })?;
     let is_yaml = first.extension().is_some_and(|e| e == "yaml" || e == "yml");
     if a.inputs.len() > 1 && a.px4 {
         return Err(usage("--px4 takes one flight: the parameters are the vehicle's as that flight shows them"));
@@ -620,10 +673,19 @@ fn check_identify(a: &IdentifyArgs) -> Result<(), Error> {
     }
     match (is_yaml, &a.scenario, &a.mapping) {
         (true, None, None) => {}
-        (true, _, _) => return Err(usage("a scenario input is run and identified by itself: --scenario and --mapping are for logs")),
-        (false, Some(_), Some(_)) => return Err(usage("--scenario (a flyarena log) and --mapping (another tool's log) exclude each other")),
+        (true, _, _) => {
+            return Err(usage(
+                "a scenario input is run and identified by itself: --scenario and --mapping are for logs",
+            ));
+        }
+        (false, Some(_), Some(_)) => {
+            return Err(usage("--scenario (a flyarena log) and --mapping (another tool's log) exclude each other"));
+        }
         (false, None, None) => {
-            return Err(usage(&format!("{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's)", first.display())));
+            return Err(usage(&format!(
+                "{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's)",
+                first.display()
+            )));
         }
         _ => {}
     }
@@ -633,19 +695,12 @@ fn check_identify(a: &IdentifyArgs) -> Result<(), Error> {
 fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
     check_identify(&a)?;
     if a.calibrate {
-        let extra: Vec<_> = flyarena::identify::Effect::CALIBRATION.into_iter().filter(|e| !a.forced.contains(e)).collect();
+        let extra: Vec<_> =
+            flyarena::identify::Effect::CALIBRATION.into_iter().filter(|e| !a.forced.contains(e)).collect();
         a.forced.extend(extra);
     }
     if a.inputs.len() > 1 {
-        let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
-        let m = flyarena::identify::workflow::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced)?;
-        let json_path = a.json.unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
-        write_output(&json_path, &serde_json::to_vec_pretty(&m.json).expect("serialises"))?;
-        if !a.quiet {
-            print!("{}", m.text);
-        }
-        println!("\nreport: {}", json_path.display());
-        return Ok(PASS);
+        return cmd_identify_many(&a);
     }
     let input = &a.inputs[0];
     use flyarena::identify::workflow::{Request, Source};
@@ -660,7 +715,13 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         // hypothesis, with its interval, whether or not the selection would add it
         forced.push(flyarena::identify::Effect::MocapDelay);
     }
-    let req = Request { vehicle: a.vehicle.as_deref(), seed: a.seed, smoothing_ms: a.smoothing_ms, forced, ..Request::new(source) };
+    let req = Request {
+        vehicle: a.vehicle.as_deref(),
+        seed: a.seed,
+        smoothing_ms: a.smoothing_ms,
+        forced,
+        ..Request::new(source)
+    };
     let done = flyarena::identify::workflow::run(&req)?;
     let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
@@ -668,7 +729,8 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
     write_output(&json_path, &json)?;
     let frag_path = a.fragment.unwrap_or_else(|| a.out.join(format!("{stem}.effects.yaml")));
     write_output(&frag_path, done.fragment.as_bytes())?;
-    let rrd_path = (cfg!(feature = "record") && !a.no_rrd).then(|| a.rrd.clone().unwrap_or_else(|| a.out.join(format!("{stem}.identify.rrd"))));
+    let rrd_path = (cfg!(feature = "record") && !a.no_rrd)
+        .then(|| a.rrd.clone().unwrap_or_else(|| a.out.join(format!("{stem}.identify.rrd"))));
     #[cfg(feature = "record")]
     if let Some(path) = &rrd_path {
         write_output(path, &flyarena::record::encode_identify(&stem, &done.report, &done.residuals)?)?;
@@ -688,7 +750,12 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         if let Some(p) = &px4 {
             print!("\n{}", flyarena::identify::px4::render(p));
         }
-        println!("\nreport: {}\nscenario fragment: {} (`flyarena run SCENARIO --effects {}`)", json_path.display(), frag_path.display(), frag_path.display());
+        println!(
+            "\nreport: {}\nscenario fragment: {} (`flyarena run SCENARIO --effects {}`)",
+            json_path.display(),
+            frag_path.display(),
+            frag_path.display()
+        );
         if let Some(p) = &rrd_path {
             println!("residuals: {} (open with `rerun {}`)", p.display(), p.display());
         }
@@ -696,22 +763,50 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
             println!("PX4 parameters: {} (QGroundControl: Parameters → Tools → Load from file)", px4_path.display());
         }
     }
+    Ok(identify_verdict(&done, a.quiet, input))
+}
+
+/// `identify` over several flights: one cross-validated report.
+fn cmd_identify_many(a: &IdentifyArgs) -> Result<i32, Error> {
+    let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
+    let m = flyarena::identify::workflow::run_many(
+        &inputs,
+        a.mapping.as_deref().expect("checked"),
+        a.smoothing_ms,
+        &a.forced,
+    )?;
+    let json_path = a.json.clone().unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
+    write_output(&json_path, &serde_json::to_vec_pretty(&m.json).expect("serialises"))?;
+    if !a.quiet {
+        print!("{}", m.text);
+    }
+    println!("\nreport: {}", json_path.display());
+    Ok(PASS)
+}
+
+/// The last lines of `identify` and its exit code: R5's table and verdict when the scenario
+/// declares it (1 when it fails), else the one-line verdict under `--quiet`.
+fn identify_verdict(done: &flyarena::identify::workflow::Identified, quiet: bool, input: &Path) -> i32 {
     match &done.requirements {
         Some(req) => {
-            if !a.quiet {
+            if !quiet {
                 println!();
                 print!("{}", req.table());
                 println!();
             }
             let verdict = if req.passed() { "PASS" } else { "FAIL" };
-            println!("{verdict}: {} of {} requirement checks passed", req.rows.iter().filter(|r| r.pass).count(), req.rows.len());
-            Ok(if req.passed() { PASS } else { FAIL })
+            println!(
+                "{verdict}: {} of {} requirement checks passed",
+                req.rows.iter().filter(|r| r.pass).count(),
+                req.rows.len()
+            );
+            if req.passed() { PASS } else { FAIL }
         }
         None => {
-            if a.quiet {
+            if quiet {
                 println!("{}: {}", input.display(), flyarena::identify::report::verdict(&done.report));
             }
-            Ok(PASS)
+            PASS
         }
     }
 }
@@ -722,14 +817,26 @@ fn cmd_trials(flights: u64, seed: u64, shard: Option<(u64, u64)>, out: &Path) ->
         let part = flyarena::identify::trials::TrialsShard { seed, flights, shard: [k + 1, n], outcomes };
         let path = out.join(format!("trials-{seed}-{flights}.shard-{}-of-{n}.json", k + 1));
         write_output(&path, &serde_json::to_vec_pretty(&part).expect("serialises"))?;
-        println!("shard {}/{n}: {} flights → {} (combine with `flyarena merge`)", k + 1, part.outcomes.len(), path.display());
+        println!(
+            "shard {}/{n}: {} flights → {} (combine with `flyarena merge`)",
+            k + 1,
+            part.outcomes.len(),
+            path.display()
+        );
         return Ok(PASS);
     }
     finish_trials(seed, flights, &outcomes, out)
 }
 
 /// Hand-held rigs calibrated (DIR/handheld-<seed>-<N>.json), and with `logs` their logs.
-fn cmd_handheld(flights: u64, seed: u64, logs: bool, smoothing_ms: Option<f64>, setting: Option<&Path>, out: &Path) -> Result<i32, Error> {
+fn cmd_handheld(
+    flights: u64,
+    seed: u64,
+    logs: bool,
+    smoothing_ms: Option<f64>,
+    setting: Option<&Path>,
+    out: &Path,
+) -> Result<i32, Error> {
     use flyarena::identify::handheld;
     let set = match setting {
         Some(path) => handheld::Setting::read(path)?,
@@ -738,7 +845,10 @@ fn cmd_handheld(flights: u64, seed: u64, logs: bool, smoothing_ms: Option<f64>, 
     let name = format!("handheld-{seed}-{flights}");
     if logs {
         for i in 0..flights {
-            write_output(&out.join(&name).join(format!("flight-{i}.csv")), handheld::draw(seed, i).log(&set).as_bytes())?;
+            write_output(
+                &out.join(&name).join(format!("flight-{i}.csv")),
+                handheld::draw(seed, i).log(&set).as_bytes(),
+            )?;
         }
     }
     let mut options = handheld::options();
@@ -747,19 +857,28 @@ fn cmd_handheld(flights: u64, seed: u64, logs: bool, smoothing_ms: Option<f64>, 
     }
     let outcomes = handheld::run_many(seed, flights, &set, &options);
     let table = handheld::render(&outcomes, &set);
-    let json = serde_json::json!({ "seed": seed, "flights": flights, "setting": set, "table": table, "outcomes": outcomes });
+    let json =
+        serde_json::json!({ "seed": seed, "flights": flights, "setting": set, "table": table, "outcomes": outcomes });
     let path = out.join(format!("{name}.json"));
     write_output(&path, &serde_json::to_vec_pretty(&json).expect("serialises"))?;
     print!("{table}");
     if logs {
-        println!("\nlogs: {} (`flyarena identify FLIGHT.csv --mapping mappings/handheld.yaml --calibrate`)", out.join(&name).display());
+        println!(
+            "\nlogs: {} (`flyarena identify FLIGHT.csv --mapping mappings/handheld.yaml --calibrate`)",
+            out.join(&name).display()
+        );
     }
     println!("\nreport: {}", path.display());
     Ok(PASS)
 }
 
 /// The batch's table and report (DIR/trials-<seed>-<N>.json), from all its outcomes.
-fn finish_trials(seed: u64, flights: u64, outcomes: &[flyarena::identify::trials::Outcome], out: &Path) -> Result<i32, Error> {
+fn finish_trials(
+    seed: u64,
+    flights: u64,
+    outcomes: &[flyarena::identify::trials::Outcome],
+    out: &Path,
+) -> Result<i32, Error> {
     let table = flyarena::identify::trials::render(outcomes);
     let (by, total) = flyarena::identify::trials::score(outcomes);
     let json = serde_json::json!({ "seed": seed, "flights": flights, "scores": by.iter().map(|(e, s)| serde_json::json!({"effect": e, "score": s})).collect::<Vec<_>>(), "total": total, "outcomes": outcomes });
@@ -782,7 +901,9 @@ fn cmd_slurm(job: SlurmJob) -> Result<i32, Error> {
             }
             (Job::Sweep { scenario: absolute(&scenario)?, runs }, s.name.clone(), cluster)
         }
-        SlurmJob::Trials { flights, seed, cluster } => (Job::Trials { flights, seed }, format!("trials-{seed}-{flights}"), cluster),
+        SlurmJob::Trials { flights, seed, cluster } => {
+            (Job::Trials { flights, seed }, format!("trials-{seed}-{flights}"), cluster)
+        }
     };
     let cluster = Cluster { partition: c.partition, time: c.time, cpus_per_task: c.cpus_per_task, account: c.account };
     let bin = std::env::current_exe().map_err(|e| Error::Usage(format!("the flyarena binary's path: {e}")))?;
@@ -795,9 +916,15 @@ fn cmd_slurm(job: SlurmJob) -> Result<i32, Error> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&submit, std::fs::Permissions::from_mode(0o755)).map_err(|source| Error::Write { path: submit.clone(), source })?;
+        std::fs::set_permissions(&submit, std::fs::Permissions::from_mode(0o755))
+            .map_err(|source| Error::Write { path: submit.clone(), source })?;
     }
-    println!("{} array tasks → {}; submit on a login node with: {}", c.tasks, out.join(&s.array.0).display(), submit.display());
+    println!(
+        "{} array tasks → {}; submit on a login node with: {}",
+        c.tasks,
+        out.join(&s.array.0).display(),
+        submit.display()
+    );
     Ok(PASS)
 }
 
@@ -827,7 +954,9 @@ fn run() -> i32 {
         Command::Sweep(a) => cmd_sweep(a),
         Command::Merge { shards, out } => cmd_merge(&shards, &out),
         Command::Identify(a) => cmd_identify(a),
-        Command::Trials { flights, seed, handheld: true, logs, smoothing_ms, setting, out, .. } => cmd_handheld(flights, seed, logs, smoothing_ms, setting.as_deref(), &out),
+        Command::Trials { flights, seed, handheld: true, logs, smoothing_ms, setting, out, .. } => {
+            cmd_handheld(flights, seed, logs, smoothing_ms, setting.as_deref(), &out)
+        }
         Command::Trials { flights, seed, shard, out, .. } => cmd_trials(flights, seed, shard, &out),
         Command::Slurm { job } => cmd_slurm(job),
         Command::Completions { shell } => {

@@ -94,14 +94,23 @@ pub struct ControlOutput {
 /// trigonometric functions on its Euler angles: R₃₁ = −sin θ, R₃₂ = sin φ·cos θ,
 /// R₃₃ = cos φ·cos θ (cos θ ≥ 0 for the Z-Y-X angles, |θ| ≤ π/2). At θ = ±π/2 exactly, φ is
 /// not defined by R and the angles' own sines are used.
-fn roll_pitch_sin_cos<A: crate::frames::Frame, B: crate::frames::Frame>(att: &Rot<A, B>, e: &Euler) -> ((f64, f64), (f64, f64)) {
+fn roll_pitch_sin_cos<A: crate::frames::Frame, B: crate::frames::Frame>(
+    att: &Rot<A, B>,
+    e: &Euler,
+) -> ((f64, f64), (f64, f64)) {
     let r = att.matrix();
     let ct = (r[(2, 1)] * r[(2, 1)] + r[(2, 2)] * r[(2, 2)]).sqrt();
     if ct > 0.0 { ((r[(2, 1)] / ct, r[(2, 2)] / ct), (-r[(2, 0)], ct)) } else { (e.roll.sin_cos(), e.pitch.sin_cos()) }
 }
 
 /// One evaluation of (1)–(5).
-pub fn control(g: &Gains, r: &Reference, pos: Vec3<MocapNav>, vel: Vec3<MocapNav>, att: Rot<Body, MocapNav>) -> ControlOutput {
+pub fn control(
+    g: &Gains,
+    r: &Reference,
+    pos: Vec3<MocapNav>,
+    vel: Vec3<MocapNav>,
+    att: Rot<Body, MocapNav>,
+) -> ControlOutput {
     let e = att.euler();
     let (roll_sc, pitch_sc) = roll_pitch_sin_cos(&att, &e);
     let c_n_b = att.inverse();
@@ -117,7 +126,11 @@ pub fn control(g: &Gains, r: &Reference, pos: Vec3<MocapNav>, vel: Vec3<MocapNav
         roll_com = 0.0; // (6)
     }
     let pitch_com = x2.asin().clamp(-g.max_tilt[1], g.max_tilt[1]);
-    let euler_rates = Vector3::new(g.k_att[0] * (roll_com - e.roll), g.k_att[1] * (pitch_com - e.pitch), g.k_att[2] * wrap_pi(r.yaw - e.yaw) + r.yaw_rate);
+    let euler_rates = Vector3::new(
+        g.k_att[0] * (roll_com - e.roll),
+        g.k_att[1] * (pitch_com - e.pitch),
+        g.k_att[2] * wrap_pi(r.yaw - e.yaw) + r.yaw_rate,
+    );
     let pqr = t_w_inv_sc(roll_sc, pitch_sc) * euler_rates; // (3), (4)
     let f_t = g.mass_kg * (acc.z() - GRAVITY * roll_sc.1 * pitch_sc.1); // (5)
     let thrust = if r.motors_off { 0.0 } else { (-f_t).clamp(0.0, g.thrust_max_n) };
@@ -187,11 +200,26 @@ mod tests {
     }
 
     fn gains() -> Gains {
-        Gains { k_x: [1.0; 3], k_v: [2.0, 2.0, 3.0], k_att: [6.0, 6.0, 3.0], max_tilt: [0.35, 0.35], thrust_max_n: 24.0, mass_kg: 0.68 }
+        Gains {
+            k_x: [1.0; 3],
+            k_v: [2.0, 2.0, 3.0],
+            k_att: [6.0, 6.0, 3.0],
+            max_tilt: [0.35, 0.35],
+            thrust_max_n: 24.0,
+            mass_kg: 0.68,
+        }
     }
 
     fn hold(p: Vec3<MocapNav>) -> Reference {
-        Reference { pos: p, vel: Vec3::zeros(), acc: Vec3::zeros(), yaw: 0.0, yaw_rate: 0.0, lateral: LateralMode::Closed, motors_off: false }
+        Reference {
+            pos: p,
+            vel: Vec3::zeros(),
+            acc: Vec3::zeros(),
+            yaw: 0.0,
+            yaw_rate: 0.0,
+            lateral: LateralMode::Closed,
+            motors_off: false,
+        }
     }
 
     #[test]
@@ -255,13 +283,22 @@ mod tests {
     /// rotations Rz(ψ)·Ry(θ)·Rx(φ), not from the code's attitude type.
     #[test]
     fn the_cascade_in_closed_form_off_identity() {
-        let g = Gains { k_x: [1.0, 1.5, 0.8], k_v: [2.0, 2.5, 3.0], k_att: [6.0, 5.0, 3.0], max_tilt: [0.6, 0.6], thrust_max_n: 24.0, mass_kg: 0.68 };
+        let g = Gains {
+            k_x: [1.0, 1.5, 0.8],
+            k_v: [2.0, 2.5, 3.0],
+            k_att: [6.0, 5.0, 3.0],
+            max_tilt: [0.6, 0.6],
+            thrust_max_n: 24.0,
+            mass_kg: 0.68,
+        };
         let (phi, theta, psi) = (0.1, -0.2, 0.5);
-        let rot = |axis: nalgebra::Unit<Vector3<f64>>, a: f64| nalgebra::Rotation3::from_axis_angle(&axis, a).into_inner();
+        let rot =
+            |axis: nalgebra::Unit<Vector3<f64>>, a: f64| nalgebra::Rotation3::from_axis_angle(&axis, a).into_inner();
         let c_b_n = rot(Vector3::z_axis(), psi) * rot(Vector3::y_axis(), theta) * rot(Vector3::x_axis(), phi);
         let c_n_b = c_b_n.transpose();
         let att: Rot<Body, MocapNav> = Rot::from_euler(Euler::new(phi, theta, psi));
-        let (r_pos, r_vel, r_acc) = (Vector3::new(1.0, -0.5, -1.2), Vector3::new(0.3, 0.2, -0.1), Vector3::new(0.2, -0.3, 0.1));
+        let (r_pos, r_vel, r_acc) =
+            (Vector3::new(1.0, -0.5, -1.2), Vector3::new(0.3, 0.2, -0.1), Vector3::new(0.2, -0.3, 0.1));
         let (pos, vel) = (Vector3::new(0.8, -0.3, -1.0), Vector3::new(0.1, 0.4, 0.05));
         let r = Reference {
             pos: Vec3::from_raw(r_pos),
@@ -275,19 +312,45 @@ mod tests {
         let out = control(&g, &r, Vec3::from_raw(pos), Vec3::from_raw(vel), att);
         let dx = c_n_b * (r_pos - pos);
         let dv = c_n_b * (r_vel - vel);
-        let a = c_n_b * r_acc + Vector3::new(g.k_v[0] * (g.k_x[0] * dx.x + dv.x), g.k_v[1] * (g.k_x[1] * dx.y + dv.y), g.k_v[2] * (g.k_x[2] * dx.z + dv.z));
+        let a = c_n_b * r_acc
+            + Vector3::new(
+                g.k_v[0] * (g.k_x[0] * dx.x + dv.x),
+                g.k_v[1] * (g.k_x[1] * dx.y + dv.y),
+                g.k_v[2] * (g.k_x[2] * dx.z + dv.z),
+            );
         assert!((out.accel_com.raw() - a).norm() < 1e-12, "(2): {:?} vs {a:?}", out.accel_com);
         let roll_com = (a.y / (GRAVITY * theta.cos())).asin();
         let pitch_com = (-a.x / GRAVITY).asin();
         assert!((out.angles_com.roll - roll_com).abs() < 1e-12 && (out.angles_com.pitch - pitch_com).abs() < 1e-12);
         let rates = Vector3::new(6.0 * (roll_com - phi), 5.0 * (pitch_com - theta), 3.0 * (0.7 - psi) + 0.2);
-        let t = nalgebra::Matrix3::new(1.0, 0.0, -theta.sin(), 0.0, phi.cos(), theta.cos() * phi.sin(), 0.0, -phi.sin(), theta.cos() * phi.cos());
+        let t = nalgebra::Matrix3::new(
+            1.0,
+            0.0,
+            -theta.sin(),
+            0.0,
+            phi.cos(),
+            theta.cos() * phi.sin(),
+            0.0,
+            -phi.sin(),
+            theta.cos() * phi.cos(),
+        );
         assert!((out.rates.raw() - t * rates).norm() < 1e-12, "(3)-(4): {:?} vs {:?}", out.rates, t * rates);
         let thrust = -0.68 * (a.z - GRAVITY * phi.cos() * theta.cos());
         assert!((out.thrust_n - thrust).abs() < 1e-12, "(5): {} vs {thrust}", out.thrust_n);
         // (6): the yaw flight holds φ_com = 0 whatever the lateral error, and nothing else changes
-        let six = control(&g, &Reference { lateral: LateralMode::RollZero, ..r }, Vec3::from_raw(pos), Vec3::from_raw(vel), att);
-        assert!(six.angles_com.roll == 0.0 && roll_com.abs() > 0.01 && six.angles_com.pitch == out.angles_com.pitch && six.thrust_n == out.thrust_n);
+        let six = control(
+            &g,
+            &Reference { lateral: LateralMode::RollZero, ..r },
+            Vec3::from_raw(pos),
+            Vec3::from_raw(vel),
+            att,
+        );
+        assert!(
+            six.angles_com.roll == 0.0
+                && roll_com.abs() > 0.01
+                && six.angles_com.pitch == out.angles_com.pitch
+                && six.thrust_n == out.thrust_n
+        );
         let rates6 = Vector3::new(6.0 * -phi, rates.y, rates.z);
         assert!((six.rates.raw() - t * rates6).norm() < 1e-12);
     }

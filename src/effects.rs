@@ -100,7 +100,14 @@ impl Effect {
     /// the mocap world, the lever arm from the tracked point to the IMU, the time offset of the
     /// streams, and the IMU's biases that every calibration estimates beside them (in
     /// [`Effect::ALL`] order). `identify --calibrate` fits them without testing them.
-    pub const CALIBRATION: [Effect; 6] = [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::AccelBias, Effect::GyroBias, Effect::LeverArm];
+    pub const CALIBRATION: [Effect; 6] = [
+        Effect::BodyOffset,
+        Effect::WorldTilt,
+        Effect::MocapDelay,
+        Effect::AccelBias,
+        Effect::GyroBias,
+        Effect::LeverArm,
+    ];
 
     /// Every effect, in the order of the design's columns.
     pub const ALL: [Effect; 19] = [
@@ -197,7 +204,9 @@ impl Effect {
             Effect::ClockDrift => &[("rate", "ms/min", 60e3)],
             Effect::ImuOffset => &[("x", "mm", 1e3), ("y", "mm", 1e3), ("z", "mm", 1e3)],
             Effect::AccelBiasDrift => &[("x", "m/s²/min", 60.0), ("y", "m/s²/min", 60.0), ("z", "m/s²/min", 60.0)],
-            Effect::GyroBiasDrift => &[("x", "deg/s/min", 60.0 * DEG), ("y", "deg/s/min", 60.0 * DEG), ("z", "deg/s/min", 60.0 * DEG)],
+            Effect::GyroBiasDrift => {
+                &[("x", "deg/s/min", 60.0 * DEG), ("y", "deg/s/min", 60.0 * DEG), ("z", "deg/s/min", 60.0 * DEG)]
+            }
         }
     }
     /// How many parameters it has.
@@ -209,7 +218,9 @@ impl Effect {
         match self {
             Effect::BodyOffset | Effect::MocapDelay | Effect::ClockDrift => &[Channel::AccelKin, Channel::Gyro],
             Effect::WorldTilt => &[Channel::AccelKin],
-            Effect::AccelBias | Effect::AccelBiasDrift | Effect::AccelScale | Effect::AccelMisalignment => &[Channel::AccelKin, Channel::Force],
+            Effect::AccelBias | Effect::AccelBiasDrift | Effect::AccelScale | Effect::AccelMisalignment => {
+                &[Channel::AccelKin, Channel::Force]
+            }
             Effect::GyroBias | Effect::GyroBiasDrift | Effect::GyroDelay => &[Channel::Gyro],
             Effect::LeverArm => &[Channel::AccelKin],
             // ImuOffset and the force effects
@@ -231,10 +242,21 @@ impl Effect {
     /// channel's commonest lead and cuts the held-out force error by under 2 % (docs/nanobench.md, *The IMU
     /// off the centre of mass*).
     pub fn searched(self) -> bool {
-        !matches!(self, Effect::GyroDelay | Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift | Effect::ImuOffset)
+        !matches!(
+            self,
+            Effect::GyroDelay
+                | Effect::AccelMisalignment
+                | Effect::AccelScale
+                | Effect::ThrustTilt
+                | Effect::ClockDrift
+                | Effect::ImuOffset
+        )
     }
     /// Applied exactly through [`Corrections`](crate::identify::Corrections) (re-linearised after each fit), not additively.
     pub fn is_correction(self) -> bool {
-        matches!(self, Effect::BodyOffset | Effect::WorldTilt | Effect::MocapDelay | Effect::LeverArm | Effect::GyroDelay)
+        matches!(
+            self,
+            Effect::BodyOffset | Effect::WorldTilt | Effect::MocapDelay | Effect::LeverArm | Effect::GyroDelay
+        )
     }
 }

@@ -345,7 +345,17 @@ pub fn paper_c_n_b(e: Euler) -> Matrix3<f64> {
     let (sf, cf) = e.roll.sin_cos();
     let (st, ct) = e.pitch.sin_cos();
     let (sp, cp) = e.yaw.sin_cos();
-    Matrix3::new(ct * cp, ct * sp, -st, sf * st * cp - cf * sp, sf * st * sp + cf * cp, sf * ct, cf * st * cp + sf * sp, cf * st * sp - sf * cp, cf * ct)
+    Matrix3::new(
+        ct * cp,
+        ct * sp,
+        -st,
+        sf * st * cp - cf * sp,
+        sf * st * sp + cf * cp,
+        sf * ct,
+        cf * st * cp + sf * sp,
+        cf * st * sp - sf * cp,
+        cf * ct,
+    )
 }
 
 #[cfg(test)]

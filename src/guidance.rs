@@ -144,10 +144,14 @@ impl Plan {
         let (mut t, mut pos, mut yaw) = (0.0f64, home, yaw0);
         for ph in phases {
             let (to, to_yaw, dur) = match *ph {
-                Phase::Takeoff { altitude_m, duration_s } => (Vec3::new(pos.x(), pos.y(), home.z() - altitude_m), yaw, duration_s),
-                Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
-                    (pos + Vec3::new(distance_m, 0.0, 0.0), 0.0, settle_s + trapezoid_duration(distance_m, speed_m_s, accel_m_s2))
+                Phase::Takeoff { altitude_m, duration_s } => {
+                    (Vec3::new(pos.x(), pos.y(), home.z() - altitude_m), yaw, duration_s)
                 }
+                Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => (
+                    pos + Vec3::new(distance_m, 0.0, 0.0),
+                    0.0,
+                    settle_s + trapezoid_duration(distance_m, speed_m_s, accel_m_s2),
+                ),
                 Phase::YawSpin { settle_s, angle_rad, duration_s } => (pos, yaw + angle_rad, settle_s + duration_s),
                 Phase::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s } => {
                     let to = home + Vec3::from_array(pos_m);
@@ -160,7 +164,15 @@ impl Plan {
             };
             let start = Nanos::from_secs_f64(t);
             t += dur;
-            out.push(Scheduled { phase: ph.clone(), start, end: Nanos::from_secs_f64(t), from: pos, from_yaw: yaw, to, to_yaw });
+            out.push(Scheduled {
+                phase: ph.clone(),
+                start,
+                end: Nanos::from_secs_f64(t),
+                from: pos,
+                from_yaw: yaw,
+                to,
+                to_yaw,
+            });
             pos = to;
             yaw = to_yaw;
         }
@@ -190,10 +202,17 @@ impl Plan {
         };
         let s = &self.phases[i];
         let settle_s = match s.phase {
-            Phase::CalibrateRollPitch { settle_s, .. } | Phase::CalibrateYaw { settle_s, .. } | Phase::YawSpin { settle_s, .. } | Phase::CalibrateGyro { settle_s, .. } => settle_s,
+            Phase::CalibrateRollPitch { settle_s, .. }
+            | Phase::CalibrateYaw { settle_s, .. }
+            | Phase::YawSpin { settle_s, .. }
+            | Phase::CalibrateGyro { settle_s, .. } => settle_s,
             _ => return s.end,
         };
-        if (t - s.start).as_secs_f64() < settle_s { (s.start + Nanos::from_secs_f64(settle_s) - Nanos::from_micros(1)).min(s.end) } else { s.end }
+        if (t - s.start).as_secs_f64() < settle_s {
+            (s.start + Nanos::from_secs_f64(settle_s) - Nanos::from_micros(1)).min(s.end)
+        } else {
+            s.end
+        }
     }
 
     /// The reference at time `t`, and the calibration window it is in.
@@ -234,14 +253,19 @@ impl Plan {
                 let (p, v, a) = along(d, v, a, dir);
                 (Reference { pos: p, vel: v, acc: a, ..hold(p, s.from_yaw, false) }, Window::None)
             }
-            Phase::CalibrateRollPitch { settle_s, .. } => (hold(s.from, s.from_yaw, false), if tau >= settle_s { Window::HoverAverage } else { Window::None }),
+            Phase::CalibrateRollPitch { settle_s, .. } => {
+                (hold(s.from, s.from_yaw, false), if tau >= settle_s { Window::HoverAverage } else { Window::None })
+            }
             Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
                 if tau < settle_s {
                     (hold(s.from, 0.0, false), Window::None)
                 } else {
                     let (d, v, a) = trapezoid(distance_m, speed_m_s, accel_m_s2, tau - settle_s);
                     let (p, v, a) = along(d, v, a, Vec3::new(1.0, 0.0, 0.0));
-                    (Reference { pos: p, vel: v, acc: a, lateral: LateralMode::RollZero, ..hold(p, 0.0, false) }, Window::YawFlight)
+                    (
+                        Reference { pos: p, vel: v, acc: a, lateral: LateralMode::RollZero, ..hold(p, 0.0, false) },
+                        Window::YawFlight,
+                    )
                 }
             }
             Phase::YawSpin { settle_s, angle_rad, duration_s } => {
@@ -272,7 +296,9 @@ impl Plan {
                 (Reference { pos: p, vel: v, acc: a, ..hold(p, s.from_yaw, false) }, Window::None)
             }
             Phase::Idle { .. } => (hold(s.from, s.from_yaw, true), Window::None),
-            Phase::Hover { .. } | Phase::Takeoff { .. } | Phase::Land { .. } => (hold(s.to, s.to_yaw, false), Window::None),
+            Phase::Hover { .. } | Phase::Takeoff { .. } | Phase::Land { .. } => {
+                (hold(s.to, s.to_yaw, false), Window::None)
+            }
         }
     }
 }
@@ -400,7 +426,11 @@ mod tests {
 
     #[test]
     fn takeoff_reaches_altitude_in_its_duration() {
-        let plan = Plan::schedule(&[Phase::Takeoff { altitude_m: 1.0, duration_s: 4.0 }, Phase::Hover { duration_s: 1.0 }], Vec3::zeros(), 0.0);
+        let plan = Plan::schedule(
+            &[Phase::Takeoff { altitude_m: 1.0, duration_s: 4.0 }, Phase::Hover { duration_s: 1.0 }],
+            Vec3::zeros(),
+            0.0,
+        );
         let (r, _) = plan.reference(Nanos::from_secs_f64(3.999_999));
         assert!((r.pos.z() + 1.0).abs() < 1e-6, "{:?}", r.pos);
         let (r, _) = plan.reference(Nanos::from_secs_f64(4.5));

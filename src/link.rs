@@ -48,11 +48,7 @@ impl LossModel {
         match *self {
             LossModel::Bernoulli { p } => p,
             LossModel::GilbertElliott { p_good_to_bad: gb, p_bad_to_good: bg, loss_good, loss_bad } => {
-                if gb + bg == 0.0 {
-                    loss_good
-                } else {
-                    (bg * loss_good + gb * loss_bad) / (gb + bg)
-                }
+                if gb + bg == 0.0 { loss_good } else { (bg * loss_good + gb * loss_bad) / (gb + bg) }
             }
         }
     }
@@ -158,7 +154,11 @@ impl<T: Copy> Link<T> {
             self.stats.lost_on_link += 1;
             return;
         }
-        let jitter = if self.params.jitter.0 > 0 { Nanos((self.jitter_rng.uniform() * self.params.jitter.0 as f64) as i64) } else { Nanos::ZERO };
+        let jitter = if self.params.jitter.0 > 0 {
+            Nanos((self.jitter_rng.uniform() * self.params.jitter.0 as f64) as i64)
+        } else {
+            Nanos::ZERO
+        };
         let arrival = now + self.params.latency + jitter;
         // keep the queue sorted by arrival time (ties keep send order)
         let idx = self.in_flight.partition_point(|(a, _, _)| *a <= arrival);
@@ -224,7 +224,11 @@ mod tests {
             assert_eq!(l.receive(Nanos::from_millis(sent_ms + 20)), Some(seq));
         }
         let st = *l.stats();
-        assert_eq!((st.longest_gap_ns, st.missing_frames, st.longest_missing_run, st.received), (25_000_000, 3, 3, 3), "{st:?}");
+        assert_eq!(
+            (st.longest_gap_ns, st.missing_frames, st.longest_missing_run, st.received),
+            (25_000_000, 3, 3, 3),
+            "{st:?}"
+        );
     }
 
     /// An outage on top of random loss: every packet sent in [10 s, 12 s) is lost, and outside
@@ -269,7 +273,10 @@ mod tests {
     /// the good state it starts in and loses 0.02.
     #[test]
     fn the_mean_loss_is_the_chains_stationary_mix() {
-        let ge = |gb: f64, bg: f64| LossModel::GilbertElliott { p_good_to_bad: gb, p_bad_to_good: bg, loss_good: 0.02, loss_bad: 0.5 }.mean_loss();
+        let ge = |gb: f64, bg: f64| {
+            LossModel::GilbertElliott { p_good_to_bad: gb, p_bad_to_good: bg, loss_good: 0.02, loss_bad: 0.5 }
+                .mean_loss()
+        };
         assert!((ge(0.1, 0.1) - 0.26).abs() < 1e-15, "{}", ge(0.1, 0.1));
         assert!((ge(0.1, 0.0) - 0.5).abs() < 1e-15, "{}", ge(0.1, 0.0));
         assert_eq!(ge(0.0, 0.0), 0.02);
@@ -279,7 +286,8 @@ mod tests {
     #[test]
     fn gilbert_elliott_mean_loss_and_bursts() {
         // 10 % mean loss in bursts of mean length 5 frames
-        let ge = LossModel::GilbertElliott { p_good_to_bad: 0.2 / 9.0, p_bad_to_good: 0.2, loss_good: 0.0, loss_bad: 1.0 };
+        let ge =
+            LossModel::GilbertElliott { p_good_to_bad: 0.2 / 9.0, p_bad_to_good: 0.2, loss_good: 0.0, loss_bad: 1.0 };
         assert!((ge.mean_loss() - 0.1).abs() < 1e-12);
         let mut l = link(ge, 0);
         let n = 200_000u32;
@@ -307,7 +315,10 @@ mod tests {
         for s in 0..200u32 {
             let sent = Nanos::from_millis(100 * s as i64);
             l.send(sent, s, s);
-            let delay = (0..300).map(|k| sent + Nanos::from_micros(100 * k)).find(|t| l.receive(*t) == Some(s)).map(|t| (t - sent).0);
+            let delay = (0..300)
+                .map(|k| sent + Nanos::from_micros(100 * k))
+                .find(|t| l.receive(*t) == Some(s))
+                .map(|t| (t - sent).0);
             let delay = delay.unwrap_or_else(|| panic!("packet {s} not delivered within 30 ms"));
             (lo, hi) = (lo.min(delay), hi.max(delay));
         }

@@ -151,7 +151,12 @@ pub enum LogError {
 
 fn closest<'a>(bad: &str, candidates: &[&'a str]) -> Option<&'a str> {
     // edit distance ≤ 3: a typo, not another column
-    candidates.iter().map(|c| (crate::scenario::error::edit_distance(bad, c), *c)).filter(|(d, _)| *d <= 3).min().map(|x| x.1)
+    candidates
+        .iter()
+        .map(|c| (crate::scenario::error::edit_distance(bad, c), *c))
+        .filter(|(d, _)| *d <= 3)
+        .min()
+        .map(|x| x.1)
 }
 
 /// Reads a log written by [`write_csv`] (columns may come in any order; extra columns are
@@ -168,21 +173,11 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
         lines.pop();
     }
     let lines: Vec<&str> = lines.into_iter().map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
-    let Some(header) = lines.first().filter(|h| !h.trim().is_empty()) else { return Err(LogError::Empty { file: f() }) };
+    let Some(header) = lines.first().filter(|h| !h.trim().is_empty()) else {
+        return Err(LogError::Empty { file: f() });
+    };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
-    let mut index = [0usize; COLUMNS.len()];
-    let required: Vec<&str> = COLUMNS.iter().copied().filter(|c| !OPTIONAL.contains(c)).collect();
-    for (k, col) in COLUMNS.iter().enumerate() {
-        match names.iter().position(|n| n == col) {
-            Some(i) => index[k] = i,
-            None if OPTIONAL.contains(col) => index[k] = usize::MAX,
-            None => {
-                let unknown: Vec<&str> = names.iter().copied().filter(|n| !COLUMNS.contains(n)).collect();
-                let hint = closest(col, &unknown).map_or(String::new(), |u| format!(" (is `{u}` meant to be `{col}`?)"));
-                return Err(LogError::Header { file: f(), message: format!("column `{col}` is missing{hint}; the log needs {}", required.join(",")) });
-            }
-        }
-    }
+    let index = column_index(&names, file)?;
     let mut columns: Vec<Vec<Option<f64>>> = vec![Vec::new(); COLUMNS.len()];
     let mut repairs = Vec::new();
     let mut last_t: Option<f64> = None;
@@ -195,45 +190,36 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
         let last_line = i == lines.len() - 1;
         if cells.len() < names.len() {
             if last_line && !ends_cleanly {
-                repairs.push(format!("line {lineno}: the last line is cut short ({} of {} cells, no newline) and was dropped", cells.len(), names.len()));
+                repairs.push(format!(
+                    "line {lineno}: the last line is cut short ({} of {} cells, no newline) and was dropped",
+                    cells.len(),
+                    names.len()
+                ));
                 break;
             }
-            return Err(LogError::Row { file: f(), line: lineno, message: format!("{} cells for {} columns", cells.len(), names.len()) });
+            return Err(LogError::Row {
+                file: f(),
+                line: lineno,
+                message: format!("{} cells for {} columns", cells.len(), names.len()),
+            });
         }
         // cells beyond the header's columns belong to no column: only empty ones (a trailing
         // comma) are allowed
         if cells[names.len()..].iter().any(|c| !c.trim().is_empty()) {
-            return Err(LogError::Row { file: f(), line: lineno, message: format!("{} cells for {} columns", cells.len(), names.len()) });
+            return Err(LogError::Row {
+                file: f(),
+                line: lineno,
+                message: format!("{} cells for {} columns", cells.len(), names.len()),
+            });
         }
-        let mut row = [None; COLUMNS.len()];
-        for (k, col) in COLUMNS.iter().enumerate() {
-            let Some(cell) = cells.get(index[k]).map(|c| c.trim()) else { continue };
-            if cell.is_empty() {
-                continue;
-            }
-            let cell_err = |message: String| LogError::Cell { file: f(), line: lineno, column: col.to_string(), message };
-            let x: f64 = cell.parse().map_err(|_| cell_err(format!("`{cell}` is not a number")))?;
-            if !x.is_finite() {
-                return Err(cell_err(format!("`{cell}` is not a finite number")));
-            }
-            row[k] = Some(x);
-        }
-        let pose_cells = row[3..10].iter().filter(|x| x.is_some()).count();
-        match row[2] {
-            Some(v) if v == 1.0 && pose_cells != 7 => {
-                return Err(LogError::Row { file: f(), line: lineno, message: format!("mocap_valid is 1 but {} of the 7 pose cells are empty", 7 - pose_cells) });
-            }
-            Some(v) if v != 0.0 && v != 1.0 => {
-                return Err(LogError::Cell { file: f(), line: lineno, column: "mocap_valid".into(), message: format!("{v} is neither 0 nor 1") });
-            }
-            _ => {}
-        }
-        let Some(t) = row[0] else {
-            return Err(LogError::Cell { file: f(), line: lineno, column: "t_s".into(), message: "every row needs a time".into() });
-        };
+        let (t, row) = parse_row(&cells, &index, file, lineno)?;
         match last_t {
             Some(p) if t < p => {
-                return Err(LogError::Row { file: f(), line: lineno, message: format!("time goes backwards ({t} s after {p} s); sort the log or fix its clock") });
+                return Err(LogError::Row {
+                    file: f(),
+                    line: lineno,
+                    message: format!("time goes backwards ({t} s after {p} s); sort the log or fix its clock"),
+                });
             }
             Some(p) if t == p => {
                 repairs.push(format!("line {lineno}: repeats the time {t} s of the previous row and was dropped"));
@@ -255,6 +241,82 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
     Ok(FlightLog { columns, segments, repairs })
 }
 
+/// Where each of [`COLUMNS`] sits in the header (`usize::MAX` for an absent optional column),
+/// or a header error naming the first required column missing.
+fn column_index(names: &[&str], file: &str) -> Result<[usize; COLUMNS.len()], LogError> {
+    let mut index = [0usize; COLUMNS.len()];
+    let required: Vec<&str> = COLUMNS.iter().copied().filter(|c| !OPTIONAL.contains(c)).collect();
+    for (k, col) in COLUMNS.iter().enumerate() {
+        match names.iter().position(|n| n == col) {
+            Some(i) => index[k] = i,
+            None if OPTIONAL.contains(col) => index[k] = usize::MAX,
+            None => {
+                let unknown: Vec<&str> = names.iter().copied().filter(|n| !COLUMNS.contains(n)).collect();
+                let hint =
+                    closest(col, &unknown).map_or(String::new(), |u| format!(" (is `{u}` meant to be `{col}`?)"));
+                return Err(LogError::Header {
+                    file: file.to_string(),
+                    message: format!("column `{col}` is missing{hint}; the log needs {}", required.join(",")),
+                });
+            }
+        }
+    }
+    Ok(index)
+}
+
+/// One data row's time and its cells as numbers, by column of [`COLUMNS`], or its located error:
+/// a cell that is not a finite number, a `mocap_valid` other than 0 or 1, a valid pose with empty
+/// cells, or no time.
+fn parse_row(
+    cells: &[&str],
+    index: &[usize; COLUMNS.len()],
+    file: &str,
+    lineno: usize,
+) -> Result<(f64, [Option<f64>; COLUMNS.len()]), LogError> {
+    let mut row = [None; COLUMNS.len()];
+    for (k, col) in COLUMNS.iter().enumerate() {
+        let Some(cell) = cells.get(index[k]).map(|c| c.trim()) else { continue };
+        if cell.is_empty() {
+            continue;
+        }
+        let cell_err =
+            |message: String| LogError::Cell { file: file.to_string(), line: lineno, column: col.to_string(), message };
+        let x: f64 = cell.parse().map_err(|_| cell_err(format!("`{cell}` is not a number")))?;
+        if !x.is_finite() {
+            return Err(cell_err(format!("`{cell}` is not a finite number")));
+        }
+        row[k] = Some(x);
+    }
+    let pose_cells = row[3..10].iter().filter(|x| x.is_some()).count();
+    match row[2] {
+        Some(v) if v == 1.0 && pose_cells != 7 => {
+            return Err(LogError::Row {
+                file: file.to_string(),
+                line: lineno,
+                message: format!("mocap_valid is 1 but {} of the 7 pose cells are empty", 7 - pose_cells),
+            });
+        }
+        Some(v) if v != 0.0 && v != 1.0 => {
+            return Err(LogError::Cell {
+                file: file.to_string(),
+                line: lineno,
+                column: "mocap_valid".into(),
+                message: format!("{v} is neither 0 nor 1"),
+            });
+        }
+        _ => {}
+    }
+    let Some(t) = row[0] else {
+        return Err(LogError::Cell {
+            file: file.to_string(),
+            line: lineno,
+            column: "t_s".into(),
+            message: "every row needs a time".into(),
+        });
+    };
+    Ok((t, row))
+}
+
 /// The median interval between increasing timestamps (s); `None` for fewer than two.
 pub(crate) fn median_interval(t: &[f64]) -> Option<f64> {
     let mut dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
@@ -271,7 +333,12 @@ pub(crate) fn split_at_gaps(t: &[f64], repairs: &mut Vec<String>) -> Vec<(usize,
     let mut start = 0;
     for k in 1..n {
         if t[k] - t[k - 1] > 3.0 * median {
-            repairs.push(format!("a gap of {:.3} s after t = {} s (median interval {:.4} s): the log is split into segments there", t[k] - t[k - 1], t[k - 1], median));
+            repairs.push(format!(
+                "a gap of {:.3} s after t = {} s (median interval {:.4} s): the log is split into segments there",
+                t[k] - t[k - 1],
+                t[k - 1],
+                median
+            ));
             segments.push((start, k));
             start = k;
         }

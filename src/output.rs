@@ -24,7 +24,9 @@ pub fn install_interrupt_handler() {
                 let _ = std::fs::remove_file(f);
             }
         }
-        eprintln!("interrupted: finished outputs are complete, unfinished ones untouched (a sweep resumes from its journal)");
+        eprintln!(
+            "interrupted: finished outputs are complete, unfinished ones untouched (a sweep resumes from its journal)"
+        );
         std::process::exit(INTERRUPTED);
     });
 }
@@ -98,8 +100,10 @@ pub fn check_file_name(name: &str) -> Result<(), BadFileName> {
         return Err(BadFileName::Dot);
     }
     let stem = name.split('.').next().unwrap_or("").to_ascii_uppercase();
-    let reserved =
-        ["CON", "PRN", "AUX", "NUL"].contains(&stem.as_str()) || ((stem.starts_with("COM") || stem.starts_with("LPT")) && stem.len() == 4 && stem.as_bytes()[3].is_ascii_digit());
+    let reserved = ["CON", "PRN", "AUX", "NUL"].contains(&stem.as_str())
+        || ((stem.starts_with("COM") || stem.starts_with("LPT"))
+            && stem.len() == 4
+            && stem.as_bytes()[3].is_ascii_digit());
     if reserved {
         return Err(BadFileName::Device(stem));
     }

@@ -111,7 +111,9 @@ impl Radio {
     pub fn new(params: RadioParams) -> Self {
         let held = match params.mode {
             OnboardMode::Rate => Received::Rates(RateCommand::idle()),
-            OnboardMode::Attitude => Received::Attitude(AttitudeCommand { roll: 0.0, pitch: 0.0, yaw_rate: 0.0, thrust_n: 0.0 }),
+            OnboardMode::Attitude => {
+                Received::Attitude(AttitudeCommand { roll: 0.0, pitch: 0.0, yaw_rate: 0.0, thrust_n: 0.0 })
+            }
         };
         Radio { params, in_flight: VecDeque::with_capacity(8), held, last_sent: None, residual: [0.0; 2] }
     }
@@ -124,7 +126,9 @@ impl Radio {
         let mut channels = [0u8; MAX_CHANNELS];
         let first = match self.params.mode {
             OnboardMode::Rate => [count(out.rates.x(), s), count(out.rates.y(), s), count(out.rates.z(), s)],
-            OnboardMode::Attitude => [count(out.angles_com.roll, sa), count(out.angles_com.pitch, sa), count(out.yaw_rate_com, s)],
+            OnboardMode::Attitude => {
+                [count(out.angles_com.roll, sa), count(out.angles_com.pitch, sa), count(out.yaw_rate_com, s)]
+            }
         };
         channels[..3].copy_from_slice(&first);
         channels[3] = (255.0 * out.thrust_n / self.params.thrust_max_n).round().clamp(0.0, 255.0) as u8;
@@ -137,10 +141,16 @@ impl Radio {
         let (s, sa) = (self.params.rate_scale_rad_s, self.params.angle_scale_rad);
         let thrust_n = f.thrust() as f64 * self.params.thrust_max_n / 255.0;
         match self.params.mode {
-            OnboardMode::Rate => Received::Rates(RateCommand { rates: Vec3::new(value(f.p(), s), value(f.q(), s), value(f.r(), s)), thrust_n }),
-            OnboardMode::Attitude => {
-                Received::Attitude(AttitudeCommand { roll: value(f.channels[0], sa), pitch: value(f.channels[1], sa), yaw_rate: value(f.channels[2], s), thrust_n })
-            }
+            OnboardMode::Rate => Received::Rates(RateCommand {
+                rates: Vec3::new(value(f.p(), s), value(f.q(), s), value(f.r(), s)),
+                thrust_n,
+            }),
+            OnboardMode::Attitude => Received::Attitude(AttitudeCommand {
+                roll: value(f.channels[0], sa),
+                pitch: value(f.channels[1], sa),
+                yaw_rate: value(f.channels[2], s),
+                thrust_n,
+            }),
         }
     }
 
@@ -202,7 +212,14 @@ mod tests {
     use crate::frames::{Body, Euler};
 
     fn params(mode: OnboardMode) -> RadioParams {
-        RadioParams { channels: 8, latency: Nanos::from_millis(10), rate_scale_rad_s: 1.5f64.to_radians(), angle_scale_rad: 0.25f64.to_radians(), thrust_max_n: 24.0, mode }
+        RadioParams {
+            channels: 8,
+            latency: Nanos::from_millis(10),
+            rate_scale_rad_s: 1.5f64.to_radians(),
+            angle_scale_rad: 0.25f64.to_radians(),
+            thrust_max_n: 24.0,
+            mode,
+        }
     }
 
     fn radio() -> Radio {
@@ -212,7 +229,13 @@ mod tests {
     /// A controller output with these body rates and thrust (and angle commands that rate mode
     /// must ignore).
     fn out(rates: Vec3<Body>, thrust_n: f64) -> ControlOutput {
-        ControlOutput { rates, thrust_n, angles_com: Euler::from_degrees(7.0, -3.0, 20.0), yaw_rate_com: 0.3, accel_com: Vec3::zeros() }
+        ControlOutput {
+            rates,
+            thrust_n,
+            angles_com: Euler::from_degrees(7.0, -3.0, 20.0),
+            yaw_rate_com: 0.3,
+            accel_com: Vec3::zeros(),
+        }
     }
 
     impl Radio {
@@ -292,7 +315,11 @@ mod tests {
         assert_eq!((f.channels[0], f.channels[1], f.channels[2], f.thrust()), (156, 116, 139, 128));
         let Received::Attitude(c) = r.decode(&f) else { panic!("attitude mode decoded rates") };
         assert!((c.roll - 7f64.to_radians()).abs() < 1e-12 && (c.pitch + 3f64.to_radians()).abs() < 1e-12, "{c:?}");
-        assert!((c.yaw_rate - 11.0 * 1.5f64.to_radians()).abs() < 1e-12 && (c.thrust_n - 128.0 * 24.0 / 255.0).abs() < 1e-12, "{c:?}");
+        assert!(
+            (c.yaw_rate - 11.0 * 1.5f64.to_radians()).abs() < 1e-12
+                && (c.thrust_n - 128.0 * 24.0 / 255.0).abs() < 1e-12,
+            "{c:?}"
+        );
         let level = ControlOutput { angles_com: Euler::ZERO, yaw_rate_com: 0.0, ..out(Vec3::zeros(), 5.0) };
         let Received::Attitude(c) = r.decode(&r.encode(&level)) else { panic!() };
         assert_eq!((c.roll, c.pitch, c.yaw_rate), (0.0, 0.0, 0.0));
@@ -300,7 +327,10 @@ mod tests {
         assert_eq!(&r.encode(&steep).channels[..2], &[255, 0]);
         // before the first frame the receiver holds level, no thrust
         let mut r = r;
-        assert_eq!(r.receiver(Nanos::ZERO), Received::Attitude(AttitudeCommand { roll: 0.0, pitch: 0.0, yaw_rate: 0.0, thrust_n: 0.0 }));
+        assert_eq!(
+            r.receiver(Nanos::ZERO),
+            Received::Attitude(AttitudeCommand { roll: 0.0, pitch: 0.0, yaw_rate: 0.0, thrust_n: 0.0 })
+        );
     }
 
     /// A held roll of 0.1° (0.4 count) and pitch of −0.3125° (−1.25 counts) go out frame by
@@ -311,14 +341,23 @@ mod tests {
     #[test]
     fn a_held_angle_between_counts_is_sent_as_its_mean() {
         let mut r = Radio::new(params(OnboardMode::Attitude));
-        let held = ControlOutput { angles_com: Euler::from_degrees(0.1, -0.3125, 0.0), yaw_rate_com: 0.0, ..out(Vec3::zeros(), 5.0) };
+        let held = ControlOutput {
+            angles_com: Euler::from_degrees(0.1, -0.3125, 0.0),
+            yaw_rate_com: 0.0,
+            ..out(Vec3::zeros(), 5.0)
+        };
         let sent: Vec<PpmFrame> = (0..20).map(|k| r.transmit(Nanos::from_millis(20 * k), &held)).collect();
         let roll: Vec<u8> = sent.iter().map(|f| f.channels[0]).collect();
         assert_eq!(&roll[..5], &[128, 129, 128, 129, 128], "{roll:?}");
         let pitch: Vec<u8> = sent.iter().map(|f| f.channels[1]).collect();
         assert_eq!(&pitch[..4], &[127, 127, 126, 127], "{pitch:?}");
         let mean = |c: &[u8]| c.iter().map(|&x| x as f64 - 128.0).sum::<f64>() / c.len() as f64;
-        assert!((mean(&roll) - 0.4).abs() <= 0.5 / 20.0 && (mean(&pitch) + 1.25).abs() <= 0.5 / 20.0, "{} {}", mean(&roll), mean(&pitch));
+        assert!(
+            (mean(&roll) - 0.4).abs() <= 0.5 / 20.0 && (mean(&pitch) + 1.25).abs() <= 0.5 / 20.0,
+            "{} {}",
+            mean(&roll),
+            mean(&pitch)
+        );
         let mut r = Radio::new(params(OnboardMode::Rate));
         let f = r.transmit(Nanos::ZERO, &held);
         assert_eq!(f, r.encode(&held));

@@ -85,7 +85,10 @@ impl Columns {
         Columns { secs, ticks }
     }
     fn time(&self) -> [TimeColumn; 2] {
-        [TimeColumn::new_duration_secs("sim_time", self.secs.iter().copied()), TimeColumn::new_sequence("tick", self.ticks.iter().copied())]
+        [
+            TimeColumn::new_duration_secs("sim_time", self.secs.iter().copied()),
+            TimeColumn::new_sequence("tick", self.ticks.iter().copied()),
+        ]
     }
 }
 
@@ -102,13 +105,36 @@ struct Rec<'a> {
 }
 
 impl Rec<'_> {
-    fn series(&self, path: &str, name: &str, color: [u8; 3], cols: &Columns, values: Vec<f64>) -> Result<(), RecordError> {
-        self.rec.log_static(path, &rerun::SeriesLines::new().with_names([name]).with_colors([rerun::Color::from_rgb(color[0], color[1], color[2])])).map_err(err)?;
-        self.rec.send_columns(path, cols.time(), rerun::Scalars::new(values).columns_of_unit_batches().map_err(err)?).map_err(err)
+    fn series(
+        &self,
+        path: &str,
+        name: &str,
+        color: [u8; 3],
+        cols: &Columns,
+        values: Vec<f64>,
+    ) -> Result<(), RecordError> {
+        self.rec
+            .log_static(
+                path,
+                &rerun::SeriesLines::new()
+                    .with_names([name])
+                    .with_colors([rerun::Color::from_rgb(color[0], color[1], color[2])]),
+            )
+            .map_err(err)?;
+        self.rec
+            .send_columns(path, cols.time(), rerun::Scalars::new(values).columns_of_unit_batches().map_err(err)?)
+            .map_err(err)
     }
 
     /// A series with gaps (samples where `values[i]` is `None` are left out).
-    fn sparse_series(&self, path: &str, name: &str, color: [u8; 3], samples: &[&TraceSample], values: impl Fn(&TraceSample) -> Option<f64>) -> Result<(), RecordError> {
+    fn sparse_series(
+        &self,
+        path: &str,
+        name: &str,
+        color: [u8; 3],
+        samples: &[&TraceSample],
+        values: impl Fn(&TraceSample) -> Option<f64>,
+    ) -> Result<(), RecordError> {
         let kept: Vec<(Nanos, f64)> = samples.iter().filter_map(|s| values(s).map(|v| (s.t, v))).collect();
         let cols = Columns::of(kept.iter().map(|x| x.0));
         self.series(path, name, color, &cols, kept.into_iter().map(|x| x.1).collect())
@@ -117,7 +143,15 @@ impl Rec<'_> {
     fn event(&self, t: Nanos, level: &str, text: String) -> Result<(), RecordError> {
         let cols = Columns::of(std::iter::once(t));
         self.rec
-            .send_columns("events", cols.time(), rerun::TextLog::update_fields().with_many_text([text]).with_many_level([level]).columns_of_unit_batches().map_err(err)?)
+            .send_columns(
+                "events",
+                cols.time(),
+                rerun::TextLog::update_fields()
+                    .with_many_text([text])
+                    .with_many_level([level])
+                    .columns_of_unit_batches()
+                    .map_err(err)?,
+            )
             .map_err(err)
     }
 }
@@ -133,7 +167,12 @@ fn rgb(c: [u8; 3]) -> rerun::Color {
 }
 
 /// Encodes the recording of a run into `.rrd` bytes.
-pub fn encode(main: &RunOutput, uncompensated: Option<&RunOutput>, report: &Report, opts: RecordOptions) -> Result<Vec<u8>, RecordError> {
+pub fn encode(
+    main: &RunOutput,
+    uncompensated: Option<&RunOutput>,
+    report: &Report,
+    opts: RecordOptions,
+) -> Result<Vec<u8>, RecordError> {
     let (rec, storage) = rerun::RecordingStreamBuilder::new("flyarena")
         .recording_id(recording_id(&main.scenario, main.seed))
         // no RecordingInfo: its default start time is the wall clock, which would make identical
@@ -150,7 +189,8 @@ pub fn encode(main: &RunOutput, uncompensated: Option<&RunOutput>, report: &Repo
     rec.log_static("world", &rerun::ViewCoordinates::FRD()).map_err(err)?;
     rec.log_static(
         "world/arena",
-        &rerun::Boxes3D::from_centers_and_half_sizes([(0.0, 0.0, -5.0)], [(5.0, 5.0, 5.0)]).with_colors([rerun::Color::from_unmultiplied_rgba(120, 120, 120, 60)]),
+        &rerun::Boxes3D::from_centers_and_half_sizes([(0.0, 0.0, -5.0)], [(5.0, 5.0, 5.0)])
+            .with_colors([rerun::Color::from_unmultiplied_rgba(120, 120, 120, 60)]),
     )
     .map_err(err)?;
     for (i, v) in main.vehicles.iter().enumerate() {
@@ -160,7 +200,19 @@ pub fn encode(main: &RunOutput, uncompensated: Option<&RunOutput>, report: &Repo
     // requirement results at the end of the run
     for row in &report.rows {
         let level = if row.pass { "INFO" } else { "ERROR" };
-        r.event(main.duration, level, format!("{} {} {}: {} (limit {}) {}", row.vehicle, row.id, row.what, row.measured, row.limit, if row.pass { "pass" } else { "FAIL" }))?;
+        r.event(
+            main.duration,
+            level,
+            format!(
+                "{} {} {}: {} (limit {}) {}",
+                row.vehicle,
+                row.id,
+                row.what,
+                row.measured,
+                row.limit,
+                if row.pass { "pass" } else { "FAIL" }
+            ),
+        )?;
     }
     rec.flush_blocking().map_err(err)?;
     let bytes = storage.drain_as_bytes().map_err(err)?;
@@ -172,17 +224,29 @@ pub fn encode(main: &RunOutput, uncompensated: Option<&RunOutput>, report: &Repo
 /// the viewer's default shows ±30 s around the time cursor; so the blueprint is rendered into
 /// messages here, and each plot gets a `TimeAxis` property (the whole run) in the same
 /// blueprint store, before the activation command.
-fn send_blueprint(rec: &rerun::RecordingStream, bp: Blueprint, plot_paths: &[String], end: Nanos) -> Result<(), RecordError> {
+fn send_blueprint(
+    rec: &rerun::RecordingStream,
+    bp: Blueprint,
+    plot_paths: &[String],
+    end: Nanos,
+) -> Result<(), RecordError> {
     use rerun::blueprint::components::TimeRange;
     use rerun::external::re_log_types::LogMsg;
     let (tmp, tmp_storage) = rerun::RecordingStreamBuilder::new("flyarena").memory().map_err(err)?;
     bp.send(&tmp, rerun::blueprint::BlueprintActivation::default()).map_err(err)?;
     tmp.flush_blocking().map_err(err)?;
     let mut msgs = tmp_storage.take();
-    let at = msgs.iter().position(|m| matches!(m, LogMsg::BlueprintActivationCommand(_))).ok_or_else(|| err("blueprint without activation"))?;
+    let at = msgs
+        .iter()
+        .position(|m| matches!(m, LogMsg::BlueprintActivationCommand(_)))
+        .ok_or_else(|| err("blueprint without activation"))?;
     let LogMsg::BlueprintActivationCommand(cmd) = msgs.remove(at) else { unreachable!("matched above") };
     msgs.retain(|m| *m.store_id() == cmd.blueprint_id);
-    let (extra, extra_storage) = rerun::RecordingStreamBuilder::new("flyarena").recording_id(cmd.blueprint_id.recording_id().clone()).blueprint().memory().map_err(err)?;
+    let (extra, extra_storage) = rerun::RecordingStreamBuilder::new("flyarena")
+        .recording_id(cmd.blueprint_id.recording_id().clone())
+        .blueprint()
+        .memory()
+        .map_err(err)?;
     extra.set_time_sequence("blueprint", 0);
     use rerun::datatypes::TimeRangeBoundary::Absolute;
     let whole = TimeRange(rerun::datatypes::TimeRange { start: Absolute(0.into()), end: Absolute(end.0.into()) });
@@ -200,7 +264,8 @@ fn send_blueprint(rec: &rerun::RecordingStream, bp: Blueprint, plot_paths: &[Str
 fn blueprint(vehicles: &[&str], plot_paths: &mut Vec<String>) -> Blueprint {
     use rerun::blueprint::{BlueprintPanel, ContainerLike, SelectionPanel, TimePanel};
     let mut plots = |name: &str, what: &[&str]| {
-        let queries: Vec<String> = vehicles.iter().flat_map(|v| what.iter().map(move |w| format!("+ /plots/{v}/{w}/**"))).collect();
+        let queries: Vec<String> =
+            vehicles.iter().flat_map(|v| what.iter().map(move |w| format!("+ /plots/{v}/{w}/**"))).collect();
         let view = ContainerLike::from(TimeSeriesView::new(name).with_origin("/plots").with_contents(queries));
         if let ContainerLike::View(v) = &view {
             plot_paths.push(v.blueprint_path().to_string());
@@ -221,7 +286,10 @@ fn blueprint(vehicles: &[&str], plot_paths: &mut Vec<String>) -> Blueprint {
         Vertical::new([
             Horizontal::new([
                 Tabs::new([
-                    Spatial3DView::new("flight (NED: x North, y East, z Down)").with_origin("/world").with_contents(["+ /world/**", "- /world/arena"]).into(),
+                    Spatial3DView::new("flight (NED: x North, y East, z Down)")
+                        .with_origin("/world")
+                        .with_contents(["+ /world/**", "- /world/arena"])
+                        .into(),
                     Spatial3DView::new("arena 10 × 10 × 10 m").with_origin("/world").into(),
                 ])
                 .into(),
@@ -262,7 +330,13 @@ fn vehicle(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOption
 }
 
 /// The 3D scene: the true and the measured body frames side by side, the markers, the paths.
-fn scene(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, samples: &[&TraceSample], cols: &Columns) -> Result<(), RecordError> {
+fn scene(
+    r: &Rec,
+    v: &VehicleRun,
+    unc: Option<&VehicleRun>,
+    samples: &[&TraceSample],
+    cols: &Columns,
+) -> Result<(), RecordError> {
     let rec = r.rec;
     let n = &v.name;
 
@@ -281,10 +355,14 @@ fn scene(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, samples: &[&TraceSam
     let labels: Vec<String> = (0..v.markers.mounted.len()).map(|k| format!("m{k}")).collect();
     rec.log_static(
         format!("world/{n}/true_body/markers"),
-        &rerun::Points3D::new(v.markers.mounted.iter().map(|m| f32x3(*m))).with_radii([0.006]).with_colors([rgb(TRUE_COLOR)]).with_labels(labels),
+        &rerun::Points3D::new(v.markers.mounted.iter().map(|m| f32x3(*m)))
+            .with_radii([0.006])
+            .with_colors([rgb(TRUE_COLOR)])
+            .with_labels(labels),
     )
     .map_err(err)?;
-    let measured: Vec<&&TraceSample> = samples.iter().filter(|s| s.pos_measured.is_some() && s.att_measured.is_some()).collect();
+    let measured: Vec<&&TraceSample> =
+        samples.iter().filter(|s| s.pos_measured.is_some() && s.att_measured.is_some()).collect();
     let mcols = Columns::of(measured.iter().map(|s| s.t));
     axes(rec, &format!("world/{n}/mocap_body/axes"), 0.45, [[255, 150, 40]; 3], "m")?;
     rec.send_columns(
@@ -299,11 +377,17 @@ fn scene(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, samples: &[&TraceSam
     .map_err(err)?;
     rec.log_static(
         format!("world/{n}/mocap_body/template"),
-        &rerun::Points3D::new(v.markers.template.iter().map(|m| f32x3(*m))).with_radii([0.012]).with_colors([rerun::Color::from_unmultiplied_rgba(255, 150, 40, 110)]),
+        &rerun::Points3D::new(v.markers.template.iter().map(|m| f32x3(*m)))
+            .with_radii([0.012])
+            .with_colors([rerun::Color::from_unmultiplied_rgba(255, 150, 40, 110)]),
     )
     .map_err(err)?;
     let path = |name: &str, pts: Vec<[f32; 3]>, color: [u8; 3]| {
-        rec.log_static(format!("world/{n}/{name}"), &rerun::LineStrips3D::new([pts]).with_colors([rgb(color)]).with_radii([0.008])).map_err(err)
+        rec.log_static(
+            format!("world/{n}/{name}"),
+            &rerun::LineStrips3D::new([pts]).with_colors([rgb(color)]).with_radii([0.008]),
+        )
+        .map_err(err)
     };
     path("reference_path", v.trace.iter().map(|s| f32x3(s.reference)).collect(), REFERENCE_COLOR)?;
     path("flown_path", v.trace.iter().map(|s| f32x3(s.pos)).collect(), TRUE_COLOR)?;
@@ -315,7 +399,14 @@ fn scene(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, samples: &[&TraceSam
 
 /// Attitude (true, measured, compensated), the distance from the reference, the PPM channels and
 /// the link's health over time.
-fn time_plots(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOptions, samples: &[&TraceSample], cols: &Columns) -> Result<(), RecordError> {
+fn time_plots(
+    r: &Rec,
+    v: &VehicleRun,
+    unc: Option<&VehicleRun>,
+    opts: RecordOptions,
+    samples: &[&TraceSample],
+    cols: &Columns,
+) -> Result<(), RecordError> {
     let n = &v.name;
     // attitude: true, measured (raw mocap), compensated (what the controller used)
     for (axis, get) in [("roll", 0usize), ("pitch", 1), ("yaw", 2)] {
@@ -323,18 +414,48 @@ fn time_plots(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOpt
         // pitch in darker shades of the same three colours
         let shade = |c: [u8; 3]| if get == 1 { c.map(|x| (x as f32 * 0.6) as u8) } else { c };
         let base = format!("plots/{n}/attitude/{axis}");
-        r.series(&format!("{base}/true"), &format!("{n} {axis} true"), shade(TRUE_COLOR), cols, samples.iter().map(|s| pick(s.att_true)).collect())?;
-        r.sparse_series(&format!("{base}/measured"), &format!("{n} {axis} measured"), shade(MEASURED_COLOR), samples, |s| s.att_measured.map(|a| pick(a.euler())))?;
-        r.sparse_series(&format!("{base}/compensated"), &format!("{n} {axis} compensated"), shade(COMPENSATED_COLOR), samples, |s| s.att_compensated.map(pick))?;
+        r.series(
+            &format!("{base}/true"),
+            &format!("{n} {axis} true"),
+            shade(TRUE_COLOR),
+            cols,
+            samples.iter().map(|s| pick(s.att_true)).collect(),
+        )?;
+        r.sparse_series(
+            &format!("{base}/measured"),
+            &format!("{n} {axis} measured"),
+            shade(MEASURED_COLOR),
+            samples,
+            |s| s.att_measured.map(|a| pick(a.euler())),
+        )?;
+        r.sparse_series(
+            &format!("{base}/compensated"),
+            &format!("{n} {axis} compensated"),
+            shade(COMPENSATED_COLOR),
+            samples,
+            |s| s.att_compensated.map(pick),
+        )?;
     }
 
     // distance from the reference (the circling of Fig. 6), with and without compensation
     let dev = |s: &TraceSample| (s.pos - s.reference.assume_same_as::<crate::frames::Nav>()).horizontal_norm();
-    r.series(&format!("plots/{n}/position/deviation_m"), &format!("{n} compensated"), TRUE_COLOR, cols, samples.iter().map(|s| dev(s)).collect())?;
+    r.series(
+        &format!("plots/{n}/position/deviation_m"),
+        &format!("{n} compensated"),
+        TRUE_COLOR,
+        cols,
+        samples.iter().map(|s| dev(s)).collect(),
+    )?;
     if let Some(u) = unc.filter(|u| !u.trace.is_empty()) {
         let us: Vec<&TraceSample> = u.trace.iter().step_by(opts.every.max(1)).collect();
         let ucols = Columns::of(us.iter().map(|s| s.t));
-        r.series(&format!("plots/{n}/position/uncompensated_deviation_m"), &format!("{n} uncompensated"), UNCOMPENSATED_COLOR, &ucols, us.iter().map(|s| dev(s)).collect())?;
+        r.series(
+            &format!("plots/{n}/position/uncompensated_deviation_m"),
+            &format!("{n} uncompensated"),
+            UNCOMPENSATED_COLOR,
+            &ucols,
+            us.iter().map(|s| dev(s)).collect(),
+        )?;
     }
 
     // PPM channels as sent, named by what they carry in the vehicle's onboard mode
@@ -344,7 +465,9 @@ fn time_plots(r: &Rec, v: &VehicleRun, unc: Option<&VehicleRun>, opts: RecordOpt
     };
     for (k, ch) in names.iter().enumerate() {
         let color = [[230, 90, 90], [90, 200, 90], [90, 120, 230], [200, 200, 200]][k];
-        r.sparse_series(&format!("plots/{n}/ppm/{ch}"), &format!("{n} {ch}"), color, samples, |s| s.ppm.map(|f| f.channels[k] as f64))?;
+        r.sparse_series(&format!("plots/{n}/ppm/{ch}"), &format!("{n} {ch}"), color, samples, |s| {
+            s.ppm.map(|f| f.channels[k] as f64)
+        })?;
     }
 
     // link monitoring
@@ -383,7 +506,13 @@ fn calibration(r: &Rec, v: &VehicleRun) -> Result<(), RecordError> {
         )?;
         if let Some(y) = cal.yaw_offset {
             let ends = [v.rls_trace[0].t, v.rls_trace[v.rls_trace.len() - 1].t];
-            r.series(&format!("plots/{n}/calibration/yaw_ls_deg"), &format!("{n} yaw batch LS"), MEASURED_COLOR, &Columns::of(ends.into_iter()), vec![y.to_degrees(); 2])?;
+            r.series(
+                &format!("plots/{n}/calibration/yaw_ls_deg"),
+                &format!("{n} yaw batch LS"),
+                MEASURED_COLOR,
+                &Columns::of(ends.into_iter()),
+                vec![y.to_degrees(); 2],
+            )?;
         }
     }
     let end = v.trace.last().map_or(Nanos::ZERO, |s| s.t);
@@ -405,13 +534,37 @@ fn calibration(r: &Rec, v: &VehicleRun) -> Result<(), RecordError> {
             &hc,
             v.hover_trace.iter().map(|s| s.pitch.to_degrees()).collect(),
         )?;
-        r.series(&format!("plots/{n}/calibration/roll_truth_deg"), &format!("{n} roll truth"), [60, 170, 90], &whole, vec![v.truth.euler.roll.to_degrees(); 2])?;
-        r.series(&format!("plots/{n}/calibration/pitch_truth_deg"), &format!("{n} pitch truth"), [40, 110, 60], &whole, vec![v.truth.euler.pitch.to_degrees(); 2])?;
+        r.series(
+            &format!("plots/{n}/calibration/roll_truth_deg"),
+            &format!("{n} roll truth"),
+            [60, 170, 90],
+            &whole,
+            vec![v.truth.euler.roll.to_degrees(); 2],
+        )?;
+        r.series(
+            &format!("plots/{n}/calibration/pitch_truth_deg"),
+            &format!("{n} pitch truth"),
+            [40, 110, 60],
+            &whole,
+            vec![v.truth.euler.pitch.to_degrees(); 2],
+        )?;
     }
-    r.series(&format!("plots/{n}/calibration/yaw_truth_deg"), &format!("{n} yaw truth"), TRUE_COLOR, &whole, vec![v.truth.euler.yaw.to_degrees(); 2])?;
+    r.series(
+        &format!("plots/{n}/calibration/yaw_truth_deg"),
+        &format!("{n} yaw truth"),
+        TRUE_COLOR,
+        &whole,
+        vec![v.truth.euler.yaw.to_degrees(); 2],
+    )?;
     if let Some(g) = cal.gyro {
         let at = phase_end(v, "calibrate_gyro").unwrap_or(end);
-        r.series(&format!("plots/{n}/calibration/yaw_gyro_deg"), &format!("{n} yaw gyro"), [200, 90, 220], &Columns::of([at, end].into_iter()), vec![g.euler.yaw.to_degrees(); 2])?;
+        r.series(
+            &format!("plots/{n}/calibration/yaw_gyro_deg"),
+            &format!("{n} yaw gyro"),
+            [200, 90, 220],
+            &Columns::of([at, end].into_iter()),
+            vec![g.euler.yaw.to_degrees(); 2],
+        )?;
     }
     Ok(())
 }
@@ -451,7 +604,15 @@ fn events(r: &Rec, v: &VehicleRun) -> Result<(), RecordError> {
             )?;
         }
         if let Some(y) = cal.yaw_offset {
-            r.event(t, "INFO", format!("{n}: straight-flight yaw offset {:.3}° (truth {:.3}°)", y.to_degrees(), v.truth.euler.yaw.to_degrees()))?;
+            r.event(
+                t,
+                "INFO",
+                format!(
+                    "{n}: straight-flight yaw offset {:.3}° (truth {:.3}°)",
+                    y.to_degrees(),
+                    v.truth.euler.yaw.to_degrees()
+                ),
+            )?;
         }
     }
     if let (Some(g), Some(t)) = (cal.gyro, phase_end(v, "calibrate_gyro")) {
@@ -474,7 +635,14 @@ fn events(r: &Rec, v: &VehicleRun) -> Result<(), RecordError> {
         if s.link.longest_missing_run > longest {
             longest = s.link.longest_missing_run;
             if longest >= 3 {
-                r.event(s.t, "WARN", format!("{n}: link gap, {longest} consecutive mocap frames missing ({} missing so far)", s.link.missing_frames))?;
+                r.event(
+                    s.t,
+                    "WARN",
+                    format!(
+                        "{n}: link gap, {longest} consecutive mocap frames missing ({} missing so far)",
+                        s.link.missing_frames
+                    ),
+                )?;
             }
         }
     }
@@ -482,12 +650,17 @@ fn events(r: &Rec, v: &VehicleRun) -> Result<(), RecordError> {
 }
 
 /// Three labelled axis arrows (x, y, z of a frame) of length `len` (m).
-fn axes(rec: &rerun::RecordingStream, path: &str, len: f32, colors: [[u8; 3]; 3], suffix: &str) -> Result<(), RecordError> {
-    let arrows = rerun::Arrows3D::from_vectors([[len, 0.0, 0.0], [0.0, len, 0.0], [0.0, 0.0, len]]).with_colors(colors.map(rgb)).with_radii([0.004]).with_labels([
-        format!("x_{suffix}"),
-        format!("y_{suffix}"),
-        format!("z_{suffix}"),
-    ]);
+fn axes(
+    rec: &rerun::RecordingStream,
+    path: &str,
+    len: f32,
+    colors: [[u8; 3]; 3],
+    suffix: &str,
+) -> Result<(), RecordError> {
+    let arrows = rerun::Arrows3D::from_vectors([[len, 0.0, 0.0], [0.0, len, 0.0], [0.0, 0.0, len]])
+        .with_colors(colors.map(rgb))
+        .with_radii([0.004])
+        .with_labels([format!("x_{suffix}"), format!("y_{suffix}"), format!("z_{suffix}")]);
     rec.log_static(path, &arrows).map_err(err)
 }
 
@@ -551,9 +724,17 @@ pub fn decode(bytes: &[u8]) -> Result<Decoded, RecordError> {
 /// |---|---|
 /// | `identify/<channel>/<axis>/nominal`, `…/with_effects` | residual (m/s² or rad/s) |
 /// | `events` | one line per step and per effect found |
-pub fn encode_identify(name: &str, report: &crate::identify::Report, residuals: &[crate::identify::select::ResidualSeries]) -> Result<Vec<u8>, RecordError> {
+pub fn encode_identify(
+    name: &str,
+    report: &crate::identify::Report,
+    residuals: &[crate::identify::select::ResidualSeries],
+) -> Result<Vec<u8>, RecordError> {
     use rerun::blueprint::{BlueprintPanel, ContainerLike, SelectionPanel, TimePanel};
-    let (rec, storage) = rerun::RecordingStreamBuilder::new("flyarena").recording_id(format!("flyarena/identify/{name}")).send_properties(false).memory().map_err(err)?;
+    let (rec, storage) = rerun::RecordingStreamBuilder::new("flyarena")
+        .recording_id(format!("flyarena/identify/{name}"))
+        .send_properties(false)
+        .memory()
+        .map_err(err)?;
     rec.set_log_time_enabled(false);
     let end = residuals.iter().filter_map(|r| r.t_s.last()).fold(0.0f64, |a, b| a.max(*b));
     let mut plot_paths = Vec::new();
@@ -561,7 +742,8 @@ pub fn encode_identify(name: &str, report: &crate::identify::Report, residuals: 
     for ch in crate::identify::Channel::ALL {
         if residuals.iter().any(|r| r.channel == ch) {
             let view = ContainerLike::from(
-                TimeSeriesView::new(format!("{} residual ({}): nominal · with the effects", ch.name(), ch.unit())).with_origin(format!("/identify/{}", ch.name())),
+                TimeSeriesView::new(format!("{} residual ({}): nominal · with the effects", ch.name(), ch.unit()))
+                    .with_origin(format!("/identify/{}", ch.name())),
             );
             if let ContainerLike::View(v) = &view {
                 plot_paths.push(v.blueprint_path().to_string());
@@ -569,10 +751,16 @@ pub fn encode_identify(name: &str, report: &crate::identify::Report, residuals: 
             views.push(view);
         }
     }
-    let bp = Blueprint::new(Horizontal::new([Vertical::new(views).into(), TextLogView::new("steps and effects").with_origin("/events").into()]).with_column_shares([0.72, 0.28]))
-        .with_time_panel(TimePanel::new().with_timeline("sim_time"))
-        .with_blueprint_panel(BlueprintPanel::new().with_state(rerun::blueprint::components::PanelState::Collapsed))
-        .with_selection_panel(SelectionPanel::new().with_state(rerun::blueprint::components::PanelState::Collapsed));
+    let bp = Blueprint::new(
+        Horizontal::new([
+            Vertical::new(views).into(),
+            TextLogView::new("steps and effects").with_origin("/events").into(),
+        ])
+        .with_column_shares([0.72, 0.28]),
+    )
+    .with_time_panel(TimePanel::new().with_timeline("sim_time"))
+    .with_blueprint_panel(BlueprintPanel::new().with_state(rerun::blueprint::components::PanelState::Collapsed))
+    .with_selection_panel(SelectionPanel::new().with_state(rerun::blueprint::components::PanelState::Collapsed));
     send_blueprint(&rec, bp, &plot_paths, Nanos::from_secs_f64(end))?;
     rec.send_recording_name(format!("identify: {name}")).map_err(err)?;
     let r = Rec { rec: &rec };
@@ -585,15 +773,42 @@ pub fn encode_identify(name: &str, report: &crate::identify::Report, residuals: 
     for rs in residuals {
         let cols = Columns::of(rs.t_s.iter().map(|t| Nanos::from_secs_f64(*t)));
         let base = format!("identify/{}/{}", rs.channel.name(), rs.axis);
-        r.series(&format!("{base}/nominal"), &format!("{} nominal", rs.axis), faded(axis_color(rs.axis)), &cols, rs.before.clone())?;
-        r.series(&format!("{base}/with_effects"), &format!("{} with effects", rs.axis), axis_color(rs.axis), &cols, rs.after.clone())?;
+        r.series(
+            &format!("{base}/nominal"),
+            &format!("{} nominal", rs.axis),
+            faded(axis_color(rs.axis)),
+            &cols,
+            rs.before.clone(),
+        )?;
+        r.series(
+            &format!("{base}/with_effects"),
+            &format!("{} with effects", rs.axis),
+            axis_color(rs.axis),
+            &cols,
+            rs.after.clone(),
+        )?;
     }
     let at = Nanos::from_secs_f64(end);
     for (k, st) in report.steps.iter().enumerate() {
-        r.event(at, "INFO", format!("step {}: + {} (ΔBIC {:.0}, p {:.1e}, held-out −{:.1} %)", k + 1, st.added.name(), st.delta_bic, st.p_value, 100.0 * st.heldout_gain))?;
+        r.event(
+            at,
+            "INFO",
+            format!(
+                "step {}: + {} (ΔBIC {:.0}, p {:.1e}, held-out −{:.1} %)",
+                k + 1,
+                st.added.name(),
+                st.delta_bic,
+                st.p_value,
+                100.0 * st.heldout_gain
+            ),
+        )?;
     }
     for f in &report.effects {
-        let ps: Vec<String> = f.params.iter().map(|p| format!("{} {} {}", p.name, crate::identify::precision::with_interval(p.value, p.ci95), p.unit)).collect();
+        let ps: Vec<String> = f
+            .params
+            .iter()
+            .map(|p| format!("{} {} {}", p.name, crate::identify::precision::with_interval(p.value, p.ci95), p.unit))
+            .collect();
         r.event(at, "INFO", format!("{}: {}", f.name, ps.join(", ")))?;
     }
     if report.effects.is_empty() {

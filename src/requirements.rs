@@ -141,7 +141,15 @@ impl Rows<'_> {
     }
     /// A row shown but not asserted (its result column says why).
     fn shown(&mut self, id: &'static str, what: String, measured: String, limit: String) {
-        self.rows.push(Row { vehicle: self.vehicle.to_string(), id, what, measured, limit, pass: true, asserted: false });
+        self.rows.push(Row {
+            vehicle: self.vehicle.to_string(),
+            id,
+            what,
+            measured,
+            limit,
+            pass: true,
+            asserted: false,
+        });
     }
 }
 
@@ -153,11 +161,28 @@ fn offsets(r: &OffsetsReq, v: &VehicleRun, out: &mut Rows) {
         Some((roll, pitch, _)) => {
             for (name, est, truth) in [("roll", roll, v.truth.euler.roll), ("pitch", pitch, v.truth.euler.pitch)] {
                 let err = (est - truth).abs();
-                out.row("R1", format!("{name} offset |est − truth| (est {}, truth {})", deg(est), deg(truth)), deg(err), format!("≤ {}", deg(tol)), err <= tol);
+                out.row(
+                    "R1",
+                    format!("{name} offset |est − truth| (est {}, truth {})", deg(est), deg(truth)),
+                    deg(err),
+                    format!("≤ {}", deg(tol)),
+                    err <= tol,
+                );
             }
         }
-        None if v.external => out.shown("R1", "roll/pitch offsets".into(), "the external controller reported no offset (FAOF)".into(), format!("≤ {}", deg(tol))),
-        None => out.row("R1", "roll/pitch offsets".into(), "not calibrated (no calibrate_roll_pitch phase)".into(), format!("≤ {}", deg(tol)), false),
+        None if v.external => out.shown(
+            "R1",
+            "roll/pitch offsets".into(),
+            "the external controller reported no offset (FAOF)".into(),
+            format!("≤ {}", deg(tol)),
+        ),
+        None => out.row(
+            "R1",
+            "roll/pitch offsets".into(),
+            "not calibrated (no calibrate_roll_pitch phase)".into(),
+            format!("≤ {}", deg(tol)),
+            false,
+        ),
     }
     // a yaw row exists for each yaw method the plan flies
     let flies = |phase: &str| v.phases.iter().any(|(_, name)| *name == phase);
@@ -171,7 +196,12 @@ fn offsets(r: &OffsetsReq, v: &VehicleRun, out: &mut Rows) {
         let err = est.map(|e| crate::frames::wrap_pi(e - truth).abs());
         let measured = err.map_or("no estimate (flight too short to fit)".into(), deg);
         match r.yaw_straight_flight_tol_deg {
-            Some(t) if err.is_none() && v.external => out.shown("R1", what, "the external controller reported no yaw offset (FAOF)".into(), format!("≤ {}", deg(t.to_radians()))),
+            Some(t) if err.is_none() && v.external => out.shown(
+                "R1",
+                what,
+                "the external controller reported no yaw offset (FAOF)".into(),
+                format!("≤ {}", deg(t.to_radians())),
+            ),
             Some(t) => {
                 let tol = t.to_radians();
                 out.row("R1", what, measured, format!("≤ {}", deg(tol)), err.is_some_and(|e| e <= tol));
@@ -184,11 +214,27 @@ fn offsets(r: &OffsetsReq, v: &VehicleRun, out: &mut Rows) {
         match &v.calibration.gyro {
             Some(g) => {
                 let err = crate::frames::wrap_pi(g.euler.yaw - truth).abs();
-                let what = format!("yaw offset, gyro telemetry (est {} ± {} 1σ, truth {})", deg(g.euler.yaw), deg(g.sigma[2]), deg(truth));
+                let what = format!(
+                    "yaw offset, gyro telemetry (est {} ± {} 1σ, truth {})",
+                    deg(g.euler.yaw),
+                    deg(g.sigma[2]),
+                    deg(truth)
+                );
                 out.row("R1", what, deg(err), format!("≤ {}", deg(tol)), err <= tol);
             }
-            None if v.external => out.shown("R1", "yaw offset, gyro telemetry".into(), "the external controller flies it: no built-in gyro fit".into(), format!("≤ {}", deg(tol))),
-            None => out.row("R1", "yaw offset, gyro telemetry".into(), "no estimate (rotation about two axes needed)".into(), format!("≤ {}", deg(tol)), false),
+            None if v.external => out.shown(
+                "R1",
+                "yaw offset, gyro telemetry".into(),
+                "the external controller flies it: no built-in gyro fit".into(),
+                format!("≤ {}", deg(tol)),
+            ),
+            None => out.row(
+                "R1",
+                "yaw offset, gyro telemetry".into(),
+                "no estimate (rotation about two axes needed)".into(),
+                format!("≤ {}", deg(tol)),
+                false,
+            ),
         }
     }
 }
@@ -199,7 +245,13 @@ fn hover_drift(r: &HoverDriftReq, v: &VehicleRun, unc: Option<&VehicleRun>, out:
     let unc = unc.and_then(|u| u.spin_max_deviation_m);
     match (comp, unc) {
         (Some(c), Some(u)) => {
-            out.row("R2", "max drift while yawing, compensated".into(), format!("{:.4} m", c), format!("≤ {:.4} m", r.max_m), c <= r.max_m);
+            out.row(
+                "R2",
+                "max drift while yawing, compensated".into(),
+                format!("{:.4} m", c),
+                format!("≤ {:.4} m", r.max_m),
+                c <= r.max_m,
+            );
             if u > r.max_m {
                 let ratio = c / u;
                 out.row(
@@ -218,7 +270,13 @@ fn hover_drift(r: &HoverDriftReq, v: &VehicleRun, unc: Option<&VehicleRun>, out:
                 );
             }
         }
-        _ => out.row("R2", "max drift while yawing".into(), "no yaw_spin phase".into(), format!("≤ {:.4} m", r.max_m), false),
+        _ => out.row(
+            "R2",
+            "max drift while yawing".into(),
+            "no yaw_spin phase".into(),
+            format!("≤ {:.4} m", r.max_m),
+            false,
+        ),
     }
 }
 
@@ -228,11 +286,34 @@ fn ls_equals_rls(r: &LsRlsReq, v: &VehicleRun, out: &mut Rows) {
         (Some(ls), Some(rls)) => {
             let dpsi = (ls.psi_offset - rls.psi_offset).abs();
             let dx = (ls.x_e0 - rls.x_e0).abs();
-            out.row("R3", format!("|ψ_LS − ψ_RLS| over {} samples", ls.n), format!("{dpsi:.1e} rad"), format!("≤ {:.0e} rad", r.yaw_tol_rad), dpsi <= r.yaw_tol_rad);
-            out.row("R3", "|X_E0,LS − X_E0,RLS|".into(), format!("{dx:.1e} m"), format!("≤ {:.0e} m", r.x_e0_tol_m), dx <= r.x_e0_tol_m);
+            out.row(
+                "R3",
+                format!("|ψ_LS − ψ_RLS| over {} samples", ls.n),
+                format!("{dpsi:.1e} rad"),
+                format!("≤ {:.0e} rad", r.yaw_tol_rad),
+                dpsi <= r.yaw_tol_rad,
+            );
+            out.row(
+                "R3",
+                "|X_E0,LS − X_E0,RLS|".into(),
+                format!("{dx:.1e} m"),
+                format!("≤ {:.0e} m", r.x_e0_tol_m),
+                dx <= r.x_e0_tol_m,
+            );
         }
-        _ if v.external => out.shown("R3", "LS = RLS".into(), "n/a: an external controller flies it (its fits are its own)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad)),
-        _ => out.row("R3", "LS = RLS".into(), "no yaw fit (no calibrate_yaw phase, or too short)".into(), format!("≤ {:.0e} rad", r.yaw_tol_rad), false),
+        _ if v.external => out.shown(
+            "R3",
+            "LS = RLS".into(),
+            "n/a: an external controller flies it (its fits are its own)".into(),
+            format!("≤ {:.0e} rad", r.yaw_tol_rad),
+        ),
+        _ => out.row(
+            "R3",
+            "LS = RLS".into(),
+            "no yaw fit (no calibrate_yaw phase, or too short)".into(),
+            format!("≤ {:.0e} rad", r.yaw_tol_rad),
+            false,
+        ),
     }
 }
 
@@ -247,8 +328,19 @@ fn validity(r: &ValidityReq, v: &VehicleRun, out: &mut Rows) {
             (if want { "accept" } else { "reject" }).into(),
             val.accepted == want,
         ),
-        None if v.external => out.shown("R4", "validity (7)".into(), "n/a: an external controller flies it".into(), (if want { "accept" } else { "reject" }).into()),
-        None => out.row("R4", "validity (7)".into(), "no yaw flight".into(), (if want { "accept" } else { "reject" }).into(), false),
+        None if v.external => out.shown(
+            "R4",
+            "validity (7)".into(),
+            "n/a: an external controller flies it".into(),
+            (if want { "accept" } else { "reject" }).into(),
+        ),
+        None => out.row(
+            "R4",
+            "validity (7)".into(),
+            "no yaw flight".into(),
+            (if want { "accept" } else { "reject" }).into(),
+            false,
+        ),
     }
 }
 
@@ -358,7 +450,11 @@ pub struct ClockSummary {
 /// The summary of one vehicle's run; `unc` is its uncompensated counterpart, if flown.
 pub(crate) fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> VehicleSummary {
     let c = &v.calibration;
-    let line = |f: &crate::calibrate::LineFit| LineSummary { n: f.n, psi_offset_deg: f.psi_offset.to_degrees(), x_e0_m: f.x_e0 };
+    let line = |f: &crate::calibrate::LineFit| LineSummary {
+        n: f.n,
+        psi_offset_deg: f.psi_offset.to_degrees(),
+        x_e0_m: f.x_e0,
+    };
     VehicleSummary {
         applied_offset_deg: c.applied.to_degrees(),
         failsafe: v.failsafe,
@@ -388,7 +484,11 @@ pub(crate) fn vehicle_summary(v: &VehicleRun, unc: Option<&VehicleRun>) -> Vehic
         telemetry_link: v.telemetry,
         true_offset_deg: v.truth.euler.to_degrees(),
         true_offset_misfit_mm: v.truth.rms_misfit_m * 1e3,
-        validity: c.validity.map(|x| ValiditySummary { accepted: x.accepted, mean_roll_deg: x.mean_roll.to_degrees(), mean_yaw_deg: x.mean_yaw.to_degrees() }),
+        validity: c.validity.map(|x| ValiditySummary {
+            accepted: x.accepted,
+            mean_roll_deg: x.mean_roll.to_degrees(),
+            mean_yaw_deg: x.mean_yaw.to_degrees(),
+        }),
         yaw_ls: c.yaw_ls.as_ref().map(line),
         yaw_offset_estimate_deg: c.yaw_offset.map(f64::to_degrees),
         yaw_rls: c.yaw_rls.as_ref().map(line),
@@ -443,8 +543,13 @@ mod tests {
     /// The one vehicle of `scenarios/fig6-roll-pitch-offsets.yaml` before its first tick: no
     /// estimate yet, no phase flown; each test sets what it checks.
     fn unflown() -> VehicleRun {
-        let s = crate::scenario::Scenario::parse(include_str!("../scenarios/fig6-roll-pitch-offsets.yaml"), std::path::Path::new("fig6-roll-pitch-offsets.yaml")).unwrap();
-        let mut v = crate::engine::Arena::new(s.spec(), crate::engine::RunOptions::default()).finish().vehicles.remove(0);
+        let s = crate::scenario::Scenario::parse(
+            include_str!("../scenarios/fig6-roll-pitch-offsets.yaml"),
+            std::path::Path::new("fig6-roll-pitch-offsets.yaml"),
+        )
+        .unwrap();
+        let mut v =
+            crate::engine::Arena::new(s.spec(), crate::engine::RunOptions::default()).finish().vehicles.remove(0);
         v.phases.clear();
         v
     }
@@ -463,7 +568,8 @@ mod tests {
         v.calibration.roll_pitch = Some((1.05f64.to_radians(), (-0.7f64).to_radians(), 1000));
         let mut rows = Vec::new();
         offsets(&r, &v, &mut Rows { vehicle: "x3d", rows: &mut rows });
-        let got: Vec<_> = rows.iter().map(|x| (x.id, x.measured.as_str(), x.limit.as_str(), x.pass, x.asserted)).collect();
+        let got: Vec<_> =
+            rows.iter().map(|x| (x.id, x.measured.as_str(), x.limit.as_str(), x.pass, x.asserted)).collect();
         assert_eq!(got, [("R1", "0.0500°", "≤ 0.1000°", true, true), ("R1", "0.2000°", "≤ 0.1000°", false, true)]);
         assert!(rows[0].what.starts_with("roll offset") && rows[1].what.starts_with("pitch offset"), "{rows:?}");
 
@@ -477,7 +583,12 @@ mod tests {
             got,
             [
                 ("roll/pitch offsets", "≤ 0.1000°", false, true),
-                ("yaw offset, straight flight (8)–(9)", "none: unobservable in rate mode (docs/findings.md)", true, false),
+                (
+                    "yaw offset, straight flight (8)–(9)",
+                    "none: unobservable in rate mode (docs/findings.md)",
+                    true,
+                    false
+                ),
                 ("yaw offset, gyro telemetry", "≤ 0.0500°", false, true),
             ]
         );

@@ -54,7 +54,8 @@ pub fn run_scenario(s: &Scenario, trace_uncompensated: bool) -> Outcome {
 /// [`crate::serve::serve`]): the uncompensated counterpart when a requirement needs it, and the
 /// requirements evaluated.
 pub fn evaluate(s: &Scenario, main: RunOutput, trace_uncompensated: bool) -> Outcome {
-    let uncompensated = requirements::needs_uncompensated(&s.requirements).then(|| run(s.spec(), RunOptions { trace: trace_uncompensated, apply_calibration: Some(false) }));
+    let uncompensated = requirements::needs_uncompensated(&s.requirements)
+        .then(|| run(s.spec(), RunOptions { trace: trace_uncompensated, apply_calibration: Some(false) }));
     let report = requirements::evaluate(&s.requirements, &main, uncompensated.as_ref());
     Outcome { main, uncompensated, report }
 }
@@ -68,7 +69,15 @@ impl Outcome {
             duration_s: self.main.duration.as_secs_f64(),
             passed: self.report.passed(),
             requirements: self.report.rows.clone(),
-            vehicles: self.main.vehicles.iter().enumerate().map(|(i, v)| requirements::vehicle_summary(v, self.uncompensated.as_ref().and_then(|u| u.vehicles.get(i)))).collect(),
+            vehicles: self
+                .main
+                .vehicles
+                .iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    requirements::vehicle_summary(v, self.uncompensated.as_ref().and_then(|u| u.vehicles.get(i)))
+                })
+                .collect(),
         }
     }
 }

@@ -70,7 +70,13 @@ pub struct Scripts {
 /// end the line or the word (whitespace, quotes, `$`, backslash, `;`, `&`, `|`, `#` …).
 fn safe(what: &str, v: &str) -> Result<(), String> {
     let ok = !v.is_empty() && v.chars().all(|c| c.is_ascii_alphanumeric() || "-_.:/,+=@%".contains(c));
-    if ok { Ok(()) } else { Err(format!("{what} `{v}` holds a character a job script cannot carry (letters, digits and - _ . : / , + = @ % only)")) }
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "{what} `{v}` holds a character a job script cannot carry (letters, digits and - _ . : / , + = @ % only)"
+        ))
+    }
 }
 
 /// The job scripts for `job` split into `tasks` shards, writing into `out` (absolute), run by
@@ -78,7 +84,14 @@ fn safe(what: &str, v: &str) -> Result<(), String> {
 ///
 /// # Errors
 /// A path or an option that a script line cannot carry (module doc), or 0 tasks.
-pub fn scripts(job: &Job, tasks: u64, cluster: &Cluster, flyarena: &Path, out: &Path, name: &str) -> Result<Scripts, String> {
+pub fn scripts(
+    job: &Job,
+    tasks: u64,
+    cluster: &Cluster,
+    flyarena: &Path,
+    out: &Path,
+    name: &str,
+) -> Result<Scripts, String> {
     if tasks == 0 {
         return Err("--tasks must be at least 1".into());
     }
@@ -100,7 +113,10 @@ pub fn scripts(job: &Job, tasks: u64, cluster: &Cluster, flyarena: &Path, out: &
             // not --quiet: a task that resumes says how many of its runs its journal held
             (format!("{bin} sweep {s}{runs}"), format!("{dir}/shards/*.sweep.shard-*-of-{tasks}.json"))
         }
-        Job::Trials { flights, seed } => (format!("{bin} trials --flights {flights} --seed {seed}"), format!("{dir}/shards/trials-{seed}-{flights}.shard-*-of-{tasks}.json")),
+        Job::Trials { flights, seed } => (
+            format!("{bin} trials --flights {flights} --seed {seed}"),
+            format!("{dir}/shards/trials-{seed}-{flights}.shard-*-of-{tasks}.json"),
+        ),
     };
     let header = |s: &mut String, job_name: &str| {
         let _ = writeln!(s, "#!/bin/bash");
@@ -143,8 +159,13 @@ pub fn scripts(job: &Job, tasks: u64, cluster: &Cluster, flyarena: &Path, out: &
     let _ = writeln!(submit, "array=$(sbatch --parsable {dir}/{array_file})");
     let _ = writeln!(submit, "array=${{array%%;*}}");
     let _ = writeln!(submit, "echo \"shards: job $array\"");
-    let _ = writeln!(submit, "sbatch --dependency=afterok:\"$array\" --kill-on-invalid-dep=yes \"$@\" {dir}/{merge_file}");
-    Ok(Scripts { array: (array_file, array), merge: (merge_file, merge), submit: (format!("{name}.submit.sh"), submit) })
+    let _ =
+        writeln!(submit, "sbatch --dependency=afterok:\"$array\" --kill-on-invalid-dep=yes \"$@\" {dir}/{merge_file}");
+    Ok(Scripts {
+        array: (array_file, array),
+        merge: (merge_file, merge),
+        submit: (format!("{name}.submit.sh"), submit),
+    })
 }
 
 #[cfg(test)]
@@ -156,7 +177,12 @@ mod tests {
     /// shards of a 4-way split; the submit script chains them with afterok.
     #[test]
     fn a_sweep_in_four_shards_with_every_option() {
-        let cluster = Cluster { partition: Some("short".into()), time: Some("01:00:00".into()), cpus_per_task: Some(2), account: Some("lab-7".into()) };
+        let cluster = Cluster {
+            partition: Some("short".into()),
+            time: Some("01:00:00".into()),
+            cpus_per_task: Some(2),
+            account: Some("lab-7".into()),
+        };
         let job = Job::Sweep { scenario: "/data/s.yaml".into(), runs: Some(400) };
         let s = scripts(&job, 4, &cluster, Path::new("/opt/flyarena"), Path::new("/scratch/run"), "hover").unwrap();
         let a = &s.array.1;
@@ -172,18 +198,50 @@ mod tests {
         ] {
             assert!(a.lines().any(|l| l == line), "missing `{line}` in\n{a}");
         }
-        assert!(s.merge.1.lines().any(|l| l == "exec /opt/flyarena merge /scratch/run/shards/*.sweep.shard-*-of-4.json --out /scratch/run"), "{}", s.merge.1);
+        assert!(
+            s.merge
+                .1
+                .lines()
+                .any(|l| l
+                    == "exec /opt/flyarena merge /scratch/run/shards/*.sweep.shard-*-of-4.json --out /scratch/run"),
+            "{}",
+            s.merge.1
+        );
         assert!(s.submit.1.contains("sbatch --dependency=afterok:\"$array\""), "{}", s.submit.1);
-        assert_eq!((s.array.0.as_str(), s.merge.0.as_str(), s.submit.0.as_str()), ("hover.array.sbatch", "hover.merge.sbatch", "hover.submit.sh"));
+        assert_eq!(
+            (s.array.0.as_str(), s.merge.0.as_str(), s.submit.0.as_str()),
+            ("hover.array.sbatch", "hover.merge.sbatch", "hover.submit.sh")
+        );
     }
 
     /// Without options no `#SBATCH` line for them is written (the cluster's defaults hold); a
     /// trials job names its shards by seed and size.
     #[test]
     fn trials_without_options_use_the_clusters_defaults() {
-        let s = scripts(&Job::Trials { flights: 300, seed: 1 }, 2, &Cluster::default(), Path::new("/b/flyarena"), Path::new("/o"), "t").unwrap();
-        assert!(!s.array.1.contains("--partition") && !s.array.1.contains("--time") && !s.array.1.contains("--account") && !s.array.1.contains("--cpus-per-task"), "{}", s.array.1);
-        assert!(s.array.1.contains("exec /b/flyarena trials --flights 300 --seed 1 --shard \"${SLURM_ARRAY_TASK_ID}/2\" --out /o/shards"), "{}", s.array.1);
+        let s = scripts(
+            &Job::Trials { flights: 300, seed: 1 },
+            2,
+            &Cluster::default(),
+            Path::new("/b/flyarena"),
+            Path::new("/o"),
+            "t",
+        )
+        .unwrap();
+        assert!(
+            !s.array.1.contains("--partition")
+                && !s.array.1.contains("--time")
+                && !s.array.1.contains("--account")
+                && !s.array.1.contains("--cpus-per-task"),
+            "{}",
+            s.array.1
+        );
+        assert!(
+            s.array.1.contains(
+                "exec /b/flyarena trials --flights 300 --seed 1 --shard \"${SLURM_ARRAY_TASK_ID}/2\" --out /o/shards"
+            ),
+            "{}",
+            s.array.1
+        );
         assert!(s.merge.1.contains("merge /o/shards/trials-1-300.shard-*-of-2.json --out /o"), "{}", s.merge.1);
     }
 
@@ -193,7 +251,11 @@ mod tests {
     fn what_a_script_cannot_carry_is_refused() {
         let job = Job::Trials { flights: 10, seed: 1 };
         let bin = Path::new("/b/flyarena");
-        assert!(scripts(&job, 2, &Cluster::default(), bin, Path::new("/my out"), "t").unwrap_err().contains("the output folder `/my out`"));
+        assert!(
+            scripts(&job, 2, &Cluster::default(), bin, Path::new("/my out"), "t")
+                .unwrap_err()
+                .contains("the output folder `/my out`")
+        );
         let bad = Cluster { partition: Some("x$(rm)".into()), ..Cluster::default() };
         assert!(scripts(&job, 2, &bad, bin, Path::new("/o"), "t").unwrap_err().contains("--partition"));
         let bad = Cluster { account: Some("a\n#SBATCH --x".into()), ..Cluster::default() };

@@ -31,7 +31,16 @@ use std::path::{Path, PathBuf};
 /// the gyro alignment and of the straight flight (deg, absolute; then the straight flight's
 /// signed, estimate − truth), the spin drift (m) and its ratio to the
 /// uncompensated twin's, and |ψ_LS − ψ_RLS| (rad).
-pub const METRICS: [&str; 8] = ["roll_err_deg", "pitch_err_deg", "yaw_gyro_err_deg", "yaw_ls_err_deg", "yaw_ls_signed_err_deg", "spin_dev_m", "spin_ratio", "ls_rls_dpsi_rad"];
+pub const METRICS: [&str; 8] = [
+    "roll_err_deg",
+    "pitch_err_deg",
+    "yaw_gyro_err_deg",
+    "yaw_ls_err_deg",
+    "yaw_ls_signed_err_deg",
+    "spin_dev_m",
+    "spin_ratio",
+    "ls_rls_dpsi_rad",
+];
 /// Requirement pass flags per row.
 pub const REQUIREMENTS: [&str; 4] = ["R1", "R2", "R3", "R4"];
 
@@ -125,17 +134,23 @@ impl Sweep {
     /// The scenario's own ([`crate::Error::Scenario`]) or its `sweep:` section's
     /// ([`crate::Error::Sweep`]).
     pub fn load(path: &Path) -> crate::Result<Sweep> {
-        let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;
+        let src =
+            std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;
         let scenario = Scenario::parse(&src, path)?;
         let file = path.display().to_string();
         let spec = |message: String| crate::Error::from(SweepError::Spec { file: file.clone(), message });
-        let cfg = scenario.sweep.clone().ok_or_else(|| spec("the scenario has no `sweep:` section (see docs/sweeps.md)".into()))?;
+        let cfg = scenario
+            .sweep
+            .clone()
+            .ok_or_else(|| spec("the scenario has no `sweep:` section (see docs/sweeps.md)".into()))?;
         if cfg.vary.is_empty() {
             return Err(spec("`vary` is empty: name at least one field to vary".into()));
         }
-        let variations = cfg.vary.iter().map(|v| v.variation().map_err(|e| spec(e.to_string()))).collect::<Result<Vec<_>, _>>()?;
+        let variations =
+            cfg.vary.iter().map(|v| v.variation().map_err(|e| spec(e.to_string()))).collect::<Result<Vec<_>, _>>()?;
         let tree: serde_json::Value = serde_saphyr::from_str(&src).map_err(|e| spec(e.to_string()))?;
-        let text_hash = src.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3));
+        let text_hash =
+            src.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3));
         let sweep = Sweep { name: scenario.name.clone(), text_hash, tree, cfg, variations, file: file.clone() };
         // every field must exist, once, and take the values its variation reaches, before
         // anything runs: a uniform's two ends (the fields' ranges are intervals), every grid
@@ -214,21 +229,28 @@ impl Sweep {
         let (params, seed, grid_point) = self.draw(i);
         let mut t = self.tree.clone();
         for (v, x) in self.cfg.vary.iter().zip(&params) {
-            set_path(&mut t, &v.field, *x).map_err(|message| SweepError::Run { run: i, message: message.to_string() })?;
+            set_path(&mut t, &v.field, *x)
+                .map_err(|message| SweepError::Run { run: i, message: message.to_string() })?;
         }
         t["seed"] = serde_json::json!(seed);
         // YAML is a superset of JSON: the varied tree goes through the same parser and checks
         let text = serde_json::to_string(&t).expect("a JSON tree serialises");
         let s = Scenario::parse(&text, Path::new(&self.file)).map_err(|e| {
             // the varied tree's positions are in no file: name the run's values instead
-            let values: Vec<String> = self.cfg.vary.iter().zip(&params).map(|(v, x)| format!("{} = {x}", v.field)).collect();
+            let values: Vec<String> =
+                self.cfg.vary.iter().zip(&params).map(|(v, x)| format!("{} = {x}", v.field)).collect();
             SweepError::Run { run: i, message: format!("{} ({}): {}", self.file, values.join(", "), e.what()) }
         })?;
         Ok((s, params, grid_point))
     }
 
     /// Runs the runs `i` with `i % shard.1 == shard.0` (all when `None`), in parallel.
-    pub fn run(&self, runs: u64, shard: Option<(u64, u64)>, progress: &(dyn Fn() + Sync)) -> Result<SweepOutput, SweepError> {
+    pub fn run(
+        &self,
+        runs: u64,
+        shard: Option<(u64, u64)>,
+        progress: &(dyn Fn() + Sync),
+    ) -> Result<SweepOutput, SweepError> {
         self.run_resumable(runs, shard, &std::collections::BTreeMap::new(), &|_, _| progress())
     }
 
@@ -248,7 +270,8 @@ impl Sweep {
         // whichever error a thread meets first: under load the sweep named another run.) The
         // check parses each scenario twice (again in `run_one`): 80 parses of the example sweep
         // take about 10 ms, one of its flights about 30 ms (the unit test below, in release).
-        let bad: Vec<Option<SweepError>> = mine.par_iter().map(|&i| if done.contains_key(&i) { None } else { self.scenario(i).err() }).collect();
+        let bad: Vec<Option<SweepError>> =
+            mine.par_iter().map(|&i| if done.contains_key(&i) { None } else { self.scenario(i).err() }).collect();
         if let Some(e) = bad.into_iter().flatten().next() {
             return Err(e);
         }
@@ -341,7 +364,13 @@ pub struct JournalHeader {
 impl Sweep {
     /// The header a journal of this sweep (`runs`, `shard`) starts with.
     pub fn journal_header(&self, runs: u64, shard: Option<(u64, u64)>) -> JournalHeader {
-        JournalHeader { scenario: self.name.clone(), text_hash: self.text_hash, sweep_seed: self.cfg.seed, runs, shard: shard.map(|(k, n)| [k + 1, n]) }
+        JournalHeader {
+            scenario: self.name.clone(),
+            text_hash: self.text_hash,
+            sweep_seed: self.cfg.seed,
+            runs,
+            shard: shard.map(|(k, n)| [k + 1, n]),
+        }
     }
 }
 
@@ -453,7 +482,11 @@ fn check_part(p: &SweepOutput) -> Result<(), SweepError> {
     for r in &p.rows {
         let (run, lens) = (r.run, (r.params.len(), r.metrics.len(), r.requirements.len()));
         if run >= p.runs || run % n != k - 1 {
-            return bad(format!("run {run} is not one of this shard's (the runs i < {} with i mod {n} = {})", p.runs, k - 1));
+            return bad(format!(
+                "run {run} is not one of this shard's (the runs i < {} with i mod {n} = {})",
+                p.runs,
+                k - 1
+            ));
         }
         if lens != (p.fields.len(), METRICS.len(), REQUIREMENTS.len()) {
             return bad(format!(
@@ -481,7 +514,8 @@ fn check_part(p: &SweepOutput) -> Result<(), SweepError> {
 /// edited consistently) it takes as written.
 pub fn merge(parts: Vec<SweepOutput>) -> Result<SweepOutput, SweepError> {
     let first = parts.first().ok_or_else(|| SweepError::Merge("no shard files given".into()))?;
-    let (scenario, seed, runs, fields, grid) = (first.scenario.clone(), first.sweep_seed, first.runs, first.fields.clone(), first.grid.clone());
+    let (scenario, seed, runs, fields, grid) =
+        (first.scenario.clone(), first.sweep_seed, first.runs, first.fields.clone(), first.grid.clone());
     let split = shard_of(first)[1];
     let mut shards = std::collections::BTreeSet::new();
     for p in &parts {
@@ -495,7 +529,10 @@ pub fn merge(parts: Vec<SweepOutput>) -> Result<SweepOutput, SweepError> {
             (n != split, format!("a split into {n} shards, not {split}")),
         ];
         if let Some((_, why)) = differs.iter().find(|d| d.0) {
-            return Err(SweepError::Merge(format!("shard {k} of {n} does not belong with shard {} of {split} of `{scenario}`: {why}", shard_of(first)[0])));
+            return Err(SweepError::Merge(format!(
+                "shard {k} of {n} does not belong with shard {} of {split} of `{scenario}`: {why}",
+                shard_of(first)[0]
+            )));
         }
         if !shards.insert(k) {
             return Err(SweepError::Merge(format!("shard {k} of {n} is given twice")));
@@ -522,7 +559,10 @@ pub fn merge(parts: Vec<SweepOutput>) -> Result<SweepOutput, SweepError> {
     // largest point + 1 when every point was flown, and any number above the runs otherwise
     let g = rows.iter().map(|r| r.grid_point).max().map_or(1, |m| m + 1);
     if let Some(r) = rows.iter().find(|r| r.grid_point != r.run % g) {
-        return Err(SweepError::Merge(format!("run {} ({}) flew grid point {}, but run i flies grid point i mod {g}", r.run, r.vehicle, r.grid_point)));
+        return Err(SweepError::Merge(format!(
+            "run {} ({}) flew grid point {}, but run i flies grid point i mod {g}",
+            r.run, r.vehicle, r.grid_point
+        )));
     }
     let mut seen = std::collections::BTreeSet::new();
     for r in &rows {
@@ -639,20 +679,51 @@ pub fn summary(out: &SweepOutput) -> Summary {
         .iter()
         .map(|&g| {
             let rows: Vec<&SweepRow> = out.rows.iter().filter(|r| r.grid_point == g).collect();
-            let metrics = METRICS.iter().enumerate().filter_map(|(k, m)| stats(rows.iter().filter_map(|r| r.metrics[k]).collect()).map(|s| (m.to_string(), s))).collect();
+            let metrics = METRICS
+                .iter()
+                .enumerate()
+                .filter_map(|(k, m)| {
+                    stats(rows.iter().filter_map(|r| r.metrics[k]).collect()).map(|s| (m.to_string(), s))
+                })
+                .collect();
             let pass_rate = REQUIREMENTS
                 .iter()
                 .enumerate()
                 .filter_map(|(k, id)| {
                     let flags: Vec<bool> = rows.iter().filter_map(|r| r.requirements[k]).collect();
-                    (!flags.is_empty()).then(|| (id.to_string(), flags.iter().filter(|f| **f).count() as f64 / flags.len() as f64))
+                    (!flags.is_empty())
+                        .then(|| (id.to_string(), flags.iter().filter(|f| **f).count() as f64 / flags.len() as f64))
                 })
                 .collect();
-            let grid = rows.first().map(|r| out.fields.iter().zip(&r.params).zip(&out.grid).filter(|(_, g)| **g).map(|((f, p), _)| (f.clone(), *p)).collect()).unwrap_or_default();
-            Group { grid_point: g, grid, rows: rows.len(), pass_rate_all: rows.iter().filter(|r| r.passed).count() as f64 / rows.len().max(1) as f64, pass_rate, metrics }
+            let grid = rows
+                .first()
+                .map(|r| {
+                    out.fields
+                        .iter()
+                        .zip(&r.params)
+                        .zip(&out.grid)
+                        .filter(|(_, g)| **g)
+                        .map(|((f, p), _)| (f.clone(), *p))
+                        .collect()
+                })
+                .unwrap_or_default();
+            Group {
+                grid_point: g,
+                grid,
+                rows: rows.len(),
+                pass_rate_all: rows.iter().filter(|r| r.passed).count() as f64 / rows.len().max(1) as f64,
+                pass_rate,
+                metrics,
+            }
         })
         .collect();
-    Summary { scenario: out.scenario.clone(), sweep_seed: out.sweep_seed, runs: out.runs, fields: out.fields.clone(), groups }
+    Summary {
+        scenario: out.scenario.clone(),
+        sweep_seed: out.sweep_seed,
+        runs: out.runs,
+        fields: out.fields.clone(),
+        groups,
+    }
 }
 
 /// One CSV line per row: run, seed, grid_point, vehicle, the varied fields, the metrics, the

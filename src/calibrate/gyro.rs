@@ -98,7 +98,12 @@ pub struct ClockSearch {
 
 impl Default for ClockSearch {
     fn default() -> Self {
-        ClockSearch { max_offset: Nanos::from_millis(50), step: Nanos::from_millis(1), block: Nanos::from_millis(5000), max_drift_ppm: 500.0 }
+        ClockSearch {
+            max_offset: Nanos::from_millis(50),
+            step: Nanos::from_millis(1),
+            block: Nanos::from_millis(5000),
+            max_drift_ppm: 500.0,
+        }
     }
 }
 
@@ -312,8 +317,10 @@ impl GyroAlignment {
         if self.newest_mocap.0 < base + NEIGHBOUR_PERIODS * p {
             return None;
         }
-        let (ta, a) = (0..NEIGHBOUR_PERIODS).find_map(|k| self.mocap_at(Nanos(base - k * p)).map(|a| (base - k * p, a)))?;
-        let (tb, b) = (1..=NEIGHBOUR_PERIODS).find_map(|k| self.mocap_at(Nanos(base + k * p)).map(|b| (base + k * p, b)))?;
+        let (ta, a) =
+            (0..NEIGHBOUR_PERIODS).find_map(|k| self.mocap_at(Nanos(base - k * p)).map(|a| (base - k * p, a)))?;
+        let (tb, b) =
+            (1..=NEIGHBOUR_PERIODS).find_map(|k| self.mocap_at(Nanos(base + k * p)).map(|b| (base + k * p, b)))?;
         let s = (t.0 - ta) as f64 / (tb - ta) as f64;
         Some(a * Rot::from_rotation_vector((a.inverse() * b).rotation_vector() * s))
     }
@@ -354,7 +361,11 @@ impl GyroAlignment {
     fn windows_on_mocap_grid(&mut self) {
         let (Some(search), Some(first)) = (self.search, self.next_window) else { return };
         // saturating: before the first telemetry frame its start is i64::MIN
-        let ready = self.newest_mocap.0.saturating_sub(self.mocap_period.0 * NEIGHBOUR_PERIODS).min(self.newest_telemetry_start.0.saturating_sub(search.max_offset.0));
+        let ready = self
+            .newest_mocap
+            .0
+            .saturating_sub(self.mocap_period.0 * NEIGHBOUR_PERIODS)
+            .min(self.newest_telemetry_start.0.saturating_sub(search.max_offset.0));
         for k in first..ready.div_euclid(self.window.0) {
             let (t_a, t_b) = (Nanos(k * self.window.0), Nanos((k + 1) * self.window.0));
             self.next_window = Some(k + 1);
@@ -367,7 +378,8 @@ impl GyroAlignment {
                 continue;
             };
             let theta_m = *(a.inverse() * b).rotation_vector().raw();
-            let thetas: Option<Vec<Vector3<f64>>> = Self::offsets(&search).map(|d| self.gyro_increment(t_a + d, t_b + d)).collect();
+            let thetas: Option<Vec<Vector3<f64>>> =
+                Self::offsets(&search).map(|d| self.gyro_increment(t_a + d, t_b + d)).collect();
             match thetas {
                 Some(thetas) => self.add_to_block(&search, t_a, t_b, theta_m, &thetas),
                 None => self.dropped += 1,
@@ -395,7 +407,11 @@ impl GyroAlignment {
                 f.gyro_mean * (f.t1 - f.t0).as_secs_f64()
             } else {
                 // neighbours' means where the frames are contiguous, else this frame's own
-                let prev = i.checked_sub(1).map(|j| &self.frames[j]).filter(|g| g.t1 == f.t0).map_or(f.gyro_mean, |g| g.gyro_mean);
+                let prev = i
+                    .checked_sub(1)
+                    .map(|j| &self.frames[j])
+                    .filter(|g| g.t1 == f.t0)
+                    .map_or(f.gyro_mean, |g| g.gyro_mean);
                 let next = self.frames.get(i + 1).filter(|g| g.t0 == f.t1).map_or(f.gyro_mean, |g| g.gyro_mean);
                 let span = (f.t1 - f.t0).as_secs_f64();
                 let x = |t: Nanos| (t - f.t0).as_secs_f64() / span;
@@ -411,13 +427,27 @@ impl GyroAlignment {
         None
     }
 
-    fn add_to_block(&mut self, search: &ClockSearch, t_a: Nanos, t_b: Nanos, theta_m: Vector3<f64>, thetas: &[Vector3<f64>]) {
+    fn add_to_block(
+        &mut self,
+        search: &ClockSearch,
+        t_a: Nanos,
+        t_b: Nanos,
+        theta_m: Vector3<f64>,
+        thetas: &[Vector3<f64>],
+    ) {
         let index = t_a.0.div_euclid(search.block.0.max(1));
         let pos = match self.blocks.iter().rposition(|b| b.index <= index) {
             Some(i) if self.blocks[i].index == index => i,
             other => {
                 let at = other.map_or(0, |i| i + 1);
-                let block = Block { index, n: 0, sum_t: 0.0, sum_m: Vector3::zeros(), sum_mm: Matrix3::zeros(), per_offset: vec![GyroMoments::default(); thetas.len()] };
+                let block = Block {
+                    index,
+                    n: 0,
+                    sum_t: 0.0,
+                    sum_m: Vector3::zeros(),
+                    sum_mm: Matrix3::zeros(),
+                    per_offset: vec![GyroMoments::default(); thetas.len()],
+                };
                 self.blocks.insert(at, block);
                 at
             }
@@ -459,7 +489,14 @@ impl GyroAlignment {
 
     /// The moments of every window paired without the clock search.
     fn moments(&self) -> Moments {
-        Moments { n: self.n as f64, sum_m: self.sum_m, sum_b: self.sum_b, sum_mb: self.sum_mb, sum_mm: self.sum_mm, sum_bb: self.sum_bb }
+        Moments {
+            n: self.n as f64,
+            sum_m: self.sum_m,
+            sum_b: self.sum_b,
+            sum_mb: self.sum_mb,
+            sum_mm: self.sum_mm,
+            sum_bb: self.sum_bb,
+        }
     }
 
     /// Kabsch on pooled moments: the fit, its residual sum of squares and the 3×3 covariance of a
@@ -510,7 +547,14 @@ impl GyroAlignment {
     fn pooled(&self, search: &ClockSearch, t_mean: f64, offset_s: f64, drift: f64) -> Option<Moments> {
         let step = search.step.as_secs_f64();
         let max = (search.max_offset.0 / search.step.0.max(1)) as f64 * step;
-        let mut m = Moments { n: 0.0, sum_m: Vector3::zeros(), sum_b: Vector3::zeros(), sum_mb: Matrix3::zeros(), sum_mm: Matrix3::zeros(), sum_bb: 0.0 };
+        let mut m = Moments {
+            n: 0.0,
+            sum_m: Vector3::zeros(),
+            sum_b: Vector3::zeros(),
+            sum_mb: Matrix3::zeros(),
+            sum_mm: Matrix3::zeros(),
+            sum_bb: 0.0,
+        };
         for b in &self.blocks {
             let d = offset_s + drift * (b.sum_t / b.n as f64 - t_mean);
             let u = (d + max) / step;
@@ -521,7 +565,12 @@ impl GyroAlignment {
             }
             let k = (u.floor() as usize).min(b.per_offset.len() - 3);
             let x = u - k as f64;
-            let w = [-x * (x - 1.0) * (x - 2.0) / 6.0, (x + 1.0) * (x - 1.0) * (x - 2.0) / 2.0, -(x + 1.0) * x * (x - 2.0) / 2.0, (x + 1.0) * x * (x - 1.0) / 6.0];
+            let w = [
+                -x * (x - 1.0) * (x - 2.0) / 6.0,
+                (x + 1.0) * (x - 1.0) * (x - 2.0) / 2.0,
+                -(x + 1.0) * x * (x - 2.0) / 2.0,
+                (x + 1.0) * x * (x - 1.0) / 6.0,
+            ];
             m.n += b.n as f64;
             m.sum_m += b.sum_m;
             m.sum_mm += b.sum_mm;
@@ -620,7 +669,8 @@ fn central_hessian(f: impl Fn([f64; 2]) -> f64, x: [f64; 2], f0: f64, h: [f64; 2
         hess[(i, i)] = (f(e) - 2.0 * f0 + f([-e[0], -e[1]])) / (h[i] * h[i]);
     }
     if p == 2 {
-        hess[(0, 1)] = (f([h[0], h[1]]) - f([h[0], -h[1]]) - f([-h[0], h[1]]) + f([-h[0], -h[1]])) / (4.0 * h[0] * h[1]);
+        hess[(0, 1)] =
+            (f([h[0], h[1]]) - f([h[0], -h[1]]) - f([-h[0], h[1]]) + f([-h[0], -h[1]])) / (4.0 * h[0] * h[1]);
         hess[(1, 0)] = hess[(0, 1)];
     }
     hess
@@ -704,17 +754,27 @@ mod tests {
         assert_eq!(search.block, Nanos::from_millis(5000));
         for (t_a_ms, m) in [(10_000, 1.0), (500, 2.0), (11_000, 3.0), (6_000, 4.0)] {
             let t_a = Nanos::from_millis(t_a_ms);
-            g.add_to_block(&search, t_a, t_a + Nanos::from_millis(40), Vector3::new(m, 0.0, 0.0), &[Vector3::new(0.0, m, 0.0)]);
+            g.add_to_block(
+                &search,
+                t_a,
+                t_a + Nanos::from_millis(40),
+                Vector3::new(m, 0.0, 0.0),
+                &[Vector3::new(0.0, m, 0.0)],
+            );
         }
         assert_eq!(g.n, 4);
-        let got: Vec<(i64, u64, f64, f64)> = g.blocks.iter().map(|b| (b.index, b.n, b.sum_m.x, b.per_offset[0].sum_b.y)).collect();
+        let got: Vec<(i64, u64, f64, f64)> =
+            g.blocks.iter().map(|b| (b.index, b.n, b.sum_m.x, b.per_offset[0].sum_b.y)).collect();
         assert_eq!(got, [(0, 1, 2.0, 2.0), (1, 1, 4.0, 4.0), (2, 2, 4.0, 4.0)]);
         // second moments Σθ_m·θ_mᵀ, Σθ_m·θ_bᵀ and Σ|θ_b|², each Σm² (block 2: 1² + 3² = 10),
         // and nothing off their one entry
         for (b, want) in g.blocks.iter().zip([4.0, 16.0, 10.0]) {
             let o = &b.per_offset[0];
             assert_eq!((b.sum_mm[(0, 0)], o.sum_mb[(0, 1)], o.sum_bb), (want, want, want), "block {}", b.index);
-            assert_eq!((b.sum_mm.sum(), o.sum_mb.sum(), b.sum_m.sum(), o.sum_b.sum()), (want, want, b.sum_m.x, o.sum_b.y));
+            assert_eq!(
+                (b.sum_mm.sum(), o.sum_mb.sum(), b.sum_m.sum(), o.sum_b.sum()),
+                (want, want, b.sum_m.x, o.sum_b.y)
+            );
         }
         let centres: Vec<f64> = g.blocks.iter().map(|b| b.sum_t).collect();
         for (got, want) in centres.iter().zip([0.52, 6.02, 10.02 + 11.02]) {
@@ -754,7 +814,11 @@ mod tests {
         for k in 0..200 {
             let a = k as f64 * 0.37;
             let theta_m = Vec3::<MocapBody>::new(0.02 * a.sin(), 0.015 * (1.3 * a).cos(), 0.01 * (0.7 * a).sin());
-            let wobble = Vec3::<Body>::new(1e-3 * (2.9 * a).sin(), 1e-3 * (3.7 * a).cos(), if k % 2 == 0 { 1e-3 } else { -1e-3 });
+            let wobble = Vec3::<Body>::new(
+                1e-3 * (2.9 * a).sin(),
+                1e-3 * (3.7 * a).cos(),
+                if k % 2 == 0 { 1e-3 } else { -1e-3 },
+            );
             let theta_b = c.apply(theta_m) + bias * 0.05 + wobble;
             g.add_pair(theta_m, theta_b);
             pairs.push((theta_m, theta_b));
@@ -796,7 +860,14 @@ mod tests {
         let g = GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(50));
         let fit = |s: f64, r: f64| {
             let scatter = Matrix3::from_diagonal(&Vector3::new(s, r * s, 0.0));
-            let m = Moments { n: 100.0, sum_m: Vector3::zeros(), sum_b: Vector3::zeros(), sum_mb: scatter, sum_mm: scatter, sum_bb: s + r * s };
+            let m = Moments {
+                n: 100.0,
+                sum_m: Vector3::zeros(),
+                sum_b: Vector3::zeros(),
+                sum_mb: scatter,
+                sum_mm: scatter,
+                sum_bb: s + r * s,
+            };
             g.fit(&m, 0).map(|(f, _, _)| f.rotation)
         };
         for s in [1.0, 1e4] {
@@ -842,7 +913,12 @@ mod tests {
                 att = att * Rot::<Body, Body>::from_rotation_vector(w * (1e-3 / fine as f64));
             }
             if (ms + 1) % 10 == 0 {
-                let f = TelemetryFrame { seq, t0: Nanos::from_millis(ms - 9), t1: Nanos::from_millis(ms + 1), gyro_mean: gyro_sum * 0.1 };
+                let f = TelemetryFrame {
+                    seq,
+                    t0: Nanos::from_millis(ms - 9),
+                    t1: Nanos::from_millis(ms + 1),
+                    gyro_mean: gyro_sum * 0.1,
+                };
                 seq += 1;
                 gyro_sum = Vec3::zeros();
                 g.add_telemetry(&f);
@@ -865,17 +941,37 @@ mod tests {
     /// Flies ω(t) (about all three axes, its magnitude varying) for `seconds` with a known C,
     /// mocap attitudes at 200 Hz (arriving 12 ms late) and telemetry at 100 Hz stamped by a
     /// clock t_v = t + offset + drift·t; returns the alignment's fit.
-    fn fly(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, seconds: i64) -> (GyroAlignment, Option<GyroFit>) {
+    fn fly(
+        g: GyroAlignment,
+        c: Rot<MocapBody, Body>,
+        offset: Nanos,
+        drift_ppm: f64,
+        seconds: i64,
+    ) -> (GyroAlignment, Option<GyroFit>) {
         fly_with_gap(g, c, offset, drift_ppm, seconds, 0..0)
     }
 
     /// [`fly`] with the telemetry frames that end in `lost_ms` lost on the link.
-    fn fly_with_gap(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, seconds: i64, lost_ms: std::ops::Range<i64>) -> (GyroAlignment, Option<GyroFit>) {
+    fn fly_with_gap(
+        g: GyroAlignment,
+        c: Rot<MocapBody, Body>,
+        offset: Nanos,
+        drift_ppm: f64,
+        seconds: i64,
+        lost_ms: std::ops::Range<i64>,
+    ) -> (GyroAlignment, Option<GyroFit>) {
         fly_for(g, c, offset, drift_ppm, seconds * 1000, lost_ms)
     }
 
     /// [`fly_with_gap`] for `duration_ms` milliseconds.
-    fn fly_for(g: GyroAlignment, c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, duration_ms: i64, lost_ms: std::ops::Range<i64>) -> (GyroAlignment, Option<GyroFit>) {
+    fn fly_for(
+        g: GyroAlignment,
+        c: Rot<MocapBody, Body>,
+        offset: Nanos,
+        drift_ppm: f64,
+        duration_ms: i64,
+        lost_ms: std::ops::Range<i64>,
+    ) -> (GyroAlignment, Option<GyroFit>) {
         let mut g = g;
         for e in arrivals(c, offset, drift_ppm, duration_ms, lost_ms) {
             e.deliver(&mut g);
@@ -905,9 +1001,21 @@ mod tests {
     }
 
     /// The flight of [`fly_for`], as the frames it delivers in their order of arrival.
-    fn arrivals(c: Rot<MocapBody, Body>, offset: Nanos, drift_ppm: f64, duration_ms: i64, lost_ms: std::ops::Range<i64>) -> Vec<Arrival> {
+    fn arrivals(
+        c: Rot<MocapBody, Body>,
+        offset: Nanos,
+        drift_ppm: f64,
+        duration_ms: i64,
+        lost_ms: std::ops::Range<i64>,
+    ) -> Vec<Arrival> {
         let mut out = Vec::new();
-        let omega = |t: f64| Vec3::<Body>::new(0.6 * (3.0 * t).cos() * (1.0 + 0.5 * (0.7 * t).sin()), 0.5 * (2.0 * t).sin(), 0.2 + 0.3 * (1.3 * t).sin());
+        let omega = |t: f64| {
+            Vec3::<Body>::new(
+                0.6 * (3.0 * t).cos() * (1.0 + 0.5 * (0.7 * t).sin()),
+                0.5 * (2.0 * t).sin(),
+                0.2 + 0.3 * (1.3 * t).sin(),
+            )
+        };
         let stamp = |t: Nanos| Nanos(t.0 + offset.0 + (t.0 as f64 * drift_ppm * 1e-6).round() as i64);
         let mut att: Rot<Body, Nav> = Rot::identity();
         let (mut seq, mut gyro_sum) = (0, Vec3::<Body>::zeros());
@@ -926,7 +1034,12 @@ mod tests {
             if (ms + 1) % 10 == 0 {
                 let (t0, t1) = (Nanos::from_millis(ms - 9), Nanos::from_millis(ms + 1));
                 if !lost_ms.contains(&(ms + 1)) {
-                    out.push(Arrival::Telemetry(TelemetryFrame { seq, t0: stamp(t0), t1: stamp(t1), gyro_mean: gyro_sum * 0.1 }));
+                    out.push(Arrival::Telemetry(TelemetryFrame {
+                        seq,
+                        t0: stamp(t0),
+                        t1: stamp(t1),
+                        gyro_mean: gyro_sum * 0.1,
+                    }));
                 }
                 seq += 1;
                 gyro_sum = Vec3::zeros();
@@ -960,10 +1073,18 @@ mod tests {
         let fit = fit.unwrap_or_else(|| panic!("no fit: {} windows, {} dropped", g.windows(), g.dropped()));
         let k = fit.clock.unwrap();
         let truth = offset.as_secs_f64() + drift * 1e-6 * k.t_mean_s;
-        assert!((k.offset_s - truth).abs() < 3.0 * k.offset_sigma_s + 1e-6, "offset {} vs {truth} (σ {})", k.offset_s, k.offset_sigma_s);
+        assert!(
+            (k.offset_s - truth).abs() < 3.0 * k.offset_sigma_s + 1e-6,
+            "offset {} vs {truth} (σ {})",
+            k.offset_s,
+            k.offset_sigma_s
+        );
         assert!(k.offset_sigma_s < 1e-4, "{k:?}");
         let (d, sd) = (k.drift_ppm.unwrap(), k.drift_sigma_ppm.unwrap());
-        assert!((d - drift).abs() < 3.0 * sd + 1.0 && sd < 50.0, "drift {d} ± {sd}: the 200 ppm resolved at 4σ at least");
+        assert!(
+            (d - drift).abs() < 3.0 * sd + 1.0 && sd < 50.0,
+            "drift {d} ± {sd}: the 200 ppm resolved at 4σ at least"
+        );
         assert!((fit.rotation.inverse() * c).angle().to_degrees() < 0.01, "{:?}", fit.euler.to_degrees());
         assert!(g.windows() > 450, "{} windows, {} dropped", g.windows(), g.dropped());
     }
@@ -978,15 +1099,37 @@ mod tests {
         let fit = fit.unwrap();
         // with a short search the telemetry is ready before the mocap (12 ms late): each window
         // waits for the frames after t_b that its interpolation needs, so none after the first is dropped
-        let (g, short) = fly(gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(3), ..ClockSearch::default() }), c, Nanos::ZERO, 0.0, 16);
+        let (g, short) = fly(
+            gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(3), ..ClockSearch::default() }),
+            c,
+            Nanos::ZERO,
+            0.0,
+            16,
+        );
         assert!(short.is_some() && g.dropped() <= 1, "{} windows, {} dropped", g.windows(), g.dropped());
         let k = fit.clock.unwrap();
-        assert!(k.offset_s.abs() < 3.0 * k.offset_sigma_s + 1e-6 && k.drift_ppm.unwrap().abs() < 3.0 * k.drift_sigma_ppm.unwrap() + 1.0, "{k:?}");
+        assert!(
+            k.offset_s.abs() < 3.0 * k.offset_sigma_s + 1e-6
+                && k.drift_ppm.unwrap().abs() < 3.0 * k.drift_sigma_ppm.unwrap() + 1.0,
+            "{k:?}"
+        );
         assert!((fit.rotation.inverse() * c).angle().to_degrees() < 0.01);
-        let (_, beyond) = fly(gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(20), ..ClockSearch::default() }), c, Nanos::from_millis(30), 0.0, 16);
+        let (_, beyond) = fly(
+            gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(20), ..ClockSearch::default() }),
+            c,
+            Nanos::from_millis(30),
+            0.0,
+            16,
+        );
         assert!(beyond.is_none(), "{beyond:?}");
         // likewise a drift beyond the searched range
-        let (_, beyond) = fly(gyro().estimate_clock(ClockSearch { max_drift_ppm: 100.0, ..ClockSearch::default() }), c, Nanos::ZERO, 300.0, 16);
+        let (_, beyond) = fly(
+            gyro().estimate_clock(ClockSearch { max_drift_ppm: 100.0, ..ClockSearch::default() }),
+            c,
+            Nanos::ZERO,
+            300.0,
+            16,
+        );
         assert!(beyond.is_none(), "{beyond:?}");
     }
 
@@ -1072,7 +1215,15 @@ mod tests {
         let (whole, _) = fly(gyro().estimate_clock(ClockSearch::default()), c, Nanos::ZERO, 0.0, 8);
         let (gap, _) = fly_with_gap(gyro().estimate_clock(ClockSearch::default()), c, Nanos::ZERO, 0.0, 8, 4000..4100);
         assert!(gap.dropped() >= 3 && gap.dropped() < 20, "{} windows, {} dropped", gap.windows(), gap.dropped());
-        assert_eq!(gap.windows() + gap.dropped(), whole.windows() + whole.dropped(), "{} + {} against {} + {}", gap.windows(), gap.dropped(), whole.windows(), whole.dropped());
+        assert_eq!(
+            gap.windows() + gap.dropped(),
+            whole.windows() + whole.dropped(),
+            "{} + {} against {} + {}",
+            gap.windows(),
+            gap.dropped(),
+            whole.windows(),
+            whole.dropped()
+        );
     }
 
     /// A frame that arrives after a newer one (a jittery link reorders them) is waited for: the
@@ -1152,7 +1303,10 @@ mod tests {
     #[test]
     fn the_clock_search_drops_a_window_without_its_mocap_frames_and_lets_old_telemetry_go() {
         let flown = |max_offset_ms: i64| {
-            let mut g = gyro().estimate_clock(ClockSearch { max_offset: Nanos::from_millis(max_offset_ms), ..ClockSearch::default() });
+            let mut g = gyro().estimate_clock(ClockSearch {
+                max_offset: Nanos::from_millis(max_offset_ms),
+                ..ClockSearch::default()
+            });
             for seq in 0..20 {
                 g.add_telemetry(&at_rest(seq, Nanos::from_millis(10 * seq as i64), Nanos::from_millis(10)));
             }
@@ -1249,7 +1403,8 @@ mod tests {
     #[test]
     fn the_clock_search_does_not_depend_on_the_order_of_arrival() {
         let c: Rot<MocapBody, Body> = Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0));
-        let (offset, search) = (Nanos::from_millis(17), ClockSearch { max_offset: Nanos::from_millis(20), ..ClockSearch::default() });
+        let (offset, search) =
+            (Nanos::from_millis(17), ClockSearch { max_offset: Nanos::from_millis(20), ..ClockSearch::default() });
         let fed = |telemetry_lag: Option<Nanos>| {
             let mut order = arrivals(c, offset, 0.0, 4000, 0..0);
             // arrival times: a mocap frame 12 ms after its capture, a telemetry frame at the end
@@ -1296,7 +1451,14 @@ mod tests {
     #[test]
     fn extra_parameters_take_degrees_of_freedom() {
         // a 13 ms clock offset the plain alignment ignores leaves residuals to scale
-        let (g, _) = fly_for(gyro(), Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0)), Nanos::from_millis(13), 0.0, 600, 0..0);
+        let (g, _) = fly_for(
+            gyro(),
+            Rot::from_euler(Euler::from_degrees(-1.0, 2.0, 5.0)),
+            Nanos::from_millis(13),
+            0.0,
+            600,
+            0..0,
+        );
         let (n, m) = (g.windows() as f64, g.moments());
         let ((_, rss, none), (_, _, two)) = (g.fit(&m, 0).unwrap(), g.fit(&m, 2).unwrap());
         assert!(rss > 0.0 && (10.0..20.0).contains(&n), "rss {rss}, {n} windows");
@@ -1319,13 +1481,21 @@ mod tests {
         let (g, fit) = fly_for(gyro().estimate_clock(search), c, Nanos::from_millis(13), 0.0, 1000, 0..0);
         let k = fit.unwrap().clock.unwrap();
         let n = g.blocks.iter().map(|b| b.n).sum::<u64>() as f64;
-        assert!(g.blocks.len() == 1 && k.drift_ppm.is_none() && (15.0..40.0).contains(&n), "{} blocks, {n} windows", g.blocks.len());
+        assert!(
+            g.blocks.len() == 1 && k.drift_ppm.is_none() && (15.0..40.0).contains(&n),
+            "{} blocks, {n} windows",
+            g.blocks.len()
+        );
         let rss = |d: f64| g.fit(&g.pooled(&search, k.t_mean_s, d, 0.0).unwrap(), 1).unwrap().1;
         let (d, h) = (k.offset_s, 1e-4);
         let (r0, curvature) = (rss(d), (rss(d + h) - 2.0 * rss(d) + rss(d - h)) / (h * h));
         let expected = 2.0 * r0 / (3.0 * n - 7.0) / curvature;
         let ratio = k.offset_sigma_s.powi(2) / expected;
-        assert!(r0 > 0.0 && (ratio - 1.0).abs() < 0.01, "σ² {} s² against {expected} s² by hand ({n} windows, RSS {r0})", k.offset_sigma_s.powi(2));
+        assert!(
+            r0 > 0.0 && (ratio - 1.0).abs() < 0.01,
+            "σ² {} s² against {expected} s² by hand ({n} windows, RSS {r0})",
+            k.offset_sigma_s.powi(2)
+        );
     }
 
     /// The partial-frame integral against closed forms: ω(s) = s (means −½, ½, 3/2) integrates
@@ -1335,7 +1505,9 @@ mod tests {
         let v = |x: f64| Vector3::new(x, 0.0, 0.0);
         for x in [0.0, 0.25, 0.5, 0.8, 1.0] {
             assert!((partial_rate_integral(v(-0.5), v(0.5), v(1.5), x).x - x * x / 2.0).abs() < 1e-15);
-            assert!((partial_rate_integral(v(1.0 / 3.0), v(1.0 / 3.0), v(7.0 / 3.0), x).x - x * x * x / 3.0).abs() < 1e-15);
+            assert!(
+                (partial_rate_integral(v(1.0 / 3.0), v(1.0 / 3.0), v(7.0 / 3.0), x).x - x * x * x / 3.0).abs() < 1e-15
+            );
         }
         assert!((partial_rate_integral(v(3.0), v(-2.0), v(7.0), 1.0).x + 2.0).abs() < 1e-15);
     }
@@ -1353,13 +1525,19 @@ mod tests {
         let u = Vector3::new(0.6, 0.0, 0.8);
         let frame = |k: i64| {
             let mid = (10 * k) as f64 * 1e-3 + 0.005;
-            TelemetryFrame { seq: k as u32, t0: Nanos::from_millis(10 * k), t1: Nanos::from_millis(10 * k + 10), gyro_mean: Vec3::from_raw(u * (a + b * mid)) }
+            TelemetryFrame {
+                seq: k as u32,
+                t0: Nanos::from_millis(10 * k),
+                t1: Nanos::from_millis(10 * k + 10),
+                gyro_mean: Vec3::from_raw(u * (a + b * mid)),
+            }
         };
         let mut g = GyroAlignment::new(Nanos::from_millis(5), Nanos::from_millis(10), Nanos::from_millis(50));
         g.frames = (0..10).map(frame).collect();
         let (u0, u1) = (0.023, 0.067);
         let want = u * (a * (u1 - u0) + b * (u1 * u1 - u0 * u0) / 2.0);
-        let got = g.gyro_increment(Nanos::from_secs_f64(u0), Nanos::from_secs_f64(u1)).expect("frames cover the window");
+        let got =
+            g.gyro_increment(Nanos::from_secs_f64(u0), Nanos::from_secs_f64(u1)).expect("frames cover the window");
         assert!((got - want).amax() < 1e-15, "{got} vs {want}");
         g.frames.remove(4);
         assert_eq!(g.gyro_increment(Nanos::from_secs_f64(u0), Nanos::from_secs_f64(u1)), None, "40-50 ms missing");
@@ -1391,7 +1569,9 @@ mod tests {
     #[test]
     fn the_clock_jacobian_is_exact_for_a_rotation_linear_in_the_clock() {
         let u = [0.6, 0.0, 0.8];
-        let g = |c: [f64; 2]| Some(Rot::<Body, Body>::from_rotation_vector(Vec3::from_array(u.map(|k| k * (2.0 * c[0] - 3.0 * c[1])))));
+        let g = |c: [f64; 2]| {
+            Some(Rot::<Body, Body>::from_rotation_vector(Vec3::from_array(u.map(|k| k * (2.0 * c[0] - 3.0 * c[1])))))
+        };
         let jac = central_rotation_jacobian(g, [0.3, -0.2], [0.5, 0.25], 2).unwrap();
         let want = nalgebra::DMatrix::from_row_slice(3, 2, &[1.2, -1.8, 0.0, 0.0, 1.6, -2.4]);
         assert!((&jac - &want).amax() < 1e-12, "{jac}");
@@ -1415,10 +1595,18 @@ mod tests {
         let (_, _, cov_fixed) = g.fit(&m, 2).unwrap();
         let var = fit.sigma.map(|s| s * s);
         for i in 0..3 {
-            assert!(var[i] >= cov_fixed[(i, i)] * (1.0 - 1e-9), "axis {i}: σ² {} below the fixed clock's {}", var[i], cov_fixed[(i, i)]);
+            assert!(
+                var[i] >= cov_fixed[(i, i)] * (1.0 - 1e-9),
+                "axis {i}: σ² {} below the fixed clock's {}",
+                var[i],
+                cov_fixed[(i, i)]
+            );
         }
         // this noise-free flight pins the clock to microseconds, so J·Σ_clock·Jᵀ adds only ~0.4 %
         // (axis x) to Σ_C; the bound 10⁻⁴ is still far above their rounding (relative ~10⁻¹⁶)
-        assert!((0..3).any(|i| var[i] > (1.0 + 1e-4) * cov_fixed[(i, i)]), "σ² {var:?} against the fixed clock's {cov_fixed}");
+        assert!(
+            (0..3).any(|i| var[i] > (1.0 + 1e-4) * cov_fixed[(i, i)]),
+            "σ² {var:?} against the fixed clock's {cov_fixed}"
+        );
     }
 }

@@ -155,7 +155,16 @@ pub struct Rls {
 impl Rls {
     /// `min_spread_m`: how far X_N must have moved before the recursion starts (m).
     pub fn new(min_spread_m: f64) -> Self {
-        Rls { origin: None, info: Matrix2::zeros(), info_y: Vector2::zeros(), state: None, min_spread_m, n: 0, min_x: f64::INFINITY, max_x: f64::NEG_INFINITY }
+        Rls {
+            origin: None,
+            info: Matrix2::zeros(),
+            info_y: Vector2::zeros(),
+            state: None,
+            min_spread_m,
+            n: 0,
+            min_x: f64::INFINITY,
+            max_x: f64::NEG_INFINITY,
+        }
     }
 
     /// One mocap position (m, mocap NED) of the straight flight.
@@ -228,7 +237,13 @@ impl ValidityCheck {
     pub fn verdict(&self, eps_yaw: f64, eps_roll: f64) -> Validity {
         let n = self.n.max(1) as f64;
         let (mean_yaw, mean_roll) = (self.sum_yaw / n, self.sum_roll / n);
-        Validity { mean_yaw, mean_roll, eps_yaw, eps_roll, accepted: self.n > 0 && mean_yaw.abs() < eps_yaw && mean_roll.abs() < eps_roll }
+        Validity {
+            mean_yaw,
+            mean_roll,
+            eps_yaw,
+            eps_roll,
+            accepted: self.n > 0 && mean_yaw.abs() < eps_yaw && mean_roll.abs() < eps_roll,
+        }
     }
 }
 
@@ -266,7 +281,12 @@ mod tests {
         }
         let (roll, pitch) = h.mean().expect("three samples");
         assert_eq!(h.samples(), 3);
-        assert!((roll.to_degrees() - 4.0).abs() < 1e-12 && (pitch.to_degrees() - 1.0).abs() < 1e-12, "{}°, {}°", roll.to_degrees(), pitch.to_degrees());
+        assert!(
+            (roll.to_degrees() - 4.0).abs() < 1e-12 && (pitch.to_degrees() - 1.0).abs() < 1e-12,
+            "{}°, {}°",
+            roll.to_degrees(),
+            pitch.to_degrees()
+        );
     }
 
     /// A track that does not move has no heading: every point equal (a hover, or one point
@@ -306,7 +326,11 @@ mod tests {
         let psi_off = 2f64.to_radians();
         let north: Vec<f64> = (0..500).map(|k| 1.0 + k as f64 / 64.0).collect();
         for wobble in [0.0, 0.01] {
-            let east: Vec<f64> = north.iter().enumerate().map(|(k, n)| 0.3 + n * (-psi_off).tan() + wobble * (7.0 * k as f64).sin()).collect();
+            let east: Vec<f64> = north
+                .iter()
+                .enumerate()
+                .map(|(k, n)| 0.3 + n * (-psi_off).tan() + wobble * (7.0 * k as f64).sin())
+                .collect();
             let mut rls = Rls::new(0.5);
             for (k, (n, e)) in north.iter().zip(&east).enumerate() {
                 rls.update(*n, *e);
@@ -314,7 +338,10 @@ mod tests {
             }
             let (got, want) = (rls.estimate().unwrap(), batch_ls(&north, &east).unwrap());
             assert_eq!(got.n, 500);
-            assert!((got.slope - want.slope).abs() < 1e-12 && (got.x_e0 - want.x_e0).abs() < 1e-12, "wobble {wobble}: {got:?} vs {want:?}");
+            assert!(
+                (got.slope - want.slope).abs() < 1e-12 && (got.x_e0 - want.x_e0).abs() < 1e-12,
+                "wobble {wobble}: {got:?} vs {want:?}"
+            );
             if wobble == 0.0 {
                 assert!((got.psi_offset - psi_off).abs() < 1e-12 && (got.x_e0 - 0.3).abs() < 1e-12, "{got:?}");
             } else {
@@ -334,7 +361,12 @@ mod tests {
         assert_eq!(batch_ls(&[0.0, 1.0], &[0.0, 1.0, 2.0]), None);
         // two distinct points make a line: slope 1 through the origin, ψ̂_off = −45°
         let fit = batch_ls(&[0.0, 1.0], &[0.0, 1.0]).unwrap();
-        assert!((fit.slope - 1.0).abs() < 1e-15 && fit.x_e0.abs() < 1e-15 && (fit.psi_offset + std::f64::consts::FRAC_PI_4).abs() < 1e-15 && fit.n == 2);
+        assert!(
+            (fit.slope - 1.0).abs() < 1e-15
+                && fit.x_e0.abs() < 1e-15
+                && (fit.psi_offset + std::f64::consts::FRAC_PI_4).abs() < 1e-15
+                && fit.n == 2
+        );
     }
 
     #[test]

@@ -409,10 +409,19 @@ impl VehicleLoop {
     /// model, markers and cameras, links, radio, onboard loops and ground station.
     fn build(spec: &ArenaSpec, v: &VehicleSpec, i: usize, opts: &RunOptions) -> VehicleLoop {
         let (physics, seed) = (spec.physics, spec.seed);
-        let mocap = Mocap::new(v.markers.clone(), v.occlusions.clone(), spec.mocap.camera, spec.mocap.noise_m, Stream::new(seed, Component::MocapNoise, i));
+        let mocap = Mocap::new(
+            v.markers.clone(),
+            v.occlusions.clone(),
+            spec.mocap.camera,
+            spec.mocap.noise_m,
+            Stream::new(seed, Component::MocapNoise, i),
+        );
         let radio = Radio::new(v.radio);
         let plan = Plan::schedule(&spec.phases, v.home, v.yaw0_rad);
-        let settings = CalibrationSettings { apply: opts.apply_calibration.unwrap_or(v.calibration.apply), ..v.calibration.clone() };
+        let settings = CalibrationSettings {
+            apply: opts.apply_calibration.unwrap_or(v.calibration.apply),
+            ..v.calibration.clone()
+        };
         let station = Station::new(plan, v.gains.clone(), settings, v.failsafe, v.velocity_cutoff_hz, opts.trace);
         let true_params = v.true_params.clone();
         let home_nav = spec.mocap.camera.to_nav(v.home);
@@ -422,16 +431,29 @@ impl VehicleLoop {
             battery: Battery::new(true_params.battery),
             x3d: X3d::on_floor(true_params, v.disturbance, home_nav, v.yaw0_rad),
             rate_loop: RateLoop::new(&v.params, physics.period().as_secs_f64()),
-            attitude_loop: AttitudeLoop::new(v.params.attitude_loop_gain_per_s, physics.period().as_secs_f64(), v.yaw0_rad),
+            attitude_loop: AttitudeLoop::new(
+                v.params.attitude_loop_gain_per_s,
+                physics.period().as_secs_f64(),
+                v.yaw0_rad,
+            ),
             imu: Imu::new(v.imu.clone(), Stream::new(seed, Component::ImuNoise, i)),
             mocap,
             mocap_latency: v.mocap_latency,
             declared_mocap_latency: spec.mocap.latency,
             log_delay_frames: v.log_delay_frames,
             gyro_log_delay_frames: v.gyro_log_delay_frames,
-            link: Link::new(spec.link, Stream::new(seed, Component::LinkLoss, i), Stream::new(seed, Component::LinkJitter, i)).with_outages(spec.outages.clone()),
+            link: Link::new(
+                spec.link,
+                Stream::new(seed, Component::LinkLoss, i),
+                Stream::new(seed, Component::LinkJitter, i),
+            )
+            .with_outages(spec.outages.clone()),
             downlink: Downlink::new(tm.every).with_clock(tm.clock_offset, tm.clock_drift_ppm),
-            telemetry: Link::new(tm.link, Stream::new(seed, Component::TelemetryLoss, i), Stream::new(seed, Component::TelemetryJitter, i)),
+            telemetry: Link::new(
+                tm.link,
+                Stream::new(seed, Component::TelemetryLoss, i),
+                Stream::new(seed, Component::TelemetryJitter, i),
+            ),
             station,
             truth: v.truth,
             last_frame: None,

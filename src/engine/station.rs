@@ -2,7 +2,9 @@
 //! Vicon packet arrives — velocity estimation, guidance, the paper's calibration, and the
 //! controller of (1)–(5) fed with the offset-compensated attitude.
 
-use crate::calibrate::{ClockSearch, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls};
+use crate::calibrate::{
+    ClockSearch, GyroAlignment, GyroFit, HoverAverager, LineFit, OffsetEstimate, Rls, Validity, ValidityCheck, batch_ls,
+};
 use crate::clock::Nanos;
 use crate::control::{ControlOutput, Gains, LateralMode, Reference, control, failsafe};
 use crate::estimate::VelocityEstimator;
@@ -114,7 +116,14 @@ pub struct Station {
 impl Station {
     /// A station flying `plan`; `record_traces` keeps the RLS recursion's and the hover
     /// average's traces for the recording.
-    pub fn new(plan: Plan, gains: Gains, settings: CalibrationSettings, fs: FailsafeSettings, velocity_cutoff_hz: f64, record_traces: bool) -> Self {
+    pub fn new(
+        plan: Plan,
+        gains: Gains,
+        settings: CalibrationSettings,
+        fs: FailsafeSettings,
+        velocity_cutoff_hz: f64,
+        record_traces: bool,
+    ) -> Self {
         let (reference, window0) = plan.reference(Nanos::ZERO);
         // the straight-flight samples are kept for the batch fit: reserve them once, so the loop
         // does not allocate while flying
@@ -145,7 +154,13 @@ impl Station {
             gyro,
             window: Window::None,
             report: CalibrationReport::default(),
-            command: ControlOutput { rates: Vec3::zeros(), thrust_n: 0.0, angles_com: Euler::ZERO, yaw_rate_com: 0.0, accel_com: Vec3::zeros() },
+            command: ControlOutput {
+                rates: Vec3::zeros(),
+                thrust_n: 0.0,
+                angles_com: Euler::ZERO,
+                yaw_rate_com: 0.0,
+                accel_com: Vec3::zeros(),
+            },
             reference,
             attitude: None,
             rls_trace: record_traces.then(Vec::new),
@@ -208,13 +223,20 @@ impl Station {
         let bias = fit.map_or(Vec3::zeros(), |g| Vec3::from_array(g.gyro_bias));
         let clock = fit.and_then(|g| g.clock);
         let to_vicon = |t: Nanos| match &clock {
-            Some(c) => t - Nanos::from_secs_f64(c.offset_s + c.drift_ppm.unwrap_or(0.0) * 1e-6 * (t.as_secs_f64() - c.t_mean_s)),
+            Some(c) => {
+                t - Nanos::from_secs_f64(
+                    c.offset_s + c.drift_ppm.unwrap_or(0.0) * 1e-6 * (t.as_secs_f64() - c.t_mean_s),
+                )
+            }
             None => t,
         };
         if let Some((a, t)) = self.dead_reckoned
             && to_vicon(f.t0) >= t
         {
-            self.dead_reckoned = Some((a * Rot::from_rotation_vector((f.gyro_mean - bias) * (f.t1 - f.t0).as_secs_f64()), to_vicon(f.t1)));
+            self.dead_reckoned = Some((
+                a * Rot::from_rotation_vector((f.gyro_mean - bias) * (f.t1 - f.t0).as_secs_f64()),
+                to_vicon(f.t1),
+            ));
         }
     }
 
@@ -299,7 +321,9 @@ impl Station {
         if self.settings.hover_trim {
             match window {
                 Window::HoverAverage => self.hover_com.add(self.command.angles_com),
-                _ if reference.lateral == LateralMode::RollZero => self.command.angles_com.roll = self.report.roll_trim.unwrap_or(0.0),
+                _ if reference.lateral == LateralMode::RollZero => {
+                    self.command.angles_com.roll = self.report.roll_trim.unwrap_or(0.0)
+                }
                 _ => {}
             }
         }

@@ -38,7 +38,10 @@ fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize,
         Some(n) => s.vehicle_cfgs().position(|v| v.name == n).ok_or_else(|| {
             InputError::invalid(
                 file.display(),
-                format!("no vehicle `{n}` in the scenario; it has {}", s.vehicle_cfgs().map(|v| format!("`{}`", v.name)).collect::<Vec<_>>().join(", ")),
+                format!(
+                    "no vehicle `{n}` in the scenario; it has {}",
+                    s.vehicle_cfgs().map(|v| format!("`{}`", v.name)).collect::<Vec<_>>().join(", ")
+                ),
             )
         }),
     }
@@ -46,7 +49,11 @@ fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize,
 
 /// The options of a request: the forced effects, and the smoothing from the request, else from
 /// the mapping, else the default.
-fn options(forced: &[super::Effect], smoothing_ms: Option<f64>, map: Option<&super::input::mapping::Mapping>) -> Options {
+fn options(
+    forced: &[super::Effect],
+    smoothing_ms: Option<f64>,
+    map: Option<&super::input::mapping::Mapping>,
+) -> Options {
     let mut opts = Options { forced: forced.to_vec(), ..Options::default() };
     if let Some(sm) = smoothing_ms.or(map.and_then(|m| m.smoothing_ms)) {
         opts.design.smoothing_s = sm * 1e-3;
@@ -134,7 +141,12 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
         let log = crate::log::read_csv(&text, &input.display().to_string())?;
         flyarena_log::series(&log, &s, i, &input.display().to_string())?
     } else {
-        flyarena_log::run_and_log(&s, i, &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicle(i).name))?.1
+        flyarena_log::run_and_log(
+            &s,
+            i,
+            &format!("{} (seed {}, vehicle `{}`)", scen_path.display(), s.seed, s.vehicle(i).name),
+        )?
+        .1
     };
     let report = identify(&data, &opts)?;
     let frag = fragment(&report, i, s.mocap.rate_hz(), s.spec().vehicles[i].template.len());
@@ -150,7 +162,8 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
         before.attitude_rmse_deg,
         after.attitude_rmse_deg
     );
-    let requirements = s.requirements.identify.as_ref().map(|req| super::checks::check::check(&report, req, &s.vehicle(i).name));
+    let requirements =
+        s.requirements.identify.as_ref().map(|req| super::checks::check::check(&report, req, &s.vehicle(i).name));
     let json = json!({ "report": report, "closed_loop": { "nominal": before, "with_effects": after }, "requirements": requirements });
     let residuals = super::fit::select::residual_series(&data, &opts, &report);
     Ok(Identified { report, requirements, text, json, fragment: frag, closed_loop: Some((before, after)), residuals })
@@ -173,7 +186,12 @@ pub struct CrossValidated {
 
 /// Identifies every log through one mapping, then evaluates each flight's model on every other
 /// flight and checks the offsets' consistency per mounting.
-pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, forced: &[super::Effect]) -> crate::Result<CrossValidated> {
+pub fn run_many(
+    inputs: &[&Path],
+    mapping: &Path,
+    smoothing_ms: Option<f64>,
+    forced: &[super::Effect],
+) -> crate::Result<CrossValidated> {
     use super::fit::design::Channel;
     use super::fit::select::{channel_cut, evaluate};
     let map = super::input::mapping::Mapping::load(mapping)?;
@@ -214,10 +232,16 @@ pub fn run_many(inputs: &[&Path], mapping: &Path, smoothing_ms: Option<f64>, for
     // the body offset's own share: each model again without its offset
     let offset_gain = gain(&|_| Some(Rot::identity()));
     // the mounting's own part: each model again with the fleet's mean offset (j left out)
-    let fleet: Vec<_> = (0..series.len()).map(|j| super::checks::consistency::fleet_offset_without(&reports, j)).collect();
+    let fleet: Vec<_> =
+        (0..series.len()).map(|j| super::checks::consistency::fleet_offset_without(&reports, j)).collect();
     let mounting_gain = gain(&|j| fleet[j]);
-    let transfer = super::checks::consistency::Transfer { cut: &accel_cross, offset_gain: &offset_gain, mounting_gain: &mounting_gain };
-    let consistency = super::checks::consistency::consistency(&reports, &transfer, super::checks::consistency::LINK_DEG);
+    let transfer = super::checks::consistency::Transfer {
+        cut: &accel_cross,
+        offset_gain: &offset_gain,
+        mounting_gain: &mounting_gain,
+    };
+    let consistency =
+        super::checks::consistency::consistency(&reports, &transfer, super::checks::consistency::LINK_DEG);
     text += &super::checks::consistency::render(&consistency);
     let agreements = || reports.iter().filter_map(|(_, r)| r.ground_agreement.as_ref());
     let spin_up = super::fit::ground::spin_up_summary(agreements());
@@ -255,7 +279,11 @@ struct Each {
 /// samples under another name: published datasets hold such copies, which would agree with
 /// themselves and count twice) or one the data-quality gate rejects. An error only when no
 /// flight is left.
-fn identify_each(inputs: &[&Path], map: &super::input::mapping::Mapping, opts: &super::Options) -> Result<Each, InputError> {
+fn identify_each(
+    inputs: &[&Path],
+    map: &super::input::mapping::Mapping,
+    opts: &super::Options,
+) -> Result<Each, InputError> {
     let mut read: Vec<(String, super::Series)> = Vec::new();
     let mut excluded: Vec<(String, String)> = Vec::new();
     for p in inputs {
@@ -290,7 +318,8 @@ fn per_flight_text(reports: &[(String, super::Report)], excluded: &[(String, Str
     use super::fit::select::channel_cut;
     let mut text = String::from("per flight (held-out error cut per channel; effects with 95 % intervals):\n");
     for (name, r) in reports {
-        let cuts: Vec<String> = Channel::ALL.iter().map(|c| format!("{} {}", c.name(), pct(channel_cut(&r.errors, *c)))).collect();
+        let cuts: Vec<String> =
+            Channel::ALL.iter().map(|c| format!("{} {}", c.name(), pct(channel_cut(&r.errors, *c)))).collect();
         text += &format!("\n  {name}: {}\n", cuts.join(", "));
         for f in &r.effects {
             let ps: Vec<String> = f.params.iter().map(|p| report::param_text(p, |x| format!("{x:.3}"))).collect();
@@ -299,7 +328,8 @@ fn per_flight_text(reports: &[(String, super::Report)], excluded: &[(String, Str
         if let Some(g) = &r.ground_check {
             let [r, p] = g.up_axis.tilt_names();
             let (rv, pv) = (with_interval(g.roll_deg, g.roll_se_deg), with_interval(g.pitch_deg, g.pitch_se_deg));
-            text += &format!("    ground check (at rest, {} samples; ± standard error): {r} {rv}°, {p} {pv}°\n", g.samples);
+            text +=
+                &format!("    ground check (at rest, {} samples; ± standard error): {r} {rv}°, {p} {pv}°\n", g.samples);
         }
         if let Some(a) = &r.ground_agreement {
             let [r, p] = a.up_axis.tilt_names();
@@ -322,8 +352,26 @@ fn per_flight_text(reports: &[(String, super::Report)], excluded: &[(String, Str
             }
         }
         for l in r.left.iter().filter(|l| !l.correlates.is_empty()) {
-            let leads: Vec<String> = l.correlates.iter().map(|c| format!("{} r = {:+.2}{}", c.signal, c.r, if c.floor { " (the mocap pose's own error)" } else { "" })).collect();
-            text += &format!("    left on {}.{} ({:.3} {}): follows {}\n", l.channel.name(), l.axis, l.rmse, l.unit, leads.join(", "));
+            let leads: Vec<String> = l
+                .correlates
+                .iter()
+                .map(|c| {
+                    format!(
+                        "{} r = {:+.2}{}",
+                        c.signal,
+                        c.r,
+                        if c.floor { " (the mocap pose's own error)" } else { "" }
+                    )
+                })
+                .collect();
+            text += &format!(
+                "    left on {}.{} ({:.3} {}): follows {}\n",
+                l.channel.name(),
+                l.axis,
+                l.rmse,
+                l.unit,
+                leads.join(", ")
+            );
         }
         for n in &r.notes {
             text += &format!("    note: {n}\n");
@@ -344,8 +392,13 @@ fn pct(x: Option<f64>) -> String {
 /// row's flight is used on the column's flight.
 fn cross_tables(reports: &[(String, super::Report)], cross: &[Vec<(Option<f64>, Option<f64>)>]) -> String {
     let mut text = String::new();
-    for (k, title) in [(0, "accel_kin (mocap vs IMU: marker offset, tilt, delay)"), (1, "force (IMU vs force model: thrust, drag, wind)")] {
-        text += &format!("\ncross-validation, {title}: error cut when the model fitted on the row's flight is used on the column's flight\n");
+    for (k, title) in [
+        (0, "accel_kin (mocap vs IMU: marker offset, tilt, delay)"),
+        (1, "force (IMU vs force model: thrust, drag, wind)"),
+    ] {
+        text += &format!(
+            "\ncross-validation, {title}: error cut when the model fitted on the row's flight is used on the column's flight\n"
+        );
         // flight names cut to 12 characters (not bytes: a name may be any UTF-8)
         let short = |n: &str| n.chars().take(12).collect::<String>();
         let w = reports.iter().map(|(n, _)| short(n).chars().count()).max().unwrap_or(8).max(14);

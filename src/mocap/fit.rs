@@ -28,14 +28,23 @@ const MIN_SPREAD_M2: f64 = 1e-8;
 
 /// Fits `template[i]` onto `observed[i]` for the indices where `visible[i]`. `None` when fewer than
 /// three points are visible or they are collinear.
-pub fn rigid_fit<A: Frame, B: Frame>(template: &[Vec3<A>], observed: &[Vec3<B>], visible: &[bool]) -> Option<RigidFit<A, B>> {
+pub fn rigid_fit<A: Frame, B: Frame>(
+    template: &[Vec3<A>],
+    observed: &[Vec3<B>],
+    visible: &[bool],
+) -> Option<RigidFit<A, B>> {
     rigid_fit_near(template, observed, visible, None)
 }
 
 /// [`rigid_fit`] started from `guess`, a rotation near the answer (the previous frame's, 5 ms
 /// earlier): Newton's method on SO(3) ([`refine_rotation`]) reaches the same optimum in two or
 /// three cheap steps. Without a guess, or when Newton does not converge, it is [`kabsch`].
-pub fn rigid_fit_near<A: Frame, B: Frame>(template: &[Vec3<A>], observed: &[Vec3<B>], visible: &[bool], guess: Option<Rot<A, B>>) -> Option<RigidFit<A, B>> {
+pub fn rigid_fit_near<A: Frame, B: Frame>(
+    template: &[Vec3<A>],
+    observed: &[Vec3<B>],
+    visible: &[bool],
+    guess: Option<Rot<A, B>>,
+) -> Option<RigidFit<A, B>> {
     let n = visible.iter().zip(template).filter(|(v, _)| **v).count();
     if n < 3 || template.len() != observed.len() || template.len() != visible.len() {
         return None;
@@ -60,7 +69,8 @@ pub fn rigid_fit_near<A: Frame, B: Frame>(template: &[Vec3<A>], observed: &[Vec3
     // (this runs 200 times a second per vehicle): with λ₁ ≥ λ₂ ≥ λ₃ ≥ 0, the sum of the principal
     // 2×2 minors c₂ = λ₁λ₂ + λ₁λ₃ + λ₂λ₃ lies in [λ₁λ₂, 3λ₁λ₂] and λ₁ ∈ [tr/3, tr], so
     // c₂/tr ∈ [λ₂/3, 3λ₂]: the test c₂/tr < MIN_SPREAD_M2 is λ₂'s within a factor of 3.
-    let c2 = spread[(0, 0)] * spread[(1, 1)] - spread[(0, 1)] * spread[(1, 0)] + spread[(0, 0)] * spread[(2, 2)] - spread[(0, 2)] * spread[(2, 0)]
+    let c2 = spread[(0, 0)] * spread[(1, 1)] - spread[(0, 1)] * spread[(1, 0)] + spread[(0, 0)] * spread[(2, 2)]
+        - spread[(0, 2)] * spread[(2, 0)]
         + spread[(1, 1)] * spread[(2, 2)]
         - spread[(1, 2)] * spread[(2, 1)];
     let tr = spread.trace();
@@ -79,7 +89,11 @@ pub fn rigid_fit_near<A: Frame, B: Frame>(template: &[Vec3<A>], observed: &[Vec3
     for i in (0..template.len()).filter(|&i| visible[i]) {
         ss += (r * template[i].raw() + t - observed[i].raw()).norm_squared();
     }
-    Some(RigidFit { rotation: Rot::from_quaternion(q), translation: Vec3::from_raw(t), rms_residual: (ss / n as f64).sqrt() })
+    Some(RigidFit {
+        rotation: Rot::from_quaternion(q),
+        translation: Vec3::from_raw(t),
+        rms_residual: (ss / n as f64).sqrt(),
+    })
 }
 
 /// The rotation R maximising tr(R·H) for the cross-covariance H = Σ a_i·b_iᵀ, i.e. minimising
@@ -117,7 +131,8 @@ pub fn refine_rotation(h: &Matrix3<f64>, guess: &UnitQuaternion<f64>) -> Option<
     for _ in 0..8 {
         let a = q.to_rotation_matrix().matrix() * h;
         let g = Vector3::new(a[(1, 2)] - a[(2, 1)], a[(2, 0)] - a[(0, 2)], a[(0, 1)] - a[(1, 0)]);
-        let delta = solve_positive_definite(&(Matrix3::from_diagonal_element(a.trace()) - (a + a.transpose()) * 0.5), &g)?;
+        let delta =
+            solve_positive_definite(&(Matrix3::from_diagonal_element(a.trace()) - (a + a.transpose()) * 0.5), &g)?;
         q = UnitQuaternion::new_normalize(q.into_inner() + Quaternion::from_imag(delta) * q.into_inner() * 0.5);
         if delta.norm() < 1e-9 {
             return Some(q);
@@ -138,7 +153,11 @@ fn solve_positive_definite(m: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3
     if !(a > 0.0 && c22 > 0.0 && det > 0.0) {
         return None;
     }
-    let x = Vector3::new(c00 * b[0] + c01 * b[1] + c02 * b[2], c01 * b[0] + c11 * b[1] + c12 * b[2], c02 * b[0] + c12 * b[1] + c22 * b[2]) / det;
+    let x = Vector3::new(
+        c00 * b[0] + c01 * b[1] + c02 * b[2],
+        c01 * b[0] + c11 * b[1] + c12 * b[2],
+        c02 * b[0] + c12 * b[1] + c22 * b[2],
+    ) / det;
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
@@ -203,7 +222,12 @@ mod tests {
     use crate::frames::{Body, Euler, MocapBody, Nav};
 
     /// An asymmetric four-marker template (body frame, m).
-    const FOUR_MARKERS: [Vec3<Body>; 4] = [Vec3::new(0.2, 0.0, -0.03), Vec3::new(0.0, 0.17, -0.03), Vec3::new(-0.13, 0.0, -0.03), Vec3::new(0.0, -0.1, -0.05)];
+    const FOUR_MARKERS: [Vec3<Body>; 4] = [
+        Vec3::new(0.2, 0.0, -0.03),
+        Vec3::new(0.0, 0.17, -0.03),
+        Vec3::new(-0.13, 0.0, -0.03),
+        Vec3::new(0.0, -0.1, -0.05),
+    ];
 
     #[test]
     fn recovers_a_known_pose_exactly() {
@@ -250,13 +274,18 @@ mod tests {
         let rand_vec = |r: &mut crate::rng::Stream| Vec3::<Nav>::new(r.normal(), r.normal(), r.normal());
         for k in 0..2000 {
             let pattern = crate::mocap::builtin_pattern(k % 8);
-            let truth = Rot::<MocapBody, Nav>::from_euler(Euler::new(0.5 * r.normal(), 0.5 * r.normal(), 3.0 * r.normal()));
+            let truth =
+                Rot::<MocapBody, Nav>::from_euler(Euler::new(0.5 * r.normal(), 0.5 * r.normal(), 3.0 * r.normal()));
             let y: Vec<Vec3<Nav>> = pattern.iter().map(|m| truth.apply(*m) + rand_vec(&mut r) * 1e-3).collect();
             let n = rand_vec(&mut r);
             let guess = Rot::<Nav, Nav>::from_rotation_vector(n * (0.3 * r.uniform() / n.norm())) * truth;
             let near = rigid_fit_near(&pattern, &y, &[true; 4], Some(guess)).unwrap();
-            let (cm, cy) = (pattern.iter().map(|m| *m.raw()).sum::<Vector3<f64>>() / 4.0, y.iter().map(|m| *m.raw()).sum::<Vector3<f64>>() / 4.0);
-            let h: Matrix3<f64> = pattern.iter().zip(&y).map(|(m, y)| (m.raw() - cm) * (y.raw() - cy).transpose()).sum();
+            let (cm, cy) = (
+                pattern.iter().map(|m| *m.raw()).sum::<Vector3<f64>>() / 4.0,
+                y.iter().map(|m| *m.raw()).sum::<Vector3<f64>>() / 4.0,
+            );
+            let h: Matrix3<f64> =
+                pattern.iter().zip(&y).map(|(m, y)| (m.raw() - cm) * (y.raw() - cy).transpose()).sum();
             assert!(refine_rotation(&h, guess.quaternion()).is_some(), "case {k}: Newton declined");
             let err = (near.rotation.matrix() - kabsch_svd(&h).unwrap()).norm();
             assert!(err < 1e-12, "case {k}: {err}");
@@ -314,14 +343,23 @@ mod tests {
     /// √(ss % n) (2× for four markers).
     #[test]
     fn a_grown_pattern_leaves_its_growth_as_the_rms_residual() {
-        let square = [Vec3::<Body>::new(0.1, 0.0, 0.0), Vec3::new(0.0, 0.1, 0.0), Vec3::new(-0.1, 0.0, 0.0), Vec3::new(0.0, -0.1, 0.0)];
+        let square = [
+            Vec3::<Body>::new(0.1, 0.0, 0.0),
+            Vec3::new(0.0, 0.1, 0.0),
+            Vec3::new(-0.1, 0.0, 0.0),
+            Vec3::new(0.0, -0.1, 0.0),
+        ];
         let truth: Rot<Body, Nav> = Rot::from_euler(Euler::new(0.3, -0.2, 2.5));
         let t = Vec3::<Nav>::new(1.0, 2.0, 3.0);
         let y: Vec<Vec3<Nav>> = square.iter().map(|p| Vec3::from_raw(truth.apply(*p).raw() * 1.02 + t.raw())).collect();
         for (visible, rms) in [([true; 4], 0.002), ([true, true, true, false], 0.0018856180831641267)] {
             let fit = rigid_fit(&square, &y, &visible).unwrap();
             assert!((fit.rotation.inverse() * truth).angle() < 1e-12);
-            assert!((fit.rms_residual - rms).abs() < 1e-12, "{visible:?}: rms residual {} m, not {rms} m", fit.rms_residual);
+            assert!(
+                (fit.rms_residual - rms).abs() < 1e-12,
+                "{visible:?}: rms residual {} m, not {rms} m",
+                fit.rms_residual
+            );
         }
     }
 
@@ -376,7 +414,11 @@ mod tests {
         let near = rigid_fit_near(&m, &y, &[true; 4], Some(flipped)).unwrap().rotation;
         assert!(r.quaternion().w > 0.0 && flipped.quaternion().w < 0.0);
         for q in [kabsch.quaternion(), near.quaternion()] {
-            assert!(q.w > 0.0 && (q.into_inner() - r.quaternion().into_inner()).norm() < 1e-12, "{q:?} against {:?}", r.quaternion());
+            assert!(
+                q.w > 0.0 && (q.into_inner() - r.quaternion().into_inner()).norm() < 1e-12,
+                "{q:?} against {:?}",
+                r.quaternion()
+            );
         }
     }
 

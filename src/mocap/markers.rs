@@ -19,7 +19,12 @@ pub const BUILTIN_PATTERNS: usize = 8;
 /// marker 15 mm further out than pattern k−1, so no two patterns are alike.
 pub fn builtin_pattern(k: usize) -> [Vec3<MocapBody>; 4] {
     let k = k as f64;
-    [Vec3::new(0.21, 0.0, -0.03), Vec3::new(0.0, 0.17, -0.03), Vec3::new(-0.13, 0.0, -0.03), Vec3::new(0.0, -0.10 - 0.015 * k, -0.05)]
+    [
+        Vec3::new(0.21, 0.0, -0.03),
+        Vec3::new(0.0, 0.17, -0.03),
+        Vec3::new(-0.13, 0.0, -0.03),
+        Vec3::new(0.0, -0.10 - 0.015 * k, -0.05),
+    ]
 }
 
 /// Sorted pairwise distances: the signature by which a mocap system tells patterns apart.
@@ -74,7 +79,12 @@ impl MarkerSet {
     pub fn true_offset(&self) -> Option<TrueOffset> {
         let visible = vec![true; self.template.len()];
         let fit = rigid_fit(&self.template, &self.mounted, &visible)?;
-        Some(TrueOffset { rotation: fit.rotation, translation: fit.translation, euler: fit.rotation.euler(), rms_misfit_m: fit.rms_residual })
+        Some(TrueOffset {
+            rotation: fit.rotation,
+            translation: fit.translation,
+            euler: fit.rotation.euler(),
+            rms_misfit_m: fit.rms_residual,
+        })
     }
 }
 
@@ -86,7 +96,8 @@ mod tests {
     /// (0.1, 0.1, 0.1, 0.1, 0.1·√2, 0.1·√2), each pair once and no marker against itself.
     #[test]
     fn the_signature_is_each_pairwise_distance_once_sorted() {
-        let square = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.1, 0.1, 0.0), Vec3::new(0.0, 0.1, 0.0)];
+        let square =
+            [Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.1, 0.1, 0.0), Vec3::new(0.0, 0.1, 0.0)];
         let d = 0.1 * 2f64.sqrt();
         let want = [0.1, 0.1, 0.1, 0.1, d, d];
         let got = pattern_signature(&square);

@@ -94,7 +94,17 @@ impl Mocap {
     /// during the occlusions.
     pub fn new(markers: MarkerSet, occlusions: Vec<Occlusion>, camera: CameraError, noise_m: f64, rng: Stream) -> Self {
         let n = markers.template.len();
-        Mocap { markers, occlusions, camera, noise_m, rng, seq: 0, last_attitude: None, observed: vec![Vec3::zeros(); n], visible: vec![true; n] }
+        Mocap {
+            markers,
+            occlusions,
+            camera,
+            noise_m,
+            rng,
+            seq: 0,
+            last_attitude: None,
+            observed: vec![Vec3::zeros(); n],
+            visible: vec![true; n],
+        }
     }
 
     /// The markers.
@@ -137,12 +147,22 @@ impl Mocap {
         // the last frame's attitude starts the fit (Newton, three steps instead of Kabsch's ~8)
         let fit = rigid_fit_near(&self.markers.template, &self.observed, &self.visible, self.last_attitude.take())?;
         self.last_attitude = Some(fit.rotation);
-        Some(MocapFrame { seq, t_capture: t, pos: fit.translation, att: fit.rotation, visible_markers: self.visible.iter().filter(|v| **v).count() as u8 })
+        Some(MocapFrame {
+            seq,
+            t_capture: t,
+            pos: fit.translation,
+            att: fit.rotation,
+            visible_markers: self.visible.iter().filter(|v| **v).count() as u8,
+        })
     }
 }
 
 /// Shorthand used by tests: the ideal measured attitude R_w·R·R_off.
-pub fn ideal_measured_attitude(camera: &CameraError, truth: Rot<Body, Nav>, offset: Rot<MocapBody, Body>) -> Rot<MocapBody, MocapNav> {
+pub fn ideal_measured_attitude(
+    camera: &CameraError,
+    truth: Rot<Body, Nav>,
+    offset: Rot<MocapBody, Body>,
+) -> Rot<MocapBody, MocapNav> {
     camera.rotation * truth * offset
 }
 
@@ -156,11 +176,21 @@ mod tests {
     /// attitude R_w·R·R_off, the position R_w·(p + R·t_off) + t_w.
     #[test]
     fn noiseless_capture_equals_truth_composed_with_offset() {
-        let ms = MarkerSet::displaced(builtin_pattern(2).to_vec(), Euler::from_degrees(2.0, -1.0, 4.0), &[Vec3::zeros(); 4]);
+        let ms =
+            MarkerSet::displaced(builtin_pattern(2).to_vec(), Euler::from_degrees(2.0, -1.0, 4.0), &[Vec3::zeros(); 4]);
         let off = ms.true_offset().unwrap();
-        let cam = CameraError { rotation: Rot::from_euler(Euler::from_degrees(0.5, 0.0, 1.0)), translation: Vec3::new(0.01, 0.0, 0.0) };
+        let cam = CameraError {
+            rotation: Rot::from_euler(Euler::from_degrees(0.5, 0.0, 1.0)),
+            translation: Vec3::new(0.01, 0.0, 0.0),
+        };
         let mut m = Mocap::new(ms, vec![], cam, 0.0, Stream::new(1, Component::MocapNoise, 0));
-        let truth = State { pos: Vec3::new(1.0, 2.0, -1.0), vel: Vec3::zeros(), att: Rot::from_euler(Euler::new(0.1, 0.05, 1.0)), omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
+        let truth = State {
+            pos: Vec3::new(1.0, 2.0, -1.0),
+            vel: Vec3::zeros(),
+            att: Rot::from_euler(Euler::new(0.1, 0.05, 1.0)),
+            omega: Vec3::zeros(),
+            rotor_speed: [0.0; 4],
+        };
         let f = m.capture(Nanos(0), &truth).unwrap();
         let ideal = ideal_measured_attitude(&cam, truth.att, off.rotation);
         assert!((f.att.inverse() * ideal).angle() < 1e-12);
@@ -177,11 +207,25 @@ mod tests {
     /// still advances (the receiver sees the gap).
     #[test]
     fn an_occlusion_hides_its_marker_from_its_start_until_before_its_end() {
-        let ms = MarkerSet::displaced(builtin_pattern(0).to_vec(), Euler::from_degrees(0.0, 0.0, 0.0), &[Vec3::zeros(); 4]);
+        let ms =
+            MarkerSet::displaced(builtin_pattern(0).to_vec(), Euler::from_degrees(0.0, 0.0, 0.0), &[Vec3::zeros(); 4]);
         let hide = |marker, from, to| Occlusion { marker, from: Nanos::from_millis(from), to: Nanos::from_millis(to) };
-        let mut m = Mocap::new(ms, vec![hide(1, 100, 200), hide(2, 300, 310)], CameraError::none(), 0.0, Stream::new(1, Component::MocapNoise, 0));
-        let truth = State { pos: Vec3::new(0.0, 0.0, -1.0), vel: Vec3::zeros(), att: Rot::identity(), omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
-        let seen = |m: &mut Mocap, ms: i64| m.capture(Nanos::from_millis(ms), &truth).map(|f| (f.seq, f.visible_markers));
+        let mut m = Mocap::new(
+            ms,
+            vec![hide(1, 100, 200), hide(2, 300, 310)],
+            CameraError::none(),
+            0.0,
+            Stream::new(1, Component::MocapNoise, 0),
+        );
+        let truth = State {
+            pos: Vec3::new(0.0, 0.0, -1.0),
+            vel: Vec3::zeros(),
+            att: Rot::identity(),
+            omega: Vec3::zeros(),
+            rotor_speed: [0.0; 4],
+        };
+        let seen =
+            |m: &mut Mocap, ms: i64| m.capture(Nanos::from_millis(ms), &truth).map(|f| (f.seq, f.visible_markers));
         assert_eq!(seen(&mut m, 95), Some((0, 4)));
         assert_eq!(seen(&mut m, 100), Some((1, 3)));
         // the cameras' last view: all four markers, the hidden one flagged (a bug it catches: the
@@ -190,7 +234,13 @@ mod tests {
         assert_eq!(seen(&mut m, 195), Some((2, 3)));
         assert_eq!(seen(&mut m, 200), Some((3, 4)));
         assert_eq!(seen(&mut m, 305), Some((4, 3)), "the second occlusion, of another marker");
-        let mut two = Mocap::new(m.markers().clone(), vec![hide(1, 0, 10), hide(2, 0, 10)], CameraError::none(), 0.0, Stream::new(1, Component::MocapNoise, 0));
+        let mut two = Mocap::new(
+            m.markers().clone(),
+            vec![hide(1, 0, 10), hide(2, 0, 10)],
+            CameraError::none(),
+            0.0,
+            Stream::new(1, Component::MocapNoise, 0),
+        );
         assert_eq!(seen(&mut two, 5), None);
         assert_eq!(seen(&mut two, 10), Some((1, 4)));
     }

@@ -39,7 +39,13 @@ pub(super) fn arena(s: &Scenario, rates: Rates, vehicles: Vec<Checked>) -> Arena
     let tm = &s.telemetry;
     let phases: Vec<Phase> = s.plan().iter().map(PhaseCfg::to_phase).collect();
     let end = Plan::schedule(&phases, Vec3::zeros(), 0.0).end();
-    let mocap = MocapSpec { rate: rates.mocap.0, every: rates.mocap.1, latency: ms(s.mocap.latency_ms), noise_m: s.mocap.noise_mm * 1e-3, camera };
+    let mocap = MocapSpec {
+        rate: rates.mocap.0,
+        every: rates.mocap.1,
+        latency: ms(s.mocap.latency_ms),
+        noise_m: s.mocap.noise_mm * 1e-3,
+        camera,
+    };
     let telemetry = TelemetrySpec {
         rate: rates.telemetry.0,
         every: rates.telemetry.1 as u32,
@@ -76,7 +82,8 @@ fn vehicle(s: &Scenario, i: usize, checked: Checked, mocap: &MocapSpec, telemetr
     true_params.k_thrust *= u.thrust_scale;
     true_params.ground_effect += u.ground_effect;
     true_params.thrust_voltage_per_v += u.thrust_voltage_per_v;
-    true_params.rotor_drag_per_s = [params.rotor_drag_per_s[0] + u.rotor_drag_per_s[0], params.rotor_drag_per_s[1] + u.rotor_drag_per_s[1]];
+    true_params.rotor_drag_per_s =
+        [params.rotor_drag_per_s[0] + u.rotor_drag_per_s[0], params.rotor_drag_per_s[1] + u.rotor_drag_per_s[1]];
     let frames = |delay_ms: f64| (delay_ms * mocap.rate.hz() as f64 / 1000.0).round() as usize;
     VehicleSpec {
         name: v.name.clone(),
@@ -89,7 +96,14 @@ fn vehicle(s: &Scenario, i: usize, checked: Checked, mocap: &MocapSpec, telemetr
             thrust_max_n: thrust_max,
             mode: params.onboard_mode,
         },
-        gains: Gains { k_x: c.k_x, k_v: c.k_v, k_att: c.k_att, max_tilt: [c.max_tilt_deg.to_radians(); 2], thrust_max_n: thrust_max, mass_kg: params.mass_kg },
+        gains: Gains {
+            k_x: c.k_x,
+            k_v: c.k_v,
+            k_att: c.k_att,
+            max_tilt: [c.max_tilt_deg.to_radians(); 2],
+            thrust_max_n: thrust_max,
+            mass_kg: params.mass_kg,
+        },
         calibration: CalibrationSettings {
             apply: cal.apply,
             compensation: c.compensation,
@@ -115,7 +129,15 @@ fn vehicle(s: &Scenario, i: usize, checked: Checked, mocap: &MocapSpec, telemetr
             position_m: v.imu.position_mm.map(|x| x * 1e-3),
         },
         disturbance: Disturbance { force_nav_n: v.disturbance.force_n, torque_body_nm: v.disturbance.torque_nm },
-        occlusions: v.markers.occlusions().map(|o| Occlusion { marker: o.marker as usize, from: Nanos::from_secs_f64(o.from_s), to: Nanos::from_secs_f64(o.to_s) }).collect(),
+        occlusions: v
+            .markers
+            .occlusions()
+            .map(|o| Occlusion {
+                marker: o.marker as usize,
+                from: Nanos::from_secs_f64(o.from_s),
+                to: Nanos::from_secs_f64(o.to_s),
+            })
+            .collect(),
         home: Vec3::new(v.home_m[0], v.home_m[1], 0.0),
         yaw0_rad: v.yaw0_deg.to_radians(),
         mocap_latency: ms(s.mocap.latency_ms + u.mocap_delay_ms),
@@ -181,13 +203,25 @@ plan:
         let x3d = VehicleParams::x3d();
         assert_eq!(v.params.k_thrust, x3d.k_thrust);
         assert!((v.true_params.k_thrust / x3d.k_thrust - 1.1).abs() < 1e-12);
-        assert_eq!((v.params.ground_effect, v.params.thrust_voltage_per_v, v.params.rotor_drag_per_s), (x3d.ground_effect, x3d.thrust_voltage_per_v, x3d.rotor_drag_per_s));
-        assert_eq!((v.true_params.ground_effect, v.true_params.thrust_voltage_per_v), (x3d.ground_effect + 0.5, x3d.thrust_voltage_per_v + 0.1));
+        assert_eq!(
+            (v.params.ground_effect, v.params.thrust_voltage_per_v, v.params.rotor_drag_per_s),
+            (x3d.ground_effect, x3d.thrust_voltage_per_v, x3d.rotor_drag_per_s)
+        );
+        assert_eq!(
+            (v.true_params.ground_effect, v.true_params.thrust_voltage_per_v),
+            (x3d.ground_effect + 0.5, x3d.thrust_voltage_per_v + 0.1)
+        );
         assert_eq!(v.true_params.rotor_drag_per_s, [x3d.rotor_drag_per_s[0] + 0.2, x3d.rotor_drag_per_s[1] + 0.3]);
-        assert!((v.truth.euler.roll - 3f64.to_radians()).abs() < 1e-9 && v.truth.euler.pitch.abs() < 1e-9, "{:?}", v.truth.euler);
+        assert!(
+            (v.truth.euler.roll - 3f64.to_radians()).abs() < 1e-9 && v.truth.euler.pitch.abs() < 1e-9,
+            "{:?}",
+            v.truth.euler
+        );
         assert_eq!(v.template.len(), 4);
         // without `duration_s`: the plan's end (a 1 s hover) plus 1 s
-        let s = Scenario::parse("name: d\nvehicles: [{name: a}]\nplan: [{hover: {duration_s: 1}}]\n", "d.yaml".as_ref()).unwrap();
+        let s =
+            Scenario::parse("name: d\nvehicles: [{name: a}]\nplan: [{hover: {duration_s: 1}}]\n", "d.yaml".as_ref())
+                .unwrap();
         assert_eq!(s.spec().run_time, Nanos(2_000_000_000));
     }
 }

@@ -114,29 +114,7 @@ pub(crate) fn yaml_path_at(src: &str, line: u32, column: u32) -> String {
             // inside a flow mapping on this line: follow `{ key: ...` up to the column
             let start = text.len() - rest.len();
             let upto: String = text.chars().take((column as usize).saturating_sub(1)).skip(start).collect();
-            let mut flow: Vec<String> = Vec::new();
-            let mut token = String::new();
-            let mut last_key: Option<String> = None;
-            for ch in upto.chars() {
-                match ch {
-                    '{' => {
-                        if let Some(k) = last_key.take() {
-                            flow.push(k);
-                        }
-                        token.clear();
-                    }
-                    '}' => {
-                        flow.pop();
-                        token.clear();
-                    }
-                    ':' => last_key = Some(token.trim().to_string()),
-                    ',' => {
-                        token.clear();
-                        last_key = None;
-                    }
-                    c => token.push(c),
-                }
-            }
+            let (flow, last_key) = flow_keys(&upto);
             if !flow.is_empty() || last_key.is_some() {
                 let mut segs = flow;
                 segs.extend(last_key);
@@ -155,6 +133,35 @@ pub(crate) fn yaml_path_at(src: &str, line: u32, column: u32) -> String {
         }
     }
     join(&stack)
+}
+
+/// The keys open in a flow mapping up to the end of `upto` (`{ a: { b: 1, c: ` gives `[a]` and
+/// `c`): the enclosing keys, and the key whose value is being written, if any.
+fn flow_keys(upto: &str) -> (Vec<String>, Option<String>) {
+    let mut flow: Vec<String> = Vec::new();
+    let mut token = String::new();
+    let mut last_key: Option<String> = None;
+    for ch in upto.chars() {
+        match ch {
+            '{' => {
+                if let Some(k) = last_key.take() {
+                    flow.push(k);
+                }
+                token.clear();
+            }
+            '}' => {
+                flow.pop();
+                token.clear();
+            }
+            ':' => last_key = Some(token.trim().to_string()),
+            ',' => {
+                token.clear();
+                last_key = None;
+            }
+            c => token.push(c),
+        }
+    }
+    (flow, last_key)
 }
 
 fn join(stack: &[(usize, String)]) -> String {
@@ -188,18 +195,29 @@ pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
 pub(crate) fn for_authors(message: &str) -> String {
     message
         .replace(", set DuplicateKeyPolicy in Options if acceptable", " (a key may appear once)")
-        .replace("multiple YAML documents detected; use from_str_multiple or from_str_multiple_with_options", "more than one YAML document (a second `---`): the file holds one")
-        .replace(" If you just use !!binary for documentation/annotation, set ignore_binary_tag_for_string in Options", "")
+        .replace(
+            "multiple YAML documents detected; use from_str_multiple or from_str_multiple_with_options",
+            "more than one YAML document (a second `---`): the file holds one",
+        )
+        .replace(
+            " If you just use !!binary for documentation/annotation, set ignore_binary_tag_for_string in Options",
+            "",
+        )
 }
 
 /// Appends "did you mean `x`?" to serde's unknown-field/variant messages when a close name exists.
 pub(crate) fn with_suggestion(message: &str) -> String {
-    let Some(rest) = message.split("unknown field `").nth(1).or_else(|| message.split("unknown variant `").nth(1)) else {
+    let Some(rest) = message.split("unknown field `").nth(1).or_else(|| message.split("unknown variant `").nth(1))
+    else {
         return message.to_string();
     };
     let Some((bad, tail)) = rest.split_once('`') else { return message.to_string() };
     let candidates = tail.split("expected one of").nth(1).or_else(|| tail.split("expected").nth(1)).unwrap_or("");
-    let best = candidates.split(|c: char| c == ',' || c.is_whitespace() || c == '`').filter(|c| !c.is_empty() && *c != "or").map(|c| (edit_distance(bad, c), c)).min();
+    let best = candidates
+        .split(|c: char| c == ',' || c.is_whitespace() || c == '`')
+        .filter(|c| !c.is_empty() && *c != "or")
+        .map(|c| (edit_distance(bad, c), c))
+        .min();
     match best {
         Some((d, c)) if d <= 2.max(bad.len() / 3) => format!("{message}; did you mean `{c}`?"),
         _ => message.to_string(),
@@ -246,7 +264,10 @@ mod tests {
     /// The parser's advice to programmers is replaced, its own words kept.
     #[test]
     fn parser_messages_speak_to_the_files_author() {
-        assert_eq!(for_authors("duplicate mapping key: seed, set DuplicateKeyPolicy in Options if acceptable"), "duplicate mapping key: seed (a key may appear once)");
+        assert_eq!(
+            for_authors("duplicate mapping key: seed, set DuplicateKeyPolicy in Options if acceptable"),
+            "duplicate mapping key: seed (a key may appear once)"
+        );
         assert_eq!(
             for_authors("multiple YAML documents detected; use from_str_multiple or from_str_multiple_with_options"),
             "more than one YAML document (a second `---`): the file holds one"

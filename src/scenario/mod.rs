@@ -38,18 +38,22 @@ mod validate;
 
 pub use error::{ScenarioError, Span};
 pub use schema::{
-    BatteryCfg, CalibrationCfg, CameraErrorCfg, ControllerCfg, DisturbanceCfg, ExpectedEffect, HoverDriftReq, IdentifyReq, ImuCfg, LinkCfg, LossCfg, LsRlsReq, MarkersCfg,
-    MocapCfg, ModelCfg, OcclusionCfg, OffsetsReq, OutageCfg, PhaseCfg, Preset, RadioCfg, RequirementsCfg, Scenario, SweepCfg, TelemetryCfg, TelemetryClockCfg, UndeclaredCfg,
-    ValidityReq, Variation, VaryCfg, VaryError, VehicleCfg, Verdict,
+    BatteryCfg, CalibrationCfg, CameraErrorCfg, ControllerCfg, DisturbanceCfg, ExpectedEffect, HoverDriftReq,
+    IdentifyReq, ImuCfg, LinkCfg, LossCfg, LsRlsReq, MarkersCfg, MocapCfg, ModelCfg, OcclusionCfg, OffsetsReq,
+    OutageCfg, PhaseCfg, Preset, RadioCfg, RequirementsCfg, Scenario, SweepCfg, TelemetryCfg, TelemetryClockCfg,
+    UndeclaredCfg, ValidityReq, Variation, VaryCfg, VaryError, VehicleCfg, Verdict,
 };
-pub use spec::{ArenaSpec, CalibrationSettings, FailsafeSettings, MocapSpec, PHYSICS_HZ, StationKind, TelemetrySpec, VehicleSpec};
+pub use spec::{
+    ArenaSpec, CalibrationSettings, FailsafeSettings, MocapSpec, PHYSICS_HZ, StationKind, TelemetrySpec, VehicleSpec,
+};
 
 use std::path::Path;
 
 impl Scenario {
     /// Reads, parses and validates a scenario file.
     pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
-        let src = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;
+        let src =
+            std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;
         Scenario::parse(&src, path)
     }
 

@@ -62,7 +62,12 @@ pub fn set_path(tree: &mut serde_json::Value, path: &str, x: f64) -> Result<(), 
 /// missing last key of a mapping is added, and so are missing mappings on the way when
 /// `create_mappings` holds (an `identify` fragment may set `mocap.camera_error` in a scenario
 /// that has no `mocap`).
-pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, create_mappings: bool) -> Result<(), PatchError> {
+pub fn set_in(
+    tree: &mut serde_json::Value,
+    path: &str,
+    v: serde_json::Value,
+    create_mappings: bool,
+) -> Result<(), PatchError> {
     let mut cur = tree;
     let mut parts: Vec<(String, Option<usize>)> = Vec::new();
     for seg in path.split('.') {
@@ -71,7 +76,10 @@ pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, cr
             parts.push((key.to_string(), None));
         }
         for idx in rest.split('[').filter(|s| !s.is_empty()) {
-            let n = idx.trim_end_matches(']').parse::<usize>().map_err(|_| PatchError::NotAnIndex { path: path.into(), index: idx.into() })?;
+            let n = idx
+                .trim_end_matches(']')
+                .parse::<usize>()
+                .map_err(|_| PatchError::NotAnIndex { path: path.into(), index: idx.into() })?;
             parts.push((String::new(), Some(n)));
         }
     }
@@ -81,7 +89,10 @@ pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, cr
         let end = k == last;
         cur = match idx {
             Some(n) => {
-                let len = cur.as_array().map(Vec::len).ok_or_else(|| PatchError::NotAList { path: path.into(), index: *n })?;
+                let len = cur
+                    .as_array()
+                    .map(Vec::len)
+                    .ok_or_else(|| PatchError::NotAList { path: path.into(), index: *n })?;
                 if *n >= len {
                     return Err(PatchError::OutsideList { path: path.into(), index: *n, len });
                 }
@@ -91,7 +102,9 @@ pub fn set_in(tree: &mut serde_json::Value, path: &str, v: serde_json::Value, cr
                 if create_mappings && cur.is_null() {
                     *cur = serde_json::json!({});
                 }
-                let obj = cur.as_object_mut().ok_or_else(|| PatchError::NotAMapping { path: path.into(), key: key.clone() })?;
+                let obj = cur
+                    .as_object_mut()
+                    .ok_or_else(|| PatchError::NotAMapping { path: path.into(), key: key.clone() })?;
                 if !obj.contains_key(key.as_str()) {
                     if !end && !create_mappings {
                         return Err(PatchError::NotSet { path: path.into(), key: key.clone() });
@@ -121,7 +134,13 @@ mod tests {
         assert_eq!(t["a"]["b"][1]["c"], 5.0);
         assert_eq!(t["v"][0]["m"]["r"][2], -3.0);
         assert_eq!(t["a"]["new"], 1.5);
-        assert_eq!(set_path(&mut t, "v[3].m", 1.0), Err(PatchError::OutsideList { path: "v[3].m".into(), index: 3, len: 1 }));
-        assert_eq!(set_path(&mut t, "x.y", 1.0).unwrap_err().to_string(), "`x.y`: `x` is not set in the scenario; write it out to vary inside it");
+        assert_eq!(
+            set_path(&mut t, "v[3].m", 1.0),
+            Err(PatchError::OutsideList { path: "v[3].m".into(), index: 3, len: 1 })
+        );
+        assert_eq!(
+            set_path(&mut t, "x.y", 1.0).unwrap_err().to_string(),
+            "`x.y`: `x` is not set in the scenario; write it out to vary inside it"
+        );
     }
 }

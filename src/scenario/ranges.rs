@@ -182,7 +182,8 @@ mod tests {
     /// decimal should print (infinities, NaN, and numbers far from 1 in exponent form).
     #[test]
     fn out_of_range_messages_show_the_value_and_the_range() {
-        let msg = |v: f64, lo: f64, hi: f64, open: bool, unit: &str| check(v, lo, hi, open, unit).unwrap_err().to_string();
+        let msg =
+            |v: f64, lo: f64, hi: f64, open: bool, unit: &str| check(v, lo, hi, open, unit).unwrap_err().to_string();
         assert_eq!(msg(-20.0, 0.0, 3600.0, true, "s"), "-20 s is outside the allowed range (0, 3600]");
         assert_eq!(msg(1.5, 0.0, 1.0, false, ""), "1.5 is outside the allowed range [0, 1]");
         assert_eq!(msg(1e308, 0.0, 20.0, false, "mm"), "1e308 mm is outside the allowed range [0, 20]");

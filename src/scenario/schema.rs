@@ -14,7 +14,8 @@ use serde_saphyr::Spanned;
 /// file, line and column).
 fn file_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<String, D::Error> {
     let s = String::deserialize(d)?;
-    crate::output::check_file_name(&s).map_err(|m| serde::de::Error::custom(format!("name {:?} {m}", s.chars().take(40).collect::<String>())))?;
+    crate::output::check_file_name(&s)
+        .map_err(|m| serde::de::Error::custom(format!("name {:?} {m}", s.chars().take(40).collect::<String>())))?;
     Ok(s)
 }
 
@@ -247,7 +248,13 @@ impl TelemetryCfg {
 }
 impl Default for TelemetryCfg {
     fn default() -> Self {
-        TelemetryCfg { rate_hz: spanned(100), latency_ms: 10.0, jitter_ms: 0.0, loss: LossCfg::Bernoulli(0.0), clock: TelemetryClockCfg::default() }
+        TelemetryCfg {
+            rate_hz: spanned(100),
+            latency_ms: 10.0,
+            jitter_ms: 0.0,
+            loss: LossCfg::Bernoulli(0.0),
+            clock: TelemetryClockCfg::default(),
+        }
     }
 }
 
@@ -300,7 +307,9 @@ impl LossCfg {
         use crate::link::LossModel;
         match *self {
             LossCfg::Bernoulli(p) => LossModel::Bernoulli { p },
-            LossCfg::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad },
+            LossCfg::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad } => {
+                LossModel::GilbertElliott { p_good_to_bad, p_bad_to_good, loss_good, loss_bad }
+            }
         }
     }
 }
@@ -341,7 +350,15 @@ impl RadioCfg {
 }
 impl Default for RadioCfg {
     fn default() -> Self {
-        RadioCfg { rate_hz: spanned(50), channels: spanned(8), latency_ms: 10.0, rate_scale_deg_s: 1.5, angle_scale_deg: 0.25, thrust_max_n: None, failsafe_ms: 500.0 }
+        RadioCfg {
+            rate_hz: spanned(50),
+            channels: spanned(8),
+            latency_ms: 10.0,
+            rate_scale_deg_s: 1.5,
+            angle_scale_deg: 0.25,
+            thrust_max_n: None,
+            failsafe_ms: 500.0,
+        }
     }
 }
 
@@ -413,7 +430,13 @@ pub struct CalibrationCfg {
 }
 impl Default for CalibrationCfg {
     fn default() -> Self {
-        CalibrationCfg { apply: true, validity_max_mean_yaw_deg: 1.0, validity_max_mean_roll_deg: 1.0, rls_min_spread_m: 0.2, hover_trim: true }
+        CalibrationCfg {
+            apply: true,
+            validity_max_mean_yaw_deg: 1.0,
+            validity_max_mean_roll_deg: 1.0,
+            rls_min_spread_m: 0.2,
+            hover_trim: true,
+        }
     }
 }
 
@@ -491,7 +514,14 @@ pub struct UndeclaredCfg {
 
 impl Default for UndeclaredCfg {
     fn default() -> Self {
-        UndeclaredCfg { thrust_scale: 1.0, rotor_drag_per_s: [0.0; 2], mocap_delay_ms: 0.0, gyro_delay_ms: 0.0, ground_effect: 0.0, thrust_voltage_per_v: 0.0 }
+        UndeclaredCfg {
+            thrust_scale: 1.0,
+            rotor_drag_per_s: [0.0; 2],
+            mocap_delay_ms: 0.0,
+            gyro_delay_ms: 0.0,
+            ground_effect: 0.0,
+            thrust_voltage_per_v: 0.0,
+        }
     }
 }
 
@@ -803,10 +833,18 @@ impl PhaseCfg {
             PhaseCfg::Hover { duration_s } => Phase::Hover { duration_s },
             PhaseCfg::Idle { duration_s } => Phase::Idle { duration_s },
             PhaseCfg::CalibrateRollPitch { settle_s, average_s } => Phase::CalibrateRollPitch { settle_s, average_s },
-            PhaseCfg::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 },
-            PhaseCfg::YawSpin { settle_s, angle_deg, duration_s } => Phase::YawSpin { settle_s, angle_rad: angle_deg.to_radians(), duration_s },
-            PhaseCfg::CalibrateGyro { settle_s, radius_m, period_s, turns } => Phase::CalibrateGyro { settle_s, radius_m, period_s, turns },
-            PhaseCfg::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s } => Phase::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s },
+            PhaseCfg::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 } => {
+                Phase::CalibrateYaw { settle_s, distance_m, speed_m_s, accel_m_s2 }
+            }
+            PhaseCfg::YawSpin { settle_s, angle_deg, duration_s } => {
+                Phase::YawSpin { settle_s, angle_rad: angle_deg.to_radians(), duration_s }
+            }
+            PhaseCfg::CalibrateGyro { settle_s, radius_m, period_s, turns } => {
+                Phase::CalibrateGyro { settle_s, radius_m, period_s, turns }
+            }
+            PhaseCfg::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s } => {
+                Phase::Waypoint { pos_m, speed_m_s, accel_m_s2, hold_s }
+            }
             PhaseCfg::Land { duration_s } => Phase::Land { duration_s },
         }
     }

@@ -11,7 +11,7 @@ use super::spec::{ArenaSpec, PHYSICS, PHYSICS_HZ};
 use crate::clock::Rate;
 use crate::frames::{Body, Euler, MocapBody, Vec3};
 use crate::mocap::markers::{BUILTIN_PATTERNS, builtin_pattern, patterns_confusable};
-use crate::mocap::{MarkerSet, rigid_fit};
+use crate::mocap::{MarkerSet, TrueOffset, rigid_fit};
 use crate::vehicle::VehicleParams;
 use serde_saphyr::Spanned;
 use std::path::Path;
@@ -26,10 +26,19 @@ pub(super) fn parse(src: &str, file: &Path) -> Result<Scenario, ScenarioError> {
         // serde-saphyr renders "error: line L column C: MESSAGE\n --> snippet"; keep both parts
         let (head, snippet) = full.split_once('\n').unwrap_or((&full, ""));
         let message = head.split_once(": ").map(|x| x.1).unwrap_or(head);
-        let message = message.split_once(": ").filter(|(a, _)| a.starts_with("column") || a.contains(" column ")).map_or(message, |x| x.1);
+        let message = message
+            .split_once(": ")
+            .filter(|(a, _)| a.starts_with("column") || a.contains(" column "))
+            .map_or(message, |x| x.1);
         // the snippet's header names the parser's `<input>`: name the file
         let snippet = snippet.replacen("--> <input>:", &format!("--> {}:", file.display()), 1);
-        ScenarioError::Invalid { file: file.to_path_buf(), span, path, message: error::with_suggestion(message), snippet }
+        ScenarioError::Invalid {
+            file: file.to_path_buf(),
+            span,
+            path,
+            message: error::with_suggestion(message),
+            snippet,
+        }
     })?;
     s.spec = s.validate(src, file)?;
     Ok(s)
@@ -59,12 +68,19 @@ impl Scenario {
         if !(4..=crate::radio::MAX_CHANNELS as u32).contains(&self.radio.channels.value) {
             return err(
                 self.radio.channels.referenced,
-                format!("{} channels is outside the allowed range [4, {}] (p, q, r and thrust need 4)", self.radio.channels.value, crate::radio::MAX_CHANNELS),
+                format!(
+                    "{} channels is outside the allowed range [4, {}] (p, q, r and thrust need 4)",
+                    self.radio.channels.value,
+                    crate::radio::MAX_CHANNELS
+                ),
             );
         }
         for o in &self.link.outages {
             if o.value.to_s.is_some_and(|t| t <= o.value.from_s) {
-                return err(o.referenced, format!("outage ends ({} s) before it starts ({} s)", o.value.to_s.unwrap_or(0.0), o.value.from_s));
+                return err(
+                    o.referenced,
+                    format!("outage ends ({} s) before it starts ({} s)", o.value.to_s.unwrap_or(0.0), o.value.from_s),
+                );
             }
         }
         if let Some(r) = &self.requirements.identify {
@@ -72,7 +88,14 @@ impl Scenario {
                 let n = e.value.effect.n_params();
                 if e.value.values.len() != n || e.value.tolerance.len() != n {
                     let names: Vec<&str> = e.value.effect.params().iter().map(|p| p.0).collect();
-                    return err(e.referenced, format!("{} has {n} parameters ({}): give {n} values and {n} tolerances", e.value.effect.key(), names.join(", ")));
+                    return err(
+                        e.referenced,
+                        format!(
+                            "{} has {n} parameters ({}): give {n} values and {n} tolerances",
+                            e.value.effect.key(),
+                            names.join(", ")
+                        ),
+                    );
                 }
                 if let Some(t) = e.value.tolerance.iter().find(|t| !(**t > 0.0 && t.is_finite())) {
                     return err(e.referenced, format!("tolerance {t} must be positive"));
@@ -81,10 +104,16 @@ impl Scenario {
         }
         let vehicles = &self.vehicles.value;
         if vehicles.is_empty() || vehicles.len() > 16 {
-            return err(self.vehicles.referenced, format!("{} vehicles is outside the allowed range [1, 16]", vehicles.len()));
+            return err(
+                self.vehicles.referenced,
+                format!("{} vehicles is outside the allowed range [1, 16]", vehicles.len()),
+            );
         }
         if self.plan.value.is_empty() {
-            return err(self.plan.referenced, "the plan is empty: give at least one phase (e.g. `- takeoff: {altitude_m: 1, duration_s: 3}`)".into());
+            return err(
+                self.plan.referenced,
+                "the plan is empty: give at least one phase (e.g. `- takeoff: {altitude_m: 1, duration_s: 3}`)".into(),
+            );
         }
         let mut templates: Vec<(usize, Vec<Vec3<MocapBody>>)> = Vec::new();
         let mut checked = Vec::with_capacity(vehicles.len());
@@ -99,7 +128,13 @@ impl Scenario {
     /// can tell apart, one displacement per marker, occlusions of markers that exist, undeclared
     /// delays in whole mocap frames, markers that still define an attitude as mounted, and
     /// thrust to spare over its weight.
-    fn validate_vehicle(&self, i: usize, templates: &mut Vec<(usize, Vec<Vec3<MocapBody>>)>, src: &str, file: &Path) -> Result<Checked, ScenarioError> {
+    fn validate_vehicle(
+        &self,
+        i: usize,
+        templates: &mut Vec<(usize, Vec<Vec3<MocapBody>>)>,
+        src: &str,
+        file: &Path,
+    ) -> Result<Checked, ScenarioError> {
         let err = |loc: serde_saphyr::Location, msg: String| Err(Self::invalid(src, file, loc, msg));
         let vehicles = &self.vehicles.value;
         let v = &vehicles[i];
@@ -119,43 +154,19 @@ impl Scenario {
             );
         }
         templates.push((i, t.clone()));
-        let m = &v.value.markers;
-        if let Some(d) = &m.displacement_mm
-            && d.value.len() != t.len()
-        {
-            return err(d.referenced, format!("{} displacements for {} markers: give one [x, y, z] (mm) per marker", d.value.len(), t.len()));
-        }
-        if let Some(d) = &m.displacement_mm {
-            for x in d.value.iter().flatten() {
-                ranges::displacement_mm::check(*x).map_err(|e| Self::invalid(src, file, d.referenced, e.to_string()))?;
-            }
-        }
-        for o in &m.occlusions {
-            if o.value.marker as usize >= t.len() {
-                return err(o.referenced, format!("marker {} does not exist: markers are numbered 0–{}", o.value.marker, t.len() - 1));
-            }
-            if o.value.to_s <= o.value.from_s {
-                return err(o.referenced, format!("occlusion ends ({} s) before it starts ({} s)", o.value.to_s, o.value.from_s));
-            }
-        }
-        let disp: Vec<Vec3<Body>> = match &m.displacement_mm {
-            Some(d) => d.value.iter().map(|a| Vec3::from_array(a.map(|x| x * 1e-3))).collect(),
-            None => vec![Vec3::zeros(); t.len()],
-        };
-        let markers = MarkerSet::displaced(t.clone(), Euler::from_degrees(m.rotation_deg[0], m.rotation_deg[1], m.rotation_deg[2]), &disp);
-        // the cameras see the markers as mounted: collinear there, the attitude about their line
-        // is unobservable however good the template
-        let all = vec![true; t.len()];
-        let (Some(truth), Some(_)) = (markers.true_offset(), rigid_fit(&markers.mounted, &markers.template, &all)) else {
-            let loc = m.displacement_mm.as_ref().map_or(v.referenced, |d| d.referenced);
-            return err(loc, format!("vehicle `{}`: the markers as mounted (displaced) are collinear: the mocap cannot determine an attitude from them", v.value.name));
-        };
+        let (markers, truth) = self.checked_markers(i, &t).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
         let u = &v.value.undeclared;
         let period_ms = 1000.0 / self.mocap.rate_hz.value as f64;
         for (field, delay) in [("mocap_delay_ms", u.mocap_delay_ms), ("gyro_delay_ms", u.gyro_delay_ms)] {
             let frames = delay / period_ms;
             if (frames - frames.round()).abs() > 1e-9 {
-                return err(v.referenced, format!("vehicle `{}`: undeclared.{field} {delay} is not a multiple of the mocap period {period_ms} ms", v.value.name));
+                return err(
+                    v.referenced,
+                    format!(
+                        "vehicle `{}`: undeclared.{field} {delay} is not a multiple of the mocap period {period_ms} ms",
+                        v.value.name
+                    ),
+                );
             }
         }
         let p = self.checked_vehicle_params(i).map_err(|(loc, m)| Self::invalid(src, file, loc, m))?;
@@ -174,6 +185,70 @@ impl Scenario {
         Ok(Checked { params: p, template: t, markers, truth })
     }
 
+    /// The markers of vehicle `i` as mounted on template `t` (displacements, occlusions, the
+    /// rotation), checked, and the true offset they give: displacements one per marker and in
+    /// range, occlusions of existing markers that end after they start, and markers as mounted
+    /// that are not collinear.
+    fn checked_markers(
+        &self,
+        i: usize,
+        t: &[Vec3<MocapBody>],
+    ) -> Result<(MarkerSet, TrueOffset), (serde_saphyr::Location, String)> {
+        let v = &self.vehicles.value[i];
+        let m = &v.value.markers;
+        if let Some(d) = &m.displacement_mm
+            && d.value.len() != t.len()
+        {
+            return Err((
+                d.referenced,
+                format!("{} displacements for {} markers: give one [x, y, z] (mm) per marker", d.value.len(), t.len()),
+            ));
+        }
+        if let Some(d) = &m.displacement_mm {
+            for x in d.value.iter().flatten() {
+                ranges::displacement_mm::check(*x).map_err(|e| (d.referenced, e.to_string()))?;
+            }
+        }
+        for o in &m.occlusions {
+            if o.value.marker as usize >= t.len() {
+                return Err((
+                    o.referenced,
+                    format!("marker {} does not exist: markers are numbered 0–{}", o.value.marker, t.len() - 1),
+                ));
+            }
+            if o.value.to_s <= o.value.from_s {
+                return Err((
+                    o.referenced,
+                    format!("occlusion ends ({} s) before it starts ({} s)", o.value.to_s, o.value.from_s),
+                ));
+            }
+        }
+        let disp: Vec<Vec3<Body>> = match &m.displacement_mm {
+            Some(d) => d.value.iter().map(|a| Vec3::from_array(a.map(|x| x * 1e-3))).collect(),
+            None => vec![Vec3::zeros(); t.len()],
+        };
+        let markers = MarkerSet::displaced(
+            t.to_vec(),
+            Euler::from_degrees(m.rotation_deg[0], m.rotation_deg[1], m.rotation_deg[2]),
+            &disp,
+        );
+        // the cameras see the markers as mounted: collinear there, the attitude about their line
+        // is unobservable however good the template
+        let all = vec![true; t.len()];
+        let (Some(truth), Some(_)) = (markers.true_offset(), rigid_fit(&markers.mounted, &markers.template, &all))
+        else {
+            let loc = m.displacement_mm.as_ref().map_or(v.referenced, |d| d.referenced);
+            return Err((
+                loc,
+                format!(
+                    "vehicle `{}`: the markers as mounted (displaced) are collinear: the mocap cannot determine an attitude from them",
+                    v.value.name
+                ),
+            ));
+        };
+        Ok((markers, truth))
+    }
+
     /// The marker template of vehicle `i` (m, the markers' frame), checked: its size and
     /// coordinates, and that a mocap can fit an attitude to it.
     fn checked_template(&self, i: usize) -> Result<Vec<Vec3<MocapBody>>, (serde_saphyr::Location, String)> {
@@ -182,7 +257,10 @@ impl Scenario {
             (Some(_), Some(p)) => return Err((p.referenced, "give either `pattern` or `template_m`, not both".into())),
             (Some(t), None) => {
                 if !(3..=8).contains(&t.value.len()) {
-                    return Err((t.referenced, format!("{} markers is outside the allowed range [3, 8]", t.value.len())));
+                    return Err((
+                        t.referenced,
+                        format!("{} markers is outside the allowed range [3, 8]", t.value.len()),
+                    ));
                 }
                 for x in t.value.iter().flatten() {
                     ranges::template_m::check(*x).map_err(|e| (t.referenced, e.to_string()))?;
@@ -191,7 +269,10 @@ impl Scenario {
             }
             (None, Some(p)) => {
                 if p.value as usize >= BUILTIN_PATTERNS {
-                    return Err((p.referenced, format!("pattern {} is outside the allowed range [0, {}]", p.value, BUILTIN_PATTERNS - 1)));
+                    return Err((
+                        p.referenced,
+                        format!("pattern {} is outside the allowed range [0, {}]", p.value, BUILTIN_PATTERNS - 1),
+                    ));
                 }
                 builtin_pattern(p.value as usize).to_vec()
             }
@@ -205,7 +286,13 @@ impl Scenario {
         for a in 0..t.len() {
             for b in a + 1..t.len() {
                 if (t[a] - t[b]).norm() < 0.01 {
-                    return Err((loc, format!("markers {a} and {b} are {:.1} mm apart; cameras need at least 10 mm to separate them", (t[a] - t[b]).norm() * 1e3)));
+                    return Err((
+                        loc,
+                        format!(
+                            "markers {a} and {b} are {:.1} mm apart; cameras need at least 10 mm to separate them",
+                            (t[a] - t[b]).norm() * 1e3
+                        ),
+                    ));
                 }
             }
         }
@@ -277,7 +364,10 @@ impl Scenario {
 
 /// The values of a written list override, each checked by its field's range (`check`); an error
 /// points at the list.
-fn each_in_range<const N: usize>(x: &Spanned<[f64; N]>, check: fn(f64) -> Result<f64, ranges::OutOfRange>) -> Result<[f64; N], (serde_saphyr::Location, String)> {
+fn each_in_range<const N: usize>(
+    x: &Spanned<[f64; N]>,
+    check: fn(f64) -> Result<f64, ranges::OutOfRange>,
+) -> Result<[f64; N], (serde_saphyr::Location, String)> {
     for v in x.value {
         check(v).map_err(|e| (x.referenced, e.to_string()))?;
     }
@@ -292,7 +382,14 @@ mod tests {
     /// and naming the range: an inertia of 0 (the range excludes it) and a negative integral gain.
     #[test]
     fn each_value_of_a_list_override_is_range_checked() {
-        let with = |model: &str| Scenario::parse(&format!("name: m\nvehicles: [{{name: a, model: {{{model}}}}}]\nplan: [{{hover: {{duration_s: 1}}}}]\n"), "m.yaml".as_ref());
+        let with = |model: &str| {
+            Scenario::parse(
+                &format!(
+                    "name: m\nvehicles: [{{name: a, model: {{{model}}}}}]\nplan: [{{hover: {{duration_s: 1}}}}]\n"
+                ),
+                "m.yaml".as_ref(),
+            )
+        };
         assert!(with("inertia_kg_m2: [0.007, 0.007, 0.012]").is_ok());
         let e = with("inertia_kg_m2: [0.007, 0, 0.012]").unwrap_err().to_string();
         assert!(e.contains("m.yaml:2:") && e.contains("0 kg·m² is outside the allowed range (0, 10]"), "{e}");

@@ -225,7 +225,10 @@ mod tests {
         let b = command(2, 7, &[128, 130, 126, 200]);
         assert_eq!(b, [b'F', b'A', b'C', b'M', 1, 2, 4, 0, 7, 0, 0, 0, 128, 130, 126, 200]);
         let c = parse_command(&b).unwrap();
-        assert_eq!((c.vehicle_id, c.seq, c.frame.len, &c.frame.channels[..5]), (2, 7, 4, &[128u8, 130, 126, 200, 0][..]));
+        assert_eq!(
+            (c.vehicle_id, c.seq, c.frame.len, &c.frame.channels[..5]),
+            (2, 7, 4, &[128u8, 130, 126, 200, 0][..])
+        );
         assert_eq!(parse_command(&b[..15]), Err(BadCommand::Length { channels: 4, len: 15 }));
         assert_eq!(parse_command(b"FACM"), Err(BadCommand::Length { channels: 0, len: 4 }));
         let mut v2 = b.clone();
@@ -234,7 +237,10 @@ mod tests {
         assert_eq!(parse_command(&command(1, 0, &[1, 2, 3])), Err(BadCommand::Length { channels: 3, len: 15 }));
         assert_eq!(parse_command(&command(1, 0, &[0; 13])), Err(BadCommand::Length { channels: 13, len: 25 }));
         assert_eq!(parse_command(b"\x00\x00\x05\x00Ping\x00"), Err(BadCommand::Magic));
-        assert_eq!(BadCommand::Length { channels: 4, len: 15 }.to_string(), "a command with 4 channels must be 16 bytes, not 15");
+        assert_eq!(
+            BadCommand::Length { channels: 4, len: 15 }.to_string(),
+            "a command with 4 channels must be 16 bytes, not 15"
+        );
     }
 
     /// The counts of a sequence written out by hand: 0 1 1 3 2 6 applies 0, 1, 3, 6 (missing:
@@ -244,7 +250,19 @@ mod tests {
         let mut r = Receiver::default();
         let applied: Vec<bool> = [0, 1, 1, 3, 2, 6].into_iter().map(|s| r.accept(s)).collect();
         assert_eq!(applied, [true, true, false, true, false, true]);
-        assert_eq!(r.stats, CommandStats { received: 6, applied: 4, duplicates: 1, out_of_order: 1, missing: 3, held: 0, timeouts: 0, failsafe: 0 });
+        assert_eq!(
+            r.stats,
+            CommandStats {
+                received: 6,
+                applied: 4,
+                duplicates: 1,
+                out_of_order: 1,
+                missing: 3,
+                held: 0,
+                timeouts: 0,
+                failsafe: 0
+            }
+        );
         assert_eq!(r.last(), Some(6));
         r.radio_tick(); // a new command came: not held
         r.radio_tick(); // none since: held
@@ -278,12 +296,20 @@ mod tests {
         assert_eq!(&q[..8], &[b'F', b'A', b'R', b'Q', 1, 3, 0, 0]);
         assert_eq!(u32::from_le_bytes(q[8..12].try_into().unwrap()), 9);
         assert_eq!(i64::from_le_bytes(q[12..20].try_into().unwrap()), 180_000_000);
-        let f = TelemetryFrame { seq: 4, t0: crate::clock::Nanos(10), t1: crate::clock::Nanos(20), gyro_mean: crate::frames::Vec3::new(0.5, -0.25, 2.0) };
+        let f = TelemetryFrame {
+            seq: 4,
+            t0: crate::clock::Nanos(10),
+            t1: crate::clock::Nanos(20),
+            gyro_mean: crate::frames::Vec3::new(0.5, -0.25, 2.0),
+        };
         let t = telemetry(1, &f);
         assert_eq!(t.len(), 40);
         assert_eq!(&t[..8], &[b'F', b'A', b'T', b'M', 1, 1, 0, 0]);
         assert_eq!(u32::from_le_bytes(t[8..12].try_into().unwrap()), 4);
-        assert_eq!((i64::from_le_bytes(t[12..20].try_into().unwrap()), i64::from_le_bytes(t[20..28].try_into().unwrap())), (10, 20));
+        assert_eq!(
+            (i64::from_le_bytes(t[12..20].try_into().unwrap()), i64::from_le_bytes(t[20..28].try_into().unwrap())),
+            (10, 20)
+        );
         assert_eq!(f32::from_le_bytes(t[36..40].try_into().unwrap()), 2.0);
     }
 }

@@ -261,7 +261,13 @@ impl Server {
         self.socket.set_read_timeout(Some((until - now).max(Duration::from_micros(50))))?;
         match self.socket.recv_from(&mut buf) {
             Ok((n, from)) => self.answer(&buf[..n], from),
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut | std::io::ErrorKind::ConnectionRefused) => {}
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock
+                        | std::io::ErrorKind::TimedOut
+                        | std::io::ErrorKind::ConnectionRefused
+                ) => {}
             Err(e) => return Err(e.into()),
         }
         Ok(())
@@ -283,14 +289,21 @@ impl Server {
     fn answer(&mut self, packet: &[u8], from: SocketAddr) {
         if packet.starts_with(&command::OFFSET) {
             match command::parse_offset(packet) {
-                Some((id, o)) if (1..=self.external.len()).contains(&(id as usize)) && self.external[id as usize - 1] => self.offsets[id as usize - 1] = Some(o),
+                Some((id, o))
+                    if (1..=self.external.len()).contains(&(id as usize)) && self.external[id as usize - 1] =>
+                {
+                    self.offsets[id as usize - 1] = Some(o)
+                }
                 _ => self.report.rejected += 1,
             }
             return;
         }
         if packet.starts_with(&command::COMMAND) {
             match command::parse_command(packet) {
-                Ok(c) if (1..=self.external.len()).contains(&(c.vehicle_id as usize)) && self.external[c.vehicle_id as usize - 1] => {
+                Ok(c)
+                    if (1..=self.external.len()).contains(&(c.vehicle_id as usize))
+                        && self.external[c.vehicle_id as usize - 1] =>
+                {
                     let i = c.vehicle_id as usize - 1;
                     self.controllers[i] = Some(from);
                     if self.receivers[i].accept(c.seq) {
@@ -335,8 +348,13 @@ impl Server {
     fn wait_for_answers(&mut self, period: u32, timeout: Duration) -> Result<(), ServeError> {
         let give_up = Instant::now() + timeout;
         loop {
-            let left: Vec<usize> =
-                (0..self.external.len()).filter(|&i| self.external[i] && self.controllers[i].is_some() && self.receivers[i].last().is_none_or(|l| l < period)).collect();
+            let left: Vec<usize> = (0..self.external.len())
+                .filter(|&i| {
+                    self.external[i]
+                        && self.controllers[i].is_some()
+                        && self.receivers[i].last().is_none_or(|l| l < period)
+                })
+                .collect();
             if left.is_empty() {
                 return Ok(());
             }
@@ -374,7 +392,11 @@ fn rigid_bodies(s: &Scenario, up: Up) -> Vec<natnet::RigidBodyDef> {
         .vehicles
         .iter()
         .enumerate()
-        .map(|(i, v)| natnet::RigidBodyDef { name: v.name.clone(), id: i as i32 + 1, markers_m: v.template.iter().map(|m| up.body_vector(*m)).collect() })
+        .map(|(i, v)| natnet::RigidBodyDef {
+            name: v.name.clone(),
+            id: i as i32 + 1,
+            markers_m: v.template.iter().map(|m| up.body_vector(*m)).collect(),
+        })
         .collect()
 }
 
@@ -392,14 +414,7 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
     let n = arena.vehicle_count();
     let external: Vec<bool> = (0..n).map(|i| arena.is_external(i)).collect();
     let mut server = Server::bind(opts, natnet::model_def(&rigid_bodies(s, opts.up)), external.clone())?;
-    // before the flight: a NatNet client, or a first command from every external controller
-    let waiting = Instant::now();
-    let deadline = waiting + opts.wait_for_client;
-    let ready = |sv: &Server| if sv.external.iter().any(|e| *e) { (0..n).all(|i| !sv.external[i] || sv.controllers[i].is_some()) } else { !sv.clients.is_empty() };
-    while !ready(&server) && Instant::now() < deadline {
-        server.listen_until((Instant::now() + Duration::from_millis(20)).min(deadline))?;
-    }
-    server.report.waited_s = waiting.elapsed().as_secs_f64();
+    wait_for_participants(&mut server, opts.wait_for_client)?;
     // what came before the flight registered the controllers and answers no request: the
     // receivers start afresh, whatever sequence number the registration carried
     for i in 0..n {
@@ -416,7 +431,8 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
         if opts.lockstep.is_none() {
             let due = start + Duration::from_secs_f64(arena.now().as_secs_f64() / opts.speed);
             server.listen_until(due)?;
-            server.report.max_lag_ms = server.report.max_lag_ms.max(Instant::now().saturating_duration_since(due).as_secs_f64() * 1e3);
+            server.report.max_lag_ms =
+                server.report.max_lag_ms.max(Instant::now().saturating_duration_since(due).as_secs_f64() * 1e3);
         } else {
             server.listen_until(Instant::now())?;
         }
@@ -459,12 +475,39 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
         }
         arena.act();
     }
-    server.report.commands = (0..n).filter(|i| external[*i]).map(|i| VehicleCommands { vehicle: s.vehicle(i).name.clone(), stats: server.receivers[i].stats }).collect();
+    server.report.commands = (0..n)
+        .filter(|i| external[*i])
+        .map(|i| VehicleCommands { vehicle: s.vehicle(i).name.clone(), stats: server.receivers[i].stats })
+        .collect();
     let mut out = arena.finish();
-    // an external vehicle's calibration is what its controller reported, not what the built-in
-    // station (which ran alongside on the same poses) estimated: R1 reads the report, R3 and R4
-    // (the station's own straight-flight fits) do not apply
-    for (v, o) in out.vehicles.iter_mut().zip(&server.offsets).filter(|(v, _)| v.external) {
+    adopt_reported_calibrations(&mut out, &server.offsets);
+    Ok((out, server.report))
+}
+
+/// Before the flight: listen until a NatNet client has asked (no external controller), or every
+/// external controller has sent its first command, or `wait` has passed.
+fn wait_for_participants(server: &mut Server, wait: Duration) -> Result<(), ServeError> {
+    let waiting = Instant::now();
+    let deadline = waiting + wait;
+    let ready = |sv: &Server| {
+        if sv.external.iter().any(|e| *e) {
+            sv.external.iter().zip(&sv.controllers).all(|(e, c)| !e || c.is_some())
+        } else {
+            !sv.clients.is_empty()
+        }
+    };
+    while !ready(server) && Instant::now() < deadline {
+        server.listen_until((Instant::now() + Duration::from_millis(20)).min(deadline))?;
+    }
+    server.report.waited_s = waiting.elapsed().as_secs_f64();
+    Ok(())
+}
+
+/// An external vehicle's calibration is what its controller reported, not what the built-in
+/// station (which ran alongside on the same poses) estimated: R1 reads the report, R3 and R4
+/// (the station's own straight-flight fits) do not apply.
+fn adopt_reported_calibrations(out: &mut RunOutput, offsets: &[Option<[f64; 3]>]) {
+    for (v, o) in out.vehicles.iter_mut().zip(offsets).filter(|(v, _)| v.external) {
         v.calibration.roll_pitch = o.map(|o| (o[0], o[1], 0));
         v.calibration.yaw_offset = o.and_then(|o| o[2].is_finite().then_some(o[2]));
         v.calibration.gyro = None;
@@ -472,7 +515,6 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
         v.calibration.yaw_rls = None;
         v.calibration.validity = None;
     }
-    Ok((out, server.report))
 }
 
 /// What the stream last said of each body, for the frames that lose it.
@@ -561,7 +603,9 @@ mod tests {
                 let rot = Rot::<MocapBody, MocapNav>::from_euler(Euler::new(r, p, y));
                 let expected = cm * rot.matrix() * cm.transpose();
                 let [x, yq, z, w] = up.quaternion(&rot).map(|a| a as f64);
-                let got = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, yq, z)).to_rotation_matrix().into_inner();
+                let got = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, yq, z))
+                    .to_rotation_matrix()
+                    .into_inner();
                 assert!((got - expected).abs().max() < 1e-6, "{up:?}: {got} vs {expected}");
             }
             let v = Vector3::new(1.0, 2.0, 3.0);
@@ -590,12 +634,22 @@ mod tests {
             let frd = Rot::<MocapBody, MocapNav>::from_euler(Euler::new(r, p, y)).matrix();
             let z = c(Up::Z) * frd * c(Up::Z).transpose();
             let e = Rot::<MocapBody, MocapNav>::from_matrix(&z).euler();
-            assert!((e.roll - r).abs() < 1e-12 && (e.pitch + p).abs() < 1e-12 && crate::frames::wrap_pi(e.yaw + y).abs() < 1e-12, "z-up angles {e:?}");
+            assert!(
+                (e.roll - r).abs() < 1e-12
+                    && (e.pitch + p).abs() < 1e-12
+                    && crate::frames::wrap_pi(e.yaw + y).abs() < 1e-12,
+                "z-up angles {e:?}"
+            );
             let yup = c(Up::Y) * frd * c(Up::Y).transpose();
             let back = c(Up::Y).transpose() * yup * c(Up::Y);
             assert!((back - frd).abs().max() < 1e-12);
             let ey = Rot::<MocapBody, MocapNav>::from_matrix(&yup).euler();
-            assert!((ey.roll - r).abs() > 1e-3 || (ey.pitch.abs() - p.abs()).abs() > 1e-3 || (ey.yaw.abs() - y.abs()).abs() > 1e-3, "y-up has no sign rule: {ey:?}");
+            assert!(
+                (ey.roll - r).abs() > 1e-3
+                    || (ey.pitch.abs() - p.abs()).abs() > 1e-3
+                    || (ey.yaw.abs() - y.abs()).abs() > 1e-3,
+                "y-up has no sign rule: {ey:?}"
+            );
         }
     }
 }

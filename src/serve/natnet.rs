@@ -197,13 +197,24 @@ impl Packet {
 
 /// The server info (reply to [`Request::Connect`]): application name, versions, the timestamps'
 /// clock, and where the data goes (the data port; the multicast group, if any).
-pub(crate) fn server_info(app_name: &str, app_version: [u8; 4], data_port: u16, multicast: Option<Ipv4Addr>) -> Vec<u8> {
+pub(crate) fn server_info(
+    app_name: &str,
+    app_version: [u8; 4],
+    data_port: u16,
+    multicast: Option<Ipv4Addr>,
+) -> Vec<u8> {
     let mut name = [0u8; 256];
     let b = app_name.as_bytes();
     let n = b.len().min(255);
     name[..n].copy_from_slice(&b[..n]);
     let mut p = Packet::new(NAT_SERVERINFO);
-    p.bytes(&name).bytes(&app_version).bytes(&VERSION).u64(CLOCK_HZ).u16(data_port).u8(multicast.is_some() as u8).bytes(&multicast.unwrap_or(Ipv4Addr::UNSPECIFIED).octets());
+    p.bytes(&name)
+        .bytes(&app_version)
+        .bytes(&VERSION)
+        .u64(CLOCK_HZ)
+        .u16(data_port)
+        .u8(multicast.is_some() as u8)
+        .bytes(&multicast.unwrap_or(Ipv4Addr::UNSPECIFIED).octets());
     p.finish()
 }
 
@@ -293,7 +304,13 @@ mod tests {
     fn a_frame_with_one_body_has_the_version_3_1_layout() {
         let f = Frame {
             number: 42,
-            bodies: vec![RigidBody { id: 3, pos_m: [1.0, -2.0, 0.5], quat_xyzw: [0.0, 0.0, 0.6, 0.8], mean_error_m: 0.001, tracked: true }],
+            bodies: vec![RigidBody {
+                id: 3,
+                pos_m: [1.0, -2.0, 0.5],
+                quat_xyzw: [0.0, 0.0, 0.6, 0.8],
+                mean_error_m: 0.001,
+                tracked: true,
+            }],
             timestamp_s: 1.25,
             mid_exposure: 1_250_000_000,
             data_received: 1_260_000_000,
@@ -322,7 +339,11 @@ mod tests {
 
     #[test]
     fn model_def_lists_names_ids_and_markers() {
-        let b = model_def(&[RigidBodyDef { name: "cf1".into(), id: 7, markers_m: vec![[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]] }]);
+        let b = model_def(&[RigidBodyDef {
+            name: "cf1".into(),
+            id: 7,
+            markers_m: vec![[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]],
+        }]);
         assert_eq!(u16_at(&b, 0), NAT_MODELDEF);
         assert_eq!(u16_at(&b, 2) as usize, b.len() - 4);
         assert_eq!((u32_at(&b, 4), u32_at(&b, 8)), (1, 1));

@@ -102,7 +102,16 @@ impl AttitudeLoop {
     /// `yaw0`.
     pub fn new(gain: [f64; 3], period_s: f64, yaw0: f64) -> Self {
         let est = Rot::from_euler(Euler::new(0.0, 0.0, yaw0));
-        AttitudeLoop { gain, period_s, est, yaw_set: yaw0, rest_gyro: Vec3::zeros(), rest_accel: Vec3::zeros(), rest_n: 0, armed: false }
+        AttitudeLoop {
+            gain,
+            period_s,
+            est,
+            yaw_set: yaw0,
+            rest_gyro: Vec3::zeros(),
+            rest_accel: Vec3::zeros(),
+            rest_n: 0,
+            armed: false,
+        }
     }
 
     /// The power-on gyro bias estimate b̂ (rad/s; 0 before the first sample).
@@ -136,7 +145,11 @@ impl AttitudeLoop {
             self.yaw_set = e.yaw;
         }
         let k = self.gain;
-        let euler_rates = nalgebra::Vector3::new(k[0] * (cmd.roll - e.roll), k[1] * (cmd.pitch - e.pitch), k[2] * wrap_pi(self.yaw_set - e.yaw) + cmd.yaw_rate);
+        let euler_rates = nalgebra::Vector3::new(
+            k[0] * (cmd.roll - e.roll),
+            k[1] * (cmd.pitch - e.pitch),
+            k[2] * wrap_pi(self.yaw_set - e.yaw) + cmd.yaw_rate,
+        );
         RateCommand { rates: Vec3::from_raw(t_w_inv(e.roll, e.pitch) * euler_rates), thrust_n: cmd.thrust_n }
     }
 
@@ -207,7 +220,11 @@ mod tests {
     fn angle_errors_become_body_rates_at_level() {
         let mut l = AttitudeLoop::new([8.0, 7.0, 3.0], 1e-3, 0.0);
         let r = l.rate_command(&cmd(2.0, 0.0, 0.0), &level(Vec3::zeros()));
-        assert!((r.rates.x() - 8.0 * 2f64.to_radians()).abs() < 1e-12 && r.rates.y() == 0.0 && r.rates.z() == 0.0, "{:?}", r.rates);
+        assert!(
+            (r.rates.x() - 8.0 * 2f64.to_radians()).abs() < 1e-12 && r.rates.y() == 0.0 && r.rates.z() == 0.0,
+            "{:?}",
+            r.rates
+        );
         let r = l.rate_command(&cmd(0.0, -1.0, 0.0), &level(Vec3::zeros()));
         assert!((r.rates.y() + 7.0 * 1f64.to_radians()).abs() < 1e-12 && r.rates.x() == 0.0, "{:?}", r.rates);
     }
@@ -222,7 +239,12 @@ mod tests {
             let att = Euler::from_degrees(10.0, -5.0, yaw);
             let mut l = rested_at(att, [8.0, 8.0, 3.0]);
             let e = l.estimate().euler();
-            assert!((e.roll - att.roll).abs() < 1e-12 && (e.pitch - att.pitch).abs() < 1e-12 && wrap_pi(e.yaw - att.yaw).abs() < 1e-12, "{e:?}");
+            assert!(
+                (e.roll - att.roll).abs() < 1e-12
+                    && (e.pitch - att.pitch).abs() < 1e-12
+                    && wrap_pi(e.yaw - att.yaw).abs() < 1e-12,
+                "{e:?}"
+            );
             let r = l.rate_command(&cmd(10.0, -5.0, 0.0), &at_rest(att, Vec3::zeros()));
             assert!(r.rates.norm() < 1e-9, "yaw {yaw}: {:?}", r.rates);
         }
@@ -270,7 +292,11 @@ mod tests {
         let mut l = rested_at(att, [8.0, 8.0, 0.0]);
         let r = l.rate_command(&cmd(30.0, 0.0, 0.5), &at_rest(att, Vec3::zeros()));
         let (s, c) = 30f64.to_radians().sin_cos();
-        assert!((r.rates.y() - s * 0.5).abs() < 1e-9 && (r.rates.z() - c * 0.5).abs() < 1e-9 && r.rates.x().abs() < 1e-9, "{:?}", r.rates);
+        assert!(
+            (r.rates.y() - s * 0.5).abs() < 1e-9 && (r.rates.z() - c * 0.5).abs() < 1e-9 && r.rates.x().abs() < 1e-9,
+            "{:?}",
+            r.rates
+        );
         let before = l.yaw_estimate();
         l.rate_command(&cmd(30.0, 0.0, 0.5), &at_rest(att, r.rates));
         assert!((l.yaw_estimate() - before - 0.5e-3).abs() < 1e-9);

@@ -47,7 +47,16 @@ impl BatteryParams {
     /// The X3D's 3-cell 2100 mA·h pack (AscTec's stock battery); R = 60 mΩ with wiring, η = 0.5.
     /// At hover (47 W of shaft power) it draws ≈ 8 A and sags ≈ 0.5 V.
     pub fn x3d() -> Self {
-        BatteryParams { cells: 3, capacity_ah: 2.1, v_full_cell: 4.2, v_empty_cell: 3.5, resistance_ohm: 0.06, efficiency: 0.5, charge_start: 0.9, v_ref: 3.0 * 3.7 }
+        BatteryParams {
+            cells: 3,
+            capacity_ah: 2.1,
+            v_full_cell: 4.2,
+            v_empty_cell: 3.5,
+            resistance_ohm: 0.06,
+            efficiency: 0.5,
+            charge_start: 0.9,
+            v_ref: 3.0 * 3.7,
+        }
     }
     /// The Crazyflie 2.1's 1-cell 250 mA·h pack, R and η fitted to the thrust stand
     /// `crazyflie-thrust-stand/cf2.1-stock-prop.csv`: R = 0.22 Ω from vbat = a + d·row − R·i
@@ -55,7 +64,16 @@ impl BatteryParams {
     /// with the preset's k_m = 0.006 m). At hover (3.9 W of shaft power) it draws ≈ 2.4 A (the
     /// stand: 2.66 A at 34 g) and sags ≈ 0.55 V. Test `crazyflie21_battery_is_the_stand_fit`.
     pub fn crazyflie21() -> Self {
-        BatteryParams { cells: 1, capacity_ah: 0.25, v_full_cell: 4.2, v_empty_cell: 3.5, resistance_ohm: 0.22, efficiency: 0.45, charge_start: 0.9, v_ref: 3.7 }
+        BatteryParams {
+            cells: 1,
+            capacity_ah: 0.25,
+            v_full_cell: 4.2,
+            v_empty_cell: 3.5,
+            resistance_ohm: 0.22,
+            efficiency: 0.45,
+            charge_start: 0.9,
+            v_ref: 3.7,
+        }
     }
     /// Open-circuit voltage after drawing `q_ah` (V).
     pub fn open_circuit_v(&self, q_ah: f64) -> f64 {

@@ -129,7 +129,13 @@ impl X3d {
     /// A vehicle at rest on the floor at `home` (D = 0), heading `yaw` (rad).
     pub fn on_floor(p: VehicleParams, disturbance: Disturbance, home: Vec3<Nav>, yaw: f64) -> Self {
         let att = Rot::from_euler(crate::frames::Euler::new(0.0, 0.0, yaw));
-        let state = State { pos: Vec3::new(home.x(), home.y(), 0.0), vel: Vec3::zeros(), att, omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
+        let state = State {
+            pos: Vec3::new(home.x(), home.y(), 0.0),
+            vel: Vec3::zeros(),
+            att,
+            omega: Vec3::zeros(),
+            rotor_speed: [0.0; 4],
+        };
         X3d { p, disturbance, state, on_ground: true, half_step_decay: (f64::NAN, f64::NAN) }
     }
 
@@ -222,7 +228,11 @@ impl X3d {
         };
         let dist = &self.disturbance;
         let l = p.arm_m;
-        let tau = [l * (fl - fr) + dist.torque_body_nm[0], l * (ff - fb) + dist.torque_body_nm[1], p.k_torque_m * (ff + fb - fr - fl) + dist.torque_body_nm[2]];
+        let tau = [
+            l * (fl - fr) + dist.torque_body_nm[0],
+            l * (ff - fb) + dist.torque_body_nm[1],
+            p.k_torque_m * (ff + fb - fr - fl) + dist.torque_body_nm[2],
+        ];
         let j = &p.inertia_kg_m2;
         let gyro = cross(w, [j[0] * w[0], j[1] * w[1], j[2] * w[2]]);
         let mut d = [0.0; N];
@@ -301,7 +311,13 @@ mod tests {
 
     fn hovering() -> X3d {
         let p = VehicleParams::x3d();
-        let s = State { pos: Vec3::new(0.0, 0.0, -1.0), vel: Vec3::zeros(), att: Rot::identity(), omega: Vec3::zeros(), rotor_speed: [0.0; 4] };
+        let s = State {
+            pos: Vec3::new(0.0, 0.0, -1.0),
+            vel: Vec3::zeros(),
+            att: Rot::identity(),
+            omega: Vec3::zeros(),
+            rotor_speed: [0.0; 4],
+        };
         let mut x = X3d::in_flight(p, Disturbance::default(), s);
         let w = x.hover_rotor_speed();
         x.state.rotor_speed = [w; 4];
@@ -323,7 +339,10 @@ mod tests {
         x.state.omega = Vec3::new(1.0, 0.0, 3.0);
         let j = p.inertia_kg_m2;
         let a = x.angular_acceleration();
-        assert!(a.x().abs() < 1e-12 && (a.y() - 3.0 * (j[2] - j[0]) / j[1]).abs() < 1e-9 && a.z().abs() < 1e-12, "{a:?}");
+        assert!(
+            a.x().abs() < 1e-12 && (a.y() - 3.0 * (j[2] - j[0]) / j[1]).abs() < 1e-9 && a.z().abs() < 1e-12,
+            "{a:?}"
+        );
         let floor = X3d::on_floor(p, Disturbance::default(), Vec3::zeros(), 0.0);
         assert_eq!(floor.angular_acceleration(), Vec3::zeros());
     }
@@ -470,7 +489,11 @@ mod tests {
         assert!(plain.x() == 0.0 && plain.y() == 0.0 && plain.z() < -9.0, "{plain:?}");
         let thrust = Vector3::new(0.0, 0.0, plain.z());
         let drag = Vector3::new(-0.3 * v_b.x, -0.5 * v_b.y, 0.0);
-        for (k, f_ext_n, want) in [([0.3, 0.5], [0.0; 3], thrust + drag), ([0.0; 2], force, thrust + f_ext), ([0.3, 0.5], force, thrust + drag + f_ext)] {
+        for (k, f_ext_n, want) in [
+            ([0.3, 0.5], [0.0; 3], thrust + drag),
+            ([0.0; 2], force, thrust + f_ext),
+            ([0.3, 0.5], force, thrust + drag + f_ext),
+        ] {
             let got = vehicle(k, f_ext_n);
             assert!((got.raw() - want).amax() < 1e-12, "drag {k:?}, force {f_ext_n:?}: {got:?} vs {want:?}");
         }
@@ -557,14 +580,26 @@ mod tests {
     #[test]
     fn touchdown_keeps_the_horizontal_position_and_heading_and_levels_the_body() {
         let dt = 1e-3;
-        for (att, omega, yaw) in [(Euler::new(0.1, -0.05, 0.8), 0.0, 0.8), (Euler::new(0.0, 0.0, 0.8), 0.2, 0.8 + 0.2 * dt)] {
-            let s =
-                State { pos: Vec3::new(1.5, -0.7, -0.0005), vel: Vec3::new(0.2, -0.1, 1.0), att: Rot::from_euler(att), omega: Vec3::new(0.0, 0.0, omega), rotor_speed: [0.0; 4] };
+        for (att, omega, yaw) in
+            [(Euler::new(0.1, -0.05, 0.8), 0.0, 0.8), (Euler::new(0.0, 0.0, 0.8), 0.2, 0.8 + 0.2 * dt)]
+        {
+            let s = State {
+                pos: Vec3::new(1.5, -0.7, -0.0005),
+                vel: Vec3::new(0.2, -0.1, 1.0),
+                att: Rot::from_euler(att),
+                omega: Vec3::new(0.0, 0.0, omega),
+                rotor_speed: [0.0; 4],
+            };
             let mut x = X3d::in_flight(VehicleParams::x3d(), Disturbance::default(), s);
             x.step(&[0.0; 4], dt);
             assert!(x.on_ground());
             let (pos, e) = (x.state().pos, x.state().att.euler());
-            assert!((pos.x() - (1.5 + 0.2 * dt)).abs() < 1e-12 && (pos.y() - (-0.7 - 0.1 * dt)).abs() < 1e-12 && pos.z() == 0.0, "{pos:?}");
+            assert!(
+                (pos.x() - (1.5 + 0.2 * dt)).abs() < 1e-12
+                    && (pos.y() - (-0.7 - 0.1 * dt)).abs() < 1e-12
+                    && pos.z() == 0.0,
+                "{pos:?}"
+            );
             assert!(e.roll.abs() < 1e-12 && e.pitch.abs() < 1e-12 && (e.yaw - yaw).abs() < 1e-12, "{e:?}");
             assert_eq!((x.state().vel, x.state().omega), (Vec3::zeros(), Vec3::zeros()));
         }

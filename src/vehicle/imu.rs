@@ -59,7 +59,10 @@ impl Imu {
         let mut noise = |s: f64| if s > 0.0 { s * self.rng.normal() } else { 0.0 };
         let ng = Vec3::new(noise(p.gyro_noise_rad_s), noise(p.gyro_noise_rad_s), noise(p.gyro_noise_rad_s));
         let na = Vec3::new(noise(p.accel_noise_m_s2), noise(p.accel_noise_m_s2), noise(p.accel_noise_m_s2));
-        ImuSample { gyro: omega + Vec3::from_array(p.gyro_bias_rad_s) + ng, specific_force: specific_force + Vec3::from_array(p.accel_bias_m_s2) + na }
+        ImuSample {
+            gyro: omega + Vec3::from_array(p.gyro_bias_rad_s) + ng,
+            specific_force: specific_force + Vec3::from_array(p.accel_bias_m_s2) + na,
+        }
     }
 }
 
@@ -118,7 +121,13 @@ mod tests {
     /// bias exactly. A bug it catches: noise only where σ == 0 (i.e. never).
     #[test]
     fn an_imu_adds_its_bias_and_white_noise_of_the_configured_spread_on_every_axis() {
-        let params = ImuParams { gyro_noise_rad_s: 0.01, accel_noise_m_s2: 0.2, gyro_bias_rad_s: [0.02, -0.03, 0.005], accel_bias_m_s2: [-0.1, 0.05, 0.3], ..ImuParams::default() };
+        let params = ImuParams {
+            gyro_noise_rad_s: 0.01,
+            accel_noise_m_s2: 0.2,
+            gyro_bias_rad_s: [0.02, -0.03, 0.005],
+            accel_bias_m_s2: [-0.1, 0.05, 0.3],
+            ..ImuParams::default()
+        };
         let (omega, force) = (Vec3::<Body>::new(0.5, -1.0, 2.0), Vec3::<Body>::new(0.0, 1.0, -9.81));
         let mut imu = Imu::new(params.clone(), noise_stream(7));
         let n = 4000;
@@ -128,12 +137,25 @@ mod tests {
                 let x: Vec<f64> = readings.iter().map(|s| read(s)[k]).collect();
                 let mean = x.iter().sum::<f64>() / n as f64;
                 let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-                assert!((mean - truth[k] - bias[k]).abs() < 5.0 * sigma / (n as f64).sqrt(), "{name}[{k}]: mean {mean}");
-                assert!((var / (sigma * sigma) - 1.0).abs() < 5.0 * (2.0 / (n - 1) as f64).sqrt(), "{name}[{k}]: s² {var} against σ² {}", sigma * sigma);
+                assert!(
+                    (mean - truth[k] - bias[k]).abs() < 5.0 * sigma / (n as f64).sqrt(),
+                    "{name}[{k}]: mean {mean}"
+                );
+                assert!(
+                    (var / (sigma * sigma) - 1.0).abs() < 5.0 * (2.0 / (n - 1) as f64).sqrt(),
+                    "{name}[{k}]: s² {var} against σ² {}",
+                    sigma * sigma
+                );
             }
         };
         check("gyro", &|s| s.gyro.to_array(), omega.to_array(), params.gyro_bias_rad_s, params.gyro_noise_rad_s);
-        check("accel", &|s| s.specific_force.to_array(), force.to_array(), params.accel_bias_m_s2, params.accel_noise_m_s2);
+        check(
+            "accel",
+            &|s| s.specific_force.to_array(),
+            force.to_array(),
+            params.accel_bias_m_s2,
+            params.accel_noise_m_s2,
+        );
         let quiet = ImuParams { gyro_noise_rad_s: 0.0, accel_noise_m_s2: 0.0, ..params.clone() };
         let s = Imu::new(quiet, noise_stream(7)).sample(omega, force);
         assert_eq!(s.gyro.to_array(), (omega + Vec3::from_array(params.gyro_bias_rad_s)).to_array());

@@ -45,7 +45,16 @@ pub struct Downlink {
 impl Downlink {
     /// `every`: physics ticks per telemetry frame (≥ 1).
     pub fn new(every: u32) -> Self {
-        Downlink { every: every.max(1), integral: Vec3::zeros(), n: 0, t0: Nanos::ZERO, last: None, seq: 0, clock_offset: Nanos::ZERO, clock_drift_ppm: 0.0 }
+        Downlink {
+            every: every.max(1),
+            integral: Vec3::zeros(),
+            n: 0,
+            t0: Nanos::ZERO,
+            last: None,
+            seq: 0,
+            clock_offset: Nanos::ZERO,
+            clock_drift_ppm: 0.0,
+        }
     }
 
     /// Stamps the frames with the vehicle's clock t_v = t + offset + drift·t (drift in parts per
@@ -72,7 +81,12 @@ impl Downlink {
             return None;
         }
         let span = (t - self.t0).as_secs_f64();
-        let f = TelemetryFrame { seq: self.seq, t0: self.stamp(self.t0), t1: self.stamp(t), gyro_mean: self.integral * (1.0 / span) };
+        let f = TelemetryFrame {
+            seq: self.seq,
+            t0: self.stamp(self.t0),
+            t1: self.stamp(t),
+            gyro_mean: self.integral * (1.0 / span),
+        };
         self.seq = self.seq.wrapping_add(1);
         self.integral = Vec3::zeros();
         self.n = 0;

@@ -7,7 +7,11 @@ use std::process::Command;
 
 fn flyarena(args: &[&str], dir: &Path) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
 }
 
 fn json(path: &Path) -> serde_json::Value {
@@ -24,19 +28,44 @@ fn json(path: &Path) -> serde_json::Value {
 #[test]
 fn a_hand_held_rig_is_calibrated_from_its_log() {
     let d = super::Scratch::new("calibration-cli");
-    let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "4", "--logs", "--out", "o"], &d);
+    let (code, out, err) =
+        flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "4", "--logs", "--out", "o"], &d);
     assert_eq!(code, 0, "{out}{err}");
-    assert!(out.contains("| rotation (angle) | 1/1 |") && out.contains("logs: o/handheld-4-1 ") && d.join("o/handheld-4-1/flight-0.csv").is_file(), "{out}");
+    assert!(
+        out.contains("| rotation (angle) | 1/1 |")
+            && out.contains("logs: o/handheld-4-1 ")
+            && d.join("o/handheld-4-1/flight-0.csv").is_file(),
+        "{out}"
+    );
     // the six fitted untested are the hidden ones, not effects besides them
     assert!(out.contains("selected besides the hidden effects: none"), "{out}");
     let batch = json(&d.join("o/handheld-4-1.json"));
     let truth = &batch["outcomes"][0]["trial"]["truth"];
     let mapping = super::root().join("mappings/handheld.yaml");
-    let (code, out, err) = flyarena(&["identify", "o/handheld-4-1/flight-0.csv", "--mapping", mapping.to_str().unwrap(), "--calibrate", "--out", "c", "--no-rrd"], &d);
+    let (code, out, err) = flyarena(
+        &[
+            "identify",
+            "o/handheld-4-1/flight-0.csv",
+            "--mapping",
+            mapping.to_str().unwrap(),
+            "--calibrate",
+            "--out",
+            "c",
+            "--no-rrd",
+        ],
+        &d,
+    );
     assert_eq!(code, 0, "{out}{err}");
-    assert!(out.contains("a rigid body (`vehicle: rigid_body`): no force model") && out.contains("fitted without testing (forced)"), "{out}");
+    assert!(
+        out.contains("a rigid body (`vehicle: rigid_body`): no force model")
+            && out.contains("fitted without testing (forced)"),
+        "{out}"
+    );
     // effects were fitted: the nominal model is not what explains this log
-    assert!(out.contains("no effect besides those fitted untested passes the tests") && !out.contains("explains the data"), "{out}");
+    assert!(
+        out.contains("no effect besides those fitted untested passes the tests") && !out.contains("explains the data"),
+        "{out}"
+    );
     let report = json(&d.join("c/flight-0.identify.json"));
     // no force model: the two channels a rig has, said in the JSON
     assert_eq!(report["report"]["channels"], serde_json::json!(["accel_kin", "gyro"]));
@@ -49,7 +78,8 @@ fn a_hand_held_rig_is_calibrated_from_its_log() {
         let p = &effects.iter().find(|e| e["effect"] == effect).unwrap()["params"][k];
         (p["value"].as_f64().unwrap(), p["ci95"].as_f64().unwrap())
     };
-    let checks = [("body_offset", "body_offset_deg", 3), ("world_tilt", "world_tilt_deg", 2), ("lever_arm", "lever_arm_mm", 3)];
+    let checks =
+        [("body_offset", "body_offset_deg", 3), ("world_tilt", "world_tilt_deg", 2), ("lever_arm", "lever_arm_mm", 3)];
     for (effect, field, n) in checks {
         for k in 0..n {
             let ((v, ci), t) = (param(effect, k), truth[field][k].as_f64().unwrap());
@@ -58,7 +88,10 @@ fn a_hand_held_rig_is_calibrated_from_its_log() {
     }
     let ((v, ci), t) = (param("mocap_delay", 0), truth["mocap_delay_ms"].as_f64().unwrap());
     assert!((v - t).abs() <= 3.0 * ci, "delay {v} ± {ci} against {t}");
-    let (code, out, err) = flyarena(&["identify", "o/handheld-4-1/flight-0.csv", "--mapping", mapping.to_str().unwrap(), "--out", "s", "--no-rrd"], &d);
+    let (code, out, err) = flyarena(
+        &["identify", "o/handheld-4-1/flight-0.csv", "--mapping", mapping.to_str().unwrap(), "--out", "s", "--no-rrd"],
+        &d,
+    );
     assert_eq!(code, 0, "{out}{err}");
     assert!(!out.contains("fitted without testing"), "{out}");
 }
@@ -70,22 +103,39 @@ fn a_hand_held_rig_is_calibrated_from_its_log() {
 #[test]
 fn a_rigid_body_has_no_floor_and_no_motors() {
     let d = super::Scratch::new("calibration-floor");
-    let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "2", "--logs", "--out", "o"], &d);
+    let (code, out, err) =
+        flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "2", "--logs", "--out", "o"], &d);
     assert_eq!(code, 0, "{out}{err}");
     let rigid = std::fs::read_to_string(super::root().join("mappings/handheld.yaml")).unwrap();
     std::fs::write(d.join("x3d.yaml"), rigid.replace("vehicle: rigid_body", "vehicle: x3d")).unwrap();
     std::fs::write(d.join("rigid.yaml"), &rigid).unwrap();
     let mut train = Vec::new();
     for m in ["x3d.yaml", "rigid.yaml"] {
-        let (code, out, err) =
-            flyarena(&["identify", "o/handheld-2-1/flight-0.csv", "--mapping", m, "--calibrate", "--out", &format!("out-{m}"), "--no-rrd", "--json", &format!("{m}.json")], &d);
+        let (code, out, err) = flyarena(
+            &[
+                "identify",
+                "o/handheld-2-1/flight-0.csv",
+                "--mapping",
+                m,
+                "--calibrate",
+                "--out",
+                &format!("out-{m}"),
+                "--no-rrd",
+                "--json",
+                &format!("{m}.json"),
+            ],
+            &d,
+        );
         assert_eq!(code, 0, "{out}{err}");
         train.push(json(&d.join(format!("{m}.json")))["report"]["train_samples"].as_u64().unwrap());
     }
     // on this seed 776 against 873 (one decimated sample per 50 ms: about 5 s of the log)
     assert!(train[1] >= train[0] + 50, "train samples x3d {} rigid body {}", train[0], train[1]);
     std::fs::write(d.join("motors.yaml"), rigid + "motors: { columns: [m1, m2, m3, m4] }\n").unwrap();
-    let (code, out, err) = flyarena(&["identify", "o/handheld-2-1/flight-0.csv", "--mapping", "motors.yaml", "--out", "m", "--no-rrd"], &d);
+    let (code, out, err) = flyarena(
+        &["identify", "o/handheld-2-1/flight-0.csv", "--mapping", "motors.yaml", "--out", "m", "--no-rrd"],
+        &d,
+    );
     assert_eq!(code, 2, "{out}{err}");
     assert!(err.contains("motors.yaml") && err.contains("`vehicle: rigid_body` declares no force model"), "{err}");
 }
@@ -123,19 +173,36 @@ fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
             assert!((got - w).abs() <= digit / 2.0 + 1e-12, "{name} q{p}: {got} against the guide's {w}");
         }
     }
-    for (prefix, covered, of) in
-        [("body_offset.", 290, 300), ("world_tilt.", 191, 200), ("lever_arm.", 282, 300), ("mocap_delay.", 93, 100), ("accel_bias.", 284, 300), ("gyro_bias.", 296, 300)]
-    {
+    for (prefix, covered, of) in [
+        ("body_offset.", 290, 300),
+        ("world_tilt.", 191, 200),
+        ("lever_arm.", 282, 300),
+        ("mocap_delay.", 93, 100),
+        ("accel_bias.", 284, 300),
+        ("gyro_bias.", 296, 300),
+    ] {
         let est: Vec<_> = out.iter().flat_map(|o| &o.estimates).filter(|e| e.name.starts_with(prefix)).collect();
         assert_eq!((est.iter().filter(|e| e.covered()).count(), est.len()), (covered, of), "{prefix}");
     }
     // the Cramér–Rao column: an efficient estimator's median errors, below the fit's
-    let draws: Vec<[f64; 4]> = out.iter().flat_map(|o| o.bound.as_ref().expect("every rig's motion sees every parameter").draws(o.trial.index, BOUND_DRAWS).unwrap()).collect();
+    let draws: Vec<[f64; 4]> = out
+        .iter()
+        .flat_map(|o| {
+            o.bound
+                .as_ref()
+                .expect("every rig's motion sees every parameter")
+                .draws(o.trial.index, BOUND_DRAWS)
+                .unwrap()
+        })
+        .collect();
     let bounds = [(0.0054, 1e-4), (0.0477, 1e-4), (0.540, 1e-3), (6.7, 0.1)];
     for (i, ((name, err, _, _), (want, digit))) in rows.into_iter().zip(bounds).enumerate() {
         let bound = q(draws.iter().map(|d| d[i]).collect(), 0.5);
         let achieved = q(out.iter().filter_map(err).collect(), 0.5);
-        assert!((bound - want).abs() <= digit / 2.0 + 1e-12 && bound < achieved, "{name}: bound {bound} against the guide's {want}, the fit's {achieved}");
+        assert!(
+            (bound - want).abs() <= digit / 2.0 + 1e-12 && bound < achieved,
+            "{name}: bound {bound} against the guide's {want}, the fit's {achieved}"
+        );
     }
 }
 
@@ -146,14 +213,26 @@ fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
 fn a_rig_setting_is_read_from_yaml_and_checked() {
     let d = super::Scratch::new("rig-setting");
     std::fs::write(d.join("short.yaml"), "duration_s: 20\nimu_hz: 200\n").unwrap();
-    let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--seed", "3", "--setting", "short.yaml", "--out", "o"], &d);
+    let (code, out, err) = flyarena(
+        &["trials", "--handheld", "--flights", "1", "--seed", "3", "--setting", "short.yaml", "--out", "o"],
+        &d,
+    );
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.starts_with("1 hand-held flights of 20 s (mocap 300 Hz, IMU 200 Hz), 1 identified"), "{out}");
     let setting = &json(&d.join("o/handheld-3-1.json"))["setting"];
-    assert_eq!((setting["imu_hz"].as_f64(), setting["mocap_hz"].as_f64(), setting["gyro_noise_density"].as_f64()), (Some(200.0), Some(300.0), Some(8.39e-4)));
+    assert_eq!(
+        (setting["imu_hz"].as_f64(), setting["mocap_hz"].as_f64(), setting["gyro_noise_density"].as_f64()),
+        (Some(200.0), Some(300.0), Some(8.39e-4))
+    );
     std::fs::write(d.join("bad.yaml"), "imu_hz: 200\ngyro_noise_density: 0.5\n").unwrap();
-    let (code, out, err) = flyarena(&["trials", "--handheld", "--flights", "1", "--setting", "bad.yaml", "--out", "bad"], &d);
+    let (code, out, err) =
+        flyarena(&["trials", "--handheld", "--flights", "1", "--setting", "bad.yaml", "--out", "bad"], &d);
     assert_eq!(code, 2, "{out}{err}");
-    assert!(err.contains("bad.yaml") && err.contains("line 2 column 21") && err.contains("0.5 rad/s/√Hz is outside the allowed range [0, 0.1]"), "{err}");
+    assert!(
+        err.contains("bad.yaml")
+            && err.contains("line 2 column 21")
+            && err.contains("0.5 rad/s/√Hz is outside the allowed range [0, 0.1]"),
+        "{err}"
+    );
     assert!(!d.join("bad").exists());
 }

@@ -5,7 +5,11 @@ use std::process::Command;
 
 fn flyarena(args: &[&str], dir: &Path) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
 }
 
 fn tmp(name: &str) -> super::Scratch {
@@ -19,13 +23,21 @@ fn run_passes_prints_the_table_and_writes_the_summary() {
     let (code, out, err) = flyarena(&["run", scen.to_str().unwrap(), "--out", "o"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("R2") && out.contains("PASS"), "{out}");
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("o/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("o/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
     assert_eq!(json["passed"], true);
     assert!(json["vehicles"][0]["spin_max_deviation_uncompensated_m"].as_f64().unwrap() > 0.3);
     // the recording is there and decodes; no temporary files left behind
-    let mut names: Vec<String> = std::fs::read_dir(d.join("o")).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = std::fs::read_dir(d.join("o"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     names.sort();
-    let want: &[&str] = if cfg!(feature = "record") { &["fig6-roll-pitch-offsets.json", "fig6-roll-pitch-offsets.rrd"] } else { &["fig6-roll-pitch-offsets.json"] };
+    let want: &[&str] = if cfg!(feature = "record") {
+        &["fig6-roll-pitch-offsets.json", "fig6-roll-pitch-offsets.rrd"]
+    } else {
+        &["fig6-roll-pitch-offsets.json"]
+    };
     assert_eq!(names, want);
     #[cfg(feature = "record")]
     {
@@ -42,7 +54,8 @@ fn rrd_path_and_no_rrd() {
     let (code, out, err) = flyarena(&["run", scen.to_str().unwrap(), "--out", "o", "--no-rrd", "-q"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert!(!d.join("o/fig7-no-offsets.rrd").exists());
-    let (code, out, err) = flyarena(&["run", scen.to_str().unwrap(), "--out", "o", "--rrd", "r/x.rrd", "--rrd-every", "1", "-q"], &d);
+    let (code, out, err) =
+        flyarena(&["run", scen.to_str().unwrap(), "--out", "o", "--rrd", "r/x.rrd", "--rrd-every", "1", "-q"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert!(d.join("r/x.rrd").metadata().unwrap().len() > 10_000);
     let (code, _, err) = flyarena(&["run", scen.to_str().unwrap(), "--rrd", "a.rrd", "--no-rrd"], &d);
@@ -122,8 +135,12 @@ fn identify_exit_codes_outputs_and_the_fragment_round_trip() {
     let scen = super::root().join("scenarios/identify-wind.yaml");
     let (code, out, err) = flyarena(&["identify", scen.to_str().unwrap(), "--out", "o"], &d);
     assert_eq!(code, 0, "{out}{err}");
-    assert!(out.contains("constant force") && out.contains("closed loop") && out.contains("R5") && out.contains("PASS"), "{out}");
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("o/identify-wind.identify.json")).unwrap()).unwrap();
+    assert!(
+        out.contains("constant force") && out.contains("closed loop") && out.contains("R5") && out.contains("PASS"),
+        "{out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("o/identify-wind.identify.json")).unwrap()).unwrap();
     assert_eq!(json["report"]["effects"][0]["effect"], "constant_force");
     // a vehicle with motor commands: the force model's channel too
     assert_eq!(json["report"]["channels"], serde_json::json!(["accel_kin", "gyro", "force"]));
@@ -131,7 +148,10 @@ fn identify_exit_codes_outputs_and_the_fragment_round_trip() {
     assert!(frag.contains("vehicles[0].disturbance.force_n"), "{frag}");
     // the fragment is accepted by run and puts the wind into the nominal scenario
     let none = super::root().join("scenarios/identify-none.yaml");
-    let (code, out, err) = flyarena(&["run", none.to_str().unwrap(), "--effects", "o/identify-wind.effects.yaml", "--no-rrd", "--json", "w.json"], &d);
+    let (code, out, err) = flyarena(
+        &["run", none.to_str().unwrap(), "--effects", "o/identify-wind.effects.yaml", "--no-rrd", "--json", "w.json"],
+        &d,
+    );
     assert_eq!(code, 0, "{out}{err}");
     // a wrong expectation fails R5: exit 1
     let src = std::fs::read_to_string(&scen).unwrap().replace("values: [0.4, -0.2, 0.0]", "values: [0.5, -0.2, 0.0]");
@@ -148,15 +168,28 @@ fn identify_exit_codes_outputs_and_the_fragment_round_trip() {
     assert_eq!(code, 2);
     assert!(err.contains("thrust_scale") && err.contains("1.5"), "{err}");
     // a wrong value is named at the fragment's entry and line, not in the merged tree no file holds
-    std::fs::write(d.join("frag.yaml"), "effects:\n  vehicles[0].disturbance.force_n: [0.1, 0, 0]\n  vehicles[0].undeclared.thrust_scale: x\n").unwrap();
+    std::fs::write(
+        d.join("frag.yaml"),
+        "effects:\n  vehicles[0].disturbance.force_n: [0.1, 0, 0]\n  vehicles[0].undeclared.thrust_scale: x\n",
+    )
+    .unwrap();
     let (code, _, err) = flyarena(&["run", none.to_str().unwrap(), "--effects", "frag.yaml", "--no-rrd"], &d);
     assert_eq!(code, 2);
     assert_eq!(err.trim(), "error: frag.yaml:3: `vehicles[0].undeclared.thrust_scale`: invalid floating point");
     // the YAML parser's advice to programmers does not reach the file's author
-    std::fs::write(d.join("frag.yaml"), "effects:\n  vehicles[0].undeclared.thrust_scale: 1.1\n  vehicles[0].undeclared.thrust_scale: 1.2\n").unwrap();
+    std::fs::write(
+        d.join("frag.yaml"),
+        "effects:\n  vehicles[0].undeclared.thrust_scale: 1.1\n  vehicles[0].undeclared.thrust_scale: 1.2\n",
+    )
+    .unwrap();
     let (code, _, err) = flyarena(&["run", none.to_str().unwrap(), "--effects", "frag.yaml", "--no-rrd"], &d);
     assert_eq!(code, 2);
-    assert!(err.contains("duplicate mapping key") && err.contains("(a key may appear once)") && !err.contains("DuplicateKeyPolicy"), "{err}");
+    assert!(
+        err.contains("duplicate mapping key")
+            && err.contains("(a key may appear once)")
+            && !err.contains("DuplicateKeyPolicy"),
+        "{err}"
+    );
     let (code, _, err) = flyarena(&["identify", "a.csv", "--mapping", "m.yaml", "--with", "magic"], &d);
     assert_eq!(code, 2);
     assert!(err.contains("`magic`") && err.contains("body_offset"), "{err}");
@@ -177,7 +210,14 @@ fn circling_log(rows: usize) -> String {
         // bit while the vehicle manoeuvres is a frozen sensor, which identify cuts out)
         let wob = 1e-4 * ((k * 7919 % 13) as f64 - 6.0);
         let (ax, ay) = (-1.2 * (2.0 * t).cos() / 9.81 + wob, -1.2 * (2.0 * t).sin() / 9.81 - wob);
-        csv += &format!("{t},{},{},{z},1,0,0,0,{wob},{},{},{ax},{ay},{}\n", 0.3 * (2.0 * t).cos(), 0.3 * (2.0 * t).sin(), -wob, 0.5 * wob, 1.0 + wob);
+        csv += &format!(
+            "{t},{},{},{z},1,0,0,0,{wob},{},{},{ax},{ay},{}\n",
+            0.3 * (2.0 * t).cos(),
+            0.3 * (2.0 * t).sin(),
+            -wob,
+            0.5 * wob,
+            1.0 + wob
+        );
     }
     csv
 }
@@ -191,12 +231,18 @@ fn identify_quiet_prints_a_logs_verdict() {
     std::fs::write(d.join("m.yaml"), CIRCLING_MAPPING).unwrap();
     std::fs::write(d.join("short.csv"), circling_log(10)).unwrap();
     std::fs::write(d.join("c.csv"), circling_log(1500)).unwrap();
-    let (code, out, err) = flyarena(&["identify", "short.csv", "--mapping", "m.yaml", "--out", "o", "--no-rrd", "-q"], &d);
+    let (code, out, err) =
+        flyarena(&["identify", "short.csv", "--mapping", "m.yaml", "--out", "o", "--no-rrd", "-q"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert_eq!(out, "short.csv: nothing identified: 0 usable training samples, 200 needed\n");
     let (code, out, err) = flyarena(&["identify", "short.csv", "--mapping", "m.yaml", "--out", "o", "--no-rrd"], &d);
     assert_eq!(code, 0, "{out}{err}");
-    assert!(out.contains("too few usable samples to select effects (0 for training, 200 needed)") && !out.contains("explains the data") && !out.contains("p=1.00"), "{out}");
+    assert!(
+        out.contains("too few usable samples to select effects (0 for training, 200 needed)")
+            && !out.contains("explains the data")
+            && !out.contains("p=1.00"),
+        "{out}"
+    );
     let (code, out, err) = flyarena(&["identify", "c.csv", "--mapping", "m.yaml", "--out", "o", "--no-rrd", "-q"], &d);
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.lines().count() == 1 && out.starts_with("c.csv: ") && out.contains("found"), "{out}");
@@ -239,11 +285,22 @@ fn hostile_names_are_rejected_before_anything_is_written() {
     for (k, (name, why)) in cases.iter().enumerate() {
         let dir = d.join(format!("case{k}"));
         std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("s.yaml"), format!("name: {name}\nvehicles:\n  - {{ name: v }}\nplan:\n  - takeoff: {{ altitude_m: 1, duration_s: 2 }}\n")).unwrap();
+        std::fs::write(
+            dir.join("s.yaml"),
+            format!(
+                "name: {name}\nvehicles:\n  - {{ name: v }}\nplan:\n  - takeoff: {{ altitude_m: 1, duration_s: 2 }}\n"
+            ),
+        )
+        .unwrap();
         let (code, out, err) = flyarena(&["run", "s.yaml", "--out", "o", "--log", "o/log.csv"], &dir);
         assert_eq!(code, 2, "{name}: {out}{err}");
         assert!(
-            err.contains("s.yaml:1:7") && err.contains(why) && err.contains("letters A–Z") | err.contains("at most") | err.contains("device") | err.contains("starts with"),
+            err.contains("s.yaml:1:7")
+                && err.contains(why)
+                && err.contains("letters A–Z")
+                    | err.contains("at most")
+                    | err.contains("device")
+                    | err.contains("starts with"),
             "{name}: {err}"
         );
         let entries: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
@@ -257,7 +314,11 @@ fn hostile_names_are_rejected_before_anything_is_written() {
     assert_eq!(code, 2);
     assert!(err.contains("s.yaml:4:") && err.contains("'/'"), "{err}");
     // the safe set runs
-    std::fs::write(dir.join("s.yaml"), "name: Fig-6_v2.1\nvehicles:\n  - { name: x3d }\nplan:\n  - takeoff: { altitude_m: 1, duration_s: 2 }\n").unwrap();
+    std::fs::write(
+        dir.join("s.yaml"),
+        "name: Fig-6_v2.1\nvehicles:\n  - { name: x3d }\nplan:\n  - takeoff: { altitude_m: 1, duration_s: 2 }\n",
+    )
+    .unwrap();
     let (code, out, err) = flyarena(&["run", "s.yaml", "--out", "o", "--no-rrd"], &dir);
     assert_eq!(code, 0, "{out}{err}");
     assert!(dir.join("o/Fig-6_v2.1.json").exists());

@@ -8,7 +8,12 @@ fn bits(out: &RunOutput) -> Vec<u64> {
     for v in &out.vehicles {
         for s in &v.trace {
             b.push(s.t.0 as u64);
-            for x in s.pos.to_array().into_iter().chain(s.vel.to_array()).chain([s.att_true.roll, s.att_true.pitch, s.att_true.yaw, s.thrust_n]) {
+            for x in s.pos.to_array().into_iter().chain(s.vel.to_array()).chain([
+                s.att_true.roll,
+                s.att_true.pitch,
+                s.att_true.yaw,
+                s.thrust_n,
+            ]) {
                 b.push(x.to_bits());
             }
             if let Some(m) = s.att_measured {

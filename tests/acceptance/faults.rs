@@ -31,7 +31,11 @@ fn fly(outage: &str, occlusions: &str) -> flyarena::engine::VehicleRun {
 
 /// Max horizontal distance from the reference between `from` and `to` (s).
 fn max_dev(v: &flyarena::engine::VehicleRun, from: f64, to: f64) -> f64 {
-    v.trace.iter().filter(|s| (from..to).contains(&s.t.as_secs_f64())).map(|s| (s.pos - s.reference.assume_same_as()).horizontal_norm()).fold(0.0, f64::max)
+    v.trace
+        .iter()
+        .filter(|s| (from..to).contains(&s.t.as_secs_f64()))
+        .map(|s| (s.pos - s.reference.assume_same_as()).horizontal_norm())
+        .fold(0.0, f64::max)
 }
 
 #[test]
@@ -71,7 +75,12 @@ fn a_500_ms_outage_enters_the_failsafe_and_recovers() {
     // 0.4 s of level flight on the gyro from a steady hover loses little: it sinks
     // (1 − 0.97)·g·t²/2 ≈ 2.4 cm and barely moves sideways
     assert!(max_dev(&v, 14.0, 16.0) < 0.03, "{}", max_dev(&v, 14.0, 16.0));
-    let sink = v.trace.iter().filter(|s| (14.0..15.0).contains(&s.t.as_secs_f64())).map(|s| s.pos.z() - s.reference.z()).fold(0.0, f64::max);
+    let sink = v
+        .trace
+        .iter()
+        .filter(|s| (14.0..15.0).contains(&s.t.as_secs_f64()))
+        .map(|s| s.pos.z() - s.reference.z())
+        .fold(0.0, f64::max);
     assert!(sink > 0.01 && sink < 0.05, "sank {sink} m");
     // and it is back on its reference before landing
     assert!(max_dev(&v, 17.0, 20.0) < 0.01, "{}", max_dev(&v, 17.0, 20.0));
@@ -101,7 +110,12 @@ fn a_failsafe_active_at_the_end_counts_to_the_last_tick() {
         assert!(f.active_at_end);
         let last_tick_s = out.duration.as_secs_f64() - 0.001;
         let first = f.first_at_s.unwrap();
-        assert!((f.total_s - (last_tick_s - first)).abs() < 1e-9, "trace {trace}: {} s counted, {} s expected", f.total_s, last_tick_s - first);
+        assert!(
+            (f.total_s - (last_tick_s - first)).abs() < 1e-9,
+            "trace {trace}: {} s counted, {} s expected",
+            f.total_s,
+            last_tick_s - first
+        );
     }
 }
 
@@ -219,5 +233,8 @@ fn lossy_link_failsafe_episodes_are_the_closed_form() {
         total += run(s.spec(), RunOptions { trace: false, apply_calibration: None }).vehicles[0].failsafe.episodes;
     }
     assert!((expected - 145.0).abs() < 1.0, "{expected}");
-    assert!((total as f64 - expected).abs() < 3.0 * expected.sqrt(), "{total} episodes over 60 seeds, expected {expected:.1}");
+    assert!(
+        (total as f64 - expected).abs() < 3.0 * expected.sqrt(),
+        "{total} episodes over 60 seeds, expected {expected:.1}"
+    );
 }

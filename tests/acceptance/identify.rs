@@ -36,7 +36,14 @@ const IDENTIFY_SCENARIOS: [&str; 14] = [
 fn every_identify_scenario_file_is_tested() {
     let mut files: Vec<String> = std::fs::read_dir(super::root().join("scenarios"))
         .unwrap()
-        .filter_map(|e| e.unwrap().file_name().to_string_lossy().strip_prefix("identify-").and_then(|n| n.strip_suffix(".yaml")).map(str::to_string))
+        .filter_map(|e| {
+            e.unwrap()
+                .file_name()
+                .to_string_lossy()
+                .strip_prefix("identify-")
+                .and_then(|n| n.strip_suffix(".yaml"))
+                .map(str::to_string)
+        })
         .collect();
     files.sort();
     let mut listed: Vec<String> = IDENTIFY_SCENARIOS.iter().map(|s| s.to_string()).collect();
@@ -73,9 +80,15 @@ fn every_identify_scenario_finds_its_hidden_effect() {
                 // parameter 0.6 mm off is 8.5 mm (PPM counts that flip change the command
                 // sequence; with the exact truth fed back the flight is the data's to the bit):
                 // the fed-back flight must only be closer
-                assert!(after.position_rmse_m < before.position_rmse_m, "{name}: fed back {after:?} vs nominal {before:?}");
+                assert!(
+                    after.position_rmse_m < before.position_rmse_m,
+                    "{name}: fed back {after:?} vs nominal {before:?}"
+                );
             } else {
-                assert!(after.position_rmse_m < 0.1 * before.position_rmse_m, "{name}: fed back {after:?} vs nominal {before:?}");
+                assert!(
+                    after.position_rmse_m < 0.1 * before.position_rmse_m,
+                    "{name}: fed back {after:?} vs nominal {before:?}"
+                );
             }
         }
     }
@@ -93,7 +106,12 @@ fn nothing_hidden_gives_no_effect_over_20_seeds() {
         let s = Scenario::load(&scenario("none")).unwrap().with_seed(seed);
         let (_, series) = run_and_log(&s, 0, "none").unwrap();
         let r = identify(&series, &Options::default()).unwrap();
-        assert!(r.effects.is_empty(), "seed {seed}: found {:?}\n{}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(), flyarena::identify::report::render(&r));
+        assert!(
+            r.effects.is_empty(),
+            "seed {seed}: found {:?}\n{}",
+            r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(),
+            flyarena::identify::report::render(&r)
+        );
         // no glitch is left out of these flights, and none is named
         assert!(!r.notes.iter().any(|n| n.contains("mocap glitches")), "seed {seed}: {:?}", r.notes);
     }
@@ -143,24 +161,33 @@ fn hidden_effects_are_found_first_on_other_seeds() {
 #[test]
 fn a_gyro_delay_is_found_when_tested_and_named_when_not() {
     let yaml = std::fs::read_to_string(scenario("lever-arm")).unwrap();
-    let yaml = yaml
-        .split("requirements:")
-        .next()
-        .unwrap()
-        .replace("    markers: { displacement_mm: [[-10, 5, -30], [-10, 5, -30], [-10, 5, -30], [-10, 5, -30]] }", "    undeclared: { gyro_delay_ms: 10 }");
+    let yaml = yaml.split("requirements:").next().unwrap().replace(
+        "    markers: { displacement_mm: [[-10, 5, -30], [-10, 5, -30], [-10, 5, -30], [-10, 5, -30]] }",
+        "    undeclared: { gyro_delay_ms: 10 }",
+    );
     assert!(yaml.contains("gyro_delay_ms"));
     let s = super::inline(&yaml);
     let (_, series) = run_and_log(&s, 0, "gyro-delay").unwrap();
     // named twice (`--with gyro_delay --with gyro_delay`), it is fitted once (a bug it catches:
     // "available and not yet selected" as "or" forced it twice, a singular pair of columns)
-    let r = identify(&series, &Options { forced: vec![Effect::GyroDelay, Effect::GyroDelay], ..Options::default() }).unwrap();
-    assert_eq!(r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(), [Effect::GyroDelay], "{}", flyarena::identify::report::render(&r));
+    let r = identify(&series, &Options { forced: vec![Effect::GyroDelay, Effect::GyroDelay], ..Options::default() })
+        .unwrap();
+    assert_eq!(
+        r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(),
+        [Effect::GyroDelay],
+        "{}",
+        flyarena::identify::report::render(&r)
+    );
     let p = &r.effects[0].params[0];
     assert!((p.value - 10.0).abs() <= p.ci95 && p.ci95 < 0.3, "gyro delay {} ± {} ms (truth 10)", p.value, p.ci95);
     let r = identify(&series, &Options::default()).unwrap();
     let delay = r.param(Effect::MocapDelay, "delay").unwrap();
     assert!((delay + 10.0).abs() < 0.3, "a mocap delay of {delay} ms");
-    assert!(r.notes.iter().any(|n| n.contains("mocap delay came out negative") && n.contains("--with gyro_delay")), "{:?}", r.notes);
+    assert!(
+        r.notes.iter().any(|n| n.contains("mocap delay came out negative") && n.contains("--with gyro_delay")),
+        "{:?}",
+        r.notes
+    );
 }
 
 /// The paper's geometry in closed form: with the markers turned by R_off, the accelerometer
@@ -213,13 +240,17 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     let m = Mapping::parse(&mapping_src("z_up", "flu"), Path::new("m.yaml")).unwrap();
     // FLU body nose-up: rotation about body +y (left) by −10° (FLU: +y left, so nose-up is negative about y)
     let q = UnitQuaternion::from_euler_angles(0.0, -10f64.to_radians(), 90f64.to_radians());
-    let row = |t: f64| format!("{t},100,200,1000,{},{},{},{},0,0,30,0,0,1,30000,30000,30000,30000,3.7", q.w, q.i, q.j, q.k);
+    let row =
+        |t: f64| format!("{t},100,200,1000,{},{},{},{},0,0,30,0,0,1,30000,30000,30000,30000,3.7", q.w, q.i, q.j, q.k);
     let csv = format!("{CSV_HEADER}\n{}\n{}\n{}\n", row(0.0), row(10.0), row(20.0));
     let s = m.read_str(&csv, "by-hand.csv").unwrap();
     assert!((s.t_s[1] - 0.01).abs() < 1e-15);
     assert!((s.pos_mocap_nav[0] - Vec3::new(0.1, -0.2, -1.0)).norm() < 1e-12, "{:?}", s.pos_mocap_nav[0]);
     let (roll, pitch, yaw) = s.att_mocap[0].quaternion().euler_angles();
-    assert!(roll.abs() < 1e-9 && (pitch - 10f64.to_radians()).abs() < 1e-9 && (yaw + 90f64.to_radians()).abs() < 1e-9, "{roll} {pitch} {yaw}");
+    assert!(
+        roll.abs() < 1e-9 && (pitch - 10f64.to_radians()).abs() < 1e-9 && (yaw + 90f64.to_radians()).abs() < 1e-9,
+        "{roll} {pitch} {yaw}"
+    );
     assert!((s.gyro_body[0] - Vec3::new(0.0, 0.0, -30f64.to_radians())).norm() < 1e-12);
     assert!((s.accel_body[0] - Vec3::new(0.0, 0.0, -9.81)).norm() < 1e-12);
     // thrust: four motors at PWM 30000 and 3.7 V through the stand fit (grams-force, 4 motors)
@@ -228,7 +259,10 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     assert!((s.thrust_n.as_ref().unwrap()[0] - t4 * 9.81e-3).abs() < 1e-12);
     // the same attitude as Z-Y-X Euler angles in degrees gives the same pose
     let m3 = Mapping::parse(
-        &mapping_src("z_up", "flu").replace("attitude: { columns: [qw, qx, qy, qz], order: wxyz }", "attitude: { euler: [r, p, yw], unit: deg }"),
+        &mapping_src("z_up", "flu").replace(
+            "attitude: { columns: [qw, qx, qy, qz], order: wxyz }",
+            "attitude: { euler: [r, p, yw], unit: deg }",
+        ),
         Path::new("m.yaml"),
     )
     .unwrap();
@@ -236,7 +270,12 @@ fn mapping_converts_units_and_frames_as_derived_by_hand() {
     let ecsv = format!("time_ms,x,y,z,r,p,yw,gx,gy,gz,ax,ay,az,m1,m2,m3,m4,vbat\n{}\n{}\n", erow(0.0), erow(10.0));
     let se = m3.read_str(&ecsv, "euler.csv").unwrap();
     assert!((se.att_mocap[0].inverse() * s.att_mocap[0]).angle() < 1e-12);
-    let e = Mapping::parse(&mapping_src("z_up", "flu").replace("order: wxyz", "order: wxyz, unit: deg"), Path::new("m.yaml")).unwrap_err().to_string();
+    let e = Mapping::parse(
+        &mapping_src("z_up", "flu").replace("order: wxyz", "order: wxyz, unit: deg"),
+        Path::new("m.yaml"),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("either a quaternion") && e.contains("euler"), "{e}");
     // z-down world and FRD body are taken as they are
     let m2 = Mapping::parse(&mapping_src("z_down", "frd"), Path::new("m.yaml")).unwrap();
@@ -266,7 +305,10 @@ fn mapped_log_cells_are_numbers_dropouts_or_located_errors() {
         if corrupt == "1,5" {
             assert_eq!(e, "log.csv:3: 20 cells for 19 columns", "`{corrupt}`");
         } else {
-            assert!(e.starts_with("log.csv:3: column `x`:") && e.contains(&format!("`{corrupt}`")) && e.contains("dropout"), "`{corrupt}`: {e}");
+            assert!(
+                e.starts_with("log.csv:3: column `x`:") && e.contains(&format!("`{corrupt}`")) && e.contains("dropout"),
+                "`{corrupt}`: {e}"
+            );
         }
     }
     // a trailing comma on every row, and a byte-order mark
@@ -277,11 +319,21 @@ fn mapped_log_cells_are_numbers_dropouts_or_located_errors() {
     let cut = format!("{CSV_HEADER}\n{}\n{}\n0,1,2", row(0, "1"), row(10, "1"));
     let s = m.read_str(&cut, "log.csv").unwrap();
     assert_eq!(s.t_s.len(), 2);
-    assert!(s.repairs.iter().any(|r| r.starts_with("line 4: the last line is cut short (3 of 19 cells")), "{:?}", s.repairs);
-    assert_eq!(m.read_str(&format!("{cut}\n"), "log.csv").unwrap_err().to_string(), "log.csv:4: 3 cells for 19 columns");
+    assert!(
+        s.repairs.iter().any(|r| r.starts_with("line 4: the last line is cut short (3 of 19 cells")),
+        "{:?}",
+        s.repairs
+    );
+    assert_eq!(
+        m.read_str(&format!("{cut}\n"), "log.csv").unwrap_err().to_string(),
+        "log.csv:4: 3 cells for 19 columns"
+    );
     assert_eq!(m.read_str(&log("10,1,2"), "log.csv").unwrap_err().to_string(), "log.csv:3: 3 cells for 19 columns");
     let frozen = format!("{CSV_HEADER}\n{}\n{}\n{}\n", row(0, "1"), row(0, "1"), row(0, "1"));
-    assert_eq!(m.read_str(&frozen, "log.csv").unwrap_err().to_string(), "log.csv: fewer than two rows with distinct times (2 rows repeat the time of the row before)");
+    assert_eq!(
+        m.read_str(&frozen, "log.csv").unwrap_err().to_string(),
+        "log.csv: fewer than two rows with distinct times (2 rows repeat the time of the row before)"
+    );
     // one row and no repeat is just too few (`repeats > 0` as `>= 0` said "0 rows repeat")
     let single = format!("{CSV_HEADER}\n{}\n", row(0, "1"));
     assert_eq!(m.read_str(&single, "log.csv").unwrap_err().to_string(), "log.csv: fewer than two rows");
@@ -293,14 +345,24 @@ fn mapping_errors_name_what_to_fix() {
     let bad_col = format!("{}\n", CSV_HEADER.replace("vbat", "v_bat"));
     let e = m.read_str(&bad_col, "log.csv").unwrap_err().to_string();
     assert!(e.contains("log.csv:1") && e.contains("`vbat`") && e.contains("`v_bat`"), "{e}");
-    let e = m.read_str(&format!("{CSV_HEADER}\n0,1,2,3,1,0,0,0,0,0,0,0,0,1,0,0,0,0,x\n"), "log.csv").unwrap_err().to_string();
+    let e = m
+        .read_str(&format!("{CSV_HEADER}\n0,1,2,3,1,0,0,0,0,0,0,0,0,1,0,0,0,0,x\n"), "log.csv")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("log.csv:2") && e.contains("vbat") && e.contains("`x`"), "{e}");
-    let e = m.read_str(&format!("{CSV_HEADER}\n0,1,2,3,0.5,0,0,0,0,0,0,0,0,1,0,0,0,0,3.7\n"), "log.csv").unwrap_err().to_string();
+    let e = m
+        .read_str(&format!("{CSV_HEADER}\n0,1,2,3,0.5,0,0,0,0,0,0,0,0,1,0,0,0,0,3.7\n"), "log.csv")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("norm 0.5000") && e.contains("order"), "{e}");
     // a unit is the mapping's defect, named at the mapping's file when it is parsed
-    let e = Mapping::parse(&mapping_src("z_up", "flu").replace("unit: deg/s", "unit: dps"), Path::new("m.yaml")).unwrap_err().to_string();
+    let e = Mapping::parse(&mapping_src("z_up", "flu").replace("unit: deg/s", "unit: dps"), Path::new("m.yaml"))
+        .unwrap_err()
+        .to_string();
     assert!(e.starts_with("m.yaml: gyro: unit `dps`") && e.contains("`deg/s`"), "{e}");
-    let e = Mapping::parse(&format!("{}colour: red\n", mapping_src("z_up", "flu")), Path::new("m.yaml")).unwrap_err().to_string();
+    let e = Mapping::parse(&format!("{}colour: red\n", mapping_src("z_up", "flu")), Path::new("m.yaml"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("m.yaml") && e.contains("colour"), "{e}");
     let e = Mapping::parse(&mapping_src("up", "flu"), Path::new("m.yaml")).unwrap_err().to_string();
     assert!(e.contains("z_up") && e.contains("z_down"), "{e}");
@@ -345,7 +407,8 @@ fn crazyflie21_thrust_map_is_the_stand_fit() {
 fn crazyflie21_battery_is_the_stand_fit() {
     let Some(data) = super::shared_data() else { return };
     let text = std::fs::read_to_string(data.join("crazyflie-thrust-stand/cf2.1-stock-prop.csv")).unwrap();
-    let rows: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    let rows: Vec<Vec<f64>> =
+        text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
     let (mut g, mut b) = (nalgebra::Matrix3::<f64>::zeros(), nalgebra::Vector3::<f64>::zeros());
     let mut eta = Vec::new();
     let vp = flyarena::vehicle::VehicleParams::crazyflie21();
@@ -363,8 +426,17 @@ fn crazyflie21_battery_is_the_stand_fit() {
     eta.sort_by(f64::total_cmp);
     let eta_median = eta[eta.len() / 2];
     let pack = flyarena::vehicle::BatteryParams::crazyflie21();
-    assert!((fit[2] - 0.216).abs() < 0.002 && (pack.resistance_ohm - fit[2]).abs() < 0.01, "R {} Ω vs the preset's {}", fit[2], pack.resistance_ohm);
-    assert!((eta_median - 0.459).abs() < 0.005 && (pack.efficiency - eta_median).abs() < 0.02, "η {eta_median} vs the preset's {}", pack.efficiency);
+    assert!(
+        (fit[2] - 0.216).abs() < 0.002 && (pack.resistance_ohm - fit[2]).abs() < 0.01,
+        "R {} Ω vs the preset's {}",
+        fit[2],
+        pack.resistance_ohm
+    );
+    assert!(
+        (eta_median - 0.459).abs() < 0.005 && (pack.efficiency - eta_median).abs() < 0.02,
+        "η {eta_median} vs the preset's {}",
+        pack.efficiency
+    );
 }
 
 /// The real flights (NanoBench, ../shared/data): per flight, with the body offset fitted
@@ -373,7 +445,11 @@ fn crazyflie21_battery_is_the_stand_fit() {
 fn nanobench_flights() {
     let Some(data) = super::shared_data() else { return };
     let dir = data.join("nanobench/dataset");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "csv")).collect();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
+        .collect();
     files.sort();
     assert_eq!(files.len(), 10, "{files:?}");
     let map = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
@@ -386,9 +462,16 @@ fn nanobench_flights() {
         if r.effects.is_empty() {
             // the one short hop (B6 ramp 1) has too little airborne data, and says so
             assert!(r.notes.iter().any(|n| n.contains("usable training samples")), "{}: {:?}", f.display(), r.notes);
-            assert_eq!(flyarena::identify::report::verdict(&r), "nothing identified: 94 usable training samples, 200 needed");
+            assert_eq!(
+                flyarena::identify::report::verdict(&r),
+                "nothing identified: 94 usable training samples, 200 needed"
+            );
             let text = flyarena::identify::report::render(&r);
-            assert!(text.contains("too few usable samples to select effects (94 for training, 200 needed)") && !text.contains("explains the data"), "{text}");
+            assert!(
+                text.contains("too few usable samples to select effects (94 for training, 200 needed)")
+                    && !text.contains("explains the data"),
+                "{text}"
+            );
             continue;
         }
         usable += 1;
@@ -399,7 +482,9 @@ fn nanobench_flights() {
         let even = flyarena::identify::Report { heldout_samples: r.train_samples, ..r.clone() };
         let text = flyarena::identify::report::render(&even);
         assert!(
-            text.contains("\n  held-out error, nominal → with the effects") && text.contains("\n  what is left (final residual") && !text.contains("no usable sample"),
+            text.contains("\n  held-out error, nominal → with the effects")
+                && text.contains("\n  what is left (final residual")
+                && !text.contains("no usable sample"),
             "{name}"
         );
         // nor when nothing is held out, or nothing trained on (`+` as `*` in either guard): the
@@ -408,15 +493,25 @@ fn nanobench_flights() {
             let one_sided = flyarena::identify::Report { train_samples: train, heldout_samples: heldout, ..r.clone() };
             let text = flyarena::identify::report::render(&one_sided);
             assert!(
-                text.contains("\n  final residual whiteness") && text.contains("\n  what is left (final residual") && !text.contains("no usable sample"),
+                text.contains("\n  final residual whiteness")
+                    && text.contains("\n  what is left (final residual")
+                    && !text.contains("no usable sample"),
                 "{name}: train {train}, held out {heldout}"
             );
         }
         // and no "what is left" header over nothing left, nor over no sample at all (the
         // guard's `&&` as `||`, `> 0` as `>= 0`)
-        let nothing_left = flyarena::identify::report::render(&flyarena::identify::Report { left: Vec::new(), ..r.clone() });
-        assert!(!nothing_left.contains("what is left") && nothing_left.contains("\n  final residual whiteness"), "{name}");
-        let no_sample = flyarena::identify::report::render(&flyarena::identify::Report { train_samples: 0, heldout_samples: 0, ..r.clone() });
+        let nothing_left =
+            flyarena::identify::report::render(&flyarena::identify::Report { left: Vec::new(), ..r.clone() });
+        assert!(
+            !nothing_left.contains("what is left") && nothing_left.contains("\n  final residual whiteness"),
+            "{name}"
+        );
+        let no_sample = flyarena::identify::report::render(&flyarena::identify::Report {
+            train_samples: 0,
+            heldout_samples: 0,
+            ..r.clone()
+        });
         assert!(!no_sample.contains("what is left") && no_sample.contains("no usable sample"), "{name}");
         // rotor drag of a Crazyflie: found in every flight, 0.3–0.5 1/s
         let k = r.param(Effect::RotorDrag, "k_x").unwrap_or_else(|| panic!("{name}: no rotor drag"));
@@ -433,7 +528,10 @@ fn nanobench_flights() {
         }
     }
     assert_eq!(usable, 9);
-    assert!(agree >= 8, "in-flight frame tilt and bias-corrected ground tilt agree within 0.7° on {agree} of 9 flights");
+    assert!(
+        agree >= 8,
+        "in-flight frame tilt and bias-corrected ground tilt agree within 0.7° on {agree} of 9 flights"
+    );
 }
 
 /// The NanoBench table of docs/nanobench.md, pinned per flight (`scripts/nanobench-table.py`): each figure
@@ -462,7 +560,9 @@ fn nanobench_table_is_pinned() {
     let map = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
     let mut opts = Options { forced: vec![Effect::BodyOffset], ..Options::default() };
     opts.design.smoothing_s = map.smoothing_ms.unwrap() * 1e-3;
-    let near = |name: &str, what: &str, got: f64, (want, ci): Pair| assert!((got - want).abs() <= 0.25 * ci + 1e-4, "{name}: {what} {got} (the guide: {want} ± {ci})");
+    let near = |name: &str, what: &str, got: f64, (want, ci): Pair| {
+        assert!((got - want).abs() <= 0.25 * ci + 1e-4, "{name}: {what} {got} (the guide: {want} ± {ci})")
+    };
     let mut diffs = [Vec::new(), Vec::new()];
     let mut agreements = Vec::new();
     let mut rest_scatter = Vec::new();
@@ -478,7 +578,12 @@ fn nanobench_table_is_pinned() {
         assert_eq!(r.effect(Effect::LeverArm).is_some(), lever, "{name}: lever arm");
         let a = r.ground_agreement.unwrap();
         for (k, t) in [a.roll, a.pitch].iter().enumerate() {
-            assert!((t.difference_deg - diff[k]).abs() < 0.02, "{name}: ground difference {k}: {} vs {}", t.difference_deg, diff[k]);
+            assert!(
+                (t.difference_deg - diff[k]).abs() < 0.02,
+                "{name}: ground difference {k}: {} vs {}",
+                t.difference_deg,
+                diff[k]
+            );
             diffs[k].push(t.difference_deg.abs());
         }
         agreements.push(a);
@@ -486,16 +591,31 @@ fn nanobench_table_is_pinned() {
         // the accel_kin x floor (docs/nanobench.md, *The Vicon attitude in flight*): the final residual
         // follows the Vicon attitude's pitch gap with the sign of −g·δθ_y
         let x = r.left.iter().find(|l| l.channel == flyarena::identify::Channel::AccelKin && l.axis == 'x').unwrap();
-        if x.correlates.iter().any(|c| c.floor && c.signal.ends_with("integral y (rad)") && (-0.6..=-0.19).contains(&c.r)) {
+        if x.correlates
+            .iter()
+            .any(|c| c.floor && c.signal.ends_with("integral y (rad)") && (-0.6..=-0.19).contains(&c.r))
+        {
             at_floor.push(name);
         }
-        let ak: Vec<f64> = r.errors.iter().filter(|e| e.channel == flyarena::identify::Channel::AccelKin).map(|e| e.rmse_after).collect();
+        let ak: Vec<f64> = r
+            .errors
+            .iter()
+            .filter(|e| e.channel == flyarena::identify::Channel::AccelKin)
+            .map(|e| e.rmse_after)
+            .collect();
         let got = (ak.iter().map(|x| x * x).sum::<f64>() / ak.len() as f64).sqrt();
         assert!((got / rmse - 1.0).abs() < 0.02, "{name}: accel_kin RMSE {got} vs {rmse}");
     }
     assert_eq!(
         at_floor,
-        ["B2_circle_fast_rep2", "B3_figure8_medium_rep2", "B5_helix_fast_rep1", "B7_oval_fast_rep1", "B8_star_medium_rep1", "B9_trefoil_fast_rep1"],
+        [
+            "B2_circle_fast_rep2",
+            "B3_figure8_medium_rep2",
+            "B5_helix_fast_rep1",
+            "B7_oval_fast_rep1",
+            "B8_star_medium_rep1",
+            "B9_trefoil_fast_rep1"
+        ],
         "accel_kin x at the Vicon attitude's floor"
     );
     // the guide's medians of |ground − bias tilt − flight|: 0.17° roll, 0.39° pitch
@@ -521,7 +641,10 @@ fn nanobench_table_is_pinned() {
     // most 0.014° on the others
     for (name, sd) in &rest_scatter {
         let noisy = ["B2_circle_fast_rep2", "B3_figure8_medium_rep2", "B6_linear_ramp_rep2"].contains(&name.as_str());
-        assert!(if noisy { (0.09..0.17).contains(sd) } else { *sd < 0.015 }, "{name}: mocap roll scatter at rest {sd}°");
+        assert!(
+            if noisy { (0.09..0.17).contains(sd) } else { *sd < 0.015 },
+            "{name}: mocap roll scatter at rest {sd}°"
+        );
     }
     let l = flyarena::identify::ground::landed_summary(agreements.iter()).unwrap();
     assert_eq!((l.flights, l.with_both, l.roll.between, l.pitch.between), (9, 8, 2, 4), "{l:?}");
@@ -541,8 +664,23 @@ fn nanobench_table_is_pinned() {
     // flights above 0.02° against the six below; below it the medians are 0.10° roll and 0.27°
     // pitch, none beyond 1° (B9's roll, not covered, at −1.00°)
     let rp = flyarena::identify::ground::rest_pose_summary(agreements.iter()).unwrap();
-    assert_eq!((rp.scattering, rp.still, rp.roll.still_beyond_1deg, rp.roll.still_beyond_1deg_covered, rp.pitch.still_beyond_1deg), (3, 6, 0, 0, 0), "{rp:?}");
-    for (got, want) in [(rp.roll.median_still_deg, 0.10), (rp.pitch.median_still_deg, 0.27), (rp.roll.median_scattering_deg, 0.56), (rp.pitch.median_scattering_deg, 0.51)] {
+    assert_eq!(
+        (
+            rp.scattering,
+            rp.still,
+            rp.roll.still_beyond_1deg,
+            rp.roll.still_beyond_1deg_covered,
+            rp.pitch.still_beyond_1deg
+        ),
+        (3, 6, 0, 0, 0),
+        "{rp:?}"
+    );
+    for (got, want) in [
+        (rp.roll.median_still_deg, 0.10),
+        (rp.pitch.median_still_deg, 0.27),
+        (rp.roll.median_scattering_deg, 0.56),
+        (rp.pitch.median_scattering_deg, 0.51),
+    ] {
         assert!((got - want).abs() < 0.01, "{got} vs {want}: {rp:?}");
     }
     // exact (3 against 6): 7 of the C(9, 3) = 84 arrangements reach its rank sum
@@ -559,12 +697,23 @@ fn nanobench_table_is_pinned() {
 fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     let Some(data) = super::shared_data() else { return };
     let dir = data.join("nanobench/dataset");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "csv")).collect();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
+        .collect();
     files.sort();
     let inputs: Vec<&Path> = files.iter().map(|p| p.as_path()).collect();
-    let cv = flyarena::identify::workflow::run_many(&inputs, &super::root().join("mappings/nanobench.yaml"), None, &[Effect::BodyOffset]).unwrap();
+    let cv = flyarena::identify::workflow::run_many(
+        &inputs,
+        &super::root().join("mappings/nanobench.yaml"),
+        None,
+        &[Effect::BodyOffset],
+    )
+    .unwrap();
     let c = &cv.consistency;
-    let got: Vec<Vec<&str>> = c.mountings.iter().map(|m| m.flights.iter().map(|&i| c.flights[i].as_str()).collect()).collect();
+    let got: Vec<Vec<&str>> =
+        c.mountings.iter().map(|m| m.flights.iter().map(|&i| c.flights[i].as_str()).collect()).collect();
     #[rustfmt::skip]
     let want = [
         vec!["B10_lissajous_fast_rep1", "B7_oval_fast_rep1"],
@@ -579,11 +728,17 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
             assert!(a.agree, "mounting {:?}: {} p {}", m.flights, a.axis, a.p);
         }
     }
-    assert_eq!(c.mountings[..3].iter().map(|m| m.axes.len()).sum::<usize>(), 9, "roll, pitch and yaw in the three mountings of several flights");
+    assert_eq!(
+        c.mountings[..3].iter().map(|m| m.axes.len()).sum::<usize>(),
+        9,
+        "roll, pitch and yaw in the three mountings of several flights"
+    );
     assert_eq!((c.within_pairs, c.across_pairs), (10, 62));
     assert_eq!(c.within_offset_worse, 0, "inside a mounting one flight's offset never makes another worse");
     assert_eq!(c.across_offset_worse, 18, "across mountings it does, in 18 of 62 pairs (the guide)");
-    let near = |what: &str, got: Option<f64>, want: f64| assert!((got.unwrap() - want).abs() < 0.01, "{what}: {got:?} (the guide: {want})");
+    let near = |what: &str, got: Option<f64>, want: f64| {
+        assert!((got.unwrap() - want).abs() < 0.01, "{what}: {got:?} (the guide: {want})")
+    };
     near("within cut", c.within_cut, 0.35);
     near("across cut", c.across_cut, 0.20);
     near("within offset gain", c.within_offset_gain, 0.33);
@@ -592,7 +747,12 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     // inside a mounting in every pair and hurts across mountings more often than not, which the
     // share above (with against without) hides behind the offset every mounting shares
     assert_eq!(c.mounting_pairs, (10, 62));
-    assert_eq!((c.within_mounting_worse, c.across_mounting_worse), (0, 36), "{}", flyarena::identify::consistency::render(c));
+    assert_eq!(
+        (c.within_mounting_worse, c.across_mounting_worse),
+        (0, 36),
+        "{}",
+        flyarena::identify::consistency::render(c)
+    );
     near("within mounting gain", c.within_mounting_gain, 0.30);
     near("across mounting gain", c.across_mounting_gain, -0.15);
     // the block the command prints (docs/nanobench.md, *Consistency across flights*), line by line
@@ -621,7 +781,12 @@ fn a_log_that_starts_in_the_air_is_identified() {
     let airborne = series.slice(start, end);
     assert!(airborne.thrust_n.as_ref().unwrap().iter().all(|t| *t > 0.0));
     let r = identify(&airborne, &Options::default()).unwrap();
-    assert_eq!(r.effects.first().map(|e| e.effect), Some(Effect::RotorDrag), "{}", flyarena::identify::report::render(&r));
+    assert_eq!(
+        r.effects.first().map(|e| e.effect),
+        Some(Effect::RotorDrag),
+        "{}",
+        flyarena::identify::report::render(&r)
+    );
     assert!(r.train_samples > 800, "{}", r.train_samples);
 }
 
@@ -661,7 +826,11 @@ plan:
     // suite passed.
     for st in &r.steps {
         for (e, _) in &st.not_identifiable_from {
-            assert!(*e != st.added && st.candidates.iter().any(|c| c.effect == *e && c.passed), "{:?} named {e:?}\n{text}", st.added);
+            assert!(
+                *e != st.added && st.candidates.iter().any(|c| c.effect == *e && c.passed),
+                "{:?} named {e:?}\n{text}",
+                st.added
+            );
         }
     }
 }
@@ -697,8 +866,10 @@ fn the_mocap_delay_is_unbiased_over_seeds() {
 fn thrust_model_resolution_covers_the_rate_loop_jitter() {
     use flyarena::identify::flyarena_log::THRUST_REL_SD;
     for preset in ["x3d", "crazyflie21"] {
-        let mut tree: serde_json::Value = serde_saphyr::from_str(&std::fs::read_to_string(scenario("none")).unwrap()).unwrap();
-        flyarena::scenario::patch::set_in(&mut tree, "vehicles[0].model.preset", serde_json::json!(preset), true).unwrap();
+        let mut tree: serde_json::Value =
+            serde_saphyr::from_str(&std::fs::read_to_string(scenario("none")).unwrap()).unwrap();
+        flyarena::scenario::patch::set_in(&mut tree, "vehicles[0].model.preset", serde_json::json!(preset), true)
+            .unwrap();
         let s = Scenario::parse(&serde_json::to_string(&tree).unwrap(), Path::new("none.yaml")).unwrap();
         let (_, series) = run_and_log(&s, 0, preset).unwrap();
         assert!(series.model.vehicle.contains(&format!("{preset} preset")), "flown with {}", series.model.vehicle);
@@ -722,7 +893,9 @@ fn with_hypothesis(base: &flyarena::identify::Series, e: Effect, v: &[f64]) -> f
             s.accel_body.iter_mut().for_each(|a| *a = q.apply(*a));
         }
         // the accelerometer's z reads (1 + s_z)·f_z
-        Effect::AccelScale => s.accel_body.iter_mut().for_each(|a| *a = Vec3::new(a.x(), a.y(), a.z() * (1.0 + v[0] / 100.0))),
+        Effect::AccelScale => {
+            s.accel_body.iter_mut().for_each(|a| *a = Vec3::new(a.x(), a.y(), a.z() * (1.0 + v[0] / 100.0)))
+        }
         // the thrust along exp([t]×)(−e_z) in the frame the IMU and the mocap report: every
         // body quantity turned by Q = exp([t]×), the mocap attitude (body → world) by Q⁻¹
         Effect::ThrustTilt => {
@@ -747,7 +920,8 @@ fn with_hypothesis(base: &flyarena::identify::Series, e: Effect, v: &[f64]) -> f
                     }
                     let (k, f) = (k as usize, x - x.floor());
                     s.pos_mocap_nav[i] = base.pos_mocap_nav[k] * (1.0 - f) + base.pos_mocap_nav[k + 1] * f;
-                    s.att_mocap[i] = flyarena::identify::series::interpolate_attitude(&base.att_mocap[k], &base.att_mocap[k + 1], f);
+                    s.att_mocap[i] =
+                        flyarena::identify::series::interpolate_attitude(&base.att_mocap[k], &base.att_mocap[k + 1], f);
                 }
             }
         }
@@ -765,16 +939,35 @@ fn with_hypothesis(base: &flyarena::identify::Series, e: Effect, v: &[f64]) -> f
 fn the_hypotheses_tested_on_real_flights_are_found_at_their_truth_and_not_invented() {
     let s = Scenario::load(&scenario("none")).unwrap();
     let (_, base) = run_and_log(&s, 0, "hypotheses").unwrap();
-    let cases: [(Effect, &[f64]); 4] = [(Effect::AccelMisalignment, &[0.8, -0.6]), (Effect::AccelScale, &[3.0]), (Effect::ThrustTilt, &[0.6, -0.8]), (Effect::ClockDrift, &[12.0])];
+    let cases: [(Effect, &[f64]); 4] = [
+        (Effect::AccelMisalignment, &[0.8, -0.6]),
+        (Effect::AccelScale, &[3.0]),
+        (Effect::ThrustTilt, &[0.6, -0.8]),
+        (Effect::ClockDrift, &[12.0]),
+    ];
     for (e, truth) in cases {
         let forced = Options { forced: vec![e], ..Options::default() };
-        for (series, want) in [(with_hypothesis(&base, e, truth), truth.to_vec()), (base.clone(), vec![0.0; truth.len()])] {
+        for (series, want) in
+            [(with_hypothesis(&base, e, truth), truth.to_vec()), (base.clone(), vec![0.0; truth.len()])]
+        {
             let r = identify(&series, &forced).unwrap();
             let text = flyarena::identify::report::render(&r);
             let f = r.effect(e).unwrap_or_else(|| panic!("{e:?} not fitted\n{text}"));
             for (p, w) in f.params.iter().zip(&want) {
-                assert!(p.identifiable && (p.value - w).abs() <= p.ci95, "{e:?} {}: {} ± {} {} (truth {w})\n{text}", p.name, p.value, p.ci95, p.unit);
-                assert!(p.ci95 < 0.5 * truth.iter().map(|x| x.abs()).fold(f64::INFINITY, f64::min), "{e:?} {}: interval {} too wide to test", p.name, p.ci95);
+                assert!(
+                    p.identifiable && (p.value - w).abs() <= p.ci95,
+                    "{e:?} {}: {} ± {} {} (truth {w})\n{text}",
+                    p.name,
+                    p.value,
+                    p.ci95,
+                    p.unit
+                );
+                assert!(
+                    p.ci95 < 0.5 * truth.iter().map(|x| x.abs()).fold(f64::INFINITY, f64::min),
+                    "{e:?} {}: interval {} too wide to test",
+                    p.name,
+                    p.ci95
+                );
             }
             // nothing else is invented beside it on a flight that has nothing else
             assert_eq!(r.effects.iter().map(|x| x.effect).collect::<Vec<_>>(), [e], "{text}");
@@ -783,10 +976,21 @@ fn the_hypotheses_tested_on_real_flights_are_found_at_their_truth_and_not_invent
             if want[0] != 0.0 {
                 for c in e.channels() {
                     let rms = |after: bool| {
-                        let v: Vec<f64> = r.errors.iter().filter(|x| x.channel == *c).map(|x| if after { x.rmse_after } else { x.rmse_before }).collect();
+                        let v: Vec<f64> = r
+                            .errors
+                            .iter()
+                            .filter(|x| x.channel == *c)
+                            .map(|x| if after { x.rmse_after } else { x.rmse_before })
+                            .collect();
                         (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
                     };
-                    assert!(rms(true) < rms(false), "{e:?}: held-out {} {} → {}\n{text}", c.name(), rms(false), rms(true));
+                    assert!(
+                        rms(true) < rms(false),
+                        "{e:?}: held-out {} {} → {}\n{text}",
+                        c.name(),
+                        rms(false),
+                        rms(true)
+                    );
                 }
             }
         }
@@ -805,9 +1009,11 @@ fn the_hypotheses_tested_on_real_flights_are_found_at_their_truth_and_not_invent
 fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
     let truth = [25.0, -20.0, 30.0];
     let forced = Options { forced: vec![Effect::ImuOffset], ..Options::default() };
-    let mut tree: serde_json::Value = serde_saphyr::from_str(&std::fs::read_to_string(scenario("none")).unwrap()).unwrap();
+    let mut tree: serde_json::Value =
+        serde_saphyr::from_str(&std::fs::read_to_string(scenario("none")).unwrap()).unwrap();
     for (want, label) in [(truth, "moved"), ([0.0; 3], "centred")] {
-        flyarena::scenario::patch::set_in(&mut tree, "vehicles[0].imu.position_mm", serde_json::json!(want), true).unwrap();
+        flyarena::scenario::patch::set_in(&mut tree, "vehicles[0].imu.position_mm", serde_json::json!(want), true)
+            .unwrap();
         let s = Scenario::parse(&serde_json::to_string(&tree).unwrap(), Path::new("none.yaml")).unwrap();
         let (_, series) = run_and_log(&s, 0, label).unwrap();
         // not fitted, the report names it where the force residual shows its signature
@@ -818,9 +1024,18 @@ fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
         let text = flyarena::identify::report::render(&r);
         let f = r.effect(Effect::ImuOffset).unwrap_or_else(|| panic!("not fitted\n{text}"));
         // docs/nanobench.md quotes this line (`-- --nocapture`)
-        eprintln!("{label}: imu_offset {}", f.params.iter().map(|p| format!("{:.1} ± {:.1}", p.value, p.ci95)).collect::<Vec<_>>().join(" / "));
+        eprintln!(
+            "{label}: imu_offset {}",
+            f.params.iter().map(|p| format!("{:.1} ± {:.1}", p.value, p.ci95)).collect::<Vec<_>>().join(" / ")
+        );
         for (p, w) in f.params.iter().zip(want) {
-            assert!(p.identifiable && (p.value - w).abs() <= p.ci95, "{label}: imu_offset {}: {} ± {} mm (truth {w})\n{text}", p.name, p.value, p.ci95);
+            assert!(
+                p.identifiable && (p.value - w).abs() <= p.ci95,
+                "{label}: imu_offset {}: {} ± {} mm (truth {w})\n{text}",
+                p.name,
+                p.value,
+                p.ci95
+            );
             assert!(p.ci95 < 10.0, "{label}: imu_offset {}: interval ±{} mm too wide to test", p.name, p.ci95);
         }
         let lever = r.effect(Effect::LeverArm);
@@ -829,13 +1044,24 @@ fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
         } else {
             let l = lever.unwrap_or_else(|| panic!("the IMU 45 mm from the markers' centre and no lever arm\n{text}"));
             for (p, w) in l.params.iter().zip(want) {
-                assert!((p.value - w).abs() <= p.ci95.max(1.0), "lever arm {}: {} ± {} mm (truth {w})\n{text}", p.name, p.value, p.ci95);
+                assert!(
+                    (p.value - w).abs() <= p.ci95.max(1.0),
+                    "lever arm {}: {} ± {} mm (truth {w})\n{text}",
+                    p.name,
+                    p.value,
+                    p.ci95
+                );
             }
         }
         // and it lowers the held-out force error where it is there
         if want != [0.0; 3] {
             let rms = |after: bool| {
-                let v: Vec<f64> = r.errors.iter().filter(|x| x.channel == flyarena::identify::Channel::Force).map(|x| if after { x.rmse_after } else { x.rmse_before }).collect();
+                let v: Vec<f64> = r
+                    .errors
+                    .iter()
+                    .filter(|x| x.channel == flyarena::identify::Channel::Force)
+                    .map(|x| if after { x.rmse_after } else { x.rmse_before })
+                    .collect();
                 (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
             };
             assert!(rms(true) < rms(false), "held-out force {} → {}\n{text}", rms(false), rms(true));
@@ -852,9 +1078,10 @@ fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
 #[test]
 fn the_fragment_places_the_imu_and_the_markers_apart() {
     let dir = super::Scratch::new("imu-fragment");
-    let text = std::fs::read_to_string(scenario("lever-arm"))
-        .unwrap()
-        .replace("    imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }", "    imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05, position_mm: [15, 10, 20] }");
+    let text = std::fs::read_to_string(scenario("lever-arm")).unwrap().replace(
+        "    imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }",
+        "    imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05, position_mm: [15, 10, 20] }",
+    );
     let path = dir.join("imu-offset.yaml");
     std::fs::write(&path, text).unwrap();
     let req = Request { forced: vec![Effect::ImuOffset], ..Request::new(Source::Scenario(&path)) };
@@ -892,13 +1119,22 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
     let edited = dir.join("B8_edited.csv");
     std::fs::write(&edited, lines.join("\n") + "\n").unwrap();
     let inputs = [src.as_path(), copy.as_path(), edited.as_path()];
-    let cv = flyarena::identify::workflow::run_many(&inputs, &super::root().join("mappings/nanobench.yaml"), None, &[Effect::BodyOffset]).unwrap();
+    let cv = flyarena::identify::workflow::run_many(
+        &inputs,
+        &super::root().join("mappings/nanobench.yaml"),
+        None,
+        &[Effect::BodyOffset],
+    )
+    .unwrap();
     let names: Vec<&str> = cv.reports.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["B8_star_medium_rep1", "B8_edited"]);
     let excluded = cv.json["excluded"].as_array().unwrap();
     assert_eq!(excluded.len(), 1, "{excluded:?}");
     assert_eq!(excluded[0]["flight"], "B8_copy");
-    assert!(excluded[0]["reason"].as_str().unwrap().contains("the same samples as B8_star_medium_rep1"), "{excluded:?}");
+    assert!(
+        excluded[0]["reason"].as_str().unwrap().contains("the same samples as B8_star_medium_rep1"),
+        "{excluded:?}"
+    );
     assert!(cv.text.contains("B8_copy: left out, the same samples as B8_star_medium_rep1"), "{}", cv.text);
 }
 
@@ -922,8 +1158,10 @@ fn injected_mocap_glitches_are_left_out_and_named() {
     }
     series.pos_mocap_nav[double] += Vec3::new(0.0, -0.05, 0.0);
     series.pos_mocap_nav[double + 1] += Vec3::new(0.0, -0.05, 0.0);
-    series.att_mocap[turn] = series.att_mocap[turn] * Rot::<MocapBody, MocapBody>::from_euler(Euler::new(0.0, 0.0, 3f64.to_radians()));
-    let mut want: Vec<usize> = jumps.iter().chain([&turn]).flat_map(|&i| [i - 1, i, i + 1]).chain(double - 1..=double + 2).collect();
+    series.att_mocap[turn] =
+        series.att_mocap[turn] * Rot::<MocapBody, MocapBody>::from_euler(Euler::new(0.0, 0.0, 3f64.to_radians()));
+    let mut want: Vec<usize> =
+        jumps.iter().chain([&turn]).flat_map(|&i| [i - 1, i, i + 1]).chain(double - 1..=double + 2).collect();
     want.sort();
     assert_eq!(glitches(&series), want);
     let r = identify(&series, &Options::default()).unwrap();

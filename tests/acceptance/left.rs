@@ -34,7 +34,10 @@ fn a_rest_begins_at_the_first_pose() {
     late.pos_mocap_nav[0] = Vec3::new(f64::NAN, f64::NAN, f64::NAN);
     let from_second = ground::ground_check(&late).expect("the rest begins at the first pose");
     assert_eq!(from_second.samples + 1, full.samples);
-    assert!((from_second.roll_deg - full.roll_deg).abs() < 0.01 && (from_second.pitch_deg - full.pitch_deg).abs() < 0.01, "{from_second:?} vs {full:?}");
+    assert!(
+        (from_second.roll_deg - full.roll_deg).abs() < 0.01 && (from_second.pitch_deg - full.pitch_deg).abs() < 0.01,
+        "{from_second:?} vs {full:?}"
+    );
 }
 
 /// Markers turned by (1.5°, −1.0°) and an accelerometer bias b = (0.15, −0.10, 0.20) m/s²: at
@@ -43,7 +46,9 @@ fn a_rest_begins_at_the_first_pose() {
 /// like: difference within 0.1° and inside its interval.
 #[test]
 fn ground_check_reads_offset_plus_bias_tilt() {
-    let s = scenario("identify-accel-bias.yaml", |t| t.replace("  - name: x3d\n", "  - name: x3d\n    markers: { rotation_deg: [1.5, -1.0, 3.0] }\n"));
+    let s = scenario("identify-accel-bias.yaml", |t| {
+        t.replace("  - name: x3d\n", "  - name: x3d\n    markers: { rotation_deg: [1.5, -1.0, 3.0] }\n")
+    });
     let (_, series) = run_and_log(&s, 0, "bias").unwrap();
     let b = Vector3::new(0.15, -0.10, 0.20);
     let raw = ground::ground_check(&series).expect("the flight starts at rest");
@@ -55,17 +60,28 @@ fn ground_check_reads_offset_plus_bias_tilt() {
     assert!((corrected.pitch_deg + 1.0).abs() < 0.03, "corrected pitch {}", corrected.pitch_deg);
 
     let r = identify(&series, &Options::default()).unwrap();
-    assert!(r.effect(Effect::BodyOffset).is_some() && r.effect(Effect::AccelBias).is_some(), "{:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());
+    assert!(
+        r.effect(Effect::BodyOffset).is_some() && r.effect(Effect::AccelBias).is_some(),
+        "{:?}",
+        r.effects.iter().map(|e| e.effect).collect::<Vec<_>>()
+    );
     let a = r.ground_agreement.expect("ground check and a fit");
     assert!(a.frame_fitted && a.accel_bias_fitted);
     let offset = r.effect(Effect::BodyOffset).unwrap();
-    for ((t, bias_tilt), k) in [(&a.roll, (b.y / G).to_degrees()), (&a.pitch, -(b.x / G).to_degrees())].into_iter().zip(0..) {
+    for ((t, bias_tilt), k) in
+        [(&a.roll, (b.y / G).to_degrees()), (&a.pitch, -(b.x / G).to_degrees())].into_iter().zip(0..)
+    {
         assert!((t.bias_tilt_deg - bias_tilt).abs() < 0.1, "{t:?}");
         assert!(t.difference_deg.abs() < 0.1 && t.covers, "{t:?}");
         // the interval holds the ground's scatter (1.96·se) and no more than the flight's parts
         let se = [raw.roll_se_deg, raw.pitch_se_deg][k];
         let bias_ci = r.effect(Effect::AccelBias).unwrap().params[1 - k].ci95 / G;
-        assert!(t.ci95_deg >= 1.959 * se && t.ci95_deg <= (1.96 * se).hypot(offset.params[k].ci95 + bias_ci.to_degrees()) + 1e-9, "{t:?} vs offset {:?}", offset.params[k]);
+        assert!(
+            t.ci95_deg >= 1.959 * se
+                && t.ci95_deg <= (1.96 * se).hypot(offset.params[k].ci95 + bias_ci.to_degrees()) + 1e-9,
+            "{t:?} vs offset {:?}",
+            offset.params[k]
+        );
     }
 }
 
@@ -103,14 +119,21 @@ fn markers_moved_after_the_rest_are_a_disagreement() {
 fn what_is_left_names_the_signal_of_a_missed_effect() {
     let s = scenario("identify-rotor-drag.yaml", |t| t);
     let (_, series) = run_and_log(&s, 0, "drag").unwrap();
-    let opts = Options { candidates: Effect::ALL.iter().copied().filter(|e| *e != Effect::RotorDrag).collect(), ..Options::default() };
+    let opts = Options {
+        candidates: Effect::ALL.iter().copied().filter(|e| *e != Effect::RotorDrag).collect(),
+        ..Options::default()
+    };
     let r = identify(&series, &opts).unwrap();
     assert!(r.effect(Effect::RotorDrag).is_none());
     for axis in ['x', 'y'] {
         let l = r.left.iter().find(|l| l.channel == Channel::Force && l.axis == axis).unwrap();
         assert!(l.structured, "{l:?}");
         let first = &l.correlates[0];
-        assert!(first.signal.starts_with(&format!("body velocity {axis}")) && first.r < -0.5, "force.{axis}: {:?}", l.correlates);
+        assert!(
+            first.signal.starts_with(&format!("body velocity {axis}")) && first.r < -0.5,
+            "force.{axis}: {:?}",
+            l.correlates
+        );
     }
 }
 
@@ -154,7 +177,9 @@ fn the_mocap_pose_error_is_a_floor_not_a_lead() {
 fn ground_and_flight_agree_when_nothing_moved() {
     for name in ["none", "world-tilt", "marker-offsets", "accel-bias", "lever-arm"] {
         // 2 s on the floor after the landing: a rest after it to compare with
-        let s = scenario(&format!("identify-{name}.yaml"), |t| t.replace("  - land: { duration_s: 3 }", "  - land: { duration_s: 3 }\n  - idle: { duration_s: 2 }"));
+        let s = scenario(&format!("identify-{name}.yaml"), |t| {
+            t.replace("  - land: { duration_s: 3 }", "  - land: { duration_s: 3 }\n  - idle: { duration_s: 2 }")
+        });
         let (_, series) = run_and_log(&s, 0, name).unwrap();
         let r = identify(&series, &Options::default()).unwrap();
         let a = r.ground_agreement.unwrap_or_else(|| panic!("{name}: no agreement"));
@@ -195,5 +220,8 @@ fn a_world_tilt_is_turned_by_the_rest_yaw() {
     let (tx, ty) = (r.param(Effect::WorldTilt, "roll").unwrap(), r.param(Effect::WorldTilt, "pitch").unwrap());
     assert!((tx - 0.5).abs() < 0.05 && (ty - 0.8).abs() < 0.05, "world tilt {tx}, {ty}");
     let a = r.ground_agreement.unwrap();
-    assert!(a.roll.covers && a.pitch.covers && a.roll.difference_deg.abs() < 0.1 && a.pitch.difference_deg.abs() < 0.1, "{a:?}");
+    assert!(
+        a.roll.covers && a.pitch.covers && a.roll.difference_deg.abs() < 0.1 && a.pitch.difference_deg.abs() < 0.1,
+        "{a:?}"
+    );
 }

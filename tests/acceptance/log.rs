@@ -78,7 +78,14 @@ fn bad_logs_get_located_errors_or_reported_repairs() {
         ("too few cells mid-file", with_line(2, "0.005,1,1")),
         ("valid without a pose", with_line(2, &lines[2].replacen("0.1,0.2,-1", ",,", 1))),
         ("duplicated timestamp", good.clone() + lines[6] + "\n"),
-        ("gap", good.clone() + &lines[6].replacen("0.025", "0.5", 1) + "\n" + &lines[6].replacen("0.025", "0.505", 1) + "\n"),
+        (
+            "gap",
+            good.clone()
+                + &lines[6].replacen("0.025", "0.5", 1)
+                + "\n"
+                + &lines[6].replacen("0.025", "0.505", 1)
+                + "\n",
+        ),
         ("truncated last line", good.clone() + "0.03,6,1,0.1,0."),
         ("a cell beyond the header", with_line(3, &(lines[3].to_string() + ",7"))),
         ("trailing commas", good.replace('\n', ",\n")),

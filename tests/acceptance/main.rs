@@ -76,7 +76,9 @@ impl Drop for Scratch {
 /// `env!` value goes stale when a shared `CARGO_TARGET_DIR` holds a build from another clone
 /// whose sources are not newer, and the tests then read that other clone's files.
 pub fn root() -> PathBuf {
-    std::env::var_os("CARGO_MANIFEST_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
+    std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
 }
 
 /// Parses an inline scenario (tests build variants without touching scenarios/).
@@ -88,7 +90,10 @@ pub fn inline(yaml: &str) -> Scenario {
 /// it, as `pip install {pip}`) and is skipped, said on stderr, elsewhere; `what` names it in
 /// both messages.
 pub fn python_module(module: &str, what: &str, pip: &str) -> bool {
-    let have = std::process::Command::new("python3").args(["-c", &format!("import {module}")]).status().is_ok_and(|s| s.success());
+    let have = std::process::Command::new("python3")
+        .args(["-c", &format!("import {module}")])
+        .status()
+        .is_ok_and(|s| s.success());
     if !have {
         assert!(std::env::var_os("CI").is_none(), "CI must have Python's {what} (pip install {pip}, as .ci/run does)");
         eprintln!("skipped: no Python {what} here (pip install {pip})");
@@ -131,13 +136,26 @@ pub fn shared_data() -> Option<PathBuf> {
 /// move).
 pub fn same_report(csv: &flyarena::identify::Report, other: &flyarena::identify::Report, name: &str, intervals: bool) {
     assert_eq!(csv.samples, other.samples, "{name}");
-    assert!(csv.train_samples.abs_diff(other.train_samples) <= 2, "{name}: {} vs {} training samples", csv.train_samples, other.train_samples);
+    assert!(
+        csv.train_samples.abs_diff(other.train_samples) <= 2,
+        "{name}: {} vs {} training samples",
+        csv.train_samples,
+        other.train_samples
+    );
     let effects = |r: &flyarena::identify::Report| r.effects.iter().map(|f| f.effect).collect::<Vec<_>>();
     assert_eq!(effects(csv), effects(other), "{name}");
     for (fa, fb) in csv.effects.iter().zip(&other.effects) {
         for (pa, pb) in fa.params.iter().zip(&fb.params) {
             assert_eq!(pa.identifiable, pb.identifiable, "{name}: {} {}", fa.effect.key(), pa.name);
-            assert!((pa.value - pb.value).abs() <= 0.05 * pa.ci95, "{name}: {} {} {} against the CSV's {} ± {}", fa.effect.key(), pa.name, pb.value, pa.value, pa.ci95);
+            assert!(
+                (pa.value - pb.value).abs() <= 0.05 * pa.ci95,
+                "{name}: {} {} {} against the CSV's {} ± {}",
+                fa.effect.key(),
+                pa.name,
+                pb.value,
+                pa.value,
+                pa.ci95
+            );
             assert!(
                 !intervals || (pa.ci95 - pb.ci95).abs() <= 0.05 * pa.ci95.max(1e-9),
                 "{name}: {} {} interval {} against the CSV's {}",

@@ -18,7 +18,11 @@ plan:
 "#;
 
 fn hover(roll_deg: f64, apply: bool, kx: f64, kv: f64) -> flyarena::engine::RunOutput {
-    let y = HOVER.replace("ROLL", &roll_deg.to_string()).replace("APPLY", &apply.to_string()).replace("KX", &kx.to_string()).replace("KV", &kv.to_string());
+    let y = HOVER
+        .replace("ROLL", &roll_deg.to_string())
+        .replace("APPLY", &apply.to_string())
+        .replace("KX", &kx.to_string())
+        .replace("KV", &kv.to_string());
     run(inline(&y).spec(), RunOptions::default())
 }
 
@@ -73,7 +77,11 @@ fn straight_flight_yaw_in(mode: &str, seed: u64, yaw_deg: f64, extra: &str) -> f
     let y = format!(
         "name: yaw-flight\nseed: {seed}\n{extra}vehicles:\n  - name: x3d\n    home_m: [-3, 0]\n    model: {{ onboard_mode: {mode} }}\n    markers: {{ rotation_deg: [0, 0, {yaw_deg}] }}\nplan:\n  - takeoff: {{ altitude_m: 1.0, duration_s: 3 }}\n  - calibrate_roll_pitch: {{ settle_s: 6, average_s: 5 }}\n  - calibrate_yaw: {{ settle_s: 3, distance_m: 6, speed_m_s: 0.75 }}\n"
     );
-    run(inline(&y).spec(), RunOptions { trace: false, apply_calibration: None }).vehicles[0].calibration.yaw_offset.unwrap().to_degrees()
+    run(inline(&y).spec(), RunOptions { trace: false, apply_calibration: None }).vehicles[0]
+        .calibration
+        .yaw_offset
+        .unwrap()
+        .to_degrees()
 }
 
 /// Yaw observability (docs/findings.md): with the attitude loop closed on the mocap, the thrust axis is
@@ -128,7 +136,12 @@ fn gyro_alignment_recovers_the_marker_rotation_and_the_gyro_bias() {
         for (i, axis) in ["roll", "pitch", "yaw"].iter().enumerate() {
             let tol = if noise_mm == 0.0 { 0.02 } else { 3.0 * g.sigma[i].to_degrees() };
             assert!(tol < 0.5, "σ too large to be useful: {tol}°");
-            assert!((est[i] - truth[i]).abs() < tol, "seed {seed}, noise {noise_mm} mm: {axis} {}° vs {}° (tol {tol}°)", est[i], truth[i]);
+            assert!(
+                (est[i] - truth[i]).abs() < tol,
+                "seed {seed}, noise {noise_mm} mm: {axis} {}° vs {}° (tol {tol}°)",
+                est[i],
+                truth[i]
+            );
         }
         if noise_mm == 0.0 {
             for (b, t) in g.gyro_bias.iter().zip([0.3, -0.2, 0.4]) {
@@ -212,7 +225,12 @@ fn attitude_flight(vehicle: &str, plan0: &str, trim: bool) -> flyarena::engine::
 /// 0.5 m/s² ramps).
 fn cruise_roll_deg(v: &flyarena::engine::VehicleRun) -> f64 {
     let start = v.phases.iter().find(|p| p.1 == "calibrate_yaw").expect("the yaw phase").0.as_secs_f64() + 3.0;
-    let r: Vec<f64> = v.trace.iter().filter(|t| (start + 4.0..start + 7.0).contains(&t.t.as_secs_f64())).map(|t| t.att_true.roll).collect();
+    let r: Vec<f64> = v
+        .trace
+        .iter()
+        .filter(|t| (start + 4.0..start + 7.0).contains(&t.t.as_secs_f64()))
+        .map(|t| t.att_true.roll)
+        .collect();
     (r.iter().sum::<f64>() / r.len() as f64).to_degrees()
 }
 
@@ -258,7 +276,10 @@ fn fig6_does_not_circle_in_attitude_mode() {
     let same = |t: String| t;
     let rate6 = dev("fig6-roll-pitch-offsets.yaml", &same).expect("R2 flies it uncompensated");
     let att6 = dev("fig6-attitude-mode.yaml", &same).expect("R2 flies it uncompensated");
-    let att7 = dev("fig7-no-offsets.yaml", &|t: String| t.replace("  - name: x3d\n", "  - name: x3d\n    model: { onboard_mode: attitude }\n")).expect("R2 flies it uncompensated");
+    let att7 = dev("fig7-no-offsets.yaml", &|t: String| {
+        t.replace("  - name: x3d\n", "  - name: x3d\n    model: { onboard_mode: attitude }\n")
+    })
+    .expect("R2 flies it uncompensated");
     eprintln!("uncompensated: rate mode {rate6} m; attitude mode Fig. 6 {att6} m, Fig. 7 {att7} m");
     assert!(rate6 > 0.35, "rate mode: {rate6} m");
     assert!(att6 < 0.01 && att7 < 0.01, "attitude mode: Fig. 6 {att6} m, Fig. 7 {att7} m");
@@ -284,7 +305,12 @@ plan:
 ",
     );
     let out = run(s.spec(), RunOptions { trace: true, apply_calibration: None });
-    let peak = out.vehicles[0].trace.iter().map(|t| t.att_true.roll.abs().max(t.att_true.pitch.abs())).fold(0.0, f64::max).to_degrees();
+    let peak = out.vehicles[0]
+        .trace
+        .iter()
+        .map(|t| t.att_true.roll.abs().max(t.att_true.pitch.abs()))
+        .fold(0.0, f64::max)
+        .to_degrees();
     assert!(peak > 4.9 && peak < 5.5, "peak tilt {peak}°");
 }
 
@@ -326,7 +352,11 @@ fn validity_reject_yaw_stand_off_is_the_closed_form() {
     let stand_off = (0.02f64 / (0.012 * 10.0 * 3.0)).to_degrees();
     assert!((stand_off - 3.183).abs() < 1e-3);
     let deadband = 1.5 / (2.0 * 3.0);
-    assert!((val.mean_yaw.to_degrees() - stand_off).abs() <= deadband, "mean yaw {}° vs {stand_off}°", val.mean_yaw.to_degrees());
+    assert!(
+        (val.mean_yaw.to_degrees() - stand_off).abs() <= deadband,
+        "mean yaw {}° vs {stand_off}°",
+        val.mean_yaw.to_degrees()
+    );
     assert!(!val.accepted);
 }
 
@@ -373,7 +403,12 @@ fn the_run_summary_states_each_quantity_in_its_unit() {
     // 1e6` gave ~1e6 ppm, inside every lower bound)
     assert!(sd > 0.0 && sd < 25.0 && (drift - 100.0).abs() < 4.0 * sd, "{c:?}");
     // the markers only rotate (1°, −0.5°, 4°): the truth is a rigid displacement, no misfit
-    assert!(near(&v.true_offset_deg, &[1.0, -0.5, 4.0], 1e-9) && v.true_offset_misfit_mm.abs() < 1e-9, "{:?} {}", v.true_offset_deg, v.true_offset_misfit_mm);
+    assert!(
+        near(&v.true_offset_deg, &[1.0, -0.5, 4.0], 1e-9) && v.true_offset_misfit_mm.abs() < 1e-9,
+        "{:?} {}",
+        v.true_offset_deg,
+        v.true_offset_misfit_mm
+    );
 }
 
 /// The summary's marker misfit is the truth's rigid-fit residual in mm. displaced-markers.yaml
@@ -387,8 +422,18 @@ fn the_run_summary_states_the_markers_misfit_in_mm() {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/displaced-markers.yaml")).unwrap();
     let got = flyarena::run::run_scenario(&s, false).summary(&s).vehicles[0].true_offset_misfit_mm;
     let d: [Vec3<Body>; 4] = [Vec3::new(0.0, 0.006, -0.004), Vec3::zeros(), Vec3::new(0.0, 0.0, 0.005), Vec3::zeros()];
-    let truth = flyarena::mocap::MarkerSet::displaced(flyarena::mocap::builtin_pattern(0).to_vec(), flyarena::frames::Euler::ZERO, &d).true_offset().unwrap();
-    assert!((got - truth.rms_misfit_m * 1e3).abs() < 1e-12 && got > 0.0 && got <= (77.0f64 / 4.0).sqrt() + 1e-12, "{got} mm against {} m", truth.rms_misfit_m);
+    let truth = flyarena::mocap::MarkerSet::displaced(
+        flyarena::mocap::builtin_pattern(0).to_vec(),
+        flyarena::frames::Euler::ZERO,
+        &d,
+    )
+    .true_offset()
+    .unwrap();
+    assert!(
+        (got - truth.rms_misfit_m * 1e3).abs() < 1e-12 && got > 0.0 && got <= (77.0f64 / 4.0).sqrt() + 1e-12,
+        "{got} mm against {} m",
+        truth.rms_misfit_m
+    );
 }
 
 /// The gyro alignment on an unsynchronised telemetry clock (`scenarios/gyro-clock.yaml`, offset
@@ -404,7 +449,9 @@ fn gyro_alignment_fits_an_unsynchronised_clock_with_intervals_that_cover() {
     let (mut yaw_covered, mut clock_covered) = (0, 0);
     for k in 0..40u64 {
         let (offset_ms, drift_ppm) = ((k % 5) as f64 * 5.0, -100.0 + 5.0 * k as f64);
-        let y = text.replace("seed: 11", &format!("seed: {}", 100 + k)).replace("offset_ms: 15, drift_ppm: 100", &format!("offset_ms: {offset_ms}, drift_ppm: {drift_ppm}"));
+        let y = text
+            .replace("seed: 11", &format!("seed: {}", 100 + k))
+            .replace("offset_ms: 15, drift_ppm: 100", &format!("offset_ms: {offset_ms}, drift_ppm: {drift_ppm}"));
         let out = run(inline(&y).spec(), RunOptions::default());
         let g = out.vehicles[0].calibration.gyro.unwrap_or_else(|| panic!("seed {k}: no gyro fit"));
         let err = g.euler.yaw.to_degrees() - 4.0;
@@ -418,5 +465,8 @@ fn gyro_alignment_fits_an_unsynchronised_clock_with_intervals_that_cover() {
             clock_covered += 1;
         }
     }
-    assert!(yaw_covered >= 34 && clock_covered >= 34, "95 % intervals cover the yaw in {yaw_covered} of 40, the clock offset in {clock_covered}");
+    assert!(
+        yaw_covered >= 34 && clock_covered >= 34,
+        "95 % intervals cover the yaw in {yaw_covered} of 40, the clock offset in {clock_covered}"
+    );
 }

@@ -24,7 +24,8 @@ fn product_files() -> Vec<PathBuf> {
     }
     let root = super::root();
     let mut files = vec![root.join("README.md"), root.join("Cargo.toml")];
-    for d in ["docs", "src", "tests", "scripts", "scenarios", "mappings", "rigs", "benches", "fuzz", "mutation", ".ci"] {
+    for d in ["docs", "src", "tests", "scripts", "scenarios", "mappings", "rigs", "benches", "fuzz", "mutation", ".ci"]
+    {
         walk(&root.join(d), &mut files);
     }
     files
@@ -72,7 +73,9 @@ fn process_words_are_found_and_nothing_else() {
     assert_eq!(process_words(&format!("as {s} found")).len(), 1);
     assert_eq!(process_words(&["see ", "issu", "es 58 and 59"].concat()).len(), 1);
     assert_eq!(process_words(&["the cen", "sus shard"].concat()).len(), 1);
-    assert!(process_words(&["PX4 issue #21468; a session of flights; reiss", "ue 3; the tiss", "ue 5"].concat()).is_empty());
+    assert!(
+        process_words(&["PX4 issue #21468; a session of flights; reiss", "ue 3; the tiss", "ue 5"].concat()).is_empty()
+    );
 }
 
 /// `scripts/fetch-data` from a local copy: every file of the manifest lands in the target, equal
@@ -88,14 +91,30 @@ fn fetch_data_copies_checks_and_refuses_a_corrupted_file() {
     }
     let root = super::root();
     let manifest = std::fs::read_to_string(root.join("scripts/data-manifest.tsv")).unwrap();
-    let files: Vec<&str> = manifest.lines().filter(|l| !l.starts_with('#') && !l.is_empty()).map(|l| l.split('\t').nth(1).unwrap()).collect();
+    let files: Vec<&str> = manifest
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.is_empty())
+        .map(|l| l.split('\t').nth(1).unwrap())
+        .collect();
     assert!(files.iter().filter(|f| f.starts_with("nanobench/dataset/") && f.ends_with(".csv")).count() >= 10);
-    let fetch = |from: &Path, to: &Path| Command::new("python3").arg(root.join("scripts/fetch-data")).arg("--from").arg(from).arg("--to").arg(to).output().unwrap();
+    let fetch = |from: &Path, to: &Path| {
+        Command::new("python3")
+            .arg(root.join("scripts/fetch-data"))
+            .arg("--from")
+            .arg(from)
+            .arg("--to")
+            .arg(to)
+            .output()
+            .unwrap()
+    };
     let target = super::Scratch::new("fetch-data");
     let out = fetch(&data, &target);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     for f in &files {
-        assert!(std::fs::read(target.join(f)).unwrap() == std::fs::read(data.join(f)).unwrap(), "{f} differs from its source");
+        assert!(
+            std::fs::read(target.join(f)).unwrap() == std::fs::read(data.join(f)).unwrap(),
+            "{f} differs from its source"
+        );
     }
     let again = fetch(&data, &target);
     assert!(again.status.success());
@@ -118,6 +137,10 @@ fn fetch_data_copies_checks_and_refuses_a_corrupted_file() {
     assert!(err.contains(victim) && err.contains("SHA-256"), "{err}");
     assert!(!target.join(victim).exists(), "a file that failed its checksum was written");
     let dir = target.join(victim).parent().unwrap().to_path_buf();
-    let leftovers: Vec<_> = std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().starts_with(".fetch-")).collect();
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with(".fetch-"))
+        .collect();
     assert!(leftovers.is_empty(), "temporary files left behind");
 }

@@ -95,7 +95,8 @@ mod parser_fuzz {
 
     fn corpus() -> Vec<String> {
         let dir = super::super::root().join("scenarios");
-        let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| std::fs::read_to_string(e.unwrap().path()).unwrap()).collect();
+        let mut v: Vec<String> =
+            std::fs::read_dir(dir).unwrap().map(|e| std::fs::read_to_string(e.unwrap().path()).unwrap()).collect();
         v.sort();
         v
     }
@@ -110,8 +111,10 @@ mod parser_fuzz {
     }
 
     pub(super) fn edit() -> impl Strategy<Value = Edit> {
-        let special =
-            prop::sample::select(vec!["{", "}", "[", "]", ":", "- ", "\n", "\t", "#", "&a", "*a", "!!str", "'", "\"", "é", "\u{0}", "1e999", "-", ".nan", "~", "<<: *a", "?"]);
+        let special = prop::sample::select(vec![
+            "{", "}", "[", "]", ":", "- ", "\n", "\t", "#", "&a", "*a", "!!str", "'", "\"", "é", "\u{0}", "1e999", "-",
+            ".nan", "~", "<<: *a", "?",
+        ]);
         prop_oneof![
             (any::<usize>(), 1usize..20).prop_map(|(a, n)| Edit::Delete(a, n)),
             (any::<usize>(), special).prop_map(|(a, s)| Edit::Insert(a, s.to_string())),
@@ -334,8 +337,12 @@ pub(crate) mod ros2_fuzz {
             let s = w.add_schema(name, "ros2msg", b"").unwrap();
             w.add_channel(s, topic, "cdr", &none).unwrap()
         };
-        let (pose, imu, motors, battery) =
-            (ch("geometry_msgs/msg/PoseStamped", "/p"), ch("sensor_msgs/msg/Imu", "/i"), ch("std_msgs/msg/Float64MultiArray", "/m"), ch("sensor_msgs/msg/BatteryState", "/b"));
+        let (pose, imu, motors, battery) = (
+            ch("geometry_msgs/msg/PoseStamped", "/p"),
+            ch("sensor_msgs/msg/Imu", "/i"),
+            ch("std_msgs/msg/Float64MultiArray", "/m"),
+            ch("sensor_msgs/msg/BatteryState", "/b"),
+        );
         for k in 0..400u64 {
             let ns = 1_000_000_000 + k * 10_000_000;
             let t = k as f64 * 0.01;
@@ -371,7 +378,16 @@ pub(crate) mod ros2_fuzz {
             msgs.push((battery, b.0));
             for (channel_id, data) in msgs {
                 let stamp = if channel_id == pose { ns + pose_lag_ns } else { ns };
-                w.write_to_known_channel(&mcap::records::MessageHeader { channel_id, sequence: k as u32, log_time: stamp, publish_time: stamp }, &data).unwrap();
+                w.write_to_known_channel(
+                    &mcap::records::MessageHeader {
+                        channel_id,
+                        sequence: k as u32,
+                        log_time: stamp,
+                        publish_time: stamp,
+                    },
+                    &data,
+                )
+                .unwrap();
             }
         }
         w.finish().unwrap();
@@ -380,7 +396,11 @@ pub(crate) mod ros2_fuzz {
     }
 
     pub(crate) fn mapping() -> Mapping {
-        Mapping::parse("vehicle: crazyflie21\nros2: { pose: /p, imu: /i, motors: /m, battery: /b }\nsmoothing_ms: 50\n", Path::new("m.yaml")).unwrap()
+        Mapping::parse(
+            "vehicle: crazyflie21\nros2: { pose: /p, imu: /i, motors: /m, battery: /b }\nsmoothing_ms: 50\n",
+            Path::new("m.yaml"),
+        )
+        .unwrap()
     }
 
     fn read(bytes: &[u8]) -> Result<flyarena::identify::Series, flyarena::identify::InputError> {

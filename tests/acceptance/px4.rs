@@ -48,7 +48,11 @@ fn ekf2_ev_pos_is_the_tracked_point_from_the_centre_of_gravity() {
         assert!((v - truth).abs() <= ci && ci < 0.003, "{name} {v} ± {ci} m for a truth of {truth} m");
     }
     assert!(p.params.iter().all(|q| !q.name.starts_with("EKF2_IMU_POS")), "{:?}", p.params);
-    assert!(p.notes.iter().any(|n| n.contains("centre of gravity") && n.contains("--with imu_offset")), "{:?}", p.notes);
+    assert!(
+        p.notes.iter().any(|n| n.contains("centre of gravity") && n.contains("--with imu_offset")),
+        "{:?}",
+        p.notes
+    );
 }
 
 /// `identify --px4` writes a QGroundControl parameter file beside the report: a `#` header and
@@ -60,7 +64,13 @@ fn ekf2_ev_pos_is_the_tracked_point_from_the_centre_of_gravity() {
 fn identify_px4_writes_a_qgroundcontrol_parameter_file() {
     let d = super::Scratch::new("px4-params");
     let scenario = super::root().join("scenarios/identify-mocap-delay.yaml");
-    let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(["identify"]).arg(&scenario).args(["--px4", "--no-rrd", "--out"]).arg(&*d).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_flyarena"))
+        .args(["identify"])
+        .arg(&scenario)
+        .args(["--px4", "--no-rrd", "--out"])
+        .arg(&*d)
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("PX4 parameters (95 % intervals") && stdout.contains("EKF2_EV_DELAY"), "{stdout}");
@@ -71,9 +81,19 @@ fn identify_px4_writes_a_qgroundcontrol_parameter_file() {
     let v: f64 = rows[0][3].parse().unwrap();
     assert!((v - 10.0).abs() < 0.5, "{file}");
     let lever = super::root().join("scenarios/identify-lever-arm.yaml");
-    let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(["identify"]).arg(&lever).args(["--px4", "--no-rrd", "--out"]).arg(&*d).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_flyarena"))
+        .args(["identify"])
+        .arg(&lever)
+        .args(["--px4", "--no-rrd", "--out"])
+        .arg(&*d)
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stdout));
-    let two = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(["identify", "a.csv", "b.csv", "--mapping", "m.yaml", "--px4"]).current_dir(&*d).output().unwrap();
+    let two = Command::new(env!("CARGO_BIN_EXE_flyarena"))
+        .args(["identify", "a.csv", "b.csv", "--mapping", "m.yaml", "--px4"])
+        .current_dir(&*d)
+        .output()
+        .unwrap();
     assert_eq!(two.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&two.stderr).contains("--px4 takes one flight"));
 }
@@ -88,16 +108,24 @@ fn identify_px4_writes_a_qgroundcontrol_parameter_file() {
 fn ekf2_imu_pos_and_ev_pos_are_both_from_the_centre_of_gravity() {
     let d = super::Scratch::new("px4-imu-pos");
     let text = std::fs::read_to_string(super::root().join("scenarios/identify-lever-arm.yaml")).unwrap();
-    let text = text.replace("imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }", "imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05, position_mm: [20, -10, 15] }");
+    let text = text.replace(
+        "imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }",
+        "imu: { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05, position_mm: [20, -10, 15] }",
+    );
     assert!(text.contains("position_mm"));
     // R5 of the original scenario (r = 10, −5, 30) does not hold here; only the report is read
     let path = d.join("imu-pos.yaml");
     std::fs::write(&path, text).unwrap();
     let req = Request { forced: vec![Effect::MocapDelay, Effect::ImuOffset], ..Request::new(Source::Scenario(&path)) };
     let p = parameters(&run(&req).unwrap().report, MocapAxes::ZUp);
-    for (name, truth) in
-        [("EKF2_IMU_POS_X", 0.020), ("EKF2_IMU_POS_Y", -0.010), ("EKF2_IMU_POS_Z", 0.015), ("EKF2_EV_POS_X", -0.010), ("EKF2_EV_POS_Y", 0.005), ("EKF2_EV_POS_Z", -0.030)]
-    {
+    for (name, truth) in [
+        ("EKF2_IMU_POS_X", 0.020),
+        ("EKF2_IMU_POS_Y", -0.010),
+        ("EKF2_IMU_POS_Z", 0.015),
+        ("EKF2_EV_POS_X", -0.010),
+        ("EKF2_EV_POS_Y", 0.005),
+        ("EKF2_EV_POS_Z", -0.030),
+    ] {
         let (v, ci) = param(&p, name);
         assert!((v - truth).abs() <= ci && ci < 0.005, "{name} {v} ± {ci} m for a truth of {truth} m");
     }
@@ -112,10 +140,15 @@ fn ekf2_imu_pos_and_ev_pos_are_both_from_the_centre_of_gravity() {
 fn a_delay_that_fails_only_the_heldout_gate_is_named_and_px4_still_writes_it() {
     let path = super::root().join("scenarios/identify-crazyflie-delay.yaml");
     let report = run(&Request::new(Source::Scenario(&path))).unwrap().report;
-    assert!(report.effect(Effect::MocapDelay).is_none(), "the delay passes the held-out gate on this flight: the scenario no longer shows the case");
+    assert!(
+        report.effect(Effect::MocapDelay).is_none(),
+        "the delay passes the held-out gate on this flight: the scenario no longer shows the case"
+    );
     assert!(report.effect(Effect::RotorDrag).is_some());
     assert!(
-        report.notes.iter().any(|n| n.starts_with("mocap_delay has very strong evidence") && n.contains("fails only the held-out gate") && n.contains("`--with mocap_delay`")),
+        report.notes.iter().any(|n| n.starts_with("mocap_delay has very strong evidence")
+            && n.contains("fails only the held-out gate")
+            && n.contains("`--with mocap_delay`")),
         "{:?}",
         report.notes
     );
@@ -136,7 +169,9 @@ fn a_delay_that_fails_only_the_heldout_gate_is_named_and_px4_still_writes_it() {
 fn the_body_offset_fix_is_the_marker_turn_undone_in_the_mocaps_axes() {
     let path = super::root().join("scenarios/identify-marker-offsets.yaml");
     let report = run(&Request::new(Source::Scenario(&path))).unwrap().report;
-    let phi = nalgebra::Rotation3::from_euler_angles(1.5f64.to_radians(), -1f64.to_radians(), 3f64.to_radians()).scaled_axis().map(f64::to_degrees);
+    let phi = nalgebra::Rotation3::from_euler_angles(1.5f64.to_radians(), -1f64.to_radians(), 3f64.to_radians())
+        .scaled_axis()
+        .map(f64::to_degrees);
     for (axes, truth) in [(MocapAxes::ZUp, [-phi.x, phi.y, phi.z]), (MocapAxes::YUp, [-phi.x, phi.z, -phi.y])] {
         let fix = parameters(&report, axes).body_offset_fix.expect("a body offset was found");
         for (k, ((v, ci), t)) in fix.rotation_vector_deg.into_iter().zip(truth).enumerate() {

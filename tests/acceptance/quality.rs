@@ -76,7 +76,8 @@ fn each_check_cuts_what_it_is_for() {
                     s.mocap_ok[i] = false;
                 }
                 let i = rows(s, 12.5, 13.0).start;
-                s.accel_body[i] = Vec3::new(s.accel_body[i].x(), s.accel_body[i].y(), -0.99 * s.model.imu_range.accel_m_s2);
+                s.accel_body[i] =
+                    Vec3::new(s.accel_body[i].x(), s.accel_body[i].y(), -0.99 * s.model.imu_range.accel_m_s2);
             }),
         ),
         // +5 g on the accelerometer's x for one sample: 49 m/s², under the ±6 g full scale
@@ -138,8 +139,14 @@ fn each_check_cuts_what_it_is_for() {
         let c = cuts[0];
         assert!(c.from_s <= at && c.to_s >= at && c.to_s - c.from_s < 1.5, "{name}: {c:?}");
         assert!(!c.at_floor, "{name}: {c:?}");
-        assert!(r.notes[0].contains("data-quality gate") && r.notes[0].contains(channel.name()), "{name}: {}", r.notes[0]);
-        let k = r.param(Effect::RotorDrag, "k_x").unwrap_or_else(|| panic!("{name}: no drag\n{}", flyarena::identify::report::render(&r)));
+        assert!(
+            r.notes[0].contains("data-quality gate") && r.notes[0].contains(channel.name()),
+            "{name}: {}",
+            r.notes[0]
+        );
+        let k = r
+            .param(Effect::RotorDrag, "k_x")
+            .unwrap_or_else(|| panic!("{name}: no drag\n{}", flyarena::identify::report::render(&r)));
         assert!((k - 0.35).abs() < 0.02, "{name}: k_x {k}");
         assert_eq!(r.effects.len(), 1, "{name}: {:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());
     }
@@ -179,7 +186,12 @@ fn residuals_are_plotted_in_seconds_from_the_logs_first_sample() {
     assert!(!plotted.is_empty());
     for x in &plotted {
         let (first, last) = (x.t_s[0], x.t_s[x.t_s.len() - 1]);
-        assert!((0.0..0.5).contains(&first) && last <= length, "{:?} {}: {first}..{last} s for a log of {length} s", x.channel, x.axis);
+        assert!(
+            (0.0..0.5).contains(&first) && last <= length,
+            "{:?} {}: {first}..{last} s for a log of {length} s",
+            x.channel,
+            x.axis
+        );
     }
 }
 
@@ -193,7 +205,11 @@ fn a_corrupted_tail_is_cut_and_a_corrupted_log_is_refused() {
         let r = rows(s, from, 1e9);
         for (k, i) in r.enumerate() {
             let w = ((k * 7919) % 97) as f64 / 97.0 - 0.5;
-            s.accel_body[i] = if k % 5 == 0 { Vec3::new(0.0, 0.0, -21.0 * G) } else { Vec3::new(8.0 * w * G, -6.0 * w * G, -G + 10.0 * w * G) };
+            s.accel_body[i] = if k % 5 == 0 {
+                Vec3::new(0.0, 0.0, -21.0 * G)
+            } else {
+                Vec3::new(8.0 * w * G, -6.0 * w * G, -G + 10.0 * w * G)
+            };
             s.gyro_body[i] = Vec3::new(60.0 * w, -40.0 * w, 20.0 * w);
         }
     };
@@ -207,7 +223,10 @@ fn a_corrupted_tail_is_cut_and_a_corrupted_log_is_refused() {
     let plotted = flyarena::identify::select::residual_series(&tail, &Options::default(), &r);
     assert!(plotted.iter().all(|x| x.t_s.iter().all(|t| *t < first)), "residuals plotted from cut samples");
     let evaluated = flyarena::identify::select::evaluate(&tail, &Options::default(), &r);
-    assert!(evaluated.iter().filter(|e| e.channel == flyarena::identify::Channel::AccelKin).all(|e| e.rmse_before < 1.0), "{evaluated:?}");
+    assert!(
+        evaluated.iter().filter(|e| e.channel == flyarena::identify::Channel::AccelKin).all(|e| e.rmse_before < 1.0),
+        "{evaluated:?}"
+    );
     let clean_part = identify(&clean.slice(0, rows(&clean, 0.0, first).end), &Options::default()).unwrap();
     for p in ["k_x", "k_y"] {
         let (a, b) = (r.param(Effect::RotorDrag, p).unwrap(), clean_part.param(Effect::RotorDrag, p).unwrap());
@@ -216,7 +235,13 @@ fn a_corrupted_tail_is_cut_and_a_corrupted_log_is_refused() {
     let mut all = clean.clone();
     corrupt_from(&mut all, 0.5);
     let e = identify(&all, &Options::default()).unwrap_err().to_string();
-    assert!(e.starts_with("drag:") && e.contains("data-quality gate") && e.contains("accel 0.30–") && e.contains("gyro 0.30–"), "{e}");
+    assert!(
+        e.starts_with("drag:")
+            && e.contains("data-quality gate")
+            && e.contains("accel 0.30–")
+            && e.contains("gyro 0.30–"),
+        "{e}"
+    );
 }
 
 /// The real flights: nothing airborne is cut (touchdowns are, and are said to be contact); a
@@ -229,11 +254,16 @@ fn nanobench_gate_cuts_touchdowns_only_and_rescues_a_corrupted_flight() {
     let mut opts = Options { forced: vec![Effect::BodyOffset], ..Options::default() };
     opts.design.smoothing_s = map.smoothing_ms.unwrap() * 1e-3;
     let dir = data.join("nanobench/dataset");
-    let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "csv")).collect();
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
+        .collect();
     files.sort();
     for f in &files {
         let s = map.read(f).unwrap();
-        let (_, q) = flyarena::identify::quality::gate(&s, &opts.quality, opts.design.smoothing_s, opts.design.min_height_m);
+        let (_, q) =
+            flyarena::identify::quality::gate(&s, &opts.quality, opts.design.smoothing_s, opts.design.min_height_m);
         assert!(q.corrupted().next().is_none(), "{}: {:?}", f.display(), q.cuts);
     }
     let s = map.read(&dir.join("B7_oval_fast_rep1.csv")).unwrap();
@@ -241,7 +271,11 @@ fn nanobench_gate_cuts_touchdowns_only_and_rescues_a_corrupted_flight() {
     let mut bad = s.clone();
     for (k, i) in rows(&s, 32.0, 1e9).enumerate() {
         let w = ((k * 7919) % 97) as f64 / 97.0 - 0.5;
-        bad.accel_body[i] = if k % 4 == 0 { Vec3::new(3.0 * G, 2.0 * G, -21.0 * G) } else { bad.accel_body[i] + Vec3::new(6.0 * w * G, 0.0, 5.0 * w * G) };
+        bad.accel_body[i] = if k % 4 == 0 {
+            Vec3::new(3.0 * G, 2.0 * G, -21.0 * G)
+        } else {
+            bad.accel_body[i] + Vec3::new(6.0 * w * G, 0.0, 5.0 * w * G)
+        };
         bad.gyro_body[i] = Vec3::new(90.0 * w, -60.0 * w, 30.0 * w);
     }
     let r = identify(&bad, &opts).unwrap();

@@ -6,7 +6,8 @@ use flyarena::record::{RecordOptions, decode, encode, recording_id};
 use flyarena::run::{Outcome, run_scenario};
 use flyarena::scenario::Scenario;
 
-fn fig6() -> (Scenario, flyarena::engine::RunOutput, Option<flyarena::engine::RunOutput>, flyarena::requirements::Report) {
+fn fig6() -> (Scenario, flyarena::engine::RunOutput, Option<flyarena::engine::RunOutput>, flyarena::requirements::Report)
+{
     let s = Scenario::load(&root().join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap();
     let Outcome { main, uncompensated: unc, report } = run_scenario(&s, true);
     (s, main, unc, report)
@@ -41,7 +42,8 @@ fn recording_holds_the_engine_values() {
     let v = &main.vehicles[0];
     let want: Vec<(i64, f64)> = v.trace.iter().step_by(4).map(|s| (s.t.0, s.att_true.roll.to_degrees())).collect();
     assert_eq!(rec.scalars("/plots/x3d/attitude/roll/true"), want);
-    let thrust: Vec<(i64, f64)> = v.trace.iter().step_by(4).filter_map(|s| s.ppm.map(|p| (s.t.0, p.channels[3] as f64))).collect();
+    let thrust: Vec<(i64, f64)> =
+        v.trace.iter().step_by(4).filter_map(|s| s.ppm.map(|p| (s.t.0, p.channels[3] as f64))).collect();
     assert!(thrust.len() > 1000);
     assert_eq!(rec.scalars("/plots/x3d/ppm/thrust"), thrust);
     // the running hover average ends on the report's estimate
@@ -81,7 +83,12 @@ fn identical_runs_give_identical_recordings() {
 #[test]
 fn decimation_is_applied() {
     let (_, main, unc, report) = fig6();
-    let n = |every| decode(&encode(&main, unc.as_ref(), &report, RecordOptions { every }).unwrap()).unwrap().scalars("/plots/x3d/attitude/yaw/true").len();
+    let n = |every| {
+        decode(&encode(&main, unc.as_ref(), &report, RecordOptions { every }).unwrap())
+            .unwrap()
+            .scalars("/plots/x3d/attitude/yaw/true")
+            .len()
+    };
     let frames = main.vehicles[0].trace.len();
     assert_eq!(n(1), frames);
     assert_eq!(n(10), frames.div_ceil(10));

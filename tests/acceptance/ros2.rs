@@ -12,7 +12,12 @@ fn bag_of(flight: &Path, out: &Path) -> Option<()> {
     if !have_writer() {
         return None;
     }
-    let st = Command::new("python3").arg(super::root().join("scripts/nanobench-to-mcap.py")).arg(flight).arg(out).status().unwrap();
+    let st = Command::new("python3")
+        .arg(super::root().join("scripts/nanobench-to-mcap.py"))
+        .arg(flight)
+        .arg(out)
+        .status()
+        .unwrap();
     assert!(st.success(), "the bag writer failed on {}", flight.display());
     Some(())
 }
@@ -97,7 +102,9 @@ fn broken_bags_are_errors_not_numbers() {
     let e = read(&bytes, &swapped);
     assert!(e.contains("must be geometry_msgs/msg/PoseStamped"), "{e}");
     // a mapping with an unknown key in its ros2 block names it
-    let e = Mapping::parse(&src.replace("imu: /cf/imu", "imu: /cf/imu\n  gps: /cf/gps"), Path::new("m.yaml")).unwrap_err().to_string();
+    let e = Mapping::parse(&src.replace("imu: /cf/imu", "imu: /cf/imu\n  gps: /cf/gps"), Path::new("m.yaml"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("gps"), "{e}");
 }
 
@@ -129,7 +136,11 @@ fn poses_are_interpolated_on_a_bag_whose_topics_have_their_own_clocks() {
     }
     let d = tmp("clocks");
     let p = d.join("clocks.mcap");
-    let st = Command::new("python3").arg(super::root().join("tests/acceptance/clients/ros2_clock_bag.py")).arg(&p).status().unwrap();
+    let st = Command::new("python3")
+        .arg(super::root().join("tests/acceptance/clients/ros2_clock_bag.py"))
+        .arg(&p)
+        .status()
+        .unwrap();
     assert!(st.success(), "the bag writer failed");
     let m = Mapping::parse("vehicle: crazyflie21\nros2: { pose: /vicon/cf/pose, imu: /cf/imu, motors: /cf/motors, battery: /cf/battery }\nsmoothing_ms: 50\n", Path::new("m.yaml"))
         .unwrap();
@@ -156,9 +167,17 @@ fn interpolated_on_the_imu_clock(s: &flyarena::identify::Series, first: usize) {
         }
         // the mapping turns the z-up world by π about x: y and z change sign
         let x_true = 0.3 * (2.0 * (t - 0.005)).cos();
-        assert!((s.pos_mocap_nav[row].x() - x_true).abs() < 1e-4, "IMU message {k}: x {} vs {x_true}", s.pos_mocap_nav[row].x());
+        assert!(
+            (s.pos_mocap_nav[row].x() - x_true).abs() < 1e-4,
+            "IMU message {k}: x {} vs {x_true}",
+            s.pos_mocap_nav[row].x()
+        );
         let y_true = -0.3 * (2.0 * (t - 0.005)).sin();
-        assert!((s.pos_mocap_nav[row].y() - y_true).abs() < 1e-4, "IMU message {k}: y {} vs {y_true}", s.pos_mocap_nav[row].y());
+        assert!(
+            (s.pos_mocap_nav[row].y() - y_true).abs() < 1e-4,
+            "IMU message {k}: y {} vs {y_true}",
+            s.pos_mocap_nav[row].y()
+        );
         checked += 1;
     }
     assert!(checked > 380, "{checked}");

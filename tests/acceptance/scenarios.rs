@@ -15,7 +15,10 @@ fn round(x: f64, digits: i32) -> f64 {
 fn meets_its_requirements(file: &str) {
     let f = super::root().join("scenarios").join(file);
     let s = Scenario::load(&f).unwrap_or_else(|e| panic!("{e}"));
-    assert!(s.requirements.identify.is_none(), "{file}: R5 is checked by `flyarena identify` (tests/acceptance/identify.rs)");
+    assert!(
+        s.requirements.identify.is_none(),
+        "{file}: R5 is checked by `flyarena identify` (tests/acceptance/identify.rs)"
+    );
     let Outcome { main, uncompensated: unc, report } = run_scenario(&s, false);
     assert!(!report.rows.is_empty(), "{}: declares no requirements", s.name);
     assert!(report.passed(), "{}:\n{}", s.name, report.table());
@@ -83,7 +86,12 @@ scenario_tests! {
 fn the_scenario_reference_states_the_declared_ranges() {
     use flyarena::scenario::ranges::*;
     let doc = std::fs::read_to_string(super::root().join("docs/scenarios.md")).unwrap();
-    let row = |field: &str| doc.lines().find(|l| l.starts_with(&format!("| `{field}`"))).unwrap_or_else(|| panic!("no row for `{field}`")).to_string();
+    let row = |field: &str| {
+        doc.lines()
+            .find(|l| l.starts_with(&format!("| `{field}`")))
+            .unwrap_or_else(|| panic!("no row for `{field}`"))
+            .to_string()
+    };
     let forms = |lo: f64, hi: f64, open: bool| -> Vec<String> {
         let n = |x: f64| if x < 0.0 { format!("−{}", -x) } else { format!("{x}") };
         if lo == -hi && !open {

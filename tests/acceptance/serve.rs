@@ -95,7 +95,18 @@ fn server_of(scenario: &Path, port: u16, data_port: u16, out: &Path, extra: &[&s
         Command::new(env!("CARGO_BIN_EXE_flyarena"))
             .arg("serve")
             .arg(scenario)
-            .args(["--command-port", &port.to_string(), "--data-port", &data_port.to_string(), "--speed", "2", "--wait-s", "30", "--no-rrd", "-q"])
+            .args([
+                "--command-port",
+                &port.to_string(),
+                "--data-port",
+                &data_port.to_string(),
+                "--speed",
+                "2",
+                "--wait-s",
+                "30",
+                "--no-rrd",
+                "-q",
+            ])
             .args(extra)
             .arg("--out")
             .arg(out)
@@ -107,8 +118,13 @@ fn server_of(scenario: &Path, port: u16, data_port: u16, out: &Path, extra: &[&s
 /// Runs a client script with a time limit; its last stdout line, parsed. Its output is read
 /// while it runs (a full pipe would block it).
 fn client(script: &str, args: &[String], limit: Duration) -> Value {
-    let mut child =
-        Command::new("python3").arg(super::root().join("tests/acceptance/clients").join(script)).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let mut child = Command::new("python3")
+        .arg(super::root().join("tests/acceptance/clients").join(script))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     let mut stdout = child.stdout.take().unwrap();
     let mut stderr = child.stderr.take().unwrap();
     let out = std::thread::spawn(move || {
@@ -170,13 +186,20 @@ fn roll_pitch_deg(q: [f32; 4]) -> (f64, f64) {
 #[test]
 fn a_served_run_is_the_run_bit_for_bit() {
     let s = flyarena::scenario::Scenario::load(&fixture()).unwrap();
-    let opts = ServeOptions { command_port: 0, speed: 1000.0, wait_for_client: Duration::ZERO, ..ServeOptions::default() };
+    let opts =
+        ServeOptions { command_port: 0, speed: 1000.0, wait_for_client: Duration::ZERO, ..ServeOptions::default() };
     let (served, net) = serve(&s, &opts, RunOptions::default()).unwrap();
     let plain = run(s.spec(), RunOptions::default());
     for (a, b) in served.vehicles.iter().zip(&plain.vehicles) {
         assert_eq!(a.trace.len(), b.trace.len());
         for (x, y) in a.trace.iter().zip(&b.trace) {
-            assert_eq!(x.pos.to_array().map(f64::to_bits), y.pos.to_array().map(f64::to_bits), "{} at {:?}", a.name, x.t);
+            assert_eq!(
+                x.pos.to_array().map(f64::to_bits),
+                y.pos.to_array().map(f64::to_bits),
+                "{} at {:?}",
+                a.name,
+                x.t
+            );
         }
         assert_eq!(a.link, b.link);
     }
@@ -208,7 +231,8 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
     for (i, b) in bodies.iter().enumerate() {
         assert_eq!((b[0].as_str().unwrap(), b[1].as_i64().unwrap()), (s.vehicle(i).name.as_str(), i as i64 + 1));
         let markers: Vec<[f32; 3]> = b[2].as_array().unwrap().iter().map(f32s::<3>).collect();
-        let expected: Vec<[f32; 3]> = s.spec().vehicles[i].template.iter().map(|m| [m.x() as f32, -m.y() as f32, -m.z() as f32]).collect();
+        let expected: Vec<[f32; 3]> =
+            s.spec().vehicles[i].template.iter().map(|m| [m.x() as f32, -m.y() as f32, -m.z() as f32]).collect();
         assert_eq!(markers, expected, "vehicle {i}'s marker template in Z-up");
     }
     let logs = [log_poses(&out.join("served-cf1.csv")), log_poses(&out.join("served-cf2.csv"))];
@@ -229,7 +253,11 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
             assert_eq!(stamps[0], (t * 1e9).round() as u64);
             numbers[i].push(number);
         }
-        assert_eq!((stamps[1] - stamps[0], stamps[2]), (latency_ns, stamps[1]), "frame {number}: camera latency = mocap.latency_ms");
+        assert_eq!(
+            (stamps[1] - stamps[0], stamps[2]),
+            (latency_ns, stamps[1]),
+            "frame {number}: camera latency = mocap.latency_ms"
+        );
     }
     for (i, n) in numbers.iter().enumerate() {
         assert!(n.windows(2).all(|w| w[1] > w[0]), "vehicle {i}: frame numbers increase");
@@ -241,7 +269,14 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
     // closed forms at the end of the hover (each body's last pose received): cf2 at home (1, 2) m NED and 1 m up is (1, −2, 1) in
     // Z-up; cf1's markers are turned by roll 3°, pitch −2°: the level body reads roll +3° and,
     // with y and z flipped, pitch +2°
-    let by_id = |id: i64| frames.iter().rev().flat_map(|f| f["bodies"].as_array().unwrap()).find(|b| b[0].as_i64() == Some(id)).unwrap_or_else(|| panic!("body {id} received"));
+    let by_id = |id: i64| {
+        frames
+            .iter()
+            .rev()
+            .flat_map(|f| f["bodies"].as_array().unwrap())
+            .find(|b| b[0].as_i64() == Some(id))
+            .unwrap_or_else(|| panic!("body {id} received"))
+    };
     let p2 = f32s::<3>(&by_id(2)[1]);
     assert!((p2[0] - 1.0).abs() < 0.05 && (p2[1] + 2.0).abs() < 0.05 && (p2[2] - 1.0).abs() < 0.05, "cf2 at {p2:?}");
     let (roll, pitch) = roll_pitch_deg(f32s::<4>(&by_id(1)[2]));
@@ -268,18 +303,28 @@ fn the_latency_stamps_hold_the_declared_latency_not_a_hidden_delay() {
         return;
     }
     let ([port, data_port], out) = (free_ports::<2>(), tmp("natnet-hidden-delay"));
-    let path = fixture_with_cf1(&out, "hidden-delay.yaml", "    markers: { rotation_deg: [3, -2, 10] }\n    undeclared: { mocap_delay_ms: 10 }\n");
+    let path = fixture_with_cf1(
+        &out,
+        "hidden-delay.yaml",
+        "    markers: { rotation_deg: [3, -2, 10] }\n    undeclared: { mocap_delay_ms: 10 }\n",
+    );
     let s = flyarena::scenario::Scenario::load(&path).unwrap();
     let latency_ns = (s.mocap.latency_ms * 1e6) as u64;
     let mut srv = server_of(&path, port, data_port, &out, &[]);
     let got = client("natnet_client.py", &[port.to_string(), "2".into()], Duration::from_secs(60));
     srv.exits_ok(Duration::from_secs(60));
     let frames = got["frames"].as_array().unwrap();
-    let with_cf1 = frames.iter().filter(|f| f["bodies"].as_array().unwrap().iter().any(|b| b[0].as_i64() == Some(1))).count();
+    let with_cf1 =
+        frames.iter().filter(|f| f["bodies"].as_array().unwrap().iter().any(|b| b[0].as_i64() == Some(1))).count();
     assert!(with_cf1 > 100, "{with_cf1} frames with cf1 in 2 s at 200 Hz");
     for f in frames {
         let stamps: Vec<u64> = f["stamps"].as_array().unwrap().iter().map(|x| x.as_u64().unwrap()).collect();
-        assert_eq!(stamps[1] - stamps[0], latency_ns, "frame {}: camera latency = the declared mocap.latency_ms", f["number"]);
+        assert_eq!(
+            stamps[1] - stamps[0],
+            latency_ns,
+            "frame {}: camera latency = the declared mocap.latency_ms",
+            f["number"]
+        );
     }
 }
 
@@ -305,7 +350,8 @@ fn a_lost_body_is_sent_with_its_tracking_flag_cleared() {
         let t = f["timestamp"].as_f64().unwrap();
         let in_window = (2.5..3.0).contains(&t);
         for b in f["bodies"].as_array().unwrap() {
-            let (id, pose, valid) = (b[0].as_i64().unwrap(), (f32s::<3>(&b[1]), f32s::<4>(&b[2])), b[3].as_bool().unwrap());
+            let (id, pose, valid) =
+                (b[0].as_i64().unwrap(), (f32s::<3>(&b[1]), f32s::<4>(&b[2])), b[3].as_bool().unwrap());
             if id == 2 {
                 assert!(valid, "cf2 is tracked at {t} s");
                 tracked_in_window += usize::from(in_window);
@@ -356,7 +402,9 @@ fn libmotioncapture_receives_the_poses_flyarena_sent() {
         for b in f.as_array().unwrap() {
             let name = b[0].as_str().unwrap();
             let pose = (f32s::<3>(&b[1]), f32s::<4>(&b[2]));
-            let numbers = logs[name].get(&bits(pose)).unwrap_or_else(|| panic!("frame {k}: {name} {pose:?} is no pose flyarena logged for it"));
+            let numbers = logs[name]
+                .get(&bits(pose))
+                .unwrap_or_else(|| panic!("frame {k}: {name} {pose:?} is no pose flyarena logged for it"));
             common = Some(match common {
                 None => numbers.clone(),
                 Some(c) => c.into_iter().filter(|n| numbers.contains(n)).collect(),
@@ -365,7 +413,8 @@ fn libmotioncapture_receives_the_poses_flyarena_sent() {
         }
         both += usize::from(f.as_array().unwrap().len() == 2);
         let number = common.unwrap_or_default().into_iter().filter(|n| previous.is_none_or(|p| *n > p)).min();
-        let number = number.unwrap_or_else(|| panic!("frame {k}: its bodies share no frame number after {previous:?}: {f}"));
+        let number =
+            number.unwrap_or_else(|| panic!("frame {k}: its bodies share no frame number after {previous:?}: {f}"));
         previous = Some(number);
     }
     assert_eq!(names.into_iter().collect::<Vec<_>>(), ["cf1", "cf2"]);
@@ -405,12 +454,20 @@ fn fig6_builtin_and_external() -> (flyarena::scenario::Scenario, flyarena::scena
     let text = std::fs::read_to_string(&path).unwrap();
     let external_text = text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n");
     assert_ne!(external_text, text);
-    (flyarena::scenario::Scenario::parse(&text, &path).unwrap(), flyarena::scenario::Scenario::parse(&external_text, &path).unwrap())
+    (
+        flyarena::scenario::Scenario::parse(&text, &path).unwrap(),
+        flyarena::scenario::Scenario::parse(&external_text, &path).unwrap(),
+    )
 }
 
 /// Serves `s` on a free port in a thread (`opts` with that port and a 30 s wait for the
 /// controller) while `script` (with the port and vehicle id 1, plus `args`) controls it.
-fn serve_with_client(s: flyarena::scenario::Scenario, opts: ServeOptions, script: &str, args: &[String]) -> (Value, flyarena::engine::RunOutput, flyarena::serve::ServeReport) {
+fn serve_with_client(
+    s: flyarena::scenario::Scenario,
+    opts: ServeOptions,
+    script: &str,
+    args: &[String],
+) -> (Value, flyarena::engine::RunOutput, flyarena::serve::ServeReport) {
     // a data port of its own: at the default (1511) its frames would also reach the client of
     // a test running beside it that listens there
     let [port, data_port] = free_ports::<2>();
@@ -436,7 +493,12 @@ fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
     // the frames the built-in station sent: the trace's last sent frame at each radio tick
     // (50 Hz: every 20 ms, on Vicon ticks)
     let period_ns = 20_000_000;
-    let frames: Vec<Vec<u8>> = plain.vehicles[0].trace.iter().filter(|x| x.t.as_nanos() % period_ns == 0).map(|x| x.ppm.expect("sent").channels[..8].to_vec()).collect();
+    let frames: Vec<Vec<u8>> = plain.vehicles[0]
+        .trace
+        .iter()
+        .filter(|x| x.t.as_nanos() % period_ns == 0)
+        .map(|x| x.ppm.expect("sent").channels[..8].to_vec())
+        .collect();
     let ticks = (plain.duration.as_nanos() as u64).div_ceil(period_ns as u64) as usize;
     assert_eq!(frames.len(), ticks, "one frame per radio period");
     let dir = tmp("lockstep");
@@ -444,7 +506,8 @@ fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
     std::fs::write(&frames_path, serde_json::to_string(&frames).unwrap()).unwrap();
     assert!(python_has("json"), "python3 runs the controller");
     let lockstep = ServeOptions { lockstep: Some(Duration::from_secs(10)), ..ServeOptions::default() };
-    let (got, served, net) = serve_with_client(external, lockstep, "replay_controller.py", &[frames_path.display().to_string()]);
+    let (got, served, net) =
+        serve_with_client(external, lockstep, "replay_controller.py", &[frames_path.display().to_string()]);
     let (a, b) = (&served.vehicles[0], &plain.vehicles[0]);
     assert_eq!(a.trace.len(), b.trace.len());
     for (x, y) in a.trace.iter().zip(&b.trace) {
@@ -467,14 +530,22 @@ fn an_external_controller_in_lockstep_flies_fig6_to_the_bit() {
     assert!(outcome.report.passed(), "{}", outcome.report.table());
     // the replay reports no offset: R1 is shown, not asserted
     let r1: Vec<_> = outcome.report.rows.iter().filter(|r| r.id == "R1").collect();
-    assert!(r1.len() == 1 && !r1[0].asserted && r1[0].measured.contains("reported no offset"), "{}", outcome.report.table());
+    assert!(
+        r1.len() == 1 && !r1[0].asserted && r1[0].measured.contains("reported no offset"),
+        "{}",
+        outcome.report.table()
+    );
 }
 
 /// A controller on a loopback socket for the tests below: connects, registers for vehicle 1 with
 /// a command of sequence number `registration` (full thrust: it must not be applied), then
 /// answers each request k for which `answer(k)` gives counts with those counts and sequence
 /// number k, until the run ends (no request for 2 s).
-fn scripted_controller(port: u16, registration: u32, answer: impl Fn(u32) -> Option<[u8; 8]> + Send + 'static) -> std::thread::JoinHandle<()> {
+fn scripted_controller(
+    port: u16,
+    registration: u32,
+    answer: impl Fn(u32) -> Option<[u8; 8]> + Send + 'static,
+) -> std::thread::JoinHandle<()> {
     std::thread::spawn(move || {
         let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
         let started = Instant::now();
@@ -487,7 +558,11 @@ fn scripted_controller(port: u16, registration: u32, answer: impl Fn(u32) -> Opt
             }
             assert!(started.elapsed() < Duration::from_secs(20), "no server info");
         }
-        sock.send_to(&flyarena::serve::command::command(1, registration, &[128, 128, 128, 255, 0, 0, 0, 0]), ("127.0.0.1", port)).unwrap();
+        sock.send_to(
+            &flyarena::serve::command::command(1, registration, &[128, 128, 128, 255, 0, 0, 0, 0]),
+            ("127.0.0.1", port),
+        )
+        .unwrap();
         sock.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
         while let Ok((n, _)) = sock.recv_from(&mut buf) {
             if n == 20 && &buf[..4] == b"FARQ" {
@@ -525,8 +600,7 @@ fn serve_scripted(
     (out, net.commands[0].stats)
 }
 
-const EXTERNAL_HOVER: &str =
-    "name: external\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 3 }\n";
+const EXTERNAL_HOVER: &str = "name: external\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n  - hover: { duration_s: 3 }\n";
 
 /// Registration answers no request, whatever its sequence number: registered with 0, 1 or
 /// 4,000,000,000 and answering every request k with sequence number k, the controller has every
@@ -536,14 +610,19 @@ const EXTERNAL_HOVER: &str =
 #[test]
 fn registration_answers_no_request_whatever_its_sequence_number() {
     for registration in [0, 1, 4_000_000_000] {
-        let (out, k) = serve_scripted(EXTERNAL_HOVER, Some(2000), registration, |_| Some([128, 128, 128, 0, 0, 0, 0, 0]));
+        let (out, k) =
+            serve_scripted(EXTERNAL_HOVER, Some(2000), registration, |_| Some([128, 128, 128, 0, 0, 0, 0, 0]));
         let ticks = (out.duration.as_nanos() as u64).div_ceil(20_000_000);
         assert_eq!(
             (k.received, k.applied, k.duplicates, k.out_of_order, k.missing, k.timeouts, k.failsafe),
             (ticks, ticks, 0, 0, 0, 0, 0),
             "registered with {registration}: {k:?}"
         );
-        assert!(out.vehicles[0].final_pos.z() > -0.05, "registered with {registration}: {:?}", out.vehicles[0].final_pos);
+        assert!(
+            out.vehicles[0].final_pos.z() > -0.05,
+            "registered with {registration}: {:?}",
+            out.vehicles[0].final_pos
+        );
     }
 }
 
@@ -602,8 +681,18 @@ fn a_silent_controller_is_failed_safe_in_real_time_too() {
 fn run_refuses_an_external_vehicle() {
     let dir = tmp("run-external");
     let path = dir.join("ext.yaml");
-    std::fs::write(&path, "name: ext\nvehicles:\n  - name: v\n    station: external\nplan:\n  - hover: { duration_s: 1 }\n").unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_flyarena")).arg("run").arg(&path).arg("--out").arg(dir.join("out")).output().unwrap();
+    std::fs::write(
+        &path,
+        "name: ext\nvehicles:\n  - name: v\n    station: external\nplan:\n  - hover: { duration_s: 1 }\n",
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_flyarena"))
+        .arg("run")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("vehicle `v` has `station: external`") && err.contains("flyarena serve"), "{err}");
@@ -624,7 +713,12 @@ fn a_reference_controller_written_from_the_paper_flies_fig6_through_the_bridge()
     let (builtin, external) = fig6_builtin_and_external();
     let lockstep = ServeOptions { lockstep: Some(Duration::from_secs(10)), ..ServeOptions::default() };
     let (got, served, net) = serve_with_client(external, lockstep, "fig6_controller.py", &[]);
-    let offset: Vec<f64> = got["offset_deg"].as_array().expect("the controller averaged the hover").iter().map(|x| x.as_f64().unwrap()).collect();
+    let offset: Vec<f64> = got["offset_deg"]
+        .as_array()
+        .expect("the controller averaged the hover")
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
     assert!((offset[0] - 3.0).abs() < 0.1 && (offset[1] - 3.0).abs() < 0.1, "hover-averaged offset {offset:?}°");
     let k = net.commands[0].stats;
     assert_eq!((k.timeouts, k.held, k.missing), (0, 0, 0), "{k:?}");
@@ -652,7 +746,11 @@ fn the_natnet_client_receives_the_poses_over_multicast() {
     let ([port, data_port], out) = (free_ports::<2>(), tmp("multicast"));
     let group = "239.255.42.99";
     let mut srv = server_with(port, data_port, &out, &["--multicast", group]);
-    let got = client("natnet_client.py", &[port.to_string(), "3".into(), group.into(), data_port.to_string()], Duration::from_secs(60));
+    let got = client(
+        "natnet_client.py",
+        &[port.to_string(), "3".into(), group.into(), data_port.to_string()],
+        Duration::from_secs(60),
+    );
     srv.exits_ok(Duration::from_secs(60));
     let logs = [log_poses(&out.join("served-cf1.csv")), log_poses(&out.join("served-cf2.csv"))];
     let frames = got["frames"].as_array().unwrap();
@@ -678,7 +776,8 @@ fn a_reference_controller_flies_fig6_in_real_time() {
         return;
     }
     let (builtin, external) = fig6_builtin_and_external();
-    let (got, served, net) = serve_with_client(external, ServeOptions { speed: 2.0, ..ServeOptions::default() }, "fig6_controller.py", &[]);
+    let (got, served, net) =
+        serve_with_client(external, ServeOptions { speed: 2.0, ..ServeOptions::default() }, "fig6_controller.py", &[]);
     let k = net.commands[0].stats;
     let ticks = (served.duration.as_nanos() as u64).div_ceil(20_000_000);
     let requests = got["requests"].as_u64().unwrap();
@@ -690,7 +789,11 @@ fn a_reference_controller_flies_fig6_in_real_time() {
     assert_eq!(k.timeouts, 0);
     let outcome = flyarena::run::evaluate(&builtin, served, false);
     eprintln!("{}\n{k:?}", outcome.report.table());
-    assert!(outcome.report.rows.iter().filter(|r| r.id == "R1" || r.id == "R2").all(|r| r.pass && r.asserted), "{}", outcome.report.table());
+    assert!(
+        outcome.report.rows.iter().filter(|r| r.id == "R1" || r.id == "R2").all(|r| r.pass && r.asserted),
+        "{}",
+        outcome.report.table()
+    );
 }
 
 /// R3 and R4 check flyarena's own straight-flight fits: for a vehicle an external controller
@@ -701,7 +804,8 @@ fn r3_and_r4_do_not_apply_to_an_external_vehicle() {
     let s = super::inline(
         "name: ext-yaw\nvehicles:\n  - name: v\n    station: external\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 2 }\n  - calibrate_yaw: { distance_m: 2.0, speed_m_s: 0.5 }\nrequirements:\n  offsets: { roll_pitch_tol_deg: 0.1 }\n  ls_equals_rls: {}\n  validity: { expect: accept }\n",
     );
-    let opts = ServeOptions { command_port: 0, speed: 1000.0, wait_for_client: Duration::ZERO, ..ServeOptions::default() };
+    let opts =
+        ServeOptions { command_port: 0, speed: 1000.0, wait_for_client: Duration::ZERO, ..ServeOptions::default() };
     let (out, _) = serve(&s, &opts, RunOptions::default()).unwrap();
     let report = flyarena::requirements::evaluate(&s.requirements, &out, None);
     for id in ["R1", "R3", "R4"] {
@@ -729,14 +833,26 @@ fn the_readme_example_serves_fig6_to_the_reference_controller() {
         Command::new(env!("CARGO_BIN_EXE_flyarena"))
             .arg("serve")
             .arg(&path)
-            .args(["--lockstep", "--no-rrd", "-q", "--command-port", &port.to_string(), "--data-port", &data_port.to_string()])
+            .args([
+                "--lockstep",
+                "--no-rrd",
+                "-q",
+                "--command-port",
+                &port.to_string(),
+                "--data-port",
+                &data_port.to_string(),
+            ])
             .arg("--out")
             .arg(dir.join("out")),
     );
     client("fig6_controller.py", &[port.to_string(), "1".into()], Duration::from_secs(180));
     srv.exits_ok(Duration::from_secs(60));
-    let summary: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("out/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
     let rows = summary["requirements"].as_array().unwrap();
-    let ratio = rows.iter().find(|r| r["id"] == "R2" && r["what"].as_str().unwrap().contains("uncompensated (0.36")).unwrap_or_else(|| panic!("{rows:?}"));
+    let ratio = rows
+        .iter()
+        .find(|r| r["id"] == "R2" && r["what"].as_str().unwrap().contains("uncompensated (0.36"))
+        .unwrap_or_else(|| panic!("{rows:?}"));
     assert_eq!((ratio["pass"].as_bool(), ratio["asserted"].as_bool()), (Some(true), Some(true)), "{ratio}");
 }

@@ -19,7 +19,12 @@ fn free_tcp_port() -> u16 {
 
 fn run_ok(cmd: &mut Command) {
     let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
-    assert!(out.status.success(), "{cmd:?}: {}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{cmd:?}: {}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 impl Cluster {
@@ -80,7 +85,11 @@ impl Cluster {
             if String::from_utf8_lossy(&out.stdout).trim() == "idle" {
                 break;
             }
-            assert!(started.elapsed().as_secs() < 60, "the node did not come up: {}", std::fs::read_to_string(dir.join("log/slurmctld.log")).unwrap_or_default());
+            assert!(
+                started.elapsed().as_secs() < 60,
+                "the node did not come up: {}",
+                std::fs::read_to_string(dir.join("log/slurmctld.log")).unwrap_or_default()
+            );
             std::thread::sleep(std::time::Duration::from_millis(300));
         }
         cluster
@@ -98,10 +107,17 @@ impl Drop for Cluster {
     /// Stops every daemon and waits until each is gone (10 s, then SIGKILL).
     fn drop(&mut self) {
         for pid_file in ["run/slurmd.pid", "run/slurmctld.pid", "munge/munged.pid"] {
-            let Some(pid) = std::fs::read_to_string(self.dir.join(pid_file)).ok().and_then(|s| s.trim().parse::<i32>().ok()) else { continue };
+            let Some(pid) =
+                std::fs::read_to_string(self.dir.join(pid_file)).ok().and_then(|s| s.trim().parse::<i32>().ok())
+            else {
+                continue;
+            };
             let pid = pid.to_string();
             // running: its /proc entry is there and not a zombie (state Z, after the `)` of its name)
-            let alive = || std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|st| st.rsplit(')').next().is_some_and(|rest| !rest.trim_start().starts_with('Z')));
+            let alive = || {
+                std::fs::read_to_string(format!("/proc/{pid}/stat"))
+                    .is_ok_and(|st| st.rsplit(')').next().is_some_and(|rest| !rest.trim_start().starts_with('Z')))
+            };
             let _ = Command::new("kill").arg(&pid).status();
             let since = std::time::Instant::now();
             while alive() && since.elapsed().as_secs() < 10 {
@@ -150,18 +166,37 @@ fn the_job_scripts_run_on_a_real_cluster_and_merge_to_the_unsharded_outputs() {
     assert_eq!(flyarena(&["trials", "--flights", "6", "--seed", "3", "--out", "plain"], &d).status.code(), Some(0));
     let wrote = flyarena(&["slurm", "sweep", s, "--runs", "200", "--tasks", "4", "--out", "sweep"], &d);
     assert_eq!(wrote.status.code(), Some(0), "{}", String::from_utf8_lossy(&wrote.stderr));
-    assert_eq!(flyarena(&["slurm", "trials", "--flights", "6", "--seed", "3", "--tasks", "2", "--out", "trials"], &d).status.code(), Some(0));
+    assert_eq!(
+        flyarena(&["slurm", "trials", "--flights", "6", "--seed", "3", "--tasks", "2", "--out", "trials"], &d)
+            .status
+            .code(),
+        Some(0)
+    );
     // `--wait` makes the merge's sbatch exit with the merge's code: the verdict
     for (folder, name, code) in [("sweep", "sweep-hover-duration", verdict), ("trials", "trials-3-6", Some(0))] {
         let submit = d.join(folder).join(format!("{name}.submit.sh"));
         let out = cluster.cmd("timeout").arg("300").arg("bash").arg(&submit).arg("--wait").output().unwrap();
-        assert_eq!(out.status.code(), code, "{folder}: {}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        assert_eq!(
+            out.status.code(),
+            code,
+            "{folder}: {}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
-    for (file, shards) in [("sweep-hover-duration.sweep.json", 4), ("sweep-hover-duration.sweep.csv", 4), ("trials-3-6.json", 2)] {
+    for (file, shards) in
+        [("sweep-hover-duration.sweep.json", 4), ("sweep-hover-duration.sweep.csv", 4), ("trials-3-6.json", 2)]
+    {
         let folder = if file.starts_with("trials") { "trials" } else { "sweep" };
-        assert_eq!(std::fs::read(d.join(folder).join(file)).unwrap(), std::fs::read(d.join("plain").join(file)).unwrap(), "{file}: merged on the cluster ≠ unsharded");
-        let n =
-            std::fs::read_dir(d.join(folder).join("shards")).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(&format!("-of-{shards}.json"))).count();
+        assert_eq!(
+            std::fs::read(d.join(folder).join(file)).unwrap(),
+            std::fs::read(d.join("plain").join(file)).unwrap(),
+            "{file}: merged on the cluster ≠ unsharded"
+        );
+        let n = std::fs::read_dir(d.join(folder).join("shards"))
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(&format!("-of-{shards}.json")))
+            .count();
         assert_eq!(n, shards, "{folder}: one shard file per array task");
     }
 }
@@ -183,7 +218,10 @@ fn a_cancelled_task_submitted_again_resumes_from_its_journal() {
     let s = scenario.to_str().unwrap();
     let verdict = flyarena(&["sweep", s, "--runs", "600", "--quiet", "--out", "plain"], &d).status.code();
     assert!(verdict.is_some_and(|c| c <= 1));
-    assert_eq!(flyarena(&["slurm", "sweep", s, "--runs", "600", "--tasks", "2", "--out", "job"], &d).status.code(), Some(0));
+    assert_eq!(
+        flyarena(&["slurm", "sweep", s, "--runs", "600", "--tasks", "2", "--out", "job"], &d).status.code(),
+        Some(0)
+    );
     let job = d.join("job");
     for sub in ["logs", "shards"] {
         std::fs::create_dir_all(job.join(sub)).unwrap();
@@ -202,7 +240,10 @@ fn a_cancelled_task_submitted_again_resumes_from_its_journal() {
     run_ok(cluster.cmd("scancel").arg(format!("{id}_1")));
     // the array ends: task 2 completes, task 1 is cancelled
     let since = std::time::Instant::now();
-    while !String::from_utf8_lossy(&cluster.cmd("squeue").args(["-h", "-j", &id]).output().unwrap().stdout).trim().is_empty() {
+    while !String::from_utf8_lossy(&cluster.cmd("squeue").args(["-h", "-j", &id]).output().unwrap().stdout)
+        .trim()
+        .is_empty()
+    {
         assert!(since.elapsed().as_secs() < 120, "the array did not end");
         std::thread::sleep(std::time::Duration::from_millis(200));
     }
@@ -211,16 +252,35 @@ fn a_cancelled_task_submitted_again_resumes_from_its_journal() {
     // the header line, then one line per finished run (a line cut by the kill is dropped on resume)
     let finished = lines().saturating_sub(2);
     assert!((19..300).contains(&finished), "{finished} runs journalled");
-    let again = cluster.cmd("timeout").args(["300", "sbatch", "--wait", "--array=1", "--parsable"]).arg(&array).output().unwrap();
+    let again = cluster
+        .cmd("timeout")
+        .args(["300", "sbatch", "--wait", "--array=1", "--parsable"])
+        .arg(&array)
+        .output()
+        .unwrap();
     assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
     assert!(shard1.exists());
     let id2 = String::from_utf8(again.stdout).unwrap().trim().split(';').next().unwrap().to_string();
     let log = std::fs::read_to_string(job.join(format!("logs/sweep-hover-duration-shards-{id2}_1.out"))).unwrap();
-    let resumed: usize = log.split("resuming: ").nth(1).and_then(|r| r.split(' ').next()).and_then(|n| n.parse().ok()).unwrap_or_else(|| panic!("no resume line: {log}"));
+    let resumed: usize = log
+        .split("resuming: ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no resume line: {log}"));
     assert!(resumed >= finished && log.contains(&format!("resuming: {resumed} of 300 runs already done")), "{log}");
-    let merged = cluster.cmd("timeout").args(["300", "sbatch", "--wait"]).arg(job.join("sweep-hover-duration.merge.sbatch")).output().unwrap();
+    let merged = cluster
+        .cmd("timeout")
+        .args(["300", "sbatch", "--wait"])
+        .arg(job.join("sweep-hover-duration.merge.sbatch"))
+        .output()
+        .unwrap();
     assert_eq!(merged.status.code(), verdict, "{}", String::from_utf8_lossy(&merged.stderr));
     for file in ["sweep-hover-duration.sweep.json", "sweep-hover-duration.sweep.csv"] {
-        assert_eq!(std::fs::read(job.join(file)).unwrap(), std::fs::read(d.join("plain").join(file)).unwrap(), "{file}: resumed ≠ unsharded");
+        assert_eq!(
+            std::fs::read(job.join(file)).unwrap(),
+            std::fs::read(d.join("plain").join(file)).unwrap(),
+            "{file}: resumed ≠ unsharded"
+        );
     }
 }

@@ -10,12 +10,20 @@ fn scenario() -> std::path::PathBuf {
 
 fn flyarena(args: &[&str]) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
 }
 
 fn flyarena_in(dir: &std::path::Path, args: &[&str]) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
 }
 
 #[test]
@@ -44,7 +52,10 @@ fn tampered_shards_are_errors_not_summaries() {
     assert!(merge(parts.clone()).is_ok());
     type Edit = fn(&mut Vec<SweepOutput>);
     let cases: [(Edit, &str); 15] = [
-        (|p| p[1].rows[0].metrics.clear(), "run 1 (x3d) has 4 values, 0 metrics and 4 requirement flags; a row has 4, 8 and 4"),
+        (
+            |p| p[1].rows[0].metrics.clear(),
+            "run 1 (x3d) has 4 values, 0 metrics and 4 requirement flags; a row has 4, 8 and 4",
+        ),
         (|p| p[1].rows[0].requirements.truncate(1), "1 requirement flags"),
         (|p| p[0].rows[1].params.truncate(1), "run 2 (x3d) has 1 values"),
         (
@@ -102,10 +113,13 @@ fn merged_shards_equal_the_unsharded_sweep_byte_for_byte() {
     let (code, out, err) = flyarena(&["sweep", sc, "--runs", "12", "--out", whole.to_str().unwrap(), "-q"]);
     assert!(code == 0 || code == 1, "{out}{err}");
     for k in 1..=3 {
-        let (code, out, err) = flyarena(&["sweep", sc, "--runs", "12", "--shard", &format!("{k}/3"), "--out", parts.to_str().unwrap()]);
+        let (code, out, err) =
+            flyarena(&["sweep", sc, "--runs", "12", "--shard", &format!("{k}/3"), "--out", parts.to_str().unwrap()]);
         assert_eq!(code, 0, "{out}{err}");
     }
-    let shard_files: Vec<String> = (1..=3).map(|k| parts.join(format!("sweep-hover-duration.sweep.shard-{k}-of-3.json")).to_str().unwrap().to_string()).collect();
+    let shard_files: Vec<String> = (1..=3)
+        .map(|k| parts.join(format!("sweep-hover-duration.sweep.shard-{k}-of-3.json")).to_str().unwrap().to_string())
+        .collect();
     let mut args = vec!["merge"];
     args.extend(shard_files.iter().map(String::as_str));
     args.extend(["--out", merged.to_str().unwrap()]);
@@ -143,10 +157,22 @@ fn bad_sweeps_are_rejected_before_running() {
         (good.replace("uniform: [0.1, 1.0]", "uniform: [30, 40]"), "outside the allowed range [0, 20]"),
         (good.replace("\nsweep:", "\nsweeps:"), "unknown field"),
         // checked at load, at the values each variation reaches: a uniform's far end, a grid value
-        (good.replace("uniform: [0.1, 1.0]", "uniform: [0.1, 100]"), "sweep: vary[3]: `mocap.noise_mm` = 100: 100 mm is outside the allowed range [0, 20]"),
-        (good.replace("grid: [0.5, 1, 2, 4]", "grid: [0.5, 1, -2, 4]"), "vary[0]: `plan[1].calibrate_roll_pitch.average_s` = -2: -2 s is outside the allowed range (0, 3600]"),
-        (good.replace("field: \"mocap.noise_mm\"", "field: \"mocap.nope\""), "vary[3]: `mocap.nope` = 0.1: unknown field `nope`"),
-        (good.replace("field: \"mocap.noise_mm\"", "field: \"vehicles[0].markers.rotation_deg[0]\""), "vary[1] and vary[3] both vary `vehicles[0].markers.rotation_deg[0]`"),
+        (
+            good.replace("uniform: [0.1, 1.0]", "uniform: [0.1, 100]"),
+            "sweep: vary[3]: `mocap.noise_mm` = 100: 100 mm is outside the allowed range [0, 20]",
+        ),
+        (
+            good.replace("grid: [0.5, 1, 2, 4]", "grid: [0.5, 1, -2, 4]"),
+            "vary[0]: `plan[1].calibrate_roll_pitch.average_s` = -2: -2 s is outside the allowed range (0, 3600]",
+        ),
+        (
+            good.replace("field: \"mocap.noise_mm\"", "field: \"mocap.nope\""),
+            "vary[3]: `mocap.nope` = 0.1: unknown field `nope`",
+        ),
+        (
+            good.replace("field: \"mocap.noise_mm\"", "field: \"vehicles[0].markers.rotation_deg[0]\""),
+            "vary[1] and vary[3] both vary `vehicles[0].markers.rotation_deg[0]`",
+        ),
         // a normal's tail is only found by drawing every run, before any flies: the lowest bad
         // run is named (runs 4, 5, 7 and 9 of the 12 draw below 0 mm), by its values, not by a
         // position in the patched tree, which no file holds. This case once expected run 7, the one a second
@@ -197,7 +223,8 @@ fn an_interrupted_sweep_resumes_without_redoing_finished_runs() {
     text += &(serde_json::to_string(&bad).unwrap() + "\n");
     text += "[{\"run\":7,\"se"; // cut by the kill
     std::fs::write(&journal, text).unwrap();
-    let (code, out, err) = flyarena(&["sweep", scenario().to_str().unwrap(), "--runs", "12", "--out", d.to_str().unwrap()]);
+    let (code, out, err) =
+        flyarena(&["sweep", scenario().to_str().unwrap(), "--runs", "12", "--out", d.to_str().unwrap()]);
     assert!(code == 0 || code == 1, "{out}{err}");
     assert!(err.contains("resuming: 6 of 12 runs already done"), "{err}");
     let csv = std::fs::read_to_string(d.join("sweep-hover-duration.sweep.csv")).unwrap();
@@ -221,7 +248,8 @@ fn an_interrupted_sweep_exits_130_and_resumes() {
     let d = super::Scratch::absent("sigint");
     let sc = scenario();
     let args = ["sweep", sc.to_str().unwrap(), "--runs", "300", "--out", d.to_str().unwrap(), "-q"];
-    let mut child = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    let mut child =
+        Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).stderr(std::process::Stdio::piped()).spawn().unwrap();
     // wait until some runs are journalled, then interrupt
     let journal = d.join("sweep-hover-duration.sweep.journal.jsonl");
     let started = std::time::Instant::now();
@@ -232,7 +260,8 @@ fn an_interrupted_sweep_exits_130_and_resumes() {
     Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
     let status = child.wait().unwrap();
     assert_eq!(status.code(), Some(130));
-    let names: Vec<String> = std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let names: Vec<String> =
+        std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     assert_eq!(names, ["sweep-hover-duration.sweep.journal.jsonl"], "only the journal remains");
     // complete lines only: a line cut by the exit would be skipped on resume
     let done = std::fs::read_to_string(&journal).unwrap().matches('\n').count() - 1;

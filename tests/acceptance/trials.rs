@@ -10,14 +10,18 @@ use flyarena::identify::{Effect, Options};
 /// drew, kept so that a regression test keeps flying the flight it was written for when the
 /// generator changes.
 fn fixture(master_seed: u64, index: u64, preset: &'static str, hidden: Vec<(Effect, Vec<f64>)>) -> Trial {
-    let yaml = std::fs::read_to_string(super::root().join(format!("tests/acceptance/fixtures/trial-{master_seed}-{index}.yaml"))).unwrap();
+    let yaml = std::fs::read_to_string(
+        super::root().join(format!("tests/acceptance/fixtures/trial-{master_seed}-{index}.yaml")),
+    )
+    .unwrap();
     let seed = yaml.lines().find_map(|l| l.strip_prefix("seed: ")).unwrap().trim().parse().unwrap();
     Trial { index, seed, preset: preset.to_string(), plan: vec![], hidden, yaml }
 }
 
 /// The flight of a trial, logged as `identify` reads it (what `trials::run` flies).
 fn flight(t: &Trial) -> flyarena::identify::Series {
-    let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new(&format!("trial-{}.yaml", t.index))).unwrap();
+    let s =
+        flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new(&format!("trial-{}.yaml", t.index))).unwrap();
     flyarena::identify::flyarena_log::run_and_log(&s, 0, &format!("trial {}", t.index)).unwrap().1
 }
 
@@ -39,7 +43,11 @@ const NOMINAL_COVERAGE: f64 = 0.95;
 #[test]
 fn identify_generalises_to_random_flights() {
     let outcomes = run_many(7, 48, &Options::default());
-    assert!(outcomes.iter().all(|o| o.error.is_none()), "{:?}", outcomes.iter().filter_map(|o| o.error.as_ref()).collect::<Vec<_>>());
+    assert!(
+        outcomes.iter().all(|o| o.error.is_none()),
+        "{:?}",
+        outcomes.iter().filter_map(|o| o.error.as_ref()).collect::<Vec<_>>()
+    );
     let (_, total) = score(&outcomes);
     let n_rec = total.found_excited + total.missed_excited;
     let recall = total.recall_excited().unwrap();
@@ -49,7 +57,11 @@ fn identify_generalises_to_random_flights() {
     assert!(n_rec >= 40 && total.params >= 80, "too small a sample\n{table}");
     assert!(recall >= 0.95 - band(0.95, n_rec), "recall {recall}\n{table}");
     assert!(precision >= 0.95 - band(0.95, total.found_all + total.invented), "precision {precision}\n{table}");
-    assert!((coverage - NOMINAL_COVERAGE).abs() <= band(NOMINAL_COVERAGE, total.params), "coverage {coverage} of {} parameters\n{table}", total.params);
+    assert!(
+        (coverage - NOMINAL_COVERAGE).abs() <= band(NOMINAL_COVERAGE, total.params),
+        "coverage {coverage} of {} parameters\n{table}",
+        total.params
+    );
     let wrong = total.confidently_wrong as f64 / total.params as f64;
     assert!(wrong <= 0.01 + band(0.01, total.params), "confidently wrong {wrong}\n{table}");
 }
@@ -66,7 +78,8 @@ fn trials_are_drawn_deterministically() {
     // every drawn scenario parses (ranges, plan) for a few hundred indices
     for i in 0..300 {
         let t = draw(1, i);
-        flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("t.yaml")).unwrap_or_else(|e| panic!("trial {i}: {e}\n{}", t.yaml));
+        flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("t.yaml"))
+            .unwrap_or_else(|e| panic!("trial {i}: {e}\n{}", t.yaml));
     }
 }
 
@@ -77,7 +90,16 @@ fn trials_are_drawn_deterministically() {
 #[test]
 fn a_confounded_mix_is_flagged_not_answered_with_confidence() {
     use flyarena::identify::Effect::*;
-    let t = fixture(1, 287, "crazyflie21", vec![(WorldTilt, vec![1.365, 0.838]), (AccelBias, vec![0.0891, 0.0993, -0.2852]), (RotorDrag, vec![0.242, 0.258])]);
+    let t = fixture(
+        1,
+        287,
+        "crazyflie21",
+        vec![
+            (WorldTilt, vec![1.365, 0.838]),
+            (AccelBias, vec![0.0891, 0.0993, -0.2852]),
+            (RotorDrag, vec![0.242, 0.258]),
+        ],
+    );
     let o = run(&t, &Options::default());
     // the accelerometer bias absorbs the tilt in the model that was selected; its interval
     // must reach the estimate of the swapped model (with the world tilt), where the truth is
@@ -96,7 +118,11 @@ fn a_confounded_mix_is_flagged_not_answered_with_confidence() {
 
 /// The F statistic with which `effect` joins at the first step of identify on a scenario's
 /// flight (default options), and the excitation of each truth on that flight.
-fn first_step_f_and_excitation(scenario: &str, effect: Effect, truths: &[(Effect, Vec<f64>)]) -> (f64, Vec<flyarena::identify::select::Excitation>) {
+fn first_step_f_and_excitation(
+    scenario: &str,
+    effect: Effect,
+    truths: &[(Effect, Vec<f64>)],
+) -> (f64, Vec<flyarena::identify::select::Excitation>) {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios").join(scenario)).unwrap();
     let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, scenario).unwrap();
     let o = Options::default();
@@ -114,7 +140,11 @@ fn first_step_f_and_excitation(scenario: &str, effect: Effect, truths: &[(Effect
 #[test]
 fn excitation_matches_the_selections_f_statistic() {
     use flyarena::identify::Effect::RotorDrag;
-    let (f, ex) = first_step_f_and_excitation("identify-rotor-drag.yaml", RotorDrag, &[(RotorDrag, vec![0.35, 0.35]), (RotorDrag, vec![0.7, 0.7]), (RotorDrag, vec![0.0, 0.0])]);
+    let (f, ex) = first_step_f_and_excitation(
+        "identify-rotor-drag.yaml",
+        RotorDrag,
+        &[(RotorDrag, vec![0.35, 0.35]), (RotorDrag, vec![0.7, 0.7]), (RotorDrag, vec![0.0, 0.0])],
+    );
     let ratio = 2.0 * f / ex[0].lambda;
     assert!((0.7..1.4).contains(&ratio), "F·k = {}, λ = {}", 2.0 * f, ex[0].lambda);
     assert!((ex[1].lambda / ex[0].lambda - 4.0).abs() < 1e-9 && ex[2].lambda == 0.0, "{ex:?}");
@@ -145,7 +175,16 @@ fn excitation_reads_the_truth_in_the_reported_units() {
 #[test]
 fn two_effects_that_only_explain_the_data_together_join_together() {
     use flyarena::identify::Effect::*;
-    let t = fixture(1, 228, "x3d", vec![(BodyOffset, vec![-0.984, 1.971, 0.594]), (WorldTilt, vec![0.866, 1.07]), (ConstantForce, vec![0.3284, 0.3038, 0.0125])]);
+    let t = fixture(
+        1,
+        228,
+        "x3d",
+        vec![
+            (BodyOffset, vec![-0.984, 1.971, 0.594]),
+            (WorldTilt, vec![0.866, 1.07]),
+            (ConstantForce, vec![0.3284, 0.3038, 0.0125]),
+        ],
+    );
     let o = run(&t, &Options::default());
     assert!(o.extra.is_empty(), "{:?}", o.extra);
     for h in &o.hidden {
@@ -175,7 +214,12 @@ fn trials_do_not_depend_on_the_thread_count() {
 #[test]
 fn a_lever_arm_does_not_bias_the_drag() {
     use flyarena::identify::Effect::*;
-    let t = fixture(2, 249, "crazyflie21", vec![(RotorDrag, vec![0.401, 0.175]), (LeverArm, vec![17.2, -32.2, -27.3]), (GroundEffect, vec![1.158])]);
+    let t = fixture(
+        2,
+        249,
+        "crazyflie21",
+        vec![(RotorDrag, vec![0.401, 0.175]), (LeverArm, vec![17.2, -32.2, -27.3]), (GroundEffect, vec![1.158])],
+    );
     let o = run(&t, &Options::default());
     for h in o.hidden.iter().filter(|h| h.effect != GroundEffect) {
         assert!(h.found, "{:?} not found: {o:#?}", h.effect);
@@ -212,7 +256,12 @@ fn thrust_against_voltage_is_reported_as_the_simulation_multiplies_it() {
 #[test]
 fn a_thrust_scale_that_holds_a_voltage_effect_claims_no_interval() {
     use flyarena::identify::Effect::*;
-    let t = fixture(1, 169, "x3d", vec![(ThrustScale, vec![-0.1278]), (ThrustVoltage, vec![0.0244]), (LeverArm, vec![-18.2, -14.3, -31.3])]);
+    let t = fixture(
+        1,
+        169,
+        "x3d",
+        vec![(ThrustScale, vec![-0.1278]), (ThrustVoltage, vec![0.0244]), (LeverArm, vec![-18.2, -14.3, -31.3])],
+    );
     let o = run(&t, &Options::default());
     let by = |e| o.hidden.iter().find(|h| h.effect == e).unwrap();
     assert!(by(ThrustScale).found && !by(ThrustScale).identifiable, "{o:#?}");
@@ -227,7 +276,12 @@ fn a_thrust_scale_that_holds_a_voltage_effect_claims_no_interval() {
 #[test]
 fn a_collinear_thrust_pair_is_not_confidently_wrong() {
     use flyarena::identify::Effect::*;
-    let t = fixture(1, 294, "x3d", vec![(WorldTilt, vec![-1.425, 1.43]), (ThrustScale, vec![0.0836]), (ThrustVoltage, vec![0.0569])]);
+    let t = fixture(
+        1,
+        294,
+        "x3d",
+        vec![(WorldTilt, vec![-1.425, 1.43]), (ThrustScale, vec![0.0836]), (ThrustVoltage, vec![0.0569])],
+    );
     let o = run(&t, &Options::default());
     for h in &o.hidden {
         assert!(h.found || h.flagged, "{:?} missed: {o:#?}", h.effect);
@@ -259,7 +313,12 @@ fn excitation_share_discounts_what_the_other_hidden_effects_explain() {
     // and here, where the thrust scale takes most of it, it grows ninefold (457 → 4259)
     let only = Options { candidates: vec![ThrustVoltage], forced: vec![], ..Options::default() };
     let marginal = excitation(&series, &only, std::slice::from_ref(&tv))[0];
-    assert!(alone.lambda < 0.5 * marginal.lambda, "conditional λ {} against marginal {}", alone.lambda, marginal.lambda);
+    assert!(
+        alone.lambda < 0.5 * marginal.lambda,
+        "conditional λ {} against marginal {}",
+        alone.lambda,
+        marginal.lambda
+    );
 }
 
 /// Trial 168 of seed 1 (a fixture): a ground effect (c_g 1.238) on the `x3d`, hovering 4 s at
@@ -287,7 +346,12 @@ fn a_single_axis_effect_is_judged_on_its_own_axis() {
 #[test]
 fn an_effect_that_later_ones_explain_leaves_the_model() {
     use flyarena::identify::Effect::*;
-    let t = fixture(3, 78, "crazyflie21", vec![(AccelBias, vec![-0.1515, 0.2479, 0.1714]), (RotorDrag, vec![0.12, 0.176]), (ThrustScale, vec![-0.0973])]);
+    let t = fixture(
+        3,
+        78,
+        "crazyflie21",
+        vec![(AccelBias, vec![-0.1515, 0.2479, 0.1714]), (RotorDrag, vec![0.12, 0.176]), (ThrustScale, vec![-0.0973])],
+    );
     let o = run(&t, &Options::default());
     assert!(o.extra.is_empty(), "invented: {:?}", o.extra);
     for h in &o.hidden {
@@ -320,7 +384,11 @@ fn a_thrust_scale_named_beside_a_voltage_effect_claims_no_interval() {
     // once in the report, which flags the voltage effect beside the selected thrust scale. A bug it
     // catches: "not yet listed" as "already listed" listed every pair named at its step twice (and
     // no new one) and passed
-    let listed = r.not_identifiable.iter().filter(|(a, b, _)| [*a, *b] == [ThrustScale, ThrustVoltage] || [*b, *a] == [ThrustScale, ThrustVoltage]).count();
+    let listed = r
+        .not_identifiable
+        .iter()
+        .filter(|(a, b, _)| [*a, *b] == [ThrustScale, ThrustVoltage] || [*b, *a] == [ThrustScale, ThrustVoltage])
+        .count();
     assert_eq!(listed, 1, "{:?}", r.not_identifiable);
     assert!(!r.notes.iter().any(|n| n.contains("explain this flight's residual alike")), "{:?}", r.notes);
 }
@@ -334,7 +402,16 @@ fn a_thrust_scale_named_beside_a_voltage_effect_claims_no_interval() {
 #[test]
 fn a_half_supported_delay_widens_the_body_offset_yaw() {
     use flyarena::identify::Effect::*;
-    let t = fixture(3, 20, "x3d", vec![(BodyOffset, vec![-2.748, -1.582, 2.09]), (MocapDelay, vec![5.0]), (AccelBias, vec![0.2373, 0.057, 0.2207])]);
+    let t = fixture(
+        3,
+        20,
+        "x3d",
+        vec![
+            (BodyOffset, vec![-2.748, -1.582, 2.09]),
+            (MocapDelay, vec![5.0]),
+            (AccelBias, vec![0.2373, 0.057, 0.2207]),
+        ],
+    );
     let o = run(&t, &Options::default());
     for h in o.hidden.iter().filter(|h| h.effect != MocapDelay) {
         assert!(h.found && h.identifiable, "{:?}: {o:#?}", h.effect);
@@ -356,7 +433,16 @@ fn a_half_supported_delay_widens_the_body_offset_yaw() {
 #[test]
 fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
     use flyarena::identify::Effect::*;
-    let t = fixture(3, 20, "x3d", vec![(BodyOffset, vec![-2.748, -1.582, 2.09]), (MocapDelay, vec![5.0]), (AccelBias, vec![0.2373, 0.057, 0.2207])]);
+    let t = fixture(
+        3,
+        20,
+        "x3d",
+        vec![
+            (BodyOffset, vec![-2.748, -1.582, 2.09]),
+            (MocapDelay, vec![5.0]),
+            (AccelBias, vec![0.2373, 0.057, 0.2207]),
+        ],
+    );
     let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("trial-3-20.yaml")).unwrap();
     let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "trial 20").unwrap();
     let agreement = |o: &Options| {
@@ -365,7 +451,10 @@ fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
         ([a.roll.ci95_deg, a.pitch.ci95_deg], r.notes)
     };
     let (with, notes) = agreement(&Options::default());
-    let note = notes.iter().find(|n| n.starts_with("mocap_delay has very strong evidence")).unwrap_or_else(|| panic!("{notes:?}"));
+    let note = notes
+        .iter()
+        .find(|n| n.starts_with("mocap_delay has very strong evidence"))
+        .unwrap_or_else(|| panic!("{notes:?}"));
     // it lists what moves beyond its own interval (the roll, by 0.021°), not what stays inside
     // it (the bias)
     assert!(note.contains("body_offset roll +0.021 deg") && !note.contains("accel_bias"), "{note}");
@@ -385,16 +474,28 @@ fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
 #[test]
 fn sharded_trials_merge_to_the_unsharded_report_byte_for_byte() {
     let d = super::Scratch::new("trials-shards");
-    let fly = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(&*d).output().unwrap();
+    let fly = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(&*d).output().unwrap()
+    };
     assert_eq!(fly(&["trials", "--flights", "6", "--seed", "3", "--out", "full"]).status.code(), Some(0));
     for k in ["1/3", "2/3", "3/3"] {
-        assert_eq!(fly(&["trials", "--flights", "6", "--seed", "3", "--shard", k, "--out", "s"]).status.code(), Some(0));
+        assert_eq!(
+            fly(&["trials", "--flights", "6", "--seed", "3", "--shard", k, "--out", "s"]).status.code(),
+            Some(0)
+        );
     }
-    assert_eq!(fly(&["trials", "--flights", "6", "--seed", "4", "--shard", "3/3", "--out", "other"]).status.code(), Some(0));
+    assert_eq!(
+        fly(&["trials", "--flights", "6", "--seed", "4", "--shard", "3/3", "--out", "other"]).status.code(),
+        Some(0)
+    );
     let shard = |k: u32| format!("s/trials-3-6.shard-{k}-of-3.json");
     let merged = fly(&["merge", &shard(1), &shard(2), &shard(3), "--out", "m"]);
     assert_eq!(merged.status.code(), Some(0), "{}", String::from_utf8_lossy(&merged.stderr));
-    assert_eq!(std::fs::read(d.join("m/trials-3-6.json")).unwrap(), std::fs::read(d.join("full/trials-3-6.json")).unwrap(), "merged ≠ unsharded");
+    assert_eq!(
+        std::fs::read(d.join("m/trials-3-6.json")).unwrap(),
+        std::fs::read(d.join("full/trials-3-6.json")).unwrap(),
+        "merged ≠ unsharded"
+    );
     for (files, why) in [
         (vec![shard(1), shard(2), "other/trials-4-6.shard-3-of-3.json".into()], "seed 4, not 3"),
         (vec![shard(1), shard(2), shard(2)], "shard 2 of 3 is given twice"),

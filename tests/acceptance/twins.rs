@@ -27,7 +27,15 @@ fn verdicts(r: &Report, id: &str, prefix: &str) -> Vec<(bool, bool)> {
 fn only_failing(r: &Report, id: &str, prefix: &str) {
     for row in &r.rows {
         let named = row.id == id && row.what.starts_with(prefix);
-        assert_eq!(row.pass, !named, "{} {} should {}:\n{}", row.id, row.what, if named { "fail" } else { "pass" }, r.table());
+        assert_eq!(
+            row.pass,
+            !named,
+            "{} {} should {}:\n{}",
+            row.id,
+            row.what,
+            if named { "fail" } else { "pass" },
+            r.table()
+        );
     }
     rows(r, id, prefix);
 }
@@ -47,7 +55,8 @@ fn the_original_passes_every_row() {
 #[test]
 fn r1_roll_and_pitch_fail_in_a_steady_wind() {
     for (force, axis, other) in [("[0, 0.3, 0]", "roll", "pitch"), ("[0.3, 0, 0]", "pitch", "roll")] {
-        let r = yaw_offset(|t| t.replace("    imu: {", &format!("    disturbance: {{ force_n: {force} }}\n    imu: {{")));
+        let r =
+            yaw_offset(|t| t.replace("    imu: {", &format!("    disturbance: {{ force_n: {force} }}\n    imu: {{")));
         assert!(!rows(&r, "R1", axis)[0].pass && rows(&r, "R1", other)[0].pass, "{}", r.table());
         let err: f64 = rows(&r, "R1", axis)[0].measured.trim_end_matches('°').parse().unwrap();
         // the tilt of the wind, atan(0.3/(0.68·9.81)) = 2.575°, within the hover's residual motion
@@ -85,7 +94,9 @@ fn r1_straight_flight_yaw_fails_when_asserted() {
 #[test]
 fn r1_straight_flight_yaw_fails_in_attitude_mode_without_the_trim() {
     let text = std::fs::read_to_string(super::root().join("scenarios/yaw-attitude-mode.yaml")).unwrap();
-    let twin = text.replace("gyro_noise_deg_s: 0.5", "gyro_noise_deg_s: 0").replace("seed: 11\n", "seed: 11\ncalibration: { hover_trim: false }\n");
+    let twin = text
+        .replace("gyro_noise_deg_s: 0.5", "gyro_noise_deg_s: 0")
+        .replace("seed: 11\n", "seed: 11\ncalibration: { hover_trim: false }\n");
     assert!(twin.contains("hover_trim: false") && twin.contains("accel_bias_m_s2: [0.04, -0.03, 0]"), "{twin}");
     let r = run_scenario(&super::inline(&twin), false).report;
     for row in r.rows.iter().filter(|row| row.id != "R2") {
@@ -132,8 +143,19 @@ fn r2_fails_without_the_calibration() {
 #[test]
 fn only_r2_flies_the_uncompensated_twin() {
     let base = "name: once\nvehicles:\n  - name: v\nplan:\n  - takeoff: { altitude_m: 1.0, duration_s: 1 }\n";
-    assert!(run_scenario(&super::inline(&format!("{base}requirements:\n  offsets: {{ roll_pitch_tol_deg: 0.1 }}\n")), false).uncompensated.is_none());
-    assert!(run_scenario(&super::inline(&format!("{base}requirements:\n  hover_drift: {{ max_m: 0.03 }}\n")), false).uncompensated.is_some());
+    assert!(
+        run_scenario(
+            &super::inline(&format!("{base}requirements:\n  offsets: {{ roll_pitch_tol_deg: 0.1 }}\n")),
+            false
+        )
+        .uncompensated
+        .is_none()
+    );
+    assert!(
+        run_scenario(&super::inline(&format!("{base}requirements:\n  hover_drift: {{ max_m: 0.03 }}\n")), false)
+            .uncompensated
+            .is_some()
+    );
 }
 
 /// R3 both rows: LS and RLS see the same samples and agree to rounding, so no scenario makes
@@ -170,7 +192,13 @@ fn rows_without_their_estimates_fail_unless_flown_externally() {
     let cal = &mut main.vehicles[0].calibration;
     (cal.roll_pitch, cal.yaw_offset, cal.gyro) = (None, None, None);
     (cal.yaw_ls, cal.yaw_rls, cal.validity) = (None, None, None);
-    let named = [("R1", "roll/pitch"), ("R1", "yaw offset, straight"), ("R1", "yaw offset, gyro"), ("R3", "LS = RLS"), ("R4", "validity")];
+    let named = [
+        ("R1", "roll/pitch"),
+        ("R1", "yaw offset, straight"),
+        ("R1", "yaw offset, gyro"),
+        ("R3", "LS = RLS"),
+        ("R4", "validity"),
+    ];
     let rows_of = |main: &flyarena::engine::RunOutput| {
         let r = flyarena::requirements::evaluate(&s.requirements, main, out.uncompensated.as_ref());
         named.iter().map(|(id, prefix)| verdicts(&r, id, prefix)).collect::<Vec<_>>()
@@ -202,7 +230,11 @@ fn r4_each_half_of_check_7_rejects_alone() {
         only_failing(&r, "R4", "validity");
     }
     // and the expectation itself: "reject" on a flight that is accepted
-    only_failing(&yaw_offset(|t| t.replace("validity: { expect: accept }", "validity: { expect: reject }")), "R4", "validity");
+    only_failing(
+        &yaw_offset(|t| t.replace("validity: { expect: accept }", "validity: { expect: reject }")),
+        "R4",
+        "validity",
+    );
 }
 
 fn identify_twin(name: &str, edit: impl Fn(String) -> String) -> Report {
@@ -212,7 +244,10 @@ fn identify_twin(name: &str, edit: impl Fn(String) -> String) -> Report {
     let dir = super::Scratch::new(&format!("twin-{}", edited.len()));
     let path = dir.join(format!("twin-{name}.yaml"));
     std::fs::write(&path, edited).unwrap();
-    let done = flyarena::identify::workflow::run(&flyarena::identify::workflow::Request::new(flyarena::identify::workflow::Source::Scenario(&path))).unwrap();
+    let done = flyarena::identify::workflow::run(&flyarena::identify::workflow::Request::new(
+        flyarena::identify::workflow::Source::Scenario(&path),
+    ))
+    .unwrap();
     done.requirements.expect("R5 declared")
 }
 
@@ -221,16 +256,23 @@ fn identify_twin(name: &str, edit: impl Fn(String) -> String) -> Report {
 #[test]
 fn r5_each_row_fails_in_its_twin() {
     let first = identify_twin("rotor-drag", |t| {
-        t.replace("{ effect: rotor_drag, values: [0.35, 0.35], tolerance: [0.02, 0.02] }", "{ effect: thrust_scale, values: [0.0], tolerance: [0.01] }")
+        t.replace(
+            "{ effect: rotor_drag, values: [0.35, 0.35], tolerance: [0.02, 0.02] }",
+            "{ effect: thrust_scale, values: [0.0], tolerance: [0.01] }",
+        )
     });
     assert!(!rows(&first, "R5", "effect found first")[0].pass, "{}", first.table());
     let value = identify_twin("rotor-drag", |t| t.replace("values: [0.35, 0.35]", "values: [0.40, 0.35]"));
     only_failing(&value, "R5", "rotor_drag k_x");
-    let cut = identify_twin("rotor-drag", |t| t.replace("tolerance: [0.02, 0.02] }", "tolerance: [0.02, 0.02] }\n    min_heldout_cut: 0.99"));
+    let cut = identify_twin("rotor-drag", |t| {
+        t.replace("tolerance: [0.02, 0.02] }", "tolerance: [0.02, 0.02] }\n    min_heldout_cut: 0.99")
+    });
     only_failing(&cut, "R5", "rotor_drag held-out");
     // a marker offset hidden beside the drag: it is found (first, it is the larger), and the
     // expectation does not list it
-    let extra = identify_twin("rotor-drag", |t| t.replace("    imu: {", "    markers: { rotation_deg: [1.5, -1.0, 3.0] }\n    imu: {"));
+    let extra = identify_twin("rotor-drag", |t| {
+        t.replace("    imu: {", "    markers: { rotation_deg: [1.5, -1.0, 3.0] }\n    imu: {")
+    });
     assert!(!rows(&extra, "R5", "no effect that is not there")[0].pass, "{}", extra.table());
     assert!(rows(&extra, "R5", "rotor_drag").iter().all(|row| row.pass), "{}", extra.table());
 }
@@ -249,5 +291,9 @@ fn r1_gyro_yaw_fails_when_an_unsynchronised_clock_is_taken_for_the_vicons() {
     only_failing(&r, "R1", "yaw offset, gyro");
     let err: f64 = rows(&r, "R1", "yaw offset, gyro")[0].measured.trim_end_matches('°').parse().unwrap();
     let steady = 2.0 * std::f64::consts::PI / 1.5 * 0.0175;
-    assert!(err > 0.5 * steady.to_degrees() && err < steady.to_degrees(), "yaw error {err}° against Ω·δ = {}°", steady.to_degrees());
+    assert!(
+        err > 0.5 * steady.to_degrees() && err < steady.to_degrees(),
+        "yaw error {err}° against Ω·δ = {}°",
+        steady.to_degrees()
+    );
 }

@@ -19,17 +19,27 @@ fn have_pyulog() -> bool {
 fn pyulog_samples() -> Option<Vec<PathBuf>> {
     let Some(dir) = std::env::var_os("FLYARENA_PYULOG_SAMPLES").map(PathBuf::from) else {
         assert!(std::env::var_os("CI").is_none(), "CI must set FLYARENA_PYULOG_SAMPLES (.ci/run does)");
-        eprintln!("skipped: FLYARENA_PYULOG_SAMPLES is not set (the test/ folder of pyulog 1.2.1's source distribution)");
+        eprintln!(
+            "skipped: FLYARENA_PYULOG_SAMPLES is not set (the test/ folder of pyulog 1.2.1's source distribution)"
+        );
         return None;
     };
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "ulg")).collect();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "ulg"))
+        .collect();
     files.sort();
     Some(files)
 }
 
 /// pyulog's parse of `file`: topic/instance → field → values (NaN as None).
 fn pyulog_parse(file: &Path) -> BTreeMap<String, BTreeMap<String, Vec<Option<f64>>>> {
-    let out = Command::new("python3").arg(super::root().join("tests/acceptance/clients/ulog_dump.py")).arg(file).output().unwrap();
+    let out = Command::new("python3")
+        .arg(super::root().join("tests/acceptance/clients/ulog_dump.py"))
+        .arg(file)
+        .output()
+        .unwrap();
     assert!(out.status.success(), "pyulog failed on {}: {}", file.display(), String::from_utf8_lossy(&out.stderr));
     serde_json::from_slice(&out.stdout).unwrap()
 }
@@ -51,7 +61,8 @@ fn the_topics_flyarena_reads_equal_pyulogs_parse_of_real_logs() {
         let name = file.file_name().unwrap().to_string_lossy().to_string();
         let theirs = pyulog_parse(file);
         let log = Log::read(file).unwrap();
-        let ours: BTreeMap<String, _> = readable_topics(&log).into_iter().map(|t| (format!("{}/{}", t.name, t.instance), t)).collect();
+        let ours: BTreeMap<String, _> =
+            readable_topics(&log).into_iter().map(|t| (format!("{}/{}", t.name, t.instance), t)).collect();
         assert_eq!(ours.keys().collect::<Vec<_>>(), theirs.keys().collect::<Vec<_>>(), "{name}: topics and instances");
         for (key, fields) in &theirs {
             let t = ours[key];
@@ -93,7 +104,13 @@ fn a_px4_log_gives_the_csv_report() {
     for name in ["B3_figure8_medium_rep2", "B7_oval_fast_rep1"] {
         let csv = data.join(format!("nanobench/dataset/{name}.csv"));
         let ulg = d.join(format!("{name}.ulg"));
-        let st = Command::new("python3").arg(super::root().join("scripts/to-ulog.py")).arg("nanobench").arg(&csv).arg(&ulg).status().unwrap();
+        let st = Command::new("python3")
+            .arg(super::root().join("scripts/to-ulog.py"))
+            .arg("nanobench")
+            .arg(&csv)
+            .arg(&ulg)
+            .status()
+            .unwrap();
         assert!(st.success(), "the ULog writer failed on {name}");
         let opts = |m: &Mapping| {
             let mut o = Options { forced: vec![Effect::BodyOffset], ..Options::default() };
@@ -121,7 +138,11 @@ fn missing_topics_and_wrong_files_are_named() {
     let px4 = Mapping::load(&super::root().join("mappings/px4.yaml")).unwrap();
     let e = px4.read(&files[0]).unwrap_err().to_string();
     assert!(e.contains("vehicle_visual_odometry") && e.contains("SDLOG_PROFILE"), "{e}");
-    let mot = Mapping::parse("vehicle: crazyflie21\npx4: { pose: vehicle_visual_odometry, motors: actuator_motors }\n", Path::new("m.yaml")).unwrap();
+    let mot = Mapping::parse(
+        "vehicle: crazyflie21\npx4: { pose: vehicle_visual_odometry, motors: actuator_motors }\n",
+        Path::new("m.yaml"),
+    )
+    .unwrap();
     let e = mot.read(&files[0]).unwrap_err().to_string();
     assert!(e.contains("no topic `vehicle_visual_odometry`"), "{e}");
     let csv = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
@@ -170,17 +191,38 @@ fn px4_logs_of_flights_with_hidden_effects_give_the_effects() {
     ] {
         let log = d.join(format!("{scenario}.csv"));
         let path = super::root().join("scenarios").join(format!("{scenario}.yaml"));
-        let st = Command::new(env!("CARGO_BIN_EXE_flyarena")).arg("run").arg(&path).args(["--no-rrd", "--quiet", "--out"]).arg(&*d).arg("--log").arg(&log).status().unwrap();
+        let st = Command::new(env!("CARGO_BIN_EXE_flyarena"))
+            .arg("run")
+            .arg(&path)
+            .args(["--no-rrd", "--quiet", "--out"])
+            .arg(&*d)
+            .arg("--log")
+            .arg(&log)
+            .status()
+            .unwrap();
         assert!(st.code().is_some_and(|c| c <= 1), "run --log failed");
         let ulg = d.join(format!("{scenario}.ulg"));
-        let st = Command::new("python3").arg(super::root().join("scripts/to-ulog.py")).arg("flyarena").arg(&log).arg(&ulg).status().unwrap();
+        let st = Command::new("python3")
+            .arg(super::root().join("scripts/to-ulog.py"))
+            .arg("flyarena")
+            .arg(&log)
+            .arg(&ulg)
+            .status()
+            .unwrap();
         assert!(st.success(), "the ULog writer failed");
         let r = identify(&map.read(&ulg).unwrap(), &o).unwrap();
         let found: Vec<Effect> = r.effects.iter().map(|f| f.effect).collect();
         assert_eq!(found, [effect], "{scenario}: {found:?}");
         assert!(r.notes.iter().any(|n| n.starts_with("no motor commands in the log")), "{scenario}: {:?}", r.notes);
         for ((p, t), tol) in r.effects[0].params.iter().zip(&truth).zip(&tolerance) {
-            assert!((p.value - t).abs() <= *tol && p.ci95 < *tol, "{scenario}: {} {} ± {} {} for a truth of {t} (tolerance {tol})", p.name, p.value, p.ci95, p.unit);
+            assert!(
+                (p.value - t).abs() <= *tol && p.ci95 < *tol,
+                "{scenario}: {} {} ± {} {} for a truth of {t} (tolerance {tol})",
+                p.name,
+                p.value,
+                p.ci95,
+                p.unit
+            );
         }
     }
 }

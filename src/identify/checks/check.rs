@@ -21,16 +21,36 @@ pub fn effect_cut(r: &Report, e: Effect) -> Option<f64> {
 /// selection: it neither counts as found first nor as invented, but its parameters are checked
 /// when it is expected.
 pub fn check(r: &Report, req: &IdentifyReq, vehicle: &str) -> requirements::Report {
-    let row = |what: String, measured: String, limit: String, pass: bool| Row { vehicle: vehicle.to_string(), id: "R5", what, measured, limit, pass, asserted: true };
+    let row = |what: String, measured: String, limit: String, pass: bool| Row {
+        vehicle: vehicle.to_string(),
+        id: "R5",
+        what,
+        measured,
+        limit,
+        pass,
+        asserted: true,
+    };
     let mut rows = Vec::new();
     let found: Vec<Effect> = r.effects.iter().map(|f| f.effect).filter(|e| !r.options.forced.contains(e)).collect();
-    let names = |v: &[Effect]| if v.is_empty() { "nothing".to_string() } else { v.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ") };
+    let names = |v: &[Effect]| {
+        if v.is_empty() { "nothing".to_string() } else { v.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ") }
+    };
     let expected: Vec<Effect> = req.expect().map(|e| e.effect).collect();
     if let Some(first) = expected.first() {
         if r.options.forced.contains(first) {
-            rows.push(row("effect found first".into(), "fitted as asked (--with)".into(), first.key().into(), r.effect(*first).is_some()));
+            rows.push(row(
+                "effect found first".into(),
+                "fitted as asked (--with)".into(),
+                first.key().into(),
+                r.effect(*first).is_some(),
+            ));
         } else {
-            rows.push(row("effect found first".into(), found.first().map_or("nothing".into(), |e| e.key().to_string()), first.key().into(), found.first() == Some(first)));
+            rows.push(row(
+                "effect found first".into(),
+                found.first().map_or("nothing".into(), |e| e.key().to_string()),
+                first.key().into(),
+                found.first() == Some(first),
+            ));
         }
     }
     for e in req.expect() {
@@ -42,7 +62,9 @@ pub fn check(r: &Report, req: &IdentifyReq, vehicle: &str) -> requirements::Repo
             let err = (p.value - v).abs();
             rows.push(row(
                 format!("{} {} (truth {v} {})", e.effect.key(), p.name, p.unit).replace(" )", ")"),
-                format!("{} {}", crate::identify::precision::with_interval(p.value, p.ci95), p.unit).trim_end().to_string(),
+                format!("{} {}", crate::identify::precision::with_interval(p.value, p.ci95), p.unit)
+                    .trim_end()
+                    .to_string(),
                 format!("|err| ≤ {tol}"),
                 err <= *tol,
             ));

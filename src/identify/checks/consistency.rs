@@ -177,7 +177,16 @@ pub fn agreement(axis: &'static str, values: &[(usize, f64, f64)]) -> Option<Axi
     let dof = values.len() - 1;
     let p = chi2_sf(chi2, dof as f64);
     let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v.1), hi.max(v.1)));
-    Some(AxisAgreement { axis, flights: values.iter().map(|v| v.0).collect(), mean_deg: mean, spread_deg: hi - lo, chi2, dof, p, agree: p >= AGREE_P })
+    Some(AxisAgreement {
+        axis,
+        flights: values.iter().map(|v| v.0).collect(),
+        mean_deg: mean,
+        spread_deg: hi - lo,
+        chi2,
+        dof,
+        p,
+        agree: p >= AGREE_P,
+    })
 }
 
 /// The report's model without its body offset (the correction set to identity and its linear
@@ -209,7 +218,9 @@ pub(crate) fn fleet_offset_without(reports: &[(String, Report)], j: usize) -> Op
     if v.is_empty() {
         return None;
     }
-    Some(Rot::from_quaternion(nalgebra::UnitQuaternion::from_scaled_axis(v.iter().sum::<nalgebra::Vector3<f64>>() / v.len() as f64)))
+    Some(Rot::from_quaternion(nalgebra::UnitQuaternion::from_scaled_axis(
+        v.iter().sum::<nalgebra::Vector3<f64>>() / v.len() as f64,
+    )))
 }
 
 /// Whether a parameter enters the χ²: identifiable, with a finite interval (a parameter the
@@ -228,7 +239,8 @@ fn fitted(r: &Report) -> bool {
 /// matrices (see [`Transfer`]).
 pub fn consistency(reports: &[(String, Report)], t: &Transfer, link_deg: f64) -> Consistency {
     let (cross, offset_gain) = (t.cut, t.offset_gain);
-    let ground: Vec<Option<(f64, f64)>> = reports.iter().map(|(_, r)| r.ground_check.map(|g| (g.roll_deg, g.pitch_deg))).collect();
+    let ground: Vec<Option<(f64, f64)>> =
+        reports.iter().map(|(_, r)| r.ground_check.map(|g| (g.roll_deg, g.pitch_deg))).collect();
     let groups = link_groups(&ground, link_deg);
     let mut of = vec![None; reports.len()];
     for (g, members) in groups.iter().enumerate() {
@@ -254,14 +266,22 @@ pub fn consistency(reports: &[(String, Report)], t: &Transfer, link_deg: f64) ->
                     let r = &reports[i].1;
                     if !fitted(r) {
                         if axis == "roll" {
-                            left_out.push((i, format!("{} usable samples, {} needed: nothing was fitted", r.train_samples, MIN_TRAIN_SAMPLES)));
+                            left_out.push((
+                                i,
+                                format!(
+                                    "{} usable samples, {} needed: nothing was fitted",
+                                    r.train_samples, MIN_TRAIN_SAMPLES
+                                ),
+                            ));
                         }
                         continue;
                     }
                     match r.effect(Effect::BodyOffset).and_then(|f| f.params.iter().find(|p| p.name == axis)) {
                         Some(p) if has_interval(p) => values.push((i, p.value, p.ci95)),
                         Some(_) => left_out.push((i, format!("its body offset {axis} is not identifiable"))),
-                        None if axis == "roll" => left_out.push((i, "no body offset was fitted (use --with body_offset)".into())),
+                        None if axis == "roll" => {
+                            left_out.push((i, "no body offset was fitted (use --with body_offset)".into()))
+                        }
                         None => {}
                     }
                 }
@@ -280,7 +300,11 @@ pub fn consistency(reports: &[(String, Report)], t: &Transfer, link_deg: f64) ->
             if let (true, Some(c), Some(gi), Some(gj)) = (i != j, cut, of[i], of[j]) {
                 let gain = offset_gain.get(i).and_then(|r| r.get(j)).copied().flatten();
                 let mounting = t.mounting_gain.get(i).and_then(|r| r.get(j)).copied().flatten();
-                let (cuts, gains, own) = if gi == gj { (&mut within, &mut within_gain, &mut within_m) } else { (&mut across, &mut across_gain, &mut across_m) };
+                let (cuts, gains, own) = if gi == gj {
+                    (&mut within, &mut within_gain, &mut within_m)
+                } else {
+                    (&mut across, &mut across_gain, &mut across_m)
+                };
                 cuts.push(*c);
                 gains.extend(gain);
                 own.extend(mounting);
@@ -309,7 +333,10 @@ pub fn consistency(reports: &[(String, Report)], t: &Transfer, link_deg: f64) ->
 
 /// The consistency as text (one block per mounting, then the transfer).
 pub fn render(c: &Consistency) -> String {
-    let mut t = format!("\nconsistency across flights (one mounting: flights whose ground tilts are all within {:.2}° of each other):\n", c.link_deg);
+    let mut t = format!(
+        "\nconsistency across flights (one mounting: flights whose ground tilts are all within {:.2}° of each other):\n",
+        c.link_deg
+    );
     for (k, m) in c.mountings.iter().enumerate() {
         let names: Vec<&str> = m.flights.iter().map(|&i| c.flights[i].as_str()).collect();
         t += &format!("  mounting {}: {} (ground spread {:.2}°)\n", k + 1, names.join(", "), m.ground_spread_deg);
@@ -323,7 +350,11 @@ pub fn render(c: &Consistency) -> String {
                 a.chi2,
                 a.dof,
                 a.p,
-                if a.agree { "agree within their intervals" } else { "DISAGREE (p < 0.05): the markers moved between these flights, or an interval is too narrow" }
+                if a.agree {
+                    "agree within their intervals"
+                } else {
+                    "DISAGREE (p < 0.05): the markers moved between these flights, or an interval is too narrow"
+                }
             );
         }
         if m.flights.len() == 1 {
@@ -417,7 +448,13 @@ mod tests {
 
     #[test]
     fn only_identifiable_parameters_with_a_finite_interval_enter_the_test() {
-        let p = |identifiable: bool, ci95: f64| crate::identify::fit::select::Param { name: "roll".into(), value: 1.0, ci95, unit: "deg".into(), identifiable };
+        let p = |identifiable: bool, ci95: f64| crate::identify::fit::select::Param {
+            name: "roll".into(),
+            value: 1.0,
+            ci95,
+            unit: "deg".into(),
+            identifiable,
+        };
         assert!(has_interval(&p(true, 0.2)));
         assert!(!has_interval(&p(false, 0.2)), "not identifiable");
         assert!(!has_interval(&p(true, 0.0)), "no interval");

@@ -122,11 +122,19 @@ impl Setting {
     /// The file, line and column of a field that is unknown, not a number or out of its range;
     /// a length and IMU rate whose log would exceed [`MAX_IMU_SAMPLES`].
     pub fn parse(src: &str, file: &str) -> Result<Setting, crate::identify::InputError> {
-        let err = |e: serde_saphyr::Error| crate::identify::InputError::invalid(file, crate::scenario::error::with_suggestion(&e.to_string()));
-        let set: Setting = if src.trim().is_empty() { Setting::default() } else { serde_saphyr::from_str(src).map_err(err)? };
+        let err = |e: serde_saphyr::Error| {
+            crate::identify::InputError::invalid(file, crate::scenario::error::with_suggestion(&e.to_string()))
+        };
+        let set: Setting =
+            if src.trim().is_empty() { Setting::default() } else { serde_saphyr::from_str(src).map_err(err)? };
         let n = set.duration_s * set.imu_hz;
         if n > MAX_IMU_SAMPLES {
-            return Err(crate::identify::InputError::invalid(file, format!("duration_s × imu_hz = {n} IMU samples; at most {MAX_IMU_SAMPLES} are generated (an hour at 500 Hz)")));
+            return Err(crate::identify::InputError::invalid(
+                file,
+                format!(
+                    "duration_s × imu_hz = {n} IMU samples; at most {MAX_IMU_SAMPLES} are generated (an hour at 500 Hz)"
+                ),
+            ));
         }
         Ok(set)
     }
@@ -288,7 +296,12 @@ impl Trial {
         let [r, p, y] = self.truth.body_offset_deg.map(f64::to_radians);
         let [tx, ty] = self.truth.world_tilt_deg.map(f64::to_radians);
         let lever = Vector3::from(self.truth.lever_arm_mm) * 1e-3;
-        (UnitQuaternion::from_euler_angles(r, p, y), UnitQuaternion::from_euler_angles(tx, ty, 0.0), lever, self.truth.mocap_delay_ms * 1e-3)
+        (
+            UnitQuaternion::from_euler_angles(r, p, y),
+            UnitQuaternion::from_euler_angles(tx, ty, 0.0),
+            lever,
+            self.truth.mocap_delay_ms * 1e-3,
+        )
     }
 
     /// The two streams as a rig records them: mocap poses (NED, quaternion x, y, z, w) at their
@@ -299,7 +312,8 @@ impl Trial {
         let mut rng = Rng::new(self.noise_seed, Component::ImuNoise, 0);
         let mut imu = Stream::new();
         let dt = 1.0 / set.imu_hz;
-        let (mut ba, mut bg) = (Vector3::from(self.truth.accel_bias_m_s2), Vector3::from(self.truth.gyro_bias_deg_s.map(f64::to_radians)));
+        let (mut ba, mut bg) =
+            (Vector3::from(self.truth.accel_bias_m_s2), Vector3::from(self.truth.gyro_bias_deg_s.map(f64::to_radians)));
         let n_imu = (set.duration_s * set.imu_hz).round() as i64;
         let normal3 = |r: &mut Rng| Vector3::new(r.normal(), r.normal(), r.normal());
         let (mut ba_sum, mut bg_sum) = (Vector3::zeros(), Vector3::zeros());
@@ -315,7 +329,8 @@ impl Trial {
             tt += (t - t_mid).powi(2);
             let (q, w, dw) = attitude(&self.euler, t);
             let acc = Vector3::from_fn(|k, _| self.position[k].at(t)[2]);
-            let f = q.inverse() * (acc - Vector3::new(0.0, 0.0, GRAVITY)) + dw.cross(&lever) + w.cross(&w.cross(&lever));
+            let f =
+                q.inverse() * (acc - Vector3::new(0.0, 0.0, GRAVITY)) + dw.cross(&lever) + w.cross(&w.cross(&lever));
             let gyro = w + bg + normal3(&mut rng) * (set.gyro_noise_density / dt.sqrt());
             let accel = f + ba + normal3(&mut rng) * (set.accel_noise_density / dt.sqrt());
             let _ = imu.push(ns(t), [gyro.x, gyro.y, gyro.z, accel.x, accel.y, accel.z]);
@@ -466,7 +481,9 @@ impl Bound {
         let mut r = Rng::new(0, Component::Bound, index as usize);
         let delay = DMatrix::from_element(1, 1, self.delay.sqrt());
         let mut norm = |l: &DMatrix<f64>| (l * DVector::from_fn(l.nrows(), |_, _| r.normal())).norm();
-        let out = (0..n).map(|_| [norm(&rot).to_degrees(), norm(&tilt).to_degrees(), norm(&lever) * 1e3, norm(&delay) * 1e6]).collect();
+        let out = (0..n)
+            .map(|_| [norm(&rot).to_degrees(), norm(&tilt).to_degrees(), norm(&lever) * 1e3, norm(&delay) * 1e6])
+            .collect();
         Some(out)
     }
 }
@@ -478,7 +495,8 @@ fn ns(t: f64) -> i128 {
 
 /// `mappings/handheld.yaml`, as shipped.
 pub fn mapping() -> Mapping {
-    Mapping::parse(include_str!("../../../mappings/handheld.yaml"), std::path::Path::new("mappings/handheld.yaml")).expect("the shipped mapping parses")
+    Mapping::parse(include_str!("../../../mappings/handheld.yaml"), std::path::Path::new("mappings/handheld.yaml"))
+        .expect("the shipped mapping parses")
 }
 
 /// What the trials run: `identify --calibrate` with the defaults of `mappings/handheld.yaml`
@@ -575,15 +593,30 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
         let Some(found) = report.effect(effect) else { continue };
         let v: Vec<f64> = found.params.iter().map(|p| p.value).collect();
         for (p, tr) in found.params.iter().zip(&truth) {
-            out.estimates.push(Estimate { name: format!("{}.{}", effect.key(), p.name), truth: *tr, value: p.value, ci95: p.ci95 });
+            out.estimates.push(Estimate {
+                name: format!("{}.{}", effect.key(), p.name),
+                truth: *tr,
+                value: p.value,
+                ci95: p.ci95,
+            });
         }
         let angle = |a: UnitQuaternion<f64>, b: UnitQuaternion<f64>| a.angle_to(&b).to_degrees();
-        let euler = |d: &[f64]| UnitQuaternion::from_euler_angles(d[0].to_radians(), d[1].to_radians(), d.get(2).copied().unwrap_or(0.0).to_radians());
+        let euler = |d: &[f64]| {
+            UnitQuaternion::from_euler_angles(
+                d[0].to_radians(),
+                d[1].to_radians(),
+                d.get(2).copied().unwrap_or(0.0).to_radians(),
+            )
+        };
         match effect {
             Effect::BodyOffset => out.rotation_err_deg = Some(angle(euler(&v), euler(&truth))),
-            Effect::WorldTilt => out.tilt_err_deg = Some((euler(&v) * Vector3::z()).angle(&(euler(&truth) * Vector3::z())).to_degrees()),
+            Effect::WorldTilt => {
+                out.tilt_err_deg = Some((euler(&v) * Vector3::z()).angle(&(euler(&truth) * Vector3::z())).to_degrees())
+            }
             Effect::MocapDelay => out.delay_err_us = Some((v[0] - truth[0]).abs() * 1e3),
-            Effect::LeverArm => out.lever_err_mm = Some((Vector3::from_column_slice(&v) - Vector3::from_column_slice(&truth)).norm()),
+            Effect::LeverArm => {
+                out.lever_err_mm = Some((Vector3::from_column_slice(&v) - Vector3::from_column_slice(&truth)).norm())
+            }
             _ => {}
         }
     }
@@ -625,9 +658,21 @@ type ErrorOf = fn(&Outcome) -> Option<f64>;
 pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     let mut s = String::new();
     let ok: Vec<&Outcome> = outcomes.iter().filter(|o| o.error.is_none()).collect();
-    let _ = writeln!(s, "{} hand-held flights of {} s (mocap {} Hz, IMU {} Hz), {} identified\n", outcomes.len(), set.duration_s, set.mocap_hz, set.imu_hz, ok.len());
-    let _ = writeln!(s, "| parameter | found | median error | p90 error | largest error | 95 % coverage | Cramér–Rao median |\n|---|---|---|---|---|---|---|");
-    let efficient: Vec<[f64; 4]> = ok.iter().filter_map(|o| o.bound.as_ref()?.draws(o.trial.index, BOUND_DRAWS)).flatten().collect();
+    let _ = writeln!(
+        s,
+        "{} hand-held flights of {} s (mocap {} Hz, IMU {} Hz), {} identified\n",
+        outcomes.len(),
+        set.duration_s,
+        set.mocap_hz,
+        set.imu_hz,
+        ok.len()
+    );
+    let _ = writeln!(
+        s,
+        "| parameter | found | median error | p90 error | largest error | 95 % coverage | Cramér–Rao median |\n|---|---|---|---|---|---|---|"
+    );
+    let efficient: Vec<[f64; 4]> =
+        ok.iter().filter_map(|o| o.bound.as_ref()?.draws(o.trial.index, BOUND_DRAWS)).flatten().collect();
     let rows: [(&str, &str, ErrorOf, &str); 4] = [
         ("rotation (angle)", "°", |o| o.rotation_err_deg, "body_offset."),
         ("world tilt (angle)", "°", |o| o.tilt_err_deg, "world_tilt."),
@@ -640,9 +685,19 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         let covered = est.iter().filter(|x| x.covered()).count();
         let bound: Vec<f64> = efficient.iter().map(|d| d[i]).collect();
         // a parameter no rig gave has no distribution: a dash, not NaN
-        let at = |v: &[f64], q: f64| if v.is_empty() { "—".to_string() } else { format!("{:.4} {unit}", quantile(v, q)) };
-        let _ =
-            writeln!(s, "| {name} | {}/{} | {} | {} | {} | {} | {} |", e.len(), ok.len(), at(&e, 0.5), at(&e, 0.9), at(&e, 1.0), coverage(covered, est.len()), at(&bound, 0.5),);
+        let at =
+            |v: &[f64], q: f64| if v.is_empty() { "—".to_string() } else { format!("{:.4} {unit}", quantile(v, q)) };
+        let _ = writeln!(
+            s,
+            "| {name} | {}/{} | {} | {} | {} | {} | {} |",
+            e.len(),
+            ok.len(),
+            at(&e, 0.5),
+            at(&e, 0.9),
+            at(&e, 1.0),
+            coverage(covered, est.len()),
+            at(&bound, 0.5),
+        );
     }
     for prefix in ["accel_bias.", "gyro_bias.", "accel_bias_drift.", "gyro_bias_drift."] {
         let est: Vec<&Estimate> = ok.iter().flat_map(|o| &o.estimates).filter(|x| x.name.starts_with(prefix)).collect();
@@ -669,7 +724,11 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
             }
         }
     }
-    let extra = if extra.is_empty() { "none".to_string() } else { extra.iter().map(|(e, n)| format!("{} in {n}", e.key())).collect::<Vec<_>>().join(", ") };
+    let extra = if extra.is_empty() {
+        "none".to_string()
+    } else {
+        extra.iter().map(|(e, n)| format!("{} in {n}", e.key())).collect::<Vec<_>>().join(", ")
+    };
     let unseen = ok.iter().filter(|o| o.bound.is_none()).count();
     let noiseless = !set.imu_has_white_noise();
     let _ = writeln!(
@@ -680,7 +739,11 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         } else {
             format!(
                 "the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound (perfect mocap, constant biases){}",
-                if unseen > 0 { format!("; {unseen} rigs whose motion leaves a parameter unseen are left out") } else { String::new() }
+                if unseen > 0 {
+                    format!("; {unseen} rigs whose motion leaves a parameter unseen are left out")
+                } else {
+                    String::new()
+                }
             )
         }
     );
@@ -737,8 +800,17 @@ mod tests {
             for (o, rot, tilt, lever) in [(&sharp, 1e-3, 1e-3, 0.05), (&options(), 1e-3, 5e-3, 0.3)] {
                 let out = run(&draw(3, i), &clean, o);
                 assert!(out.error.is_none(), "{:?}", out.error);
-                let errs = (out.rotation_err_deg.unwrap(), out.tilt_err_deg.unwrap(), out.lever_err_mm.unwrap(), out.delay_err_us.unwrap());
-                assert!(errs.0 < rot && errs.1 < tilt && errs.2 < lever && errs.3 < 2.0, "trial {i}, σ {} s: {errs:?}", o.design.smoothing_s);
+                let errs = (
+                    out.rotation_err_deg.unwrap(),
+                    out.tilt_err_deg.unwrap(),
+                    out.lever_err_mm.unwrap(),
+                    out.delay_err_us.unwrap(),
+                );
+                assert!(
+                    errs.0 < rot && errs.1 < tilt && errs.2 < lever && errs.3 < 2.0,
+                    "trial {i}, σ {} s: {errs:?}",
+                    o.design.smoothing_s
+                );
                 for e in out.estimates.iter().filter(|e| e.name.contains("bias")) {
                     assert!((e.value - e.truth).abs() < 1e-3, "{e:?}");
                 }
@@ -762,19 +834,43 @@ mod tests {
         let per_min = |v: [f64; 3], f: f64| v.map(|x| x * f / 60.0);
         let (accel, gyro) = ([0.1, -0.08, 0.06], [0.3, -0.2, 0.25]);
         let still = Setting { duration_s: 180.0, ..Setting::default() };
-        let drifting = Setting { accel_bias_drift: per_min(accel, 1.0), gyro_bias_drift: per_min(gyro, 1f64.to_radians()), ..still };
+        let drifting = Setting {
+            accel_bias_drift: per_min(accel, 1.0),
+            gyro_bias_drift: per_min(gyro, 1f64.to_radians()),
+            ..still
+        };
         for i in 0..2 {
             let trial = draw(5, i);
             let fit = |set: &Setting| identify(&trial.read(&trial.streams(set).0).unwrap(), &options()).unwrap();
             let r = fit(&drifting);
             let bias = trial.streams(&drifting).1;
             for (k, a) in bias.accel_drift_m_s2_min.iter().enumerate() {
-                assert!((a - accel[k]).abs() < 0.02, "the slope of the path is the drift, with the walk's trend: {a} against {}", accel[k]);
+                assert!(
+                    (a - accel[k]).abs() < 0.02,
+                    "the slope of the path is the drift, with the walk's trend: {a} against {}",
+                    accel[k]
+                );
             }
-            for (e, truth) in [(Effect::AccelBiasDrift, bias.accel_drift_m_s2_min), (Effect::GyroBiasDrift, bias.gyro_drift_deg_s_min)] {
-                let found = r.effect(e).unwrap_or_else(|| panic!("rig {i}: {} not selected: {:?}", e.key(), r.effects.iter().map(|f| f.effect).collect::<Vec<_>>()));
+            for (e, truth) in [
+                (Effect::AccelBiasDrift, bias.accel_drift_m_s2_min),
+                (Effect::GyroBiasDrift, bias.gyro_drift_deg_s_min),
+            ] {
+                let found = r.effect(e).unwrap_or_else(|| {
+                    panic!(
+                        "rig {i}: {} not selected: {:?}",
+                        e.key(),
+                        r.effects.iter().map(|f| f.effect).collect::<Vec<_>>()
+                    )
+                });
                 for (p, t) in found.params.iter().zip(truth) {
-                    assert!((p.value - t).abs() <= 3.0 * p.ci95, "rig {i}: {} {} {} ± {} against {t}", e.key(), p.name, p.value, p.ci95);
+                    assert!(
+                        (p.value - t).abs() <= 3.0 * p.ci95,
+                        "rig {i}: {} {} {} ± {} against {t}",
+                        e.key(),
+                        p.name,
+                        p.value,
+                        p.ci95
+                    );
                 }
             }
             let r = fit(&still);
@@ -790,7 +886,8 @@ mod tests {
         let r = identify(&trial.read(&trial.streams(&Setting::default()).0).unwrap(), &o).unwrap();
         assert!(r.effect(Effect::AccelBiasDrift).is_none(), "{:?}", r.effects);
         assert!(
-            r.notes.iter().any(|n| n.starts_with("--with accel_bias_drift: left out, the log's usable samples span 6") && n.ends_with("a drift is fitted on 120 s or more")),
+            r.notes.iter().any(|n| n.starts_with("--with accel_bias_drift: left out, the log's usable samples span 6")
+                && n.ends_with("a drift is fitted on 120 s or more")),
             "{:?}",
             r.notes
         );
@@ -846,7 +943,11 @@ mod tests {
             assert!(set.imu_hz == 500.0 && set.mocap_hz == 300.0, "{name}: {set:?}");
         }
         let drift = Setting::parse(&rig("drift-180s.yaml"), "d").unwrap();
-        assert!((drift.accel_bias_drift[0] * 60.0 - 0.1).abs() < 1e-5 && (drift.gyro_bias_drift[2].to_degrees() * 60.0 - 0.25).abs() < 1e-5, "{drift:?}");
+        assert!(
+            (drift.accel_bias_drift[0] * 60.0 - 0.1).abs() < 1e-5
+                && (drift.gyro_bias_drift[2].to_degrees() * 60.0 - 0.25).abs() < 1e-5,
+            "{drift:?}"
+        );
         for (src, want) in [
             ("mocap_hz: 0\n", "line 1 column 11: 0 Hz is outside the allowed range (0, 10000]"),
             ("accel_bias_drift: [0, 0.2, 0]\n", "0.2 m/s² per s is outside the allowed range [-0.1, 0.1]"),
@@ -856,7 +957,10 @@ mod tests {
             let e = Setting::parse(src, "rig.yaml").unwrap_err().to_string();
             assert!(e.starts_with("rig.yaml") && e.contains(want), "{src:?}: {e}");
         }
-        assert_eq!(serde_json::to_value(Setting::parse("", "empty.yaml").unwrap()).unwrap(), serde_json::to_value(Setting::default()).unwrap());
+        assert_eq!(
+            serde_json::to_value(Setting::parse("", "empty.yaml").unwrap()).unwrap(),
+            serde_json::to_value(Setting::default()).unwrap()
+        );
         // an IMU is noiseless for the floor when either sensor is
         let quiet = |a: f64, g: f64| Setting { accel_noise_density: a, gyro_noise_density: g, ..Setting::default() };
         assert!(quiet(2e-2, 8e-4).imu_has_white_noise());
@@ -884,9 +988,17 @@ mod tests {
         assert!(bound(&trial, &set).is_none(), "without a turn the lever arm is unseen");
         // kept: δ_y, δ_z, time offset, both biases
         let keep = [1, 2, 5, 9, 10, 11, 12, 13, 14];
-        let cov = fisher(&trial, &set).select_rows(&keep).select_columns(&keep).cholesky().expect("the rest is seen").inverse();
+        let cov = fisher(&trial, &set)
+            .select_rows(&keep)
+            .select_columns(&keep)
+            .cholesky()
+            .expect("the rest is seen")
+            .inverse();
         let sa2 = set.accel_noise_density.powi(2);
-        for (i, want, what) in [(2, sa2 / (a * a * w.powi(6) * duration / 2.0), "time offset"), (1, sa2 / (a * a * w.powi(4) * duration / 2.0), "δ_z")] {
+        for (i, want, what) in [
+            (2, sa2 / (a * a * w.powi(6) * duration / 2.0), "time offset"),
+            (1, sa2 / (a * a * w.powi(4) * duration / 2.0), "δ_z"),
+        ] {
             assert!((cov[(i, i)] / want - 1.0).abs() < 2e-3, "{what}: {} against {want}", cov[(i, i)]);
         }
     }
@@ -914,7 +1026,9 @@ mod tests {
         let b = Bound { rotation: iso3(r), tilt: [[t * t, 0.0], [0.0, t * t]], delay: d * d, lever: iso3(l) };
         let draws = b.draws(7, 4000).unwrap();
         let median = |k: usize| quantile(&draws.iter().map(|x| x[k]).collect::<Vec<_>>(), 0.5);
-        for (k, want) in [(0, 1.5382 * r.to_degrees()), (1, 1.1774 * t.to_degrees()), (2, 1.5382 * l * 1e3), (3, 0.6745 * d * 1e6)] {
+        for (k, want) in
+            [(0, 1.5382 * r.to_degrees()), (1, 1.1774 * t.to_degrees()), (2, 1.5382 * l * 1e3), (3, 0.6745 * d * 1e6)]
+        {
             assert!((median(k) / want - 1.0).abs() < 0.04, "column {k}: {} against {want}", median(k));
         }
         assert_eq!(draws, b.draws(7, 4000).unwrap(), "a function of the trial index");
@@ -940,7 +1054,10 @@ mod tests {
             }
             assert!(within(t.mocap_delay_ms.abs(), 2.0, 4.0), "trial {i}: delay {} ms", t.mocap_delay_ms);
             signs[usize::from(t.mocap_delay_ms > 0.0)] += 1;
-            assert!(t.accel_bias_m_s2.iter().all(|b| b.abs() <= 0.2) && t.gyro_bias_deg_s.iter().all(|b| b.abs() <= 0.5), "trial {i}: {t:?}");
+            assert!(
+                t.accel_bias_m_s2.iter().all(|b| b.abs() <= 0.2) && t.gyro_bias_deg_s.iter().all(|b| b.abs() <= 0.5),
+                "trial {i}: {t:?}"
+            );
         }
         assert!(signs.iter().all(|n| *n > 100), "delay signs {signs:?}");
     }

@@ -51,7 +51,11 @@ use std::fmt::Write as _;
 /// hover) and the bias drifts (the simulated IMU holds its biases still, and a trial flight is
 /// shorter than a drift is offered on).
 pub fn simulated() -> Vec<Effect> {
-    Effect::ALL.iter().copied().filter(|e| e.searched() && !matches!(e, Effect::GroundEffect | Effect::AccelBiasDrift | Effect::GyroBiasDrift)).collect()
+    Effect::ALL
+        .iter()
+        .copied()
+        .filter(|e| e.searched() && !matches!(e, Effect::GroundEffect | Effect::AccelBiasDrift | Effect::GyroBiasDrift))
+        .collect()
 }
 
 /// One drawn trial.
@@ -122,7 +126,11 @@ fn draw_hidden(d: &mut Draw, cf: bool) -> Vec<(Effect, Vec<f64>)> {
             Effect::AccelBias => (0..3).map(|_| r(d.signed(0.05, 0.3), 4)).collect(),
             Effect::GyroBias => (0..3).map(|_| r(d.signed(0.3, 1.5), 3)).collect(),
             Effect::RotorDrag => (0..2).map(|_| r(d.u(0.1, 0.5), 3)).collect(),
-            Effect::ConstantForce => vec![r(d.signed(0.02, 0.1) * weight, 4), r(d.signed(0.02, 0.1) * weight, 4), r(d.signed(0.0, 0.03) * weight, 4)],
+            Effect::ConstantForce => vec![
+                r(d.signed(0.02, 0.1) * weight, 4),
+                r(d.signed(0.02, 0.1) * weight, 4),
+                r(d.signed(0.0, 0.03) * weight, 4),
+            ],
             Effect::ThrustScale => vec![r(d.signed(0.03, 0.15), 4)],
             Effect::LeverArm => (0..3).map(|_| r(d.signed(10.0, 40.0), 1)).collect(),
             Effect::ThrustVoltage => vec![r(if cf { d.u(0.05, 0.2) } else { d.u(0.015, 0.07) }, 4)],
@@ -141,13 +149,14 @@ fn draw_hidden(d: &mut Draw, cf: bool) -> Vec<(Effect, Vec<f64>)> {
 /// effect added to `hidden`), landing.
 fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (Vec<String>, Vec<String>) {
     let alt = r(d.u(0.8, 1.5), 2);
-    let mut plan = vec!["idle: { duration_s: 1 }".to_string(), format!("takeoff: {{ altitude_m: {alt}, duration_s: 3 }}"), "hover: { duration_s: 2 }".to_string()];
+    let mut plan = vec![
+        "idle: { duration_s: 1 }".to_string(),
+        format!("takeoff: {{ altitude_m: {alt}, duration_s: 3 }}"),
+        "hover: { duration_s: 2 }".to_string(),
+    ];
     let mut words = Vec::new();
     let pieces = 3 + d.pick(3);
-    let wp_at = |n: f64, e: f64, height: f64, speed: f64, hold: f64| {
-        format!("waypoint: {{ pos_m: [{}, {}, {}], speed_m_s: {speed}, accel_m_s2: 1.5, hold_s: {hold} }}", r(n, 2), r(e, 2), -height)
-    };
-    let wp = |n: f64, e: f64, speed: f64, hold: f64| wp_at(n, e, alt, speed, hold);
+    let wp = |n: f64, e: f64, speed: f64, hold: f64| waypoint(n, e, alt, speed, hold);
     for _ in 0..pieces {
         match d.pick(5) {
             0 => {
@@ -171,7 +180,9 @@ fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (V
             }
             2 => {
                 let (rad, period, turns) = (r(d.u(0.2, 0.5), 2), r(d.u(2.0, 3.5), 2), (2 + d.pick(3)) as f64);
-                plan.push(format!("calibrate_gyro: {{ settle_s: 1, radius_m: {rad}, period_s: {period}, turns: {turns} }}"));
+                plan.push(format!(
+                    "calibrate_gyro: {{ settle_s: 1, radius_m: {rad}, period_s: {period}, turns: {turns} }}"
+                ));
                 words.push(format!("{turns} circles of {rad} m"));
             }
             3 => {
@@ -193,10 +204,14 @@ fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (V
     // flights a low hover (1.2–3 rotor radii over the floor), and in half of those (when fewer
     // than three effects are hidden) a ground effect
     if d.0.uniform() < 0.25 {
-        let r_rotor: f64 = if cf { crate::vehicle::params::CRAZYFLIE21_ROTOR_RADIUS_M } else { crate::vehicle::params::X3D_ROTOR_RADIUS_M };
+        let r_rotor: f64 = if cf {
+            crate::vehicle::params::CRAZYFLIE21_ROTOR_RADIUS_M
+        } else {
+            crate::vehicle::params::X3D_ROTOR_RADIUS_M
+        };
         // not below 0.1 m: identify leaves out what is within 8 cm of the floor
         let low = r((d.u(1.2, 3.0) * r_rotor).max(0.1), 3);
-        plan.push(wp_at(0.0, 0.0, low, 0.5, 4.0));
+        plan.push(waypoint(0.0, 0.0, low, 0.5, 4.0));
         plan.push(wp(0.0, 0.0, 0.5, 1.0));
         words.push(format!("low hover at {low} m"));
         if hidden.len() < 3 && d.0.uniform() < 0.5 {
@@ -205,6 +220,16 @@ fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (V
     }
     plan.push("land: { duration_s: 3 }".to_string());
     (plan, words)
+}
+
+/// A plan step to (north, east) m at `height` m above the floor, at `speed` m/s, held `hold` s.
+fn waypoint(n: f64, e: f64, height: f64, speed: f64, hold: f64) -> String {
+    format!(
+        "waypoint: {{ pos_m: [{}, {}, {}], speed_m_s: {speed}, accel_m_s2: 1.5, hold_s: {hold} }}",
+        r(n, 2),
+        r(e, 2),
+        -height
+    )
 }
 
 /// The trial's scenario: the preset, the hidden effects written where the simulation applies
@@ -235,7 +260,13 @@ fn trial_yaml(index: u64, run_seed: u64, preset: &str, plan: &[String], hidden: 
             Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
             Effect::ThrustVoltage => undeclared.push(format!("thrust_voltage_per_v: {}", v[0])),
             Effect::GyroDelay => undeclared.push(format!("gyro_delay_ms: {}", v[0])),
-            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift | Effect::ImuOffset | Effect::AccelBiasDrift | Effect::GyroBiasDrift => {
+            Effect::AccelMisalignment
+            | Effect::AccelScale
+            | Effect::ThrustTilt
+            | Effect::ClockDrift
+            | Effect::ImuOffset
+            | Effect::AccelBiasDrift
+            | Effect::GyroBiasDrift => {
                 unreachable!("only simulated effects are hidden")
             }
         }
@@ -303,7 +334,9 @@ pub fn run(trial: &Trial, o: &Options) -> Outcome {
     };
     let exc = excitation(&series, o, &trial.hidden);
     let hidden_effects: Vec<Effect> = trial.hidden.iter().map(|h| h.0).collect();
-    let pair = |a: Effect, b: Effect| report.not_identifiable.iter().any(|(x, y, _)| (*x == a && *y == b) || (*x == b && *y == a));
+    let pair = |a: Effect, b: Effect| {
+        report.not_identifiable.iter().any(|(x, y, _)| (*x == a && *y == b) || (*x == b && *y == a))
+    };
     let selected: Vec<Effect> = report.effects.iter().map(|f| f.effect).collect();
     let hidden = trial
         .hidden
@@ -322,7 +355,11 @@ pub fn run(trial: &Trial, o: &Options) -> Outcome {
             }
         })
         .collect();
-    let extra = selected.iter().filter(|e| !hidden_effects.contains(e)).map(|e| (*e, hidden_effects.iter().any(|h| pair(*e, *h)))).collect();
+    let extra = selected
+        .iter()
+        .filter(|e| !hidden_effects.contains(e))
+        .map(|e| (*e, hidden_effects.iter().any(|h| pair(*e, *h))))
+        .collect();
     Outcome { trial: trial.clone(), hidden, extra, error: None }
 }
 
@@ -373,7 +410,10 @@ pub fn merge(parts: Vec<TrialsShard>) -> Result<(u64, u64, Vec<Outcome>), String
             None
         };
         if let Some(why) = why {
-            return Err(format!("shard {k} of {n} does not belong with shard {} of {split} of trials seed {seed}: {why}", first.shard[0]));
+            return Err(format!(
+                "shard {k} of {n} does not belong with shard {} of {split} of trials seed {seed}: {why}",
+                first.shard[0]
+            ));
         }
         if !(1..=n).contains(&k) || !seen.insert(k) {
             return Err(format!("shard {k} of {n} is given twice or is no shard of {n}"));
@@ -381,7 +421,10 @@ pub fn merge(parts: Vec<TrialsShard>) -> Result<(u64, u64, Vec<Outcome>), String
         let want: Vec<u64> = (0..flights).filter(|i| i % n == k - 1).collect();
         let got: Vec<u64> = p.outcomes.iter().map(|o| o.trial.index).collect();
         if got != want {
-            return Err(format!("shard {k} of {n} does not hold its trials (every {n}th from {}): a shard file cut short or edited", k - 1));
+            return Err(format!(
+                "shard {k} of {n} does not hold its trials (every {n}th from {}): a shard file cut short or edited",
+                k - 1
+            ));
         }
     }
     if let Some(missing) = (1..=split).find(|k| !seen.contains(k)) {
@@ -503,8 +546,12 @@ pub fn render(outcomes: &[Outcome]) -> String {
     let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.1} %", 100.0 * v));
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
     let mut s = String::new();
-    let _ = writeln!(s, "{} flights ({} could not be identified), {} hidden effects", outcomes.len(), failed, total.hidden);
-    let _ = writeln!(s, "| effect | hidden | excited | recall (excited) | found (all) | flagged | invented | precision | 95 % coverage | not identifiable | confidently wrong |");
+    let _ =
+        writeln!(s, "{} flights ({} could not be identified), {} hidden effects", outcomes.len(), failed, total.hidden);
+    let _ = writeln!(
+        s,
+        "| effect | hidden | excited | recall (excited) | found (all) | flagged | invented | precision | 95 % coverage | not identifiable | confidently wrong |"
+    );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
     let row = |s: &mut String, name: &str, x: &EffectScore| {
         let _ = writeln!(

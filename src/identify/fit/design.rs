@@ -152,7 +152,8 @@ pub fn glitches(s: &Series) -> Vec<usize> {
             if s.mocap_ok[i - 1] && s.mocap_ok[i] && s.mocap_ok[i + 1] {
                 let mid = (s.pos_mocap_nav[i - 1] + s.pos_mocap_nav[i + 1]) * 0.5;
                 jp[i] = (s.pos_mocap_nav[i] - mid).norm();
-                let between = crate::identify::input::series::interpolate_attitude(&s.att_mocap[i - 1], &s.att_mocap[i + 1], 0.5);
+                let between =
+                    crate::identify::input::series::interpolate_attitude(&s.att_mocap[i - 1], &s.att_mocap[i + 1], 0.5);
                 jq[i] = s.att_mocap[i].quaternion().angle_to(between.quaternion());
             }
         }
@@ -181,7 +182,8 @@ impl Design {
 
 pub(crate) fn gaussian_kernel(sigma_samples: f64) -> Vec<f64> {
     let h = (3.0 * sigma_samples).ceil().max(1.0) as isize;
-    let mut k: Vec<f64> = (-h..=h).map(|j| (-(j as f64).powi(2) / (2.0 * sigma_samples * sigma_samples)).exp()).collect();
+    let mut k: Vec<f64> =
+        (-h..=h).map(|j| (-(j as f64).powi(2) / (2.0 * sigma_samples * sigma_samples)).exp()).collect();
     let s: f64 = k.iter().sum();
     k.iter_mut().for_each(|x| *x /= s);
     k
@@ -215,7 +217,12 @@ fn smooth_vec3_kept(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64],
 
 /// [`smooth_vec3`] evaluated at the kept rows and their two neighbours, all that a central
 /// difference at the kept rows reads.
-fn smooth_vec3_kept_and_neighbours(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64], stride: usize) -> Vec<Vector3<f64>> {
+fn smooth_vec3_kept_and_neighbours(
+    x: &[Vector3<f64>],
+    segs: &[(usize, usize)],
+    kernel: &[f64],
+    stride: usize,
+) -> Vec<Vector3<f64>> {
     smooth_vec3_rows(x, segs, kernel, |i| {
         let r = i % stride;
         r == 0 || r == 1 || r == stride - 1
@@ -224,7 +231,12 @@ fn smooth_vec3_kept_and_neighbours(x: &[Vector3<f64>], segs: &[(usize, usize)], 
 
 /// [`smooth_vec3`] at the rows where `need` holds (same sums in the same order, so the same
 /// bits); the other rows keep their raw values.
-fn smooth_vec3_rows(x: &[Vector3<f64>], segs: &[(usize, usize)], kernel: &[f64], need: impl Fn(usize) -> bool) -> Vec<Vector3<f64>> {
+fn smooth_vec3_rows(
+    x: &[Vector3<f64>],
+    segs: &[(usize, usize)],
+    kernel: &[f64],
+    need: impl Fn(usize) -> bool,
+) -> Vec<Vector3<f64>> {
     let h = kernel.len() / 2;
     let mut out = x.to_vec();
     for &(a, b) in segs {
@@ -330,21 +342,44 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     // decimate to one sample per σ: the smoothing is the anti-alias filter, and neighbouring
     // samples of a smoothed signal carry little new information but a lot of correlation
     let keep: Vec<usize> = (0..n).step_by(stride).collect();
-    let pick = |v: &Vec<f64>| -> Vec<f64> { if v.is_empty() { Vec::new() } else { keep.iter().map(|&i| v[i]).collect() } };
+    let pick =
+        |v: &Vec<f64>| -> Vec<f64> { if v.is_empty() { Vec::new() } else { keep.iter().map(|&i| v[i]).collect() } };
     let ok: Vec<bool> = keep.iter().map(|&i| ok[i]).collect();
     let t: Vec<f64> = keep.iter().map(|&i| s.t_s[i]).collect();
-    let signals = if with_signals { lead_signals(s, &x).into_iter().map(|x| Signal { samples: pick(&x.samples), ..x }).collect() } else { Vec::new() };
+    let signals = if with_signals {
+        lead_signals(s, &x).into_iter().map(|x| Signal { samples: pick(&x.samples), ..x }).collect()
+    } else {
+        Vec::new()
+    };
     let measured = measured.map(|c| c.map(|a| pick(&a)));
     let predicted = predicted.map(|c| c.map(|a| pick(&a)));
     let columns = columns.map(|c| c.map(|a| a.into_iter().map(|(j, v)| (j, pick(&v))).collect::<Vec<_>>()));
-    Design { n: keep.len(), t, ok, measured, predicted, columns, has_force, has_vbat, yaw_spread_rad, outliers, signals }
+    Design {
+        n: keep.len(),
+        t,
+        ok,
+        measured,
+        predicted,
+        columns,
+        has_force,
+        has_vbat,
+        yaw_spread_rad,
+        outliers,
+        signals,
+    }
 }
 
 /// The rows a fit may use: inside a segment by more than `reach` (the filter's), every pose in
 /// reach valid (`pose_ok`), at least `min_height_m` over the floor and, with a thrust column,
 /// the motors at a quarter of the weight or more. Also returns each row's height over the floor
 /// (m; infinite without a floor).
-fn usable_rows(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], pose_ok: &[bool], reach: usize) -> (Vec<bool>, Vec<f64>) {
+fn usable_rows(
+    s: &Series,
+    opt: &DesignOptions,
+    pos_nav: &[Vector3<f64>],
+    pose_ok: &[bool],
+    reach: usize,
+) -> (Vec<bool>, Vec<f64>) {
     let n = s.len();
     let g = s.model.gravity_m_s2;
     let mut ok = vec![false; n];
@@ -389,7 +424,15 @@ fn yaw_spread(att_body: &[UnitQuaternion<f64>], ok: &[bool]) -> f64 {
 
 /// Smooths and differentiates what the channels compare (the derivative filter at the top of
 /// this module), rotating into the body frame before smoothing where the IMU does.
-fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body: &[UnitQuaternion<f64>], gyro_raw: &[Vector3<f64>], height: Vec<f64>, stride: usize) -> Smoothed {
+fn smoothed(
+    s: &Series,
+    opt: &DesignOptions,
+    pos_nav: &[Vector3<f64>],
+    att_body: &[UnitQuaternion<f64>],
+    gyro_raw: &[Vector3<f64>],
+    height: Vec<f64>,
+    stride: usize,
+) -> Smoothed {
     let n = s.len();
     let kernel = gaussian_kernel(opt.smoothing_s / s.dt());
     let segs = &s.segments;
@@ -400,26 +443,18 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
     // mocap body rates from neighbouring poses
     let rates = body_rates(att_body, &s.t_s, segs);
     let omega_s = smooth_vec3_kept(&rates, segs, &kernel, stride);
-    let mut vel_nav = vec![Vector3::zeros(); n];
+    let deriv = |x: &[Vector3<f64>]| central_difference(x, &s.t_s, segs);
+    let vel_nav = deriv(&pos_s);
     let mut acc_nav = vec![Vector3::zeros(); n];
     for &(a, b) in segs {
         for i in a + 1..b.saturating_sub(1) {
-            vel_nav[i] = (pos_s[i + 1] - pos_s[i - 1]) / (s.t_s[i + 1] - s.t_s[i - 1]);
             acc_nav[i] = second_difference(&pos_s, &s.t_s, i);
         }
     }
-    let deriv = |x: &[Vector3<f64>]| -> Vec<Vector3<f64>> {
-        let mut d = vec![Vector3::zeros(); n];
-        for &(a, b) in segs {
-            for i in a + 1..b.saturating_sub(1) {
-                d[i] = (x[i + 1] - x[i - 1]) / (s.t_s[i + 1] - s.t_s[i - 1]);
-            }
-        }
-        d
-    };
     let jerk_nav = deriv(&acc_nav);
     let omega_dot = deriv(&gyro_s);
-    let rot_t: Vec<nalgebra::Matrix3<f64>> = att_body.iter().map(|q: &UnitQuaternion<f64>| q.to_rotation_matrix().matrix().transpose()).collect();
+    let rot_t: Vec<nalgebra::Matrix3<f64>> =
+        att_body.iter().map(|q: &UnitQuaternion<f64>| q.to_rotation_matrix().matrix().transpose()).collect();
     // Everything body-frame that is compared with the smoothed IMU must be rotated *before* it
     // is smoothed, as the IMU is: the IMU reads K*(Rᵀ(p̈ − g·e_D)). For a Gaussian of σ (s),
     // to second order (Ṙᵀ = −[ω]×Rᵀ, R̈ᵀ = ([ω]×² − [ω̇]×)Rᵀ):
@@ -441,25 +476,23 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
     // body-frame images of the nav axes, K*(Rᵀe_j), smoothed after the rotation (exact: the
     // axes are constant); gravity's image and the world-tilt columns are multiples of them:
     // Rᵀ(−g·e_D) = −g·Rᵀe_D, g·e_D × e_N = g·e_E, g·e_D × e_E = −g·e_N
-    let nav_axes: [Vec<Vector3<f64>>; 3] = std::array::from_fn(|j| smooth_vec3_kept(&rot_t.iter().map(|r| r * unit(j)).collect::<Vec<_>>(), segs, &kernel, stride));
+    let nav_axes: [Vec<Vector3<f64>>; 3] = std::array::from_fn(|j| {
+        smooth_vec3_kept(&rot_t.iter().map(|r| r * unit(j)).collect::<Vec<_>>(), segs, &kernel, stride)
+    });
     let grav_body_s: Vec<Vector3<f64>> = nav_axes[2].iter().map(|v| -g * v).collect();
-    let tilt_cols: [Vec<Vector3<f64>>; 2] = [nav_axes[1].iter().map(|v| g * v).collect(), nav_axes[0].iter().map(|v| -g * v).collect()];
+    let tilt_cols: [Vec<Vector3<f64>>; 2] =
+        [nav_axes[1].iter().map(|v| g * v).collect(), nav_axes[0].iter().map(|v| -g * v).collect()];
     // read at the kept rows only (decimation below)
-    let at_kept = |f: &dyn Fn(usize) -> Vector3<f64>| -> Vec<Vector3<f64>> { (0..n).map(|i| if i % stride == 0 { f(i) } else { Vector3::zeros() }).collect() };
+    let at_kept = |f: &dyn Fn(usize) -> Vector3<f64>| -> Vec<Vector3<f64>> {
+        (0..n).map(|i| if i % stride == 0 { f(i) } else { Vector3::zeros() }).collect()
+    };
     let f_hat = at_kept(&|i| rotated(i, &acc_nav[i], &jerk_nav[i]) + grav_body_s[i]);
     let v_body = at_kept(&|i| rotated(i, &vel_nav[i], &acc_nav[i]));
     // regressors of the rotations and the delay come from the IMU side: to first order
     // f_imu − f̂ = δ × f = τ·ḟ with f the IMU's or the mocap's alike, but the IMU is far less noisy
     // than twice-differentiated mocap, and noise in a regressor biases its parameter towards zero
     let f_dot = deriv(&accel_s);
-    // the lever arm's centripetal part ω×(ω×r) is quadratic in ω: smoothed after the product,
-    // as the IMU smooths it (the product of smoothed rates misses K*(ω×(ω×r)) by the rates' own
-    // high-frequency content)
-    let centripetal: [Vec<Vector3<f64>>; 3] =
-        std::array::from_fn(|j| smooth_vec3_kept(&gyro_raw.iter().map(|w| w.cross(&w.cross(&unit(j)))).collect::<Vec<_>>(), segs, &kernel, stride));
-    // a rigid body's point at e_j from another feels ω̇×e_j + ω×(ω×e_j) more: the columns of
-    // both lever arms (the IMU against the tracked point, and against the centre of mass)
-    let rigid_point: [Vec<Vector3<f64>>; 3] = std::array::from_fn(|j| (0..n).map(|i| omega_dot[i].cross(&unit(j)) + centripetal[j][i]).collect());
+    let rigid_point = rigid_point_columns(gyro_raw, &omega_dot, segs, &kernel, stride);
     let thrust_s = s.thrust_n.as_ref().map(|t| {
         let mut o = vec![0.0; n];
         smooth_into(t, segs, &kernel, &mut o);
@@ -467,7 +500,55 @@ fn smoothed(s: &Series, opt: &DesignOptions, pos_nav: &[Vector3<f64>], att_body:
     });
 
     let attitude_gap = smooth_vec3_kept(&attitude_gap(s, &rates, gyro_raw), segs, &kernel, stride);
-    Smoothed { accel_s, gyro_s, omega_s, f_hat, f_dot, omega_dot, v_body, vel_nav, nav_axes, tilt_cols, rigid_point, thrust_s, height, attitude_gap }
+    Smoothed {
+        accel_s,
+        gyro_s,
+        omega_s,
+        f_hat,
+        f_dot,
+        omega_dot,
+        v_body,
+        vel_nav,
+        nav_axes,
+        tilt_cols,
+        rigid_point,
+        thrust_s,
+        height,
+        attitude_gap,
+    }
+}
+
+/// The central difference (xᵢ₊₁ − xᵢ₋₁)/(tᵢ₊₁ − tᵢ₋₁) inside each segment, zero at its ends.
+fn central_difference(x: &[Vector3<f64>], t: &[f64], segs: &[(usize, usize)]) -> Vec<Vector3<f64>> {
+    let mut d = vec![Vector3::zeros(); x.len()];
+    for &(a, b) in segs {
+        for i in a + 1..b.saturating_sub(1) {
+            d[i] = (x[i + 1] - x[i - 1]) / (t[i + 1] - t[i - 1]);
+        }
+    }
+    d
+}
+
+/// The columns of a lever arm along each body axis e_j: a rigid body's point at e_j from another
+/// feels ω̇×e_j + ω×(ω×e_j) more (the IMU against the tracked point, and against the centre of
+/// mass). The centripetal part is quadratic in ω: smoothed after the product, as the IMU smooths
+/// it (the product of smoothed rates misses K*(ω×(ω×r)) by the rates' own high-frequency content).
+fn rigid_point_columns(
+    gyro_raw: &[Vector3<f64>],
+    omega_dot: &[Vector3<f64>],
+    segs: &[(usize, usize)],
+    kernel: &[f64],
+    stride: usize,
+) -> [Vec<Vector3<f64>>; 3] {
+    std::array::from_fn(|j| {
+        let centripetal = smooth_vec3_kept(
+            &gyro_raw.iter().map(|w| w.cross(&w.cross(&unit(j)))).collect::<Vec<_>>(),
+            segs,
+            kernel,
+            stride,
+        );
+        omega_dot.iter().zip(&centripetal).map(|(wd, c)| wd.cross(&unit(j)) + c).collect()
+    })
 }
 
 /// The body-frame signals every channel and column is built from, at the log's rate (smoothed;
@@ -546,7 +627,11 @@ fn unit(j: usize) -> Vector3<f64> {
 /// The channels and the candidates' regressors (the table at the top of this module).
 fn channels(s: &Series, x: &Smoothed) -> Channels {
     let empty3 = || [Vec::new(), Vec::new(), Vec::new()];
-    let mut ch = Channels { measured: [empty3(), empty3(), empty3()], predicted: [empty3(), empty3(), empty3()], columns: Default::default() };
+    let mut ch = Channels {
+        measured: [empty3(), empty3(), empty3()],
+        predicted: [empty3(), empty3(), empty3()],
+        columns: Default::default(),
+    };
     let cols = Cols::new(s);
     for a in 0..3 {
         accel_kin_axis(s, x, &cols, a, &mut ch);
@@ -605,7 +690,8 @@ fn accel_kin_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Chan
     // the accelerometer's own frame: turned against the gyro's (the gyro carries the body
     // offset), and its z scaled
     for j in 0..2 {
-        ch.columns[c][a].push((col(Effect::AccelMisalignment, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
+        ch.columns[c][a]
+            .push((col(Effect::AccelMisalignment, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
     }
     // the z scale's regressor is the mocap's f̂_z: in flight it swings by metres per second
     // squared against a noise of a few hundredths, so the errors-in-variables bias is small
@@ -664,7 +750,15 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
         let e_j = unit(j);
         ch.columns[c][a].push((
             col(Effect::AccelMisalignment, j),
-            (0..n).map(|i| e_j.cross(&Vector3::new(-m.rotor_drag_per_s[0] * v_body[i].x, -m.rotor_drag_per_s[1] * v_body[i].y, -spec[i]))[a]).collect(),
+            (0..n)
+                .map(|i| {
+                    e_j.cross(&Vector3::new(
+                        -m.rotor_drag_per_s[0] * v_body[i].x,
+                        -m.rotor_drag_per_s[1] * v_body[i].y,
+                        -spec[i],
+                    ))[a]
+                })
+                .collect(),
         ));
     }
     // thrust along exp([t]×)(−e_z) ≈ −e_z − t × e_z = (−t_y, t_x, −1)
@@ -686,10 +780,14 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
     } else {
         ch.columns[c][a].push((col(Effect::ThrustScale, 0), spec.iter().map(|x| -x).collect()));
         if let Some(vb) = &s.vbat_v {
-            ch.columns[c][a].push((col(Effect::ThrustVoltage, 0), (0..n).map(|i| -spec[i] * (vb[i] - m.vbat_ref_v)).collect()));
+            ch.columns[c][a]
+                .push((col(Effect::ThrustVoltage, 0), (0..n).map(|i| -spec[i] * (vb[i] - m.vbat_ref_v)).collect()));
         }
         let r = m.rotor_radius_m;
-        ch.columns[c][a].push((col(Effect::GroundEffect, 0), (0..n).map(|i| -spec[i] * (r / (4.0 * height[i].max(r))).powi(2)).collect()));
+        ch.columns[c][a].push((
+            col(Effect::GroundEffect, 0),
+            (0..n).map(|i| -spec[i] * (r / (4.0 * height[i].max(r))).powi(2)).collect(),
+        ));
     }
 }
 
@@ -703,7 +801,12 @@ fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
     let ka = Channel::AccelKin.index();
     let kf = Channel::Force.index();
     let kg = Channel::Gyro.index();
-    let sig = |name: &'static str, v: Vec<f64>, excludes: Vec<(usize, usize)>| Signal { name, samples: v, excludes, floor: false };
+    let sig = |name: &'static str, v: Vec<f64>, excludes: Vec<(usize, usize)>| Signal {
+        name,
+        samples: v,
+        excludes,
+        floor: false,
+    };
     let mut signals: Vec<Signal> = vec![
         sig("time (s)", s.t_s.clone(), vec![]),
         sig("speed (m/s)", vel_nav.iter().map(|v| v.norm()).collect(), vec![]),
@@ -724,8 +827,22 @@ fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
         // the mocap pose's own error: its attitude error reads in f̂ as −δθ × f (the residual
         // gains (−g·δθ_y, g·δθ_x) in flight), and a pose's position and attitude errors come
         // from the same markers; it carries the gyro's measurement, so it is no lead for the gyro
-        Signal { floor: true, ..sig("mocap attitude − gyro integral x (rad)", attitude_gap.iter().map(|v| v.x).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]) },
-        Signal { floor: true, ..sig("mocap attitude − gyro integral y (rad)", attitude_gap.iter().map(|v| v.y).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]) },
+        Signal {
+            floor: true,
+            ..sig(
+                "mocap attitude − gyro integral x (rad)",
+                attitude_gap.iter().map(|v| v.x).collect(),
+                vec![(kg, 0), (kg, 1), (kg, 2)],
+            )
+        },
+        Signal {
+            floor: true,
+            ..sig(
+                "mocap attitude − gyro integral y (rad)",
+                attitude_gap.iter().map(|v| v.y).collect(),
+                vec![(kg, 0), (kg, 1), (kg, 2)],
+            )
+        },
     ];
     if let Some(t) = &thrust_s {
         signals.push(sig("thrust (N)", t.clone(), vec![]));
@@ -781,7 +898,9 @@ mod tests {
     #[test]
     fn row_smoothing_matches_the_scalar_smoothing_bit_for_bit() {
         let n = 500;
-        let x: Vec<Vector3<f64>> = (0..n).map(|i| Vector3::new((i as f64 * 0.37).sin(), (i as f64 * 0.11).cos() * 3.3, i as f64 * 1e-3)).collect();
+        let x: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new((i as f64 * 0.37).sin(), (i as f64 * 0.11).cos() * 3.3, i as f64 * 1e-3))
+            .collect();
         let (k, segs) = (gaussian_kernel(4.0), [(0, 200), (200, n)]);
         let all = smooth_vec3(&x, &segs, &k);
         let some = smooth_vec3_rows(&x, &segs, &k, |i| i % 3 == 0);

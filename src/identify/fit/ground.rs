@@ -156,7 +156,11 @@ fn rest_after_landing(s: &Series, (before, before_end): (usize, usize)) -> Optio
     // motors off: under 1 % of the weight (a thrust model with the rotors' lag decays toward
     // zero without reaching it)
     let off = 0.01 * s.model.mass_kg * s.model.gravity_m_s2;
-    let still = |i: usize| s.mocap_ok[i] && (s.pos_mocap_nav[i].z() - last).abs() < FLOOR_M && s.thrust_n.as_ref().is_none_or(|t| t[i] < off);
+    let still = |i: usize| {
+        s.mocap_ok[i]
+            && (s.pos_mocap_nav[i].z() - last).abs() < FLOOR_M
+            && s.thrust_n.as_ref().is_none_or(|t| t[i] < off)
+    };
     let mut start = end;
     while start > seg_start.max(before_end) && still(start - 1) {
         start -= 1;
@@ -194,7 +198,9 @@ fn still_accel(s: &Series, start: usize, end: usize) -> Option<(usize, usize)> {
     let f = &crate::identify::input::series::raw_vecs(&s.accel_body[start..end]);
     let median = |v: Vec<f64>| super::stats::median(v).unwrap_or(0.0);
     let mid = nalgebra::Vector3::from_fn(|k, _| median(f.iter().map(|x| x[k]).collect()));
-    let sigma = (0..3).map(|k| median(f.windows(2).map(|w| (w[1][k] - w[0][k]).abs()).collect()) * 1.4826 / std::f64::consts::SQRT_2).fold(0.0, f64::max);
+    let sigma = (0..3)
+        .map(|k| median(f.windows(2).map(|w| (w[1][k] - w[0][k]).abs()).collect()) * 1.4826 / std::f64::consts::SQRT_2)
+        .fold(0.0, f64::max);
     let tol = REST_ACCEL_TOL_M_S2.max(8.0 * sigma);
     let (mut best, mut run_start) = ((0, 0), 0);
     for i in 0..=f.len() {
@@ -232,7 +238,9 @@ fn predicted_at_rest(s: &Series, i: usize) -> nalgebra::Vector3<f64> {
 /// (deg): the mean of the up direction the mocap gives, R_mᵀ·(−e_D), against its largest
 /// component's axis.
 fn up_over(s: &Series, start: usize, end: usize) -> (UpAxis, f64) {
-    let up = (start..end).map(|i| s.att_mocap[i].quaternion().inverse_transform_vector(&-nalgebra::Vector3::z())).sum::<nalgebra::Vector3<f64>>();
+    let up = (start..end)
+        .map(|i| s.att_mocap[i].quaternion().inverse_transform_vector(&-nalgebra::Vector3::z()))
+        .sum::<nalgebra::Vector3<f64>>();
     let k = up.iamax();
     let mut axis = nalgebra::Vector3::zeros();
     axis[k] = up[k].signum();
@@ -329,7 +337,8 @@ fn tilt_over(s: &Series, rest: Rest, accel_bias_body: &nalgebra::Vector3<f64>) -
     });
     let m = rp.len() as f64;
     let (mr, mp) = rp.iter().fold((0.0, 0.0), |a, x| (a.0 + x.0 / m, a.1 + x.1 / m));
-    let (vr, vp) = rp.iter().fold((0.0, 0.0), |a, x| (a.0 + (x.0 - mr).powi(2) / (m - 1.0), a.1 + (x.1 - mp).powi(2) / (m - 1.0)));
+    let (vr, vp) =
+        rp.iter().fold((0.0, 0.0), |a, x| (a.0 + (x.0 - mr).powi(2) / (m - 1.0), a.1 + (x.1 - mp).powi(2) / (m - 1.0)));
     GroundCheck {
         roll_deg: mr.to_degrees(),
         pitch_deg: mp.to_degrees(),
@@ -368,7 +377,9 @@ pub fn spin_up(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<S
     let on = (start..seg_end).find(|&i| thrust[i] > 0.0)?;
     let z_rest = s.pos_mocap_nav[start..on].iter().map(|p| p.z()).sum::<f64>() / (on - start) as f64;
     let from = on + (SPIN_UP_SKIP_S / s.dt()).round() as usize;
-    let to = (from..seg_end).find(|&i| thrust[i] <= 0.0 || !s.mocap_ok[i] || (s.pos_mocap_nav[i].z() - z_rest).abs() > LIFT_M).unwrap_or(seg_end);
+    let to = (from..seg_end)
+        .find(|&i| thrust[i] <= 0.0 || !s.mocap_ok[i] || (s.pos_mocap_nav[i].z() - z_rest).abs() > LIFT_M)
+        .unwrap_or(seg_end);
     if to <= from || ((to - from) as f64) * s.dt() < SPIN_UP_MIN_S {
         return None;
     }
@@ -540,10 +551,20 @@ pub struct FlightTilt {
 
 /// Builds the agreement from the raw ground check, the bias-corrected one, the flight's tilt, and
 /// the spin-up and the rest after landing (both bias-corrected), where the log has them.
-pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt, spin: Option<&SpinUp>, landed: Option<&GroundCheck>) -> GroundAgreement {
+pub fn agreement(
+    raw: &GroundCheck,
+    corrected: &GroundCheck,
+    flight: &FlightTilt,
+    spin: Option<&SpinUp>,
+    landed: Option<&GroundCheck>,
+) -> GroundAgreement {
     let FlightTilt { offset_rad, sd_rad, widen_rad, frame_fitted, accel_bias_fitted } = *flight;
     let axis = |k: usize| {
-        let (g, gc, se) = if k == 0 { (raw.roll_deg, corrected.roll_deg, raw.roll_se_deg) } else { (raw.pitch_deg, corrected.pitch_deg, raw.pitch_se_deg) };
+        let (g, gc, se) = if k == 0 {
+            (raw.roll_deg, corrected.roll_deg, raw.roll_se_deg)
+        } else {
+            (raw.pitch_deg, corrected.pitch_deg, raw.pitch_se_deg)
+        };
         let flight = offset_rad[k].to_degrees();
         let difference = gc - flight;
         let ci95 = (Z * se).hypot(Z * sd_rad[k].to_degrees()) + widen_rad[k].to_degrees();
@@ -560,8 +581,11 @@ pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt
     let (roll, pitch) = (axis(0), axis(1));
     let spin_up = spin.map(|sp| {
         let spin_axis = |k: usize, rest: &TiltAgreement| {
-            let (on, on_se, rest_se) =
-                if k == 0 { (sp.check.roll_deg, sp.check.roll_se_deg, corrected.roll_se_deg) } else { (sp.check.pitch_deg, sp.check.pitch_se_deg, corrected.pitch_se_deg) };
+            let (on, on_se, rest_se) = if k == 0 {
+                (sp.check.roll_deg, sp.check.roll_se_deg, corrected.roll_se_deg)
+            } else {
+                (sp.check.pitch_deg, sp.check.pitch_se_deg, corrected.pitch_se_deg)
+            };
             let difference = on - rest.flight_deg;
             let ci95 = (Z * on_se).hypot(Z * sd_rad[k].to_degrees()) + widen_rad[k].to_degrees();
             SpinUpAxis {
@@ -573,11 +597,20 @@ pub fn agreement(raw: &GroundCheck, corrected: &GroundCheck, flight: &FlightTilt
                 covers: difference.abs() <= ci95,
             }
         };
-        SpinUpAgreement { thrust_fraction: sp.thrust_fraction, duration_s: sp.duration_s, roll: spin_axis(0, &roll), pitch: spin_axis(1, &pitch) }
+        SpinUpAgreement {
+            thrust_fraction: sp.thrust_fraction,
+            duration_s: sp.duration_s,
+            roll: spin_axis(0, &roll),
+            pitch: spin_axis(1, &pitch),
+        }
     });
     let after_landing = landed.map(|l| {
         let landed_axis = |k: usize, rest: &TiltAgreement| {
-            let (after, after_se, rest_se) = if k == 0 { (l.roll_deg, l.roll_se_deg, corrected.roll_se_deg) } else { (l.pitch_deg, l.pitch_se_deg, corrected.pitch_se_deg) };
+            let (after, after_se, rest_se) = if k == 0 {
+                (l.roll_deg, l.roll_se_deg, corrected.roll_se_deg)
+            } else {
+                (l.pitch_deg, l.pitch_se_deg, corrected.pitch_se_deg)
+            };
             let (sd_flight, widen) = (sd_rad[k].to_degrees(), widen_rad[k].to_degrees());
             let difference = after - rest.flight_deg;
             let ci95 = (Z * after_se).hypot(Z * sd_flight) + widen;
@@ -641,7 +674,8 @@ pub struct SpinUpAxisSummary {
 
 /// The summary over the agreements that have a spin-up; `None` when fewer than 3 do.
 pub fn spin_up_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreement>) -> Option<SpinUpSummary> {
-    let pairs: Vec<(&GroundAgreement, &SpinUpAgreement)> = agreements.into_iter().filter_map(|a| Some((a, a.spin_up.as_ref()?))).collect();
+    let pairs: Vec<(&GroundAgreement, &SpinUpAgreement)> =
+        agreements.into_iter().filter_map(|a| Some((a, a.spin_up.as_ref()?))).collect();
     let n = pairs.len();
     if n < 3 {
         return None;
@@ -702,7 +736,8 @@ pub struct LandedAxisSummary {
 /// The summary over the agreements; `None` when fewer than 3 have a rest after landing.
 pub fn landed_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreement>) -> Option<LandedSummary> {
     let all: Vec<&GroundAgreement> = agreements.into_iter().collect();
-    let both: Vec<(&GroundAgreement, &LandedAgreement)> = all.iter().filter_map(|a| Some((*a, a.after_landing.as_ref()?))).collect();
+    let both: Vec<(&GroundAgreement, &LandedAgreement)> =
+        all.iter().filter_map(|a| Some((*a, a.after_landing.as_ref()?))).collect();
     if both.len() < 3 {
         return None;
     }
@@ -725,7 +760,12 @@ pub fn landed_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreeme
             beyond_1deg_covered: beyond.iter().filter(|(_, c)| *c).count(),
         }
     };
-    Some(LandedSummary { flights: all.len(), with_both: both.len(), roll: axis(|a| &a.roll, |l| &l.roll), pitch: axis(|a| &a.pitch, |l| &l.pitch) })
+    Some(LandedSummary {
+        flights: all.len(),
+        with_both: both.len(),
+        roll: axis(|a| &a.roll, |l| &l.roll),
+        pitch: axis(|a| &a.pitch, |l| &l.pitch),
+    })
 }
 
 /// The summary as the multi-flight report prints it.
@@ -796,7 +836,9 @@ pub fn rest_pose_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgre
     let median = |v: Vec<f64>| super::stats::median(v).unwrap_or(f64::NAN);
     let axis = |pick: fn(&GroundAgreement) -> &TiltAgreement| {
         let d = |g: &[&GroundAgreement]| g.iter().map(|a| pick(a).difference_deg.abs()).collect::<Vec<f64>>();
-        let beyond = |g: &[&GroundAgreement]| g.iter().filter(|a| pick(a).difference_deg.abs() > 1.0).map(|a| pick(a).covers).collect::<Vec<bool>>();
+        let beyond = |g: &[&GroundAgreement]| {
+            g.iter().filter(|a| pick(a).difference_deg.abs() > 1.0).map(|a| pick(a).covers).collect::<Vec<bool>>()
+        };
         RestPoseAxisSummary {
             median_still_deg: median(d(&lo)),
             median_scattering_deg: median(d(&hi)),
@@ -889,8 +931,16 @@ pub(crate) fn render_rest_pose_summary(s: &RestPoseSummary) -> String {
             a.still_beyond_1deg_covered,
             a.median_scattering_deg,
             a.scattering_beyond_1deg,
-            if a.mann_whitney_p >= 1e-3 { format!("{:.3}", a.mann_whitney_p) } else { format!("{:.0e}", a.mann_whitney_p) },
-            if a.mann_whitney_p < 0.05 { ": a pose the cameras see badly at rest makes the ground check an unreliable reference" } else { "" }
+            if a.mann_whitney_p >= 1e-3 {
+                format!("{:.3}", a.mann_whitney_p)
+            } else {
+                format!("{:.0e}", a.mann_whitney_p)
+            },
+            if a.mann_whitney_p < 0.05 {
+                ": a pose the cameras see badly at rest makes the ground check an unreliable reference"
+            } else {
+                ""
+            }
         );
     }
     t
@@ -911,7 +961,10 @@ fn binomial_upper_tail(n: usize, k: usize) -> f64 {
 
 /// The summary as the multi-flight report prints it.
 pub(crate) fn render_spin_up_summary(s: &SpinUpSummary) -> String {
-    let mut t = format!("\nground check at rest and at spin-up (motors on, still on the floor) against the flight, {} flights:\n", s.flights);
+    let mut t = format!(
+        "\nground check at rest and at spin-up (motors on, still on the floor) against the flight, {} flights:\n",
+        s.flights
+    );
     for (name, a) in [("roll", &s.roll), ("pitch", &s.pitch)] {
         t += &format!(
             "  {name:<5} median |difference| rest {:.2}°, spin-up {:.2}°; the spin-up moves toward the flight in {} of {} (sign test p = {:.3}){}\n",
@@ -946,7 +999,11 @@ pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
             let mut note = format!(
                 "ground check and flight disagree in {name}: the ground reads {:.2}°{}, the flight {:.2}° (difference {}°): the markers or the IMU board moved between rest and flight, or the flight holds an effect the candidate library lacks",
                 t.ground_deg,
-                if t.bias_tilt_deg != 0.0 { format!(" ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg) } else { String::new() },
+                if t.bias_tilt_deg != 0.0 {
+                    format!(" ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg)
+                } else {
+                    String::new()
+                },
                 t.flight_deg,
                 crate::identify::precision::with_interval(t.difference_deg, t.ci95_deg)
             );
@@ -955,7 +1012,9 @@ pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
             let landed = a.after_landing.as_ref().map(|l| if name == first { &l.roll } else { &l.pitch });
             // the spin-up counts only where it moved significantly from the rest, toward the
             // flight, and lands within its interval of it (a wide interval alone agrees with anything)
-            let toward = |s: &&SpinUpAxis| s.covers && s.change_deg.abs() > s.change_ci95_deg && s.change_deg * t.difference_deg < 0.0;
+            let toward = |s: &&SpinUpAxis| {
+                s.covers && s.change_deg.abs() > s.change_ci95_deg && s.change_deg * t.difference_deg < 0.0
+            };
             if let Some(sp) = spin.filter(toward) {
                 note += &format!(
                     "; the spin-up (motors on, still on the floor) moved {}° from the rest toward the flight and agrees with it ({}°): consistent with a tilt the spinning rotors add, which the flight carries too (rectified vibration, a mount that bends under thrust) and a rest with the motors off cannot see",
@@ -1000,18 +1059,32 @@ mod tests {
             let extra = if i >= rest_rows { spin_deg } else { [0.0; 2] };
             // the accelerometer's frame turned by (roll, pitch) against the markers, in the sign
             // the ground check reports (δ = f̂ × f / |f̂|²): f = C·(−g·e_D), C the small rotation
-            let c = UnitQuaternion::from_euler_angles((rest_deg[0] + extra[0]).to_radians(), (rest_deg[1] + extra[1]).to_radians(), 0.0);
+            let c = UnitQuaternion::from_euler_angles(
+                (rest_deg[0] + extra[0]).to_radians(),
+                (rest_deg[1] + extra[1]).to_radians(),
+                0.0,
+            );
             c.transform_vector(&Vector3::new(0.0, 0.0, -G))
         };
         Series {
             source: "spin".into(),
             t_s: (0..n).map(|i| i as f64 * dt).collect(),
-            pos_mocap_nav: (0..n).map(|i| Vec3::new(0.0, 0.0, if i < rest_rows + spin_rows { 0.0 } else { -0.01 * (i - rest_rows - spin_rows) as f64 })).collect(),
+            pos_mocap_nav: (0..n)
+                .map(|i| {
+                    Vec3::new(
+                        0.0,
+                        0.0,
+                        if i < rest_rows + spin_rows { 0.0 } else { -0.01 * (i - rest_rows - spin_rows) as f64 },
+                    )
+                })
+                .collect(),
             att_mocap: vec![Rot::identity(); n],
             mocap_ok: vec![true; n],
             gyro_body: vec![Vec3::zeros(); n],
             // a little alternating noise so that the standard errors are finite
-            accel_body: (0..n).map(|i| Vec3::from_raw(tilt(i) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 })).collect(),
+            accel_body: (0..n)
+                .map(|i| Vec3::from_raw(tilt(i) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 }))
+                .collect(),
             thrust_n: Some((0..n).map(|i| if i < rest_rows { 0.0 } else { fraction * G }).collect()),
             vbat_v: None,
             segments: vec![(0, n)],
@@ -1071,12 +1144,16 @@ mod tests {
             let [a, b] = up.level();
             let want = [n[a], n[b]].map(|x| (x * alpha).to_degrees());
             assert_eq!(g.up_axis, up);
-            assert!((g.roll_deg - want[0]).abs() < 1e-9 && (g.pitch_deg - want[1]).abs() < 1e-9, "{up:?} up: {g:?} against {want:?}");
+            assert!(
+                (g.roll_deg - want[0]).abs() < 1e-9 && (g.pitch_deg - want[1]).abs() < 1e-9,
+                "{up:?} up: {g:?} against {want:?}"
+            );
             assert!(rest_off_axis_deg(&s).unwrap() < 1e-9);
         }
         assert_eq!(UpAxis::X.tilt_names(), ["about y", "about z"]);
         // the JSON names the up axis only when it is not z
-        let json = |turn| serde_json::to_string(&ground_check(&turned(turn, UnitQuaternion::identity())).unwrap()).unwrap();
+        let json =
+            |turn| serde_json::to_string(&ground_check(&turned(turn, UnitQuaternion::identity())).unwrap()).unwrap();
         assert!(json(UnitQuaternion::from_euler_angles(0.0, 90f64.to_radians(), 0.0)).contains(r#""up_axis":"x""#));
         assert!(!json(UnitQuaternion::identity()).contains("up_axis"));
     }
@@ -1095,15 +1172,23 @@ mod tests {
         let world = UnitQuaternion::from_euler_angles(6f64.to_radians(), -2f64.to_radians(), 0.0);
         let bias = Vector3::new(0.3, -0.2, 0.1);
         let mut s = turned(turn, UnitQuaternion::identity());
-        let corr = Corrections { body_offset: Rot::from_quaternion(offset), world_tilt: Rot::from_quaternion(world), ..Corrections::default() };
+        let corr = Corrections {
+            body_offset: Rot::from_quaternion(offset),
+            world_tilt: Rot::from_quaternion(world),
+            ..Corrections::default()
+        };
         let att = correct(&s, &corr).att_body;
         for i in 0..s.len() {
-            s.accel_body[i] = Vec3::from_raw(att[i].quaternion().inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)) + bias);
+            s.accel_body[i] =
+                Vec3::from_raw(att[i].quaternion().inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)) + bias);
         }
         let rest = rest_before_takeoff(&s).unwrap();
         for (b, read) in [(Vector3::zeros(), tilt_at_rest(&s, &bias).unwrap()), (bias, ground_check(&s).unwrap())] {
             let p = predicted_tilt(&s, &rest, &offset, &world, &b).map(f64::to_degrees);
-            assert!((p[0] - read.roll_deg).abs() < 1e-9 && (p[1] - read.pitch_deg).abs() < 1e-9, "{p:?} against {read:?}");
+            assert!(
+                (p[0] - read.roll_deg).abs() < 1e-9 && (p[1] - read.pitch_deg).abs() < 1e-9,
+                "{p:?} against {read:?}"
+            );
             let swapped = predicted_tilt(&s, &rest, &offset, &world.inverse(), &b).map(f64::to_degrees);
             assert!((swapped[0] - read.roll_deg).abs().max((swapped[1] - read.pitch_deg).abs()) > 1.0, "{swapped:?}");
         }
@@ -1121,14 +1206,24 @@ mod tests {
         let g = ground_check(&s).unwrap();
         let (gamma, up) = (c.scaled_axis(), s.att_mocap[0].quaternion().inverse_transform_vector(&-Vector3::z()));
         let want = (gamma - up * gamma.dot(&up)).map(f64::to_degrees);
-        assert!((g.roll_deg - want.x).abs() < 0.02 && (g.pitch_deg - want.y).abs() < 0.02 && want.y.abs() > 0.5, "{g:?} against {want:?}");
+        assert!(
+            (g.roll_deg - want.x).abs() < 0.02 && (g.pitch_deg - want.y).abs() < 0.02 && want.y.abs() > 0.5,
+            "{g:?} against {want:?}"
+        );
         let turn = UnitQuaternion::from_euler_angles(40f64.to_radians(), 0.0, 0.0);
         let s = turned(turn, c);
         let off = rest_off_axis_deg(&s).unwrap();
         assert!((off - 40.0).abs() < 1e-9, "{off}");
         assert!(ground_check(&s).is_none());
         let r = crate::identify::identify(&climbing(s), &crate::identify::Options::default()).unwrap();
-        assert!(r.ground_check.is_none() && r.notes.iter().any(|n| n.starts_with("the log rests with the vertical 40° from the nearest body axis")), "{:?}", r.notes);
+        assert!(
+            r.ground_check.is_none()
+                && r.notes
+                    .iter()
+                    .any(|n| n.starts_with("the log rests with the vertical 40° from the nearest body axis")),
+            "{:?}",
+            r.notes
+        );
         // a level rest that gets no check for another reason (its accelerometer ramps by
         // 0.01 m/s² a row: no 0.5 s of still rows) is not said to rest off its axes
         let mut s = turned(UnitQuaternion::identity(), c);
@@ -1136,7 +1231,11 @@ mod tests {
             s.accel_body[i] += Vec3::new(0.01 * i as f64, 0.0, 0.0);
         }
         let r = crate::identify::identify(&climbing(s), &crate::identify::Options::default()).unwrap();
-        assert!(r.ground_check.is_none() && !r.notes.iter().any(|n| n.contains("from the nearest body axis")), "{:?}", r.notes);
+        assert!(
+            r.ground_check.is_none() && !r.notes.iter().any(|n| n.contains("from the nearest body axis")),
+            "{:?}",
+            r.notes
+        );
     }
 
     /// `s` with its climb carried on to 43 s, long enough to select (a note comes with a full
@@ -1185,7 +1284,13 @@ mod tests {
 
     /// A flight's frame tilt (deg) with a tight interval.
     fn tilt(deg: [f64; 2]) -> FlightTilt {
-        FlightTilt { offset_rad: deg.map(f64::to_radians), sd_rad: [0.001; 2], widen_rad: [0.0; 2], frame_fitted: true, accel_bias_fitted: false }
+        FlightTilt {
+            offset_rad: deg.map(f64::to_radians),
+            sd_rad: [0.001; 2],
+            widen_rad: [0.0; 2],
+            frame_fitted: true,
+            accel_bias_fitted: false,
+        }
     }
 
     /// The agreement's spin-up: change = spin-up − rest, difference = spin-up − flight.
@@ -1197,7 +1302,12 @@ mod tests {
         // and the note says so at the interval's precision
         let loose = FlightTilt { sd_rad: [0.02; 2], ..tilt([0.4, 0.2]) };
         let notes = agreement_notes(&agreement(&raw, &raw, &loose, None, None));
-        assert_eq!(notes, ["ground check and flight differ by -1.2 ± 2.2° in pitch, within what this flight determines: the flight cannot pin its tilt down to 1°"]);
+        assert_eq!(
+            notes,
+            [
+                "ground check and flight differ by -1.2 ± 2.2° in pitch, within what this flight determines: the flight cannot pin its tilt down to 1°"
+            ]
+        );
         let a = agreement(&raw, &raw, &tilt([0.4, -0.6]), Some(&sp), None);
         let su = a.spin_up.unwrap();
         assert!((su.pitch.change_deg - 0.5).abs() < 1e-3 && su.roll.change_deg.abs() < 1e-3, "{su:?}");
@@ -1248,7 +1358,10 @@ mod tests {
         let v = [at(0.4), at(0.4), at(-0.4)];
         let sum = spin_up_summary(v.iter()).unwrap();
         assert_eq!((sum.flights, sum.pitch.toward_flight), (3, 2));
-        assert!((sum.pitch.median_rest_deg - 0.4).abs() < 1e-3 && (sum.pitch.median_spin_up_deg - 0.1).abs() < 1e-3, "{sum:?}");
+        assert!(
+            (sum.pitch.median_rest_deg - 0.4).abs() < 1e-3 && (sum.pitch.median_spin_up_deg - 0.1).abs() < 1e-3,
+            "{sum:?}"
+        );
         assert!((sum.pitch.sign_test_p - 0.5).abs() < 1e-12);
         assert!(spin_up_summary(v[..2].iter()).is_none());
     }
@@ -1309,7 +1422,10 @@ mod tests {
                 // binomial 95 % band of 4000 draws around 4/84
                 assert!((f5 - 4.0 / 84.0).abs() < 0.007 && at1 == 0, "{na} vs {nb}: {f5} at 5 %, {f1} at 1 %");
             } else {
-                assert!((f5 - 0.05).abs() < 0.007 && (f1 - 0.01).abs() < 0.004, "{na} vs {nb}: {f5} at 5 %, {f1} at 1 %");
+                assert!(
+                    (f5 - 0.05).abs() < 0.007 && (f1 - 0.01).abs() < 0.004,
+                    "{na} vs {nb}: {f5} at 5 %, {f1} at 1 %"
+                );
             }
         }
     }
@@ -1323,7 +1439,10 @@ mod tests {
         let raw = ground_check(&flight([0.0, 0.0], [0.0; 2], 0.9)).unwrap();
         let scatter = GroundCheck { mocap_sd_deg: [0.1, 0.1], ..raw };
         let edge = GroundCheck { mocap_sd_deg: [STILL_POSE_SD_DEG, 0.5], ..raw };
-        assert!(!agreement(&edge, &edge, &tilt([0.0, 0.0]), None, None).rest_pose_scatters, "the threshold itself is still, pitch does not count");
+        assert!(
+            !agreement(&edge, &edge, &tilt([0.0, 0.0]), None, None).rest_pose_scatters,
+            "the threshold itself is still, pitch does not count"
+        );
         let at = |g: &GroundCheck, roll: f64| agreement(g, g, &tilt([roll, 0.0]), None, None);
         let v = [at(&raw, 0.1), at(&raw, 0.2), at(&scatter, 0.6), at(&scatter, 0.8), at(&scatter, 1.2)];
         assert!(!v[0].rest_pose_scatters && v[2].rest_pose_scatters);
@@ -1333,9 +1452,15 @@ mod tests {
         // with two still flights more, at 0.05° and 0.3° (their median stays 0.15°)
         let w: Vec<GroundAgreement> = v.iter().cloned().chain([at(&raw, 0.05), at(&raw, 0.3)]).collect();
         let sum = rest_pose_summary(w.iter()).unwrap();
-        assert_eq!((sum.still, sum.scattering, sum.roll.still_beyond_1deg, sum.roll.scattering_beyond_1deg), (4, 3, 0, 1));
+        assert_eq!(
+            (sum.still, sum.scattering, sum.roll.still_beyond_1deg, sum.roll.scattering_beyond_1deg),
+            (4, 3, 0, 1)
+        );
         // (the constructed rest reads 0.0007° of roll from its noise)
-        assert!((sum.roll.median_still_deg - 0.15).abs() < 2e-3 && (sum.roll.median_scattering_deg - 0.8).abs() < 2e-3, "{sum:?}");
+        assert!(
+            (sum.roll.median_still_deg - 0.15).abs() < 2e-3 && (sum.roll.median_scattering_deg - 0.8).abs() < 2e-3,
+            "{sum:?}"
+        );
         // every scattering difference above every still one: exact, 1 of C(7, 3) = 35 arrangements
         assert!((sum.roll.mann_whitney_p - 1.0 / 35.0).abs() < 1e-12, "{sum:?}");
         // the block the multi-flight report prints
@@ -1349,7 +1474,10 @@ mod tests {
         );
         // 3 against 2 cannot be significant: its smallest p is 1/10
         let few = rest_pose_summary(v.iter()).unwrap();
-        assert!((few.roll.mann_whitney_p - 0.1).abs() < 1e-12 && !render_rest_pose_summary(&few).contains("see badly"), "{few:?}");
+        assert!(
+            (few.roll.mann_whitney_p - 0.1).abs() < 1e-12 && !render_rest_pose_summary(&few).contains("see badly"),
+            "{few:?}"
+        );
         assert!(rest_pose_summary(v[1..].iter()).is_none(), "one still flight is too few");
         // two in each group is enough, one scattering flight is too few
         assert!(rest_pose_summary(v[..4].iter()).is_some_and(|s| (s.still, s.scattering) == (2, 2)));
@@ -1368,7 +1496,10 @@ mod tests {
             s.att_mocap.push(Rot::identity());
             s.mocap_ok.push(true);
             s.gyro_body.push(Vec3::zeros());
-            s.accel_body.push(Vec3::from_raw(c.transform_vector(&Vector3::new(0.0, 0.0, -G)) + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 }));
+            s.accel_body.push(Vec3::from_raw(
+                c.transform_vector(&Vector3::new(0.0, 0.0, -G))
+                    + Vector3::new(0.01, -0.01, 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 },
+            ));
             s.thrust_n.as_mut().unwrap().push(0.0);
         }
         s.segments = vec![(0, 400)];
@@ -1414,7 +1545,10 @@ mod tests {
         for end_z in [0.0, 0.02, -0.04] {
             let s = landed([0.4, -1.0], [0.2, -0.4], end_z);
             let after = tilt_after_landing(&s, &Vector3::zeros()).unwrap();
-            assert!((after.roll_deg - 0.2).abs() < 1e-3 && (after.pitch_deg + 0.4).abs() < 1e-3 && after.samples == 50, "{after:?}");
+            assert!(
+                (after.roll_deg - 0.2).abs() < 1e-3 && (after.pitch_deg + 0.4).abs() < 1e-3 && after.samples == 50,
+                "{after:?}"
+            );
         }
         let s = landed([0.4, -1.0], [0.2, -0.4], 0.0);
         let (raw, after) = (ground_check(&s).unwrap(), tilt_after_landing(&s, &Vector3::zeros()).unwrap());
@@ -1423,7 +1557,10 @@ mod tests {
         // after − before, after − flight, (before + after)/2 − flight
         assert!((l.roll.change_deg + 0.2).abs() < 1e-3 && (l.pitch.change_deg - 0.6).abs() < 1e-3, "{l:?}");
         assert!((l.roll.difference_deg + 0.1).abs() < 1e-3 && (l.pitch.difference_deg - 0.5).abs() < 1e-3, "{l:?}");
-        assert!(l.roll.bracket_difference_deg.abs() < 1e-3 && (l.pitch.bracket_difference_deg - 0.2).abs() < 1e-3, "{l:?}");
+        assert!(
+            l.roll.bracket_difference_deg.abs() < 1e-3 && (l.pitch.bracket_difference_deg - 0.2).abs() < 1e-3,
+            "{l:?}"
+        );
         assert!(l.pitch.bracket_ci95_deg >= 0.3 && l.pitch.bracket_covers && !l.pitch.covers, "{l:?}");
         // the change's interval is the two rests' standard errors combined, 1.96·√(se_a² + se_b²)
         let change_ci = 1.959964 * after.roll_se_deg.hypot(raw.roll_se_deg);
@@ -1434,14 +1571,21 @@ mod tests {
         // mean of the two rests (−0.1 ± at least 0.3): the report says so
         let notes = agreement_notes(&agreement(&raw, &raw, &tilt([0.4, -0.6]), None, Some(&after)));
         assert_eq!(notes.len(), 1, "{notes:?}");
-        assert!(notes[0].contains("disagree in pitch") && notes[0].contains("the mean of the rests before and after the flight agrees with it (-0.10 ±"), "{notes:?}");
+        assert!(
+            notes[0].contains("disagree in pitch")
+                && notes[0].contains("the mean of the rests before and after the flight agrees with it (-0.10 ±"),
+            "{notes:?}"
+        );
         let out = agreement(&raw, &raw, &tilt([0.3, -1.2]), None, Some(&after));
         let b = [a, out, agreement(&raw, &raw, &tilt([1.9, -0.9]), None, None)];
         assert!(landed_summary(b.iter()).is_none(), "fewer than 3 flights with both rests");
         let b = [b[0], b[0], b[1], b[2]];
         let sum = landed_summary(b.iter()).unwrap();
         assert_eq!((sum.flights, sum.with_both, sum.roll.between, sum.pitch.between), (4, 3, 3, 2));
-        assert!((sum.pitch.median_change_deg - 0.6).abs() < 1e-3 && (sum.pitch.median_bracket_deg - 0.2).abs() < 1e-3, "{sum:?}");
+        assert!(
+            (sum.pitch.median_change_deg - 0.6).abs() < 1e-3 && (sum.pitch.median_bracket_deg - 0.2).abs() < 1e-3,
+            "{sum:?}"
+        );
         // the flight without a rest after landing is judged by its rest before: 0.4 − 1.9
         assert_eq!((sum.roll.beyond_1deg, sum.roll.beyond_1deg_covered), (1, 0));
     }
@@ -1475,11 +1619,19 @@ mod tests {
         let mut s = flight([0.3, -0.2], [0.0; 2], 0.9);
         assert_eq!(ground_check(&s).unwrap().mocap_sd_deg, [0.0, 0.0]);
         for i in 0..100 {
-            s.att_mocap[i] = Rot::from_quaternion(UnitQuaternion::from_euler_angles(if i % 2 == 0 { 0.1f64 } else { -0.1 }.to_radians(), 0.0, 0.0));
+            s.att_mocap[i] = Rot::from_quaternion(UnitQuaternion::from_euler_angles(
+                if i % 2 == 0 { 0.1f64 } else { -0.1 }.to_radians(),
+                0.0,
+                0.0,
+            ));
         }
         let g = ground_check(&s).unwrap();
         let m = g.samples as f64;
         assert_eq!(g.samples % 2, 1);
-        assert!((g.mocap_sd_deg[0] - 0.1 * ((m - 1.0 / m) / (m - 1.0)).sqrt()).abs() < 1e-6 && g.mocap_sd_deg[1].abs() < 1e-9, "{g:?}");
+        assert!(
+            (g.mocap_sd_deg[0] - 0.1 * ((m - 1.0 / m) / (m - 1.0)).sqrt()).abs() < 1e-6
+                && g.mocap_sd_deg[1].abs() < 1e-9,
+            "{g:?}"
+        );
     }
 }

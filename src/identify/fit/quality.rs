@@ -141,7 +141,16 @@ impl DataQuality {
     pub(crate) fn describe(&self) -> Vec<String> {
         self.cuts
             .iter()
-            .map(|c| format!("{} {:.2}–{:.2} s: {}{}", c.channel.name(), c.from_s, c.to_s, c.reason, if c.at_floor { " (at the floor: touchdown or contact)" } else { "" }))
+            .map(|c| {
+                format!(
+                    "{} {:.2}–{:.2} s: {}{}",
+                    c.channel.name(),
+                    c.from_s,
+                    c.to_s,
+                    c.reason,
+                    if c.at_floor { " (at the floor: touchdown or contact)" } else { "" }
+                )
+            })
             .collect()
     }
 }
@@ -369,7 +378,10 @@ fn flag_stuck(s: &Series, o: &QualityOptions, min_height_m: f64, floor: Option<f
         }
     }
     let frozen = |i: usize| {
-        s.mocap_ok[i] && s.mocap_ok[i - 1] && same3(&s.pos_mocap_nav[i], &s.pos_mocap_nav[i - 1]) && s.att_mocap[i].quaternion().coords == s.att_mocap[i - 1].quaternion().coords
+        s.mocap_ok[i]
+            && s.mocap_ok[i - 1]
+            && same3(&s.pos_mocap_nav[i], &s.pos_mocap_nav[i - 1])
+            && s.att_mocap[i].quaternion().coords == s.att_mocap[i - 1].quaternion().coords
     };
     for (a, b) in runs(&s.segments, frozen) {
         if b - a < min_run {

@@ -80,7 +80,11 @@ fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
         }
         h
     };
-    if x < (a + 1.0) / (a + b + 2.0) { ln_front.exp() * cf(a, b, x) / a } else { 1.0 - ln_front.exp() * cf(b, a, 1.0 - x) / b }
+    if x < (a + 1.0) / (a + b + 2.0) {
+        ln_front.exp() * cf(a, b, x) / a
+    } else {
+        1.0 - ln_front.exp() * cf(b, a, 1.0 - x) / b
+    }
 }
 
 /// Regularised lower incomplete gamma P(a, x).
@@ -210,7 +214,8 @@ impl Ar {
             let rss = (yy - a.dot(&b)).max(yy * 1e-15).max(f64::MIN_POSITIVE);
             let bic = n * (rss / n).ln() + p as f64 * n.ln();
             if best.as_ref().is_none_or(|(b0, _)| bic < *b0) {
-                best = Some((bic, Ar { a: a.iter().copied().collect(), sigma: (rss / n).sqrt(), marginal_var: yy / n }));
+                best =
+                    Some((bic, Ar { a: a.iter().copied().collect(), sigma: (rss / n).sqrt(), marginal_var: yy / n }));
             }
         }
         best.map(|b| b.1).unwrap_or(Ar::white(1.0))
@@ -451,7 +456,11 @@ mod tests {
         assert!((incomplete_beta(2.0, 3.0, 0.2) - 0.1808).abs() < 1e-13);
         // the lower tail to full relative precision, which only the series keeps (1 − Q loses
         // it): P(10, 1) = e⁻¹·Σ 1/(10 + n)! = 1.1142547833872068e-7, P(3, 0.5) = 0.014387677966970687
-        assert!((incomplete_gamma(10.0, 1.0) / 1.114_254_783_387_206_8e-7 - 1.0).abs() < 1e-12, "{}", incomplete_gamma(10.0, 1.0));
+        assert!(
+            (incomplete_gamma(10.0, 1.0) / 1.114_254_783_387_206_8e-7 - 1.0).abs() < 1e-12,
+            "{}",
+            incomplete_gamma(10.0, 1.0)
+        );
         assert!((incomplete_gamma(3.0, 0.5) / 0.014_387_677_966_970_687 - 1.0).abs() < 1e-12);
         // χ²(1), the leads' test: P(X > q) = erfc(√(q/2)). Near q = 0 (a weak correlation, p
         // near 1) only the series converges in 1000 terms: the continued fraction at a = ½,
@@ -466,7 +475,13 @@ mod tests {
         // thousands: d₁ = 2, d₂ = 4000 and F = 20 (a clear effect) give x = d₁F/(d₁F + d₂)
         // = 0.0099, where the direct fraction would have to reach I·a/front = 1/(b·x·(1 − x)^b)
         // ≈ 2·10⁷ (it comes out 8·10⁻⁹ above 1, so the upper tail 1 − I would be negative)
-        for (a, b, x) in [(1.0f64, 2000.0f64, 0.003f64), (1.0, 2000.0, 0.0099), (1.0, 2000.0, 0.0005), (2000.0, 1.0, 0.9997), (2000.0, 1.0, 0.99)] {
+        for (a, b, x) in [
+            (1.0f64, 2000.0f64, 0.003f64),
+            (1.0, 2000.0, 0.0099),
+            (1.0, 2000.0, 0.0005),
+            (2000.0, 1.0, 0.9997),
+            (2000.0, 1.0, 0.99),
+        ] {
             let truth = if a == 1.0 { -(b * (-x).ln_1p()).exp_m1() } else { (a * x.ln()).exp() };
             let got = incomplete_beta(a, b, x);
             assert!((got - truth).abs() < 1e-12, "I_{x}({a}, {b}) = {got}, closed form {truth}");
@@ -578,7 +593,9 @@ mod tests {
         assert!((schur_complement(&m(2, &[4.0, 2.0, 2.0, 2.0]), 1) - m(1, &[2.0])).amax() < 1e-15);
         let g = m(3, &[4.0, 1.0, 2.0, 1.0, 3.0, 1.0, 2.0, 1.0, 2.0]);
         assert!((schur_complement(&g, 2) - m(2, &[2.0, 0.0, 0.0, 2.5])).amax() < 1e-15, "{}", schur_complement(&g, 2));
-        assert!((schur_complement(&m(3, &[5.0, 1.0, 2.0, 1.0, 2.0, 0.0, 2.0, 0.0, 4.0]), 1) - m(1, &[3.5])).amax() < 1e-15);
+        assert!(
+            (schur_complement(&m(3, &[5.0, 1.0, 2.0, 1.0, 2.0, 0.0, 2.0, 0.0, 4.0]), 1) - m(1, &[3.5])).amax() < 1e-15
+        );
         assert_eq!(schur_complement(&g, 3), g);
     }
 

@@ -73,7 +73,10 @@ impl InputError {
         InputError::Io { file: file.to_string(), source }
     }
     pub(crate) fn invalid(file: impl Display, message: impl Display) -> Self {
-        InputError::Invalid { file: file.to_string(), message: crate::scenario::error::for_authors(&message.to_string()) }
+        InputError::Invalid {
+            file: file.to_string(),
+            message: crate::scenario::error::for_authors(&message.to_string()),
+        }
     }
     pub(crate) fn log(file: impl Display, message: impl Display) -> Self {
         InputError::Log { file: file.to_string(), message: message.to_string() }
@@ -91,10 +94,21 @@ mod tests {
     /// `c`: what`, and without a column `file:line: what`.
     #[test]
     fn a_row_error_names_file_line_and_column() {
-        let e = InputError::Row { file: "log.csv".into(), line: 7, column: Some("gx".into()), message: "`x` is not a finite number".into() };
+        let e = InputError::Row {
+            file: "log.csv".into(),
+            line: 7,
+            column: Some("gx".into()),
+            message: "`x` is not a finite number".into(),
+        };
         assert_eq!(e.to_string(), "log.csv:7: column `gx`: `x` is not a finite number");
         assert_eq!(InputError::row("log.csv", 3, "time goes backwards").to_string(), "log.csv:3: time goes backwards");
-        let m = InputError::Message { file: "b.mcap".into(), topic: "/imu".into(), sequence: 4, schema: "sensor_msgs/msg/Imu".into(), reason: "cut short".into() };
+        let m = InputError::Message {
+            file: "b.mcap".into(),
+            topic: "/imu".into(),
+            sequence: 4,
+            schema: "sensor_msgs/msg/Imu".into(),
+            reason: "cut short".into(),
+        };
         assert_eq!(m.to_string(), "b.mcap: topic `/imu`, message 4 (sensor_msgs/msg/Imu): cut short");
     }
 }

@@ -33,15 +33,19 @@ pub const THRUST_REL_SD: f64 = 2e-4;
 pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Result<Series, InputError> {
     let spec = &s.spec().vehicles[vehicle];
     let p = &spec.params;
-    let col = |name: &str| log.column(name).ok_or_else(|| InputError::log(source, format!("the log has no column `{name}`")));
+    let col =
+        |name: &str| log.column(name).ok_or_else(|| InputError::log(source, format!("the log has no column `{name}`")));
     let n = log.rows();
     let t: Vec<f64> = col("t_s")?.iter().map(|x| x.unwrap_or(f64::NAN)).collect();
     let valid = col("mocap_valid")?;
-    let get = |name: &str| -> Result<Vec<f64>, InputError> { Ok(col(name)?.iter().map(|x| x.unwrap_or(f64::NAN)).collect()) };
+    let get =
+        |name: &str| -> Result<Vec<f64>, InputError> { Ok(col(name)?.iter().map(|x| x.unwrap_or(f64::NAN)).collect()) };
     let (pn, pe, pd) = (get("pos_n_m")?, get("pos_e_m")?, get("pos_d_m")?);
     let (qw, qx, qy, qz) = (get("q_w")?, get("q_x")?, get("q_y")?, get("q_z")?);
-    let g: Vec<Vec<f64>> = ["gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s"].iter().map(|c| get(c)).collect::<Result<_, _>>()?;
-    let a: Vec<Vec<f64>> = ["acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"].iter().map(|c| get(c)).collect::<Result<_, _>>()?;
+    let g: Vec<Vec<f64>> =
+        ["gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s"].iter().map(|c| get(c)).collect::<Result<_, _>>()?;
+    let a: Vec<Vec<f64>> =
+        ["acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"].iter().map(|c| get(c)).collect::<Result<_, _>>()?;
     let thrust_count = col("cmd_thrust")?;
     let mut pos = Vec::with_capacity(n);
     let mut att = Vec::with_capacity(n);
@@ -50,7 +54,10 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
     for i in 0..n {
         let seen = valid[i] == Some(1.0);
         if seen {
-            last = (Vector3::new(pn[i], pe[i], pd[i]), UnitQuaternion::from_quaternion(Quaternion::new(qw[i], qx[i], qy[i], qz[i])));
+            last = (
+                Vector3::new(pn[i], pe[i], pd[i]),
+                UnitQuaternion::from_quaternion(Quaternion::new(qw[i], qx[i], qy[i], qz[i])),
+            );
         }
         // a flyarena log's pose is the mocap's (NED, the markers' body frame)
         pos.push(Vec3::from_raw(last.0));
@@ -101,7 +108,9 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
 /// through the same CSV text a `run --log` writes (so the two routes cannot drift apart).
 pub fn run_and_log(s: &Scenario, vehicle: usize, source: &str) -> crate::Result<(crate::engine::RunOutput, Series)> {
     let out = crate::engine::run(s.spec(), crate::engine::RunOptions { trace: true, apply_calibration: None });
-    let v = out.vehicles.get(vehicle).ok_or_else(|| InputError::log(source, format!("vehicle {vehicle} does not exist (the scenario has {})", out.vehicles.len())))?;
+    let v = out.vehicles.get(vehicle).ok_or_else(|| {
+        InputError::log(source, format!("vehicle {vehicle} does not exist (the scenario has {})", out.vehicles.len()))
+    })?;
     let text = crate::log::write_csv(v, 1.0 / s.mocap.rate_hz() as f64);
     let log = crate::log::read_csv(&text, source)?;
     let series = series(&log, s, vehicle, source)?;

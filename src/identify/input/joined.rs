@@ -188,7 +188,8 @@ mod tests {
             let imu = stream(&[0, 5, 10, 15, 20, 25], &|_| 0.0);
             let motors = stream(&[motors_from, 20], &|i| 100.0 + i as f64);
             let battery = stream(&[0], &|_| 11.1);
-            let six = |s: Stream<7>| Stream { t: s.t, v: s.v.iter().map(|v| [v[0], v[1], v[2], v[3], v[4], v[5]]).collect() };
+            let six =
+                |s: Stream<7>| Stream { t: s.t, v: s.v.iter().map(|v| [v[0], v[1], v[2], v[3], v[4], v[5]]).collect() };
             let eight = |s: Stream<7>| Stream { t: s.t, v: s.v.iter().map(|v| [v[0]; 8]).collect() };
             let one = |s: Stream<7>| Stream { t: s.t, v: s.v.iter().map(|v| [v[0]]).collect() };
             Streams { pose, imu: six(imu), motors: eight(motors), n_motors: Some(1), battery: one(battery) }

@@ -108,21 +108,45 @@ impl Px4File {
     /// The CSV mapping of the rows [`super::ulog::to_csv`] writes: a z-down world, an FRD body.
     fn into_mapping(self) -> Mapping {
         let (motors, battery) = (self.px4.motors.is_some(), self.px4.battery.is_some());
-        Mapping { px4: Some(self.px4), ..joined_mapping(self.vehicle, WorldUp::ZDown, BodyAxes::Frd, motors, battery, self.mass_kg, self.smoothing_ms) }
+        Mapping {
+            px4: Some(self.px4),
+            ..joined_mapping(
+                self.vehicle,
+                WorldUp::ZDown,
+                BodyAxes::Frd,
+                motors,
+                battery,
+                self.mass_kg,
+                self.smoothing_ms,
+            )
+        }
     }
 }
 
 /// The CSV mapping of the rows a bag or a PX4 log is joined into (`identify/input/joined.rs`):
 /// SI units, an x, y, z, w quaternion, the given frames. The motor columns are named when the
 /// log is read (their count is the messages').
-fn joined_mapping(vehicle: VehiclePreset, world: WorldUp, body: BodyAxes, motors: bool, battery: bool, mass_kg: Option<f64>, smoothing_ms: Option<f64>) -> Mapping {
+fn joined_mapping(
+    vehicle: VehiclePreset,
+    world: WorldUp,
+    body: BodyAxes,
+    motors: bool,
+    battery: bool,
+    mass_kg: Option<f64>,
+    smoothing_ms: Option<f64>,
+) -> Mapping {
     let s = |x: &str| x.to_string();
     let three = |a: &str, b: &str, c: &str, unit: &str| Columns3 { columns: [s(a), s(b), s(c)], unit: s(unit) };
     Mapping {
         vehicle,
         time: Column { column: s("t"), unit: Some(s("s")) },
         position: three("px", "py", "pz", "m"),
-        attitude: AttitudeCols { columns: Some([s("qx"), s("qy"), s("qz"), s("qw")]), order: Some(QuatOrder::Xyzw), euler: None, unit: None },
+        attitude: AttitudeCols {
+            columns: Some([s("qx"), s("qy"), s("qz"), s("qw")]),
+            order: Some(QuatOrder::Xyzw),
+            euler: None,
+            unit: None,
+        },
         world,
         body,
         gyro: three("gx", "gy", "gz", "rad/s"),
@@ -148,7 +172,10 @@ impl Ros2File {
     /// The CSV mapping of the rows [`super::ros2::to_csv`] writes.
     fn into_mapping(self) -> Mapping {
         let (motors, battery) = (self.ros2.motors.is_some(), self.ros2.battery.is_some());
-        Mapping { ros2: Some(self.ros2), ..joined_mapping(self.vehicle, self.world, self.body, motors, battery, self.mass_kg, self.smoothing_ms) }
+        Mapping {
+            ros2: Some(self.ros2),
+            ..joined_mapping(self.vehicle, self.world, self.body, motors, battery, self.mass_kg, self.smoothing_ms)
+        }
     }
 }
 
@@ -257,11 +284,15 @@ pub struct Motors {
 }
 
 fn unit_factor(file: &str, what: &str, unit: &str, allowed: &[(&str, f64)]) -> Result<f64, InputError> {
-    allowed
-        .iter()
-        .find(|(u, _)| *u == unit)
-        .map(|x| x.1)
-        .ok_or_else(|| InputError::invalid(file, format!("{what}: unit `{unit}` is not one of {}", allowed.iter().map(|(u, _)| format!("`{u}`")).collect::<Vec<_>>().join(", "))))
+    allowed.iter().find(|(u, _)| *u == unit).map(|x| x.1).ok_or_else(|| {
+        InputError::invalid(
+            file,
+            format!(
+                "{what}: unit `{unit}` is not one of {}",
+                allowed.iter().map(|(u, _)| format!("`{u}`")).collect::<Vec<_>>().join(", ")
+            ),
+        )
+    })
 }
 
 /// The SI factors of a mapping's units (time, position, gyro, accelerometer, Euler angles).
@@ -305,12 +336,45 @@ fn pose_cell(cell: &str, column: &str, file: &str, lineno: usize) -> Result<Opti
     })
 }
 
+/// The column names of a header line (trimmed), or the error of an empty log.
+fn header_names<'a>(line: Option<&'a str>, file: &str) -> Result<Vec<&'a str>, InputError> {
+    let header = line.filter(|h| !h.trim().is_empty()).ok_or_else(|| InputError::log(file, "the log is empty"))?;
+    Ok(header.split(',').map(str::trim).collect())
+}
+
+/// A data line's cells: `None` for a last line cut short (no newline; noted in `repairs` and
+/// dropped), an error for a row with too few cells or a non-empty cell beyond the header's.
+fn row_cells<'a>(
+    line: &'a str,
+    columns: usize,
+    last_cut_short: bool,
+    file: &str,
+    lineno: usize,
+    repairs: &mut Vec<String>,
+) -> Result<Option<Vec<&'a str>>, InputError> {
+    let cells: Vec<&str> = line.split(',').collect();
+    if cells.len() < columns && last_cut_short {
+        repairs.push(format!(
+            "line {lineno}: the last line is cut short ({} of {columns} cells, no newline) and was dropped",
+            cells.len(),
+        ));
+        return Ok(None);
+    }
+    if cells.len() < columns || cells[columns..].iter().any(|c| !c.trim().is_empty()) {
+        return Err(InputError::row(file, lineno, format!("{} cells for {columns} columns", cells.len())));
+    }
+    Ok(Some(cells))
+}
+
 /// The error of a log with fewer than two rows left: saying so, and how many rows repeated the
 /// time of the row before (a log whose clock stood still).
 fn too_few_rows(file: &str, repairs: &[String]) -> InputError {
     let repeats = repairs.iter().filter(|r| r.contains("repeats the time")).count();
     if repeats > 0 {
-        InputError::log(file, format!("fewer than two rows with distinct times ({repeats} rows repeat the time of the row before)"))
+        InputError::log(
+            file,
+            format!("fewer than two rows with distinct times ({repeats} rows repeat the time of the row before)"),
+        )
     } else {
         InputError::log(file, "fewer than two rows")
     }
@@ -327,9 +391,12 @@ impl Mapping {
     /// form, units, ranges.
     pub fn parse(src: &str, path: &Path) -> Result<Mapping, InputError> {
         let file = path.display().to_string();
-        let err = |e: serde_saphyr::Error| InputError::invalid(&file, crate::scenario::error::with_suggestion(&e.to_string()));
+        let err = |e: serde_saphyr::Error| {
+            InputError::invalid(&file, crate::scenario::error::with_suggestion(&e.to_string()))
+        };
         // a `ros2:` block makes it a mapping of topics, not columns
-        let keys: std::collections::BTreeMap<String, serde::de::IgnoredAny> = serde_saphyr::from_str(src).map_err(err)?;
+        let keys: std::collections::BTreeMap<String, serde::de::IgnoredAny> =
+            serde_saphyr::from_str(src).map_err(err)?;
         let m: Mapping = if keys.contains_key("ros2") {
             serde_saphyr::from_str::<Ros2File>(src).map_err(err)?.into_mapping()
         } else if keys.contains_key("px4") {
@@ -355,7 +422,10 @@ impl Mapping {
         if let Some(sm) = m.smoothing_ms
             && !(2.0..=500.0).contains(&sm)
         {
-            return Err(InputError::invalid(&file, format!("smoothing_ms {sm} is outside the allowed range [2, 500] ms")));
+            return Err(InputError::invalid(
+                &file,
+                format!("smoothing_ms {sm} is outside the allowed range [2, 500] ms"),
+            ));
         }
         if let Some(mo) = &m.motors
             && mo.columns.is_empty()
@@ -365,10 +435,16 @@ impl Mapping {
             return Err(InputError::invalid(&file, "motors.columns is empty; give one column per motor"));
         }
         if m.motors.is_some() && m.vehicle == VehiclePreset::X3d {
-            return Err(InputError::invalid(&file, "the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`"));
+            return Err(InputError::invalid(
+                &file,
+                "the `x3d` preset has no PWM thrust map; motors need `vehicle: crazyflie21`",
+            ));
         }
         if m.motors.is_some() && m.vehicle == VehiclePreset::RigidBody {
-            return Err(InputError::invalid(&file, "`vehicle: rigid_body` declares no force model; motors need `vehicle: crazyflie21`"));
+            return Err(InputError::invalid(
+                &file,
+                "`vehicle: rigid_body` declares no force model; motors need `vehicle: crazyflie21`",
+            ));
         }
         m.factors(&file)?;
         Ok(m)
@@ -377,11 +453,21 @@ impl Mapping {
     fn factors(&self, file: &str) -> Result<Factors, InputError> {
         let deg = std::f64::consts::PI / 180.0;
         Ok(Factors {
-            time: unit_factor(file, "time", self.time.unit.as_deref().unwrap_or("s"), &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)])?,
+            time: unit_factor(
+                file,
+                "time",
+                self.time.unit.as_deref().unwrap_or("s"),
+                &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)],
+            )?,
             pos: unit_factor(file, "position", &self.position.unit, &[("m", 1.0), ("mm", 1e-3)])?,
             gyro: unit_factor(file, "gyro", &self.gyro.unit, &[("rad/s", 1.0), ("deg/s", deg)])?,
             acc: unit_factor(file, "accel", &self.accel.unit, &[("m/s2", 1.0), ("m/s²", 1.0), ("g", GRAVITY)])?,
-            euler: self.attitude.unit.as_deref().map(|u| unit_factor(file, "attitude", u, &[("rad", 1.0), ("deg", deg)])).transpose()?,
+            euler: self
+                .attitude
+                .unit
+                .as_deref()
+                .map(|u| unit_factor(file, "attitude", u, &[("rad", 1.0), ("deg", deg)]))
+                .transpose()?,
         })
     }
 
@@ -399,12 +485,17 @@ impl Mapping {
                 let (text, repairs) = super::ros2::to_csv(&bytes, topics, &file)?;
                 self.read_joined(&text, repairs, &file)
             }
-            None if bytes.starts_with(super::ros2::MAGIC) => {
-                Err(InputError::log(&file, "an MCAP file needs a mapping with a `ros2:` block of topics (see mappings/ros2-crazyflie.yaml)"))
-            }
-            None if bytes.starts_with(super::ulog::MAGIC) => Err(InputError::log(&file, "a PX4 log (ULog) needs a mapping with a `px4:` block of topics (see mappings/px4.yaml)")),
+            None if bytes.starts_with(super::ros2::MAGIC) => Err(InputError::log(
+                &file,
+                "an MCAP file needs a mapping with a `ros2:` block of topics (see mappings/ros2-crazyflie.yaml)",
+            )),
+            None if bytes.starts_with(super::ulog::MAGIC) => Err(InputError::log(
+                &file,
+                "a PX4 log (ULog) needs a mapping with a `px4:` block of topics (see mappings/px4.yaml)",
+            )),
             None => {
-                let text = String::from_utf8(bytes).map_err(|e| InputError::log(&file, format!("not UTF-8 text ({e})")))?;
+                let text =
+                    String::from_utf8(bytes).map_err(|e| InputError::log(&file, format!("not UTF-8 text ({e})")))?;
                 self.read_str(&text, &file)
             }
         }
@@ -414,7 +505,9 @@ impl Mapping {
     /// are named by the header, and the route's repairs come first.
     fn read_joined(&self, text: &str, repairs: Vec<String>, file: &str) -> Result<Series, InputError> {
         let header = text.lines().next().unwrap_or("");
-        let motors = self.motors.as_ref().map(|_| Motors { columns: header.split(',').filter(|c| c.starts_with('m')).map(str::to_string).collect() });
+        let motors = self.motors.as_ref().map(|_| Motors {
+            columns: header.split(',').filter(|c| c.starts_with('m')).map(str::to_string).collect(),
+        });
         let m = Mapping { motors, ..self.clone() };
         let mut s = m.read_str(text, file)?;
         s.repairs.splice(0..0, repairs);
@@ -426,11 +519,19 @@ impl Mapping {
     fn column_index(&self, header: &[&str], file: &str) -> Result<ColumnIndex, InputError> {
         let find = |name: &str| -> Result<usize, InputError> {
             header.iter().position(|h| *h == name).ok_or_else(|| {
-                let close = header.iter().map(|h| (crate::scenario::error::edit_distance(name, h), *h)).filter(|(d, _)| *d <= 3).min().map(|x| x.1);
+                let close = header
+                    .iter()
+                    .map(|h| (crate::scenario::error::edit_distance(name, h), *h))
+                    .filter(|(d, _)| *d <= 3)
+                    .min()
+                    .map(|x| x.1);
                 InputError::row(
                     file,
                     1,
-                    format!("the mapping names column `{name}`, which the header does not have{}", close.map_or(String::new(), |c| format!(" (is it `{c}`?)"))),
+                    format!(
+                        "the mapping names column `{name}`, which the header does not have{}",
+                        close.map_or(String::new(), |c| format!(" (is it `{c}`?)"))
+                    ),
                 )
             })
         };
@@ -459,7 +560,13 @@ impl Mapping {
             VehiclePreset::X3d | VehiclePreset::RigidBody => (VehicleParams::x3d(), None),
         };
         if !cols.motors.is_empty() && map.is_none() {
-            return Err(InputError::invalid("the mapping", format!("the `{}` preset has no PWM thrust map; motors need `vehicle: crazyflie21`", self.vehicle.name())));
+            return Err(InputError::invalid(
+                "the mapping",
+                format!(
+                    "the `{}` preset has no PWM thrust map; motors need `vehicle: crazyflie21`",
+                    self.vehicle.name()
+                ),
+            ));
         }
         let rigid_body = self.vehicle == VehiclePreset::RigidBody;
         let s = Series {
@@ -474,7 +581,11 @@ impl Mapping {
             vbat_v: cols.battery.map(|_| Vec::new()),
             segments: Vec::new(),
             model: NominalModel {
-                vehicle: if rigid_body { "a rigid body (no vehicle)".to_string() } else { format!("{} preset", self.vehicle.name()) },
+                vehicle: if rigid_body {
+                    "a rigid body (no vehicle)".to_string()
+                } else {
+                    format!("{} preset", self.vehicle.name())
+                },
                 mass_kg: if rigid_body { 0.0 } else { self.mass_kg.unwrap_or(params.mass_kg) },
                 rotor_drag_per_s: params.rotor_drag_per_s,
                 rotor_radius_m: match self.vehicle {
@@ -497,7 +608,14 @@ impl Mapping {
     /// One row's pose cells (position, then the quaternion or Euler angles, in the mapping's
     /// units and axes) as the mocap position (m, NED) and attitude (FRD body to NED). A
     /// quaternion whose norm is off 1 by more than 1 % is an error (a wrong `order`, most likely).
-    fn pose(&self, p: &[f64], euler_f: Option<f64>, pos_f: f64, file: &str, lineno: usize) -> Result<(Vector3<f64>, UnitQuaternion<f64>), InputError> {
+    fn pose(
+        &self,
+        p: &[f64],
+        euler_f: Option<f64>,
+        pos_f: f64,
+        file: &str,
+        lineno: usize,
+    ) -> Result<(Vector3<f64>, UnitQuaternion<f64>), InputError> {
         let flip = |v: Vector3<f64>| Vector3::new(v.x, -v.y, -v.z);
         let q_flip = UnitQuaternion::from_quaternion(Quaternion::new(0.0, 1.0, 0.0, 0.0));
         let mut pos = Vector3::new(p[0], p[1], p[2]) * pos_f;
@@ -509,7 +627,11 @@ impl Mapping {
                 };
                 let norm = (w * w + x * x + y * y + z * z).sqrt();
                 if (norm - 1.0).abs() > 0.01 {
-                    return Err(InputError::row(file, lineno, format!("the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`")));
+                    return Err(InputError::row(
+                        file,
+                        lineno,
+                        format!("the attitude quaternion has norm {norm:.4}, not 1: check the mapping's `order`"),
+                    ));
                 }
                 UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
             }
@@ -534,13 +656,14 @@ impl Mapping {
     /// last line cut short without its newline (a log whose writer stopped) is dropped and
     /// reported among the repairs, and a UTF-8 byte-order mark before the header is skipped.
     pub fn read_str(&self, text: &str, file: &str) -> Result<Series, InputError> {
-        let Factors { time: time_f, pos: pos_f, gyro: gyro_f, acc: acc_f, euler: euler_f } = self.factors("the mapping")?;
+        let Factors { time: time_f, pos: pos_f, gyro: gyro_f, acc: acc_f, euler: euler_f } =
+            self.factors("the mapping")?;
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let all: Vec<&str> = text.lines().collect();
         let last_data = all.iter().rposition(|l| !l.trim().is_empty());
         let cut_at_end = !text.ends_with('\n');
         let mut lines = all.iter().copied();
-        let header: Vec<&str> = lines.next().filter(|h| !h.trim().is_empty()).ok_or_else(|| InputError::log(file, "the log is empty"))?.split(',').map(str::trim).collect();
+        let header = header_names(lines.next(), file)?;
         let cols = self.column_index(&header, file)?;
         let ColumnIndex { time: ti, pos: pi, att: qi, gyro: gi, accel: ai, motors: mi, battery: bi } = &cols;
         let (mut s, map) = self.empty_series(file, &cols)?;
@@ -551,14 +674,10 @@ impl Mapping {
             if line.trim().is_empty() {
                 continue;
             }
-            let cells: Vec<&str> = line.split(',').collect();
-            if cells.len() < header.len() && cut_at_end && last_data == Some(k + 1) {
-                s.repairs.push(format!("line {lineno}: the last line is cut short ({} of {} cells, no newline) and was dropped", cells.len(), header.len()));
+            let last_cut_short = cut_at_end && last_data == Some(k + 1);
+            let Some(cells) = row_cells(line, header.len(), last_cut_short, file, lineno, &mut s.repairs)? else {
                 break;
-            }
-            if cells.len() < header.len() || cells[header.len()..].iter().any(|c| !c.trim().is_empty()) {
-                return Err(InputError::row(file, lineno, format!("{} cells for {} columns", cells.len(), header.len())));
-            }
+            };
             let num = |i: usize| finite(cells[i]);
             let need = |i: usize| -> Result<f64, InputError> {
                 num(i).ok_or_else(|| InputError::Row {
@@ -578,7 +697,13 @@ impl Mapping {
                     continue;
                 }
             }
-            let pose: Option<Vec<f64>> = pi.iter().chain(qi).map(|&i| pose_cell(cells[i], header[i], file, lineno)).collect::<Result<Vec<_>, _>>()?.into_iter().collect();
+            let pose: Option<Vec<f64>> = pi
+                .iter()
+                .chain(qi)
+                .map(|&i| pose_cell(cells[i], header[i], file, lineno))
+                .collect::<Result<Vec<_>, _>>()?
+                .into_iter()
+                .collect();
             let seen = pose.is_some();
             if let Some(p) = pose {
                 last_pose = self.pose(&p, euler_f, pos_f, file, lineno)?;
@@ -589,12 +714,9 @@ impl Mapping {
             let vbat = bi.map(&need).transpose()?;
             if let (Some(th), Some(map)) = (s.thrust_n.as_mut(), map) {
                 let v = vbat.unwrap_or(map.vbat_ref_v);
-                let mut total = 0.0;
-                for &i in mi {
-                    total += map.thrust_n(need(i)?, v);
-                }
+                let per_motor = mi.iter().map(|&i| Ok(map.thrust_n(need(i)?, v))).sum::<Result<f64, InputError>>()?;
                 // the map is per motor for four motors
-                th.push(total * 4.0 / mi.len() as f64);
+                th.push(per_motor * 4.0 / mi.len() as f64);
             }
             if let (Some(vb), Some(v)) = (s.vbat_v.as_mut(), vbat) {
                 vb.push(v);

@@ -148,18 +148,35 @@ pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<
 
 /// Decodes every message on the four topics; a topic named but empty is an error.
 fn read(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError> {
-    let mut s = Streams { pose: Stream::new(), imu: Stream::new(), motors: Stream::new(), n_motors: None, battery: Stream::new() };
+    let mut s = Streams {
+        pose: Stream::new(),
+        imu: Stream::new(),
+        motors: Stream::new(),
+        n_motors: None,
+        battery: Stream::new(),
+    };
     let stream = mcap::MessageStream::new(bytes).map_err(|e| InputError::log(file, e.to_string()))?;
     for (k, m) in stream.enumerate() {
         let m = m.map_err(|e| InputError::log(file, format!("record {k}: {e}")))?;
         let topic = m.channel.topic.as_str();
-        let which = [Some(&topics.pose), Some(&topics.imu), topics.motors.as_ref(), topics.battery.as_ref()].iter().position(|t| t.is_some_and(|t| t == topic));
+        let which = [Some(&topics.pose), Some(&topics.imu), topics.motors.as_ref(), topics.battery.as_ref()]
+            .iter()
+            .position(|t| t.is_some_and(|t| t == topic));
         let Some(which) = which else { continue };
         let schema = m.channel.schema.as_ref().map_or("", |s| s.name.as_str());
         if m.channel.message_encoding != "cdr" {
-            return Err(InputError::log(file, format!("topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.channel.message_encoding)));
+            return Err(InputError::log(
+                file,
+                format!("topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.channel.message_encoding),
+            ));
         }
-        let at = |e: CdrError| InputError::Message { file: file.to_string(), topic: topic.to_string(), sequence: m.sequence, schema: schema.to_string(), reason: e.to_string() };
+        let at = |e: CdrError| InputError::Message {
+            file: file.to_string(),
+            topic: topic.to_string(),
+            sequence: m.sequence,
+            schema: schema.to_string(),
+            reason: e.to_string(),
+        };
         let mut c = Cdr::new(&m.data).map_err(at)?;
         match which {
             0 => {
@@ -181,16 +198,25 @@ fn read(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError
             }
         }
     }
-    for (topic, n) in
-        [(Some(&topics.pose), s.pose.t.len()), (Some(&topics.imu), s.imu.t.len()), (topics.motors.as_ref(), s.motors.t.len()), (topics.battery.as_ref(), s.battery.t.len())]
-    {
+    for (topic, n) in [
+        (Some(&topics.pose), s.pose.t.len()),
+        (Some(&topics.imu), s.imu.t.len()),
+        (topics.motors.as_ref(), s.motors.t.len()),
+        (topics.battery.as_ref(), s.battery.t.len()),
+    ] {
         if let Some(topic) = topic
             && n == 0
         {
             return Err(InputError::log(file, format!("no message on topic `{topic}`")));
         }
     }
-    Ok(Streams { pose: s.pose.sorted(), imu: s.imu.sorted(), motors: s.motors.sorted(), n_motors: s.n_motors, battery: s.battery.sorted() })
+    Ok(Streams {
+        pose: s.pose.sorted(),
+        imu: s.imu.sorted(),
+        motors: s.motors.sorted(),
+        n_motors: s.n_motors,
+        battery: s.battery.sorted(),
+    })
 }
 
 /// A geometry_msgs PoseStamped or TransformStamped: its stamp and (position, quaternion x, y, z, w).

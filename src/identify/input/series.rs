@@ -88,10 +88,15 @@ impl Series {
     pub(crate) fn swing_for_tests(r_off: UnitQuaternion<f64>, alternation_m_s2: f64) -> Series {
         let (dt, n, a, nu, omega, g) = (0.005, 4000, 0.5, 2.0 * std::f64::consts::PI, 2.0, 9.81);
         let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
-        let att: Vec<UnitQuaternion<f64>> = t.iter().map(|t| UnitQuaternion::from_euler_angles(0.0, 0.0, omega * t)).collect();
+        let att: Vec<UnitQuaternion<f64>> =
+            t.iter().map(|t| UnitQuaternion::from_euler_angles(0.0, 0.0, omega * t)).collect();
         let accel = t.iter().zip(&att).enumerate().map(|(i, (t, q))| {
-            let f = q.inverse() * (nalgebra::Vector3::new(-a * nu * nu * (nu * t).sin(), 0.0, 0.0) - nalgebra::Vector3::new(0.0, 0.0, g));
-            Vec3::from_raw(f + nalgebra::Vector3::new(1.0, -1.0, 1.0) * alternation_m_s2 * if i % 2 == 0 { 1.0 } else { -1.0 })
+            let f = q.inverse()
+                * (nalgebra::Vector3::new(-a * nu * nu * (nu * t).sin(), 0.0, 0.0)
+                    - nalgebra::Vector3::new(0.0, 0.0, g));
+            Vec3::from_raw(
+                f + nalgebra::Vector3::new(1.0, -1.0, 1.0) * alternation_m_s2 * if i % 2 == 0 { 1.0 } else { -1.0 },
+            )
         });
         Series {
             source: "swing".into(),
@@ -263,7 +268,13 @@ pub struct Corrections {
 
 impl Default for Corrections {
     fn default() -> Self {
-        Corrections { body_offset: Rot::identity(), world_tilt: Rot::identity(), mocap_delay_s: 0.0, lever_arm_m: Vec3::zeros(), gyro_delay_s: 0.0 }
+        Corrections {
+            body_offset: Rot::identity(),
+            world_tilt: Rot::identity(),
+            mocap_delay_s: 0.0,
+            lever_arm_m: Vec3::zeros(),
+            gyro_delay_s: 0.0,
+        }
     }
 }
 
@@ -424,7 +435,11 @@ mod tests {
         let c = correct(&s, &Corrections { mocap_delay_s: 0.0025, ..Corrections::default() });
         for i in 10..n - 10 {
             let expected = UnitQuaternion::from_euler_angles(0.01, -0.02, yaw(i) + 0.001);
-            assert!(c.att_body[i].quaternion().angle_to(&expected) < 1e-6, "row {i}: {}", c.att_body[i].quaternion().angle_to(&expected));
+            assert!(
+                c.att_body[i].quaternion().angle_to(&expected) < 1e-6,
+                "row {i}: {}",
+                c.att_body[i].quaternion().angle_to(&expected)
+            );
         }
     }
 
@@ -439,10 +454,17 @@ mod tests {
         let nudge = |x: f64| f64::from_bits(x.to_bits() + 1);
         type Change = fn(&mut Series, &dyn Fn(f64) -> f64);
         let changed: [Change; 4] = [
-            |s, f| s.pos_mocap_nav[7] = Vec3::new(f(s.pos_mocap_nav[7].x()), s.pos_mocap_nav[7].y(), s.pos_mocap_nav[7].z()),
             |s, f| {
-                s.att_mocap[7] =
-                    Rot::from_quaternion(UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(f(s.att_mocap[7].quaternion().w), 0.0, 0.0, s.att_mocap[7].quaternion().k)))
+                s.pos_mocap_nav[7] =
+                    Vec3::new(f(s.pos_mocap_nav[7].x()), s.pos_mocap_nav[7].y(), s.pos_mocap_nav[7].z())
+            },
+            |s, f| {
+                s.att_mocap[7] = Rot::from_quaternion(UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(
+                    f(s.att_mocap[7].quaternion().w),
+                    0.0,
+                    0.0,
+                    s.att_mocap[7].quaternion().k,
+                )))
             },
             |s, f| s.gyro_body[7] = Vec3::new(s.gyro_body[7].x(), s.gyro_body[7].y(), f(s.gyro_body[7].z())),
             |s, f| s.accel_body[7] = Vec3::new(s.accel_body[7].x(), f(s.accel_body[7].y()), s.accel_body[7].z()),

@@ -124,7 +124,10 @@ impl Log {
         if !bytes.starts_with(MAGIC) {
             return Err(InputError::log(&file, "not a ULog file (no ULog magic bytes)"));
         }
-        let name = path.to_str().ok_or_else(|| InputError::log(&file, "the path is not UTF-8, which the ULog parser needs"))?.to_string();
+        let name = path
+            .to_str()
+            .ok_or_else(|| InputError::log(&file, "the path is not UTF-8, which the ULog parser needs"))?
+            .to_string();
         // the parser indexes its buffers by offsets the file gives; a corrupt file must be an
         // error, never a panic of ours
         let parsed = std::panic::catch_unwind(|| px4_ulog::full_parser::read_file(&name))
@@ -132,8 +135,12 @@ impl Log {
             .map_err(|e| InputError::log(&file, format!("not a readable ULog file ({e})")))?;
         let incomplete = match parsed.completeness {
             Completeness::Complete => None,
-            Completeness::Truncated => Some("the log ends in the middle of a message (cut short); it is read up to the cut".to_string()),
-            Completeness::MalformedRecord(why) => Some(format!("a malformed record stopped the reading ({why}); the data before it is read")),
+            Completeness::Truncated => {
+                Some("the log ends in the middle of a message (cut short); it is read up to the cut".to_string())
+            }
+            Completeness::MalformedRecord(why) => {
+                Some(format!("a malformed record stopped the reading ({why}); the data before it is read"))
+            }
         };
         let mut topics = Vec::new();
         for (topic, instances) in parsed.messages {
@@ -152,7 +159,9 @@ impl Log {
         match all.iter().find(|t| t.instance == instance) {
             Some(t) if t.len() > 0 => Ok(t),
             Some(_) => Err(InputError::log(file, format!("topic `{topic}` has no message"))),
-            None if all.is_empty() => Err(InputError::log(file, format!("the log has no topic `{topic}`{}", profile_hint(topic)))),
+            None if all.is_empty() => {
+                Err(InputError::log(file, format!("the log has no topic `{topic}`{}", profile_hint(topic))))
+            }
             None => Err(InputError::log(
                 file,
                 format!(
@@ -193,10 +202,14 @@ fn numbers(v: SomeVec) -> Option<Vec<f64>> {
 /// the system-identification set (bit 3) `actuator_motors` at full rate (the default set: 100 ms).
 fn profile_hint(topic: &str) -> &'static str {
     match topic {
-        "vehicle_visual_odometry" => " (PX4 logs it with SDLOG_PROFILE bit 1, estimator replay, at full rate: add 2; or bit 7, computer vision, at 30 ms: add 128)",
+        "vehicle_visual_odometry" => {
+            " (PX4 logs it with SDLOG_PROFILE bit 1, estimator replay, at full rate: add 2; or bit 7, computer vision, at 30 ms: add 128)"
+        }
         "vehicle_mocap_odometry" => " (PX4 logs it with SDLOG_PROFILE bit 7, computer vision, at 30 ms: add 128)",
         "sensor_combined" => " (PX4's default logging profile records it at full rate: SDLOG_PROFILE bit 0)",
-        "actuator_motors" => " (PX4 logs it at 10 Hz by default; SDLOG_PROFILE bit 3, system identification, at full rate: add 8)",
+        "actuator_motors" => {
+            " (PX4 logs it at 10 Hz by default; SDLOG_PROFILE bit 3, system identification, at full rate: add 8)"
+        }
         "battery_status" => " (PX4's default logging profile records it: SDLOG_PROFILE bit 0)",
         _ => "",
     }
@@ -217,9 +230,19 @@ pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<String>), Inp
     notes.extend(log.incomplete.clone());
     let pose_topic = match &topics.pose {
         Some(p) => p.clone(),
-        None => ["vehicle_visual_odometry", "vehicle_mocap_odometry"].into_iter().find(|t| log.has(t)).map(str::to_string).ok_or_else(|| {
-            InputError::log(&file, format!("the log has neither `vehicle_visual_odometry` nor `vehicle_mocap_odometry`{}", profile_hint("vehicle_visual_odometry")))
-        })?,
+        None => ["vehicle_visual_odometry", "vehicle_mocap_odometry"]
+            .into_iter()
+            .find(|t| log.has(t))
+            .map(str::to_string)
+            .ok_or_else(|| {
+                InputError::log(
+                    &file,
+                    format!(
+                        "the log has neither `vehicle_visual_odometry` nor `vehicle_mocap_odometry`{}",
+                        profile_hint("vehicle_visual_odometry")
+                    ),
+                )
+            })?,
     };
     let pose = pose_stream(log.topic(&pose_topic, topics.instance, &file)?, &file, &mut notes)?;
     let imu_topic = topics.imu.as_deref().unwrap_or("sensor_combined");
@@ -235,7 +258,13 @@ pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<String>), Inp
         Some(b) => battery_stream(log.topic(b, topics.instance, &file)?, &file, &mut notes)?,
         None => Stream::new(),
     };
-    let streams = Streams { pose: pose.sorted(), imu: imu.sorted(), motors: motors.sorted(), n_motors, battery: battery.sorted() };
+    let streams = Streams {
+        pose: pose.sorted(),
+        imu: imu.sorted(),
+        motors: motors.sorted(),
+        n_motors,
+        battery: battery.sorted(),
+    };
     let (csv, repairs) = streams.join();
     notes.extend(repairs);
     Ok((csv, notes))
@@ -260,7 +289,10 @@ fn pose_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Str
     if let Some(frame) = t.field("pose_frame")
         && frame.iter().any(|f| *f != 1.0 && *f != 2.0)
     {
-        notes.push(format!("`{}` has poses of an unknown frame (pose_frame not 1, NED, or 2, FRD); they are read as z-down", t.name));
+        notes.push(format!(
+            "`{}` has poses of an unknown frame (pose_frame not 1, NED, or 2, FRD); they are read as z-down",
+            t.name
+        ));
     }
     let mut s = Stream::new();
     let mut invalid = 0;
@@ -275,7 +307,10 @@ fn pose_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Str
     }
     notes.push(format!("the pose (`{}`) is stamped by its `{which}`", t.name));
     if invalid > 0 {
-        notes.push(format!("{invalid} poses of `{}` are invalid (NaN): frames in which the vehicle was not seen", t.name));
+        notes.push(format!(
+            "{invalid} poses of `{}` are invalid (NaN): frames in which the vehicle was not seen",
+            t.name
+        ));
     }
     Ok(s)
 }
@@ -285,8 +320,13 @@ fn imu_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stre
     let at = |i: usize| move |e: &str| InputError::log(file, format!("`{}` message {i}: {e}", t.name));
     if t.name == "vehicle_imu" {
         let stamps = t.need("timestamp_sample", file)?;
-        let da: [&[f64]; 3] = [t.need("delta_angle[0]", file)?, t.need("delta_angle[1]", file)?, t.need("delta_angle[2]", file)?];
-        let dv: [&[f64]; 3] = [t.need("delta_velocity[0]", file)?, t.need("delta_velocity[1]", file)?, t.need("delta_velocity[2]", file)?];
+        let da: [&[f64]; 3] =
+            [t.need("delta_angle[0]", file)?, t.need("delta_angle[1]", file)?, t.need("delta_angle[2]", file)?];
+        let dv: [&[f64]; 3] = [
+            t.need("delta_velocity[0]", file)?,
+            t.need("delta_velocity[1]", file)?,
+            t.need("delta_velocity[2]", file)?,
+        ];
         let (da_dt, dv_dt) = (t.need("delta_angle_dt", file)?, t.need("delta_velocity_dt", file)?);
         let mut skipped = 0;
         for i in 0..stamps.len() {
@@ -305,7 +345,11 @@ fn imu_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stre
     }
     let stamps = t.need("timestamp", file)?;
     let g: [&[f64]; 3] = [t.need("gyro_rad[0]", file)?, t.need("gyro_rad[1]", file)?, t.need("gyro_rad[2]", file)?];
-    let a: [&[f64]; 3] = [t.need("accelerometer_m_s2[0]", file)?, t.need("accelerometer_m_s2[1]", file)?, t.need("accelerometer_m_s2[2]", file)?];
+    let a: [&[f64]; 3] = [
+        t.need("accelerometer_m_s2[0]", file)?,
+        t.need("accelerometer_m_s2[1]", file)?,
+        t.need("accelerometer_m_s2[2]", file)?,
+    ];
     let rel = t.field("accelerometer_timestamp_relative");
     // PX4's RELATIVE_TIMESTAMP_INVALID: no accelerometer sample in this message
     const INVALID: f64 = i32::MAX as f64;
@@ -327,15 +371,27 @@ fn imu_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stre
     if let Some(m) = offsets.get(offsets.len() / 2)
         && *m != 0.0
     {
-        notes.push(format!("the accelerometer's samples are stamped a median {m} µs from the gyro's; each row takes the gyro's stamp"));
+        notes.push(format!(
+            "the accelerometer's samples are stamped a median {m} µs from the gyro's; each row takes the gyro's stamp"
+        ));
     }
     Ok(s)
 }
 
-fn motor_stream(t: &TopicData, topics: &Topics, file: &str, notes: &mut Vec<String>) -> Result<(Stream<8>, usize), InputError> {
+fn motor_stream(
+    t: &TopicData,
+    topics: &Topics,
+    file: &str,
+    notes: &mut Vec<String>,
+) -> Result<(Stream<8>, usize), InputError> {
     let outputs = t.name == "actuator_outputs";
     let (prefix, range) = if outputs {
-        let r = topics.output_range.ok_or_else(|| InputError::log(file, "`actuator_outputs` needs `px4.output_range: [zero, full]`, the outputs that mean no and full command"))?;
+        let r = topics.output_range.ok_or_else(|| {
+            InputError::log(
+                file,
+                "`actuator_outputs` needs `px4.output_range: [zero, full]`, the outputs that mean no and full command",
+            )
+        })?;
         if !(r[0].is_finite() && r[1].is_finite() && r[1] != r[0]) {
             return Err(InputError::log(file, format!("px4.output_range {r:?} must be two different numbers")));
         }
@@ -350,7 +406,14 @@ fn motor_stream(t: &TopicData, topics: &Topics, file: &str, notes: &mut Vec<Stri
         None => columns.iter().take_while(|c| c.iter().any(|x| x.is_finite())).count(),
     };
     if n == 0 || n > 8 || n > columns.len() {
-        return Err(InputError::log(file, format!("`{}`: {n} motors; 1 to 8 of its {} `{prefix}` fields expected (set `px4.motor_count`)", t.name, columns.len())));
+        return Err(InputError::log(
+            file,
+            format!(
+                "`{}`: {n} motors; 1 to 8 of its {} `{prefix}` fields expected (set `px4.motor_count`)",
+                t.name,
+                columns.len()
+            ),
+        ));
     }
     let mut s = Stream::new();
     for i in 0..stamps.len() {
@@ -364,7 +427,12 @@ fn motor_stream(t: &TopicData, topics: &Topics, file: &str, notes: &mut Vec<Stri
     }
     let span = (stamps[stamps.len() - 1] - stamps[0]) * 1e-6;
     if stamps.len() > 1 && span > 0.0 && (stamps.len() - 1) as f64 / span < 50.0 {
-        notes.push(format!("`{}` is logged at {:.0} Hz, coarse for the force channel{}", t.name, (stamps.len() - 1) as f64 / span, profile_hint(&t.name)));
+        notes.push(format!(
+            "`{}` is logged at {:.0} Hz, coarse for the force channel{}",
+            t.name,
+            (stamps.len() - 1) as f64 / span,
+            profile_hint(&t.name)
+        ));
     }
     notes.push(format!("the motors (`{}`, {n}) are stamped by their `{which}`", t.name));
     Ok((s, n))
@@ -394,7 +462,15 @@ fn battery_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<
 /// The topics `identify` can read from a log, with their fields: for a user who wants to know
 /// what a log holds, and for tests against another parser.
 pub fn readable_topics(log: &Log) -> Vec<&TopicData> {
-    const READ: [&str; 7] = ["vehicle_visual_odometry", "vehicle_mocap_odometry", "sensor_combined", "vehicle_imu", "actuator_motors", "actuator_outputs", "battery_status"];
+    const READ: [&str; 7] = [
+        "vehicle_visual_odometry",
+        "vehicle_mocap_odometry",
+        "sensor_combined",
+        "vehicle_imu",
+        "actuator_motors",
+        "actuator_outputs",
+        "battery_status",
+    ];
     log.topics.iter().filter(|t| READ.contains(&t.name.as_str())).collect()
 }
 
@@ -403,7 +479,11 @@ mod tests {
     use super::*;
 
     fn topic(name: &str, fields: &[(&str, Vec<f64>)]) -> TopicData {
-        TopicData { name: name.to_string(), instance: 0, fields: fields.iter().map(|(k, v)| (k.to_string(), v.clone())).collect() }
+        TopicData {
+            name: name.to_string(),
+            instance: 0,
+            fields: fields.iter().map(|(k, v)| (k.to_string(), v.clone())).collect(),
+        }
     }
 
     /// `vehicle_imu` by hand: 0.01 rad about x and (0, 0, −0.0981) m/s over 10 ms are a mean
@@ -440,11 +520,22 @@ mod tests {
     #[test]
     fn motor_commands_are_fractions_of_full_command() {
         let nan = f64::NAN;
-        let m = topic("actuator_motors", &[("timestamp", vec![1.0, 2.0]), ("control[0]", vec![0.5, nan]), ("control[1]", vec![nan, 1.0]), ("control[2]", vec![nan, nan])]);
+        let m = topic(
+            "actuator_motors",
+            &[
+                ("timestamp", vec![1.0, 2.0]),
+                ("control[0]", vec![0.5, nan]),
+                ("control[1]", vec![nan, 1.0]),
+                ("control[2]", vec![nan, nan]),
+            ],
+        );
         let (s, n) = motor_stream(&m, &Topics::default(), "f.ulg", &mut Vec::new()).unwrap();
         assert_eq!(n, 2);
         assert_eq!((s.v[0][0], s.v[0][1], s.v[1][0], s.v[1][1]), (32767.5, 0.0, 0.0, 65535.0));
-        let o = topic("actuator_outputs", &[("timestamp", vec![1.0]), ("output[0]", vec![1500.0]), ("output[1]", vec![2100.0])]);
+        let o = topic(
+            "actuator_outputs",
+            &[("timestamp", vec![1.0]), ("output[0]", vec![1500.0]), ("output[1]", vec![2100.0])],
+        );
         let e = motor_stream(&o, &Topics::default(), "f.ulg", &mut Vec::new()).unwrap_err().to_string();
         assert!(e.contains("output_range"), "{e}");
         let with = Topics { output_range: Some([1000.0, 2000.0]), ..Topics::default() };
@@ -473,7 +564,10 @@ mod tests {
         let mut notes = Vec::new();
         let s = pose_stream(&topic("vehicle_visual_odometry", &fields(vec![10.0, 20.0])), "f.ulg", &mut notes).unwrap();
         assert_eq!((s.t.clone(), s.v[0]), (vec![10_000], [1.0, 2.0, -3.0, 0.5, -0.5, 0.5, 0.5]));
-        assert!(notes[0].ends_with("stamped by its `timestamp_sample`") && notes[1].starts_with("1 poses"), "{notes:?}");
+        assert!(
+            notes[0].ends_with("stamped by its `timestamp_sample`") && notes[1].starts_with("1 poses"),
+            "{notes:?}"
+        );
         let mut notes = Vec::new();
         let s = pose_stream(&topic("vehicle_visual_odometry", &fields(vec![0.0, 20.0])), "f.ulg", &mut notes).unwrap();
         assert_eq!(s.t, vec![15_000]);

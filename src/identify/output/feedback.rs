@@ -84,8 +84,17 @@ pub fn fragment(r: &Report, i: usize, mocap_rate_hz: u32, n_markers: usize) -> S
 /// [`fragment`] from the effects found: every value keeps the precision of its interval (at
 /// least 4 decimals), and a value the scenario cannot express (a negative delay: poses stamped
 /// before their capture) is said with its interval and left out, not set to the nearest it can.
-fn fragment_of(source: &str, effects: &[crate::identify::fit::select::Found], i: usize, mocap_rate_hz: u32, n_markers: usize) -> String {
-    let mut lines = vec![format!("# flyarena identify: the effects found in {source}"), "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string()];
+fn fragment_of(
+    source: &str,
+    effects: &[crate::identify::fit::select::Found],
+    i: usize,
+    mocap_rate_hz: u32,
+    n_markers: usize,
+) -> String {
+    let mut lines = vec![
+        format!("# flyarena identify: the effects found in {source}"),
+        "# apply with: flyarena run SCENARIO.yaml --effects THIS_FILE".to_string(),
+    ];
     let mut set = Vec::new();
     let imu_offset = effects.iter().find(|f| f.effect == Effect::ImuOffset);
     for f in effects {
@@ -97,7 +106,11 @@ fn fragment_of(source: &str, effects: &[crate::identify::fit::select::Found], i:
             Effect::MocapDelay | Effect::GyroDelay => {
                 // the scenario takes whole frames of the mocap period (≥ 0)
                 let period = 1000.0 / mocap_rate_hz as f64;
-                let (what, field) = if f.effect == Effect::MocapDelay { ("mocap delay", "mocap_delay_ms") } else { ("gyro delay", "gyro_delay_ms") };
+                let (what, field) = if f.effect == Effect::MocapDelay {
+                    ("mocap delay", "mocap_delay_ms")
+                } else {
+                    ("gyro delay", "gyro_delay_ms")
+                };
                 let shown = with_interval(f.params[0].value, f.params[0].ci95);
                 if v[0] < 0.0 {
                     lines.push(format!("# {what} {shown} ms is negative (stamped before the capture: a clock offset), which no scenario field expresses: left out"));
@@ -111,21 +124,34 @@ fn fragment_of(source: &str, effects: &[crate::identify::fit::select::Found], i:
             }
             Effect::AccelBias => set.push((format!("{vi}.imu.accel_bias_m_s2"), json!(v))),
             Effect::GyroBias => set.push((format!("{vi}.imu.gyro_bias_deg_s"), json!(v))),
-            Effect::RotorDrag => set.push((format!("{vi}.undeclared.rotor_drag_per_s"), json!(v.iter().map(|x| x.max(0.0)).collect::<Vec<_>>()))),
+            Effect::RotorDrag => set.push((
+                format!("{vi}.undeclared.rotor_drag_per_s"),
+                json!(v.iter().map(|x| x.max(0.0)).collect::<Vec<_>>()),
+            )),
             Effect::ConstantForce => set.push((format!("{vi}.disturbance.force_n"), json!(v))),
-            Effect::ThrustScale => set.push((format!("{vi}.undeclared.thrust_scale"), json!(round_to(1.0 + f.params[0].value, f.params[0].ci95)))),
+            Effect::ThrustScale => set.push((
+                format!("{vi}.undeclared.thrust_scale"),
+                json!(round_to(1.0 + f.params[0].value, f.params[0].ci95)),
+            )),
             Effect::GroundEffect => set.push((format!("{vi}.undeclared.ground_effect"), json!(v[0].max(0.0)))),
             Effect::LeverArm => {
                 // markers displaced by d from the centre of mass make the mocap track the point
                 // d, and the IMU sits at r_c from it: r = r_c − d, so d = r_c − r for each marker
-                let r_c = imu_offset.map_or(vec![0.0; 3], |c| c.params.iter().map(|p| round_to(p.value, p.ci95)).collect());
-                let d: Vec<f64> = v.iter().zip(&r_c).zip(&f.params).map(|((x, c), p)| round_to(c - x, p.ci95)).collect();
+                let r_c =
+                    imu_offset.map_or(vec![0.0; 3], |c| c.params.iter().map(|p| round_to(p.value, p.ci95)).collect());
+                let d: Vec<f64> =
+                    v.iter().zip(&r_c).zip(&f.params).map(|((x, c), p)| round_to(c - x, p.ci95)).collect();
                 set.push((format!("{vi}.markers.displacement_mm"), json!(vec![d; n_markers])));
             }
             Effect::ImuOffset => set.push((format!("{vi}.imu.position_mm"), json!(v))),
             Effect::ThrustVoltage => set.push((format!("{vi}.undeclared.thrust_voltage_per_v"), json!(v[0].max(0.0)))),
             // hypotheses the simulator has no counterpart for: said, not set
-            Effect::AccelMisalignment | Effect::AccelScale | Effect::ThrustTilt | Effect::ClockDrift | Effect::AccelBiasDrift | Effect::GyroBiasDrift => {
+            Effect::AccelMisalignment
+            | Effect::AccelScale
+            | Effect::ThrustTilt
+            | Effect::ClockDrift
+            | Effect::AccelBiasDrift
+            | Effect::GyroBiasDrift => {
                 lines.push(format!("# {} {:?} is not simulated: left out", f.effect.key(), v));
             }
         }
@@ -149,7 +175,12 @@ pub fn load_with_effects(scenario: &Path, fragment: &Path) -> crate::Result<Scen
     for (path, v) in &frag.effects {
         set_in(&mut tree, path, v.clone(), true).map_err(|e| InputError::invalid(fragment.display(), e))?;
     }
-    let merged = |t: &Value| Scenario::parse(&serde_json::to_string(t).expect("a JSON tree serialises"), Path::new(&format!("{} + {}", scenario.display(), fragment.display())));
+    let merged = |t: &Value| {
+        Scenario::parse(
+            &serde_json::to_string(t).expect("a JSON tree serialises"),
+            Path::new(&format!("{} + {}", scenario.display(), fragment.display())),
+        )
+    };
     merged(&tree).or_else(|whole| {
         // the merged tree's positions are in no file the user has: name the fragment's entry
         // (and its line) after which the scenario stops being valid
@@ -158,8 +189,15 @@ pub fn load_with_effects(scenario: &Path, fragment: &Path) -> crate::Result<Scen
             set_in(&mut t, path, v.clone(), true).map_err(|e| InputError::invalid(fragment.display(), e))?;
             if let Err(e) = merged(&t) {
                 let message = e.what();
-                let line = fsrc.lines().position(|l| l.trim_start().starts_with(path.as_str())).map_or(String::new(), |k| format!(":{}", k + 1));
-                return Err(InputError::invalid(format!("{}{line}", fragment.display()), format!("`{path}`: {message}")).into());
+                let line = fsrc
+                    .lines()
+                    .position(|l| l.trim_start().starts_with(path.as_str()))
+                    .map_or(String::new(), |k| format!(":{}", k + 1));
+                return Err(InputError::invalid(
+                    format!("{}{line}", fragment.display()),
+                    format!("`{path}`: {message}"),
+                )
+                .into());
             }
         }
         Err(whole.into())
@@ -195,14 +233,21 @@ pub(crate) fn trajectory_error(data: &Series, sim: &Series) -> TrajectoryError {
 }
 
 /// The scenario with its undeclared effects removed, and with the fragment applied to that.
-pub(crate) fn nominal_and_fed_back(scenario_src: &Value, i: usize, fragment_text: &str, name: &str) -> crate::Result<(Scenario, Scenario)> {
+pub(crate) fn nominal_and_fed_back(
+    scenario_src: &Value,
+    i: usize,
+    fragment_text: &str,
+    name: &str,
+) -> crate::Result<(Scenario, Scenario)> {
     let nominal = nominal_tree(scenario_src, i);
     let frag: Fragment = serde_saphyr::from_str(fragment_text).map_err(|e| InputError::invalid("fragment", e))?;
     let mut fed = nominal.clone();
     for (path, v) in frag.effects {
         set_in(&mut fed, &path, v, true).map_err(|e| InputError::invalid("fragment", e))?;
     }
-    let parse = |t: &Value, what: &str| Scenario::parse(&serde_json::to_string(t).expect("JSON"), Path::new(&format!("{name} ({what})")));
+    let parse = |t: &Value, what: &str| {
+        Scenario::parse(&serde_json::to_string(t).expect("JSON"), Path::new(&format!("{name} ({what})")))
+    };
     Ok((parse(&nominal, "nominal")?, parse(&fed, "with the identified effects")?))
 }
 
@@ -212,14 +257,20 @@ mod tests {
     use crate::identify::select::{Found, Param};
 
     fn found(effect: Effect, values: &[(f64, f64)]) -> Found {
-        let params = values.iter().map(|&(value, ci95)| Param { name: "p".into(), value, ci95, unit: "u".into(), identifiable: true }).collect();
+        let params = values
+            .iter()
+            .map(|&(value, ci95)| Param { name: "p".into(), value, ci95, unit: "u".into(), identifiable: true })
+            .collect();
         Found { effect, name: effect.key().into(), params }
     }
 
     /// Two significant digits of the half-width: 0.05 → 3 decimals, 0.0086 → 4, 0.5 → 2, 12 → 0.
     #[test]
     fn decimals_give_the_interval_two_significant_digits() {
-        assert_eq!([decimals_for(0.05), decimals_for(0.0086), decimals_for(0.5), decimals_for(12.0), decimals_for(0.0)], [3, 4, 2, 0, 6]);
+        assert_eq!(
+            [decimals_for(0.05), decimals_for(0.0086), decimals_for(0.5), decimals_for(12.0), decimals_for(0.0)],
+            [3, 4, 2, 0, 6]
+        );
         assert_eq!(with_interval(-3.0213, 0.05), "-3.021 ± 0.050");
         // at least 4 decimals in the values set, more where the interval is finer
         assert_eq!((round_to(1.234_567, 0.5), round_to(1.234_567, 0.000_12)), (1.2346, 1.23457));
@@ -235,6 +286,10 @@ mod tests {
         assert!(!frag.contains("mocap_delay_ms"), "{frag}");
         assert!(frag.contains("# mocap delay -3.021 ± 0.050 ms is negative"), "{frag}");
         let frag = fragment_of("f.csv", &[found(Effect::MocapDelay, &[(7.3213, 0.41)])], 0, 200, 4);
-        assert!(frag.contains("# mocap delay 7.32 ± 0.41 ms rounded to 1 whole frames of 5 ms") && frag.contains("vehicles[0].undeclared.mocap_delay_ms: 5.0"), "{frag}");
+        assert!(
+            frag.contains("# mocap delay 7.32 ± 0.41 ms rounded to 1 whole frames of 5 ms")
+                && frag.contains("vehicles[0].undeclared.mocap_delay_ms: 5.0"),
+            "{frag}"
+        );
     }
 }

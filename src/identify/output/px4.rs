@@ -92,7 +92,11 @@ fn body_offset_fix(rpy: [f64; 3], ci: [f64; 3], axes: MocapAxes) -> BodyOffsetFi
     let v = fix.scaled_axis();
     let ci_conv = c.abs() * Vector3::from(ci);
     let q = UnitQuaternion::from_rotation_matrix(&fix);
-    BodyOffsetFix { axes, rotation_vector_deg: [0, 1, 2].map(|k| (v[k].to_degrees(), ci_conv[k].to_degrees())), quaternion_xyzw: [q.i, q.j, q.k, q.w] }
+    BodyOffsetFix {
+        axes,
+        rotation_vector_deg: [0, 1, 2].map(|k| (v[k].to_degrees(), ci_conv[k].to_degrees())),
+        quaternion_xyzw: [q.i, q.j, q.k, q.w],
+    }
 }
 
 /// One PX4 parameter with its value, interval and origin.
@@ -144,7 +148,11 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
         Some(f) => out.params.push(Px4Param { name: "EKF2_EV_DELAY", value: f.params[0].value, ci95: f.params[0].ci95, unit: "ms", from: "mocap_delay" }),
         None => out.notes.push("EKF2_EV_DELAY not written: the mocap delay was not fitted (identify --px4 always fits it)".to_string()),
     }
-    let mm = |e: Effect| found(e).filter(|_| identifiable(e)).map(|f| f.params.iter().map(|p| (p.value * 1e-3, p.ci95 * 1e-3)).collect::<Vec<_>>());
+    let mm = |e: Effect| {
+        found(e)
+            .filter(|_| identifiable(e))
+            .map(|f| f.params.iter().map(|p| (p.value * 1e-3, p.ci95 * 1e-3)).collect::<Vec<_>>())
+    };
     let imu = mm(Effect::ImuOffset);
     let lever = mm(Effect::LeverArm);
     const IMU_POS: [&str; 3] = ["EKF2_IMU_POS_X", "EKF2_IMU_POS_Y", "EKF2_IMU_POS_Z"];
@@ -166,7 +174,13 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
             let r_c = imu.as_deref().unwrap_or(&zero);
             for k in 0..3 {
                 let (v, ci) = (r_c[k].0 - r[k].0, (r_c[k].1.powi(2) + r[k].1.powi(2)).sqrt());
-                out.params.push(Px4Param { name: EV_POS[k], value: v, ci95: ci, unit: "m", from: if imu.is_some() { "imu_offset − lever_arm" } else { "−lever_arm" } });
+                out.params.push(Px4Param {
+                    name: EV_POS[k],
+                    value: v,
+                    ci95: ci,
+                    unit: "m",
+                    from: if imu.is_some() { "imu_offset − lever_arm" } else { "−lever_arm" },
+                });
             }
             if imu.is_none() {
                 out.notes.push(
@@ -174,13 +188,22 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
                 );
             }
         }
-        None if found(Effect::LeverArm).is_some() => out.notes.push("EKF2_EV_POS not written: the lever arm is not identifiable on this flight".into()),
-        None => out.notes.push("EKF2_EV_POS not written: no lever arm between the mocap origin and the IMU was selected on this flight".into()),
+        None if found(Effect::LeverArm).is_some() => {
+            out.notes.push("EKF2_EV_POS not written: the lever arm is not identifiable on this flight".into())
+        }
+        None => out.notes.push(
+            "EKF2_EV_POS not written: no lever arm between the mocap origin and the IMU was selected on this flight"
+                .into(),
+        ),
     }
     match found(Effect::BodyOffset) {
         Some(f) if identifiable(Effect::BodyOffset) => {
             let p = &f.params;
-            let fix = body_offset_fix([0, 1, 2].map(|k| p[k].value.to_radians()), [0, 1, 2].map(|k| p[k].ci95.to_radians()), axes);
+            let fix = body_offset_fix(
+                [0, 1, 2].map(|k| p[k].value.to_radians()),
+                [0, 1, 2].map(|k| p[k].ci95.to_radians()),
+                axes,
+            );
             out.notes.push(format!(
                 "the body offset (roll {}°, pitch {}°, yaw {}°, FRD, Z-Y-X: the mocap's body frame against the IMU's) has no PX4 parameter: turn the rigid body's axes in the mocap software as below",
                 with_interval(p[0].value, p[0].ci95),
@@ -189,7 +212,9 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
             ));
             out.body_offset_fix = Some(fix);
         }
-        Some(_) => out.notes.push("the body offset is not identifiable on this flight: no fix for the rigid body".into()),
+        Some(_) => {
+            out.notes.push("the body offset is not identifiable on this flight: no fix for the rigid body".into())
+        }
         None => {}
     }
     out
@@ -198,7 +223,9 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
 /// The parameters as a QGroundControl parameter file (tab-separated: vehicle id, component id,
 /// name, value, MAVLink type; 9 is `MAV_PARAM_TYPE_REAL32`), for vehicle 1, component 1.
 pub fn qgc_file(p: &Px4Parameters, source: &str) -> String {
-    let mut s = format!("# PX4 parameters identified by flyarena from {source}\n#\n# Vehicle-Id\tComponent-Id\tName\tValue\tType\n");
+    let mut s = format!(
+        "# PX4 parameters identified by flyarena from {source}\n#\n# Vehicle-Id\tComponent-Id\tName\tValue\tType\n"
+    );
     for q in &p.params {
         let _ = writeln!(s, "1\t1\t{}\t{:.6}\t9", q.name, q.value);
     }
@@ -212,7 +239,11 @@ pub fn render(p: &Px4Parameters) -> String {
         s.push_str("  none: nothing this flight supports\n");
     }
     for q in &p.params {
-        let (v, ci) = if q.unit == "m" { (format!("{:.4}", q.value), format!("{:.4}", q.ci95)) } else { (format!("{:.2}", q.value), format!("{:.2}", q.ci95)) };
+        let (v, ci) = if q.unit == "m" {
+            (format!("{:.4}", q.value), format!("{:.4}", q.ci95))
+        } else {
+            (format!("{:.2}", q.value), format!("{:.2}", q.ci95))
+        };
         let _ = writeln!(s, "  {:<15} {v:>8} ± {ci} {:<2}  from {}", q.name, q.unit, q.from);
     }
     for n in &p.notes {
@@ -243,7 +274,10 @@ mod tests {
     use crate::identify::select::Param;
 
     fn found(effect: Effect, values: &[(f64, f64)], identifiable: bool) -> Found {
-        let params = values.iter().map(|&(value, ci95)| Param { name: "p".into(), value, ci95, unit: "u".into(), identifiable }).collect();
+        let params = values
+            .iter()
+            .map(|&(value, ci95)| Param { name: "p".into(), value, ci95, unit: "u".into(), identifiable })
+            .collect();
         Found { effect, name: effect.key().into(), params }
     }
 
@@ -268,7 +302,12 @@ mod tests {
         let p = parameters_of_frd(&[found(Effect::MocapDelay, &[(0.0, 0.5)], true)]);
         assert_eq!(names(&p), ["EKF2_EV_DELAY"]);
         let p = parameters_of_frd(&[]);
-        assert!(p.notes[0].contains("not fitted") && p.notes[1].contains("not fitted") && p.notes[2].contains("no lever arm"), "{p:?}");
+        assert!(
+            p.notes[0].contains("not fitted")
+                && p.notes[1].contains("not fitted")
+                && p.notes[2].contains("no lever arm"),
+            "{p:?}"
+        );
         let mm = [(10.0, 1.0), (-5.0, 1.0), (30.0, 1.0)];
         let p = parameters_of_frd(&[found(Effect::ImuOffset, &mm, false), found(Effect::LeverArm, &mm, false)]);
         assert!(names(&p).is_empty(), "{p:?}");
@@ -281,10 +320,18 @@ mod tests {
     /// 0.005 m; IMU_POS is r_c.
     #[test]
     fn ev_pos_is_the_imu_offset_less_the_lever_arm() {
-        let p =
-            parameters_of_frd(&[found(Effect::ImuOffset, &[(20.0, 3.0), (0.0, 3.0), (15.0, 4.0)], true), found(Effect::LeverArm, &[(30.0, 4.0), (-5.0, 4.0), (10.0, 3.0)], true)]);
+        let p = parameters_of_frd(&[
+            found(Effect::ImuOffset, &[(20.0, 3.0), (0.0, 3.0), (15.0, 4.0)], true),
+            found(Effect::LeverArm, &[(30.0, 4.0), (-5.0, 4.0), (10.0, 3.0)], true),
+        ]);
         let get = |n: &str| p.params.iter().find(|q| q.name == n).map(|q| (q.value, q.ci95)).unwrap();
-        for (n, v) in [("EKF2_EV_POS_X", -0.010), ("EKF2_EV_POS_Y", 0.005), ("EKF2_EV_POS_Z", 0.005), ("EKF2_IMU_POS_X", 0.020), ("EKF2_IMU_POS_Z", 0.015)] {
+        for (n, v) in [
+            ("EKF2_EV_POS_X", -0.010),
+            ("EKF2_EV_POS_Y", 0.005),
+            ("EKF2_EV_POS_Z", 0.005),
+            ("EKF2_IMU_POS_X", 0.020),
+            ("EKF2_IMU_POS_Z", 0.015),
+        ] {
             assert!((get(n).0 - v).abs() < 1e-12, "{n}: {:?}", get(n));
         }
         assert!((get("EKF2_EV_POS_X").1 - 0.005).abs() < 1e-12);
@@ -318,17 +365,28 @@ mod tests {
         for (rpy, axes, want) in cases {
             let f = body_offset_fix(rpy, ci, axes);
             for k in 0..3 {
-                assert!((f.rotation_vector_deg[k].0 - want[k]).abs() < 1e-9, "{rpy:?} in {axes:?}: {:?}", f.rotation_vector_deg);
+                assert!(
+                    (f.rotation_vector_deg[k].0 - want[k]).abs() < 1e-9,
+                    "{rpy:?} in {axes:?}: {:?}",
+                    f.rotation_vector_deg
+                );
             }
             let q = f.quaternion_xyzw;
             assert!((q[3] - 1f64.to_radians().cos()).abs() < 1e-12, "{q:?}");
             for k in 0..3 {
-                assert!((q[k] - want[k].signum() * 1f64.to_radians().sin() * (want[k] != 0.0) as u8 as f64).abs() < 1e-12, "{q:?} for {want:?}");
+                assert!(
+                    (q[k] - want[k].signum() * 1f64.to_radians().sin() * (want[k] != 0.0) as u8 as f64).abs() < 1e-12,
+                    "{q:?} for {want:?}"
+                );
             }
         }
         // intervals follow the axes: yaw's 0.3° sits on y in y-up, on z in z-up
         let f = body_offset_fix([0.0; 3], ci, MocapAxes::YUp);
-        assert!((f.rotation_vector_deg[1].1 - 0.3).abs() < 1e-12 && (f.rotation_vector_deg[2].1 - 0.2).abs() < 1e-12, "{:?}", f.rotation_vector_deg);
+        assert!(
+            (f.rotation_vector_deg[1].1 - 0.3).abs() < 1e-12 && (f.rotation_vector_deg[2].1 - 0.2).abs() < 1e-12,
+            "{:?}",
+            f.rotation_vector_deg
+        );
         let f = body_offset_fix([0.0; 3], ci, MocapAxes::ZUp);
         assert!((f.rotation_vector_deg[2].1 - 0.3).abs() < 1e-12 && (f.rotation_vector_deg[1].1 - 0.2).abs() < 1e-12);
     }
@@ -338,7 +396,10 @@ mod tests {
     #[test]
     fn a_body_offset_that_is_not_identifiable_gets_no_fix() {
         let p = parameters_of_frd(&[found(Effect::BodyOffset, &[(1.0, 0.1), (0.0, 0.1), (2.0, 0.1)], false)]);
-        assert!(p.body_offset_fix.is_none() && p.notes.iter().any(|n| n.contains("body offset is not identifiable")), "{p:?}");
+        assert!(
+            p.body_offset_fix.is_none() && p.notes.iter().any(|n| n.contains("body offset is not identifiable")),
+            "{p:?}"
+        );
         let p = parameters_of_frd(&[found(Effect::BodyOffset, &[(1.0, 0.1), (0.0, 0.1), (2.0, 0.1)], true)]);
         assert!(p.body_offset_fix.is_some() && p.notes.iter().any(|n| n.contains("roll 1.00 ± 0.10°")), "{p:?}");
     }

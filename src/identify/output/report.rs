@@ -51,7 +51,11 @@ pub fn render(r: &Report) -> String {
 /// samples to try any.
 pub fn verdict(r: &Report) -> String {
     if !crate::identify::fit::select::enough_to_select(r.train_samples) {
-        return format!("nothing identified: {} usable training samples, {} needed", r.train_samples, crate::identify::fit::select::MIN_TRAIN_SAMPLES);
+        return format!(
+            "nothing identified: {} usable training samples, {} needed",
+            r.train_samples,
+            crate::identify::fit::select::MIN_TRAIN_SAMPLES
+        );
     }
     if r.effects.is_empty() {
         return "no effect found: the nominal model explains the data".to_string();
@@ -98,7 +102,11 @@ fn render_steps(s: &mut String, r: &Report) {
             100.0 * st.heldout_gain
         );
         for (e, rho) in &st.not_identifiable_from {
-            let _ = writeln!(s, "          not identifiable from {} by this data (canonical correlation {rho:.4})", e.name());
+            let _ = writeln!(
+                s,
+                "          not identifiable from {} by this data (canonical correlation {rho:.4})",
+                e.name()
+            );
         }
         let runners: Vec<String> = st
             .candidates
@@ -131,11 +139,18 @@ fn render_fit(s: &mut String, r: &Report) {
     }
     if r.train_samples + r.heldout_samples == 0 {
         // every figure below would be of no sample at all
-        let _ = writeln!(s, "\n  no usable sample (airborne, away from gaps and edges): no error, whiteness or residual to show");
+        let _ = writeln!(
+            s,
+            "\n  no usable sample (airborne, away from gaps and edges): no error, whiteness or residual to show"
+        );
         return;
     }
     let _ = writeln!(s, "\n  held-out error, nominal → with the effects:");
-    let _ = writeln!(s, "    {:<11} {:>4} {:>12} {:>12} {:>8} {:>10} {:>10}", "channel", "axis", "RMSE before", "RMSE after", "unit", "fit before", "fit after");
+    let _ = writeln!(
+        s,
+        "    {:<11} {:>4} {:>12} {:>12} {:>8} {:>10} {:>10}",
+        "channel", "axis", "RMSE before", "RMSE after", "unit", "fit before", "fit after"
+    );
     for e in &r.errors {
         let _ = writeln!(
             s,
@@ -153,7 +168,16 @@ fn render_fit(s: &mut String, r: &Report) {
     let cells: Vec<String> = r
         .whiteness
         .iter()
-        .map(|w| format!("{}.{} p={} (AR{}, raw {:.0}% of lags outside 99%)", w.channel.name(), w.axis, sig(w.ljung_box.p_value), w.ar_order, 100.0 * w.raw_outside_99))
+        .map(|w| {
+            format!(
+                "{}.{} p={} (AR{}, raw {:.0}% of lags outside 99%)",
+                w.channel.name(),
+                w.axis,
+                sig(w.ljung_box.p_value),
+                w.ar_order,
+                100.0 * w.raw_outside_99
+            )
+        })
         .collect();
     for c in cells {
         let _ = writeln!(s, "    {c}");
@@ -163,13 +187,21 @@ fn render_fit(s: &mut String, r: &Report) {
 /// What is left: per channel axis, structure, leads and the floor.
 fn render_left(s: &mut String, r: &Report) {
     if !r.left.is_empty() && r.train_samples + r.heldout_samples > 0 {
-        let _ = writeln!(s, "\n  what is left (final residual; leads: measured signals it follows, |r| ≥ 0.1 and significant at 1 % over all signals):");
+        let _ = writeln!(
+            s,
+            "\n  what is left (final residual; leads: measured signals it follows, |r| ≥ 0.1 and significant at 1 % over all signals):"
+        );
         for l in &r.left {
-            let leads: Vec<String> = l.correlates.iter().filter(|c| !c.floor).map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
-            let floor: Vec<String> = l.correlates.iter().filter(|c| c.floor).map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
+            let leads: Vec<String> =
+                l.correlates.iter().filter(|c| !c.floor).map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
+            let floor: Vec<String> =
+                l.correlates.iter().filter(|c| c.floor).map(|c| format!("{} r = {:+.2}", c.signal, c.r)).collect();
             let mut verdict = match (l.structured, leads.is_empty()) {
                 (false, _) => "no structure left (white, follows no measured signal of the flight)".to_string(),
-                (true, true) => format!("structured (Ljung–Box p = {}), follows no measured signal of the flight", sig(l.ljung_box_p)),
+                (true, true) => format!(
+                    "structured (Ljung–Box p = {}), follows no measured signal of the flight",
+                    sig(l.ljung_box_p)
+                ),
                 (true, false) => format!("structured, follows {}", leads.join(", ")),
             };
             if !floor.is_empty() {
@@ -185,10 +217,17 @@ fn render_left(s: &mut String, r: &Report) {
 fn render_ground(s: &mut String, r: &Report) {
     let pm = crate::identify::precision::signed_with_interval;
     if let Some(a) = &r.ground_agreement {
-        let _ = writeln!(s, "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs the frame tilt, body offset + world tilt):");
+        let _ = writeln!(
+            s,
+            "\n  ground check against the flight (°; ground − fitted accelerometer-bias tilt vs the frame tilt, body offset + world tilt):"
+        );
         if let Some(g) = &r.ground_check {
             let [r, p] = g.up_axis.tilt_names();
-            let _ = writeln!(s, "    the still vehicle's mocap tilt scatters {:.3}° {r}, {:.3}° {p} per sample at rest", g.mocap_sd_deg[0], g.mocap_sd_deg[1]);
+            let _ = writeln!(
+                s,
+                "    the still vehicle's mocap tilt scatters {:.3}° {r}, {:.3}° {p} per sample at rest",
+                g.mocap_sd_deg[0], g.mocap_sd_deg[1]
+            );
         }
         let names = a.up_axis.tilt_names();
         for (name, t) in names.into_iter().zip([&a.roll, &a.pitch]) {
@@ -205,7 +244,12 @@ fn render_ground(s: &mut String, r: &Report) {
             );
         }
         if let Some(sp) = &a.spin_up {
-            let _ = writeln!(s, "  spin-up (motors on at {:.0} % of the weight, still on the floor, {:.2} s) as the ground check:", 100.0 * sp.thrust_fraction, sp.duration_s);
+            let _ = writeln!(
+                s,
+                "  spin-up (motors on at {:.0} % of the weight, still on the floor, {:.2} s) as the ground check:",
+                100.0 * sp.thrust_fraction,
+                sp.duration_s
+            );
             for (name, t) in names.into_iter().zip([&sp.roll, &sp.pitch]) {
                 let _ = writeln!(
                     s,
@@ -219,7 +263,8 @@ fn render_ground(s: &mut String, r: &Report) {
         }
     }
     if let Some((a, l)) = r.ground_agreement.as_ref().and_then(|a| a.after_landing.as_ref().map(|l| (a, l))) {
-        let _ = writeln!(s, "  rest after landing ({} samples) as the ground check, and the two rests' mean:", l.samples);
+        let _ =
+            writeln!(s, "  rest after landing ({} samples) as the ground check, and the two rests' mean:", l.samples);
         for (name, t) in a.up_axis.tilt_names().into_iter().zip([&l.roll, &l.pitch]) {
             let _ = writeln!(
                 s,

@@ -17,7 +17,8 @@ pub(super) fn hac(d: &Design, train: &[bool], gs: &[Gram], set: &[usize], theta:
     let mut u: Vec<Option<DVector<f64>>> = (0..d.n).map(|t| train[t].then(|| DVector::zeros(k))).collect();
     for ((c, a), gr) in active(d).into_iter().zip(gs) {
         let e = residual_of(d, c, a, theta);
-        let cols: Vec<Option<&Vec<f64>>> = set.iter().map(|j| d.columns[c][a].iter().find(|x| x.0 == *j).map(|x| &x.1)).collect();
+        let cols: Vec<Option<&Vec<f64>>> =
+            set.iter().map(|j| d.columns[c][a].iter().find(|x| x.0 == *j).map(|x| &x.1)).collect();
         if cols.iter().all(Option::is_none) {
             continue;
         }

@@ -42,7 +42,11 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
     let s = &gated(s, o);
     let mut corr = Corrections::default();
     let st = refine(s, o, &mut corr, &[], 0);
-    let all: Vec<Effect> = Effect::ALL.iter().copied().filter(|e| (o.candidates.contains(e) || o.forced.contains(e)) && available(&st.design, *e)).collect();
+    let all: Vec<Effect> = Effect::ALL
+        .iter()
+        .copied()
+        .filter(|e| (o.candidates.contains(e) || o.forced.contains(e)) && available(&st.design, *e))
+        .collect();
     let white: Vec<Ar> = active(&st.design).iter().map(|_| Ar::white(1.0)).collect();
     let g_ols = grams(&st.design, &st.train, &st.test, &white);
     let f_all = fit(&g_ols, &set_of(&all));
@@ -128,7 +132,10 @@ mod tests {
     /// N` as `E − N` (0 whenever E < N) and as `E·N` (0 when N = 0).
     #[test]
     fn the_heldout_share_by_hand() {
-        assert_eq!([share(1.0, 3.0), share(3.0, 1.0), share(2.0, 0.0), share(0.0, 0.0), share(0.0, 2.0)], [0.25, 0.75, 1.0, 0.0, 0.0]);
+        assert_eq!(
+            [share(1.0, 3.0), share(3.0, 1.0), share(2.0, 0.0), share(0.0, 0.0), share(0.0, 2.0)],
+            [0.25, 0.75, 1.0, 0.0, 0.0]
+        );
     }
 
     /// Reported units back to the fit's: a lever arm of 10, −5 and 2 mm is 0.01, −0.005 and 0.002
@@ -136,9 +143,14 @@ mod tests {
     /// the value times its factor, or modulo it.
     #[test]
     fn the_true_parameters_are_taken_back_to_the_fits_units() {
-        let close = |got: DVector<f64>, want: &[f64]| got.len() == want.len() && got.iter().zip(want).all(|(g, w)| (g - w).abs() <= 1e-15 * w.abs().max(1.0));
+        let close = |got: DVector<f64>, want: &[f64]| {
+            got.len() == want.len() && got.iter().zip(want).all(|(g, w)| (g - w).abs() <= 1e-15 * w.abs().max(1.0))
+        };
         assert!(close(in_fit_units(Effect::LeverArm, &[10.0, -5.0, 2.0]), &[0.01, -0.005, 0.002]));
-        assert!(close(in_fit_units(Effect::BodyOffset, &[1.0, 0.0, -2.0]), &[std::f64::consts::PI / 180.0, 0.0, -std::f64::consts::PI / 90.0]));
+        assert!(close(
+            in_fit_units(Effect::BodyOffset, &[1.0, 0.0, -2.0]),
+            &[std::f64::consts::PI / 180.0, 0.0, -std::f64::consts::PI / 90.0]
+        ));
         assert!(close(in_fit_units(Effect::MocapDelay, &[5.0]), &[0.005]));
     }
 
@@ -147,7 +159,11 @@ mod tests {
     /// scale alone. A bug it catches: the `&&` as `||` (the effect its own partner, its held-out energy 0).
     #[test]
     fn an_effects_partners_are_the_other_true_effects_with_columns() {
-        let truth = [(Effect::MocapDelay, vec![5.0]), (Effect::ThrustScale, vec![0.1]), (Effect::LeverArm, vec![10.0, 0.0, 0.0])];
+        let truth = [
+            (Effect::MocapDelay, vec![5.0]),
+            (Effect::ThrustScale, vec![0.1]),
+            (Effect::LeverArm, vec![10.0, 0.0, 0.0]),
+        ];
         let all = [Effect::MocapDelay, Effect::ThrustScale, Effect::GyroBias];
         assert_eq!(partners(&truth, Effect::MocapDelay, &all), [Effect::ThrustScale]);
         assert_eq!(partners(&truth, Effect::ThrustScale, &all), [Effect::MocapDelay]);
@@ -184,7 +200,11 @@ mod tests {
     #[test]
     fn the_heldout_gram_sums_the_effects_axes_in_its_columns_order() {
         let gram = |cols: &[usize], g_t: DMatrix<f64>| Gram { g_t, ..Gram::zeros(cols.to_vec(), 1.0) };
-        let gs = [gram(&[5, 2, 7], m(3, &[1.0, 2.0, 3.0, 2.0, 4.0, 5.0, 3.0, 5.0, 6.0])), gram(&[7, 2], m(2, &[10.0, 20.0, 20.0, 30.0])), gram(&[9], m(1, &[100.0]))];
+        let gs = [
+            gram(&[5, 2, 7], m(3, &[1.0, 2.0, 3.0, 2.0, 4.0, 5.0, 3.0, 5.0, 6.0])),
+            gram(&[7, 2], m(2, &[10.0, 20.0, 20.0, 30.0])),
+            gram(&[9], m(1, &[100.0])),
+        ];
         let rss_t = [1.0, 2.0, 4.0];
         let (g, noise) = heldout_on_axes_of(&gs, &[2], &[2, 7], &rss_t);
         assert_eq!(g, m(2, &[34.0, 25.0, 25.0, 16.0]));

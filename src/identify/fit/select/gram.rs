@@ -33,7 +33,20 @@ impl Gram {
     pub(super) fn zeros(cols: Vec<usize>, w_r: f64) -> Gram {
         let m = cols.len();
         let (z, v) = (DMatrix::zeros(m, m), DVector::zeros(m));
-        Gram { cols, g_w: z.clone(), b_w: v.clone(), yy_w: 0.0, n_w: 0, g_t: z.clone(), b_t: v.clone(), yy_t: 0.0, n_t: 0, g_r: z, b_r: v, w_r }
+        Gram {
+            cols,
+            g_w: z.clone(),
+            b_w: v.clone(),
+            yy_w: 0.0,
+            n_w: 0,
+            g_t: z.clone(),
+            b_t: v.clone(),
+            yy_t: 0.0,
+            n_t: 0,
+            g_r: z,
+            b_r: v,
+            w_r,
+        }
     }
 }
 
@@ -195,7 +208,11 @@ pub(super) fn add_at(to: &mut DMatrix<f64>, from: &DMatrix<f64>, at: &[(usize, u
 
 /// The normal equations (G, b) of a set of columns summed over channel axes, from the sums
 /// `sums` reads off each axis's Gram: the raw (training) ones or the whitened ones.
-fn normal_equations(gs: &[Gram], set: &[usize], sums: impl Fn(&Gram) -> (&DMatrix<f64>, &DVector<f64>)) -> (DMatrix<f64>, DVector<f64>) {
+fn normal_equations(
+    gs: &[Gram],
+    set: &[usize],
+    sums: impl Fn(&Gram) -> (&DMatrix<f64>, &DVector<f64>),
+) -> (DMatrix<f64>, DVector<f64>) {
     let k = set.len();
     let mut g = DMatrix::zeros(k, k);
     let mut b = DVector::zeros(k);
@@ -324,7 +341,8 @@ mod tests {
     #[test]
     fn canonical_correlations_by_geometry_with_a_block_projected_out() {
         // samples 1 and 2, columns 3, 0, 1, 2, 4, 5
-        let first = Gram::of_samples(&[3, 0, 1, 2, 4, 5], &[&[2.0, 1.0, 1.0, 0.0, 0.0, 1.0], &[1.0, 0.0, 1.0, 0.0, 1.0, 0.0]]);
+        let first =
+            Gram::of_samples(&[3, 0, 1, 2, 4, 5], &[&[2.0, 1.0, 1.0, 0.0, 0.0, 1.0], &[1.0, 0.0, 1.0, 0.0, 1.0, 0.0]]);
         // samples 3 and 4: columns 0, 1 and 4 are zero there and absent
         let second = Gram::of_samples(&[5, 2, 3], &[&[1.0, 1.0, 0.0], &[0.0, 0.0, 3.0]]);
         let gs = [first, second];

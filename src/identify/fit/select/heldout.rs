@@ -32,7 +32,10 @@ pub(super) fn axis_error(ch: Channel, a: usize, y: &[f64], before: &[f64], after
 /// with `r`'s corrections and parameters, on every usable sample of `s` (nothing is refitted).
 pub fn evaluate(s: &Series, o: &Options, r: &Report) -> Vec<AxisError> {
     let (after, rows, paired) = paired_residuals(&gated(s, o), o, r);
-    paired.iter().map(|p| axis_error(Channel::ALL[p.c], p.a, &after.measured[p.c][p.a], &p.before, &p.after, &rows)).collect()
+    paired
+        .iter()
+        .map(|p| axis_error(Channel::ALL[p.c], p.a, &after.measured[p.c][p.a], &p.before, &p.after, &rows))
+        .collect()
 }
 
 /// One channel axis's residuals before (the nominal model) and after (`r`'s corrections and
@@ -50,7 +53,10 @@ fn paired_residuals(s: &Series, o: &Options, r: &Report) -> (Design, Vec<usize>,
     let before = build(s, &Corrections::default(), &o.design);
     let after = build(s, &r.corrections, &o.design);
     let rows = usable_in_both(&before.ok, &after.ok);
-    let paired = active(&after).into_iter().map(|(c, a)| Paired { c, a, before: before.residual(c, a), after: residual_of(&after, c, a, &r.theta) }).collect();
+    let paired = active(&after)
+        .into_iter()
+        .map(|(c, a)| Paired { c, a, before: before.residual(c, a), after: residual_of(&after, c, a, &r.theta) })
+        .collect();
     (after, rows, paired)
 }
 
@@ -129,7 +135,11 @@ mod tests {
         assert_eq!((e.axis, e.samples), ('y', 4));
         assert!((e.rmse_before - 1.0).abs() < 1e-15 && (e.rmse_after - 0.125f64.sqrt()).abs() < 1e-15, "{e:?}");
         let want = |r2: f64| 100.0 * (1.0 - (r2 / 5.0f64).sqrt());
-        assert!((e.fit_before_pct.unwrap() - want(4.0)).abs() < 1e-12 && (e.fit_after_pct.unwrap() - want(0.5)).abs() < 1e-12, "{e:?}");
+        assert!(
+            (e.fit_before_pct.unwrap() - want(4.0)).abs() < 1e-12
+                && (e.fit_after_pct.unwrap() - want(0.5)).abs() < 1e-12,
+            "{e:?}"
+        );
         // a flat signal has no fit to speak of
         let flat = axis_error(Channel::AccelKin, 0, &[2.0; 4], &before, &after, &[0, 1, 2, 3]);
         assert!(flat.fit_before_pct.is_none() && flat.fit_after_pct.is_none());

@@ -24,7 +24,8 @@ pub(super) struct LeadSignals<'a> {
 }
 
 pub(super) fn lead_signals(d: &Design) -> LeadSignals<'_> {
-    let masked: Vec<Vec<f64>> = d.signals.iter().map(|sg| (0..d.n).map(|i| if d.ok[i] { sg.samples[i] } else { f64::NAN }).collect()).collect();
+    let masked: Vec<Vec<f64>> =
+        d.signals.iter().map(|sg| (0..d.n).map(|i| if d.ok[i] { sg.samples[i] } else { f64::NAN }).collect()).collect();
     let acf = masked.iter().map(|x| crate::identify::stats::autocorrelation(x, 50).0).collect();
     LeadSignals { design: d, masked, acf }
 }
@@ -109,7 +110,13 @@ pub(super) fn final_residuals(
             structured: structured(&correlates, lb.p_value),
             correlates,
         });
-        whiteness.push(Whiteness { channel: ch, axis: AXES[a], raw_outside_99: outside, ar_order: ar.order(), ljung_box: lb });
+        whiteness.push(Whiteness {
+            channel: ch,
+            axis: AXES[a],
+            raw_outside_99: outside,
+            ar_order: ar.order(),
+            ljung_box: lb,
+        });
     }
     (errors, whiteness, left)
 }
@@ -130,7 +137,10 @@ pub(super) fn hypothesis_hints(left: &[Left], fitted: &[Effect]) -> Vec<String> 
             'y' => "angular acceleration x (rad/s²)",
             _ => return None,
         };
-        l.correlates.iter().find(|c| c.signal == about).map(|c| format!("force.{} follows {} (r = {:+.2})", l.axis, c.signal, c.r))
+        l.correlates
+            .iter()
+            .find(|c| c.signal == about)
+            .map(|c| format!("force.{} follows {} (r = {:+.2})", l.axis, c.signal, c.r))
     };
     let found: Vec<String> = left.iter().filter(|l| l.channel == Channel::Force).filter_map(signature).collect();
     if found.is_empty() {
@@ -163,7 +173,14 @@ mod tests {
 
     /// A design of `n` usable samples with the given lead signals and nothing else.
     fn signals_only(n: usize, signals: Vec<Signal>) -> Design {
-        Design { n, t: (0..n).map(|i| i as f64 * 0.01).collect(), ok: vec![true; n], has_force: true, signals, ..Design::default() }
+        Design {
+            n,
+            t: (0..n).map(|i| i as f64 * 0.01).collect(),
+            ok: vec![true; n],
+            has_force: true,
+            signals,
+            ..Design::default()
+        }
     }
 
     /// The held-out error counts the samples that are both held out and usable in the nominal
@@ -176,10 +193,15 @@ mod tests {
         let test: Vec<bool> = (0..n).map(|i| i % 2 == 0).collect();
         let mut nominal = signals_only(n, Vec::new());
         nominal.ok = (0..n).map(|i| i < 80).collect();
-        let y: Vec<f64> = (0..n).map(|i| if test[i] && i < 80 { if i % 4 == 0 { 3.0 } else { -3.0 } } else { 1000.0 }).collect();
+        let y: Vec<f64> =
+            (0..n).map(|i| if test[i] && i < 80 { if i % 4 == 0 { 3.0 } else { -3.0 } } else { 1000.0 }).collect();
         nominal.measured[0][0] = y;
         nominal.predicted[0][0] = vec![0.0; n];
-        let d = Design { measured: nominal.measured.clone(), predicted: nominal.predicted.clone(), ..signals_only(n, Vec::new()) };
+        let d = Design {
+            measured: nominal.measured.clone(),
+            predicted: nominal.predicted.clone(),
+            ..signals_only(n, Vec::new())
+        };
         let (errors, _, _) = final_residuals(&d, &[], &test, &nominal, &lead_signals(&d), 2);
         assert_eq!(errors.len(), 1);
         let e = &errors[0];
@@ -235,7 +257,9 @@ mod tests {
         let along = dot(&yc, &xc) / dot(&xc, &xc);
         let y_perp: Vec<f64> = yc.iter().zip(&xc).map(|(y, x)| y - along * x).collect();
         let scale = (dot(&xc, &xc) / dot(&y_perp, &y_perp)).sqrt();
-        let follow = |rho: f64| -> Vec<f64> { xc.iter().zip(&y_perp).map(|(x, y)| 0.7 + rho * x + (1.0 - rho * rho).sqrt() * scale * y).collect() };
+        let follow = |rho: f64| -> Vec<f64> {
+            xc.iter().zip(&y_perp).map(|(x, y)| 0.7 + rho * x + (1.0 - rho * rho).sqrt() * scale * y).collect()
+        };
         let d = signals_only(n, vec![Signal { name: "x", samples: x.clone(), excludes: vec![], floor: false }]);
         let ls = lead_signals(&d);
         let weak = leads(&ls, 1, 0, &follow(0.12));
@@ -276,10 +300,21 @@ mod tests {
             correlates: vec![Correlate { signal: signal.into(), r: 0.25, n_eff: 300.0, floor: false }],
         };
         let hit = hypothesis_hints(&[left('x', "angular acceleration y (rad/s²)")], &[]);
-        assert!(hit.len() == 1 && hit[0].contains("force.x follows angular acceleration y (rad/s²) (r = +0.25)") && hit[0].contains("--with imu_offset"), "{hit:?}");
+        assert!(
+            hit.len() == 1
+                && hit[0].contains("force.x follows angular acceleration y (rad/s²) (r = +0.25)")
+                && hit[0].contains("--with imu_offset"),
+            "{hit:?}"
+        );
         assert_eq!(hypothesis_hints(&[left('y', "angular acceleration x (rad/s²)")], &[]).len(), 1);
         assert!(hypothesis_hints(&[left('x', "angular acceleration y (rad/s²)")], &[Effect::ImuOffset]).is_empty());
-        assert!(hypothesis_hints(&[left('x', "angular acceleration x (rad/s²)"), left('z', "angular acceleration y (rad/s²)")], &[]).is_empty());
+        assert!(
+            hypothesis_hints(
+                &[left('x', "angular acceleration x (rad/s²)"), left('z', "angular acceleration y (rad/s²)")],
+                &[]
+            )
+            .is_empty()
+        );
         let mut gyro = left('x', "angular acceleration y (rad/s²)");
         gyro.channel = Channel::Gyro;
         assert!(hypothesis_hints(&[gyro], &[]).is_empty());

@@ -159,7 +159,8 @@ fn fold(corr: &mut Corrections, theta: &mut [f64], selected: &[Effect]) {
             Effect::WorldTilt => {
                 let d = Vector3::new(theta[r.start], theta[r.start + 1], 0.0);
                 // an increment of the true world: R_w·exp(d)
-                let tilted: Rot<Nav, MocapNav> = corr.world_tilt * Rot::<Nav, Nav>::from_rotation_vector(Vec3::from_raw(d));
+                let tilted: Rot<Nav, MocapNav> =
+                    corr.world_tilt * Rot::<Nav, Nav>::from_rotation_vector(Vec3::from_raw(d));
                 corr.world_tilt = Rot::from_quaternion(level_tilt(tilted.quaternion()));
             }
             Effect::MocapDelay => corr.mocap_delay_s += theta[r.start],
@@ -203,7 +204,8 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         let mut f = fit(&grams, &set);
         let has_corrections = selected.iter().any(|e| e.is_correction());
         if it == iterations || !has_corrections {
-            let cov = hac(&design, &train, &grams, &set, &f.theta, o.hac_lags) + thrust_systematic(&design, &train, &grams, &set, s.model.thrust_rel_sd);
+            let cov = hac(&design, &train, &grams, &set, &f.theta, o.hac_lags)
+                + thrust_systematic(&design, &train, &grams, &set, s.model.thrust_rel_sd);
             last = Some(Problem { design, train, test, grams, fit: f, cov });
             break;
         }
@@ -243,7 +245,12 @@ fn unavailable_reason(d: &Design, e: Effect) -> Option<String> {
     Some(if e == Effect::ThrustVoltage && d.has_force {
         format!("--with {}: left out, the log has no battery voltage", e.key())
     } else if matches!(e, Effect::AccelBiasDrift | Effect::GyroBiasDrift) {
-        format!("--with {}: left out, the log's usable samples span {:.0} s and a drift is fitted on {:.0} s or more", e.key(), usable_span_s(d), crate::effects::DRIFT_MIN_S)
+        format!(
+            "--with {}: left out, the log's usable samples span {:.0} s and a drift is fitted on {:.0} s or more",
+            e.key(),
+            usable_span_s(d),
+            crate::effects::DRIFT_MIN_S
+        )
     } else {
         format!("--with {}: left out, it acts only through the thrust model and the log has no motor commands", e.key())
     })
@@ -252,12 +259,20 @@ fn unavailable_reason(d: &Design, e: Effect) -> Option<String> {
 /// What the fitted model says of the frames at rest: the body offset O and the world tilt W
 /// (identity unless selected) and the accelerometer bias b (zero unless selected), from the
 /// folded corrections and the OLS parameters `theta`.
-fn rest_frames(selected: &[Effect], theta: &[f64], corr: &Corrections) -> (UnitQuaternion<f64>, UnitQuaternion<f64>, Vector3<f64>) {
+fn rest_frames(
+    selected: &[Effect],
+    theta: &[f64],
+    corr: &Corrections,
+) -> (UnitQuaternion<f64>, UnitQuaternion<f64>, Vector3<f64>) {
     let has = |e: Effect| selected.contains(&e);
     let offset = if has(Effect::BodyOffset) { *corr.body_offset.quaternion() } else { UnitQuaternion::identity() };
     let world = if has(Effect::WorldTilt) { *corr.world_tilt.quaternion() } else { UnitQuaternion::identity() };
     let b = cols_of(Effect::AccelBias);
-    let bias = if has(Effect::AccelBias) { Vector3::new(theta[b.start], theta[b.start + 1], theta[b.start + 2]) } else { Vector3::zeros() };
+    let bias = if has(Effect::AccelBias) {
+        Vector3::new(theta[b.start], theta[b.start + 1], theta[b.start + 2])
+    } else {
+        Vector3::zeros()
+    };
     (offset, world, bias)
 }
 
@@ -289,7 +304,15 @@ struct RestTilt {
 /// gradient of [`rest_tilt`]'s total with respect to the columns of the body offset (an increment
 /// d turns O into exp(d)·O), the world tilt (W·exp(d)) and the bias (b + d), by central
 /// differences. Offset and bias trade off in a hover, their sum does not. Zero without a rest.
-fn rest_tilt_sd(s: &Series, rest: Option<&Rest>, selected: &[Effect], theta: &[f64], corr: &Corrections, set: &[usize], cov: &DMatrix<f64>) -> [f64; 2] {
+fn rest_tilt_sd(
+    s: &Series,
+    rest: Option<&Rest>,
+    selected: &[Effect],
+    theta: &[f64],
+    corr: &Corrections,
+    set: &[usize],
+    cov: &DMatrix<f64>,
+) -> [f64; 2] {
     let Some(rest) = rest else {
         return [0.0; 2];
     };
@@ -386,16 +409,26 @@ fn params_of(e: Effect, theta: &[f64], cov: &DMatrix<f64>, set: &[usize], corr: 
     let sd: Vec<f64> = match thrust_multiplier(e, set) {
         Some([(a, pa), (b, pb)]) => {
             let c = multiplier(theta, a, b);
-            let var = (cov[(pb, pb)] - 2.0 * c * cov[(pa, pb)] + c * c * cov[(pa, pa)]) / ((1.0 + theta[a]) * (1.0 + theta[a]));
+            let var = (cov[(pb, pb)] - 2.0 * c * cov[(pa, pb)] + c * c * cov[(pa, pa)])
+                / ((1.0 + theta[a]) * (1.0 + theta[a]));
             vec![var.max(0.0).sqrt()]
         }
-        None => cols_of(e).take(e.params().len()).map(|j| set.iter().position(|c| *c == j).map_or(0.0, |p| cov[(p, p)].max(0.0).sqrt())).collect(),
+        None => cols_of(e)
+            .take(e.params().len())
+            .map(|j| set.iter().position(|c| *c == j).map_or(0.0, |p| cov[(p, p)].max(0.0).sqrt()))
+            .collect(),
     };
     values_of(e, theta, set, corr)
         .into_iter()
         .zip(sd)
         .zip(e.params())
-        .map(|((value, sd), (name, unit, f))| Param { name: name.to_string(), value, ci95: Z_975 * sd * f, unit: unit.to_string(), identifiable: true })
+        .map(|((value, sd), (name, unit, f))| Param {
+            name: name.to_string(),
+            value,
+            ci95: Z_975 * sd * f,
+            unit: unit.to_string(),
+            identifiable: true,
+        })
         .collect()
 }
 
@@ -415,7 +448,12 @@ pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
     let (clean, quality) = super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m);
     let mut report = select(&clean, o);
     if !enough_to_select(report.train_samples) && quality.corrupted().next().is_some() {
-        return Err(IdentifyError::TooLittleClean { log: s.source.clone(), usable: report.train_samples, needed: MIN_TRAIN_SAMPLES, cuts: quality.describe() });
+        return Err(IdentifyError::TooLittleClean {
+            log: s.source.clone(),
+            usable: report.train_samples,
+            needed: MIN_TRAIN_SAMPLES,
+            cuts: quality.describe(),
+        });
     }
     if !quality.cuts.is_empty() {
         report.notes.insert(
@@ -504,7 +542,8 @@ fn score(gs: &[Gram], base: &Fit, effects: &[Effect], tests: usize, o: &Options)
     let (g, b, yy, _) = system(gs, &set);
     let nb = base.set.len();
     let th_s = DVector::from_iterator(nb, base.set.iter().map(|j| base.theta_w[*j]));
-    let rr = (yy - 2.0 * th_s.dot(&b.rows(0, nb)) + (th_s.transpose() * g.view((0, 0), (nb, nb)) * &th_s)[(0, 0)]).max(1e-300);
+    let rr = (yy - 2.0 * th_s.dot(&b.rows(0, nb)) + (th_s.transpose() * g.view((0, 0), (nb, nb)) * &th_s)[(0, 0)])
+        .max(1e-300);
     for q in nb..set.len() {
         let xr = b[q] - (g.view((q, 0), (1, nb)) * &th_s)[(0, 0)];
         max_corr = max_corr.max((xr / (g[(q, q)] * rr).sqrt()).abs());
@@ -516,14 +555,24 @@ fn score(gs: &[Gram], base: &Fit, effects: &[Effect], tests: usize, o: &Options)
 /// The candidates a forward step tries: not selected, not removed by the backward check (no
 /// re-entry), and with columns in the data.
 fn pool_of(o: &Options, d: &Design, selected: &[Effect], removed: &[Removal]) -> Vec<Effect> {
-    o.candidates.iter().copied().filter(|e| !selected.contains(e) && !removed.iter().any(|r| r.check.effect == *e) && available(d, *e)).collect()
+    o.candidates
+        .iter()
+        .copied()
+        .filter(|e| !selected.contains(e) && !removed.iter().any(|r| r.check.effect == *e) && available(d, *e))
+        .collect()
 }
 
 /// The backward check's verdict on the selected set: each `testable` effect is scored on top
 /// of every other selected one, as one of `outside + 1` candidates for the Bonferroni level
 /// (the `outside` ones a forward step would try now, and itself); of those that fail a gate,
 /// the one with the largest ΔBIC (the least support) leaves. None when all pass.
-fn backward_worst(gs: &[Gram], selected: &[Effect], testable: &[Effect], outside: usize, o: &Options) -> Option<Candidate> {
+fn backward_worst(
+    gs: &[Gram],
+    selected: &[Effect],
+    testable: &[Effect],
+    outside: usize,
+    o: &Options,
+) -> Option<Candidate> {
     let tests = outside + 1;
     let mut worst: Option<Candidate> = None;
     for e in testable {
@@ -567,7 +616,10 @@ impl Search {
         }
         if !self.selected.is_empty() {
             self.refit(s, o);
-            notes.push(format!("fitted without testing (forced): {}", self.selected.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")));
+            notes.push(format!(
+                "fitted without testing (forced): {}",
+                self.selected.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")
+            ));
         }
     }
 
@@ -608,7 +660,12 @@ impl Search {
     /// arm) are folded into the trajectory and are not re-tested; nor is a pair that joined
     /// together (each alone fails by construction) or a forced effect.
     fn backward(&mut self, s: &Series, o: &Options) {
-        let testable: Vec<Effect> = self.selected.iter().copied().filter(|e| !e.is_correction() && !o.forced.contains(e) && !joined_as_pair(&self.steps, *e)).collect();
+        let testable: Vec<Effect> = self
+            .selected
+            .iter()
+            .copied()
+            .filter(|e| !e.is_correction() && !o.forced.contains(e) && !joined_as_pair(&self.steps, *e))
+            .collect();
         let outside = pool_of(o, &self.state.design, &self.selected, &self.removed).len();
         if let Some(w) = backward_worst(&self.state.grams, &self.selected, &testable, outside, o) {
             self.selected.retain(|x| *x != w.effect);
@@ -682,8 +739,9 @@ impl Search {
     /// and the two frame effects whatever was selected.
     fn identifiability(&self, yaw_spread_deg: f64, notes: &mut Vec<String>) -> Vec<(Effect, Effect, f64)> {
         let (steps, selected, state) = (&self.steps, &self.selected, &self.state);
-        let mut not_identifiable: Vec<(Effect, Effect, f64)> =
-            kept_steps(steps, &self.removed).flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho))).collect();
+        let mut not_identifiable: Vec<(Effect, Effect, f64)> = kept_steps(steps, &self.removed)
+            .flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho)))
+            .collect();
         // the frame pair, unless a kept step named it already (in either order)
         let frames = [Effect::BodyOffset, Effect::WorldTilt];
         let named = not_identifiable.iter().any(|(a, b, _)| frames.contains(a) && frames.contains(b));
@@ -691,7 +749,11 @@ impl Search {
             let rho = canonical_corr(&state.grams, &[], &set_of(&[Effect::WorldTilt]), &set_of(&[Effect::BodyOffset]));
             if rho > 0.99 {
                 // the one not selected (if both were, the pair is still named)
-                let (a, b) = if selected.contains(&Effect::BodyOffset) { (Effect::BodyOffset, Effect::WorldTilt) } else { (Effect::WorldTilt, Effect::BodyOffset) };
+                let (a, b) = if selected.contains(&Effect::BodyOffset) {
+                    (Effect::BodyOffset, Effect::WorldTilt)
+                } else {
+                    (Effect::WorldTilt, Effect::BodyOffset)
+                };
                 not_identifiable.push((a, b, rho));
                 notes.push(format!(
                     "mocap world tilt and body offset roll/pitch are not identifiable apart in this flight (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): they differ only through yaw changes, body rates and accelerations other than gravity"
@@ -709,7 +771,10 @@ impl Search {
         }
         // a mocap that leads the IMU is no latency: a clock offset between the streams, or a
         // delay of the gyro alone (which shares the mocap delay's gyro column and is not searched)
-        if selected.contains(&Effect::MocapDelay) && self.corr.mocap_delay_s < 0.0 && !selected.contains(&Effect::GyroDelay) {
+        if selected.contains(&Effect::MocapDelay)
+            && self.corr.mocap_delay_s < 0.0
+            && !selected.contains(&Effect::GyroDelay)
+        {
             notes.push(format!(
                 "the mocap delay came out negative ({:.1} ms: the mocap leads the IMU): a clock offset between the streams, or a delay of the gyro alone against the accelerometer, which `--with gyro_delay` tests",
                 self.corr.mocap_delay_s * 1e3
@@ -812,7 +877,14 @@ fn select(s: &Series, o: &Options) -> Report {
     let mut corr = Corrections::default();
     let nominal = refine(s, o, &mut corr, &[], 0);
     let too_few = gate_notes(s, &nominal, o, &mut notes);
-    let mut search = Search { selected: Vec::new(), state: nominal, corr, steps: Vec::new(), removed: Vec::new(), final_candidates: Vec::new() };
+    let mut search = Search {
+        selected: Vec::new(),
+        state: nominal,
+        corr,
+        steps: Vec::new(),
+        removed: Vec::new(),
+        final_candidates: Vec::new(),
+    };
     if !too_few {
         search.force(s, o, &mut notes);
         search.run(s, o, &mut notes);
@@ -826,12 +898,22 @@ fn select(s: &Series, o: &Options) -> Report {
     // the same design with the measured signals, for the leads of what is left
     let with_signals = super::design::build_with_signals(s, &corr, &o.design);
     let lead_sigs = lead_signals(&with_signals);
-    let (errors, whiteness, left) = final_residuals(&state.design, &state.fit.theta, &state.test, &nominal_design, &lead_sigs, o.max_ar_order);
+    let (errors, whiteness, left) =
+        final_residuals(&state.design, &state.fit.theta, &state.test, &nominal_design, &lead_sigs, o.max_ar_order);
     notes.extend(hypothesis_hints(&left, selected));
-    let mut effects: Vec<Found> =
-        selected.iter().map(|e| Found { effect: *e, name: e.name().into(), params: params_of(*e, &state.fit.theta, &state.cov, &state.fit.set, &corr) }).collect();
-    let (ground_check, ground_agreement) =
-        if too_few { (super::ground::ground_check(s), None) } else { ground(s, o, &search, yaw_spread_deg, &mut not_identifiable, &mut effects, &mut notes) };
+    let mut effects: Vec<Found> = selected
+        .iter()
+        .map(|e| Found {
+            effect: *e,
+            name: e.name().into(),
+            params: params_of(*e, &state.fit.theta, &state.cov, &state.fit.set, &corr),
+        })
+        .collect();
+    let (ground_check, ground_agreement) = if too_few {
+        (super::ground::ground_check(s), None)
+    } else {
+        ground(s, o, &search, yaw_spread_deg, &mut not_identifiable, &mut effects, &mut notes)
+    };
     Report {
         source: s.source.clone(),
         samples: s.len(),
@@ -876,7 +958,16 @@ fn ground(
     let tilt_sd = rest_tilt_sd(s, rest.as_ref(), selected, &state.fit.theta, &search.corr, &state.fit.set, &state.cov);
     let mut tilt_widen = [0.0f64; 2];
     let fin = widen::Final { s, o, state, corr: search.corr, selected, rest };
-    widen::swaps(&fin, |e, c| named_at_step(&search.steps, &search.removed, e, c), tilt.total, yaw_spread_deg, not_identifiable, effects, &mut tilt_widen, notes);
+    widen::swaps(
+        &fin,
+        |e, c| named_at_step(&search.steps, &search.removed, e, c),
+        tilt.total,
+        yaw_spread_deg,
+        not_identifiable,
+        effects,
+        &mut tilt_widen,
+        notes,
+    );
     widen::half_supported(&fin, &search.final_candidates, tilt_sd, effects, &mut tilt_widen, notes);
     // the widening is an extra half-width beyond the fit's own
     let tilt_widen = [0, 1].map(|k| widen::beyond_own(tilt_widen[k], Z_975 * tilt_sd[k]));
@@ -890,13 +981,21 @@ fn ground(
                 frame_fitted: selected.contains(&Effect::BodyOffset) || selected.contains(&Effect::WorldTilt),
                 accel_bias_fitted: selected.contains(&Effect::AccelBias),
             };
-            super::ground::agreement(raw, &corrected, &flight, super::ground::spin_up(s, &tilt.bias).as_ref(), super::ground::tilt_after_landing(s, &tilt.bias).as_ref())
+            super::ground::agreement(
+                raw,
+                &corrected,
+                &flight,
+                super::ground::spin_up(s, &tilt.bias).as_ref(),
+                super::ground::tilt_after_landing(s, &tilt.bias).as_ref(),
+            )
         })
     });
     if let Some(a) = &ground_agreement {
         notes.extend(super::ground::agreement_notes(a));
     }
-    if let Some(off) = super::ground::rest_off_axis_deg(s).filter(|off| ground_check.is_none() && *off > super::ground::MAX_REST_OFF_AXIS_DEG) {
+    if let Some(off) = super::ground::rest_off_axis_deg(s)
+        .filter(|off| ground_check.is_none() && *off > super::ground::MAX_REST_OFF_AXIS_DEG)
+    {
         notes.push(format!(
             "the log rests with the vertical {off:.0}° from the nearest body axis: the ground check reads tilts about two body axes that are level at rest, so it is left out (the fit assumes nothing about the rest attitude)"
         ));
@@ -923,12 +1022,16 @@ mod tests {
                 assert!(got.angle_to(&level) < 1e-12, "φ {phi} θ {theta} ε {eps}: {:?}", got.euler_angles());
             }
         }
-        let composed = UnitQuaternion::from_scaled_axis(Vector3::new(6f64.to_radians(), 0.0, 0.0)) * UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 2f64.to_radians(), 0.0));
+        let composed = UnitQuaternion::from_scaled_axis(Vector3::new(6f64.to_radians(), 0.0, 0.0))
+            * UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 2f64.to_radians(), 0.0));
         let (r, p, y) = composed.euler_angles();
         let (lr, lp, ly) = level_tilt(&composed).euler_angles();
         let u = composed * Vector3::z();
         assert!(ly.abs() < 1e-15 && (level_tilt(&composed) * Vector3::z() - u).norm() < 1e-15, "{lr} {lp} {ly}");
-        assert!(y.abs() > 1e-3 && ((r - lr).abs() + (p - lp).abs()).to_degrees() > 1e-3, "{r} {p} {y} against {lr} {lp}");
+        assert!(
+            y.abs() > 1e-3 && ((r - lr).abs() + (p - lp).abs()).to_degrees() > 1e-3,
+            "{r} {p} {y} against {lr} {lp}"
+        );
     }
 
     /// `refine` folds a correction over its iterations. The swing of [`Series::swing_for_tests`] (a
@@ -944,7 +1047,12 @@ mod tests {
         let mut corr = Corrections::default();
         refine(&s, &Options::default(), &mut corr, &[Effect::BodyOffset], 3);
         let err = (corr.body_offset.quaternion().inverse() * r_off).angle().to_degrees();
-        assert!(err < 0.01, "body offset {:?} against R_off {:?}: {err}°", corr.body_offset.quaternion().euler_angles(), r_off.euler_angles());
+        assert!(
+            err < 0.01,
+            "body offset {:?} against R_off {:?}: {err}°",
+            corr.body_offset.quaternion().euler_angles(),
+            r_off.euler_angles()
+        );
     }
 
     /// The final fit's covariance is the statistical (Newey–West) one plus the thrust systematic,
@@ -962,7 +1070,10 @@ mod tests {
         let p = refine(&s, &Options::default(), &mut Corrections::default(), &[Effect::ThrustScale], 3);
         assert_eq!(p.cov.shape(), (1, 1));
         let var = p.cov[(0, 0)];
-        assert!((0.0025..0.0025 * (1.0 + 1e-6)).contains(&var), "thrust-scale variance {var}, want 0.0025 plus a statistical part under 3e-10");
+        assert!(
+            (0.0025..0.0025 * (1.0 + 1e-6)).contains(&var),
+            "thrust-scale variance {var}, want 0.0025 plus a statistical part under 3e-10"
+        );
     }
 
     /// A still rest of 100 rows at yaw `yaw` (rad), markers level: the mocap reports R_z(yaw).
@@ -1002,14 +1113,18 @@ mod tests {
         let n = Vector3::new(beta.cos(), beta.sin(), 0.0);
         let tilt = UnitQuaternion::from_scaled_axis(n * alpha);
         let theta = vec![0.0; N_COLUMNS];
-        let near = |got: [f64; 2], want: Vector3<f64>| (got[0] - want.x).abs() < 1e-12 && (got[1] - want.y).abs() < 1e-12;
+        let near =
+            |got: [f64; 2], want: Vector3<f64>| (got[0] - want.x).abs() < 1e-12 && (got[1] - want.y).abs() < 1e-12;
         let corr = Corrections { world_tilt: Rot::from_quaternion(tilt), ..Corrections::default() };
         let t = rest_tilt(&s, Some(&rest), &[Effect::WorldTilt], &theta, &corr);
         let want = UnitQuaternion::from_euler_angles(0.0, 0.0, -yaw) * n * alpha;
         assert!(near(t.frame, want) && near(t.total, want), "{:?} against {want:?}", t.frame);
         let psi_o = 60f64.to_radians();
-        let corr =
-            Corrections { world_tilt: Rot::from_quaternion(tilt), body_offset: Rot::from_quaternion(UnitQuaternion::from_euler_angles(0.0, 0.0, psi_o)), ..Corrections::default() };
+        let corr = Corrections {
+            world_tilt: Rot::from_quaternion(tilt),
+            body_offset: Rot::from_quaternion(UnitQuaternion::from_euler_angles(0.0, 0.0, psi_o)),
+            ..Corrections::default()
+        };
         let t = rest_tilt(&s, Some(&rest), &[Effect::BodyOffset, Effect::WorldTilt], &theta, &corr);
         let want = UnitQuaternion::from_euler_angles(0.0, 0.0, psi_o - yaw) * n * alpha;
         assert!(near(t.frame, want), "{:?} against {want:?}", t.frame);
@@ -1027,7 +1142,11 @@ mod tests {
         assert!(near(t.total, want) && t.frame == [0.0; 2] && t.bias == bias, "{:?} against {want:?}", t.total);
         assert!((t.total[0] - bias.y / g).abs() > 1e-3, "first order would have done");
         // nothing selected: nothing, and no rest: nothing
-        let corr = Corrections { world_tilt: Rot::from_quaternion(tilt), body_offset: Rot::from_quaternion(tilt), ..Corrections::default() };
+        let corr = Corrections {
+            world_tilt: Rot::from_quaternion(tilt),
+            body_offset: Rot::from_quaternion(tilt),
+            ..Corrections::default()
+        };
         let t = rest_tilt(&s, Some(&rest), &[], &theta_b, &corr);
         assert_eq!((t.frame, t.total, t.bias), ([0.0; 2], [0.0; 2], Vector3::zeros()));
         let t = rest_tilt(&s, None, &[Effect::BodyOffset, Effect::WorldTilt], &theta_b, &corr);
@@ -1065,9 +1184,21 @@ mod tests {
         put(o.start + 2, o.start, k5);
         let theta = vec![0.0; N_COLUMNS];
         let sd = rest_tilt_sd(&series, Some(&rest), &selected, &theta, &Corrections::default(), &set, &cov);
-        let roll = var(o.start) + c * c * var(w.start) + s * s * var(w.start + 1) + var(b.start + 1) / (g * g) + 2.0 * k1 / g + 2.0 * k4 * s;
-        let pitch = var(o.start + 1) + s * s * var(w.start) + c * c * var(w.start + 1) + var(b.start) / (g * g) - 2.0 * k2 / g - 2.0 * k3 * s;
-        assert!((sd[0] - roll.sqrt()).abs() < 1e-9 && (sd[1] - pitch.sqrt()).abs() < 1e-9, "{sd:?} against {} {}", roll.sqrt(), pitch.sqrt());
+        let roll = var(o.start)
+            + c * c * var(w.start)
+            + s * s * var(w.start + 1)
+            + var(b.start + 1) / (g * g)
+            + 2.0 * k1 / g
+            + 2.0 * k4 * s;
+        let pitch = var(o.start + 1) + s * s * var(w.start) + c * c * var(w.start + 1) + var(b.start) / (g * g)
+            - 2.0 * k2 / g
+            - 2.0 * k3 * s;
+        assert!(
+            (sd[0] - roll.sqrt()).abs() < 1e-9 && (sd[1] - pitch.sqrt()).abs() < 1e-9,
+            "{sd:?} against {} {}",
+            roll.sqrt(),
+            pitch.sqrt()
+        );
         assert_eq!(rest_tilt_sd(&series, None, &selected, &theta, &Corrections::default(), &set, &cov), [0.0; 2]);
     }
 
@@ -1127,7 +1258,10 @@ mod tests {
             params: vec![],
         };
         let steps = [step(Effect::BodyOffset, Some(Effect::WorldTilt)), step(Effect::GroundEffect, None)];
-        let joined: Vec<bool> = [Effect::BodyOffset, Effect::WorldTilt, Effect::GroundEffect, Effect::ThrustScale].iter().map(|e| joined_as_pair(&steps, *e)).collect();
+        let joined: Vec<bool> = [Effect::BodyOffset, Effect::WorldTilt, Effect::GroundEffect, Effect::ThrustScale]
+            .iter()
+            .map(|e| joined_as_pair(&steps, *e))
+            .collect();
         assert_eq!(joined, [true, true, false, false]);
         assert!(!joined_as_pair(&steps[1..], Effect::GroundEffect), "a single step is no pair");
     }
@@ -1177,7 +1311,11 @@ mod tests {
 
     #[test]
     fn the_backward_check_removes_the_least_supported_failure() {
-        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let cols = [
+            cols_of(Effect::ThrustScale).start,
+            cols_of(Effect::ThrustVoltage).start,
+            cols_of(Effect::GroundEffect).start,
+        ];
         let gs = [synthetic_gram(cols, [0.0, 0.02, 0.5])];
         let selected = [Effect::ThrustScale, Effect::ThrustVoltage, Effect::GroundEffect];
         let o = Options::default();
@@ -1206,7 +1344,15 @@ mod tests {
     /// failure with ΔBIC ≥ 0 are out at any p.
     #[test]
     fn pairs_are_tried_among_failures_significant_at_alpha_over_the_candidates() {
-        let c = |effect: Effect, passed: bool, p_value: f64, delta_bic: f64| Candidate { effect, delta_bic, f: 10.0, p_value, heldout_gain: -0.01, max_corr: 0.3, passed };
+        let c = |effect: Effect, passed: bool, p_value: f64, delta_bic: f64| Candidate {
+            effect,
+            delta_bic,
+            f: 10.0,
+            p_value,
+            heldout_gain: -0.01,
+            max_corr: 0.3,
+            passed,
+        };
         let cands = [
             c(Effect::BodyOffset, false, 0.0015, -3.0),
             c(Effect::WorldTilt, false, 0.0025, -3.0),
@@ -1215,7 +1361,11 @@ mod tests {
             c(Effect::AccelBias, false, 1e-9, -0.5),
         ];
         assert_eq!(pair_candidates(&cands, 0.01), [Effect::BodyOffset, Effect::AccelBias]);
-        assert_eq!(pair_candidates(&cands[..2], 0.01), [Effect::BodyOffset, Effect::WorldTilt], "m = 2: the level is 0.005");
+        assert_eq!(
+            pair_candidates(&cands[..2], 0.01),
+            [Effect::BodyOffset, Effect::WorldTilt],
+            "m = 2: the level is 0.005"
+        );
         // a pair is judged among the m singles and the r(r − 1)/2 pairs of r candidates (a bug it
         // catches: the count's `/ 2` as `% 2`, always 0, judged pairs among the singles alone)
         let counts: Vec<usize> = (0..5).map(|r| tests_with_pairs(10, r)).collect();
@@ -1240,7 +1390,10 @@ mod tests {
         assert!(named_at_step(&steps, &removed, Effect::BodyOffset, Effect::WorldTilt));
         assert!(!named_at_step(&steps, &removed, Effect::GyroDelay, Effect::MocapDelay), "its step was removed");
         assert!(named_at_step(&steps, &[], Effect::GyroDelay, Effect::MocapDelay));
-        assert!(!named_at_step(&steps, &removed, Effect::WorldTilt, Effect::BodyOffset), "the step added the body offset");
+        assert!(
+            !named_at_step(&steps, &removed, Effect::WorldTilt, Effect::BodyOffset),
+            "the step added the body offset"
+        );
         assert!(!named_at_step(&steps, &removed, Effect::BodyOffset, Effect::MocapDelay), "another step's rival");
     }
 
@@ -1267,7 +1420,9 @@ mod tests {
             ]
         );
         // a positive delay, or one with the gyro delay selected beside it, gets no such note
-        for (delay, selected) in [(0.003, vec![Effect::MocapDelay]), (-0.003, vec![Effect::MocapDelay, Effect::GyroDelay])] {
+        for (delay, selected) in
+            [(0.003, vec![Effect::MocapDelay]), (-0.003, vec![Effect::MocapDelay, Effect::GyroDelay])]
+        {
             let mut notes = Vec::new();
             search(delay, selected).identifiability(12.0, &mut notes);
             assert_eq!(notes.len(), 1, "{notes:?}");
@@ -1288,7 +1443,13 @@ mod tests {
             let s = (1.0 - c * c).sqrt();
             let cols: Vec<usize> = wt.iter().chain(&bo).copied().collect();
             // columns: wt0 wt1 bo0 bo1 bo2
-            let rows: [&[f64]; 5] = [&[1.0, 0.0, c, 0.0, 0.0], &[0.0, 0.0, s, 0.0, 0.0], &[0.0, 1.0, 0.0, 0.0, 0.0], &[0.0, 0.0, 0.0, 1.0, 0.0], &[0.0, 0.0, 0.0, 0.0, 1.0]];
+            let rows: [&[f64]; 5] = [
+                &[1.0, 0.0, c, 0.0, 0.0],
+                &[0.0, 0.0, s, 0.0, 0.0],
+                &[0.0, 1.0, 0.0, 0.0, 0.0],
+                &[0.0, 0.0, 0.0, 1.0, 0.0],
+                &[0.0, 0.0, 0.0, 0.0, 1.0],
+            ];
             vec![Gram::of_samples(&cols, &rows)]
         };
         let pairs = |c: f64, selected: Vec<Effect>, steps: Vec<Step>, removed: Vec<Removal>| {
@@ -1305,8 +1466,16 @@ mod tests {
                 "mocap world tilt and body offset roll/pitch are not identifiable apart in this flight (canonical correlation 0.9950, yaw spread 12.0°): they differ only through yaw changes, body rates and accelerations other than gravity"
             ]
         );
-        assert_eq!(pairs(0.995, vec![wt_e], Vec::new(), Vec::new()).0, [(wt_e, bo_e, 0.995)], "the world tilt selected");
-        assert_eq!(pairs(0.995, vec![Effect::GyroBias, wt_e, bo_e], Vec::new(), Vec::new()).0, [(bo_e, wt_e, 0.995)], "both selected");
+        assert_eq!(
+            pairs(0.995, vec![wt_e], Vec::new(), Vec::new()).0,
+            [(wt_e, bo_e, 0.995)],
+            "the world tilt selected"
+        );
+        assert_eq!(
+            pairs(0.995, vec![Effect::GyroBias, wt_e, bo_e], Vec::new(), Vec::new()).0,
+            [(bo_e, wt_e, 0.995)],
+            "both selected"
+        );
         assert_eq!(pairs(1.0, vec![bo_e], Vec::new(), Vec::new()).0, [(bo_e, wt_e, 1.0)]);
         // under the cut, or with neither selected: nothing
         assert_eq!(pairs(0.985, vec![bo_e], Vec::new(), Vec::new()), (Vec::new(), Vec::new()));
@@ -1331,7 +1500,13 @@ mod tests {
     /// A finished search by hand for the `identifiability` tests: the selected effects, the
     /// forward steps, the backward check's removals, the Grams the frame-pair check reads and
     /// the mocap delay (s).
-    fn finished_search(selected: Vec<Effect>, steps: Vec<Step>, removed: Vec<Removal>, grams: Vec<Gram>, mocap_delay_s: f64) -> Search {
+    fn finished_search(
+        selected: Vec<Effect>,
+        steps: Vec<Step>,
+        removed: Vec<Removal>,
+        grams: Vec<Gram>,
+        mocap_delay_s: f64,
+    ) -> Search {
         Search {
             selected,
             state: Problem {
@@ -1339,7 +1514,13 @@ mod tests {
                 train: Vec::new(),
                 test: Vec::new(),
                 grams,
-                fit: Fit { set: Vec::new(), theta: vec![0.0; N_COLUMNS], theta_w: vec![0.0; N_COLUMNS], rss: 0.0, n: 0 },
+                fit: Fit {
+                    set: Vec::new(),
+                    theta: vec![0.0; N_COLUMNS],
+                    theta_w: vec![0.0; N_COLUMNS],
+                    rss: 0.0,
+                    n: 0,
+                },
                 cov: DMatrix::zeros(0, 0),
             },
             corr: Corrections { mocap_delay_s, ..Corrections::default() },
@@ -1377,9 +1558,11 @@ mod tests {
     #[test]
     fn a_pair_wins_a_round_only_strictly_below_every_passing_single() {
         let c = scoreboard;
-        let singles = [c(Effect::RotorDrag, true, -10.0), c(Effect::GyroDelay, true, -20.0), c(Effect::AccelBias, false, -30.0)];
+        let singles =
+            [c(Effect::RotorDrag, true, -10.0), c(Effect::GyroDelay, true, -20.0), c(Effect::AccelBias, false, -30.0)];
         let pair = |delta_bic: f64| Some((Effect::WorldTilt, c(Effect::BodyOffset, true, delta_bic)));
-        let winner = |cands: &[Candidate], pair| round_winner(cands, pair).map(|(w, partner)| (w.effect, w.delta_bic, partner));
+        let winner =
+            |cands: &[Candidate], pair| round_winner(cands, pair).map(|(w, partner)| (w.effect, w.delta_bic, partner));
         assert_eq!(winner(&singles, None), Some((Effect::GyroDelay, -20.0, None)));
         assert_eq!(winner(&singles, pair(-25.0)), Some((Effect::BodyOffset, -25.0, Some(Effect::WorldTilt))));
         assert_eq!(winner(&singles, pair(-20.0)), Some((Effect::GyroDelay, -20.0, None)), "a tie goes to the single");
@@ -1419,14 +1602,19 @@ mod tests {
     /// when k are.
     #[test]
     fn the_backward_check_tests_at_alpha_over_the_outside_candidates_and_itself() {
-        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let cols = [
+            cols_of(Effect::ThrustScale).start,
+            cols_of(Effect::ThrustVoltage).start,
+            cols_of(Effect::GroundEffect).start,
+        ];
         let gs = [synthetic_gram(cols, [0.0, 0.008, 0.5])];
         let selected = [Effect::ThrustVoltage, Effect::GroundEffect];
         let o = Options { min_heldout_gain: f64::NEG_INFINITY, ..Options::default() };
         let c = score(&gs, &fit(&gs, &set_of(&[Effect::GroundEffect])), &[Effect::ThrustVoltage], 1, &o);
         let k = (o.alpha / c.p_value).floor() as usize;
         assert!(c.delta_bic < 0.0 && (2..50).contains(&k) && c.p_value < o.alpha / k as f64, "{c:?}, k = {k}");
-        let leaves = |outside: usize| backward_worst(&gs, &selected, &[Effect::ThrustVoltage], outside, &o).map(|w| w.effect);
+        let leaves =
+            |outside: usize| backward_worst(&gs, &selected, &[Effect::ThrustVoltage], outside, &o).map(|w| w.effect);
         assert_eq!(leaves(k - 1), None, "p = {} < α/{k}", c.p_value);
         assert_eq!(leaves(k), Some(Effect::ThrustVoltage), "p = {} > α/{}", c.p_value, k + 1);
     }
@@ -1447,8 +1635,14 @@ mod tests {
         assert!(!offers(false, false, Effect::ImuOffset) && !offers(false, false, Effect::ConstantForce));
         let no_force = design(false, false);
         assert_eq!(unavailable_reason(&no_force, Effect::AccelBias), None);
-        assert!(unavailable_reason(&no_force, Effect::ThrustScale).is_some_and(|w| w.contains("--with thrust_scale") && w.contains("no motor commands")));
-        assert!(unavailable_reason(&design(true, false), Effect::ThrustVoltage).is_some_and(|w| w.contains("no battery voltage")));
+        assert!(
+            unavailable_reason(&no_force, Effect::ThrustScale)
+                .is_some_and(|w| w.contains("--with thrust_scale") && w.contains("no motor commands"))
+        );
+        assert!(
+            unavailable_reason(&design(true, false), Effect::ThrustVoltage)
+                .is_some_and(|w| w.contains("no battery voltage"))
+        );
     }
 
     /// A candidate's correlation with the residual, from the Gram sums by hand: on the base set
@@ -1457,14 +1651,23 @@ mod tests {
     /// A bug it catches: `b − G·θ` as `b + G·θ`.
     #[test]
     fn a_candidates_correlation_with_the_residual_by_hand() {
-        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let cols = [
+            cols_of(Effect::ThrustScale).start,
+            cols_of(Effect::ThrustVoltage).start,
+            cols_of(Effect::GroundEffect).start,
+        ];
         let gs = [synthetic_gram(cols, [0.0, 0.02, 0.5])];
         let (g, b, yy) = (&gs[0].g_w, &gs[0].b_w, gs[0].yy_w);
         let theta = b[2] / g[(2, 2)];
         let (rr, xr) = (yy - b[2] * theta, b[1] - g[(1, 2)] * theta);
         let by_hand = xr.abs() / (g[(1, 1)] * rr).sqrt();
-        let c = score(&gs, &fit(&gs, &set_of(&[Effect::GroundEffect])), &[Effect::ThrustVoltage], 1, &Options::default());
-        assert!(by_hand > 0.05 && (c.max_corr - by_hand).abs() < 1e-12 * by_hand, "{} against {by_hand} by hand", c.max_corr);
+        let c =
+            score(&gs, &fit(&gs, &set_of(&[Effect::GroundEffect])), &[Effect::ThrustVoltage], 1, &Options::default());
+        assert!(
+            by_hand > 0.05 && (c.max_corr - by_hand).abs() < 1e-12 * by_hand,
+            "{} against {by_hand} by hand",
+            c.max_corr
+        );
     }
 
     /// The held-out gate weighs each channel axis the candidate acts on by the current model's
@@ -1476,7 +1679,11 @@ mod tests {
     /// rss₀ (1 for an error above one).
     #[test]
     fn the_heldout_gain_weighs_each_axis_by_its_current_error() {
-        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let cols = [
+            cols_of(Effect::ThrustScale).start,
+            cols_of(Effect::ThrustVoltage).start,
+            cols_of(Effect::GroundEffect).start,
+        ];
         let acted_on = synthetic_gram(cols, [0.0, 0.2, 0.5]);
         let mut big = synthetic_gram(cols, [0.0, 0.0, 0.5]);
         big.g_t *= 1e4;
@@ -1499,11 +1706,16 @@ mod tests {
     /// `>=`.
     #[test]
     fn without_heldout_rows_the_heldout_gain_is_zero_not_nan() {
-        let cols = [cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start];
+        let cols = [
+            cols_of(Effect::ThrustScale).start,
+            cols_of(Effect::ThrustVoltage).start,
+            cols_of(Effect::GroundEffect).start,
+        ];
         let mut g = synthetic_gram(cols, [0.0, 0.2, 0.5]);
         (g.g_t, g.b_t, g.yy_t, g.n_t) = (DMatrix::zeros(3, 3), DVector::zeros(3), 0.0, 0);
         let gs = [g];
-        let c = score(&gs, &fit(&gs, &set_of(&[Effect::GroundEffect])), &[Effect::ThrustVoltage], 1, &Options::default());
+        let c =
+            score(&gs, &fit(&gs, &set_of(&[Effect::GroundEffect])), &[Effect::ThrustVoltage], 1, &Options::default());
         assert_eq!(c.heldout_gain.to_bits(), 0.0f64.to_bits(), "gain {}", c.heldout_gain);
         assert!(!c.passed && c.p_value < 1e-6, "significant in training, yet no held-out support: {c:?}");
     }
@@ -1532,7 +1744,10 @@ mod tests {
         theta[col(Effect::GyroDelay)] = 0.002;
         theta[col(Effect::ThrustScale)] = 0.1;
         theta[col(Effect::AccelBias)] = 0.2;
-        let (off0, w0) = (UnitQuaternion::from_euler_angles(0.02, 0.01, -0.05), UnitQuaternion::from_euler_angles(0.003, 0.001, 0.0));
+        let (off0, w0) = (
+            UnitQuaternion::from_euler_angles(0.02, 0.01, -0.05),
+            UnitQuaternion::from_euler_angles(0.003, 0.001, 0.0),
+        );
         let mut corr = Corrections {
             body_offset: Rot::from_quaternion(off0),
             world_tilt: Rot::from_quaternion(w0),
@@ -1540,10 +1755,21 @@ mod tests {
             gyro_delay_s: -0.001,
             lever_arm_m: Vec3::new(0.1, 0.0, 0.0),
         };
-        let selected = [Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay, Effect::GyroDelay, Effect::LeverArm, Effect::ThrustScale];
+        let selected = [
+            Effect::BodyOffset,
+            Effect::WorldTilt,
+            Effect::MocapDelay,
+            Effect::GyroDelay,
+            Effect::LeverArm,
+            Effect::ThrustScale,
+        ];
         fold(&mut corr, &mut theta, &selected);
-        let (off, w) = (UnitQuaternion::from_scaled_axis(d_off) * off0, level_tilt(&(w0 * UnitQuaternion::from_scaled_axis(d_w))));
-        assert!(corr.body_offset.quaternion().angle_to(&off) < 1e-15 && corr.world_tilt.quaternion().angle_to(&w) < 1e-15, "{corr:?}");
+        let (off, w) =
+            (UnitQuaternion::from_scaled_axis(d_off) * off0, level_tilt(&(w0 * UnitQuaternion::from_scaled_axis(d_w))));
+        assert!(
+            corr.body_offset.quaternion().angle_to(&off) < 1e-15 && corr.world_tilt.quaternion().angle_to(&w) < 1e-15,
+            "{corr:?}"
+        );
         // the order of composition, and the levelling, are visible at these sizes
         assert!((off0 * UnitQuaternion::from_scaled_axis(d_off)).angle_to(&off) > 1e-5);
         assert!((w0 * UnitQuaternion::from_scaled_axis(d_w)).angle_to(&w) > 1e-7);
@@ -1603,7 +1829,11 @@ mod tests {
     /// b is reported as it is.
     #[test]
     fn a_thrust_multiplier_is_reported_over_the_thrust_scale() {
-        let (ts, tv, ge) = (cols_of(Effect::ThrustScale).start, cols_of(Effect::ThrustVoltage).start, cols_of(Effect::GroundEffect).start);
+        let (ts, tv, ge) = (
+            cols_of(Effect::ThrustScale).start,
+            cols_of(Effect::ThrustVoltage).start,
+            cols_of(Effect::GroundEffect).start,
+        );
         let mut theta = vec![0.0; N_COLUMNS];
         theta[ts] = -0.2;
         theta[tv] = 0.08;

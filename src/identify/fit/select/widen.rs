@@ -40,7 +40,13 @@ pub(super) fn swaps(
     tilt_widen: &mut [f64; 2],
     notes: &mut Vec<String>,
 ) {
-    let outside: Vec<Effect> = fin.o.candidates.iter().copied().filter(|c| !fin.selected.contains(c) && available(&fin.state.design, *c)).collect();
+    let outside: Vec<Effect> = fin
+        .o
+        .candidates
+        .iter()
+        .copied()
+        .filter(|c| !fin.selected.contains(c) && available(&fin.state.design, *c))
+        .collect();
     for (k, e) in fin.selected.iter().copied().enumerate() {
         if fin.o.forced.contains(&e) {
             continue;
@@ -78,12 +84,21 @@ pub(super) fn swaps(
             let mut alt_corr = Corrections::default();
             let alt_state = refine(fin.s, fin.o, &mut alt_corr, &alt, fin.o.refine_iterations);
             let alt_total = rest_tilt(fin.s, fin.rest.as_ref(), &alt, &alt_state.fit.theta, &alt_corr).total;
-            let asd = rest_tilt_sd(fin.s, fin.rest.as_ref(), &alt, &alt_state.fit.theta, &alt_corr, &alt_state.fit.set, &alt_state.cov);
+            let asd = rest_tilt_sd(
+                fin.s,
+                fin.rest.as_ref(),
+                &alt,
+                &alt_state.fit.theta,
+                &alt_corr,
+                &alt_state.fit.set,
+                &alt_state.cov,
+            );
             for k in 0..2 {
                 tilt_widen[k] = tilt_widen[k].max(covering(tilt_total[k], alt_total[k], Z_975 * asd[k]));
             }
             for f in effects.iter_mut().filter(|f| f.effect != e) {
-                let alt_params = params_of(f.effect, &alt_state.fit.theta, &alt_state.cov, &alt_state.fit.set, &alt_corr);
+                let alt_params =
+                    params_of(f.effect, &alt_state.fit.theta, &alt_state.cov, &alt_state.fit.set, &alt_corr);
                 for (p, q) in f.params.iter_mut().zip(alt_params) {
                     p.ci95 = p.ci95.max(covering(p.value, q.value, q.ci95));
                 }
@@ -122,8 +137,16 @@ fn is_half_supported(c: &Candidate, alpha: f64, m: usize) -> bool {
 /// Left out, such a C may bias the selected effects (omitted variable); so each selected
 /// interval is widened to cover the estimate with C in the model too, the shift taken from
 /// the linearised fit of S + C at the final corrections.
-pub(super) fn half_supported(fin: &Final, final_candidates: &[Candidate], tilt_sd: [f64; 2], effects: &mut [Found], tilt_widen: &mut [f64; 2], notes: &mut Vec<String>) {
-    let near: Vec<&Candidate> = final_candidates.iter().filter(|c| is_half_supported(c, fin.o.alpha, final_candidates.len())).collect();
+pub(super) fn half_supported(
+    fin: &Final,
+    final_candidates: &[Candidate],
+    tilt_sd: [f64; 2],
+    effects: &mut [Found],
+    tilt_widen: &mut [f64; 2],
+    notes: &mut Vec<String>,
+) {
+    let near: Vec<&Candidate> =
+        final_candidates.iter().filter(|c| is_half_supported(c, fin.o.alpha, final_candidates.len())).collect();
     let folded = |set: &[usize], effects: &[Effect]| {
         let mut theta = fit(&fin.state.grams, set).theta;
         let mut corr = fin.corr;
@@ -190,7 +213,10 @@ fn moved_note(c: &Candidate, moved: &[String], min_heldout_gain: f64) -> Option<
         )
     };
     if !moved.is_empty() {
-        note.push_str(&format!("; with it in, the estimates would move ({}): their intervals cover both", moved.join(", ")));
+        note.push_str(&format!(
+            "; with it in, the estimates would move ({}): their intervals cover both",
+            moved.join(", ")
+        ));
     }
     Some(note)
 }
@@ -208,7 +234,13 @@ mod tests {
         use Effect::{GroundEffect, MocapDelay, ThrustScale, ThrustVoltage};
         let pairs = [(ThrustScale, ThrustVoltage, 0.995)];
         assert!(lists(&pairs, ThrustScale, ThrustVoltage) && lists(&pairs, ThrustVoltage, ThrustScale));
-        for (e, c) in [(ThrustScale, GroundEffect), (GroundEffect, ThrustVoltage), (ThrustVoltage, GroundEffect), (GroundEffect, ThrustScale), (MocapDelay, GroundEffect)] {
+        for (e, c) in [
+            (ThrustScale, GroundEffect),
+            (GroundEffect, ThrustVoltage),
+            (ThrustVoltage, GroundEffect),
+            (GroundEffect, ThrustScale),
+            (MocapDelay, GroundEffect),
+        ] {
             assert!(!lists(&pairs, e, c), "({e:?}, {c:?}) is not listed");
         }
         assert!(!lists(&[], ThrustScale, ThrustVoltage));
@@ -236,7 +268,15 @@ mod tests {
     /// nor is one that passed, one with ΔBIC ≥ 0, or p at the level itself.
     #[test]
     fn half_supported_is_failed_bic_lowering_and_bonferroni_significant() {
-        let c = |passed: bool, delta_bic: f64, p_value: f64| Candidate { effect: Effect::MocapDelay, delta_bic, f: 10.0, p_value, heldout_gain: 0.05, max_corr: 0.5, passed };
+        let c = |passed: bool, delta_bic: f64, p_value: f64| Candidate {
+            effect: Effect::MocapDelay,
+            delta_bic,
+            f: 10.0,
+            p_value,
+            heldout_gain: 0.05,
+            max_corr: 0.5,
+            passed,
+        };
         assert!(is_half_supported(&c(false, -3.0, 0.0005), 0.01, 10));
         assert!(!is_half_supported(&c(false, -3.0, 0.005), 0.01, 10));
         assert!(!is_half_supported(&c(true, -3.0, 0.0005), 0.01, 10));
@@ -252,7 +292,15 @@ mod tests {
     /// the `!` deleted (a note for each candidate that moved nothing, none for one that did).
     #[test]
     fn a_note_names_the_estimates_a_half_supported_candidate_would_move() {
-        let c = Candidate { effect: Effect::MocapDelay, delta_bic: -9.6, f: 10.0, p_value: 2.5e-4, heldout_gain: 0.031, max_corr: 0.5, passed: false };
+        let c = Candidate {
+            effect: Effect::MocapDelay,
+            delta_bic: -9.6,
+            f: 10.0,
+            p_value: 2.5e-4,
+            heldout_gain: 0.031,
+            max_corr: 0.5,
+            passed: false,
+        };
         assert_eq!(moved_note(&c, &[], 0.1), None);
         let moved = ["body_offset yaw +0.412 deg".to_string(), "gyro_bias z -0.050 deg/s".to_string()];
         assert_eq!(
@@ -269,7 +317,15 @@ mod tests {
     /// `<=` as `<`, or the strong note dropped when nothing moves.
     #[test]
     fn a_very_strong_candidate_failing_only_the_heldout_gate_is_named_with_its_option() {
-        let c = |delta_bic| Candidate { effect: Effect::MocapDelay, delta_bic, f: 300.0, p_value: 1.0e-60, heldout_gain: 0.042, max_corr: 0.5, passed: false };
+        let c = |delta_bic| Candidate {
+            effect: Effect::MocapDelay,
+            delta_bic,
+            f: 300.0,
+            p_value: 1.0e-60,
+            heldout_gain: 0.042,
+            max_corr: 0.5,
+            passed: false,
+        };
         assert_eq!(
             moved_note(&c(-358.2), &[], 0.1).as_deref(),
             Some(
@@ -280,8 +336,13 @@ mod tests {
         assert_eq!(moved_note(&c(-9.99), &[], 0.1), None);
         // a candidate that makes the held-out error grow says so with its sign
         let grows = Candidate { heldout_gain: -0.002, ..c(-67.0) };
-        assert!(moved_note(&grows, &[], 0.1).is_some_and(|n| n.contains("(held-out error +0.2 %,")), "{:?}", moved_note(&grows, &[], 0.1));
+        assert!(
+            moved_note(&grows, &[], 0.1).is_some_and(|n| n.contains("(held-out error +0.2 %,")),
+            "{:?}",
+            moved_note(&grows, &[], 0.1)
+        );
         let moved = ["rotor_drag x -0.010 1/s".to_string()];
-        assert!(moved_note(&c(-50.0), &moved, 0.1).is_some_and(|n| n.contains("--with mocap_delay") && n.ends_with("(rotor_drag x -0.010 1/s): their intervals cover both")));
+        assert!(moved_note(&c(-50.0), &moved, 0.1).is_some_and(|n| n.contains("--with mocap_delay")
+            && n.ends_with("(rotor_drag x -0.010 1/s): their intervals cover both")));
     }
 }
