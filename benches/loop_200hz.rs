@@ -113,7 +113,7 @@ fn ten_minute_log() -> flyarena::identify::Series {
         "name: ten-minutes\nduration_s: 600\nmocap: {{ noise_mm: 0.1 }}\nvehicles:\n  - name: x3d\n    imu: {{ gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }}\n    undeclared: {{ rotor_drag_per_s: [0.3, 0.3] }}\nplan:\n{plan}"
     );
     let s = Scenario::parse(&yaml, std::path::Path::new("bench.yaml")).expect("valid");
-    flyarena::identify::flyarena_log::run_and_log(&s, 0, "ten minutes").expect("runs").1
+    flyarena::identify::run_and_log(&s, 0, "ten minutes").expect("runs").1
 }
 
 /// `identify` on a 10-minute 200 Hz log (the whole method: residuals, selection, refits).

@@ -363,7 +363,7 @@ fn write_output(path: &Path, bytes: &[u8]) -> Result<(), Error> {
 /// The scenario `run` and `serve` fly: the file, an `identify` fragment applied, the seed.
 fn load_for_run(a: &RunArgs) -> Result<Scenario, Error> {
     let s = match &a.effects {
-        Some(f) => flyarena::identify::feedback::load_with_effects(&a.scenario, f)?,
+        Some(f) => flyarena::identify::load_with_effects(&a.scenario, f)?,
         None => Scenario::load(&a.scenario)?,
     };
     Ok(match a.seed {
@@ -703,7 +703,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         return cmd_identify_many(&a);
     }
     let input = &a.inputs[0];
-    use flyarena::identify::workflow::{Request, Source};
+    use flyarena::identify::{Request, Source};
     let source = match (&a.scenario, &a.mapping) {
         (Some(scenario), _) => Source::FlyarenaLog { log: input, scenario },
         (None, Some(mapping)) => Source::Mapped { log: input, mapping },
@@ -722,7 +722,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         forced,
         ..Request::new(source)
     };
-    let done = flyarena::identify::workflow::run(&req)?;
+    let done = flyarena::identify::run(&req)?;
     let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
     let json = serde_json::to_vec_pretty(&done.json).expect("report serialises");
@@ -769,12 +769,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
 /// `identify` over several flights: one cross-validated report.
 fn cmd_identify_many(a: &IdentifyArgs) -> Result<i32, Error> {
     let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
-    let m = flyarena::identify::workflow::run_many(
-        &inputs,
-        a.mapping.as_deref().expect("checked"),
-        a.smoothing_ms,
-        &a.forced,
-    )?;
+    let m = flyarena::identify::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced)?;
     let json_path = a.json.clone().unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
     write_output(&json_path, &serde_json::to_vec_pretty(&m.json).expect("serialises"))?;
     if !a.quiet {
@@ -786,7 +781,7 @@ fn cmd_identify_many(a: &IdentifyArgs) -> Result<i32, Error> {
 
 /// The last lines of `identify` and its exit code: R5's table and verdict when the scenario
 /// declares it (1 when it fails), else the one-line verdict under `--quiet`.
-fn identify_verdict(done: &flyarena::identify::workflow::Identified, quiet: bool, input: &Path) -> i32 {
+fn identify_verdict(done: &flyarena::identify::Identified, quiet: bool, input: &Path) -> i32 {
     match &done.requirements {
         Some(req) => {
             if !quiet {
@@ -804,7 +799,7 @@ fn identify_verdict(done: &flyarena::identify::workflow::Identified, quiet: bool
         }
         None => {
             if quiet {
-                println!("{}: {}", input.display(), flyarena::identify::report::verdict(&done.report));
+                println!("{}: {}", input.display(), flyarena::identify::verdict(&done.report));
             }
             PASS
         }

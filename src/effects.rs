@@ -2,7 +2,7 @@
 //! [`Channel`]s `identify` compares and the candidate [`Effect`]s, with their parameters and
 //! units. It sits below both `scenario` (whose R5 names expected effects) and `identify` (which
 //! finds them), so neither depends on the other for it. The regressors are in
-//! `identify::design`; the simulated counterparts in `scenario` fields (see
+//! `src/identify/fit/design.rs`; the simulated counterparts in `scenario` fields (see
 //! `identify::trials` for the table).
 
 /// The residual channels: three axes each.

@@ -80,6 +80,7 @@
 // sample loops index several parallel series (time, poses, IMU, masks) by one index: clearer
 // than zipping five iterators
 #![warn(missing_docs)]
+#![warn(unnameable_types)]
 #![allow(clippy::needless_range_loop)]
 
 pub mod calibrate;

@@ -11,14 +11,26 @@
 //!   ─► output/  report text, scenario fragment, PX4 parameters  report, feedback, px4
 //! ```
 //!
-//! `workflow` runs the stages for the command line and for Rust callers; the modules above are
-//! reached as `identify::series`, `identify::select`, … whatever folder holds them.
+//! The stages are private; what a caller needs is re-exported here, flat:
+//!
+//! | to | use |
+//! |---|---|
+//! | run a request as the command line does (a scenario, a flyarena log, a mapped log) | [`run`] with a [`Request`], or [`run_many`] for cross-validation |
+//! | identify one flight's [`Series`] | [`identify`] with [`Options`] → [`Report`] ([`Found`], [`Param`], [`Left`], …) |
+//! | build a series | [`run_and_log`] (a scenario flown and logged), [`Mapping`] (another tool's log) |
+//! | print or judge a report | [`render_report`], [`verdict`]; across flights [`consistency`], [`render_consistency`] |
+//! | look at one stage | [`quality_gate`], [`ground_check`], [`residual_series`], [`excitation`], [`evaluate`] |
+//!
+//! Six modules are public because each is a vocabulary of its own: [`mapping`] (the column
+//! mapping of another tool's log), [`ros2`] and [`ulog`] (the readers of a ROS 2 bag and a PX4
+//! log), [`px4`] (PX4's parameters from a report), [`trials`] and [`handheld`] (batches of
+//! flights whose truth is known).
 //!
 //! The same code runs on flyarena's own runs (where the truth is known and the tests check that
 //! the hidden effect is found) and on real flights (NanoBench, docs/nanobench.md).
 //!
 //! ```
-//! use flyarena::identify::{Effect, Options, flyarena_log::run_and_log, identify};
+//! use flyarena::identify::{Effect, Options, identify, run_and_log};
 //! use flyarena::scenario::Scenario;
 //! // the truth has rotor drag; the declared model (the x3d preset) has none
 //! let yaml = "
@@ -45,15 +57,49 @@ mod fit;
 mod input;
 mod output;
 pub(crate) mod precision;
-pub mod workflow;
+mod workflow;
 
-pub use checks::{check, consistency, handheld, trials};
-pub(crate) use fit::stats;
-pub use fit::{design, ground, quality, select};
-pub use input::{flyarena_log, mapping, ros2, series, ulog};
-pub use output::{feedback, px4, report};
+pub(crate) use checks::consistency;
+pub(crate) use fit::{design, ground, quality, select, stats};
+pub(crate) use input::{flyarena_log, series};
+pub(crate) use output::{feedback, report};
 
-pub use design::{Channel, DesignOptions, Effect};
-pub use input::error::InputError;
+// the tools beside the pipeline, each a vocabulary of its own: the column mapping of another
+// tool's log, the readers of a ROS 2 bag and a PX4 log, PX4's parameters, and batches of flights
+// whose truth is known
+pub use checks::{handheld, trials};
+pub use input::{mapping, ros2, ulog};
+pub use output::px4;
+
+// the front: a request as the command line makes it, or one flight's series
+pub use feedback::{TrajectoryError, load_with_effects};
+pub use report::{render as render_report, verdict};
 pub use select::{IdentifyError, Options, Report, identify};
-pub use series::{Corrections, NominalModel, Series};
+pub use workflow::{CrossValidated, Identified, Request, Source, run, run_many};
+
+// inputs: the series every reader builds, and the readers
+pub use flyarena_log::{THRUST_REL_SD, run_and_log};
+pub use input::error::InputError;
+pub use mapping::Mapping;
+pub use series::{Corrections, NominalModel, Series, interpolate_attitude};
+
+// the model of the residual and what the report holds
+pub use design::{Channel, DesignOptions, Effect, glitches};
+pub use ground::{
+    GroundAgreement, GroundCheck, LandedAgreement, LandedAxis, LandedAxisSummary, LandedSummary, MAX_REST_OFF_AXIS_DEG,
+    Rest, RestPoseAxisSummary, RestPoseSummary, STILL_POSE_SD_DEG, SpinUpAgreement, SpinUpAxis, SpinUpAxisSummary,
+    SpinUpSummary, TiltAgreement, UpAxis, ground_check, landed_summary, rest_before_takeoff, rest_pose_summary,
+    spin_up_summary, tilt_at_rest,
+};
+pub use quality::{Cut, DataQuality, QualityChannel, QualityOptions, gate as quality_gate};
+pub use select::{
+    AxisError, Candidate, Correlate, Excitation, Found, LEAD_MAX, LEAD_MIN_CORR, Left, MIN_TRAIN_SAMPLES, Param,
+    Removal, ResidualSeries, Step, Whiteness, evaluate, excitation, residual_series,
+};
+
+// across flights, and the measures R5 holds
+pub use checks::check::{effect_cut, heldout_cut};
+pub use consistency::{
+    AGREE_P, AxisAgreement, Consistency, Mounting, Transfer, consistency, render as render_consistency,
+};
+pub use stats::LjungBox;

@@ -283,3 +283,41 @@ fn function_lengths_skip_braces_in_strings_and_comments() {
         "fn a() {\n    let s = \"{ {\"; // }\n    let c = '{';\n}\npub(crate) fn b(x: u8) -> u8 {\n    x\n}\nfn c();\n";
     assert_eq!(function_lengths(text), vec![("a".to_string(), 4), ("b".to_string(), 3)]);
 }
+
+/// `identify`'s stages are private: its `pub use` lines re-export items, and the only modules
+/// they make public are the six vocabularies of their own (a stage module such as `select` or
+/// `ground` re-exported whole would let callers reach past the façade again). A module is made
+/// public through the folder that holds it (`pub use checks::{trials}`) or by `pub mod`.
+#[test]
+fn identify_makes_public_only_its_vocabulary_modules() {
+    let src = super::root().join("src/identify");
+    let text = std::fs::read_to_string(src.join("mod.rs")).unwrap();
+    // the `pub use` statements, each joined onto one line
+    let (mut public, mut statement) = (BTreeSet::new(), None::<String>);
+    for line in text.lines().map(str::trim) {
+        if let Some(name) = line.strip_prefix("pub mod ") {
+            public.insert(name.trim_end_matches(';').to_string());
+        }
+        if line.starts_with("pub use ") {
+            statement = Some(String::new());
+        }
+        let Some(s) = statement.as_mut() else { continue };
+        s.push_str(line);
+        if !line.ends_with(';') {
+            continue;
+        }
+        let path = s["pub use ".len()..].trim_end_matches(';');
+        let (prefix, names) = path.rsplit_once("::").unwrap_or(("", path));
+        let folder = src.join(prefix.replace("::", "/"));
+        for name in names.trim_matches(|c| c == '{' || c == '}').split(',') {
+            let name = name.split(" as ").next().unwrap_or("").trim();
+            if folder.is_dir() && (folder.join(format!("{name}.rs")).is_file() || folder.join(name).is_dir()) {
+                public.insert(name.to_string());
+            }
+        }
+        statement = None;
+    }
+    let want: BTreeSet<String> =
+        ["handheld", "mapping", "px4", "ros2", "trials", "ulog"].into_iter().map(String::from).collect();
+    assert_eq!(public, want, "identify's public modules");
+}

@@ -1,15 +1,15 @@
 //! What `identify` says is left, and the ground check against the flight.
 //!
 //! - The ground check reads the marker offset *plus* the tilt of an accelerometer bias,
-//!   δ + (b_y/g, −b_x/g) (closed form, `identify::ground`); with the bias removed it reads δ.
+//!   δ + (b_y/g, −b_x/g) (closed form, `identify::ground_check`); with the bias removed it reads δ.
 //! - "What is left" names the measured signal that a residual the library cannot explain
 //!   follows (a missed effect), and names nothing on a flight the model explains (no invented
 //!   lead).
 
 use flyarena::frames::{Euler, MocapNav, Rot, Vec3};
-use flyarena::identify::design::Channel;
-use flyarena::identify::flyarena_log::run_and_log;
-use flyarena::identify::{Effect, Options, ground, identify};
+use flyarena::identify::Channel;
+use flyarena::identify::run_and_log;
+use flyarena::identify::{Effect, Options, ground_check, identify, rest_before_takeoff, tilt_at_rest};
 use flyarena::scenario::Scenario;
 use nalgebra::Vector3;
 
@@ -28,11 +28,11 @@ fn scenario(file: &str, edit: impl Fn(String) -> String) -> Scenario {
 fn a_rest_begins_at_the_first_pose() {
     let s = scenario("identify-accel-bias.yaml", |t| t);
     let (_, series) = run_and_log(&s, 0, "bias").unwrap();
-    let full = ground::ground_check(&series).expect("the flight starts at rest");
+    let full = ground_check(&series).expect("the flight starts at rest");
     let mut late = series.clone();
     late.mocap_ok[0] = false;
     late.pos_mocap_nav[0] = Vec3::new(f64::NAN, f64::NAN, f64::NAN);
-    let from_second = ground::ground_check(&late).expect("the rest begins at the first pose");
+    let from_second = ground_check(&late).expect("the rest begins at the first pose");
     assert_eq!(from_second.samples + 1, full.samples);
     assert!(
         (from_second.roll_deg - full.roll_deg).abs() < 0.01 && (from_second.pitch_deg - full.pitch_deg).abs() < 0.01,
@@ -51,11 +51,11 @@ fn ground_check_reads_offset_plus_bias_tilt() {
     });
     let (_, series) = run_and_log(&s, 0, "bias").unwrap();
     let b = Vector3::new(0.15, -0.10, 0.20);
-    let raw = ground::ground_check(&series).expect("the flight starts at rest");
+    let raw = ground_check(&series).expect("the flight starts at rest");
     let expect_raw = (1.5 + (b.y / G).to_degrees(), -1.0 - (b.x / G).to_degrees());
     assert!((raw.roll_deg - expect_raw.0).abs() < 0.03, "raw roll {} vs {}", raw.roll_deg, expect_raw.0);
     assert!((raw.pitch_deg - expect_raw.1).abs() < 0.03, "raw pitch {} vs {}", raw.pitch_deg, expect_raw.1);
-    let corrected = ground::tilt_at_rest(&series, &b).unwrap();
+    let corrected = tilt_at_rest(&series, &b).unwrap();
     assert!((corrected.roll_deg - 1.5).abs() < 0.03, "corrected roll {}", corrected.roll_deg);
     assert!((corrected.pitch_deg + 1.0).abs() < 0.03, "corrected pitch {}", corrected.pitch_deg);
 
@@ -93,7 +93,7 @@ fn ground_check_reads_offset_plus_bias_tilt() {
 fn markers_moved_after_the_rest_are_a_disagreement() {
     let s = scenario("identify-marker-offsets.yaml", |t| t);
     let (_, mut series) = run_and_log(&s, 0, "moved").unwrap();
-    let raw = ground::ground_check(&series).unwrap();
+    let raw = ground_check(&series).unwrap();
     // the rest: turn the IMU reading so that the ground check reads (0, 0)
     let (start, _) = series.segments[0];
     let rot = nalgebra::UnitQuaternion::from_euler_angles(-raw.roll_deg.to_radians(), -raw.pitch_deg.to_radians(), 0.0);
@@ -104,7 +104,7 @@ fn markers_moved_after_the_rest_are_a_disagreement() {
         }
         series.accel_body[i] = Vec3::from_raw(rot.transform_vector(series.accel_body[i].raw()));
     }
-    let level = ground::ground_check(&series).unwrap();
+    let level = ground_check(&series).unwrap();
     assert!(level.roll_deg.abs() < 0.05 && level.pitch_deg.abs() < 0.05, "{level:?}");
     let r = identify(&series, &Options::default()).unwrap();
     let a = r.ground_agreement.unwrap();
@@ -212,7 +212,7 @@ fn a_world_tilt_is_turned_by_the_rest_yaw() {
         series.att_mocap[i] = yaw * series.att_mocap[i];
         series.pos_mocap_nav[i] = yaw.apply(series.pos_mocap_nav[i]);
     }
-    let rest = ground::rest_before_takeoff(&series).unwrap();
+    let rest = rest_before_takeoff(&series).unwrap();
     assert!((series.att_mocap[rest.start].euler().yaw - std::f64::consts::FRAC_PI_2).abs() < 0.02);
     let r = identify(&series, &Options::default()).unwrap();
     assert!(r.effect(Effect::WorldTilt).is_some(), "{:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());

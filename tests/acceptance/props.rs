@@ -192,7 +192,7 @@ mod parser_fuzz {
 /// without panicking and without NaN in its errors.
 mod mapping_fuzz {
     use super::parser_fuzz::{apply, edit};
-    use flyarena::identify::mapping::Mapping;
+    use flyarena::identify::Mapping;
     use flyarena::identify::{Options, identify};
     use proptest::prelude::*;
     use std::path::Path;
@@ -278,7 +278,7 @@ mod mapping_fuzz {
 /// that edits reach the messages), then bytes flipped, cut or inserted. The reader returns an
 /// error naming the file or rows, never panics; whatever it accepts, `identify` digests.
 pub(crate) mod ros2_fuzz {
-    use flyarena::identify::mapping::Mapping;
+    use flyarena::identify::Mapping;
     use flyarena::identify::{Options, identify};
     use proptest::prelude::*;
     use std::collections::BTreeMap;

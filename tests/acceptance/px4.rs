@@ -4,7 +4,7 @@
 
 use flyarena::identify::Effect;
 use flyarena::identify::px4::{MocapAxes, Px4Parameters, parameters};
-use flyarena::identify::workflow::{Request, Source, run};
+use flyarena::identify::{Request, Source, run};
 use std::process::Command;
 
 fn px4_of(scenario: &str, forced: Vec<Effect>) -> Px4Parameters {

@@ -97,9 +97,9 @@ fn decimation_is_applied() {
 /// The identify recording holds the residuals of the report, bit for bit, before and after.
 #[test]
 fn identify_recording_holds_the_residuals() {
-    use flyarena::identify::{Options, identify, select::residual_series};
+    use flyarena::identify::{Options, identify, residual_series};
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/identify-rotor-drag.yaml")).unwrap();
-    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "drag").unwrap();
+    let (_, series) = flyarena::identify::run_and_log(&s, 0, "drag").unwrap();
     let opts = Options::default();
     let r = identify(&series, &opts).unwrap();
     let res = residual_series(&series, &opts, &r);

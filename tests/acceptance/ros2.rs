@@ -1,7 +1,7 @@
 //! ROS 2 bags (MCAP) as identify input, against the CSV route, with bags written by the
 //! independent ROS 2 writer `mcap-ros2-support` (PyPI; `.ci/run` installs it).
 
-use flyarena::identify::mapping::Mapping;
+use flyarena::identify::Mapping;
 use flyarena::identify::{Effect, Options, identify};
 use std::path::Path;
 use std::process::Command;

@@ -22,7 +22,7 @@ fn fixture(master_seed: u64, index: u64, preset: &'static str, hidden: Vec<(Effe
 fn flight(t: &Trial) -> flyarena::identify::Series {
     let s =
         flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new(&format!("trial-{}.yaml", t.index))).unwrap();
-    flyarena::identify::flyarena_log::run_and_log(&s, 0, &format!("trial {}", t.index)).unwrap().1
+    flyarena::identify::run_and_log(&s, 0, &format!("trial {}", t.index)).unwrap().1
 }
 
 /// Three binomial standard deviations around a proportion p for n trials.
@@ -122,15 +122,15 @@ fn first_step_f_and_excitation(
     scenario: &str,
     effect: Effect,
     truths: &[(Effect, Vec<f64>)],
-) -> (f64, Vec<flyarena::identify::select::Excitation>) {
+) -> (f64, Vec<flyarena::identify::Excitation>) {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios").join(scenario)).unwrap();
-    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, scenario).unwrap();
+    let (_, series) = flyarena::identify::run_and_log(&s, 0, scenario).unwrap();
     let o = Options::default();
     let r = flyarena::identify::identify(&series, &o).unwrap();
     let step = &r.steps[0];
     assert_eq!(step.added, effect, "{scenario}");
     let f = step.candidates.iter().find(|c| c.effect == effect).unwrap().f;
-    (f, flyarena::identify::select::excitation(&series, &o, truths))
+    (f, flyarena::identify::excitation(&series, &o, truths))
 }
 
 /// The excitation's noncentrality against the F statistic the selection computes: for a block
@@ -298,7 +298,7 @@ fn a_collinear_thrust_pair_is_not_confidently_wrong() {
 #[test]
 fn excitation_share_discounts_what_the_other_hidden_effects_explain() {
     use flyarena::identify::Effect::*;
-    use flyarena::identify::select::excitation;
+    use flyarena::identify::excitation;
     let t = fixture(1, 294, "x3d", vec![]);
     let series = flight(&t);
     let o = Options::default();
@@ -444,7 +444,7 @@ fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
         ],
     );
     let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("trial-3-20.yaml")).unwrap();
-    let (_, series) = flyarena::identify::flyarena_log::run_and_log(&s, 0, "trial 20").unwrap();
+    let (_, series) = flyarena::identify::run_and_log(&s, 0, "trial 20").unwrap();
     let agreement = |o: &Options| {
         let r = flyarena::identify::identify(&series, o).unwrap();
         let a = r.ground_agreement.expect("the flight starts at rest");

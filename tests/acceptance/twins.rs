@@ -244,10 +244,8 @@ fn identify_twin(name: &str, edit: impl Fn(String) -> String) -> Report {
     let dir = super::Scratch::new(&format!("twin-{}", edited.len()));
     let path = dir.join(format!("twin-{name}.yaml"));
     std::fs::write(&path, edited).unwrap();
-    let done = flyarena::identify::workflow::run(&flyarena::identify::workflow::Request::new(
-        flyarena::identify::workflow::Source::Scenario(&path),
-    ))
-    .unwrap();
+    let done = flyarena::identify::run(&flyarena::identify::Request::new(flyarena::identify::Source::Scenario(&path)))
+        .unwrap();
     done.requirements.expect("R5 declared")
 }
 

@@ -2,7 +2,7 @@
 //! PyPI; `.ci/run` installs pyulog==1.2.1 and unpacks the real logs of its source distribution),
 //! and logs written by `pyulog`'s writer against the CSV route.
 
-use flyarena::identify::mapping::Mapping;
+use flyarena::identify::Mapping;
 use flyarena::identify::ulog::{Log, readable_topics};
 use flyarena::identify::{Effect, Options, identify};
 use std::collections::BTreeMap;

@@ -437,10 +437,10 @@ pub struct GroundAgreement {
     /// An accelerometer bias was selected (its tilt b/g is removed from the ground check).
     pub accel_bias_fitted: bool,
     /// The same comparison with the spin-up (motors on, still on the floor) as the ground check,
-    /// when the log has one ([`spin_up`]).
+    /// when the log has one.
     pub spin_up: Option<SpinUpAgreement>,
     /// The rest after landing against the rest before and against the flight, when the log has
-    /// one ([`tilt_after_landing`]).
+    /// one.
     pub after_landing: Option<LandedAgreement>,
     /// The still vehicle's mocap tilt scatter at rest, roll and pitch (deg per sample;
     /// [`GroundCheck::mocap_sd_deg`]).

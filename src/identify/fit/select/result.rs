@@ -131,7 +131,7 @@ pub struct Correlate {
     pub r: f64,
     /// Bartlett's effective sample size (both series are autocorrelated).
     pub n_eff: f64,
-    /// The signal is a measurement's own error ([`Signal::floor`](crate::identify::design::Signal::floor)): following it is no lead for an effect.
+    /// The signal is a measurement's own error (the mocap attitude against the gyro's integral, say): following it is no lead for an effect.
     pub floor: bool,
 }
 
