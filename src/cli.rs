@@ -725,7 +725,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
     let done = flyarena::identify::run(&req)?;
     let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
-    let json = serde_json::to_vec_pretty(&done.json).expect("report serialises");
+    let json = serde_json::to_vec_pretty(&flyarena::identify::identified_json(&done)).expect("report serialises");
     write_output(&json_path, &json)?;
     let frag_path = a.fragment.unwrap_or_else(|| a.out.join(format!("{stem}.effects.yaml")));
     write_output(&frag_path, done.fragment.as_bytes())?;
@@ -746,7 +746,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         write_output(&px4_path, flyarena::identify::px4::qgc_file(p, &input.display().to_string()).as_bytes())?;
     }
     if !a.quiet {
-        print!("{}", done.text);
+        print!("{}", flyarena::identify::identified_text(&done));
         if let Some(p) = &px4 {
             print!("\n{}", flyarena::identify::px4::render(p));
         }
@@ -771,9 +771,12 @@ fn cmd_identify_many(a: &IdentifyArgs) -> Result<i32, Error> {
     let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
     let m = flyarena::identify::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced)?;
     let json_path = a.json.clone().unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
-    write_output(&json_path, &serde_json::to_vec_pretty(&m.json).expect("serialises"))?;
+    write_output(
+        &json_path,
+        &serde_json::to_vec_pretty(&flyarena::identify::cross_validated_json(&m)).expect("serialises"),
+    )?;
     if !a.quiet {
-        print!("{}", m.text);
+        print!("{}", flyarena::identify::cross_validated_text(&m));
     }
     println!("\nreport: {}", json_path.display());
     Ok(PASS)

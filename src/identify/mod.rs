@@ -57,6 +57,7 @@ mod fit;
 mod input;
 mod output;
 pub(crate) mod precision;
+mod present;
 mod workflow;
 
 pub(crate) use checks::consistency;
@@ -73,6 +74,7 @@ pub use output::px4;
 
 // the front: a request as the command line makes it, or one flight's series
 pub use feedback::{TrajectoryError, load_with_effects};
+pub use present::{cross_validated_json, cross_validated_text, identified_json, identified_text};
 pub use report::{render as render_report, verdict};
 pub use select::{IdentifyError, Options, Report, identify};
 pub use workflow::{CrossValidated, Identified, Request, Source, run, run_many};

@@ -762,7 +762,11 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
         "  the body offset's own share of that cut (with it minus without it): median +33 points in one mounting (worse in 0 of 10 pairs), +17 points across mountings (worse in 18 of 62)",
         "  the mounting's own part of the offset (with it minus with the other flights' mean offset): median +30 points in one mounting (worse in 0 of 10 pairs), -15 points across mountings (worse in 36 of 62)",
     ] {
-        assert!(cv.text.lines().any(|l| l == line), "missing {line:?} in\n{}", cv.text);
+        assert!(
+            flyarena::identify::cross_validated_text(&cv).lines().any(|l| l == line),
+            "missing {line:?} in\n{}",
+            flyarena::identify::cross_validated_text(&cv)
+        );
     }
 }
 
@@ -1125,14 +1129,18 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
     .unwrap();
     let names: Vec<&str> = cv.reports.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["B8_star_medium_rep1", "B8_edited"]);
-    let excluded = cv.json["excluded"].as_array().unwrap();
-    assert_eq!(excluded.len(), 1, "{excluded:?}");
-    assert_eq!(excluded[0]["flight"], "B8_copy");
+    assert_eq!(cv.excluded.len(), 1, "{:?}", cv.excluded);
+    assert_eq!(cv.excluded[0].0, "B8_copy");
+    assert!(cv.excluded[0].1.contains("the same samples as B8_star_medium_rep1"), "{:?}", cv.excluded);
+    let json = flyarena::identify::cross_validated_json(&cv);
+    assert_eq!(json["excluded"][0]["flight"], "B8_copy");
+    assert_eq!(json["excluded"][0]["reason"].as_str(), Some(cv.excluded[0].1.as_str()));
     assert!(
-        excluded[0]["reason"].as_str().unwrap().contains("the same samples as B8_star_medium_rep1"),
-        "{excluded:?}"
+        flyarena::identify::cross_validated_text(&cv)
+            .contains("B8_copy: left out, the same samples as B8_star_medium_rep1"),
+        "{}",
+        flyarena::identify::cross_validated_text(&cv)
     );
-    assert!(cv.text.contains("B8_copy: left out, the same samples as B8_star_medium_rep1"), "{}", cv.text);
 }
 
 /// Mocap glitches (a marker mistaken for another for a frame or two) are found in the raw poses,
