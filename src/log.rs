@@ -346,3 +346,89 @@ pub(crate) fn split_at_gaps(t: &[f64], repairs: &mut Vec<String>) -> Vec<(usize,
     segments.push((start, n));
     segments
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A log of the required columns, in reverse order (the reader finds them by name), with
+    /// `rows` after the header; every row's values are its column's position in [`COLUMNS`].
+    fn log_of(rows: &[&str]) -> String {
+        let header: Vec<&str> = COLUMNS.iter().rev().copied().filter(|c| !OPTIONAL.contains(c)).collect();
+        let mut text = header.join(",") + "\n";
+        for r in rows {
+            text += r;
+            text.push('\n');
+        }
+        text
+    }
+
+    /// One row in the reversed header's order: t, then `mocap_valid` and the pose given, the
+    /// other cells k (the column's index).
+    fn row(t: &str, valid: &str, pose: &[&str; 7]) -> String {
+        let cells: Vec<String> = (0..COLUMNS.len() - 1)
+            .rev()
+            .map(|k| match k {
+                0 => t.to_string(),
+                2 => valid.to_string(),
+                3..=9 => pose[k - 3].to_string(),
+                k => k.to_string(),
+            })
+            .collect();
+        cells.join(",")
+    }
+
+    const POSE: [&str; 7] = ["1", "2", "-1", "1", "0", "0", "0"];
+
+    /// Columns are found by name in any order; an absent optional column reads as empty cells;
+    /// a row without a pose is allowed when `mocap_valid` is 0.
+    #[test]
+    fn columns_are_read_by_name_and_the_optional_one_may_be_absent() {
+        let text = log_of(&[&row("0.5", "1", &POSE), &row("0.505", "0", &[""; 7])]);
+        let log = read_csv(&text, "x.csv").unwrap();
+        assert_eq!(log.rows(), 2);
+        assert_eq!(log.columns[0], [Some(0.5), Some(0.505)]);
+        assert_eq!(log.columns[1], [Some(1.0), Some(1.0)]); // seq, column 1
+        assert_eq!(log.columns[3], [Some(1.0), None]); // pos_n_m, then no pose
+        assert_eq!(log.columns[19], [Some(19.0), Some(19.0)]); // cmd_thrust
+        assert_eq!(log.columns[20], [None, None]); // vbat_v, not in the header
+    }
+
+    /// Each defect of a row is refused at its line and column with why, never turned into a number.
+    #[test]
+    fn a_defective_row_is_a_located_error() {
+        let cases: [(String, &str); 6] = [
+            (
+                row("0.5", "1", &["1", "", "-1", "1", "0", "0", "0"]),
+                "x.csv:3: mocap_valid is 1 but 1 of the 7 pose cells are empty",
+            ),
+            (row("0.5", "2", &POSE), "x.csv:3: column `mocap_valid`: 2 is neither 0 nor 1"),
+            (row("", "1", &POSE), "x.csv:3: column `t_s`: every row needs a time"),
+            (
+                row("0.5", "1", &["1", "abc", "-1", "1", "0", "0", "0"]),
+                "x.csv:3: column `pos_e_m`: `abc` is not a number",
+            ),
+            (
+                row("0.5", "1", &["1", "2", "inf", "1", "0", "0", "0"]),
+                "x.csv:3: column `pos_d_m`: `inf` is not a finite number",
+            ),
+            (
+                row("0.4", "1", &POSE),
+                "x.csv:3: time goes backwards (0.4 s after 0.45 s); sort the log or fix its clock",
+            ),
+        ];
+        for (bad, want) in cases {
+            let text = log_of(&[&row("0.45", "1", &POSE), &bad]);
+            let got = read_csv(&text, "x.csv").map(|_| ()).unwrap_err().to_string();
+            assert_eq!(got, want);
+        }
+    }
+
+    /// A required column missing is a header error naming it (and the misspelling it is closest to).
+    #[test]
+    fn a_missing_required_column_is_named() {
+        let text = log_of(&[&row("0.5", "1", &POSE), &row("0.505", "1", &POSE)]).replacen("cmd_q", "cmd_qq", 1);
+        let got = read_csv(&text, "x.csv").map(|_| ()).unwrap_err().to_string();
+        assert!(got.starts_with("x.csv:1: column `cmd_q` is missing (is `cmd_qq` meant to be `cmd_q`?)"), "{got}");
+    }
+}

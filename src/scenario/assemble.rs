@@ -166,7 +166,8 @@ mod tests {
     /// Each conversion by hand: milliseconds to nanoseconds, degrees to radians (90°, 18°/s, 9°/s), millimetres
     /// to metres, rates to physics ticks (1000/200 = 5, 1000/50 = 20, 1000/100 = 10), undeclared
     /// delays to mocap frames (10 ms at 200 Hz = 2), the undeclared effects onto the true model
-    /// only (a scale multiplies, the rest add), the run time without `duration_s`, and the markers' 3° roll as the true offset.
+    /// only (a scale multiplies, the rest add), the run time without `duration_s`, the markers' 3° roll as the true offset,
+    /// and a marker's displacement in millimetres as metres.
     #[test]
     fn the_spec_is_the_scenario_in_si_units_and_ticks() {
         let yaml = "
@@ -182,6 +183,9 @@ vehicles:
     markers: { rotation_deg: [3, 0, 0] }
     imu: { gyro_bias_deg_s: [0, 9, 0], position_mm: [10, 0, 0] }
     undeclared: { mocap_delay_ms: 10, gyro_delay_ms: 5, thrust_scale: 1.1, ground_effect: 0.5, thrust_voltage_per_v: 0.1, rotor_drag_per_s: [0.2, 0.3] }
+  - name: b
+    home_m: [3, 0]
+    markers: { pattern: 1, displacement_mm: [[10, 0, -4], [0, 0, 0], [0, 0, 0], [0, 0, 0]] }
 plan:
   - hover: { duration_s: 1 }
 ";
@@ -218,6 +222,11 @@ plan:
             v.truth.euler
         );
         assert_eq!(v.template.len(), 4);
+        // a marker displaced by (10, 0, −4) mm sits 1 cm forward and 4 mm up of its template's place
+        let b = &s.spec().vehicles[1].markers;
+        let moved =
+            b.mounted[0].to_array().iter().zip(b.template[0].to_array()).map(|(m, t)| m - t).collect::<Vec<_>>();
+        assert!(moved.iter().zip([0.01, 0.0, -0.004]).all(|(m, want)| (m - want).abs() < 1e-15), "{moved:?}");
         // without `duration_s`: the plan's end (a 1 s hover) plus 1 s
         let s =
             Scenario::parse("name: d\nvehicles: [{name: a}]\nplan: [{hover: {duration_s: 1}}]\n", "d.yaml".as_ref())
