@@ -736,3 +736,25 @@ impl Mapping {
         Ok(s)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::row_cells;
+
+    /// A data line's width: a full last line is kept with or without its newline, a short one is
+    /// dropped (and said) only when it is the last and lacks its newline, an empty trailing cell
+    /// is allowed and a filled one beyond the header is not.
+    #[test]
+    fn a_row_has_the_header_width_and_only_a_cut_last_line_is_dropped() {
+        let mut repairs = Vec::new();
+        assert_eq!(row_cells("1,2,3", 3, true, "m.csv", 9, &mut repairs).unwrap(), Some(vec!["1", "2", "3"]));
+        assert_eq!(row_cells("1,2,3,", 3, false, "m.csv", 9, &mut repairs).unwrap(), Some(vec!["1", "2", "3", ""]));
+        assert!(repairs.is_empty());
+        assert_eq!(row_cells("1,2", 3, true, "m.csv", 9, &mut repairs).unwrap(), None);
+        assert_eq!(repairs, ["line 9: the last line is cut short (2 of 3 cells, no newline) and was dropped"]);
+        let short = row_cells("1,2", 3, false, "m.csv", 9, &mut repairs).unwrap_err().to_string();
+        assert!(short.contains("m.csv") && short.contains('9') && short.contains("2 cells for 3 columns"), "{short}");
+        let long = row_cells("1,2,3,4", 3, true, "m.csv", 9, &mut repairs).unwrap_err().to_string();
+        assert!(long.contains("4 cells for 3 columns"), "{long}");
+    }
+}
