@@ -18,6 +18,7 @@
 //! | run a request as the command line does (a scenario, a flyarena log, a mapped log) | [`run`] with a [`Request`], or [`run_many`] for cross-validation |
 //! | identify one flight's [`Series`] | [`identify`] with [`Options`] → [`Report`] ([`Found`], [`Param`], [`Left`], …) |
 //! | build a series | [`run_and_log`] (a scenario flown and logged), [`Mapping`] (another tool's log) |
+//! | print or write what `run` returns (the one presentation layer) | [`identified_text`], [`identified_json`]; for [`run_many`] [`cross_validated_text`], [`cross_validated_json`] |
 //! | print or judge a report | [`render_report`], [`verdict`]; across flights [`consistency`], [`render_consistency`] |
 //! | look at one stage | [`quality_gate`], [`ground_check`], [`residual_series`], [`excitation`], [`evaluate`] |
 //!

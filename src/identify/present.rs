@@ -1,8 +1,10 @@
-//! The one presentation layer of `identify`'s front: the text the command line prints and the
-//! JSON it writes, rendered from what [`run`](super::run) and [`run_many`](super::run_many)
-//! return. The library's results are data ([`Identified`], [`CrossValidated`]); nothing below
-//! them formats for a reader except the per-stage renderers this layer composes
-//! ([`render_report`](super::render_report), [`render_consistency`](super::render_consistency)).
+//! The presentation layer of `identify`'s front: the text the command line prints and the JSON
+//! it writes, rendered from what [`run`](super::run) and [`run_many`](super::run_many) return
+//! ([`Identified`], [`CrossValidated`], which hold data). It composes the renderers of the
+//! report ([`render_report`](super::render_report)), the consistency across flights
+//! ([`render_consistency`](super::render_consistency)) and the ground summaries. What is still
+//! text below this layer: a report's notes are sentences (`Report::notes`), and the scenario
+//! fragment is YAML by nature.
 
 use super::Report;
 use super::output::report;
