@@ -409,7 +409,7 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
     let to = a.multicast.map_or_else(|| "each client".to_string(), |g| format!("multicast {g}:{}", a.data_port));
     eprintln!(
         "serving {} as NatNet 3.1 on {}:{} (data port {}, {to}, {:?}-up, {}); waiting up to {} s for a client",
-        s.name,
+        s.name(),
         a.bind,
         a.command_port,
         a.data_port,
@@ -472,7 +472,7 @@ fn print_served(net: &flyarena::serve::ServeReport, lockstep: bool) {
 
 /// Writes what `run` writes (summary, log, recording) and prints the table.
 fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Duration) -> Result<i32, Error> {
-    let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name)));
+    let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name())));
     let json = serde_json::to_vec_pretty(&outcome.summary(s)).expect("summary serialises");
     // the uncompensated twin is only recorded (`record` feature)
     #[cfg_attr(not(feature = "record"), allow(unused_variables))]
@@ -480,7 +480,7 @@ fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Dur
     write_output(&json_path, &json)?;
     let mut log_paths = Vec::new();
     if let Some(base) = &a.log {
-        let period = 1.0 / s.mocap.rate_hz() as f64;
+        let period = 1.0 / s.mocap().rate_hz() as f64;
         for v in &main.vehicles {
             let path = if main.vehicles.len() == 1 {
                 base.clone()
@@ -493,7 +493,7 @@ fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Dur
         }
     }
     let record = cfg!(feature = "record") && !a.no_rrd;
-    let rrd_path = record.then(|| a.rrd.unwrap_or_else(|| a.out.join(format!("{}.rrd", s.name))));
+    let rrd_path = record.then(|| a.rrd.unwrap_or_else(|| a.out.join(format!("{}.rrd", s.name()))));
     #[cfg(feature = "record")]
     if let Some(path) = &rrd_path {
         let opts = flyarena::record::RecordOptions { every: a.rrd_every as usize };
@@ -504,12 +504,12 @@ fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Dur
     if !a.quiet {
         println!(
             "{} (seed {}): {:.1} s simulated in {:.2} s wall\n",
-            s.name,
+            s.name(),
             s.seed(),
             main.duration.as_secs_f64(),
             elapsed.as_secs_f64()
         );
-        if report.rows.is_empty() && s.requirements.identify.is_some() {
+        if report.rows.is_empty() && s.requirements().identify.is_some() {
             println!("(R5 is checked by `flyarena identify {}`)\n", a.scenario.display());
         } else if report.rows.is_empty() {
             println!("(the scenario declares no requirements)\n");
@@ -894,10 +894,10 @@ fn cmd_slurm(job: SlurmJob) -> Result<i32, Error> {
         SlurmJob::Sweep { scenario, runs, cluster } => {
             // the scenario is checked here, on the login node, not by every task
             let s = Scenario::load(&scenario)?;
-            if s.sweep.is_none() {
+            if s.sweep().is_none() {
                 return Err(Error::Usage(format!("{}: has no `sweep:` section", scenario.display())));
             }
-            (Job::Sweep { scenario: absolute(&scenario)?, runs }, s.name.clone(), cluster)
+            (Job::Sweep { scenario: absolute(&scenario)?, runs }, s.name().to_string(), cluster)
         }
         SlurmJob::Trials { flights, seed, cluster } => {
             (Job::Trials { flights, seed }, format!("trials-{seed}-{flights}"), cluster)

@@ -105,4 +105,59 @@ impl Scenario {
     pub fn vehicle(&self, i: usize) -> &VehicleCfg {
         &self.vehicles.value[i].value
     }
+
+    /// The scenario's name (a safe file name: `out/<name>.json`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The free text shown in reports.
+    pub fn description(&self) -> &str {
+        &self.description
+    }
+
+    /// The run time as written (s); `None`: the end of the plan plus 1 s ([`ArenaSpec::run_time`]).
+    pub fn duration_s(&self) -> Option<f64> {
+        self.duration_s
+    }
+
+    /// The motion-capture system as written.
+    pub fn mocap(&self) -> &MocapCfg {
+        &self.mocap
+    }
+
+    /// The mocap → station link as written.
+    pub fn link(&self) -> &LinkCfg {
+        &self.link
+    }
+
+    /// The station → vehicle radio as written.
+    pub fn radio(&self) -> &RadioCfg {
+        &self.radio
+    }
+
+    /// The vehicle → station telemetry as written.
+    pub fn telemetry(&self) -> &TelemetryCfg {
+        &self.telemetry
+    }
+
+    /// The station's controller as written.
+    pub fn controller(&self) -> &ControllerCfg {
+        &self.controller
+    }
+
+    /// The station's calibration settings as written.
+    pub fn calibration(&self) -> &CalibrationCfg {
+        &self.calibration
+    }
+
+    /// R1–R5: what this scenario's run must meet.
+    pub fn requirements(&self) -> &RequirementsCfg {
+        &self.requirements
+    }
+
+    /// The sweep's variations, when the scenario declares one.
+    pub fn sweep(&self) -> Option<&SweepCfg> {
+        self.sweep.as_ref()
+    }
 }

@@ -24,48 +24,51 @@ fn d_seed() -> u64 {
 }
 
 /// A scenario as written in its YAML file, validated (ranges, plan, vehicles): what [`crate::run`]
-/// flies. Read it with [`Scenario::load`] or [`Scenario::parse`].
+/// flies. Read it with [`Scenario::load`] or [`Scenario::parse`]. It is read-only once parsed
+/// (its fields are read through methods): what the engine runs on was derived at parse time
+/// ([`Scenario::spec`]), so an edit afterwards would not reach it; change the YAML and parse
+/// again, or use [`Scenario::with_seed`].
 #[derive(Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
     /// Becomes file names (`out/<name>.json`): a safe name, see [`crate::output::check_file_name`].
     #[serde(deserialize_with = "file_name")]
-    pub name: String,
+    pub(crate) name: String,
     /// Free text, shown in reports.
     #[serde(default)]
-    pub description: String,
+    pub(crate) description: String,
     /// Seed of every random stream of the run (noise, loss, jitter).
     #[serde(default = "d_seed")]
     pub(crate) seed: u64,
     /// Run time (s); default: the end of the plan plus 1 s.
     #[serde(default, with = "ranges::duration_s::opt")]
-    pub duration_s: Option<f64>,
+    pub(crate) duration_s: Option<f64>,
     /// The motion-capture system.
     #[serde(default)]
-    pub mocap: MocapCfg,
+    pub(crate) mocap: MocapCfg,
     /// The mocap → station network link.
     #[serde(default)]
-    pub link: LinkCfg,
+    pub(crate) link: LinkCfg,
     /// The station → vehicle PPM radio.
     #[serde(default)]
-    pub radio: RadioCfg,
+    pub(crate) radio: RadioCfg,
     /// The vehicle → station body-rate telemetry.
     #[serde(default)]
-    pub telemetry: TelemetryCfg,
+    pub(crate) telemetry: TelemetryCfg,
     /// The station's cascaded controller.
     #[serde(default)]
-    pub controller: ControllerCfg,
+    pub(crate) controller: ControllerCfg,
     /// The paper's calibration and its validity check (7).
     #[serde(default)]
-    pub calibration: CalibrationCfg,
+    pub(crate) calibration: CalibrationCfg,
     pub(crate) vehicles: Spanned<Vec<Spanned<VehicleCfg>>>,
     pub(crate) plan: Spanned<Vec<PhaseCfg>>,
     /// R1–R5: what this scenario's run must meet.
     #[serde(default)]
-    pub requirements: RequirementsCfg,
+    pub(crate) requirements: RequirementsCfg,
     /// Parameter variations for `flyarena sweep` (ignored by `run`).
     #[serde(default)]
-    pub sweep: Option<SweepCfg>,
+    pub(crate) sweep: Option<SweepCfg>,
     /// What the checks derived (`validate`): set once, by [`Scenario::parse`].
     #[serde(skip, default = "ArenaSpec::unchecked")]
     pub(super) spec: ArenaSpec,

@@ -33,9 +33,12 @@ fn the_loop_does_not_allocate() {
     use flyarena::engine::{Arena, RunOptions};
     // every window of the station: hover average, straight flight (LS + RLS), gyro circle, spin;
     // a lossy, jittery link; telemetry
-    let mut s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/yaw-offset.yaml")).unwrap();
-    s.link.jitter_ms = 3.0;
-    s.link.loss = flyarena::scenario::LossCfg::Bernoulli(0.05);
+    let path = super::root().join("scenarios/yaw-offset.yaml");
+    let text = std::fs::read_to_string(&path).unwrap() + "link: { jitter_ms: 3, loss: { bernoulli: 0.05 } }\n";
+    let s = flyarena::scenario::Scenario::parse(&text, &path).unwrap();
+    let link = s.spec().link;
+    assert_eq!(link.jitter.0, 3_000_000);
+    assert_eq!(link.loss, flyarena::link::LossModel::Bernoulli { p: 0.05 });
     let mut arena = Arena::new(s.spec(), RunOptions { trace: false, apply_calibration: None });
     arena.step();
     let before = allocations();

@@ -18,7 +18,7 @@ fn recording_holds_the_engine_values() {
     let (s, main, unc, report) = fig6();
     let bytes = encode(&main, unc.as_ref(), &report, RecordOptions { every: 4 }).unwrap();
     let rec = decode(&bytes).unwrap();
-    assert_eq!(rec.recording_id.as_deref(), Some(recording_id(&s.name, s.seed()).as_str()));
+    assert_eq!(rec.recording_id.as_deref(), Some(recording_id(s.name(), s.seed()).as_str()));
     for e in [
         "/world",
         "/world/arena",

@@ -16,14 +16,14 @@ fn meets_its_requirements(file: &str) {
     let f = super::root().join("scenarios").join(file);
     let s = Scenario::load(&f).unwrap_or_else(|e| panic!("{e}"));
     assert!(
-        s.requirements.identify.is_none(),
+        s.requirements().identify.is_none(),
         "{file}: R5 is checked by `flyarena identify` (tests/acceptance/identify.rs)"
     );
     let Outcome { main, uncompensated: unc, report } = run_scenario(&s, false);
-    assert!(!report.rows.is_empty(), "{}: declares no requirements", s.name);
-    assert!(report.passed(), "{}:\n{}", s.name, report.table());
+    assert!(!report.rows.is_empty(), "{}: declares no requirements", s.name());
+    assert!(report.passed(), "{}:\n{}", s.name(), report.table());
     let summary = serde_json::json!({
-        "scenario": s.name,
+        "scenario": s.name(),
         "requirements": report.rows.iter().map(|r| format!("{} {} {}: {} ({}) {}", r.vehicle, r.id, r.what, r.measured, r.limit, if !r.asserted { "not asserted" } else if r.pass { "pass" } else { "FAIL" })).collect::<Vec<_>>(),
         "vehicles": main.vehicles.iter().enumerate().map(|(i, v)| serde_json::json!({
             "name": v.name,
@@ -35,7 +35,7 @@ fn meets_its_requirements(file: &str) {
         })).collect::<Vec<_>>(),
     });
     insta::with_settings!({ snapshot_path => "../../snapshots", prepend_module_to_snapshot => false }, {
-        insta::assert_json_snapshot!(s.name.clone(), summary);
+        insta::assert_json_snapshot!(s.name().to_string(), summary);
     });
 }
 

@@ -238,7 +238,7 @@ fn the_natnet_client_receives_the_poses_flyarena_sent() {
     let logs = [log_poses(&out.join("served-cf1.csv")), log_poses(&out.join("served-cf2.csv"))];
     let frames = got["frames"].as_array().unwrap();
     assert!(frames.len() > 300, "{} frames in 3 s at 200 Hz", frames.len());
-    let latency_ns = (s.mocap.latency_ms * 1e6) as u64;
+    let latency_ns = (s.mocap().latency_ms * 1e6) as u64;
     let mut numbers = [Vec::new(), Vec::new()];
     for f in frames {
         let number = f["number"].as_u64().unwrap() as u32;
@@ -309,7 +309,7 @@ fn the_latency_stamps_hold_the_declared_latency_not_a_hidden_delay() {
         "    markers: { rotation_deg: [3, -2, 10] }\n    undeclared: { mocap_delay_ms: 10 }\n",
     );
     let s = flyarena::scenario::Scenario::load(&path).unwrap();
-    let latency_ns = (s.mocap.latency_ms * 1e6) as u64;
+    let latency_ns = (s.mocap().latency_ms * 1e6) as u64;
     let mut srv = server_of(&path, port, data_port, &out, &[]);
     let got = client("natnet_client.py", &[port.to_string(), "2".into()], Duration::from_secs(60));
     srv.exits_ok(Duration::from_secs(60));
@@ -807,7 +807,7 @@ fn r3_and_r4_do_not_apply_to_an_external_vehicle() {
     let opts =
         ServeOptions { command_port: 0, speed: 1000.0, wait_for_client: Duration::ZERO, ..ServeOptions::default() };
     let (out, _) = serve(&s, &opts, RunOptions::default()).unwrap();
-    let report = flyarena::requirements::evaluate(&s.requirements, &out, None);
+    let report = flyarena::requirements::evaluate(s.requirements(), &out, None);
     for id in ["R1", "R3", "R4"] {
         let rows: Vec<_> = report.rows.iter().filter(|r| r.id == id).collect();
         assert!(!rows.is_empty() && rows.iter().all(|r| !r.asserted && r.pass), "{id}: {}", report.table());

@@ -173,7 +173,7 @@ fn r3_fails_when_the_recursion_disagrees_with_the_batch() {
         } else {
             rls.x_e0 += 2e-9;
         }
-        let r = flyarena::requirements::evaluate(&s.requirements, &main, out.uncompensated.as_ref());
+        let r = flyarena::requirements::evaluate(s.requirements(), &main, out.uncompensated.as_ref());
         only_failing(&r, "R3", prefix);
     }
 }
@@ -185,9 +185,11 @@ fn r3_fails_when_the_recursion_disagrees_with_the_batch() {
 /// tolerance, so that it is asserted.
 #[test]
 fn rows_without_their_estimates_fail_unless_flown_externally() {
-    let mut s = super::inline(&std::fs::read_to_string(super::root().join("scenarios/yaw-offset.yaml")).unwrap());
-    let out = run_scenario(&s, false);
-    s.requirements.offsets.as_mut().unwrap().yaw_straight_flight_tol_deg = Some(5.0);
+    let text = std::fs::read_to_string(super::root().join("scenarios/yaw-offset.yaml")).unwrap();
+    let out = run_scenario(&super::inline(&text), false);
+    let with_tol = "offsets: { roll_pitch_tol_deg: 0.1, yaw_tol_deg: 0.5, yaw_straight_flight_tol_deg: 5 }";
+    let s = super::inline(&text.replacen("offsets: { roll_pitch_tol_deg: 0.1, yaw_tol_deg: 0.5 }", with_tol, 1));
+    assert_eq!(s.requirements().offsets.as_ref().unwrap().yaw_straight_flight_tol_deg, Some(5.0));
     let mut main = out.main.clone();
     let cal = &mut main.vehicles[0].calibration;
     (cal.roll_pitch, cal.yaw_offset, cal.gyro) = (None, None, None);
@@ -200,7 +202,7 @@ fn rows_without_their_estimates_fail_unless_flown_externally() {
         ("R4", "validity"),
     ];
     let rows_of = |main: &flyarena::engine::RunOutput| {
-        let r = flyarena::requirements::evaluate(&s.requirements, main, out.uncompensated.as_ref());
+        let r = flyarena::requirements::evaluate(s.requirements(), main, out.uncompensated.as_ref());
         named.iter().map(|(id, prefix)| verdicts(&r, id, prefix)).collect::<Vec<_>>()
     };
     assert_eq!(rows_of(&main), vec![vec![(false, true)]; 5]);
@@ -208,7 +210,7 @@ fn rows_without_their_estimates_fail_unless_flown_externally() {
     // measured on the flown path)
     let mut unspun = out.main.clone();
     unspun.vehicles[0].spin_max_deviation_m = None;
-    let r = flyarena::requirements::evaluate(&s.requirements, &unspun, out.uncompensated.as_ref());
+    let r = flyarena::requirements::evaluate(s.requirements(), &unspun, out.uncompensated.as_ref());
     assert_eq!(verdicts(&r, "R2", ""), vec![(false, true)], "{}", r.table());
     main.vehicles[0].external = true;
     assert_eq!(rows_of(&main), vec![vec![(true, false)]; 5]);
@@ -216,7 +218,7 @@ fn rows_without_their_estimates_fail_unless_flown_externally() {
     // guard `err.is_none() && external` without its first half showed it unasserted)
     let mut reported = out.main.clone();
     reported.vehicles[0].external = true;
-    let r = flyarena::requirements::evaluate(&s.requirements, &reported, out.uncompensated.as_ref());
+    let r = flyarena::requirements::evaluate(s.requirements(), &reported, out.uncompensated.as_ref());
     assert_eq!(verdicts(&r, "R1", "yaw offset, straight"), vec![(true, true)], "{}", r.table());
 }
 
