@@ -186,32 +186,10 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
         if line.trim().is_empty() {
             continue;
         }
-        let cells: Vec<&str> = line.split(',').collect();
-        let last_line = i == lines.len() - 1;
-        if cells.len() < names.len() {
-            if last_line && !ends_cleanly {
-                repairs.push(format!(
-                    "line {lineno}: the last line is cut short ({} of {} cells, no newline) and was dropped",
-                    cells.len(),
-                    names.len()
-                ));
-                break;
-            }
-            return Err(LogError::Row {
-                file: f(),
-                line: lineno,
-                message: format!("{} cells for {} columns", cells.len(), names.len()),
-            });
-        }
-        // cells beyond the header's columns belong to no column: only empty ones (a trailing
-        // comma) are allowed
-        if cells[names.len()..].iter().any(|c| !c.trim().is_empty()) {
-            return Err(LogError::Row {
-                file: f(),
-                line: lineno,
-                message: format!("{} cells for {} columns", cells.len(), names.len()),
-            });
-        }
+        let last_cut_short = i == lines.len() - 1 && !ends_cleanly;
+        let cells = row_cells(line, names.len(), last_cut_short, lineno, &mut repairs)
+            .map_err(|message| LogError::Row { file: f(), line: lineno, message })?;
+        let Some(cells) = cells else { break };
         let (t, row) = parse_row(&cells, &index, file, lineno)?;
         match last_t {
             Some(p) if t < p => {
@@ -262,6 +240,32 @@ fn column_index(names: &[&str], file: &str) -> Result<[usize; COLUMNS.len()], Lo
         }
     }
     Ok(index)
+}
+
+/// A data line's cells, for this log and for a log read through a mapping: `None` for a last
+/// line cut short (no newline; said in `repairs` and dropped), and the message of a row with too
+/// few cells or a non-empty cell beyond the header's `columns`.
+pub(crate) fn row_cells<'a>(
+    line: &'a str,
+    columns: usize,
+    last_cut_short: bool,
+    lineno: usize,
+    repairs: &mut Vec<String>,
+) -> Result<Option<Vec<&'a str>>, String> {
+    let cells: Vec<&str> = line.split(',').collect();
+    if cells.len() < columns && last_cut_short {
+        repairs.push(format!(
+            "line {lineno}: the last line is cut short ({} of {columns} cells, no newline) and was dropped",
+            cells.len(),
+        ));
+        return Ok(None);
+    }
+    // cells beyond the header's columns belong to no column: only empty ones (a trailing
+    // comma) are allowed
+    if cells.len() < columns || cells[columns..].iter().any(|c| !c.trim().is_empty()) {
+        return Err(format!("{} cells for {columns} columns", cells.len()));
+    }
+    Ok(Some(cells))
 }
 
 /// One data row's time and its cells as numbers, by column of [`COLUMNS`], or its located error:
@@ -430,5 +434,21 @@ mod tests {
         let text = log_of(&[&row("0.5", "1", &POSE), &row("0.505", "1", &POSE)]).replacen("cmd_q", "cmd_qq", 1);
         let got = read_csv(&text, "x.csv").map(|_| ()).unwrap_err().to_string();
         assert!(got.starts_with("x.csv:1: column `cmd_q` is missing (is `cmd_qq` meant to be `cmd_q`?)"), "{got}");
+    }
+
+    /// A data line's width (flyarena's log and mapped logs alike): a full last line is kept with
+    /// or without its newline, a short one is dropped (and said) only when it is the last and
+    /// lacks its newline, an empty trailing cell is allowed and a filled one beyond the header is
+    /// not.
+    #[test]
+    fn a_row_has_the_header_width_and_only_a_cut_last_line_is_dropped() {
+        let mut repairs = Vec::new();
+        assert_eq!(row_cells("1,2,3", 3, true, 9, &mut repairs), Ok(Some(vec!["1", "2", "3"])));
+        assert_eq!(row_cells("1,2,3,", 3, false, 9, &mut repairs), Ok(Some(vec!["1", "2", "3", ""])));
+        assert!(repairs.is_empty());
+        assert_eq!(row_cells("1,2", 3, true, 9, &mut repairs), Ok(None));
+        assert_eq!(repairs, ["line 9: the last line is cut short (2 of 3 cells, no newline) and was dropped"]);
+        assert_eq!(row_cells("1,2", 3, false, 9, &mut repairs), Err("2 cells for 3 columns".to_string()));
+        assert_eq!(row_cells("1,2,3,4", 3, true, 9, &mut repairs), Err("4 cells for 3 columns".to_string()));
     }
 }

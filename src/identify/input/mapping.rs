@@ -342,30 +342,6 @@ fn header_names<'a>(line: Option<&'a str>, file: &str) -> Result<Vec<&'a str>, I
     Ok(header.split(',').map(str::trim).collect())
 }
 
-/// A data line's cells: `None` for a last line cut short (no newline; noted in `repairs` and
-/// dropped), an error for a row with too few cells or a non-empty cell beyond the header's.
-fn row_cells<'a>(
-    line: &'a str,
-    columns: usize,
-    last_cut_short: bool,
-    file: &str,
-    lineno: usize,
-    repairs: &mut Vec<String>,
-) -> Result<Option<Vec<&'a str>>, InputError> {
-    let cells: Vec<&str> = line.split(',').collect();
-    if cells.len() < columns && last_cut_short {
-        repairs.push(format!(
-            "line {lineno}: the last line is cut short ({} of {columns} cells, no newline) and was dropped",
-            cells.len(),
-        ));
-        return Ok(None);
-    }
-    if cells.len() < columns || cells[columns..].iter().any(|c| !c.trim().is_empty()) {
-        return Err(InputError::row(file, lineno, format!("{} cells for {columns} columns", cells.len())));
-    }
-    Ok(Some(cells))
-}
-
 /// The error of a log with fewer than two rows left: saying so, and how many rows repeated the
 /// time of the row before (a log whose clock stood still).
 fn too_few_rows(file: &str, repairs: &[String]) -> InputError {
@@ -675,9 +651,9 @@ impl Mapping {
                 continue;
             }
             let last_cut_short = cut_at_end && last_data == Some(k + 1);
-            let Some(cells) = row_cells(line, header.len(), last_cut_short, file, lineno, &mut s.repairs)? else {
-                break;
-            };
+            let cells = crate::log::row_cells(line, header.len(), last_cut_short, lineno, &mut s.repairs)
+                .map_err(|m| InputError::row(file, lineno, m))?;
+            let Some(cells) = cells else { break };
             let num = |i: usize| finite(cells[i]);
             let need = |i: usize| -> Result<f64, InputError> {
                 num(i).ok_or_else(|| InputError::Row {
@@ -734,27 +710,5 @@ impl Mapping {
         }
         s.segments = crate::log::split_at_gaps(&s.t_s, &mut s.repairs);
         Ok(s)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::row_cells;
-
-    /// A data line's width: a full last line is kept with or without its newline, a short one is
-    /// dropped (and said) only when it is the last and lacks its newline, an empty trailing cell
-    /// is allowed and a filled one beyond the header is not.
-    #[test]
-    fn a_row_has_the_header_width_and_only_a_cut_last_line_is_dropped() {
-        let mut repairs = Vec::new();
-        assert_eq!(row_cells("1,2,3", 3, true, "m.csv", 9, &mut repairs).unwrap(), Some(vec!["1", "2", "3"]));
-        assert_eq!(row_cells("1,2,3,", 3, false, "m.csv", 9, &mut repairs).unwrap(), Some(vec!["1", "2", "3", ""]));
-        assert!(repairs.is_empty());
-        assert_eq!(row_cells("1,2", 3, true, "m.csv", 9, &mut repairs).unwrap(), None);
-        assert_eq!(repairs, ["line 9: the last line is cut short (2 of 3 cells, no newline) and was dropped"]);
-        let short = row_cells("1,2", 3, false, "m.csv", 9, &mut repairs).unwrap_err().to_string();
-        assert!(short.contains("m.csv") && short.contains('9') && short.contains("2 cells for 3 columns"), "{short}");
-        let long = row_cells("1,2,3,4", 3, true, "m.csv", 9, &mut repairs).unwrap_err().to_string();
-        assert!(long.contains("4 cells for 3 columns"), "{long}");
     }
 }
