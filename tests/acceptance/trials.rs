@@ -393,6 +393,22 @@ fn a_thrust_scale_named_beside_a_voltage_effect_claims_no_interval() {
     assert!(!r.notes.iter().any(|n| n.contains("explain this flight's residual alike")), "{:?}", r.notes);
 }
 
+/// Trial 20 of batch 3: a body offset, a 5 ms mocap delay the selection only half supports, and
+/// an accelerometer bias.
+fn half_supported_delay_flight() -> Trial {
+    use flyarena::identify::Effect::*;
+    fixture(
+        3,
+        20,
+        "x3d",
+        vec![
+            (BodyOffset, vec![-2.748, -1.582, 2.09]),
+            (MocapDelay, vec![5.0]),
+            (AccelBias, vec![0.2373, 0.057, 0.2207]),
+        ],
+    )
+}
+
 /// Trial 20 of seed 3 (a fixture): a body offset (−2.75, −1.58, 2.09)°, an accelerometer bias
 /// and a 5 ms mocap delay on the `x3d`, flown as calibration circles and a yaw turn. Over the
 /// circles the rate vector turns at Ω ≈ 2.7 rad/s, so the delay looks like a body-offset yaw of
@@ -402,16 +418,7 @@ fn a_thrust_scale_named_beside_a_voltage_effect_claims_no_interval() {
 #[test]
 fn a_half_supported_delay_widens_the_body_offset_yaw() {
     use flyarena::identify::Effect::*;
-    let t = fixture(
-        3,
-        20,
-        "x3d",
-        vec![
-            (BodyOffset, vec![-2.748, -1.582, 2.09]),
-            (MocapDelay, vec![5.0]),
-            (AccelBias, vec![0.2373, 0.057, 0.2207]),
-        ],
-    );
+    let t = half_supported_delay_flight();
     let o = run(&t, &Options::default());
     for h in o.hidden.iter().filter(|h| h.effect != MocapDelay) {
         assert!(h.found && h.identifiable, "{:?}: {o:#?}", h.effect);
@@ -433,16 +440,7 @@ fn a_half_supported_delay_widens_the_body_offset_yaw() {
 #[test]
 fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
     use flyarena::identify::Effect::*;
-    let t = fixture(
-        3,
-        20,
-        "x3d",
-        vec![
-            (BodyOffset, vec![-2.748, -1.582, 2.09]),
-            (MocapDelay, vec![5.0]),
-            (AccelBias, vec![0.2373, 0.057, 0.2207]),
-        ],
-    );
+    let t = half_supported_delay_flight();
     let s = flyarena::scenario::Scenario::parse(&t.yaml, std::path::Path::new("trial-3-20.yaml")).unwrap();
     let (_, series) = flyarena::identify::run_and_log(&s, 0, "trial 20").unwrap();
     let agreement = |o: &Options| {
