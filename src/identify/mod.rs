@@ -6,9 +6,10 @@
 //!   ─► input/   Series (mocap world NED, body FRD, SI)          series, flyarena_log, mapping, ros2, ulog
 //!   ─► fit/     data-quality gate, residual channels and        quality, design,
 //!               candidate regressors, prewhitened forward       select, stats,
-//!               selection with held-out errors, ground check    ground
+//!               selection with held-out errors, ground check,   ground, note
+//!               the report's notes as data
 //!   ─► checks/  across flights, R5, batches with a known truth  consistency, check, trials, handheld
-//!   ─► output/  report text, scenario fragment, PX4 parameters  report, feedback, px4
+//!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, feedback, px4
 //! ```
 //!
 //! The stages are private; what a caller needs is re-exported here, flat:
@@ -17,6 +18,7 @@
 //! |---|---|
 //! | run a request as the command line does (a scenario, a flyarena log, a mapped log) | [`run`] with a [`Request`], or [`run_many`] for cross-validation |
 //! | identify one flight's [`Series`] | [`identify`] with [`Options`] → [`Report`] ([`Found`], [`Param`], [`Left`], …) |
+//! | act on what a report notes (a negative delay, a pair the flight cannot tell apart, a ground check that disagrees) | match on [`Note`]; its `Display` is the sentence the text and JSON show |
 //! | build a series | [`run_and_log`] (a scenario flown and logged), [`Mapping`] (another tool's log) |
 //! | print or write what `run` returns (the one presentation layer) | [`identified_text`], [`identified_json`]; for [`run_many`] [`cross_validated_text`], [`cross_validated_json`] |
 //! | print or judge a report | [`render_report`], [`verdict`]; across flights [`consistency`], [`render_consistency`] |
@@ -62,7 +64,7 @@ mod present;
 mod workflow;
 
 pub(crate) use checks::consistency;
-pub(crate) use fit::{design, ground, quality, select, stats};
+pub(crate) use fit::{design, ground, note, quality, select, stats};
 pub(crate) use input::{flyarena_log, series};
 pub(crate) use output::{feedback, report};
 
@@ -94,6 +96,7 @@ pub use ground::{
     SpinUpSummary, TiltAgreement, UpAxis, ground_check, landed_summary, rest_before_takeoff, rest_pose_summary,
     spin_up_summary, tilt_at_rest,
 };
+pub use note::{ForceLead, Moved, Note, OtherReference, Unavailable};
 pub use quality::{Cut, DataQuality, QualityChannel, QualityOptions, gate as quality_gate};
 pub use select::{
     AxisError, Candidate, Correlate, Excitation, Found, LEAD_MAX, LEAD_MIN_CORR, Left, MIN_TRAIN_SAMPLES, Param,

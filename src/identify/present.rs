@@ -2,9 +2,9 @@
 //! it writes, rendered from what [`run`](super::run) and [`run_many`](super::run_many) return
 //! ([`Identified`], [`CrossValidated`], which hold data). It composes the renderers of the
 //! report ([`render_report`](super::render_report)), the consistency across flights
-//! ([`render_consistency`](super::render_consistency)) and the ground summaries. What is still
-//! text below this layer: a report's notes are sentences (`Report::notes`), and the scenario
-//! fragment is YAML by nature.
+//! ([`render_consistency`](super::render_consistency)) and the ground summaries. A report's
+//! notes are data ([`Note`](super::Note)); their sentences are `output/note.rs`'s `Display`.
+//! What is still text below this layer: the scenario fragment, YAML by nature.
 
 use super::Report;
 use super::output::report;

@@ -113,7 +113,11 @@ fn nothing_hidden_gives_no_effect_over_20_seeds() {
             flyarena::identify::render_report(&r)
         );
         // no glitch is left out of these flights, and none is named
-        assert!(!r.notes.iter().any(|n| n.contains("mocap glitches")), "seed {seed}: {:?}", r.notes);
+        assert!(
+            !r.notes.iter().any(|n| matches!(n, flyarena::identify::Note::Glitches { .. })),
+            "seed {seed}: {:?}",
+            r.notes
+        );
     }
 }
 
@@ -184,7 +188,8 @@ fn a_gyro_delay_is_found_when_tested_and_named_when_not() {
     let delay = r.param(Effect::MocapDelay, "delay").unwrap();
     assert!((delay + 10.0).abs() < 0.3, "a mocap delay of {delay} ms");
     assert!(
-        r.notes.iter().any(|n| n.contains("mocap delay came out negative") && n.contains("--with gyro_delay")),
+        r.notes.iter().any(|n| matches!(n, flyarena::identify::Note::MocapLeadsImu { delay_s } if *delay_s < 0.0)
+            && n.to_string().contains("--with gyro_delay")),
         "{:?}",
         r.notes
     );
@@ -461,7 +466,12 @@ fn nanobench_flights() {
         let r = identify(&s, &opts).unwrap();
         if r.effects.is_empty() {
             // the one short hop (B6 ramp 1) has too little airborne data, and says so
-            assert!(r.notes.iter().any(|n| n.contains("usable training samples")), "{}: {:?}", f.display(), r.notes);
+            assert!(
+                r.notes.iter().any(|n| matches!(n, flyarena::identify::Note::TooFewSamples { usable: 94, .. })),
+                "{}: {:?}",
+                f.display(),
+                r.notes
+            );
             assert_eq!(flyarena::identify::verdict(&r), "nothing identified: 94 usable training samples, 200 needed");
             let text = flyarena::identify::render_report(&r);
             assert!(
@@ -820,7 +830,7 @@ plan:
     let other = if first.added == Effect::BodyOffset { Effect::WorldTilt } else { Effect::BodyOffset };
     assert!(matches!(first.added, Effect::BodyOffset | Effect::WorldTilt), "{text}");
     assert!(first.not_identifiable_from.iter().any(|(e, rho)| *e == other && *rho > 0.99), "{text}");
-    assert!(r.notes.iter().any(|n| n.contains("not identifiable")), "{text}");
+    assert!(r.notes.iter().any(|n| n.to_string().contains("not identifiable")), "{text}");
     // a step names only rivals that passed its gates beside the winner, never the winner itself
     // (whose canonical correlation with itself is 1). A bug it catches: the rivals' filter
     // `c.effect != best && c.passed` as `||` named the winner and failed candidates, and the whole
@@ -1019,7 +1029,7 @@ fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
         let (_, series) = run_and_log(&s, 0, label).unwrap();
         // not fitted, the report names it where the force residual shows its signature
         let plain = identify(&series, &Options::default()).unwrap();
-        let named = plain.notes.iter().any(|n| n.contains("`--with imu_offset`"));
+        let named = plain.notes.iter().any(|n| matches!(n, flyarena::identify::Note::ImuOffsetSignature { .. }));
         assert_eq!(named, want != [0.0; 3], "{label}: {:?}", plain.notes);
         let r = identify(&series, &forced).unwrap();
         let text = flyarena::identify::render_report(&r);
@@ -1171,5 +1181,5 @@ fn injected_mocap_glitches_are_left_out_and_named() {
     assert_eq!(glitches(&series), want);
     let r = identify(&series, &Options::default()).unwrap();
     assert!(r.effects.is_empty(), "found {:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());
-    assert!(r.notes.iter().any(|n| n.starts_with("5 mocap glitches")), "{:?}", r.notes);
+    assert!(r.notes.iter().any(|n| matches!(n, flyarena::identify::Note::Glitches { count: 5, .. })), "{:?}", r.notes);
 }

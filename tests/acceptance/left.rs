@@ -110,7 +110,11 @@ fn markers_moved_after_the_rest_are_a_disagreement() {
     let a = r.ground_agreement.unwrap();
     assert!(!a.roll.covers && (a.roll.difference_deg + 1.5).abs() < 0.1, "{:?}", a.roll);
     assert!(!a.pitch.covers && (a.pitch.difference_deg - 1.0).abs() < 0.1, "{:?}", a.pitch);
-    assert!(r.notes.iter().any(|n| n.contains("disagree in roll")), "{:?}", r.notes);
+    assert!(
+        r.notes.iter().any(|n| matches!(n, flyarena::identify::Note::GroundDisagrees { tilt: "roll", .. })),
+        "{:?}",
+        r.notes
+    );
 }
 
 /// A missed effect: rotor drag kept out of the candidates. The force channel's x residual is

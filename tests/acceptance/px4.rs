@@ -146,9 +146,10 @@ fn a_delay_that_fails_only_the_heldout_gate_is_named_and_px4_still_writes_it() {
     );
     assert!(report.effect(Effect::RotorDrag).is_some());
     assert!(
-        report.notes.iter().any(|n| n.starts_with("mocap_delay has very strong evidence")
-            && n.contains("fails only the held-out gate")
-            && n.contains("`--with mocap_delay`")),
+        report.notes.iter().any(|n| matches!(
+            n,
+            flyarena::identify::Note::HalfSupported { effect: Effect::MocapDelay, very_strong: true, .. }
+        ) && n.to_string().contains("`--with mocap_delay`")),
         "{:?}",
         report.notes
     );

@@ -140,7 +140,8 @@ fn each_check_cuts_what_it_is_for() {
         assert!(c.from_s <= at && c.to_s >= at && c.to_s - c.from_s < 1.5, "{name}: {c:?}");
         assert!(!c.at_floor, "{name}: {c:?}");
         assert!(
-            r.notes[0].contains("data-quality gate") && r.notes[0].contains(channel.name()),
+            matches!(&r.notes[0], flyarena::identify::Note::DataQualityCut { cuts, .. } if cuts.len() == 1)
+                && r.notes[0].to_string().contains(channel.name()),
             "{name}: {}",
             r.notes[0]
         );

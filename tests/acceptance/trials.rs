@@ -390,7 +390,7 @@ fn a_thrust_scale_named_beside_a_voltage_effect_claims_no_interval() {
         .filter(|(a, b, _)| [*a, *b] == [ThrustScale, ThrustVoltage] || [*b, *a] == [ThrustScale, ThrustVoltage])
         .count();
     assert_eq!(listed, 1, "{:?}", r.not_identifiable);
-    assert!(!r.notes.iter().any(|n| n.contains("explain this flight's residual alike")), "{:?}", r.notes);
+    assert!(!r.notes.iter().any(|n| matches!(n, flyarena::identify::Note::ExplainAlike { .. })), "{:?}", r.notes);
 }
 
 /// Trial 20 of batch 3: a body offset, a 5 ms mocap delay the selection only half supports, and
@@ -451,15 +451,19 @@ fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
     let (with, notes) = agreement(&Options::default());
     let note = notes
         .iter()
-        .find(|n| n.starts_with("mocap_delay has very strong evidence"))
-        .unwrap_or_else(|| panic!("{notes:?}"));
+        .find(|n| matches!(n, flyarena::identify::Note::HalfSupported { effect: MocapDelay, very_strong: true, .. }))
+        .unwrap_or_else(|| panic!("{notes:?}"))
+        .to_string();
     // it lists what moves beyond its own interval (the roll, by 0.021°), not what stays inside
     // it (the bias)
     assert!(note.contains("body_offset roll +0.021 deg") && !note.contains("accel_bias"), "{note}");
     let mut without_delay = Options::default();
     without_delay.candidates.retain(|e| *e != MocapDelay);
     let (own, notes) = agreement(&without_delay);
-    assert!(notes.iter().all(|n| !n.contains("significant in the fit")), "{notes:?}");
+    assert!(
+        !notes.iter().any(|n| matches!(n, flyarena::identify::Note::HalfSupported { very_strong: false, .. })),
+        "{notes:?}"
+    );
     let widen = [with[0] - own[0], with[1] - own[1]];
     assert!((widen[0] - 0.021).abs() < 0.002, "roll widened by {widen:?} for the alternative's 0.021°");
     assert!((0.0..widen[0]).contains(&widen[1]), "pitch widened by {widen:?}: the delay moves the roll");

@@ -886,8 +886,11 @@ mod tests {
         let r = identify(&trial.read(&trial.streams(&Setting::default()).0).unwrap(), &o).unwrap();
         assert!(r.effect(Effect::AccelBiasDrift).is_none(), "{:?}", r.effects);
         assert!(
-            r.notes.iter().any(|n| n.starts_with("--with accel_bias_drift: left out, the log's usable samples span 6")
-                && n.ends_with("a drift is fitted on 120 s or more")),
+            r.notes
+                .iter()
+                .map(ToString::to_string)
+                .any(|n| n.starts_with("--with accel_bias_drift: left out, the log's usable samples span 6")
+                    && n.ends_with("a drift is fitted on 120 s or more")),
             "{:?}",
             r.notes
         );

@@ -400,7 +400,7 @@ pub const SPIN_UP_MIN_S: f64 = 0.3;
 pub const LIFT_M: f64 = 0.003;
 
 /// One axis of [`GroundAgreement`] (degrees at this edge).
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct TiltAgreement {
     /// The ground check as measured.
     pub ground_deg: f64,
@@ -475,7 +475,7 @@ pub struct LandedAgreement {
 }
 
 /// One axis of [`LandedAgreement`] (degrees at this edge).
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LandedAxis {
     /// The tilt after landing with the fitted bias removed.
     pub ground_corrected_deg: f64,
@@ -514,7 +514,7 @@ pub struct SpinUpAgreement {
 }
 
 /// One axis of [`SpinUpAgreement`] (degrees at this edge).
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct SpinUpAxis {
     /// The spin-up tilt with the fitted bias removed.
     pub ground_corrected_deg: f64,
@@ -660,7 +660,7 @@ pub struct SpinUpSummary {
 }
 
 /// One axis of [`SpinUpSummary`] (degrees).
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct SpinUpAxisSummary {
     /// Median |rest − bias tilt − flight| over the flights with a spin-up.
     pub median_rest_deg: f64,
@@ -711,7 +711,7 @@ pub struct LandedSummary {
 }
 
 /// One axis of [`LandedSummary`].
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LandedAxisSummary {
     /// Median and largest |after − before| over the flights with both rests: the ground check's
     /// own repeatability over one flight.
@@ -983,66 +983,16 @@ pub(crate) fn render_spin_up_summary(s: &SpinUpSummary) -> String {
     t
 }
 
-/// The report's notes on a ground agreement: a difference beyond 1° that the flight's interval
-/// covers (the flight cannot pin its tilt down), or a disagreement.
-pub(crate) fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
-    let mut notes = Vec::new();
-    let pm = crate::identify::precision::signed_with_interval;
-    let [first, _] = a.up_axis.tilt_names();
-    for (name, t) in a.up_axis.tilt_names().into_iter().zip([&a.roll, &a.pitch]) {
-        if t.difference_deg.abs() > 1.0 && t.covers {
-            notes.push(format!(
-                "ground check and flight differ by {}° in {name}, within what this flight determines: the flight cannot pin its tilt down to 1°",
-                crate::identify::precision::with_interval(t.difference_deg, t.ci95_deg)
-            ));
-        } else if !t.covers {
-            let mut note = format!(
-                "ground check and flight disagree in {name}: the ground reads {:.2}°{}, the flight {:.2}° (difference {}°): the markers or the IMU board moved between rest and flight, or the flight holds an effect the candidate library lacks",
-                t.ground_deg,
-                if t.bias_tilt_deg != 0.0 {
-                    format!(" ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg)
-                } else {
-                    String::new()
-                },
-                t.flight_deg,
-                crate::identify::precision::with_interval(t.difference_deg, t.ci95_deg)
-            );
-            // the other references, where they agree: the next lead for this flight
-            let spin = a.spin_up.as_ref().map(|s| if name == first { &s.roll } else { &s.pitch });
-            let landed = a.after_landing.as_ref().map(|l| if name == first { &l.roll } else { &l.pitch });
-            // the spin-up counts only where it moved significantly from the rest, toward the
-            // flight, and lands within its interval of it (a wide interval alone agrees with anything)
-            let toward = |s: &&SpinUpAxis| {
-                s.covers && s.change_deg.abs() > s.change_ci95_deg && s.change_deg * t.difference_deg < 0.0
-            };
-            if let Some(sp) = spin.filter(toward) {
-                note += &format!(
-                    "; the spin-up (motors on, still on the floor) moved {}° from the rest toward the flight and agrees with it ({}°): consistent with a tilt the spinning rotors add, which the flight carries too (rectified vibration, a mount that bends under thrust) and a rest with the motors off cannot see",
-                    pm(sp.change_deg, sp.change_ci95_deg),
-                    pm(sp.difference_deg, sp.ci95_deg)
-                );
-            } else if let Some(l) = landed.filter(|l| l.bracket_covers) {
-                note += &format!(
-                    "; the mean of the rests before and after the flight agrees with it ({}°): the tilt at rest moved during the flight",
-                    pm(l.bracket_difference_deg, l.bracket_ci95_deg)
-                );
-            }
-            if a.rest_pose_scatters {
-                note += &format!(
-                    "; the still pose scatters by {:.3}° per sample in roll at rest (a clear view: under {STILL_POSE_SD_DEG}°): the cameras see the markers badly on the floor, so the rest's tilt is not a reliable reference here",
-                    a.rest_pose_sd_deg[0]
-                );
-            }
-            notes.push(note);
-        }
-    }
-    notes
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::frames::{Rot, Vec3};
+    use crate::identify::note::Note;
+
+    /// The report's notes on agreement `a`, as sentences.
+    fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
+        crate::identify::note::of_ground_agreement(a).iter().map(ToString::to_string).collect()
+    }
     use crate::identify::series::NominalModel;
     use nalgebra::{UnitQuaternion, Vector3};
 
@@ -1218,9 +1168,9 @@ mod tests {
         let r = crate::identify::identify(&climbing(s), &crate::identify::Options::default()).unwrap();
         assert!(
             r.ground_check.is_none()
-                && r.notes
-                    .iter()
-                    .any(|n| n.starts_with("the log rests with the vertical 40° from the nearest body axis")),
+                && r.notes.iter().any(|n| n
+                    .to_string()
+                    .starts_with("the log rests with the vertical 40° from the nearest body axis")),
             "{:?}",
             r.notes
         );
@@ -1232,7 +1182,7 @@ mod tests {
         }
         let r = crate::identify::identify(&climbing(s), &crate::identify::Options::default()).unwrap();
         assert!(
-            r.ground_check.is_none() && !r.notes.iter().any(|n| n.contains("from the nearest body axis")),
+            r.ground_check.is_none() && !r.notes.iter().any(|n| matches!(n, Note::RestOffAxis { .. })),
             "{:?}",
             r.notes
         );

@@ -4,6 +4,7 @@
 
 pub mod design;
 pub mod ground;
+pub mod note;
 pub mod quality;
 pub mod select;
 pub mod stats;

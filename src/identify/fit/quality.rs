@@ -105,7 +105,7 @@ enum Kind {
 }
 
 /// One stretch of the log that was cut out.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Cut {
     /// The measurement cut.
     pub channel: QualityChannel,
@@ -139,19 +139,7 @@ impl DataQuality {
     }
     /// One line per stretch, for messages.
     pub(crate) fn describe(&self) -> Vec<String> {
-        self.cuts
-            .iter()
-            .map(|c| {
-                format!(
-                    "{} {:.2}–{:.2} s: {}{}",
-                    c.channel.name(),
-                    c.from_s,
-                    c.to_s,
-                    c.reason,
-                    if c.at_floor { " (at the floor: touchdown or contact)" } else { "" }
-                )
-            })
-            .collect()
+        self.cuts.iter().map(|c| c.to_string()).collect()
     }
 }
 

@@ -2,5 +2,6 @@
 //! the effects back into the simulation, and the PX4 parameters.
 
 pub mod feedback;
+mod note;
 pub mod px4;
 pub mod report;

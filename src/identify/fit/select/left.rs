@@ -7,6 +7,7 @@ use super::gram::{active, residual_of};
 use super::heldout::axis_error;
 use super::result::{AxisError, Correlate, Left, Whiteness};
 use crate::identify::design::{Channel, Design, Effect};
+use crate::identify::note::{ForceLead, Note};
 use crate::identify::stats::{Ar, Z_995, autocorrelation, ljung_box};
 
 /// Weaker correlations than this are not named as leads (significant but explaining < 1 % of
@@ -127,9 +128,9 @@ pub(super) fn final_residuals(
 /// `--with imu_offset` tests it. On the held-out NanoBench flights that lead (the commonest one
 /// of the force channel: x on 38 of 68 flights, y on 19) is gone on all but 9 and 1 once the
 /// offset is fitted.
-pub(super) fn hypothesis_hints(left: &[Left], fitted: &[Effect]) -> Vec<String> {
+pub(super) fn hypothesis_hints(left: &[Left], fitted: &[Effect]) -> Option<Note> {
     if fitted.contains(&Effect::ImuOffset) {
-        return Vec::new();
+        return None;
     }
     let signature = |l: &Left| {
         let about = match l.axis {
@@ -137,19 +138,14 @@ pub(super) fn hypothesis_hints(left: &[Left], fitted: &[Effect]) -> Vec<String> 
             'y' => "angular acceleration x (rad/s²)",
             _ => return None,
         };
-        l.correlates
-            .iter()
-            .find(|c| c.signal == about)
-            .map(|c| format!("force.{} follows {} (r = {:+.2})", l.axis, c.signal, c.r))
+        l.correlates.iter().find(|c| c.signal == about).map(|c| ForceLead {
+            axis: l.axis,
+            signal: c.signal.clone(),
+            r: c.r,
+        })
     };
-    let found: Vec<String> = left.iter().filter(|l| l.channel == Channel::Force).filter_map(signature).collect();
-    if found.is_empty() {
-        return Vec::new();
-    }
-    vec![format!(
-        "{}: the signature of an IMU off the centre of mass (ω̇ × r, the accelerometer ahead of or below the point the force model describes), which `--with imu_offset` tests",
-        found.join(", ")
-    )]
+    let leads: Vec<ForceLead> = left.iter().filter(|l| l.channel == Channel::Force).filter_map(signature).collect();
+    (!leads.is_empty()).then_some(Note::ImuOffsetSignature { leads })
 }
 
 /// The fraction of the autocorrelations `r` (of a series with `n` usable samples) outside the
@@ -300,24 +296,24 @@ mod tests {
             correlates: vec![Correlate { signal: signal.into(), r: 0.25, n_eff: 300.0, floor: false }],
         };
         let hit = hypothesis_hints(&[left('x', "angular acceleration y (rad/s²)")], &[]);
-        assert!(
-            hit.len() == 1
-                && hit[0].contains("force.x follows angular acceleration y (rad/s²) (r = +0.25)")
-                && hit[0].contains("--with imu_offset"),
-            "{hit:?}"
+        assert_eq!(
+            hit,
+            Some(Note::ImuOffsetSignature {
+                leads: vec![ForceLead { axis: 'x', signal: "angular acceleration y (rad/s²)".into(), r: 0.25 }]
+            })
         );
-        assert_eq!(hypothesis_hints(&[left('y', "angular acceleration x (rad/s²)")], &[]).len(), 1);
-        assert!(hypothesis_hints(&[left('x', "angular acceleration y (rad/s²)")], &[Effect::ImuOffset]).is_empty());
+        assert!(hypothesis_hints(&[left('y', "angular acceleration x (rad/s²)")], &[]).is_some());
+        assert!(hypothesis_hints(&[left('x', "angular acceleration y (rad/s²)")], &[Effect::ImuOffset]).is_none());
         assert!(
             hypothesis_hints(
                 &[left('x', "angular acceleration x (rad/s²)"), left('z', "angular acceleration y (rad/s²)")],
                 &[]
             )
-            .is_empty()
+            .is_none()
         );
         let mut gyro = left('x', "angular acceleration y (rad/s²)");
         gyro.channel = Channel::Gyro;
-        assert!(hypothesis_hints(&[gyro], &[]).is_empty());
+        assert!(hypothesis_hints(&[gyro], &[]).is_none());
     }
 
     /// The verdict by hand: a lead makes a residual structured whatever Ljung–Box says, a

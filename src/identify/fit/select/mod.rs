@@ -53,6 +53,7 @@
 
 use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build};
 use super::ground::Rest;
+use super::note::{Note, Unavailable};
 use super::stats::{Ar, Z_975, f_sf};
 use crate::frames::{Body, MocapNav, Nav, Rot, Vec3};
 use crate::identify::input::series::{Corrections, Series};
@@ -238,21 +239,16 @@ fn usable_span_s(d: &Design) -> f64 {
 }
 
 /// Why a log cannot test `e` ([`available`]), for the note on an effect asked for with `--with`.
-fn unavailable_reason(d: &Design, e: Effect) -> Option<String> {
+fn unavailable_reason(d: &Design, e: Effect) -> Option<Unavailable> {
     if available(d, e) {
         return None;
     }
     Some(if e == Effect::ThrustVoltage && d.has_force {
-        format!("--with {}: left out, the log has no battery voltage", e.key())
+        Unavailable::NoVoltage
     } else if matches!(e, Effect::AccelBiasDrift | Effect::GyroBiasDrift) {
-        format!(
-            "--with {}: left out, the log's usable samples span {:.0} s and a drift is fitted on {:.0} s or more",
-            e.key(),
-            usable_span_s(d),
-            crate::effects::DRIFT_MIN_S
-        )
+        Unavailable::TooShort { span_s: usable_span_s(d), min_s: crate::effects::DRIFT_MIN_S }
     } else {
-        format!("--with {}: left out, it acts only through the thrust model and the log has no motor commands", e.key())
+        Unavailable::NoMotorCommands
     })
 }
 
@@ -458,13 +454,12 @@ pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
     if !quality.cuts.is_empty() {
         report.notes.insert(
             0,
-            format!(
-                "the data-quality gate cut {} of {} rows before the fit (samples no flight can produce, with a {} s margin): {}",
-                quality.rows_cut,
-                quality.rows,
-                o.quality.margin_s,
-                quality.describe().join("; ")
-            ),
+            Note::DataQualityCut {
+                rows_cut: quality.rows_cut,
+                rows: quality.rows,
+                margin_s: o.quality.margin_s,
+                cuts: quality.cuts.clone(),
+            },
         );
     }
     report.data_quality = quality;
@@ -606,20 +601,17 @@ struct Search {
 
 impl Search {
     /// Fits the forced effects (those with columns in the data) without testing them.
-    fn force(&mut self, s: &Series, o: &Options, notes: &mut Vec<String>) {
+    fn force(&mut self, s: &Series, o: &Options, notes: &mut Vec<Note>) {
         for e in &o.forced {
             if let Some(why) = unavailable_reason(&self.state.design, *e) {
-                notes.push(why);
+                notes.push(Note::LeftOut { effect: *e, why });
             } else if !self.selected.contains(e) {
                 self.selected.push(*e);
             }
         }
         if !self.selected.is_empty() {
             self.refit(s, o);
-            notes.push(format!(
-                "fitted without testing (forced): {}",
-                self.selected.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")
-            ));
+            notes.push(Note::Forced { effects: self.selected.clone() });
         }
     }
 
@@ -632,7 +624,7 @@ impl Search {
 
     /// Forward steps, each followed by the backward check, until no candidate passes, none is
     /// left or `max_steps` is reached.
-    fn run(&mut self, s: &Series, o: &Options, notes: &mut Vec<String>) {
+    fn run(&mut self, s: &Series, o: &Options, notes: &mut Vec<Note>) {
         // every pass but the last adds a step, so max_steps + 1 passes are all there can be: the
         // bound makes termination hold by construction, not only by the steps' count (a pass
         // that added nothing and went on would otherwise spin for ever)
@@ -642,7 +634,7 @@ impl Search {
                 self.backward(s, o);
             }
             if self.steps.len() >= o.max_steps {
-                notes.push(format!("stopped after {} steps (max_steps)", o.max_steps));
+                notes.push(Note::MaxSteps { steps: o.max_steps });
                 break;
             }
             if !self.forward(s, o) {
@@ -737,7 +729,7 @@ impl Search {
 
     /// The pairs the data cannot tell apart, with a note for each: those the kept steps named,
     /// and the two frame effects whatever was selected.
-    fn identifiability(&self, yaw_spread_deg: f64, notes: &mut Vec<String>) -> Vec<(Effect, Effect, f64)> {
+    fn identifiability(&self, yaw_spread_deg: f64, notes: &mut Vec<Note>) -> Vec<(Effect, Effect, f64)> {
         let (steps, selected, state) = (&self.steps, &self.selected, &self.state);
         let mut not_identifiable: Vec<(Effect, Effect, f64)> = kept_steps(steps, &self.removed)
             .flat_map(|st| st.not_identifiable_from.iter().map(|(e, rho)| (st.added, *e, *rho)))
@@ -755,18 +747,12 @@ impl Search {
                     (Effect::WorldTilt, Effect::BodyOffset)
                 };
                 not_identifiable.push((a, b, rho));
-                notes.push(format!(
-                    "mocap world tilt and body offset roll/pitch are not identifiable apart in this flight (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): they differ only through yaw changes, body rates and accelerations other than gravity"
-                ));
+                notes.push(Note::FramesNotApart { correlation: rho, yaw_spread_deg });
             }
         }
         for st in kept_steps(steps, &self.removed) {
             for (e, rho) in &st.not_identifiable_from {
-                notes.push(format!(
-                    "{} was chosen over {} by ΔBIC, but this flight cannot tell them apart (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): not identifiable; fly yaw turns, circles and accelerations to separate them",
-                    st.added.key(),
-                    e.key()
-                ));
+                notes.push(Note::ChosenOver { chosen: st.added, rival: *e, correlation: *rho, yaw_spread_deg });
             }
         }
         // a mocap that leads the IMU is no latency: a clock offset between the streams, or a
@@ -775,10 +761,7 @@ impl Search {
             && self.corr.mocap_delay_s < 0.0
             && !selected.contains(&Effect::GyroDelay)
         {
-            notes.push(format!(
-                "the mocap delay came out negative ({:.1} ms: the mocap leads the IMU): a clock offset between the streams, or a delay of the gyro alone against the accelerometer, which `--with gyro_delay` tests",
-                self.corr.mocap_delay_s * 1e3
-            ));
+            notes.push(Note::MocapLeadsImu { delay_s: self.corr.mocap_delay_s });
         }
         not_identifiable
     }
@@ -841,32 +824,21 @@ fn tests_with_pairs(singles: usize, near: usize) -> usize {
 
 /// Notes on the nominal fit's data (too few usable samples, glitches left out); true when
 /// there are too few samples to select anything.
-fn gate_notes(s: &Series, nominal: &Problem, o: &Options, notes: &mut Vec<String>) -> bool {
+fn gate_notes(s: &Series, nominal: &Problem, o: &Options, notes: &mut Vec<Note>) -> bool {
     let usable = nominal.train.iter().filter(|x| **x).count();
     let too_few = !enough_to_select(usable);
-    let no_force = if s.model.rigid_body {
-        Some("a rigid body (`vehicle: rigid_body`): no force model by declaration")
-    } else {
-        (!nominal.design.has_force).then_some("no motor commands in the log: no force model")
-    };
-    if let Some(why) = no_force {
-        notes.push(format!(
-            "{why}, so the effects are fitted on the accelerometer against the mocap (accel_kin) and the gyro; those that act only through the thrust are not tried"
-        ));
+    if s.model.rigid_body || !nominal.design.has_force {
+        notes.push(Note::NoForceModel { rigid_body: s.model.rigid_body });
     }
     if too_few {
-        notes.push(format!(
-            "only {usable} usable training samples (airborne above {} m, away from gaps and edges; decimated): at least {MIN_TRAIN_SAMPLES} are needed to select effects, so none were tried",
-            o.design.min_height_m
-        ));
+        notes.push(Note::TooFewSamples { usable, needed: MIN_TRAIN_SAMPLES, min_height_m: o.design.min_height_m });
     }
     if nominal.design.outliers > 0 {
-        notes.push(format!(
-            "{} mocap glitches (poses more than {} robust σ, and 1 mm or 0.5°, off the midpoint of their neighbours; consecutive ones count once) were left out with ±{} ms around each",
-            nominal.design.outliers,
-            super::design::GLITCH_SIGMAS,
-            (3.0 * o.design.smoothing_s * 1e3).round()
-        ));
+        notes.push(Note::Glitches {
+            count: nominal.design.outliers,
+            sigmas: super::design::GLITCH_SIGMAS,
+            window_ms: (3.0 * o.design.smoothing_s * 1e3).round(),
+        });
     }
     too_few
 }
@@ -950,7 +922,7 @@ fn ground(
     yaw_spread_deg: f64,
     not_identifiable: &mut Vec<(Effect, Effect, f64)>,
     effects: &mut [Found],
-    notes: &mut Vec<String>,
+    notes: &mut Vec<Note>,
 ) -> (Option<super::ground::GroundCheck>, Option<super::ground::GroundAgreement>) {
     let (state, selected) = (&search.state, &search.selected);
     let rest = super::ground::rest_before_takeoff(s);
@@ -991,14 +963,12 @@ fn ground(
         })
     });
     if let Some(a) = &ground_agreement {
-        notes.extend(super::ground::agreement_notes(a));
+        notes.extend(super::note::of_ground_agreement(a));
     }
     if let Some(off) = super::ground::rest_off_axis_deg(s)
         .filter(|off| ground_check.is_none() && *off > super::ground::MAX_REST_OFF_AXIS_DEG)
     {
-        notes.push(format!(
-            "the log rests with the vertical {off:.0}° from the nearest body axis: the ground check reads tilts about two body axes that are level at rest, so it is left out (the fit assumes nothing about the rest attitude)"
-        ));
+        notes.push(Note::RestOffAxis { off_axis_deg: off });
     }
     (ground_check, ground_agreement)
 }
@@ -1413,7 +1383,7 @@ mod tests {
         let pairs = search(-0.003, vec![Effect::MocapDelay]).identifiability(12.0, &mut notes);
         assert_eq!(pairs, [(Effect::MocapDelay, Effect::GyroDelay, 0.995)]);
         assert_eq!(
-            notes,
+            notes.iter().map(ToString::to_string).collect::<Vec<_>>(),
             [
                 "mocap_delay was chosen over gyro_delay by ΔBIC, but this flight cannot tell them apart (canonical correlation 0.9950, yaw spread 12.0°): not identifiable; fly yaw turns, circles and accelerations to separate them",
                 "the mocap delay came out negative (-3.0 ms: the mocap leads the IMU): a clock offset between the streams, or a delay of the gyro alone against the accelerometer, which `--with gyro_delay` tests",
@@ -1455,6 +1425,7 @@ mod tests {
         let pairs = |c: f64, selected: Vec<Effect>, steps: Vec<Step>, removed: Vec<Removal>| {
             let mut notes = Vec::new();
             let pairs = finished_search(selected, steps, removed, grams(c), 0.0).identifiability(12.0, &mut notes);
+            let notes: Vec<String> = notes.iter().map(ToString::to_string).collect();
             (pairs.into_iter().map(|(a, b, rho)| (a, b, (rho * 1e4).round() / 1e4)).collect::<Vec<_>>(), notes)
         };
         let (bo_e, wt_e) = (Effect::BodyOffset, Effect::WorldTilt);
@@ -1635,14 +1606,8 @@ mod tests {
         assert!(!offers(false, false, Effect::ImuOffset) && !offers(false, false, Effect::ConstantForce));
         let no_force = design(false, false);
         assert_eq!(unavailable_reason(&no_force, Effect::AccelBias), None);
-        assert!(
-            unavailable_reason(&no_force, Effect::ThrustScale)
-                .is_some_and(|w| w.contains("--with thrust_scale") && w.contains("no motor commands"))
-        );
-        assert!(
-            unavailable_reason(&design(true, false), Effect::ThrustVoltage)
-                .is_some_and(|w| w.contains("no battery voltage"))
-        );
+        assert_eq!(unavailable_reason(&no_force, Effect::ThrustScale), Some(Unavailable::NoMotorCommands));
+        assert_eq!(unavailable_reason(&design(true, false), Effect::ThrustVoltage), Some(Unavailable::NoVoltage));
     }
 
     /// A candidate's correlation with the residual, from the Gram sums by hand: on the base set

@@ -199,8 +199,9 @@ pub struct Report {
     pub ground_check: Option<crate::identify::ground::GroundCheck>,
     /// The ground check against the flight's offset plus the tilt of its accelerometer bias.
     pub ground_agreement: Option<crate::identify::ground::GroundAgreement>,
-    /// What a reader should know (a negative delay, a half-supported candidate, ...).
-    pub notes: Vec<String>,
+    /// What a reader should know (a negative delay, a half-supported candidate, ...), one
+    /// [`Note`](crate::identify::Note) each: data to match on; `Display` gives the sentence.
+    pub notes: Vec<crate::identify::note::Note>,
     /// What the reader did to the log, one sentence each: repairs (dropped duplicate rows, gaps,
     /// rows left out) and, for PX4 logs and ROS 2 bags, which stamps and instances it read.
     pub repairs: Vec<String>,

@@ -7,6 +7,7 @@ use super::result::{Candidate, Found};
 use super::{Options, Problem, available, fold, params_of, refine, rest_tilt, rest_tilt_sd, values_of};
 use crate::identify::design::Effect;
 use crate::identify::ground::Rest;
+use crate::identify::note::{Moved, Note};
 use crate::identify::series::{Corrections, Series};
 use crate::identify::stats::Z_975;
 
@@ -38,7 +39,7 @@ pub(super) fn swaps(
     not_identifiable: &mut Vec<(Effect, Effect, f64)>,
     effects: &mut [Found],
     tilt_widen: &mut [f64; 2],
-    notes: &mut Vec<String>,
+    notes: &mut Vec<Note>,
 ) {
     let outside: Vec<Effect> = fin
         .o
@@ -63,12 +64,7 @@ pub(super) fn swaps(
             }
             if !lists(not_identifiable, e, c) {
                 not_identifiable.push((e, c, rho));
-                notes.push(format!(
-                    "{} and {} explain this flight's residual alike once the other effects are fitted (canonical correlation {rho:.4}, yaw spread {yaw_spread_deg:.1}°): not identifiable; {}'s parameters are one explanation of two, and the other effects' intervals cover both",
-                    e.key(),
-                    c.key(),
-                    e.key()
-                ));
+                notes.push(Note::ExplainAlike { effect: e, other: c, correlation: rho, yaw_spread_deg });
             }
             for p in &mut effects[k].params {
                 p.identifiable = false;
@@ -143,7 +139,7 @@ pub(super) fn half_supported(
     tilt_sd: [f64; 2],
     effects: &mut [Found],
     tilt_widen: &mut [f64; 2],
-    notes: &mut Vec<String>,
+    notes: &mut Vec<Note>,
 ) {
     let near: Vec<&Candidate> =
         final_candidates.iter().filter(|c| is_half_supported(c, fin.o.alpha, final_candidates.len())).collect();
@@ -172,12 +168,12 @@ pub(super) fn half_supported(
             let alt = values_of(f.effect, &at, &alt_set, &ac);
             for ((p, b), a) in f.params.iter_mut().zip(base).zip(alt) {
                 if (a - b).abs() > p.ci95 {
-                    moved.push(format!("{} {} {:+.3} {}", f.effect.key(), p.name, a - b, p.unit));
+                    moved.push(Moved { effect: f.effect, param: p.name.clone(), shift: a - b, unit: p.unit.clone() });
                 }
                 p.ci95 = covering(b, a, p.ci95);
             }
         }
-        notes.extend(moved_note(c, &moved, fin.o.min_heldout_gain));
+        notes.extend(moved_note(c, moved, fin.o.min_heldout_gain));
     }
 }
 
@@ -190,40 +186,32 @@ pub(super) const VERY_STRONG_BIC: f64 = -10.0;
 /// hypothesis (a delay that the held-out blocks cannot confirm is still the value a user must
 /// set); and it names the estimates `moved` beyond their own intervals with it in. None for a
 /// weaker candidate that moves nothing that far.
-fn moved_note(c: &Candidate, moved: &[String], min_heldout_gain: f64) -> Option<String> {
-    let strong = c.delta_bic <= VERY_STRONG_BIC;
-    if moved.is_empty() && !strong {
-        return None;
-    }
-    let key = c.effect.key();
-    let mut note = if strong {
-        format!(
-            "{key} has very strong evidence in the fit (ΔBIC {:.0}, F-test p {:.1e}) and fails only the held-out gate (held-out error {:+.1} %, the gate needs −{:.0} %): not added; `--with {key}` fits it as a hypothesis, with its interval",
-            c.delta_bic,
-            c.p_value,
-            -100.0 * c.heldout_gain,
-            100.0 * min_heldout_gain
-        )
-    } else {
-        format!(
-            "{key} is significant in the fit (ΔBIC {:.0}, F-test p {:.1e}) but does not cut the held-out error enough to join ({:+.1} %)",
-            c.delta_bic,
-            c.p_value,
-            -100.0 * c.heldout_gain
-        )
-    };
-    if !moved.is_empty() {
-        note.push_str(&format!(
-            "; with it in, the estimates would move ({}): their intervals cover both",
-            moved.join(", ")
-        ));
-    }
-    Some(note)
+fn moved_note(c: &Candidate, moved: Vec<Moved>, min_heldout_gain: f64) -> Option<Note> {
+    let very_strong = c.delta_bic <= VERY_STRONG_BIC;
+    (very_strong || !moved.is_empty()).then_some(Note::HalfSupported {
+        effect: c.effect,
+        delta_bic: c.delta_bic,
+        p_value: c.p_value,
+        heldout_gain: c.heldout_gain,
+        min_heldout_gain,
+        very_strong,
+        moved,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The note's sentence for candidate `c` with a 10 % held-out gate.
+    fn text(c: &Candidate, moved: Vec<Moved>) -> Option<String> {
+        moved_note(c, moved, 0.1).map(|n| n.to_string())
+    }
+
+    /// An estimate of `effect` that moved by `shift`.
+    fn moved_by(effect: Effect, param: &str, shift: f64, unit: &str) -> Moved {
+        Moved { effect, param: param.into(), shift, unit: unit.into() }
+    }
 
     /// A pair is listed in either order and only as itself: with {thrust scale, voltage} listed, a
     /// pair that shares one of its effects is not. A bug it catches: the check as `(a == e || b ==
@@ -301,10 +289,11 @@ mod tests {
             max_corr: 0.5,
             passed: false,
         };
-        assert_eq!(moved_note(&c, &[], 0.1), None);
-        let moved = ["body_offset yaw +0.412 deg".to_string(), "gyro_bias z -0.050 deg/s".to_string()];
+        assert_eq!(moved_note(&c, Vec::new(), 0.1), None);
+        let moved =
+            vec![moved_by(Effect::BodyOffset, "yaw", 0.412, "deg"), moved_by(Effect::GyroBias, "z", -0.05, "deg/s")];
         assert_eq!(
-            moved_note(&c, &moved, 0.1).as_deref(),
+            text(&c, moved).as_deref(),
             Some(
                 "mocap_delay is significant in the fit (ΔBIC -10, F-test p 2.5e-4) but does not cut the held-out error enough to join (-3.1 %); with it in, the estimates would move (body_offset yaw +0.412 deg, gyro_bias z -0.050 deg/s): their intervals cover both"
             )
@@ -327,22 +316,22 @@ mod tests {
             passed: false,
         };
         assert_eq!(
-            moved_note(&c(-358.2), &[], 0.1).as_deref(),
+            text(&c(-358.2), Vec::new()).as_deref(),
             Some(
                 "mocap_delay has very strong evidence in the fit (ΔBIC -358, F-test p 1.0e-60) and fails only the held-out gate (held-out error -4.2 %, the gate needs −10 %): not added; `--with mocap_delay` fits it as a hypothesis, with its interval"
             )
         );
-        assert!(moved_note(&c(-10.0), &[], 0.1).is_some_and(|n| n.contains("very strong")));
-        assert_eq!(moved_note(&c(-9.99), &[], 0.1), None);
+        assert!(text(&c(-10.0), Vec::new()).is_some_and(|n| n.contains("very strong")));
+        assert_eq!(moved_note(&c(-9.99), Vec::new(), 0.1), None);
         // a candidate that makes the held-out error grow says so with its sign
         let grows = Candidate { heldout_gain: -0.002, ..c(-67.0) };
         assert!(
-            moved_note(&grows, &[], 0.1).is_some_and(|n| n.contains("(held-out error +0.2 %,")),
+            text(&grows, Vec::new()).is_some_and(|n| n.contains("(held-out error +0.2 %,")),
             "{:?}",
-            moved_note(&grows, &[], 0.1)
+            text(&grows, Vec::new())
         );
-        let moved = ["rotor_drag x -0.010 1/s".to_string()];
-        assert!(moved_note(&c(-50.0), &moved, 0.1).is_some_and(|n| n.contains("--with mocap_delay")
+        let moved = vec![moved_by(Effect::RotorDrag, "x", -0.01, "1/s")];
+        assert!(text(&c(-50.0), moved).is_some_and(|n| n.contains("--with mocap_delay")
             && n.ends_with("(rotor_drag x -0.010 1/s): their intervals cover both")));
     }
 }
