@@ -31,6 +31,37 @@ const IDENTIFY_SCENARIOS: [&str; 14] = [
     "crazyflie-delay",
 ];
 
+/// The JSON `flyarena identify` writes for `value` (pretty-printed, as the command line does),
+/// with each folder `from` written as `to` (the checkout as the command line run from it names
+/// its inputs), as its FNV-1a 64 digest and length: what the suite pins of the byte-for-byte
+/// output. A changed digest means a changed file; `flyarena identify` at the two commits shows
+/// what changed.
+fn json_digest(value: &serde_json::Value, folders: &[(&Path, &str)]) -> String {
+    let mut text = String::from_utf8(serde_json::to_vec_pretty(value).unwrap()).unwrap();
+    for (from, to) in folders {
+        text = text.replace(&format!("{}/", from.display()), to);
+    }
+    format!("fnv1a {:016x} ({} bytes)", fnv1a(text.as_bytes()), text.len())
+}
+
+/// FNV-1a, 64 bits: a digest `python3`, `b3sum`-less shells and any reviewer can recompute.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+/// The digest on a known input: FNV-1a 64 of "a" is af63dc4c8601ec8c (the algorithm's published
+/// test vector), and a folder is rewritten before the digest. A bug it catches: a wrong prime or
+/// offset basis, which would pin nothing that another tool can recompute.
+#[test]
+fn the_json_digest_is_fnv1a_of_the_written_bytes() {
+    let digest = |v| json_digest(&v, &[(Path::new("/x/y"), "")]);
+    assert_eq!(fnv1a(b"a"), 0xaf63_dc4c_8601_ec8c);
+    assert_eq!(fnv1a(b""), 0xcbf2_9ce4_8422_2325);
+    assert_eq!(digest(serde_json::json!("a")), format!("fnv1a {:016x} (3 bytes)", fnv1a(b"\"a\"")));
+    assert_eq!(digest(serde_json::json!("/x/y/z.csv")), digest(serde_json::json!("z.csv")));
+    assert_ne!(digest(serde_json::json!("/x/w/z.csv")), digest(serde_json::json!("z.csv")));
+}
+
 /// A new identify scenario without its place in the list above fails here.
 #[test]
 fn every_identify_scenario_file_is_tested() {
@@ -52,7 +83,8 @@ fn every_identify_scenario_file_is_tested() {
 }
 
 /// Every identify scenario meets R5 through the command's own path (run, log, identify,
-/// closed loop), and feeding the effects back brings the simulation onto the data.
+/// closed loop), and feeding the effects back brings the simulation onto the data. The snapshot
+/// pins each scenario's JSON byte for byte (its digest) beside the rounded estimates.
 #[test]
 fn every_identify_scenario_finds_its_hidden_effect() {
     let round = |x: f64, k: i32| ((x * 10f64.powi(k)).round() / 10f64.powi(k)) + 0.0;
@@ -64,6 +96,8 @@ fn every_identify_scenario_finds_its_hidden_effect() {
             "scenario": name,
             "effects": done.report.effects.iter().map(|f| format!("{}: {}", f.effect.key(), f.params.iter().map(|p| format!("{} {}", p.name, round(p.value, 3))).collect::<Vec<_>>().join(", "))).collect::<Vec<_>>(),
             "closed_loop_mm": done.closed_loop.map(|(b, a)| [round(b.position_rmse_m * 1e3, 1), round(a.position_rmse_m * 1e3, 1)]),
+            // every byte of `flyarena identify scenarios/identify-<name>.yaml`'s JSON
+            "json": json_digest(&flyarena::identify::identified_json(&done), &[(&super::root(), "")]),
         }));
         let req = done.requirements.expect("R5 declared");
         assert!(req.passed(), "{name}:\n{}", req.table());
@@ -699,7 +733,8 @@ fn nanobench_table_is_pinned() {
 /// each the body offsets agree within their intervals (χ², p ≥ 0.05, every axis), one flight's
 /// offset lowers every other's accel_kin error in its mounting, and across mountings it makes it
 /// worse in 18 of 62 pairs; against the other flights' mean offset it helps in every pair inside
-/// a mounting and loses in 36 of 62 across. The medians are the guide's.
+/// a mounting and loses in 36 of 62 across. The medians are the guide's. The JSON the command
+/// writes for these flights is pinned byte for byte (its digest).
 #[test]
 fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
     let Some(data) = super::shared_data() else { return };
@@ -718,6 +753,11 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
         &[Effect::BodyOffset],
     )
     .unwrap();
+    // every byte of what `flyarena identify data/nanobench/dataset/*.csv --mapping
+    // mappings/nanobench.yaml --with body_offset` writes from the checkout: the cross-validation
+    // JSON with each flight's report, its notes as sentences
+    let json = json_digest(&flyarena::identify::cross_validated_json(&cv), &[(&data, "data/")]);
+    assert_eq!(json, "fnv1a 63700a70cd42ab11 (425784 bytes)");
     let c = &cv.consistency;
     let got: Vec<Vec<&str>> =
         c.mountings.iter().map(|m| m.flights.iter().map(|&i| c.flights[i].as_str()).collect()).collect();
