@@ -9,7 +9,7 @@
 //!               selection with held-out errors, ground check,   ground, note
 //!               the report's notes as data
 //!   ─► checks/  across flights, R5, batches with a known truth  consistency, check, trials, handheld
-//!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, feedback, px4
+//!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, summary, feedback, px4
 //! ```
 //!
 //! The stages are private; what a caller needs is re-exported here, flat:

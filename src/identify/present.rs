@@ -2,12 +2,13 @@
 //! it writes, rendered from what [`run`](super::run) and [`run_many`](super::run_many) return
 //! ([`Identified`], [`CrossValidated`], which hold data). It composes the renderers of the
 //! report ([`render_report`](super::render_report)), the consistency across flights
-//! ([`render_consistency`](super::render_consistency)) and the ground summaries. A report's
+//! ([`render_consistency`](super::render_consistency)) and the ground summaries
+//! (`output/summary.rs`). A report's
 //! notes are data ([`Note`](super::Note)); their sentences are `output/note.rs`'s `Display`.
 //! What is still text below this layer: the scenario fragment, YAML by nature.
 
 use super::Report;
-use super::output::report;
+use super::output::{report, summary};
 use super::precision::{signed_with_interval as pm, with_interval};
 use super::workflow::{CrossValidated, Identified};
 use serde_json::{Value, json};
@@ -47,9 +48,9 @@ pub fn cross_validated_text(m: &CrossValidated) -> String {
     let mut text = per_flight_text(&m.reports, &m.excluded);
     text += &cross_tables(&m.reports, &m.cross);
     text += &super::checks::consistency::render(&m.consistency);
-    text += &m.spin_up.as_ref().map_or(String::new(), super::fit::ground::render_spin_up_summary);
-    text += &m.after_landing.as_ref().map_or(String::new(), super::fit::ground::render_landed_summary);
-    text += &m.rest_pose.as_ref().map_or(String::new(), super::fit::ground::render_rest_pose_summary);
+    text += &m.spin_up.as_ref().map_or(String::new(), summary::spin_up);
+    text += &m.after_landing.as_ref().map_or(String::new(), summary::landed);
+    text += &m.rest_pose.as_ref().map_or(String::new(), summary::rest_pose);
     text
 }
 

@@ -768,30 +768,6 @@ pub fn landed_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreeme
     })
 }
 
-/// The summary as the multi-flight report prints it.
-pub(crate) fn render_landed_summary(s: &LandedSummary) -> String {
-    let mut t = format!(
-        "\nground check before take-off and after landing against the flight ({} of {} flights have both rests; the reference is their mean, else the rest before):\n",
-        s.with_both, s.flights
-    );
-    for (name, a) in [("roll", &s.roll), ("pitch", &s.pitch)] {
-        t += &format!(
-            "  {name:<5} the rests differ by a median {:.2}° (at most {:.2}°); median |difference| before {:.2}°, mean of the rests {:.2}°, the flight between the rests in {} of {}; over all {} flights {:.2}°, beyond 1°: {} ({} covered by its interval)\n",
-            a.median_change_deg,
-            a.max_change_deg,
-            a.median_before_deg,
-            a.median_bracket_deg,
-            a.between,
-            s.with_both,
-            s.flights,
-            a.median_reference_deg,
-            a.beyond_1deg,
-            a.beyond_1deg_covered
-        );
-    }
-    t
-}
-
 /// Over several flights: do the flights whose still pose scatters at rest
 /// ([`GroundAgreement::rest_pose_scatters`]) disagree with the ground check more than the
 /// others? Per axis, the median |rest − bias tilt − flight| of each group, the flights beyond 1°
@@ -917,35 +893,6 @@ fn exact_rank_sum_tail(ranks2: &[usize], k: usize, observed2: usize) -> f64 {
     count[k][observed2.min(max_sum + 1)..].iter().sum::<f64>() / total
 }
 
-/// The summary as the multi-flight report prints it.
-pub(crate) fn render_rest_pose_summary(s: &RestPoseSummary) -> String {
-    let mut t = format!(
-        "\nground check against the flight where the still pose scatters at rest (roll above {STILL_POSE_SD_DEG}° per sample: {} flights) and where it does not ({} flights):\n",
-        s.scattering, s.still
-    );
-    for (name, a) in [("roll", &s.roll), ("pitch", &s.pitch)] {
-        t += &format!(
-            "  {name:<5} median |difference| still {:.2}° (beyond 1°: {}, {} covered), scattering {:.2}° (beyond 1°: {}); Mann–Whitney p = {}{}\n",
-            a.median_still_deg,
-            a.still_beyond_1deg,
-            a.still_beyond_1deg_covered,
-            a.median_scattering_deg,
-            a.scattering_beyond_1deg,
-            if a.mann_whitney_p >= 1e-3 {
-                format!("{:.3}", a.mann_whitney_p)
-            } else {
-                format!("{:.0e}", a.mann_whitney_p)
-            },
-            if a.mann_whitney_p < 0.05 {
-                ": a pose the cameras see badly at rest makes the ground check an unreliable reference"
-            } else {
-                ""
-            }
-        );
-    }
-    t
-}
-
 /// P(X ≥ k) for X ~ Binomial(n, ½).
 fn binomial_upper_tail(n: usize, k: usize) -> f64 {
     let mut c = 1.0f64; // C(n, 0)
@@ -959,42 +906,18 @@ fn binomial_upper_tail(n: usize, k: usize) -> f64 {
     sum / 2f64.powi(n as i32)
 }
 
-/// The summary as the multi-flight report prints it.
-pub(crate) fn render_spin_up_summary(s: &SpinUpSummary) -> String {
-    let mut t = format!(
-        "\nground check at rest and at spin-up (motors on, still on the floor) against the flight, {} flights:\n",
-        s.flights
-    );
-    for (name, a) in [("roll", &s.roll), ("pitch", &s.pitch)] {
-        t += &format!(
-            "  {name:<5} median |difference| rest {:.2}°, spin-up {:.2}°; the spin-up moves toward the flight in {} of {} (sign test p = {:.3}){}\n",
-            a.median_rest_deg,
-            a.median_spin_up_deg,
-            a.toward_flight,
-            s.flights,
-            a.sign_test_p,
-            if a.sign_test_p < 0.05 {
-                ": the spinning rotors add an offset the flight carries too (rectified vibration, a mount that bends under thrust); in flight it reads as a tilt"
-            } else {
-                ": the difference is not what spinning rotors add on the floor"
-            }
-        );
-    }
-    t
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::frames::{Rot, Vec3};
     use crate::identify::note::Note;
+    use crate::identify::series::NominalModel;
+    use nalgebra::{UnitQuaternion, Vector3};
 
     /// The report's notes on agreement `a`, as sentences.
     fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
         crate::identify::note::of_ground_agreement(a).iter().map(ToString::to_string).collect()
     }
-    use crate::identify::series::NominalModel;
-    use nalgebra::{UnitQuaternion, Vector3};
 
     const G: f64 = 9.81;
 
@@ -1413,21 +1336,9 @@ mod tests {
         );
         // every scattering difference above every still one: exact, 1 of C(7, 3) = 35 arrangements
         assert!((sum.roll.mann_whitney_p - 1.0 / 35.0).abs() < 1e-12, "{sum:?}");
-        // the block the multi-flight report prints
-        let text = render_rest_pose_summary(&sum);
-        assert!(text.contains("(roll above 0.02° per sample: 3 flights) and where it does not (4 flights):"), "{text}");
-        assert!(
-            text.contains(
-                "roll  median |difference| still 0.15° (beyond 1°: 0, 0 covered), scattering 0.80° (beyond 1°: 1); Mann–Whitney p = 0.029: a pose the cameras see badly at rest"
-            ),
-            "{text}"
-        );
         // 3 against 2 cannot be significant: its smallest p is 1/10
         let few = rest_pose_summary(v.iter()).unwrap();
-        assert!(
-            (few.roll.mann_whitney_p - 0.1).abs() < 1e-12 && !render_rest_pose_summary(&few).contains("see badly"),
-            "{few:?}"
-        );
+        assert!((few.roll.mann_whitney_p - 0.1).abs() < 1e-12, "{few:?}");
         assert!(rest_pose_summary(v[1..].iter()).is_none(), "one still flight is too few");
         // two in each group is enough, one scattering flight is too few
         assert!(rest_pose_summary(v[..4].iter()).is_some_and(|s| (s.still, s.scattering) == (2, 2)));

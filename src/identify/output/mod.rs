@@ -1,7 +1,9 @@
-//! What an identification gives its user: the report as text, the scenario fragment that feeds
-//! the effects back into the simulation, and the PX4 parameters.
+//! What an identification gives its user: the report as text (its notes, the summaries across
+//! flights), the scenario fragment that feeds the effects back into the simulation, and the PX4
+//! parameters.
 
 pub mod feedback;
 mod note;
 pub mod px4;
 pub mod report;
+pub(crate) mod summary;
