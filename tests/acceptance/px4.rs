@@ -48,11 +48,7 @@ fn ekf2_ev_pos_is_the_tracked_point_from_the_centre_of_gravity() {
         assert!((v - truth).abs() <= ci && ci < 0.003, "{name} {v} ± {ci} m for a truth of {truth} m");
     }
     assert!(p.params.iter().all(|q| !q.name.starts_with("EKF2_IMU_POS")), "{:?}", p.params);
-    assert!(
-        p.notes.iter().any(|n| n.contains("centre of gravity") && n.contains("--with imu_offset")),
-        "{:?}",
-        p.notes
-    );
+    assert!(p.notes.contains(&flyarena::identify::px4::Px4Note::EvPosAssumesImuAtCog), "{:?}", p.notes);
 }
 
 /// `identify --px4` writes a QGroundControl parameter file beside the report: a `#` header and

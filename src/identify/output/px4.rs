@@ -120,9 +120,99 @@ pub struct Px4Parameters {
     /// The parameters to set.
     pub params: Vec<Px4Param>,
     /// What was not written and why, and what has no parameter.
-    pub notes: Vec<String>,
+    pub notes: Vec<Px4Note>,
     /// The body offset's fix in the mocap software, where one was found and is identifiable.
     pub body_offset_fix: Option<BodyOffsetFix>,
+}
+
+/// What [`parameters`] says beside the parameters: one variant per parameter group left out (and
+/// why), or written on an assumption. `Display` is the sentence the command line prints, and the
+/// JSON holds that sentence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Px4Note {
+    /// `EKF2_EV_DELAY` not written: the flight cannot tell the mocap delay from another effect.
+    DelayNotIdentifiable {
+        /// The fitted delay (ms).
+        delay_ms: f64,
+    },
+    /// `EKF2_EV_DELAY` not written: the poses are stamped before the IMU's time of the same
+    /// motion, which no delay makes up for.
+    PosesLead {
+        /// How far ahead the poses are stamped (ms, positive).
+        lead_ms: f64,
+        /// Its 95 % half-width (ms).
+        ci95_ms: f64,
+    },
+    /// `EKF2_EV_DELAY` not written: the mocap delay was not fitted.
+    DelayNotFitted,
+    /// `EKF2_IMU_POS_*` not written: the IMU's offset from the centre of mass is not identifiable.
+    ImuPosNotIdentifiable,
+    /// `EKF2_IMU_POS_*` not written: the IMU's offset was not fitted.
+    ImuPosNotFitted,
+    /// `EKF2_EV_POS_*` written as −(lever arm), the IMU taken to sit at the centre of gravity.
+    EvPosAssumesImuAtCog,
+    /// `EKF2_EV_POS_*` not written: the lever arm is not identifiable.
+    EvPosNotIdentifiable,
+    /// `EKF2_EV_POS_*` not written: no lever arm was selected.
+    EvPosNoLeverArm,
+    /// The body offset has no PX4 parameter: the fix is in the mocap software.
+    BodyOffsetInMocap {
+        /// Roll, pitch and yaw (deg, FRD, Z-Y-X) with their 95 % half-widths.
+        offset_deg: [(f64, f64); 3],
+    },
+    /// The body offset is not identifiable: no fix for the rigid body.
+    BodyOffsetNotIdentifiable,
+}
+
+impl std::fmt::Display for Px4Note {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Px4Note::DelayNotIdentifiable { delay_ms } => write!(
+                f,
+                "EKF2_EV_DELAY not written: the mocap delay ({delay_ms:.2} ms) is not identifiable from another effect on this flight"
+            ),
+            Px4Note::PosesLead { lead_ms, ci95_ms } => write!(
+                f,
+                "EKF2_EV_DELAY not written: the poses are stamped {} ms before the IMU's time of the same motion, which no delay (PX4: 0 to 300 ms) makes up for; the pose's stamps are off (a clock offset between the mocap and the flight controller)",
+                with_interval(*lead_ms, *ci95_ms)
+            ),
+            Px4Note::DelayNotFitted => {
+                f.write_str("EKF2_EV_DELAY not written: the mocap delay was not fitted (identify --px4 always fits it)")
+            }
+            Px4Note::ImuPosNotIdentifiable => f.write_str(
+                "EKF2_IMU_POS not written: the IMU's offset from the centre of mass is not identifiable on this flight",
+            ),
+            Px4Note::ImuPosNotFitted => f.write_str(
+                "EKF2_IMU_POS not written: the IMU's offset from the centre of mass was not fitted (`--with imu_offset`, which needs a force model)",
+            ),
+            Px4Note::EvPosAssumesImuAtCog => f.write_str(
+                "EKF2_EV_POS is −(lever arm): the mocap origin against the IMU, the IMU taken to sit at the centre of gravity (fit `--with imu_offset` to place it)",
+            ),
+            Px4Note::EvPosNotIdentifiable => {
+                f.write_str("EKF2_EV_POS not written: the lever arm is not identifiable on this flight")
+            }
+            Px4Note::EvPosNoLeverArm => f.write_str(
+                "EKF2_EV_POS not written: no lever arm between the mocap origin and the IMU was selected on this flight",
+            ),
+            Px4Note::BodyOffsetInMocap { offset_deg: [r, p, y] } => write!(
+                f,
+                "the body offset (roll {}°, pitch {}°, yaw {}°, FRD, Z-Y-X: the mocap's body frame against the IMU's) has no PX4 parameter: turn the rigid body's axes in the mocap software as below",
+                with_interval(r.0, r.1),
+                with_interval(p.0, p.1),
+                with_interval(y.0, y.1)
+            ),
+            Px4Note::BodyOffsetNotIdentifiable => {
+                f.write_str("the body offset is not identifiable on this flight: no fix for the rigid body")
+            }
+        }
+    }
+}
+
+impl serde::Serialize for Px4Note {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
 }
 
 /// The PX4 parameters `report` supports (see the module doc for each derivation), with the body
@@ -137,16 +227,20 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
     let found = |e: Effect| effects.iter().find(|f| f.effect == e);
     let identifiable = |e: Effect| found(e).is_some_and(|f| f.params.iter().all(|p| p.identifiable));
     match found(Effect::MocapDelay) {
-        Some(f) if !identifiable(Effect::MocapDelay) => out.notes.push(format!(
-            "EKF2_EV_DELAY not written: the mocap delay ({:.2} ms) is not identifiable from another effect on this flight",
-            f.params[0].value
-        )),
-        Some(f) if f.params[0].value < 0.0 => out.notes.push(format!(
-            "EKF2_EV_DELAY not written: the poses are stamped {} ms before the IMU's time of the same motion, which no delay (PX4: 0 to 300 ms) makes up for; the pose's stamps are off (a clock offset between the mocap and the flight controller)",
-            with_interval(-f.params[0].value, f.params[0].ci95)
-        )),
-        Some(f) => out.params.push(Px4Param { name: "EKF2_EV_DELAY", value: f.params[0].value, ci95: f.params[0].ci95, unit: "ms", from: "mocap_delay" }),
-        None => out.notes.push("EKF2_EV_DELAY not written: the mocap delay was not fitted (identify --px4 always fits it)".to_string()),
+        Some(f) if !identifiable(Effect::MocapDelay) => {
+            out.notes.push(Px4Note::DelayNotIdentifiable { delay_ms: f.params[0].value })
+        }
+        Some(f) if f.params[0].value < 0.0 => {
+            out.notes.push(Px4Note::PosesLead { lead_ms: -f.params[0].value, ci95_ms: f.params[0].ci95 })
+        }
+        Some(f) => out.params.push(Px4Param {
+            name: "EKF2_EV_DELAY",
+            value: f.params[0].value,
+            ci95: f.params[0].ci95,
+            unit: "ms",
+            from: "mocap_delay",
+        }),
+        None => out.notes.push(Px4Note::DelayNotFitted),
     }
     let mm = |e: Effect| {
         found(e)
@@ -160,13 +254,17 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
     match &imu {
         Some(r_c) => {
             for k in 0..3 {
-                out.params.push(Px4Param { name: IMU_POS[k], value: r_c[k].0, ci95: r_c[k].1, unit: "m", from: "imu_offset" });
+                out.params.push(Px4Param {
+                    name: IMU_POS[k],
+                    value: r_c[k].0,
+                    ci95: r_c[k].1,
+                    unit: "m",
+                    from: "imu_offset",
+                });
             }
         }
-        None if found(Effect::ImuOffset).is_some() => {
-            out.notes.push("EKF2_IMU_POS not written: the IMU's offset from the centre of mass is not identifiable on this flight".into())
-        }
-        None => out.notes.push("EKF2_IMU_POS not written: the IMU's offset from the centre of mass was not fitted (`--with imu_offset`, which needs a force model)".into()),
+        None if found(Effect::ImuOffset).is_some() => out.notes.push(Px4Note::ImuPosNotIdentifiable),
+        None => out.notes.push(Px4Note::ImuPosNotFitted),
     }
     match &lever {
         Some(r) => {
@@ -183,18 +281,11 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
                 });
             }
             if imu.is_none() {
-                out.notes.push(
-                    "EKF2_EV_POS is −(lever arm): the mocap origin against the IMU, the IMU taken to sit at the centre of gravity (fit `--with imu_offset` to place it)".into(),
-                );
+                out.notes.push(Px4Note::EvPosAssumesImuAtCog);
             }
         }
-        None if found(Effect::LeverArm).is_some() => {
-            out.notes.push("EKF2_EV_POS not written: the lever arm is not identifiable on this flight".into())
-        }
-        None => out.notes.push(
-            "EKF2_EV_POS not written: no lever arm between the mocap origin and the IMU was selected on this flight"
-                .into(),
-        ),
+        None if found(Effect::LeverArm).is_some() => out.notes.push(Px4Note::EvPosNotIdentifiable),
+        None => out.notes.push(Px4Note::EvPosNoLeverArm),
     }
     match found(Effect::BodyOffset) {
         Some(f) if identifiable(Effect::BodyOffset) => {
@@ -204,17 +295,10 @@ fn parameters_of(effects: &[Found], axes: MocapAxes) -> Px4Parameters {
                 [0, 1, 2].map(|k| p[k].ci95.to_radians()),
                 axes,
             );
-            out.notes.push(format!(
-                "the body offset (roll {}°, pitch {}°, yaw {}°, FRD, Z-Y-X: the mocap's body frame against the IMU's) has no PX4 parameter: turn the rigid body's axes in the mocap software as below",
-                with_interval(p[0].value, p[0].ci95),
-                with_interval(p[1].value, p[1].ci95),
-                with_interval(p[2].value, p[2].ci95)
-            ));
+            out.notes.push(Px4Note::BodyOffsetInMocap { offset_deg: [0, 1, 2].map(|k| (p[k].value, p[k].ci95)) });
             out.body_offset_fix = Some(fix);
         }
-        Some(_) => {
-            out.notes.push("the body offset is not identifiable on this flight: no fix for the rigid body".into())
-        }
+        Some(_) => out.notes.push(Px4Note::BodyOffsetNotIdentifiable),
         None => {}
     }
     out
@@ -296,23 +380,18 @@ mod tests {
     #[test]
     fn what_is_not_written_is_said_with_its_reason() {
         let p = parameters_of_frd(&[found(Effect::MocapDelay, &[(4.0, 1.0)], false)]);
-        assert!(names(&p).is_empty() && p.notes[0].contains("not identifiable"), "{p:?}");
+        assert!(names(&p).is_empty() && p.notes[0] == Px4Note::DelayNotIdentifiable { delay_ms: 4.0 }, "{p:?}");
         let p = parameters_of_frd(&[found(Effect::MocapDelay, &[(-3.0, 0.5)], true)]);
-        assert!(names(&p).is_empty() && p.notes[0].contains("3.00 ± 0.50 ms before"), "{p:?}");
+        assert!(names(&p).is_empty() && p.notes[0] == Px4Note::PosesLead { lead_ms: 3.0, ci95_ms: 0.5 }, "{p:?}");
+        assert!(p.notes[0].to_string().contains("stamped 3.00 ± 0.50 ms before the IMU's time"), "{p:?}");
         let p = parameters_of_frd(&[found(Effect::MocapDelay, &[(0.0, 0.5)], true)]);
         assert_eq!(names(&p), ["EKF2_EV_DELAY"]);
         let p = parameters_of_frd(&[]);
-        assert!(
-            p.notes[0].contains("not fitted")
-                && p.notes[1].contains("not fitted")
-                && p.notes[2].contains("no lever arm"),
-            "{p:?}"
-        );
+        assert_eq!(p.notes[..3], [Px4Note::DelayNotFitted, Px4Note::ImuPosNotFitted, Px4Note::EvPosNoLeverArm]);
         let mm = [(10.0, 1.0), (-5.0, 1.0), (30.0, 1.0)];
         let p = parameters_of_frd(&[found(Effect::ImuOffset, &mm, false), found(Effect::LeverArm, &mm, false)]);
         assert!(names(&p).is_empty(), "{p:?}");
-        assert!(p.notes[1].starts_with("EKF2_IMU_POS not written") && p.notes[1].contains("not identifiable"), "{p:?}");
-        assert!(p.notes[2].starts_with("EKF2_EV_POS not written") && p.notes[2].contains("not identifiable"), "{p:?}");
+        assert_eq!(p.notes[1..3], [Px4Note::ImuPosNotIdentifiable, Px4Note::EvPosNotIdentifiable], "{p:?}");
     }
 
     /// EV_POS = r_c − r by hand, in metres, with the half-widths in quadrature: r_c = (20, 0,
@@ -396,12 +475,15 @@ mod tests {
     #[test]
     fn a_body_offset_that_is_not_identifiable_gets_no_fix() {
         let p = parameters_of_frd(&[found(Effect::BodyOffset, &[(1.0, 0.1), (0.0, 0.1), (2.0, 0.1)], false)]);
+        assert!(p.body_offset_fix.is_none() && p.notes.contains(&Px4Note::BodyOffsetNotIdentifiable), "{p:?}");
+        let p = parameters_of_frd(&[found(Effect::BodyOffset, &[(1.0, 0.1), (0.0, 0.1), (2.0, 0.1)], true)]);
         assert!(
-            p.body_offset_fix.is_none() && p.notes.iter().any(|n| n.contains("body offset is not identifiable")),
+            p.body_offset_fix.is_some()
+                && p.notes
+                    .iter()
+                    .any(|n| n.to_string().contains("roll 1.00 ± 0.10°, pitch 0.00 ± 0.10°, yaw 2.00 ± 0.10°")),
             "{p:?}"
         );
-        let p = parameters_of_frd(&[found(Effect::BodyOffset, &[(1.0, 0.1), (0.0, 0.1), (2.0, 0.1)], true)]);
-        assert!(p.body_offset_fix.is_some() && p.notes.iter().any(|n| n.contains("roll 1.00 ± 0.10°")), "{p:?}");
     }
 
     /// Lengths print to 0.1 mm (4 decimals of a metre), milliseconds to 0.01 ms. A bug it
