@@ -235,3 +235,114 @@ pub(crate) fn of_ground_agreement(a: &GroundAgreement) -> Vec<Note> {
     }
     notes
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::ground::{LandedAgreement, SpinUpAgreement, UpAxis};
+
+    /// A tilt's comparison: ground − flight = `difference_deg` with half-width `ci95_deg`.
+    fn tilt(difference_deg: f64, ci95_deg: f64) -> TiltAgreement {
+        TiltAgreement {
+            ground_deg: difference_deg,
+            bias_tilt_deg: 0.0,
+            ground_corrected_deg: difference_deg,
+            flight_deg: 0.0,
+            difference_deg,
+            ci95_deg,
+            covers: difference_deg.abs() <= ci95_deg,
+        }
+    }
+
+    /// A spin-up that moved `change_deg` ± 0.05° from the rest and lands `difference_deg` ±
+    /// 0.2° from the flight.
+    fn spin(change_deg: f64, difference_deg: f64) -> SpinUpAxis {
+        SpinUpAxis {
+            ground_corrected_deg: 0.0,
+            change_deg,
+            change_ci95_deg: 0.05,
+            difference_deg,
+            ci95_deg: 0.2,
+            covers: difference_deg.abs() <= 0.2,
+        }
+    }
+
+    /// Rests whose mean lands `bracket_difference_deg` ± 0.3° from the flight.
+    fn landed(bracket_difference_deg: f64) -> LandedAxis {
+        LandedAxis {
+            ground_corrected_deg: 0.0,
+            change_deg: 0.0,
+            change_ci95_deg: 0.1,
+            difference_deg: 0.0,
+            ci95_deg: 0.3,
+            covers: true,
+            bracket_difference_deg,
+            bracket_ci95_deg: 0.3,
+            bracket_covers: bracket_difference_deg.abs() <= 0.3,
+        }
+    }
+
+    fn agreement(roll: TiltAgreement, pitch: TiltAgreement) -> GroundAgreement {
+        GroundAgreement {
+            roll,
+            pitch,
+            frame_fitted: true,
+            accel_bias_fitted: false,
+            spin_up: None,
+            after_landing: None,
+            rest_pose_sd_deg: [0.01, 0.01],
+            rest_pose_scatters: false,
+            up_axis: UpAxis::Z,
+        }
+    }
+
+    /// Which note each tilt gets, from agreements written by hand: none within 1° that the
+    /// interval covers, "within what the flight determines" beyond 1° when it covers, and a
+    /// disagreement otherwise, named by the up axis's tilt names; the second reference is the
+    /// same tilt's (the spin-up only where it moved beyond its interval toward the flight, else
+    /// the rests' bracket where it covers); the scatter is named only when the pose scatters.
+    /// Bugs it catches: roll's reference read for pitch, a spin-up that moved away from the
+    /// flight (or within its own interval) counted, the 1° bound moved.
+    #[test]
+    fn each_tilt_gets_the_note_its_agreement_calls_for() {
+        // roll within 1° and covered, pitch 1.5° and covered: one note, for pitch
+        assert_eq!(
+            of_ground_agreement(&agreement(tilt(0.9, 0.95), tilt(-1.5, 2.0))),
+            [Note::GroundWithinFlight { tilt: "pitch", difference_deg: -1.5, ci95_deg: 2.0 }]
+        );
+        assert!(of_ground_agreement(&agreement(tilt(1.0, 1.2), tilt(0.0, 0.1))).is_empty(), "1° itself is within");
+        // both disagree; the spin-up agrees with the flight in pitch only (roll's spin-up agrees
+        // too, but moved away from the flight: the same sign as ground − flight)
+        let mut a = agreement(tilt(0.5, 0.2), tilt(-0.6, 0.2));
+        a.spin_up = Some(SpinUpAgreement {
+            thrust_fraction: 0.3,
+            duration_s: 1.0,
+            roll: spin(0.4, 0.1),
+            pitch: spin(0.5, -0.1),
+        });
+        a.after_landing = Some(LandedAgreement { samples: 100, roll: landed(0.1), pitch: landed(0.6) });
+        let notes = of_ground_agreement(&a);
+        let other = |n: &Note| match n {
+            Note::GroundDisagrees { other, .. } => *other,
+            _ => panic!("{n:?}"),
+        };
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(matches!(notes[0], Note::GroundDisagrees { tilt: "roll", .. }), "{notes:?}");
+        assert_eq!(other(&notes[0]), Some(OtherReference::RestsBracket(landed(0.1))), "roll's own bracket");
+        assert_eq!(other(&notes[1]), Some(OtherReference::SpinUp(spin(0.5, -0.1))), "pitch's own spin-up");
+        // a spin-up within its own interval of the rest counts for nothing, nor a bracket that
+        // does not cover; a scattering pose is named
+        a.spin_up.as_mut().unwrap().pitch = spin(-0.04, 0.1);
+        a.rest_pose_scatters = true;
+        a.rest_pose_sd_deg = [0.1, 0.2];
+        let notes = of_ground_agreement(&a);
+        assert_eq!(other(&notes[1]), None, "{notes:?}");
+        assert!(
+            notes.iter().all(|n| matches!(n, Note::GroundDisagrees { rest_scatter_deg: Some(0.1), .. })),
+            "{notes:?}"
+        );
+        // a rig resting on its side names its tilts about z and x
+        a.up_axis = UpAxis::Y;
+        assert!(matches!(of_ground_agreement(&a)[1], Note::GroundDisagrees { tilt: "about x", .. }));
+    }
+}
