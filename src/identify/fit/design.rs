@@ -55,6 +55,7 @@
 //! the markers' origin at `markers.displacement_mm` = d, so the lever arm is r = r_c − d.
 
 pub use crate::effects::{Channel, Effect};
+use crate::frames::{Body, Frame, Nav, Vec3};
 use crate::identify::input::series::{Corrected, Corrections, Series, correct, raw_rots, raw_vecs};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -314,7 +315,8 @@ fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals
     let kernel = gaussian_kernel(opt.smoothing_s / dt);
     let h = kernel.len() / 2;
     let Corrected { pos_nav, att_body, ok: mut pose_ok } = correct(s, corr);
-    // the frames end here: what follows is numerical (smoothing, derivatives, least squares)
+    // smoothing and differencing run on plain coordinates; `Smoothed` hands the results back in
+    // their frames, and the channels read only body-frame vectors
     let (pos_nav, att_body) = (raw_vecs(&pos_nav), raw_rots(&att_body));
     // mocap glitches (a marker mistaken for another for a frame) become tens of m/s² after two
     // derivatives; they are found in the raw poses, not in a residual, so that no effect can
@@ -501,20 +503,20 @@ fn smoothed(
 
     let attitude_gap = smooth_vec3_kept(&attitude_gap(s, &rates, gyro_raw), segs, &kernel, stride);
     Smoothed {
-        accel_s,
-        gyro_s,
-        omega_s,
-        f_hat,
-        f_dot,
-        omega_dot,
-        v_body,
-        vel_nav,
-        nav_axes,
-        tilt_cols,
-        rigid_point,
+        accel_s: framed(accel_s),
+        gyro_s: framed(gyro_s),
+        omega_s: framed(omega_s),
+        f_hat: framed(f_hat),
+        f_dot: framed(f_dot),
+        omega_dot: framed(omega_dot),
+        v_body: framed(v_body),
+        vel_nav: framed(vel_nav),
+        nav_axes: nav_axes.map(framed),
+        tilt_cols: tilt_cols.map(framed),
+        rigid_point: rigid_point.map(framed),
         thrust_s,
         height,
-        attitude_gap,
+        attitude_gap: framed(attitude_gap),
     }
 }
 
@@ -551,34 +553,37 @@ fn rigid_point_columns(
     })
 }
 
-/// The body-frame signals every channel and column is built from, at the log's rate (smoothed;
-/// the ones compared with the IMU filled only at the rows decimation keeps).
+/// The signals every channel and column is built from, at the log's rate (smoothed; the ones
+/// compared with the IMU filled only at the rows decimation keeps). Each carries its frame: the
+/// true body frame (FRD, the IMU's: the corrections have turned the mocap's body onto it), or
+/// nav (NED) for the one velocity that stays there; the smoothing and differencing above run on
+/// plain coordinates and hand over here.
 struct Smoothed {
     /// The accelerometer and the gyro (delay taken out), smoothed (m/s², rad/s).
-    accel_s: Vec<Vector3<f64>>,
-    gyro_s: Vec<Vector3<f64>>,
+    accel_s: Vec<Vec3<Body>>,
+    gyro_s: Vec<Vec3<Body>>,
     /// The mocap's body rates (rad/s).
-    omega_s: Vec<Vector3<f64>>,
+    omega_s: Vec<Vec3<Body>>,
     /// The specific force the mocap implies, f̂ = Rᵀ(p̈ − g·e_D) (m/s²), and the IMU's own ḟ.
-    f_hat: Vec<Vector3<f64>>,
-    f_dot: Vec<Vector3<f64>>,
+    f_hat: Vec<Vec3<Body>>,
+    f_dot: Vec<Vec3<Body>>,
     /// The gyro's derivative (rad/s²).
-    omega_dot: Vec<Vector3<f64>>,
+    omega_dot: Vec<Vec3<Body>>,
     /// Velocity in the body frame and in nav (m/s).
-    v_body: Vec<Vector3<f64>>,
-    vel_nav: Vec<Vector3<f64>>,
+    v_body: Vec<Vec3<Body>>,
+    vel_nav: Vec<Vec3<Nav>>,
     /// K*(Rᵀe_j) for the nav axes, and the world tilt's columns (multiples of them).
-    nav_axes: [Vec<Vector3<f64>>; 3],
-    tilt_cols: [Vec<Vector3<f64>>; 2],
+    nav_axes: [Vec<Vec3<Body>>; 3],
+    tilt_cols: [Vec<Vec3<Body>>; 2],
     /// ω̇×e_j + K*(ω×(ω×e_j)): the lever arms' columns (per unit of r along e_j, m/s² per m).
-    rigid_point: [Vec<Vector3<f64>>; 3],
+    rigid_point: [Vec<Vec3<Body>>; 3],
     /// Collective thrust from the commands (N), if known.
     thrust_s: Option<Vec<f64>>,
     /// Height above the floor (m; infinite without a floor).
     height: Vec<f64>,
     /// The mocap attitude against the gyro's integral, high-passed (rad, body): a lead for the
     /// mocap's own attitude error, which f̂ carries as −δθ × f.
-    attitude_gap: Vec<Vector3<f64>>,
+    attitude_gap: Vec<Vec3<Body>>,
 }
 
 /// Over this window the gyro's integral holds the attitude (s): the attitude gap is the
@@ -622,6 +627,22 @@ struct Channels {
 
 fn unit(j: usize) -> Vector3<f64> {
     Vector3::from_fn(|r, _| if r == j { 1.0 } else { 0.0 })
+}
+
+/// Plain coordinates handed over in frame `F`.
+fn framed<F: Frame>(v: Vec<Vector3<f64>>) -> Vec<Vec3<F>> {
+    v.into_iter().map(Vec3::from_raw).collect()
+}
+
+/// Component `a` of each body-frame vector: a channel's axis or a column along it. Every
+/// channel is a residual in the body frame, so a signal in nav cannot reach one unturned.
+fn component(v: &[Vec3<Body>], a: usize) -> Vec<f64> {
+    v.iter().map(|x| axis(x, a)).collect()
+}
+
+/// Component `a` of a body-frame vector.
+fn axis(v: &Vec3<Body>, a: usize) -> f64 {
+    v.raw()[a]
 }
 
 /// The channels and the candidates' regressors (the table at the top of this module).
@@ -675,33 +696,35 @@ fn accel_kin_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Chan
     let Smoothed { accel_s, f_hat, f_dot, tilt_cols, rigid_point, .. } = x;
     let (col, t_mid) = (|e: Effect, j: usize| cols.of(e, j), cols.t_mid);
     let c = Channel::AccelKin.index();
-    ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
-    ch.predicted[c][a] = f_hat.iter().map(|v| v[a]).collect();
+    ch.measured[c][a] = component(accel_s, a);
+    ch.predicted[c][a] = component(f_hat, a);
     for j in 0..3 {
-        ch.columns[c][a].push((col(Effect::BodyOffset, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
+        ch.columns[c][a]
+            .push((col(Effect::BodyOffset, j), accel_s.iter().map(|f| unit(j).cross(f.raw())[a]).collect()));
     }
     for j in 0..2 {
-        ch.columns[c][a].push((col(Effect::WorldTilt, j), tilt_cols[j].iter().map(|v| v[a]).collect()));
+        ch.columns[c][a].push((col(Effect::WorldTilt, j), component(&tilt_cols[j], a)));
     }
-    ch.columns[c][a].push((col(Effect::MocapDelay, 0), f_dot.iter().map(|v| v[a]).collect()));
-    ch.columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * f_dot[i][a]).collect()));
+    ch.columns[c][a].push((col(Effect::MocapDelay, 0), component(f_dot, a)));
+    ch.columns[c][a]
+        .push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * axis(&f_dot[i], a)).collect()));
     ch.columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
     ch.columns[c][a].push((col(Effect::AccelBiasDrift, a), (0..n).map(|i| s.t_s[i] - t_mid).collect()));
     // the accelerometer's own frame: turned against the gyro's (the gyro carries the body
     // offset), and its z scaled
     for j in 0..2 {
         ch.columns[c][a]
-            .push((col(Effect::AccelMisalignment, j), accel_s.iter().map(|f| unit(j).cross(f)[a]).collect()));
+            .push((col(Effect::AccelMisalignment, j), accel_s.iter().map(|f| unit(j).cross(f.raw())[a]).collect()));
     }
     // the z scale's regressor is the mocap's f̂_z: in flight it swings by metres per second
     // squared against a noise of a few hundredths, so the errors-in-variables bias is small
     if a == 2 {
-        ch.columns[c][a].push((col(Effect::AccelScale, 0), f_hat.iter().map(|f| f[a]).collect()));
+        ch.columns[c][a].push((col(Effect::AccelScale, 0), component(f_hat, a)));
     }
     // the IMU at r from the point the mocap tracks (body FRD): it feels the rotation's
     // acceleration ω̇×r + ω×(ω×r) that the tracked point does not (linear in r)
     for j in 0..3 {
-        ch.columns[c][a].push((col(Effect::LeverArm, j), rigid_point[j].iter().map(|v| v[a]).collect()));
+        ch.columns[c][a].push((col(Effect::LeverArm, j), component(&rigid_point[j], a)));
     }
 }
 
@@ -712,17 +735,18 @@ fn gyro_axis(s: &Series, x: &Smoothed, cols: &Cols, a: usize, ch: &mut Channels)
     let Smoothed { gyro_s, omega_dot, omega_s, .. } = x;
     let (col, t_mid) = (|e: Effect, j: usize| cols.of(e, j), cols.t_mid);
     let c = Channel::Gyro.index();
-    ch.measured[c][a] = gyro_s.iter().map(|v| v[a]).collect();
-    ch.predicted[c][a] = omega_s.iter().map(|v| v[a]).collect();
+    ch.measured[c][a] = component(gyro_s, a);
+    ch.predicted[c][a] = component(omega_s, a);
     for j in 0..3 {
-        ch.columns[c][a].push((col(Effect::BodyOffset, j), gyro_s.iter().map(|w| unit(j).cross(w)[a]).collect()));
+        ch.columns[c][a].push((col(Effect::BodyOffset, j), gyro_s.iter().map(|w| unit(j).cross(w.raw())[a]).collect()));
     }
-    ch.columns[c][a].push((col(Effect::MocapDelay, 0), omega_dot.iter().map(|v| v[a]).collect()));
-    ch.columns[c][a].push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * omega_dot[i][a]).collect()));
+    ch.columns[c][a].push((col(Effect::MocapDelay, 0), component(omega_dot, a)));
+    ch.columns[c][a]
+        .push((col(Effect::ClockDrift, 0), (0..n).map(|i| (s.t_s[i] - t_mid) * axis(&omega_dot[i], a)).collect()));
     ch.columns[c][a].push((col(Effect::GyroBias, a), vec![1.0; n]));
     ch.columns[c][a].push((col(Effect::GyroBiasDrift, a), (0..n).map(|i| s.t_s[i] - t_mid).collect()));
     // the gyro's samples τ_g later than the accelerometer's: ω(t − τ_g) ≈ ω − τ_g·ω̇
-    ch.columns[c][a].push((col(Effect::GyroDelay, 0), omega_dot.iter().map(|v| -v[a]).collect()));
+    ch.columns[c][a].push((col(Effect::GyroDelay, 0), omega_dot.iter().map(|v| -axis(v, a)).collect()));
 }
 
 /// force, axis `a`: the accelerometer against the nominal force model (thrust −T/m along z, rotor
@@ -733,11 +757,11 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
     let Smoothed { accel_s, v_body, nav_axes, height, rigid_point, .. } = x;
     let (col, t_mid) = (|e: Effect, j: usize| cols.of(e, j), cols.t_mid);
     let c = Channel::Force.index();
-    ch.measured[c][a] = accel_s.iter().map(|v| v[a]).collect();
+    ch.measured[c][a] = component(accel_s, a);
     ch.predicted[c][a] = (0..n)
         .map(|i| match a {
             2 => -spec[i],
-            _ => -m.rotor_drag_per_s[a] * v_body[i][a],
+            _ => -m.rotor_drag_per_s[a] * axis(&v_body[i], a),
         })
         .collect();
     ch.columns[c][a].push((col(Effect::AccelBias, a), vec![1.0; n]));
@@ -753,8 +777,8 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
             (0..n)
                 .map(|i| {
                     e_j.cross(&Vector3::new(
-                        -m.rotor_drag_per_s[0] * v_body[i].x,
-                        -m.rotor_drag_per_s[1] * v_body[i].y,
+                        -m.rotor_drag_per_s[0] * v_body[i].x(),
+                        -m.rotor_drag_per_s[1] * v_body[i].y(),
                         -spec[i],
                     ))[a]
                 })
@@ -768,15 +792,16 @@ fn force_axis(s: &Series, x: &Smoothed, spec: &[f64], cols: &Cols, a: usize, ch:
         _ => {}
     }
     for j in 0..3 {
-        ch.columns[c][a].push((col(Effect::ConstantForce, j), nav_axes[j].iter().map(|v| v[a] / m.mass_kg).collect()));
+        ch.columns[c][a]
+            .push((col(Effect::ConstantForce, j), nav_axes[j].iter().map(|v| axis(v, a) / m.mass_kg).collect()));
     }
     // the IMU at r from the centre of mass (body FRD): it feels ω̇×r + ω×(ω×r) that the force
     // model's centre-of-mass acceleration lacks (linear in r)
     for j in 0..3 {
-        ch.columns[c][a].push((col(Effect::ImuOffset, j), rigid_point[j].iter().map(|v| v[a]).collect()));
+        ch.columns[c][a].push((col(Effect::ImuOffset, j), component(&rigid_point[j], a)));
     }
     if a < 2 {
-        ch.columns[c][a].push((col(Effect::RotorDrag, a), v_body.iter().map(|v| -v[a]).collect()));
+        ch.columns[c][a].push((col(Effect::RotorDrag, a), v_body.iter().map(|v| -axis(v, a)).collect()));
     } else {
         ch.columns[c][a].push((col(Effect::ThrustScale, 0), spec.iter().map(|x| -x).collect()));
         if let Some(vb) = &s.vbat_v {
@@ -810,19 +835,19 @@ fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
     let mut signals: Vec<Signal> = vec![
         sig("time (s)", s.t_s.clone(), vec![]),
         sig("speed (m/s)", vel_nav.iter().map(|v| v.norm()).collect(), vec![]),
-        sig("body velocity x (m/s)", v_body.iter().map(|v| v.x).collect(), vec![]),
-        sig("body velocity y (m/s)", v_body.iter().map(|v| v.y).collect(), vec![]),
-        sig("body velocity z (m/s)", v_body.iter().map(|v| v.z).collect(), vec![]),
+        sig("body velocity x (m/s)", v_body.iter().map(|v| v.x()).collect(), vec![]),
+        sig("body velocity y (m/s)", v_body.iter().map(|v| v.y()).collect(), vec![]),
+        sig("body velocity z (m/s)", v_body.iter().map(|v| v.z()).collect(), vec![]),
         sig("body rate norm (rad/s)", gyro_s.iter().map(|w| w.norm()).collect(), vec![(kg, 0), (kg, 1), (kg, 2)]),
-        sig("body rate x (rad/s)", gyro_s.iter().map(|w| w.x).collect(), vec![(kg, 0)]),
-        sig("body rate y (rad/s)", gyro_s.iter().map(|w| w.y).collect(), vec![(kg, 1)]),
-        sig("body rate z (rad/s)", gyro_s.iter().map(|w| w.z).collect(), vec![(kg, 2)]),
-        sig("angular acceleration x (rad/s²)", omega_dot.iter().map(|w| w.x).collect(), vec![]),
-        sig("angular acceleration y (rad/s²)", omega_dot.iter().map(|w| w.y).collect(), vec![]),
-        sig("angular acceleration z (rad/s²)", omega_dot.iter().map(|w| w.z).collect(), vec![]),
-        sig("specific force x (m/s²)", accel_s.iter().map(|f| f.x).collect(), vec![(ka, 0), (kf, 0)]),
-        sig("specific force y (m/s²)", accel_s.iter().map(|f| f.y).collect(), vec![(ka, 1), (kf, 1)]),
-        sig("specific force z (m/s²)", accel_s.iter().map(|f| f.z).collect(), vec![(ka, 2), (kf, 2)]),
+        sig("body rate x (rad/s)", gyro_s.iter().map(|w| w.x()).collect(), vec![(kg, 0)]),
+        sig("body rate y (rad/s)", gyro_s.iter().map(|w| w.y()).collect(), vec![(kg, 1)]),
+        sig("body rate z (rad/s)", gyro_s.iter().map(|w| w.z()).collect(), vec![(kg, 2)]),
+        sig("angular acceleration x (rad/s²)", omega_dot.iter().map(|w| w.x()).collect(), vec![]),
+        sig("angular acceleration y (rad/s²)", omega_dot.iter().map(|w| w.y()).collect(), vec![]),
+        sig("angular acceleration z (rad/s²)", omega_dot.iter().map(|w| w.z()).collect(), vec![]),
+        sig("specific force x (m/s²)", accel_s.iter().map(|f| f.x()).collect(), vec![(ka, 0), (kf, 0)]),
+        sig("specific force y (m/s²)", accel_s.iter().map(|f| f.y()).collect(), vec![(ka, 1), (kf, 1)]),
+        sig("specific force z (m/s²)", accel_s.iter().map(|f| f.z()).collect(), vec![(ka, 2), (kf, 2)]),
         sig("height (m)", height.iter().map(|h| if h.is_finite() { *h } else { 0.0 }).collect(), vec![]),
         // the mocap pose's own error: its attitude error reads in f̂ as −δθ × f (the residual
         // gains (−g·δθ_y, g·δθ_x) in flight), and a pose's position and attitude errors come
@@ -831,7 +856,7 @@ fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
             floor: true,
             ..sig(
                 "mocap attitude − gyro integral x (rad)",
-                attitude_gap.iter().map(|v| v.x).collect(),
+                attitude_gap.iter().map(|v| v.x()).collect(),
                 vec![(kg, 0), (kg, 1), (kg, 2)],
             )
         },
@@ -839,7 +864,7 @@ fn lead_signals(s: &Series, x: &Smoothed) -> Vec<Signal> {
             floor: true,
             ..sig(
                 "mocap attitude − gyro integral y (rad)",
-                attitude_gap.iter().map(|v| v.y).collect(),
+                attitude_gap.iter().map(|v| v.y()).collect(),
                 vec![(kg, 0), (kg, 1), (kg, 2)],
             )
         },
