@@ -1199,7 +1199,7 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
 /// the turns. A jump J at row i is J off its neighbours' midpoint, and row i ± 1 is J/2 off its own
 /// (J, 0 and J/2): rows i − 1 … i + 1 exceed the limit (floors 1 mm and 0.5°, 20 robust σ of a
 /// smooth flight's sub-millimetre differences), and i − 1 … i + 2 for the two-frame jump: 16 rows,
-/// 5 glitches. A bug it catches: the note's `outliers > 0` as `< 0` (never named); the note counted rows (12 for 4 one-frame glitches).
+/// 5 glitches. A bug it catches: the note's `outliers > 0` as `< 0` (never named); the note counted rows (12 for 4 one-frame glitches), or left out a window other than ±3σ.
 #[test]
 fn injected_mocap_glitches_are_left_out_and_named() {
     use flyarena::identify::glitches;
@@ -1221,5 +1221,7 @@ fn injected_mocap_glitches_are_left_out_and_named() {
     assert_eq!(glitches(&series), want);
     let r = identify(&series, &Options::default()).unwrap();
     assert!(r.effects.is_empty(), "found {:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());
-    assert!(r.notes.iter().any(|n| matches!(n, flyarena::identify::Note::Glitches { count: 5, .. })), "{:?}", r.notes);
+    // each left out with ±3σ of the smoothing (σ = 20 ms)
+    let named = flyarena::identify::Note::Glitches { count: 5, sigmas: 20.0, window_ms: 60.0 };
+    assert!(r.notes.contains(&named), "{:?}", r.notes);
 }

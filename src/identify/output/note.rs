@@ -265,6 +265,15 @@ mod tests {
             ),
             (Note::MaxSteps { steps: 8 }, "stopped after 8 steps (max_steps)"),
             (
+                Note::ImuOffsetSignature {
+                    leads: vec![
+                        ForceLead { axis: 'x', signal: "angular acceleration y (rad/s²)".into(), r: 0.254 },
+                        ForceLead { axis: 'y', signal: "angular acceleration x (rad/s²)".into(), r: -0.31 },
+                    ],
+                },
+                "force.x follows angular acceleration y (rad/s²) (r = +0.25), force.y follows angular acceleration x (rad/s²) (r = -0.31): the signature of an IMU off the centre of mass (ω̇ × r, the accelerometer ahead of or below the point the force model describes), which `--with imu_offset` tests",
+            ),
+            (
                 Note::ExplainAlike {
                     effect: Effect::ThrustScale,
                     other: Effect::ThrustVoltage,

@@ -1608,6 +1608,10 @@ mod tests {
         assert_eq!(unavailable_reason(&no_force, Effect::AccelBias), None);
         assert_eq!(unavailable_reason(&no_force, Effect::ThrustScale), Some(Unavailable::NoMotorCommands));
         assert_eq!(unavailable_reason(&design(true, false), Effect::ThrustVoltage), Some(Unavailable::NoVoltage));
+        // a drift with too short a log is that, with or without motors (no usable row: 0 s)
+        let short = Some(Unavailable::TooShort { span_s: 0.0, min_s: crate::effects::DRIFT_MIN_S });
+        assert_eq!(unavailable_reason(&design(true, false), Effect::AccelBiasDrift), short);
+        assert_eq!(unavailable_reason(&no_force, Effect::GyroBiasDrift), short);
     }
 
     /// A candidate's correlation with the residual, from the Gram sums by hand: on the base set
