@@ -31,20 +31,7 @@ impl Display for Note {
                 f,
                 "{count} mocap glitches (poses more than {sigmas} robust σ, and 1 mm or 0.5°, off the midpoint of their neighbours; consecutive ones count once) were left out with ±{window_ms} ms around each"
             ),
-            Note::LeftOut { effect, why } => {
-                let key = effect.key();
-                match why {
-                    Unavailable::NoVoltage => write!(f, "--with {key}: left out, the log has no battery voltage"),
-                    Unavailable::TooShort { span_s, min_s } => write!(
-                        f,
-                        "--with {key}: left out, the log's usable samples span {span_s:.0} s and a drift is fitted on {min_s:.0} s or more"
-                    ),
-                    Unavailable::NoMotorCommands => write!(
-                        f,
-                        "--with {key}: left out, it acts only through the thrust model and the log has no motor commands"
-                    ),
-                }
-            }
+            Note::LeftOut { effect, why } => write!(f, "--with {}: left out, {why}", effect.key()),
             Note::Forced { effects } => {
                 write!(f, "fitted without testing (forced): {}", joined(effects.iter().map(|e| e.key()), ", "))
             }
@@ -158,6 +145,20 @@ fn ground_disagrees(n: &Note, f: &mut Formatter<'_>) -> fmt::Result {
     Ok(())
 }
 
+impl Display for Unavailable {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        match self {
+            Unavailable::NoVoltage => f.write_str("the log has no battery voltage"),
+            Unavailable::TooShort { span_s, min_s } => {
+                write!(f, "the log's usable samples span {span_s:.0} s and a drift is fitted on {min_s:.0} s or more")
+            }
+            Unavailable::NoMotorCommands => {
+                f.write_str("it acts only through the thrust model and the log has no motor commands")
+            }
+        }
+    }
+}
+
 impl Display for Moved {
     fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
         write!(f, "{} {} {:+.3} {}", self.effect.key(), self.param, self.shift, self.unit)
@@ -203,13 +204,12 @@ mod tests {
     use crate::identify::ground::{LandedAxis, STILL_POSE_SD_DEG};
     use crate::identify::quality::QualityChannel;
 
-    /// The sentences of the notes no selection test renders, written out by hand: the gate's
-    /// cut (its stretches joined by "; ", a floor contact named), the data's limits, the options
-    /// left out and why, and a ground disagreement with every clause (the bias removed, the
-    /// rests' bracket, a scattering pose). A bug it catches: a field in the wrong slot, a
-    /// clause dropped or a precision changed, which would change the JSON's `notes` too.
+    /// The sentences of the notes on the data, written out by hand: the gate's cut (its
+    /// stretches joined by "; ", a floor contact named), the data's limits and a rest off its
+    /// axes. A bug it catches: a field in the wrong slot, a clause dropped or a precision
+    /// changed, which would change the JSON's `notes` too.
     #[test]
-    fn each_note_reads_as_its_sentence() {
+    fn the_notes_on_the_data_read_as_their_sentences() {
         let cut = |from_s, at_floor| Cut {
             channel: QualityChannel::Accel,
             from_s,
@@ -218,7 +218,7 @@ mod tests {
             at_floor,
             reason: "|f| 320 m/s² > 160".into(),
         };
-        let cases = [
+        sentences([
             (
                 Note::DataQualityCut {
                     rows_cut: 40,
@@ -244,6 +244,19 @@ mod tests {
                 Note::Glitches { count: 5, sigmas: 20.0, window_ms: 30.0 },
                 "5 mocap glitches (poses more than 20 robust σ, and 1 mm or 0.5°, off the midpoint of their neighbours; consecutive ones count once) were left out with ±30 ms around each",
             ),
+            (
+                Note::RestOffAxis { off_axis_deg: 39.6 },
+                "the log rests with the vertical 40° from the nearest body axis: the ground check reads tilts about two body axes that are level at rest, so it is left out (the fit assumes nothing about the rest attitude)",
+            ),
+        ]);
+    }
+
+    /// The sentences of the selection's notes that its own tests do not render, written out by
+    /// hand: the options left out and why, the forced effects, the step limit, the IMU-offset
+    /// hint and a pair that explains the residual alike.
+    #[test]
+    fn the_selection_notes_read_as_their_sentences() {
+        sentences([
             (
                 Note::LeftOut { effect: Effect::ThrustVoltage, why: Unavailable::NoVoltage },
                 "--with thrust_voltage: left out, the log has no battery voltage",
@@ -282,11 +295,11 @@ mod tests {
                 },
                 "thrust_scale and thrust_voltage explain this flight's residual alike once the other effects are fitted (canonical correlation 0.9961, yaw spread 3.0°): not identifiable; thrust_scale's parameters are one explanation of two, and the other effects' intervals cover both",
             ),
-            (
-                Note::RestOffAxis { off_axis_deg: 39.6 },
-                "the log rests with the vertical 40° from the nearest body axis: the ground check reads tilts about two body axes that are level at rest, so it is left out (the fit assumes nothing about the rest attitude)",
-            ),
-        ];
+        ]);
+    }
+
+    /// Each note reads as its sentence, and its JSON is that sentence.
+    fn sentences<const N: usize>(cases: [(Note, &str); N]) {
         for (note, sentence) in cases {
             assert_eq!(note.to_string(), sentence);
             assert_eq!(serde_json::to_value(&note).unwrap(), serde_json::Value::String(sentence.into()));
