@@ -80,7 +80,7 @@ pub use feedback::{TrajectoryError, load_with_effects};
 pub use present::{cross_validated_json, cross_validated_text, identified_json, identified_text};
 pub use report::{render as render_report, verdict};
 pub use select::{IdentifyError, Options, Report, identify};
-pub use workflow::{CrossValidated, Identified, Request, Source, run, run_many};
+pub use workflow::{CrossValidated, Exclusion, Identified, Request, Source, run, run_many};
 
 // inputs: the series every reader builds, and the readers
 pub use flyarena_log::{THRUST_REL_SD, run_and_log};

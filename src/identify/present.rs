@@ -10,7 +10,7 @@
 use super::Report;
 use super::output::{report, summary};
 use super::precision::{signed_with_interval as pm, with_interval};
-use super::workflow::{CrossValidated, Identified};
+use super::workflow::{CrossValidated, Exclusion, Identified};
 use serde_json::{Value, json};
 
 /// The report as `flyarena identify` prints it: the report's table, then, for a flight flown
@@ -63,7 +63,7 @@ pub fn cross_validated_json(m: &CrossValidated) -> Value {
         "spin_up": m.spin_up,
         "after_landing": m.after_landing,
         "rest_pose": m.rest_pose,
-        "excluded": m.excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e})).collect::<Vec<_>>(),
+        "excluded": m.excluded.iter().map(|(n, e)| json!({"flight": n, "reason": e.to_string()})).collect::<Vec<_>>(),
         "cross_validation": {
             "flights": reports.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),
             "accel_kin_cut": cross.iter().map(|row| row.iter().map(|c| c.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
@@ -74,7 +74,7 @@ pub fn cross_validated_json(m: &CrossValidated) -> Value {
 
 /// The per-flight block of a cross-validation: each flight's held-out cuts, effects, ground
 /// checks, leads and notes, then the flights left out and why.
-fn per_flight_text(reports: &[(String, Report)], excluded: &[(String, String)]) -> String {
+fn per_flight_text(reports: &[(String, Report)], excluded: &[(String, Exclusion)]) -> String {
     use super::fit::design::Channel;
     use super::fit::select::channel_cut;
     let mut text = String::from("per flight (held-out error cut per channel; effects with 95 % intervals):\n");
@@ -177,4 +177,13 @@ fn cross_tables(reports: &[(String, Report)], cross: &[Vec<(Option<f64>, Option<
         }
     }
     text
+}
+
+impl std::fmt::Display for Exclusion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Exclusion::CopyOf(first) => write!(f, "the same samples as {first} (a copy of that log): counted once"),
+            Exclusion::Rejected(e) => write!(f, "{e}"),
+        }
+    }
 }

@@ -169,7 +169,7 @@ pub struct CrossValidated {
     /// The still pose's scatter at rest over the flights (`None`: fewer than 3).
     pub rest_pose: Option<super::fit::ground::RestPoseSummary>,
     /// The flights left out, each with the reason.
-    pub excluded: Vec<(String, String)>,
+    pub excluded: Vec<(String, Exclusion)>,
 }
 
 /// Identifies every log through one mapping, then evaluates each flight's model on every other
@@ -240,7 +240,18 @@ pub fn run_many(
 struct Each {
     reports: Vec<(String, super::Report)>,
     series: Vec<super::Series>,
-    excluded: Vec<(String, String)>,
+    excluded: Vec<(String, Exclusion)>,
+}
+
+/// Why a flight of a cross-validation was left out (its sentence is its `Display`).
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum Exclusion {
+    /// The same samples as the named earlier flight under another name (published datasets hold
+    /// such copies, which would agree with themselves and count twice): counted once.
+    CopyOf(String),
+    /// [`identify`] gave no report (the data-quality gate left too little clean data).
+    Rejected(super::IdentifyError),
 }
 
 /// Reads and identifies every log: the reports and series of the flights identified (in input
@@ -254,12 +265,12 @@ fn identify_each(
     opts: &super::Options,
 ) -> Result<Each, InputError> {
     let mut read: Vec<(String, super::Series)> = Vec::new();
-    let mut excluded: Vec<(String, String)> = Vec::new();
+    let mut excluded: Vec<(String, Exclusion)> = Vec::new();
     for p in inputs {
         let s = map.read(p)?;
         let name = p.file_stem().map_or_else(|| p.display().to_string(), |x| x.to_string_lossy().into_owned());
         if let Some((first, _)) = read.iter().find(|(_, r)| r.same_samples(&s)) {
-            excluded.push((name, format!("the same samples as {first} (a copy of that log): counted once")));
+            excluded.push((name, Exclusion::CopyOf(first.clone())));
             continue;
         }
         read.push((name, s));
@@ -271,11 +282,11 @@ fn identify_each(
                 reports.push((name, r));
                 kept.push(s);
             }
-            Err(e) => excluded.push((name, e.to_string())),
+            Err(e) => excluded.push((name, Exclusion::Rejected(e))),
         }
     }
     if reports.is_empty() {
-        return Err(InputError::NoFlightPasses(excluded.into_iter().map(|(_, e)| e).collect()));
+        return Err(InputError::NoFlightPasses(excluded.iter().map(|(_, e)| e.to_string()).collect()));
     }
     Ok(Each { reports, series: kept, excluded })
 }

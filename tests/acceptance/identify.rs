@@ -1151,7 +1151,8 @@ fn the_fragment_places_the_imu_and_the_markers_apart() {
 /// A log given twice (the same samples under another name: 21 of the 90 further flights of the
 /// published NanoBench set are byte-identical copies of another) is identified once: the copy is
 /// left out, naming the log it copies, so that it cannot agree with itself in the consistency
-/// test or the cross-validation. A log that differs in one sample is a flight of its own.
+/// test or the cross-validation. A log that differs in one sample is a flight of its own; one
+/// whose accelerometer reads 50 g throughout is left out as the gate rejects it.
 #[test]
 fn a_copied_log_counts_once_in_the_cross_validation() {
     let Some(data) = super::shared_data() else { return };
@@ -1169,7 +1170,17 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
     lines[500] = row.join(",");
     let edited = dir.join("B8_edited.csv");
     std::fs::write(&edited, lines.join("\n") + "\n").unwrap();
-    let inputs = [src.as_path(), copy.as_path(), edited.as_path()];
+    // the accelerometer's x at 50 g in every row: beyond any IMU's range, nothing clean is left
+    let broken_lines: Vec<String> = std::iter::once(lines[0].clone())
+        .chain(lines[1..].iter().map(|l| {
+            let mut row: Vec<&str> = l.split(',').collect();
+            row[col] = "490.5";
+            row.join(",")
+        }))
+        .collect();
+    let broken = dir.join("B8_broken.csv");
+    std::fs::write(&broken, broken_lines.join("\n") + "\n").unwrap();
+    let inputs = [src.as_path(), copy.as_path(), edited.as_path(), broken.as_path()];
     let cv = flyarena::identify::run_many(
         &inputs,
         &super::root().join("mappings/nanobench.yaml"),
@@ -1179,15 +1190,26 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
     .unwrap();
     let names: Vec<&str> = cv.reports.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["B8_star_medium_rep1", "B8_edited"]);
-    assert_eq!(cv.excluded.len(), 1, "{:?}", cv.excluded);
+    assert_eq!(cv.excluded.len(), 2, "{:?}", cv.excluded);
     assert_eq!(cv.excluded[0].0, "B8_copy");
-    assert!(cv.excluded[0].1.contains("the same samples as B8_star_medium_rep1"), "{:?}", cv.excluded);
+    assert_eq!(cv.excluded[1].0, "B8_broken");
+    let flyarena::identify::Exclusion::Rejected(e) = &cv.excluded[1].1 else { panic!("{:?}", cv.excluded) };
+    assert!(matches!(e, flyarena::identify::IdentifyError::TooLittleClean { .. }), "{e:?}");
+    assert!(
+        matches!(&cv.excluded[0].1, flyarena::identify::Exclusion::CopyOf(first) if first == "B8_star_medium_rep1"),
+        "{:?}",
+        cv.excluded
+    );
     let json = flyarena::identify::cross_validated_json(&cv);
     assert_eq!(json["excluded"][0]["flight"], "B8_copy");
-    assert_eq!(json["excluded"][0]["reason"].as_str(), Some(cv.excluded[0].1.as_str()));
+    assert_eq!(
+        json["excluded"][0]["reason"],
+        "the same samples as B8_star_medium_rep1 (a copy of that log): counted once"
+    );
     assert!(
         flyarena::identify::cross_validated_text(&cv)
-            .contains("B8_copy: left out, the same samples as B8_star_medium_rep1"),
+            .contains("B8_copy: left out, the same samples as B8_star_medium_rep1")
+            && flyarena::identify::cross_validated_text(&cv).contains(&format!("B8_broken: left out, {e}")),
         "{}",
         flyarena::identify::cross_validated_text(&cv)
     );
