@@ -3,9 +3,9 @@
 //! ([`Identified`], [`CrossValidated`], which hold data). It composes the renderers of the
 //! report ([`render_report`](super::render_report)), the consistency across flights
 //! ([`render_consistency`](super::render_consistency)) and the ground summaries
-//! (`output/summary.rs`). A report's
-//! notes are data ([`Note`](super::Note)); their sentences are `output/note.rs`'s `Display`.
-//! What is still text below this layer: the scenario fragment, YAML by nature.
+//! (`output/summary.rs`). A report's notes are data ([`Note`](super::Note)); their sentences are
+//! `output/note.rs`'s `Display`. What is still text below this layer: the scenario fragment,
+//! YAML by nature.
 
 use super::Report;
 use super::output::{report, summary};

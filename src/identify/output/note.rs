@@ -1,6 +1,8 @@
 //! A report's notes as the sentences a reader sees: `Display` for the text report, and
 //! `Serialize` as the same sentence, so the JSON's `notes` hold what the text shows.
 
+use crate::identify::design::Effect;
+use crate::identify::ground::TiltAgreement;
 use crate::identify::note::{ForceLead, Moved, Note, OtherReference, Unavailable};
 use crate::identify::precision::{signed_with_interval as pm, with_interval};
 use crate::identify::quality::Cut;
@@ -57,7 +59,10 @@ impl Display for Note {
                 "the mocap delay came out negative ({:.1} ms: the mocap leads the IMU): a clock offset between the streams, or a delay of the gyro alone against the accelerometer, which `--with gyro_delay` tests",
                 delay_s * 1e3
             ),
-            Note::HalfSupported { .. } => half_supported(self, f),
+            Note::HalfSupported { effect, delta_bic, p_value, heldout_gain, min_heldout_gain, very_strong, moved } => {
+                let gate = very_strong.then_some(*min_heldout_gain);
+                half_supported(f, *effect, *delta_bic, *p_value, *heldout_gain, gate, moved)
+            }
             Note::ImuOffsetSignature { leads } => write!(
                 f,
                 "{}: the signature of an IMU off the centre of mass (ω̇ × r, the accelerometer ahead of or below the point the force model describes), which `--with imu_offset` tests",
@@ -68,7 +73,9 @@ impl Display for Note {
                 "ground check and flight differ by {}° in {tilt}, within what this flight determines: the flight cannot pin its tilt down to 1°",
                 with_interval(*difference_deg, *ci95_deg)
             ),
-            Note::GroundDisagrees { .. } => ground_disagrees(self, f),
+            Note::GroundDisagrees { tilt, agreement, other, rest_scatter_deg } => {
+                ground_disagrees(f, tilt, agreement, other.as_ref(), *rest_scatter_deg)
+            }
             Note::RestOffAxis { off_axis_deg } => write!(
                 f,
                 "the log rests with the vertical {off_axis_deg:.0}° from the nearest body axis: the ground check reads tilts about two body axes that are level at rest, so it is left out (the fit assumes nothing about the rest attitude)"
@@ -77,15 +84,20 @@ impl Display for Note {
     }
 }
 
-/// The sentence of [`Note::HalfSupported`]: with very strong evidence it names the option that
-/// fits the candidate as a tested hypothesis; it names the estimates that would move.
-fn half_supported(n: &Note, f: &mut Formatter<'_>) -> fmt::Result {
-    let Note::HalfSupported { effect, delta_bic, p_value, heldout_gain, min_heldout_gain, very_strong, moved } = n
-    else {
-        unreachable!("called on a half-supported note")
-    };
+/// The sentence of [`Note::HalfSupported`]: with very strong evidence (`gate`, the held-out
+/// gain the gate needs, given) it names the option that fits the candidate as a tested
+/// hypothesis; it names the estimates that would move.
+fn half_supported(
+    f: &mut Formatter<'_>,
+    effect: Effect,
+    delta_bic: f64,
+    p_value: f64,
+    heldout_gain: f64,
+    gate: Option<f64>,
+    moved: &[Moved],
+) -> fmt::Result {
     let key = effect.key();
-    if *very_strong {
+    if let Some(min_heldout_gain) = gate {
         write!(
             f,
             "{key} has very strong evidence in the fit (ΔBIC {delta_bic:.0}, F-test p {p_value:.1e}) and fails only the held-out gate (held-out error {:+.1} %, the gate needs −{:.0} %): not added; `--with {key}` fits it as a hypothesis, with its interval",
@@ -107,10 +119,13 @@ fn half_supported(n: &Note, f: &mut Formatter<'_>) -> fmt::Result {
 
 /// The sentence of [`Note::GroundDisagrees`]: both sides, the reference that agrees with the
 /// flight, and a warning when the rest's pose scatters.
-fn ground_disagrees(n: &Note, f: &mut Formatter<'_>) -> fmt::Result {
-    let Note::GroundDisagrees { tilt, agreement: t, other, rest_scatter_deg } = n else {
-        unreachable!("called on a ground disagreement")
-    };
+fn ground_disagrees(
+    f: &mut Formatter<'_>,
+    tilt: &str,
+    t: &TiltAgreement,
+    other: Option<&OtherReference>,
+    rest_scatter_deg: Option<f64>,
+) -> fmt::Result {
     write!(f, "ground check and flight disagree in {tilt}: the ground reads {:.2}°", t.ground_deg)?;
     if t.bias_tilt_deg != 0.0 {
         write!(f, " ({:.2}° once the fitted accelerometer bias is removed)", t.ground_corrected_deg)?;

@@ -128,7 +128,7 @@ pub(super) fn final_residuals(
 /// `--with imu_offset` tests it. On the held-out NanoBench flights that lead (the commonest one
 /// of the force channel: x on 38 of 68 flights, y on 19) is gone on all but 9 and 1 once the
 /// offset is fitted.
-pub(super) fn hypothesis_hints(left: &[Left], fitted: &[Effect]) -> Option<Note> {
+pub(super) fn hypothesis_hint(left: &[Left], fitted: &[Effect]) -> Option<Note> {
     if fitted.contains(&Effect::ImuOffset) {
         return None;
     }
@@ -295,17 +295,17 @@ mod tests {
             structured: true,
             correlates: vec![Correlate { signal: signal.into(), r: 0.25, n_eff: 300.0, floor: false }],
         };
-        let hit = hypothesis_hints(&[left('x', "angular acceleration y (rad/s²)")], &[]);
+        let hit = hypothesis_hint(&[left('x', "angular acceleration y (rad/s²)")], &[]);
         assert_eq!(
             hit,
             Some(Note::ImuOffsetSignature {
                 leads: vec![ForceLead { axis: 'x', signal: "angular acceleration y (rad/s²)".into(), r: 0.25 }]
             })
         );
-        assert!(hypothesis_hints(&[left('y', "angular acceleration x (rad/s²)")], &[]).is_some());
-        assert!(hypothesis_hints(&[left('x', "angular acceleration y (rad/s²)")], &[Effect::ImuOffset]).is_none());
+        assert!(hypothesis_hint(&[left('y', "angular acceleration x (rad/s²)")], &[]).is_some());
+        assert!(hypothesis_hint(&[left('x', "angular acceleration y (rad/s²)")], &[Effect::ImuOffset]).is_none());
         assert!(
-            hypothesis_hints(
+            hypothesis_hint(
                 &[left('x', "angular acceleration x (rad/s²)"), left('z', "angular acceleration y (rad/s²)")],
                 &[]
             )
@@ -313,7 +313,7 @@ mod tests {
         );
         let mut gyro = left('x', "angular acceleration y (rad/s²)");
         gyro.channel = Channel::Gyro;
-        assert!(hypothesis_hints(&[gyro], &[]).is_none());
+        assert!(hypothesis_hint(&[gyro], &[]).is_none());
     }
 
     /// The verdict by hand: a lead makes a residual structured whatever Ljung–Box says, a

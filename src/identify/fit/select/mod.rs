@@ -72,7 +72,7 @@ pub use excitation::{Excitation, excitation};
 use gram::{Fit, Gram, active, ar_models, canonical_corr, cols_of, fit, grams, heldout_rss, masks, set_of, system};
 pub use heldout::{ResidualSeries, channel_cut, evaluate, residual_series};
 pub use left::{LEAD_MAX, LEAD_MIN_CORR};
-use left::{final_residuals, hypothesis_hints, lead_signals};
+use left::{final_residuals, hypothesis_hint, lead_signals};
 pub use result::{AxisError, Candidate, Correlate, Found, Left, Param, Removal, Report, Step, Whiteness};
 
 /// The method's settings: design, data-quality gate, gates of the selection, held-out split and
@@ -872,7 +872,7 @@ fn select(s: &Series, o: &Options) -> Report {
     let lead_sigs = lead_signals(&with_signals);
     let (errors, whiteness, left) =
         final_residuals(&state.design, &state.fit.theta, &state.test, &nominal_design, &lead_sigs, o.max_ar_order);
-    notes.extend(hypothesis_hints(&left, selected));
+    notes.extend(hypothesis_hint(&left, selected));
     let mut effects: Vec<Found> = selected
         .iter()
         .map(|e| Found {
