@@ -18,9 +18,9 @@
 //!
 //! Reading ([`read_csv`]): missing or misnamed columns, cells that are not numbers, NaN or
 //! infinity, timestamps that go backwards, and empty files are errors naming line and column.
-//! Repairs, each reported in [`FlightLog::repairs`]: a last line cut short (no newline, too few
-//! cells) is dropped; a row repeating the previous timestamp exactly is dropped; a gap longer
-//! than 3 × the median sampling interval splits the log into segments.
+//! Repairs, each reported in [`FlightLog::repairs`] as a [`Repair`]: a last line cut short (no
+//! newline, too few cells) is dropped; a row repeating the previous timestamp exactly is
+//! dropped; a gap longer than 3 × the median sampling interval splits the log into segments.
 
 use crate::engine::VehicleRun;
 use std::fmt::Write as _;
@@ -93,8 +93,63 @@ pub struct FlightLog {
     pub columns: Vec<Vec<Option<f64>>>,
     /// Row ranges [start, end) of the segments between gaps.
     pub segments: Vec<(usize, usize)>,
-    /// What was repaired, one sentence each, with line numbers.
-    pub repairs: Vec<String>,
+    /// What was repaired, in the order found; `Display` gives each one's sentence.
+    pub repairs: Vec<Repair>,
+}
+
+/// A defect of a log's rows that the reader repaired rather than rejected: data to match on;
+/// `Display` gives the sentence a report prints. Lines count from 1, the header being line 1.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Repair {
+    /// A row whose time equals the previous row's was dropped; `t_s` is that time (s) where the
+    /// reader names it.
+    RepeatedTime {
+        /// The dropped row's line.
+        line: usize,
+        /// The repeated time (s).
+        t_s: Option<f64>,
+    },
+    /// The last line, without its newline, has fewer cells than the header (a write cut short)
+    /// and was dropped.
+    LastLineCut {
+        /// Its line.
+        line: usize,
+        /// Cells it has.
+        cells: usize,
+        /// Columns of the header.
+        columns: usize,
+    },
+    /// The time jumps by more than 3 × the median interval: the log is split into segments there.
+    Gap {
+        /// The time before the gap (s).
+        after_s: f64,
+        /// Its length (s).
+        length_s: f64,
+        /// The median interval between rows (s).
+        median_interval_s: f64,
+    },
+}
+
+impl std::fmt::Display for Repair {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Repair::RepeatedTime { line, t_s: Some(t) } => {
+                write!(f, "line {line}: repeats the time {t} s of the previous row and was dropped")
+            }
+            Repair::RepeatedTime { line, t_s: None } => {
+                write!(f, "line {line}: repeats the time of the previous row and was dropped")
+            }
+            Repair::LastLineCut { line, cells, columns } => write!(
+                f,
+                "line {line}: the last line is cut short ({cells} of {columns} cells, no newline) and was dropped"
+            ),
+            Repair::Gap { after_s, length_s, median_interval_s } => write!(
+                f,
+                "a gap of {length_s:.3} s after t = {after_s} s (median interval {median_interval_s:.4} s): the log is split into segments there"
+            ),
+        }
+    }
 }
 
 impl FlightLog {
@@ -200,7 +255,7 @@ pub fn read_csv(text: &str, file: &str) -> Result<FlightLog, LogError> {
                 });
             }
             Some(p) if t == p => {
-                repairs.push(format!("line {lineno}: repeats the time {t} s of the previous row and was dropped"));
+                repairs.push(Repair::RepeatedTime { line: lineno, t_s: Some(t) });
                 continue;
             }
             _ => {}
@@ -243,21 +298,18 @@ fn column_index(names: &[&str], file: &str) -> Result<[usize; COLUMNS.len()], Lo
 }
 
 /// A data line's cells, for this log and for a log read through a mapping: `None` for a last
-/// line cut short (no newline; said in `repairs` and dropped), and the message of a row with too
+/// line cut short (no newline; added to `repairs` and dropped), and the message of a row with too
 /// few cells or a non-empty cell beyond the header's `columns`.
-pub(crate) fn row_cells<'a>(
+pub(crate) fn row_cells<'a, R: From<Repair>>(
     line: &'a str,
     columns: usize,
     last_cut_short: bool,
     lineno: usize,
-    repairs: &mut Vec<String>,
+    repairs: &mut Vec<R>,
 ) -> Result<Option<Vec<&'a str>>, String> {
     let cells: Vec<&str> = line.split(',').collect();
     if cells.len() < columns && last_cut_short {
-        repairs.push(format!(
-            "line {lineno}: the last line is cut short ({} of {columns} cells, no newline) and was dropped",
-            cells.len(),
-        ));
+        repairs.push(Repair::LastLineCut { line: lineno, cells: cells.len(), columns }.into());
         return Ok(None);
     }
     // cells beyond the header's columns belong to no column: only empty ones (a trailing
@@ -330,19 +382,15 @@ pub(crate) fn median_interval(t: &[f64]) -> Option<f64> {
 
 /// Row ranges [start, end) between gaps longer than 3 × the median interval, each gap reported
 /// in `repairs` (flyarena's logs and mapped logs alike).
-pub(crate) fn split_at_gaps(t: &[f64], repairs: &mut Vec<String>) -> Vec<(usize, usize)> {
+pub(crate) fn split_at_gaps<R: From<Repair>>(t: &[f64], repairs: &mut Vec<R>) -> Vec<(usize, usize)> {
     let n = t.len();
     let Some(median) = median_interval(t) else { return vec![(0, n)] };
     let mut segments = Vec::new();
     let mut start = 0;
     for k in 1..n {
         if t[k] - t[k - 1] > 3.0 * median {
-            repairs.push(format!(
-                "a gap of {:.3} s after t = {} s (median interval {:.4} s): the log is split into segments there",
-                t[k] - t[k - 1],
-                t[k - 1],
-                median
-            ));
+            repairs
+                .push(Repair::Gap { after_s: t[k - 1], length_s: t[k] - t[k - 1], median_interval_s: median }.into());
             segments.push((start, k));
             start = k;
         }
@@ -442,13 +490,51 @@ mod tests {
     /// not.
     #[test]
     fn a_row_has_the_header_width_and_only_a_cut_last_line_is_dropped() {
-        let mut repairs = Vec::new();
+        let mut repairs: Vec<Repair> = Vec::new();
         assert_eq!(row_cells("1,2,3", 3, true, 9, &mut repairs), Ok(Some(vec!["1", "2", "3"])));
         assert_eq!(row_cells("1,2,3,", 3, false, 9, &mut repairs), Ok(Some(vec!["1", "2", "3", ""])));
         assert!(repairs.is_empty());
         assert_eq!(row_cells("1,2", 3, true, 9, &mut repairs), Ok(None));
-        assert_eq!(repairs, ["line 9: the last line is cut short (2 of 3 cells, no newline) and was dropped"]);
+        assert_eq!(repairs, [Repair::LastLineCut { line: 9, cells: 2, columns: 3 }]);
         assert_eq!(row_cells("1,2", 3, false, 9, &mut repairs), Err("2 cells for 3 columns".to_string()));
         assert_eq!(row_cells("1,2,3,4", 3, true, 9, &mut repairs), Err("4 cells for 3 columns".to_string()));
+    }
+
+    /// Each repair's sentence, written out by hand: the line, the cells, the gap's length to the
+    /// millisecond and the median interval to a tenth of one.
+    #[test]
+    fn a_repair_reads_as_its_sentence() {
+        let cases = [
+            (
+                Repair::RepeatedTime { line: 7, t_s: Some(0.25) },
+                "line 7: repeats the time 0.25 s of the previous row and was dropped",
+            ),
+            (
+                Repair::RepeatedTime { line: 7, t_s: None },
+                "line 7: repeats the time of the previous row and was dropped",
+            ),
+            (
+                Repair::LastLineCut { line: 12, cells: 4, columns: 21 },
+                "line 12: the last line is cut short (4 of 21 cells, no newline) and was dropped",
+            ),
+            (
+                Repair::Gap { after_s: 1.5, length_s: 0.12345, median_interval_s: 0.00499 },
+                "a gap of 0.123 s after t = 1.5 s (median interval 0.0050 s): the log is split into segments there",
+            ),
+        ];
+        for (repair, want) in cases {
+            assert_eq!(repair.to_string(), want);
+        }
+    }
+
+    /// A gap longer than 3 × the median interval splits the rows there and is reported with the
+    /// time before it, its length and the median; a gap of exactly 3 × does not.
+    #[test]
+    fn a_gap_over_three_median_intervals_splits_the_log() {
+        let t = [0.0, 1.0, 2.0, 5.0, 6.0, 11.0, 12.0];
+        let mut repairs = Vec::new();
+        assert_eq!(split_at_gaps(&t, &mut repairs), [(0, 5), (5, 7)]);
+        let [Repair::Gap { after_s, length_s, median_interval_s }] = repairs[..] else { panic!("{repairs:?}") };
+        assert_eq!((after_s, length_s, median_interval_s), (6.0, 5.0, 1.0));
     }
 }

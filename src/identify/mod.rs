@@ -3,13 +3,14 @@
 //!
 //! ```text
 //! flight log (flyarena CSV + scenario, any CSV + a column mapping, a ROS 2 bag, a PX4 log)
-//!   ─► input/   Series (mocap world NED, body FRD, SI)          series, flyarena_log, mapping, ros2, ulog
+//!   ─► input/   Series (mocap world NED, body FRD, SI) and       series, flyarena_log, mapping, ros2, ulog,
+//!               what the readers did to the log                 read_note
 //!   ─► fit/     data-quality gate, residual channels and        quality, design,
 //!               candidate regressors, prewhitened forward       select, stats,
 //!               selection with held-out errors, ground check,   ground, note
 //!               the report's notes as data
 //!   ─► checks/  across flights, R5, batches with a known truth  consistency, check, trials, handheld
-//!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, summary, feedback, px4
+//!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, read_note, summary, feedback, px4
 //! ```
 //!
 //! The stages are private; what a caller needs is re-exported here, flat:
@@ -19,6 +20,7 @@
 //! | run a request as the command line does (a scenario, a flyarena log, a mapped log) | [`run`] with a [`Request`], or [`run_many`] for cross-validation |
 //! | identify one flight's [`Series`] | [`identify`] with [`Options`] → [`Report`] ([`Found`], [`Param`], [`Left`], …) |
 //! | act on what a report notes (a negative delay, a pair the flight cannot tell apart, a ground check that disagrees) | match on [`Note`]; its `Display` is the sentence the text and JSON show |
+//! | see what a reader did to a log (a row dropped, a gap, PX4 messages left out, the stamps read) | match on [`ReadNote`] in [`Series::repairs`] and [`Report::repairs`] |
 //! | build a series | [`run_and_log`] (a scenario flown and logged), [`Mapping`] (another tool's log) |
 //! | print or write what `run` returns (the one presentation layer) | [`identified_text`], [`identified_json`]; for [`run_many`] [`cross_validated_text`], [`cross_validated_json`] |
 //! | print or judge a report | [`render_report`], [`verdict`]; across flights [`consistency`], [`render_consistency`] |
@@ -85,6 +87,7 @@ pub use workflow::{CrossValidated, Exclusion, Identified, Request, Source, run, 
 // inputs: the series every reader builds, and the readers
 pub use flyarena_log::{THRUST_REL_SD, run_and_log};
 pub use input::error::InputError;
+pub use input::read_note::{ReadNote, StampField};
 pub use mapping::Mapping;
 pub use series::{Corrections, NominalModel, Series, interpolate_attitude};
 

@@ -4,8 +4,9 @@
 use flyarena::frames::{Body, Euler, MocapBody, Rot, Vec3};
 use flyarena::identify::Mapping;
 use flyarena::identify::run_and_log;
-use flyarena::identify::{Effect, Options, identify};
+use flyarena::identify::{Effect, Options, ReadNote, identify};
 use flyarena::identify::{Request, Source, run as identify_cli};
+use flyarena::log::Repair;
 use flyarena::scenario::Scenario;
 use std::path::{Path, PathBuf};
 
@@ -358,11 +359,8 @@ fn mapped_log_cells_are_numbers_dropouts_or_located_errors() {
     let cut = format!("{CSV_HEADER}\n{}\n{}\n0,1,2", row(0, "1"), row(10, "1"));
     let s = m.read_str(&cut, "log.csv").unwrap();
     assert_eq!(s.t_s.len(), 2);
-    assert!(
-        s.repairs.iter().any(|r| r.starts_with("line 4: the last line is cut short (3 of 19 cells")),
-        "{:?}",
-        s.repairs
-    );
+    let cut_line = ReadNote::Rows(Repair::LastLineCut { line: 4, cells: 3, columns: 19 });
+    assert!(s.repairs.contains(&cut_line), "{:?}", s.repairs);
     assert_eq!(
         m.read_str(&format!("{cut}\n"), "log.csv").unwrap_err().to_string(),
         "log.csv:4: 3 cells for 19 columns"

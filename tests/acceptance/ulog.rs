@@ -4,7 +4,7 @@
 
 use flyarena::identify::Mapping;
 use flyarena::identify::ulog::{Log, readable_topics};
-use flyarena::identify::{Effect, Options, identify};
+use flyarena::identify::{Effect, Options, ReadNote, StampField, identify};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -120,7 +120,8 @@ fn a_px4_log_gives_the_csv_report() {
         let csv_map = Mapping::load(&super::root().join("mappings/nanobench.yaml")).unwrap();
         let px4_map = Mapping::load(&super::root().join("mappings/px4-crazyflie.yaml")).unwrap();
         let series = px4_map.read(&ulg).unwrap();
-        assert!(series.repairs.iter().any(|r| r.contains("stamped by its `timestamp_sample`")), "{:?}", series.repairs);
+        let by_sample = |r: &ReadNote| matches!(r, ReadNote::PoseStampedBy { stamp: StampField::Sample, .. });
+        assert!(series.repairs.iter().any(by_sample), "{:?}", series.repairs);
         let a = identify(&csv_map.read(&csv).unwrap(), &opts(&csv_map)).unwrap();
         let b = identify(&series, &opts(&px4_map)).unwrap();
         super::same_report(&a, &b, name, false);

@@ -8,6 +8,7 @@
 //! V_ref, for the thrust–voltage candidate.
 
 use super::error::InputError;
+use super::read_note::ReadNote;
 use super::series::{NominalModel, Series};
 use crate::frames::{Rot, Vec3};
 use crate::log::FlightLog;
@@ -100,7 +101,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
             imu_range: p.imu_range,
             rigid_body: false,
         },
-        repairs: log.repairs.clone(),
+        repairs: log.repairs.iter().cloned().map(ReadNote::from).collect(),
     })
 }
 

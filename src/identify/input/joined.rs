@@ -10,6 +10,7 @@
 //! are left out (said in the repairs). Time is seconds from the first IMU stamp, exact in integer
 //! nanoseconds. Columns: `t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`.
 
+use super::read_note::ReadNote;
 use std::fmt::Write as _;
 
 /// One decoded stream: stamps (ns) and values.
@@ -56,7 +57,7 @@ impl Streams {
     /// One CSV row per IMU message: the pose at its stamp (interpolated, or empty across a
     /// dropped frame), the last motor and battery values at or before it. Returns the CSV and the
     /// repairs made.
-    pub(in crate::identify) fn join(&self) -> (String, Vec<String>) {
+    pub(in crate::identify) fn join(&self) -> (String, Vec<ReadNote>) {
         let (has_motors, has_battery) = (self.n_motors.is_some(), !self.battery.t.is_empty());
         let (pose, imu, motors, battery) = (&self.pose, &self.imu, &self.motors, &self.battery);
         // two poses further apart than 1.5 median intervals have a dropped frame between them:
@@ -120,7 +121,7 @@ impl Streams {
             csv.push('\n');
         }
         if skipped > 0 {
-            repairs.push(format!("{skipped} IMU messages before the first motor or battery message were left out"));
+            repairs.push(ReadNote::ImuBeforeOthers { count: skipped });
         }
         (csv, repairs)
     }
@@ -195,7 +196,7 @@ mod tests {
             Streams { pose, imu: six(imu), motors: eight(motors), n_motors: Some(1), battery: one(battery) }
         };
         let (csv, repairs) = streams(10).join();
-        assert_eq!(repairs, ["2 IMU messages before the first motor or battery message were left out"]);
+        assert_eq!(repairs, [ReadNote::ImuBeforeOthers { count: 2 }]);
         let rows: Vec<&str> = csv.lines().collect();
         assert_eq!(rows[0], "t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az,m1,vbat");
         assert_eq!(rows.len(), 1 + 4, "{csv}");

@@ -28,8 +28,10 @@
 //! splits the log into segments, both reported.
 
 use super::error::InputError;
+use super::read_note::ReadNote;
 use super::series::{NominalModel, Series};
 use crate::frames::{Rot, Vec3};
+use crate::log::Repair;
 use crate::vehicle::params::{CRAZYFLIE21_ROTOR_RADIUS_M, GRAVITY, PwmThrustMap, VehicleParams};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::path::Path;
@@ -344,8 +346,8 @@ fn header_names<'a>(line: Option<&'a str>, file: &str) -> Result<Vec<&'a str>, I
 
 /// The error of a log with fewer than two rows left: saying so, and how many rows repeated the
 /// time of the row before (a log whose clock stood still).
-fn too_few_rows(file: &str, repairs: &[String]) -> InputError {
-    let repeats = repairs.iter().filter(|r| r.contains("repeats the time")).count();
+fn too_few_rows(file: &str, repairs: &[ReadNote]) -> InputError {
+    let repeats = repairs.iter().filter(|r| matches!(r, ReadNote::Rows(Repair::RepeatedTime { .. }))).count();
     if repeats > 0 {
         InputError::log(
             file,
@@ -479,7 +481,7 @@ impl Mapping {
 
     /// Reads the rows a bag or a PX4 log was joined into (`identify/input/joined.rs`): the motor columns
     /// are named by the header, and the route's repairs come first.
-    fn read_joined(&self, text: &str, repairs: Vec<String>, file: &str) -> Result<Series, InputError> {
+    fn read_joined(&self, text: &str, repairs: Vec<ReadNote>, file: &str) -> Result<Series, InputError> {
         let header = text.lines().next().unwrap_or("");
         let motors = self.motors.as_ref().map(|_| Motors {
             columns: header.split(',').filter(|c| c.starts_with('m')).map(str::to_string).collect(),
@@ -669,7 +671,7 @@ impl Mapping {
                     return Err(InputError::row(file, lineno, format!("time goes backwards ({t} s after {prev} s)")));
                 }
                 if t == prev {
-                    s.repairs.push(format!("line {lineno}: repeats the time of the previous row and was dropped"));
+                    s.repairs.push(Repair::RepeatedTime { line: lineno, t_s: None }.into());
                     continue;
                 }
             }

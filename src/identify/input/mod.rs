@@ -7,6 +7,7 @@ pub mod error;
 pub mod flyarena_log;
 pub mod joined;
 pub mod mapping;
+pub mod read_note;
 pub mod ros2;
 pub mod series;
 pub mod ulog;

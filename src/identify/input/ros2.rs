@@ -26,6 +26,7 @@
 
 use super::error::InputError;
 use super::joined::{Stream, Streams};
+use super::read_note::ReadNote;
 
 /// The topics of a ROS 2 mapping.
 #[derive(Debug, Clone, serde::Deserialize)]
@@ -139,7 +140,7 @@ fn schema_is(name: &str, want: &str) -> bool {
 
 /// Reads the bag `bytes` through `topics` into the rows of a CSV log with the columns
 /// `t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, and the repairs made.
-pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<String>), InputError> {
+pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<ReadNote>), InputError> {
     if !bytes.starts_with(MAGIC) {
         return Err(InputError::log(file, "not an MCAP file (no MCAP magic bytes)"));
     }

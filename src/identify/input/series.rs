@@ -140,8 +140,8 @@ pub struct Series {
     pub segments: Vec<(usize, usize)>,
     /// What the declared model knows.
     pub model: NominalModel,
-    /// What the readers did: repairs, and the stamps and instances read.
-    pub repairs: Vec<String>,
+    /// What the readers did: repairs, and the stamps read; `Display` gives each one's sentence.
+    pub repairs: Vec<crate::identify::ReadNote>,
 }
 
 impl Series {

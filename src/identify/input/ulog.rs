@@ -44,6 +44,7 @@
 
 use super::error::InputError;
 use super::joined::{Stream, Streams};
+use super::read_note::{ReadNote, StampField};
 use px4_ulog::full_parser::{Completeness, SomeVec};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -112,8 +113,8 @@ impl TopicData {
 pub struct Log {
     /// The topic instances, by name then instance.
     pub topics: Vec<TopicData>,
-    /// Why the reading stopped early, if it did (a log cut short or a malformed record).
-    pub incomplete: Option<String>,
+    /// Why the reading stopped early, if it did: [`ReadNote::Truncated`] or [`ReadNote::MalformedRecord`].
+    pub incomplete: Option<ReadNote>,
 }
 
 impl Log {
@@ -135,12 +136,8 @@ impl Log {
             .map_err(|e| InputError::log(&file, format!("not a readable ULog file ({e})")))?;
         let incomplete = match parsed.completeness {
             Completeness::Complete => None,
-            Completeness::Truncated => {
-                Some("the log ends in the middle of a message (cut short); it is read up to the cut".to_string())
-            }
-            Completeness::MalformedRecord(why) => {
-                Some(format!("a malformed record stopped the reading ({why}); the data before it is read"))
-            }
+            Completeness::Truncated => Some(ReadNote::Truncated),
+            Completeness::MalformedRecord(why) => Some(ReadNote::MalformedRecord { why: why.to_string() }),
         };
         let mut topics = Vec::new();
         for (topic, instances) in parsed.messages {
@@ -200,7 +197,7 @@ fn numbers(v: SomeVec) -> Option<Vec<f64>> {
 /// `logged_topics.cpp`): the estimator-replay set (bit 1) logs `vehicle_visual_odometry` and
 /// `sensor_combined` at full rate, the computer-vision set (bit 7) both odometry topics at 30 ms,
 /// the system-identification set (bit 3) `actuator_motors` at full rate (the default set: 100 ms).
-fn profile_hint(topic: &str) -> &'static str {
+pub(crate) fn profile_hint(topic: &str) -> &'static str {
     match topic {
         "vehicle_visual_odometry" => {
             " (PX4 logs it with SDLOG_PROFILE bit 1, estimator replay, at full rate: add 2; or bit 7, computer vision, at 30 ms: add 128)"
@@ -223,7 +220,7 @@ fn ns(us: f64) -> i128 {
 /// Reads the log at `path` through `topics` into the rows of a CSV log
 /// (`t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, see `identify/input/joined.rs`), and
 /// the repairs and notes made.
-pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<String>), InputError> {
+pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<ReadNote>), InputError> {
     let file = path.display().to_string();
     let log = Log::read(path)?;
     let mut notes = Vec::new();
@@ -272,15 +269,15 @@ pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<String>), Inp
 
 /// The stamps of a topic that has `timestamp_sample`: those, where every one is set, else
 /// `timestamp`; and which one was used.
-fn sample_stamps<'a>(t: &'a TopicData, file: &str) -> Result<(&'a [f64], &'static str), InputError> {
+fn sample_stamps<'a>(t: &'a TopicData, file: &str) -> Result<(&'a [f64], StampField), InputError> {
     match t.field("timestamp_sample") {
-        Some(s) if s.iter().all(|x| *x > 0.0) => Ok((s, "timestamp_sample")),
-        _ => Ok((t.need("timestamp", file)?, "timestamp")),
+        Some(s) if s.iter().all(|x| *x > 0.0) => Ok((s, StampField::Sample)),
+        _ => Ok((t.need("timestamp", file)?, StampField::Publication)),
     }
 }
 
-fn pose_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stream<7>, InputError> {
-    let (stamps, which) = sample_stamps(t, file)?;
+fn pose_stream(t: &TopicData, file: &str, notes: &mut Vec<ReadNote>) -> Result<Stream<7>, InputError> {
+    let (stamps, stamp) = sample_stamps(t, file)?;
     let pos: [&[f64]; 3] = match t.field("position[0]") {
         Some(_) => [t.need("position[0]", file)?, t.need("position[1]", file)?, t.need("position[2]", file)?],
         None => [t.need("x", file)?, t.need("y", file)?, t.need("z", file)?],
@@ -289,10 +286,7 @@ fn pose_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Str
     if let Some(frame) = t.field("pose_frame")
         && frame.iter().any(|f| *f != 1.0 && *f != 2.0)
     {
-        notes.push(format!(
-            "`{}` has poses of an unknown frame (pose_frame not 1, NED, or 2, FRD); they are read as z-down",
-            t.name
-        ));
+        notes.push(ReadNote::UnknownPoseFrame { topic: t.name.clone() });
     }
     let mut s = Stream::new();
     let mut invalid = 0;
@@ -305,17 +299,14 @@ fn pose_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Str
         }
         s.push(ns(stamps[i]), v).map_err(|e| InputError::log(file, format!("`{}` message {i}: {e}", t.name)))?;
     }
-    notes.push(format!("the pose (`{}`) is stamped by its `{which}`", t.name));
+    notes.push(ReadNote::PoseStampedBy { topic: t.name.clone(), stamp });
     if invalid > 0 {
-        notes.push(format!(
-            "{invalid} poses of `{}` are invalid (NaN): frames in which the vehicle was not seen",
-            t.name
-        ));
+        notes.push(ReadNote::InvalidPoses { count: invalid, topic: t.name.clone() });
     }
     Ok(s)
 }
 
-fn imu_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stream<6>, InputError> {
+fn imu_stream(t: &TopicData, file: &str, notes: &mut Vec<ReadNote>) -> Result<Stream<6>, InputError> {
     let mut s = Stream::new();
     let at = |i: usize| move |e: &str| InputError::log(file, format!("`{}` message {i}: {e}", t.name));
     if t.name == "vehicle_imu" {
@@ -339,7 +330,7 @@ fn imu_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stre
             s.push(ns(stamps[i] - da_dt[i] / 2.0), v).map_err(at(i))?;
         }
         if skipped > 0 {
-            notes.push(format!("{skipped} `vehicle_imu` messages with no integration interval were left out"));
+            notes.push(ReadNote::NoIntegrationInterval { count: skipped });
         }
         return Ok(s);
     }
@@ -365,15 +356,13 @@ fn imu_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stre
         s.push(ns(stamps[i]), [g[0][i], g[1][i], g[2][i], a[0][i], a[1][i], a[2][i]]).map_err(at(i))?;
     }
     if skipped > 0 {
-        notes.push(format!("{skipped} `sensor_combined` messages without an accelerometer sample were left out"));
+        notes.push(ReadNote::NoAccelerometerSample { count: skipped });
     }
     offsets.sort_by(f64::total_cmp);
     if let Some(m) = offsets.get(offsets.len() / 2)
         && *m != 0.0
     {
-        notes.push(format!(
-            "the accelerometer's samples are stamped a median {m} µs from the gyro's; each row takes the gyro's stamp"
-        ));
+        notes.push(ReadNote::AccelStampOffset { median_us: *m });
     }
     Ok(s)
 }
@@ -382,7 +371,7 @@ fn motor_stream(
     t: &TopicData,
     topics: &Topics,
     file: &str,
-    notes: &mut Vec<String>,
+    notes: &mut Vec<ReadNote>,
 ) -> Result<(Stream<8>, usize), InputError> {
     let outputs = t.name == "actuator_outputs";
     let (prefix, range) = if outputs {
@@ -399,7 +388,7 @@ fn motor_stream(
     } else {
         ("control", [0.0, 1.0])
     };
-    let (stamps, which) = sample_stamps(t, file)?;
+    let (stamps, stamp) = sample_stamps(t, file)?;
     let columns: Vec<&[f64]> = (0..16).map_while(|k| t.field(&format!("{prefix}[{k}]"))).collect();
     let n = match topics.motor_count {
         Some(n) => n,
@@ -427,18 +416,13 @@ fn motor_stream(
     }
     let span = (stamps[stamps.len() - 1] - stamps[0]) * 1e-6;
     if stamps.len() > 1 && span > 0.0 && (stamps.len() - 1) as f64 / span < 50.0 {
-        notes.push(format!(
-            "`{}` is logged at {:.0} Hz, coarse for the force channel{}",
-            t.name,
-            (stamps.len() - 1) as f64 / span,
-            profile_hint(&t.name)
-        ));
+        notes.push(ReadNote::CoarseMotorRate { topic: t.name.clone(), rate_hz: (stamps.len() - 1) as f64 / span });
     }
-    notes.push(format!("the motors (`{}`, {n}) are stamped by their `{which}`", t.name));
+    notes.push(ReadNote::MotorsStampedBy { topic: t.name.clone(), motors: n, stamp });
     Ok((s, n))
 }
 
-fn battery_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<Stream<1>, InputError> {
+fn battery_stream(t: &TopicData, file: &str, notes: &mut Vec<ReadNote>) -> Result<Stream<1>, InputError> {
     let stamps = t.need("timestamp", file)?;
     let v = t.need("voltage_v", file)?;
     let mut s = Stream::new();
@@ -451,7 +435,7 @@ fn battery_stream(t: &TopicData, file: &str, notes: &mut Vec<String>) -> Result<
         s.push(ns(stamps[i]), [v[i]]).map_err(|e| InputError::log(file, format!("`{}` message {i}: {e}", t.name)))?;
     }
     if skipped > 0 {
-        notes.push(format!("{skipped} `{}` samples at 0 V (no battery) were left out", t.name));
+        notes.push(ReadNote::NoBatteryVoltage { count: skipped, topic: t.name.clone() });
     }
     if s.t.is_empty() {
         return Err(InputError::log(file, format!("`{}` has no sample with a voltage", t.name)));
@@ -510,7 +494,7 @@ mod tests {
         let s = imu_stream(&t, "f.ulg", &mut notes).unwrap();
         assert_eq!(s.t, vec![14_000_000]);
         assert!((s.v[0][0] - 1.0).abs() < 1e-12 && (s.v[0][5] + 9.81).abs() < 1e-12, "{:?}", s.v);
-        assert_eq!(notes, ["1 `vehicle_imu` messages with no integration interval were left out"]);
+        assert_eq!(notes, [ReadNote::NoIntegrationInterval { count: 1 }]);
     }
 
     /// Motor commands by hand: `actuator_motors` control 0.5 is half of full PWM and NaN (a
@@ -564,13 +548,17 @@ mod tests {
         let mut notes = Vec::new();
         let s = pose_stream(&topic("vehicle_visual_odometry", &fields(vec![10.0, 20.0])), "f.ulg", &mut notes).unwrap();
         assert_eq!((s.t.clone(), s.v[0]), (vec![10_000], [1.0, 2.0, -3.0, 0.5, -0.5, 0.5, 0.5]));
-        assert!(
-            notes[0].ends_with("stamped by its `timestamp_sample`") && notes[1].starts_with("1 poses"),
-            "{notes:?}"
+        let topic_name = || "vehicle_visual_odometry".to_string();
+        assert_eq!(
+            notes,
+            [
+                ReadNote::PoseStampedBy { topic: topic_name(), stamp: StampField::Sample },
+                ReadNote::InvalidPoses { count: 1, topic: topic_name() }
+            ]
         );
         let mut notes = Vec::new();
         let s = pose_stream(&topic("vehicle_visual_odometry", &fields(vec![0.0, 20.0])), "f.ulg", &mut notes).unwrap();
         assert_eq!(s.t, vec![15_000]);
-        assert!(notes[0].ends_with("stamped by its `timestamp`"), "{notes:?}");
+        assert_eq!(notes[0], ReadNote::PoseStampedBy { topic: topic_name(), stamp: StampField::Publication });
     }
 }

@@ -5,5 +5,6 @@
 pub mod feedback;
 mod note;
 pub mod px4;
+mod read_note;
 pub mod report;
 pub(crate) mod summary;

@@ -202,9 +202,10 @@ pub struct Report {
     /// What a reader should know (a negative delay, a half-supported candidate, ...), one
     /// [`Note`](crate::identify::Note) each: data to match on; `Display` gives the sentence.
     pub notes: Vec<crate::identify::note::Note>,
-    /// What the reader did to the log, one sentence each: repairs (dropped duplicate rows, gaps,
-    /// rows left out) and, for PX4 logs and ROS 2 bags, which stamps and instances it read.
-    pub repairs: Vec<String>,
+    /// What the readers did to the log: repairs (dropped duplicate rows, gaps, messages left out)
+    /// and, for PX4 logs, which stamps it read; one [`ReadNote`](crate::identify::ReadNote) each,
+    /// whose `Display` is the sentence.
+    pub repairs: Vec<crate::identify::ReadNote>,
     /// What the data-quality gate cut out before the fit.
     pub data_quality: crate::identify::quality::DataQuality,
     /// Pairs of effects this flight cannot tell apart (canonical correlation > 0.99): the first
