@@ -10,7 +10,8 @@
 //!               selection with held-out errors, ground check,   ground, note
 //!               the report's notes as data
 //!   ─► checks/  across flights, R5, batches with a known truth  consistency, check, trials, handheld
-//!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, read_note, summary, feedback, px4
+//!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, read_note, quality, summary,
+//!                                                               feedback, px4
 //! ```
 //!
 //! The stages are private; what a caller needs is re-exported here, flat:
@@ -100,7 +101,7 @@ pub use ground::{
     spin_up_summary, tilt_at_rest,
 };
 pub use note::{ForceLead, Moved, Note, OtherReference, Unavailable};
-pub use quality::{Cut, DataQuality, QualityChannel, QualityOptions, gate as quality_gate};
+pub use quality::{Cut, DataQuality, Finding, QualityChannel, QualityOptions, gate as quality_gate};
 pub use select::{
     AxisError, Candidate, Correlate, Excitation, Found, LEAD_MAX, LEAD_MIN_CORR, Left, MIN_TRAIN_SAMPLES, Param,
     Removal, ResidualSeries, Step, Whiteness, evaluate, excitation, residual_series,

@@ -168,7 +168,7 @@ fn gyro_that_disagrees_with_the_mocap_is_cut() {
     let r = identify(&s, &Options::default()).unwrap();
     let cuts = cuts_of(&r, QualityChannel::Gyro);
     assert_eq!(cuts.len(), 1, "{:?}", r.data_quality);
-    assert!(cuts[0].reason.contains("disagree"), "{:?}", cuts[0]);
+    assert!(matches!(cuts[0].findings[..], [flyarena::identify::Finding::GyroDisagrees { .. }]), "{:?}", cuts[0]);
     assert!(cuts[0].from_s <= 6.0 && cuts[0].to_s >= 6.05, "{:?}", cuts[0]);
 }
 

@@ -105,7 +105,9 @@ enum Kind {
 }
 
 /// One stretch of the log that was cut out.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+///
+/// Its JSON holds the findings as `reason`, their sentences joined by `; `.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Cut {
     /// The measurement cut.
     pub channel: QualityChannel,
@@ -117,8 +119,75 @@ pub struct Cut {
     pub flagged: usize,
     /// Every flagged sample lies within `min_height_m` of the floor: contact, not corruption.
     pub at_floor: bool,
-    /// What was found, with the worst value and the bound.
-    pub reason: String,
+    /// What was found, one [`Finding`] per kind of defect, each with its worst value and the
+    /// bound; `Display` gives the sentence.
+    pub findings: Vec<Finding>,
+}
+
+/// One kind of defect found in a stretch: how many samples show it, the worst of them and the
+/// bound they pass (SI units, radians inside; the sentence gives degrees).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Finding {
+    /// Accelerometer samples at ≥ `full_scale_fraction` of the preset's full scale.
+    AccelFullScale {
+        /// Samples flagged.
+        count: usize,
+        /// The largest axis reading (m/s²).
+        worst_m_s2: f64,
+        /// The preset's full scale (m/s²).
+        range_m_s2: f64,
+    },
+    /// Gyro samples at ≥ `full_scale_fraction` of the preset's full scale.
+    GyroFullScale {
+        /// Samples flagged.
+        count: usize,
+        /// The largest axis reading (rad/s).
+        worst_rad_s: f64,
+        /// The preset's full scale (rad/s).
+        range_rad_s: f64,
+    },
+    /// Samples where ‖a_imu − f̂‖ passes `accel_disagree_m_s2`.
+    AccelDisagrees {
+        /// Samples flagged.
+        count: usize,
+        /// The largest disagreement (m/s²).
+        worst_m_s2: f64,
+        /// The bound (m/s²).
+        bound_m_s2: f64,
+    },
+    /// Samples where ‖ω_imu − ω̂‖ passes `gyro_disagree_rad_s`.
+    GyroDisagrees {
+        /// Samples flagged.
+        count: usize,
+        /// The largest disagreement (rad/s).
+        worst_rad_s: f64,
+        /// The bound (rad/s).
+        bound_rad_s: f64,
+    },
+    /// Mocap steps no vehicle makes.
+    MocapJump {
+        /// Samples flagged.
+        count: usize,
+        /// The largest step as a multiple of the largest possible one.
+        worst_ratio: f64,
+    },
+    /// A mocap pose repeated bit for bit while the gyro turns.
+    MocapFrozen {
+        /// Samples flagged.
+        count: usize,
+        /// The largest angle the gyro turned through meanwhile (rad).
+        worst_turn_rad: f64,
+    },
+    /// An IMU reading repeated bit for bit in the air.
+    ImuStuck {
+        /// Samples flagged.
+        count: usize,
+        /// The accelerometer or the gyro.
+        channel: QualityChannel,
+        /// The longest stretch of one value (s).
+        worst_s: f64,
+    },
 }
 
 /// What the gate did to one log.
@@ -186,7 +255,7 @@ pub fn gate(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64)
                 to_s: (to - t0).min(s.t_s[n - 1] - t0),
                 flagged: group.len(),
                 at_floor: group.iter().all(|f| near_floor(f.row)),
-                reason: reason(group, s, o),
+                findings: findings(group, s, o),
             });
             k = end + 1;
         }
@@ -214,9 +283,10 @@ pub fn gate(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64)
     (out, quality)
 }
 
-fn reason(group: &[&Flag], s: &Series, o: &QualityOptions) -> String {
+/// What a stretch's flags found, one [`Finding`] per kind, in the order of [`Kind`].
+fn findings(group: &[&Flag], s: &Series, o: &QualityOptions) -> Vec<Finding> {
     let r = &s.model.imu_range;
-    let mut parts = Vec::new();
+    let mut found = Vec::new();
     for kind in [Kind::FullScale, Kind::Disagrees, Kind::Jump, Kind::Stuck] {
         let of: Vec<&&Flag> = group.iter().filter(|f| f.kind == kind).collect();
         if of.is_empty() {
@@ -225,25 +295,23 @@ fn reason(group: &[&Flag], s: &Series, o: &QualityOptions) -> String {
         let worst = of.iter().map(|f| f.value).fold(0.0, f64::max);
         let count = of.len();
         let ch = of[0].channel;
-        parts.push(match (kind, ch) {
-            (Kind::FullScale, QualityChannel::Accel) => format!("{count} samples at the accelerometer's full scale (up to {worst:.1} m/s², range ±{:.1} m/s²)", r.accel_m_s2),
-            (Kind::FullScale, _) => format!("{count} samples at the gyro's full scale (up to {:.0} °/s, range ±{:.0} °/s)", worst.to_degrees(), r.gyro_rad_s.to_degrees()),
-            (Kind::Disagrees, QualityChannel::Accel) => format!(
-                "{count} samples where the accelerometer and the mocap's specific force disagree by up to {worst:.1} m/s² ({:.1} g; no modelled effect explains more than {:.1} m/s²)",
-                worst / crate::vehicle::params::GRAVITY,
-                o.accel_disagree_m_s2
-            ),
-            (Kind::Disagrees, _) => format!(
-                "{count} samples where the gyro and the mocap's body rate disagree by up to {:.0} °/s (no modelled effect explains more than {:.0} °/s)",
-                worst.to_degrees(),
-                o.gyro_disagree_rad_s.to_degrees()
-            ),
-            (Kind::Jump, _) => format!("{count} mocap jumps no vehicle makes (up to {worst:.2} × the largest possible step)"),
-            (Kind::Stuck, QualityChannel::Mocap) => format!("{count} samples of a frozen mocap pose while the gyro turns (up to {:.1}° turned)", worst.to_degrees()),
-            (Kind::Stuck, _) => format!("{count} samples of a frozen {} reading in the air (one value for up to {worst:.2} s)", ch.name()),
+        found.push(match (kind, ch) {
+            (Kind::FullScale, QualityChannel::Accel) => {
+                Finding::AccelFullScale { count, worst_m_s2: worst, range_m_s2: r.accel_m_s2 }
+            }
+            (Kind::FullScale, _) => Finding::GyroFullScale { count, worst_rad_s: worst, range_rad_s: r.gyro_rad_s },
+            (Kind::Disagrees, QualityChannel::Accel) => {
+                Finding::AccelDisagrees { count, worst_m_s2: worst, bound_m_s2: o.accel_disagree_m_s2 }
+            }
+            (Kind::Disagrees, _) => {
+                Finding::GyroDisagrees { count, worst_rad_s: worst, bound_rad_s: o.gyro_disagree_rad_s }
+            }
+            (Kind::Jump, _) => Finding::MocapJump { count, worst_ratio: worst },
+            (Kind::Stuck, QualityChannel::Mocap) => Finding::MocapFrozen { count, worst_turn_rad: worst },
+            (Kind::Stuck, _) => Finding::ImuStuck { count, channel: ch, worst_s: worst },
         });
     }
-    parts.join("; ")
+    found
 }
 
 /// The flagged samples, in row order per channel.

@@ -5,6 +5,7 @@
 pub mod feedback;
 mod note;
 pub mod px4;
+pub(crate) mod quality;
 mod read_note;
 pub mod report;
 pub(crate) mod summary;

@@ -5,7 +5,6 @@ use crate::identify::design::Effect;
 use crate::identify::ground::TiltAgreement;
 use crate::identify::note::{ForceLead, Moved, Note, OtherReference, Unavailable};
 use crate::identify::precision::{signed_with_interval as pm, with_interval};
-use crate::identify::quality::Cut;
 use std::fmt::{self, Display, Formatter};
 
 impl Display for Note {
@@ -186,20 +185,6 @@ impl Display for ForceLead {
     }
 }
 
-impl Display for Cut {
-    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} {:.2}–{:.2} s: {}{}",
-            self.channel.name(),
-            self.from_s,
-            self.to_s,
-            self.reason,
-            if self.at_floor { " (at the floor: touchdown or contact)" } else { "" }
-        )
-    }
-}
-
 impl serde::Serialize for Note {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         s.collect_str(self)
@@ -217,7 +202,7 @@ mod tests {
     use crate::identify::design::Effect;
     use crate::identify::ground::TiltAgreement;
     use crate::identify::ground::{LandedAxis, STILL_POSE_SD_DEG};
-    use crate::identify::quality::QualityChannel;
+    use crate::identify::quality::{Cut, Finding, QualityChannel};
 
     /// The sentences of the notes on the data, written out by hand: the gate's cut (its
     /// stretches joined by "; ", a floor contact named), the data's limits and a rest off its
@@ -231,7 +216,7 @@ mod tests {
             to_s: from_s + 0.5,
             flagged: 3,
             at_floor,
-            reason: "|f| 320 m/s² > 160".into(),
+            findings: vec![Finding::AccelDisagrees { count: 3, worst_m_s2: 320.0, bound_m_s2: 160.0 }],
         };
         sentences([
             (
@@ -241,7 +226,7 @@ mod tests {
                     margin_s: 0.25,
                     cuts: vec![cut(12.0, false), cut(30.2, true)],
                 },
-                "the data-quality gate cut 40 of 9000 rows before the fit (samples no flight can produce, with a 0.25 s margin): accel 12.00–12.50 s: |f| 320 m/s² > 160; accel 30.20–30.70 s: |f| 320 m/s² > 160 (at the floor: touchdown or contact)",
+                "the data-quality gate cut 40 of 9000 rows before the fit (samples no flight can produce, with a 0.25 s margin): accel 12.00–12.50 s: 3 samples where the accelerometer and the mocap's specific force disagree by up to 320.0 m/s² (32.6 g; no modelled effect explains more than 160.0 m/s²); accel 30.20–30.70 s: 3 samples where the accelerometer and the mocap's specific force disagree by up to 320.0 m/s² (32.6 g; no modelled effect explains more than 160.0 m/s²) (at the floor: touchdown or contact)",
             ),
             (
                 Note::NoForceModel { rigid_body: true },
