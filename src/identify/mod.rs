@@ -11,7 +11,7 @@
 //!               the report's notes as data
 //!   ─► checks/  across flights, R5, batches with a known truth  consistency, check, trials, handheld
 //!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, read_note, quality, summary,
-//!                                                               feedback, px4
+//!               the consistency across flights                  consistency, feedback, px4
 //! ```
 //!
 //! The stages are private; what a caller needs is re-exported here, flat:
@@ -109,7 +109,6 @@ pub use select::{
 
 // across flights, and the measures R5 holds
 pub use checks::check::{effect_cut, heldout_cut};
-pub use consistency::{
-    AGREE_P, AxisAgreement, Consistency, Mounting, Transfer, consistency, render as render_consistency,
-};
+pub use consistency::{AGREE_P, AxisAgreement, Consistency, Mounting, OffsetMissing, Transfer, consistency};
+pub use output::consistency::render as render_consistency;
 pub use stats::LjungBox;

@@ -47,7 +47,7 @@ pub fn identified_json(done: &Identified) -> Value {
 pub fn cross_validated_text(m: &CrossValidated) -> String {
     let mut text = per_flight_text(&m.reports, &m.excluded);
     text += &cross_tables(&m.reports, &m.cross);
-    text += &super::checks::consistency::render(&m.consistency);
+    text += &super::output::consistency::render(&m.consistency);
     text += &m.spin_up.as_ref().map_or(String::new(), summary::spin_up);
     text += &m.after_landing.as_ref().map_or(String::new(), summary::landed);
     text += &m.rest_pose.as_ref().map_or(String::new(), summary::rest_pose);

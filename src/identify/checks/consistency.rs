@@ -79,7 +79,28 @@ pub struct Mounting {
     /// Per axis of the body offset, when at least two flights have an interval on it.
     pub axes: Vec<AxisAgreement>,
     /// Flights left out of the agreement test, and why.
-    pub left_out: Vec<(usize, String)>,
+    pub left_out: Vec<(usize, OffsetMissing)>,
+}
+
+/// Why a flight of a mounting has no body offset to compare: data to match on; `Display` gives
+/// the sentence (the JSON holds it too).
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum OffsetMissing {
+    /// Too few usable samples to fit anything.
+    NothingFitted {
+        /// Usable training samples.
+        usable: usize,
+        /// Samples needed ([`MIN_TRAIN_SAMPLES`]).
+        needed: usize,
+    },
+    /// The offset about this axis was fitted but has no interval.
+    NotIdentifiable {
+        /// `roll`, `pitch` or `yaw`.
+        axis: &'static str,
+    },
+    /// The fit has no body offset (it was neither selected nor named with `--with`).
+    NotFitted,
 }
 
 /// The consistency report of a cross-validation.
@@ -266,22 +287,16 @@ pub fn consistency(reports: &[(String, Report)], t: &Transfer, link_deg: f64) ->
                     let r = &reports[i].1;
                     if !fitted(r) {
                         if axis == "roll" {
-                            left_out.push((
-                                i,
-                                format!(
-                                    "{} usable samples, {} needed: nothing was fitted",
-                                    r.train_samples, MIN_TRAIN_SAMPLES
-                                ),
-                            ));
+                            let why =
+                                OffsetMissing::NothingFitted { usable: r.train_samples, needed: MIN_TRAIN_SAMPLES };
+                            left_out.push((i, why));
                         }
                         continue;
                     }
                     match r.effect(Effect::BodyOffset).and_then(|f| f.params.iter().find(|p| p.name == axis)) {
                         Some(p) if has_interval(p) => values.push((i, p.value, p.ci95)),
-                        Some(_) => left_out.push((i, format!("its body offset {axis} is not identifiable"))),
-                        None if axis == "roll" => {
-                            left_out.push((i, "no body offset was fitted (use --with body_offset)".into()))
-                        }
+                        Some(_) => left_out.push((i, OffsetMissing::NotIdentifiable { axis })),
+                        None if axis == "roll" => left_out.push((i, OffsetMissing::NotFitted)),
                         None => {}
                     }
                 }
@@ -329,69 +344,6 @@ pub fn consistency(reports: &[(String, Report)], t: &Transfer, link_deg: f64) ->
         within_mounting_gain: median(within_m),
         across_mounting_gain: median(across_m),
     }
-}
-
-/// The consistency as text (one block per mounting, then the transfer).
-pub fn render(c: &Consistency) -> String {
-    let mut t = format!(
-        "\nconsistency across flights (one mounting: flights whose ground tilts are all within {:.2}° of each other):\n",
-        c.link_deg
-    );
-    for (k, m) in c.mountings.iter().enumerate() {
-        let names: Vec<&str> = m.flights.iter().map(|&i| c.flights[i].as_str()).collect();
-        t += &format!("  mounting {}: {} (ground spread {:.2}°)\n", k + 1, names.join(", "), m.ground_spread_deg);
-        for a in &m.axes {
-            t += &format!(
-                "    body offset {:<5} mean {:+.2}°, spread {:.2}° over {} flights, χ² {:.1} on {} dof, p {:.2}: {}\n",
-                a.axis,
-                a.mean_deg,
-                a.spread_deg,
-                a.flights.len(),
-                a.chi2,
-                a.dof,
-                a.p,
-                if a.agree {
-                    "agree within their intervals"
-                } else {
-                    "DISAGREE (p < 0.05): the markers moved between these flights, or an interval is too narrow"
-                }
-            );
-        }
-        if m.flights.len() == 1 {
-            t += "    one flight: nothing to compare it with\n";
-        }
-        for (i, why) in &m.left_out {
-            t += &format!("    {} left out: {why}\n", c.flights[*i]);
-        }
-    }
-    let pct = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:.0} %", 100.0 * v));
-    t += &format!(
-        "  transfer (accel_kin error cut of one flight's model on another): median {} over {} pairs in one mounting, {} over {} pairs across mountings\n",
-        pct(c.within_cut),
-        c.within_pairs,
-        pct(c.across_cut),
-        c.across_pairs
-    );
-    let pp = |x: Option<f64>| x.map_or("—".to_string(), |v| format!("{:+.0} points", 100.0 * v));
-    t += &format!(
-        "  the body offset's own share of that cut (with it minus without it): median {} in one mounting (worse in {} of {} pairs), {} across mountings (worse in {} of {})\n",
-        pp(c.within_offset_gain),
-        c.within_offset_worse,
-        c.within_pairs,
-        pp(c.across_offset_gain),
-        c.across_offset_worse,
-        c.across_pairs
-    );
-    t += &format!(
-        "  the mounting's own part of the offset (with it minus with the other flights' mean offset): median {} in one mounting (worse in {} of {} pairs), {} across mountings (worse in {} of {})\n",
-        pp(c.within_mounting_gain),
-        c.within_mounting_worse,
-        c.mounting_pairs.0,
-        pp(c.across_mounting_gain),
-        c.across_mounting_worse,
-        c.mounting_pairs.1
-    );
-    t
 }
 
 #[cfg(test)]

@@ -30,7 +30,7 @@
 //! closer than `merge_gap_s` are joined into one stretch, and the rows of every stretch are taken
 //! out of the log's segments (so the derivative filters never reach across them). The report
 //! lists every stretch with its time range (seconds from the log's first sample), channel and
-//! reason. A stretch whose flagged samples all lie within `min_height_m` of the floor is contact
+//! findings ([`Finding`]). A stretch whose flagged samples all lie within `min_height_m` of the floor is contact
 //! (a touchdown or a bump), not corruption: it is cut and listed the same way but does not make
 //! the log unusable.
 

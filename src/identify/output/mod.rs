@@ -2,6 +2,7 @@
 //! flights), the scenario fragment that feeds the effects back into the simulation, and the PX4
 //! parameters.
 
+pub(crate) mod consistency;
 pub mod feedback;
 mod note;
 pub mod px4;
