@@ -469,3 +469,34 @@ fn runs(segments: &[(usize, usize)], same: impl Fn(usize) -> bool) -> Vec<(usize
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+
+    /// One accelerometer reading of (0, 0, −60) m/s² in the unit tests' exact swing (X3D preset:
+    /// ±6 g = ±58.86 m/s²) at t = 10 s, where sin νt = 0 and the true specific force is
+    /// (0, 0, −9.81): it is at full scale (60 ≥ 0.98 × 58.86) and 50.19 m/s² off the mocap's
+    /// specific force, more than 4 g. One accelerometer stretch, whose findings are those two, in
+    /// that order, with the worst values and bounds as derived. (The swing's gyro reads one
+    /// constant rate throughout, which the gate rightly calls stuck: a stretch of its own.)
+    #[test]
+    fn a_saturated_reading_is_cut_with_what_was_found() {
+        let mut s = Series::swing_for_tests(UnitQuaternion::identity(), 0.0);
+        s.accel_body[2000] = Vec3::new(0.0, 0.0, -60.0);
+        let (_, q) = gate(&s, &QualityOptions::default(), 0.02, 0.15);
+        let accel: Vec<&Cut> = q.cuts.iter().filter(|c| c.channel == QualityChannel::Accel).collect();
+        assert_eq!(accel.len(), 1, "{q:?}");
+        let g = crate::vehicle::params::GRAVITY;
+        let [
+            Finding::AccelFullScale { count: 1, worst_m_s2, range_m_s2 },
+            Finding::AccelDisagrees { count: 1, worst_m_s2: off, bound_m_s2 },
+        ] = accel[0].findings[..]
+        else {
+            panic!("{:?}", accel[0].findings)
+        };
+        assert_eq!((worst_m_s2, range_m_s2, bound_m_s2), (60.0, 6.0 * g, 4.0 * g));
+        assert!((off - (60.0 - g)).abs() < 0.01, "{off}");
+    }
+}
