@@ -192,7 +192,7 @@ impl serde::Serialize for Note {
 }
 
 /// The items' sentences, joined by `sep`.
-fn joined<T: Display>(items: impl IntoIterator<Item = T>, sep: &str) -> String {
+pub(super) fn joined<T: Display>(items: impl IntoIterator<Item = T>, sep: &str) -> String {
     items.into_iter().map(|x| x.to_string()).collect::<Vec<_>>().join(sep)
 }
 

@@ -1,6 +1,7 @@
 //! What the data-quality gate cut, as the sentences a reader sees: a stretch (`Cut`) and each
 //! defect found in it (`Finding`); the JSON's `reason` is the findings' sentences joined by `; `.
 
+use super::note::joined;
 use crate::identify::quality::{Cut, Finding};
 use crate::vehicle::params::GRAVITY;
 use std::fmt::{self, Display, Formatter};
@@ -13,7 +14,7 @@ impl Display for Cut {
             self.channel.name(),
             self.from_s,
             self.to_s,
-            Reason(&self.findings),
+            joined(&self.findings, "; "),
             if self.at_floor { " (at the floor: touchdown or contact)" } else { "" }
         )
     }
@@ -60,21 +61,6 @@ impl Display for Finding {
     }
 }
 
-/// A stretch's findings as one sentence: each one's, joined by `; `.
-struct Reason<'a>(&'a [Finding]);
-
-impl Display for Reason<'_> {
-    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
-        for (k, finding) in self.0.iter().enumerate() {
-            if k > 0 {
-                f.write_str("; ")?;
-            }
-            finding.fmt(f)?;
-        }
-        Ok(())
-    }
-}
-
 /// A stretch in the JSON: its fields, with the findings as `reason`, the sentence the text shows
 /// after the stretch.
 impl serde::Serialize for Cut {
@@ -86,7 +72,7 @@ impl serde::Serialize for Cut {
         st.serialize_field("to_s", &self.to_s)?;
         st.serialize_field("flagged", &self.flagged)?;
         st.serialize_field("at_floor", &self.at_floor)?;
-        st.serialize_field("reason", &Reason(&self.findings).to_string())?;
+        st.serialize_field("reason", &joined(&self.findings, "; "))?;
         st.end()
     }
 }
