@@ -126,6 +126,11 @@ fn identify(c: &mut Criterion) {
     g.bench_function("ten_minutes_200hz", |b| {
         b.iter(|| flyarena::identify::identify(&series, &flyarena::identify::Options::default()).expect("clean data"))
     });
+    // the global start alone (the clock search over ±5 s, Wahba, the linear solve): its share of
+    // the above, held to under 0.2 s per minute of data (docs/calibration.md)
+    g.bench_function("global_start_ten_minutes_200hz", |b| {
+        b.iter(|| flyarena::identify::start::start(&series, &flyarena::identify::start::ClockWindow::default(), 0.02))
+    });
     g.finish();
 }
 

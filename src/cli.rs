@@ -86,6 +86,15 @@ enum Command {
         /// keeps MoCap2GT's value (docs/calibration.md)
         #[arg(long, value_name = "FILE", requires = "handheld")]
         setting: Option<PathBuf>,
+        /// A real log with N mounts and clock offsets injected instead of flights (an ASL folder
+        /// or any two-stream log, read through --mapping), each calibrated and compared with the
+        /// plain log's calibration composed with its injection (DIR/injected-<log>-<seed>-<N>.json;
+        /// docs/calibration.md)
+        #[arg(long, value_name = "LOG", conflicts_with_all = ["shard", "handheld"], requires = "mapping")]
+        injected: Option<PathBuf>,
+        /// With --injected: the mapping that reads the log
+        #[arg(long, value_name = "MAPPING.yaml", requires = "injected")]
+        mapping: Option<PathBuf>,
         /// Output folder
         #[arg(long, default_value = "out", value_name = "DIR")]
         out: PathBuf,
@@ -272,9 +281,19 @@ struct IdentifyArgs {
     /// The scenario that wrote a flyarena log
     #[arg(long, value_name = "SCENARIO.yaml", conflicts_with = "mapping")]
     scenario: Option<PathBuf>,
-    /// Read another tool's CSV log through a column mapping
+    /// Read another tool's log through a mapping (mappings/*.yaml): a CSV, a ROS 2 bag (.mcap),
+    /// a PX4 log (.ulg), an ASL/EuRoC folder, or an IMU CSV beside a pose file (--poses)
     #[arg(long, value_name = "MAPPING.yaml")]
     mapping: Option<PathBuf>,
+    /// The poses in a file of their own, on their own clock, beside the IMU log INPUT: a TUM
+    /// trajectory (t x y z qx qy qz qw) or an ASL pose CSV, as the mapping's `poses:` says
+    #[arg(long, value_name = "FILE", requires = "mapping")]
+    poses: Option<PathBuf>,
+    /// Where the clock offset between the IMU and the mocap is searched (s, the mocap's stamps
+    /// later than the IMU's): a known coarse offset (searched ±5 s around it) or a window A..B;
+    /// default ±5 s, and every offset when the two streams' times do not overlap
+    #[arg(long, value_name = "S|A..B", allow_hyphen_values = true, value_parser = parse_clock_offset)]
+    clock_offset: Option<flyarena::identify::start::ClockWindow>,
     /// Fit these effects without testing them (e.g. body_offset), select the rest. The hypotheses
     /// gyro_delay, accel_misalignment, accel_scale, thrust_tilt, clock_drift and imu_offset are not searched:
     /// they are fitted only when named here
@@ -341,6 +360,23 @@ fn parse_effect(name: &str) -> Result<flyarena::identify::Effect, String> {
             flyarena::identify::Effect::ALL.iter().map(|e| e.key()).collect::<Vec<_>>().join(", ")
         )
     })
+}
+
+fn parse_clock_offset(v: &str) -> Result<flyarena::identify::start::ClockWindow, String> {
+    use flyarena::identify::start::{ClockWindow, DEFAULT_HALF_WIDTH_S};
+    let num = |x: &str| x.trim().parse::<f64>().ok().filter(|x| x.is_finite());
+    let bad = || {
+        format!(
+            "takes a coarse offset in seconds (e.g. 0.2, -3, 1e6) or a window A..B with A < B (e.g. -30..30), not `{v}`"
+        )
+    };
+    match v.split_once("..") {
+        Some((a, b)) => match (num(a), num(b)) {
+            (Some(a), Some(b)) if a < b => Ok(ClockWindow { centre_s: 0.5 * (a + b), half_width_s: 0.5 * (b - a) }),
+            _ => Err(bad()),
+        },
+        None => num(v).map(|c| ClockWindow { centre_s: c, half_width_s: DEFAULT_HALF_WIDTH_S }).ok_or_else(bad),
+    }
 }
 
 fn parse_smoothing(v: &str) -> Result<f64, String> {
@@ -668,6 +704,11 @@ fn check_identify(a: &IdentifyArgs) -> Result<(), Error> {
     if a.inputs.len() > 1 && a.px4 {
         return Err(usage("--px4 takes one flight: the parameters are the vehicle's as that flight shows them"));
     }
+    if a.inputs.len() > 1 && a.poses.is_some() {
+        return Err(usage(
+            "--poses goes with one IMU log: several inputs are a cross-validation of logs that hold their poses",
+        ));
+    }
     if a.inputs.len() > 1 && a.mapping.is_none() {
         return Err(usage("several inputs (cross-validation) need --mapping: they are logs of other tools"));
     }
@@ -706,7 +747,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
     use flyarena::identify::{Request, Source};
     let source = match (&a.scenario, &a.mapping) {
         (Some(scenario), _) => Source::FlyarenaLog { log: input, scenario },
-        (None, Some(mapping)) => Source::Mapped { log: input, mapping },
+        (None, Some(mapping)) => Source::Mapped { log: input, mapping, poses: a.poses.as_deref() },
         (None, None) => Source::Scenario(input),
     };
     let mut forced = a.forced.clone();
@@ -720,6 +761,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         seed: a.seed,
         smoothing_ms: a.smoothing_ms,
         forced,
+        clock: a.clock_offset,
         ..Request::new(source)
     };
     let done = flyarena::identify::run(&req)?;
@@ -740,6 +782,15 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         UpArg::Y => flyarena::identify::px4::MocapAxes::YUp,
         UpArg::Ned => flyarena::identify::px4::MocapAxes::Frd,
     };
+    let calibration_paths = [
+        (done.t_bs_yaml.as_ref(), a.out.join(format!("{stem}.T_BS.yaml"))),
+        (done.imu_trajectory.as_ref(), a.out.join(format!("{stem}.imu.tum"))),
+    ];
+    for (text, path) in &calibration_paths {
+        if let Some(t) = text {
+            write_output(path, t.as_bytes())?;
+        }
+    }
     let px4 = a.px4.then(|| flyarena::identify::px4::parameters(&done.report, axes));
     let px4_path = a.px4_params.clone().unwrap_or_else(|| a.out.join(format!("{stem}.px4.params")));
     if let Some(p) = &px4 {
@@ -762,6 +813,13 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         if px4.is_some() {
             println!("PX4 parameters: {} (QGroundControl: Parameters → Tools → Load from file)", px4_path.display());
         }
+        if let [(Some(_), t_bs), (Some(_), tum)] = &calibration_paths {
+            println!(
+                "calibration: {} (T_BS, ASL/Kalibr) and {} (the IMU's trajectory, TUM)",
+                t_bs.display(),
+                tum.display()
+            );
+        }
     }
     Ok(identify_verdict(&done, a.quiet, input))
 }
@@ -783,7 +841,8 @@ fn cmd_identify_many(a: &IdentifyArgs) -> Result<i32, Error> {
 }
 
 /// The last lines of `identify` and its exit code: R5's table and verdict when the scenario
-/// declares it (1 when it fails), else the one-line verdict under `--quiet`.
+/// declares it (1 when it fails); else 1 with what makes the fit impossible when the frames or
+/// the clocks are not aligned, or the one-line verdict under `--quiet`.
 fn identify_verdict(done: &flyarena::identify::Identified, quiet: bool, input: &Path) -> i32 {
     match &done.requirements {
         Some(req) => {
@@ -799,6 +858,14 @@ fn identify_verdict(done: &flyarena::identify::Identified, quiet: bool, input: &
                 req.rows.len()
             );
             if req.passed() { PASS } else { FAIL }
+        }
+        None if !done.report.misaligned.is_empty() => {
+            println!(
+                "{}FAIL: the frames or the clocks are not aligned, so no effect is claimed ({})",
+                if quiet { format!("{}: ", input.display()) } else { "\n".to_string() },
+                done.report.misaligned.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
+            );
+            FAIL
         }
         None => {
             if quiet {
@@ -845,7 +912,7 @@ fn cmd_handheld(
         for i in 0..flights {
             write_output(
                 &out.join(&name).join(format!("flight-{i}.csv")),
-                handheld::draw(seed, i).log(&set).as_bytes(),
+                handheld::draw_for(seed, i, &set).log(&set).as_bytes(),
             )?;
         }
     }
@@ -867,6 +934,34 @@ fn cmd_handheld(
         );
     }
     println!("\nreport: {}", path.display());
+    Ok(PASS)
+}
+
+/// A real log with mounts and clock offsets injected, each case calibrated and scored against
+/// the plain log's calibration composed with its injection (DIR/injected-<log>-<seed>-<N>.json).
+fn cmd_injected(log: &Path, mapping: &Path, cases: u64, seed: u64, out: &Path) -> Result<i32, Error> {
+    use flyarena::identify::{Effect, Mapping, Options, injected};
+    let map = Mapping::load(mapping)?;
+    let streams = injected::streams(&map, log)?;
+    let mut o = Options { forced: Effect::CALIBRATION.to_vec(), ..Options::default() };
+    if let Some(ms) = map.smoothing_ms {
+        o.design.smoothing_s = ms * 1e-3;
+    }
+    let stem = log.file_name().map_or_else(|| "log".to_string(), |s| s.to_string_lossy().into_owned());
+    let (plain, outcomes) = injected::run_many(&map, &streams, &log.display().to_string(), seed, cases, &o)?;
+    let table = injected::render(&log.display().to_string(), &outcomes);
+    let json = serde_json::json!({
+        "log": log.display().to_string(), "seed": seed, "cases": cases, "table": table,
+        "plain": plain.effects, "outcomes": outcomes,
+    });
+    let path = out.join(format!("injected-{stem}-{seed}-{cases}.json"));
+    write_output(&path, &serde_json::to_vec_pretty(&json).expect("serialises"))?;
+    print!("{table}");
+    println!(
+        "
+report: {}",
+        path.display()
+    );
     Ok(PASS)
 }
 
@@ -954,6 +1049,9 @@ fn run() -> i32 {
         Command::Identify(a) => cmd_identify(a),
         Command::Trials { flights, seed, handheld: true, logs, smoothing_ms, setting, out, .. } => {
             cmd_handheld(flights, seed, logs, smoothing_ms, setting.as_deref(), &out)
+        }
+        Command::Trials { flights, seed, injected: Some(log), mapping: Some(mapping), out, .. } => {
+            cmd_injected(&log, &mapping, flights, seed, &out)
         }
         Command::Trials { flights, seed, shard, out, .. } => cmd_trials(flights, seed, shard, &out),
         Command::Slurm { job } => cmd_slurm(job),

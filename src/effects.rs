@@ -95,6 +95,17 @@ pub enum Effect {
 /// their selection (and its multiple-testing count) is what it was without the drift.
 pub const DRIFT_MIN_S: f64 = 120.0;
 
+/// The largest accelerometer bias a real accelerometer has (m/s², ≈ 0.2 g): MEMS parts are
+/// specified to tens of milli-g (±50–150 mg for consumer parts). A fit that needs more explains
+/// frames or clocks that are not aligned ([`crate::identify::Implausible`]).
+pub const MAX_ACCEL_BIAS_M_S2: f64 = 2.0;
+/// The largest gyro bias a real gyro has (°/s): consumer MEMS gyros reach ±20 °/s at worst
+/// before calibration.
+pub const MAX_GYRO_BIAS_DEG_S: f64 = 25.0;
+/// The longest lever arm between the point the mocap tracks and the IMU (m): one rigid body
+/// holds both within reach of each other.
+pub const MAX_LEVER_ARM_M: f64 = 1.0;
+
 impl Effect {
     /// A mocap–IMU calibration: the rotation between the mocap body and the IMU, the tilt of
     /// the mocap world, the lever arm from the tracked point to the IMU, the time offset of the

@@ -38,6 +38,8 @@ pub enum Component {
     Handheld = 8,
     /// Errors drawn from a hand-held trial's Cramér–Rao bound; "vehicle" = trial index.
     Bound = 9,
+    /// A mount and clock offset injected into a real log; "vehicle" = case index.
+    Injection = 10,
 }
 
 fn splitmix64(x: &mut u64) -> u64 {

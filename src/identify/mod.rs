@@ -2,16 +2,25 @@
 //! effect the model lacks, that effect added, and the error before and after.
 //!
 //! ```text
-//! flight log (flyarena CSV + scenario, any CSV + a column mapping, a ROS 2 bag, a PX4 log)
+//! flight log (flyarena CSV + scenario, any CSV + a column mapping, a ROS 2 bag, a PX4 log,
+//! an ASL/EuRoC folder, an IMU CSV beside a TUM pose file)
 //!   ─► input/   Series (mocap world NED, body FRD, SI) and       series, flyarena_log, mapping, ros2, ulog,
-//!               what the readers did to the log                 read_note
-//!   ─► fit/     data-quality gate, residual channels and        quality, design,
-//!               candidate regressors, prewhitened forward       select, stats,
-//!               selection with held-out errors, ground check,   ground, note
+//!               what the readers did to the log; two streams    streams, joined, read_note
+//!               on clocks of their own, joined at the start's
+//!               clock offset
+//!   ─► fit/     the global start: the clock offset (‖ω‖         start,
+//!               cross-correlated), the rotation (Wahba),
+//!               gravity, lever arm and biases in closed form;
+//!               then the data-quality gate, residual channels   quality, design,
+//!               and candidate regressors, prewhitened forward   select, stats,
+//!               selection with held-out errors, the check that
+//!               the fit is physically possible, ground check,   ground, note
 //!               the report's notes as data
-//!   ─► checks/  across flights, R5, batches with a known truth  consistency, check, trials, handheld
-//!   ─► output/  report text, scenario fragment, PX4 parameters  report, note, read_note, quality, summary,
-//!               the consistency across flights                  consistency, feedback, px4
+//!   ─► checks/  across flights, R5, batches with a known truth  consistency, check, trials, handheld,
+//!               (and real logs with injected mounts)            injected
+//!   ─► output/  report text, scenario fragment, PX4 parameters, report, start, note, read_note, quality,
+//!               T_BS and the IMU's trajectory, the consistency  summary, consistency, feedback, px4,
+//!               across flights                                  calibration
 //! ```
 //!
 //! The stages are private; what a caller needs is re-exported here, flat:
@@ -27,10 +36,12 @@
 //! | print or judge a report | [`render_report`], [`verdict`]; across flights [`consistency`], [`render_consistency`] |
 //! | look at one stage | [`quality_gate`], [`ground_check`], [`residual_series`], [`excitation`], [`evaluate`] |
 //!
-//! Six modules are public because each is a vocabulary of its own: [`mapping`] (the column
+//! Nine modules are public because each is a vocabulary of its own: [`mapping`] (the column
 //! mapping of another tool's log), [`ros2`] and [`ulog`] (the readers of a ROS 2 bag and a PX4
-//! log), [`px4`] (PX4's parameters from a report), [`trials`] and [`handheld`] (batches of
-//! flights whose truth is known).
+//! log), [`start`] (the clocks and frames in closed form, before the fine fit), [`px4`] (PX4's
+//! parameters from a report), [`calibration`] (T_BS in the ASL/Kalibr convention and the IMU's
+//! trajectory in the TUM format), [`trials`] and [`handheld`] (batches of flights whose truth is
+//! known) and [`injected`] (a real log with mounts and clock offsets put on it).
 //!
 //! The same code runs on flyarena's own runs (where the truth is known and the tests check that
 //! the hidden effect is found) and on real flights (NanoBench, docs/nanobench.md).
@@ -74,9 +85,10 @@ pub(crate) use output::{feedback, report};
 // the tools beside the pipeline, each a vocabulary of its own: the column mapping of another
 // tool's log, the readers of a ROS 2 bag and a PX4 log, PX4's parameters, and batches of flights
 // whose truth is known
-pub use checks::{handheld, trials};
+pub use checks::{handheld, injected, trials};
+pub use fit::start;
 pub use input::{mapping, ros2, ulog};
-pub use output::px4;
+pub use output::{calibration, px4};
 
 // the front: a request as the command line makes it, or one flight's series
 pub use feedback::{TrajectoryError, load_with_effects};
@@ -88,9 +100,10 @@ pub use workflow::{CrossValidated, Exclusion, Identified, Request, Source, run, 
 // inputs: the series every reader builds, and the readers
 pub use flyarena_log::{THRUST_REL_SD, run_and_log};
 pub use input::error::InputError;
+pub use input::joined::Streams;
 pub use input::read_note::{ReadNote, StampField};
 pub use mapping::Mapping;
-pub use series::{Corrections, NominalModel, Series, interpolate_attitude};
+pub use series::{Clocks, Corrections, NominalModel, Series, interpolate_attitude};
 
 // the model of the residual and what the report holds
 pub use design::{Channel, DesignOptions, Effect, glitches};
@@ -102,9 +115,10 @@ pub use ground::{
 };
 pub use note::{ForceLead, Moved, Note, OtherReference, Unavailable};
 pub use quality::{Cut, DataQuality, Finding, QualityChannel, QualityOptions, gate as quality_gate};
+pub use select::plausible::Implausible;
 pub use select::{
     AxisError, Candidate, Correlate, Excitation, Found, LEAD_MAX, LEAD_MIN_CORR, Left, MIN_TRAIN_SAMPLES, Param,
-    Removal, ResidualSeries, Step, Whiteness, evaluate, excitation, residual_series,
+    Removal, ResidualSeries, StartMoved, Step, Whiteness, evaluate, excitation, residual_series,
 };
 
 // across flights, and the measures R5 holds

@@ -21,3 +21,19 @@ pub(crate) fn signed_with_interval(value: f64, ci: f64) -> String {
     let d = decimals_for(ci);
     format!("{value:+.d$} ± {ci:.d$}")
 }
+
+/// One parameter as printed: "name value ± half-width unit", the half-width to two significant
+/// digits and the value to the same decimals (a figure keeps the precision of its interval), or
+/// "name value unit (not identifiable)" when the flight cannot back an interval, the value then
+/// formatted by `num`.
+pub(crate) fn param_text(p: &crate::identify::fit::select::Param, num: impl Fn(f64) -> String) -> String {
+    if p.identifiable && p.ci95.is_finite() && p.ci95 > 0.0 {
+        format!("{} {} {}", p.name, with_interval(p.value, p.ci95), p.unit)
+    } else if p.identifiable {
+        format!("{} {} ± {} {}", p.name, num(p.value), num(p.ci95), p.unit)
+    } else {
+        format!("{} {} {} (not identifiable)", p.name, num(p.value), p.unit)
+    }
+    .trim_end()
+    .to_string()
+}

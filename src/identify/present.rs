@@ -83,7 +83,8 @@ fn per_flight_text(reports: &[(String, Report)], excluded: &[(String, Exclusion)
             Channel::ALL.iter().map(|c| format!("{} {}", c.name(), pct(channel_cut(&r.errors, *c)))).collect();
         text += &format!("\n  {name}: {}\n", cuts.join(", "));
         for f in &r.effects {
-            let ps: Vec<String> = f.params.iter().map(|p| report::param_text(p, |x| format!("{x:.3}"))).collect();
+            let ps: Vec<String> =
+                f.params.iter().map(|p| super::precision::param_text(p, |x| format!("{x:.3}"))).collect();
             text += &format!("    {:<34} {}\n", f.name, ps.join(", "));
         }
         if let Some(g) = &r.ground_check {

@@ -3,8 +3,10 @@
 //! compare the closed loop, and return the report, R5, the fragment and the residuals as data
 //! (`present` renders them as text and JSON).
 
+use super::fit::start::ClockWindow;
 use super::input::error::InputError;
 use super::input::flyarena_log;
+use super::output::calibration::{LogAxes, imu_trajectory_tum, t_bs_yaml};
 use super::output::feedback::{TrajectoryError, fragment, nominal_and_fed_back, trajectory_error};
 use super::{Options, identify};
 use crate::frames::{Body, MocapBody, Rot};
@@ -25,6 +27,12 @@ pub struct Identified {
     pub closed_loop: Option<(TrajectoryError, TrajectoryError)>,
     /// Residuals before and after, for the recording.
     pub residuals: Vec<super::fit::select::ResidualSeries>,
+    /// The calibration as T_BS (ASL/Kalibr YAML), when the report holds one
+    /// ([`super::calibration::t_bs_yaml`]).
+    pub t_bs_yaml: Option<String>,
+    /// The IMU frame's trajectory (TUM), when the report holds a calibration
+    /// ([`super::calibration::imu_trajectory_tum`]).
+    pub imu_trajectory: Option<String>,
 }
 
 fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize, InputError> {
@@ -42,14 +50,18 @@ fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize,
     }
 }
 
-/// The options of a request: the forced effects, and the smoothing from the request, else from
-/// the mapping, else the default.
+/// The options of a request: the forced effects, the clock's search window, and the smoothing
+/// from the request, else from the mapping, else the default.
 fn options(
     forced: &[super::Effect],
     smoothing_ms: Option<f64>,
+    clock: Option<ClockWindow>,
     map: Option<&super::input::mapping::Mapping>,
 ) -> Options {
     let mut opts = Options { forced: forced.to_vec(), ..Options::default() };
+    if let Some(c) = clock {
+        opts.clock = c;
+    }
     if let Some(sm) = smoothing_ms.or(map.and_then(|m| m.smoothing_ms)) {
         opts.design.smoothing_s = sm * 1e-3;
     }
@@ -68,12 +80,16 @@ pub enum Source<'a> {
         /// The scenario it was flown from.
         scenario: &'a Path,
     },
-    /// Another tool's log (CSV, or a ROS 2 bag) through a mapping.
+    /// Another tool's log (CSV, a ROS 2 bag, a PX4 log, an ASL folder, or an IMU log beside a
+    /// pose file) through a mapping.
     Mapped {
-        /// The log.
+        /// The log (the IMU's, where the poses are a file of their own; an ASL folder).
         log: &'a Path,
         /// The mapping that reads it.
         mapping: &'a Path,
+        /// The pose file beside an IMU log (a mapping with a `poses:` block), or another pose
+        /// stream of an ASL folder.
+        poses: Option<&'a Path>,
     },
 }
 
@@ -90,13 +106,37 @@ pub struct Request<'a> {
     pub smoothing_ms: Option<f64>,
     /// Effects fitted whatever the selection says (`--with`).
     pub forced: Vec<super::Effect>,
+    /// Where the clock offset between the IMU and the mocap is searched (`--clock-offset`;
+    /// `None`: ±5 s around 0).
+    pub clock: Option<ClockWindow>,
 }
 
 impl<'a> Request<'a> {
     /// A request with default options.
     pub fn new(source: Source<'a>) -> Self {
-        Request { source, vehicle: None, seed: None, smoothing_ms: None, forced: Vec::new() }
+        Request { source, vehicle: None, seed: None, smoothing_ms: None, forced: Vec::new(), clock: None }
     }
+}
+
+/// A log through its mapping: one file as it is read, or two streams joined once the clock
+/// search has found how they stand ([`super::fit::start`]).
+fn read_log(
+    map: &super::input::mapping::Mapping,
+    log: &Path,
+    poses: Option<&Path>,
+    clock: &ClockWindow,
+) -> Result<super::Series, InputError> {
+    if map.two_streams() {
+        let streams = map.read_streams(log, poses)?;
+        return super::fit::start::joined(map, &streams, clock, &log.display().to_string());
+    }
+    if let Some(p) = poses {
+        return Err(InputError::invalid(
+            p.display(),
+            "--poses names a pose file of its own, and the mapping reads the poses from the log: give it a `poses:` block",
+        ));
+    }
+    map.read(log)
 }
 
 /// Identifies from a scenario (flown here), a flyarena log with its scenario, or a mapped log;
@@ -104,20 +144,30 @@ impl<'a> Request<'a> {
 /// the data (closed loop) and checks R5 when the scenario declares it.
 pub fn run(req: &Request) -> crate::Result<Identified> {
     let (forced, smoothing_ms, vehicle, seed) = (&req.forced[..], req.smoothing_ms, req.vehicle, req.seed);
-    let opts = options(forced, smoothing_ms, None);
+    let opts = options(forced, smoothing_ms, req.clock, None);
     let (input, scenario) = match req.source {
         Source::Scenario(p) => (p, None),
         Source::FlyarenaLog { log, scenario } => (log, Some(scenario)),
-        Source::Mapped { log: input, mapping: m } => {
+        Source::Mapped { log: input, mapping: m, poses } => {
             let map = super::input::mapping::Mapping::load(m)?;
-            let opts = options(forced, smoothing_ms, Some(&map));
-            let series = map.read(input)?;
+            let opts = options(forced, smoothing_ms, req.clock, Some(&map));
+            let series = read_log(&map, input, poses, &opts.clock)?;
             let report = identify(&series, &opts)?;
             // the log's own frame rate, for rounding a delay to whole frames
             // (and four markers, the common pattern, for a lever arm: the log names no template)
             let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32, 4);
             let residuals = super::fit::select::residual_series(&series, &opts, &report);
-            return Ok(Identified { report, requirements: None, fragment, closed_loop: None, residuals });
+            let axes = LogAxes { world: map.world, body: map.body };
+            let source = input.display().to_string();
+            return Ok(Identified {
+                t_bs_yaml: t_bs_yaml(&report, axes, &source),
+                imu_trajectory: imu_trajectory_tum(&series, &report, axes),
+                report,
+                requirements: None,
+                fragment,
+                closed_loop: None,
+                residuals,
+            });
         }
     };
     let scen_path = scenario.unwrap_or(input);
@@ -150,7 +200,16 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
     let requirements =
         s.requirements.identify.as_ref().map(|req| super::checks::check::check(&report, req, &s.vehicle(i).name));
     let residuals = super::fit::select::residual_series(&data, &opts, &report);
-    Ok(Identified { report, requirements, fragment: frag, closed_loop: Some((before, after)), residuals })
+    let source = input.display().to_string();
+    Ok(Identified {
+        t_bs_yaml: t_bs_yaml(&report, LogAxes::flyarena(), &source),
+        imu_trajectory: imu_trajectory_tum(&data, &report, LogAxes::flyarena()),
+        report,
+        requirements,
+        fragment: frag,
+        closed_loop: Some((before, after)),
+        residuals,
+    })
 }
 
 /// Several logs through one mapping: each identified, then every flight's model evaluated on
@@ -183,7 +242,7 @@ pub fn run_many(
     use super::fit::design::Channel;
     use super::fit::select::{channel_cut, evaluate};
     let map = super::input::mapping::Mapping::load(mapping)?;
-    let opts = options(forced, smoothing_ms, Some(&map));
+    let opts = options(forced, smoothing_ms, None, Some(&map));
     let Each { reports, series, excluded } = identify_each(inputs, &map, &opts)?;
     let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports
         .iter()
@@ -267,7 +326,7 @@ fn identify_each(
     let mut read: Vec<(String, super::Series)> = Vec::new();
     let mut excluded: Vec<(String, Exclusion)> = Vec::new();
     for p in inputs {
-        let s = map.read(p)?;
+        let s = read_log(map, p, None, &opts.clock)?;
         let name = p.file_stem().map_or_else(|| p.display().to_string(), |x| x.to_string_lossy().into_owned());
         if let Some((first, _)) = read.iter().find(|(_, r)| r.same_samples(&s)) {
             excluded.push((name, Exclusion::CopyOf(first.clone())));

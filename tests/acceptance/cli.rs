@@ -1,16 +1,6 @@
 //! The command line as a user runs it: exit codes, outputs, and the errors for bad scenarios.
 
-use std::path::Path;
-use std::process::Command;
-
-fn flyarena(args: &[&str], dir: &Path) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
+use super::flyarena;
 
 fn tmp(name: &str) -> super::Scratch {
     super::Scratch::new(&format!("test-{name}"))

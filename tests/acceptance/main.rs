@@ -17,6 +17,7 @@ mod px4;
 mod quality;
 #[cfg(feature = "record")]
 mod record;
+mod rigs;
 mod ros2;
 mod scenarios;
 mod serve;
@@ -70,6 +71,16 @@ impl Drop for Scratch {
             let _ = std::fs::remove_dir_all(&self.0);
         }
     }
+}
+
+/// Runs the `flyarena` binary with `args` in `dir`: its exit code, stdout and stderr.
+pub fn flyarena(args: &[&str], dir: &Path) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_flyarena")).args(args).current_dir(dir).output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
 }
 
 /// The checkout being tested. Read at run time (cargo sets it for `cargo test`): the compile-time

@@ -263,8 +263,13 @@ fn nanobench_gate_cuts_touchdowns_only_and_rescues_a_corrupted_flight() {
     files.sort();
     for f in &files {
         let s = map.read(f).unwrap();
-        let (_, q) =
-            flyarena::identify::quality_gate(&s, &opts.quality, opts.design.smoothing_s, opts.design.min_height_m);
+        let (_, q) = flyarena::identify::quality_gate(
+            &s,
+            &opts.quality,
+            opts.design.smoothing_s,
+            opts.design.min_height_m,
+            &flyarena::identify::Corrections::default(),
+        );
         assert!(q.corrupted().next().is_none(), "{}: {:?}", f.display(), q.cuts);
     }
     let s = map.read(&dir.join("B7_oval_fast_rep1.csv")).unwrap();

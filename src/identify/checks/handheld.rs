@@ -44,6 +44,7 @@
 
 use crate::identify::fit::design::Effect;
 use crate::identify::fit::select::{Options, identify};
+use crate::identify::fit::start::ClockWindow;
 use crate::identify::input::joined::{Stream, Streams};
 use crate::identify::input::mapping::Mapping;
 use crate::identify::input::series::Series;
@@ -94,6 +95,24 @@ pub struct Setting {
     /// Gyro bias drift, body (rad/s per s, each in [−0.01, 0.01]).
     #[serde(with = "ranges::gyro_drift::arr")]
     pub gyro_bias_drift: [f64; 3],
+    /// How the IMU is mounted against the markers: `small` (3–5° about a random axis, MoCap2GT's
+    /// drawing) or `any` (a rotation drawn uniformly on SO(3): half-turns, axis swaps, anything).
+    pub mount: MountDraw,
+    /// The streams' clocks apart by up to this (s, [0, 3600]): the mocap's stamps are a uniform
+    /// draw in ±this later than the IMU's, on top of the 2–4 ms delay. 0 in MoCap2GT's setting.
+    #[serde(with = "ranges::time_s")]
+    pub clock_offset_s: f64,
+}
+
+/// How a hand-held trial's mount is drawn ([`Setting::mount`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MountDraw {
+    /// 3–5° about a random axis (MoCap2GT's).
+    #[default]
+    Small,
+    /// Uniform on SO(3).
+    Any,
 }
 
 /// The most IMU samples a generated log may hold (an hour at 500 Hz).
@@ -155,6 +174,8 @@ impl Default for Setting {
             gyro_bias_walk: 1.18e-5,
             accel_bias_drift: [0.0; 3],
             gyro_bias_drift: [0.0; 3],
+            mount: MountDraw::Small,
+            clock_offset_s: 0.0,
         }
     }
 }
@@ -208,6 +229,9 @@ pub struct Truth {
     pub accel_bias_m_s2: [f64; 3],
     /// Gyro bias at the start (°/s).
     pub gyro_bias_deg_s: [f64; 3],
+    /// The mocap's clock ahead of the IMU's (s): its stamps are this plus the delay later.
+    #[serde(default)]
+    pub clock_offset_s: f64,
 }
 
 /// One drawn hand-held trial: its calibration and its motion.
@@ -247,9 +271,38 @@ fn wave(r: &mut Rng, hz: (f64, f64), amp: (f64, f64), order: i32, cap: f64) -> W
     )
 }
 
-/// Draws trial `index` of master seed `seed` (a pure function of both).
-pub fn draw(seed: u64, index: u64) -> Trial {
+/// Draws trial `index` of master seed `seed` at `set`'s mount and clock offset (a pure function
+/// of the three): [`draw`]'s trial, its mount drawn again uniformly on SO(3) for
+/// [`MountDraw::Any`] and its clocks set apart for a nonzero [`Setting::clock_offset_s`], from
+/// draws made after [`draw`]'s (so MoCap2GT's setting gives [`draw`]'s trial bit for bit).
+pub fn draw_for(seed: u64, index: u64, set: &Setting) -> Trial {
+    let mut trial = draw(seed, index);
     let r = &mut Rng::new(seed, Component::Handheld, index as usize);
+    // the default draws first, then these
+    let _ = draw_with(r, index);
+    if set.mount == MountDraw::Any {
+        let q = loop {
+            let v = nalgebra::Quaternion::new(r.normal(), r.normal(), r.normal(), r.normal());
+            if v.norm() > 1e-6 {
+                break UnitQuaternion::from_quaternion(v);
+            }
+        };
+        let (roll, pitch, yaw) = q.euler_angles();
+        trial.truth.body_offset_deg = [roll, pitch, yaw].map(f64::to_degrees);
+    }
+    if set.clock_offset_s > 0.0 {
+        trial.truth.clock_offset_s = uniform(r, -set.clock_offset_s, set.clock_offset_s);
+    }
+    trial
+}
+
+/// Draws trial `index` of master seed `seed` (a pure function of both) at MoCap2GT's setting.
+pub fn draw(seed: u64, index: u64) -> Trial {
+    draw_with(&mut Rng::new(seed, Component::Handheld, index as usize), index)
+}
+
+/// [`draw`] from its stream `r`.
+fn draw_with(r: &mut Rng, index: u64) -> Trial {
     let axis = loop {
         let v = Vector3::new(r.normal(), r.normal(), r.normal());
         if v.norm() > 1e-6 {
@@ -270,6 +323,7 @@ pub fn draw(seed: u64, index: u64) -> Trial {
         mocap_delay_ms: delay,
         accel_bias_m_s2: accel_bias,
         gyro_bias_deg_s: gyro_bias,
+        clock_offset_s: 0.0,
     };
     let euler = [0.45, 0.45, 1.0].map(|cap| wave(r, (0.2, 1.2), (0.5, 1.5), 1, cap));
     let position = [0; 3].map(|_| wave(r, (0.1, 0.8), (0.5, 2.5), 2, 0.4));
@@ -346,7 +400,8 @@ impl Trial {
             let p = Vector3::new(0.0, 0.0, -1.2) + Vector3::from_fn(|k, _| self.position[k].at(t)[0]);
             let p_m = r_w * p + normal3(&mut rng) * set.mocap_pos_sd_m;
             let q_m = r_w * q * r_off * UnitQuaternion::from_scaled_axis(normal3(&mut rng) * set.mocap_att_sd_rad);
-            let _ = pose.push(ns(t + delay), [p_m.x, p_m.y, p_m.z, q_m.i, q_m.j, q_m.k, q_m.w]);
+            let _ =
+                pose.push(ns(t + delay + self.truth.clock_offset_s), [p_m.x, p_m.y, p_m.z, q_m.i, q_m.j, q_m.k, q_m.w]);
         }
         let count = (n_imu + 1) as f64;
         let (ba_mean, bg_mean) = (ba_sum / count, (bg_sum / count).map(f64::to_degrees));
@@ -371,12 +426,14 @@ impl Trial {
     /// # Errors
     /// None for a drawn trial; the reader's, were the rows malformed.
     pub fn series(&self, set: &Setting) -> Result<Series, crate::identify::InputError> {
-        self.read(&self.streams(set).0)
+        self.read(&self.streams(set).0, &ClockWindow::default())
     }
 
-    /// The streams joined and read through `mappings/handheld.yaml`.
-    fn read(&self, streams: &Streams) -> Result<Series, crate::identify::InputError> {
-        mapping().read_str(&streams.join().0, &format!("handheld flight {}", self.index))
+    /// The streams joined and read through `mappings/handheld.yaml`, the clock searched within
+    /// `clock` first ([`crate::identify::fit::start`]: the poses joined at the offset found when it
+    /// lies beyond the fine fit's reach).
+    fn read(&self, streams: &Streams, clock: &ClockWindow) -> Result<Series, crate::identify::InputError> {
+        crate::identify::fit::start::joined(&mapping(), streams, clock, &format!("handheld flight {}", self.index))
     }
 }
 
@@ -569,7 +626,7 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
     };
     let (streams, bias) = trial.streams(set);
     let (accel_bias, gyro_bias) = (bias.accel_m_s2, bias.gyro_deg_s);
-    let read = trial.read(&streams);
+    let read = trial.read(&streams, &o.clock);
     let report = match read.map_err(|e| e.to_string()).and_then(|s| identify(&s, o).map_err(|e| e.to_string())) {
         Ok(r) => r,
         Err(e) => {
@@ -582,7 +639,7 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
     let truths: [(Effect, Vec<f64>); 8] = [
         (Effect::BodyOffset, t.body_offset_deg.to_vec()),
         (Effect::WorldTilt, t.world_tilt_deg.to_vec()),
-        (Effect::MocapDelay, vec![t.mocap_delay_ms]),
+        (Effect::MocapDelay, vec![t.mocap_delay_ms + t.clock_offset_s * 1e3]),
         (Effect::AccelBias, accel_bias.to_vec()),
         (Effect::GyroBias, gyro_bias.to_vec()),
         (Effect::LeverArm, t.lever_arm_mm.to_vec()),
@@ -592,14 +649,6 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
     for (effect, truth) in truths {
         let Some(found) = report.effect(effect) else { continue };
         let v: Vec<f64> = found.params.iter().map(|p| p.value).collect();
-        for (p, tr) in found.params.iter().zip(&truth) {
-            out.estimates.push(Estimate {
-                name: format!("{}.{}", effect.key(), p.name),
-                truth: *tr,
-                value: p.value,
-                ci95: p.ci95,
-            });
-        }
         let angle = |a: UnitQuaternion<f64>, b: UnitQuaternion<f64>| a.angle_to(&b).to_degrees();
         let euler = |d: &[f64]| {
             UnitQuaternion::from_euler_angles(
@@ -608,6 +657,29 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
                 d.get(2).copied().unwrap_or(0.0).to_radians(),
             )
         };
+        if effect == Effect::BodyOffset {
+            // the rotation's intervals are a small rotation about the IMU's axes, Exp(δ)·R̂ = R:
+            // its error δ = Log(R·R̂⁻¹), about x, y, z, scored against them (at a pitch of ±90°
+            // a roll or a yaw alone has no interval)
+            let d = (euler(&truth) * euler(&v).inverse()).scaled_axis().map(f64::to_degrees);
+            for (k, p) in found.params.iter().enumerate() {
+                out.estimates.push(Estimate {
+                    name: format!("body_offset.about_{}", ["x", "y", "z"][k]),
+                    truth: 0.0,
+                    value: d[k],
+                    ci95: p.ci95,
+                });
+            }
+        } else {
+            for (p, tr) in found.params.iter().zip(&truth) {
+                out.estimates.push(Estimate {
+                    name: format!("{}.{}", effect.key(), p.name),
+                    truth: *tr,
+                    value: p.value,
+                    ci95: p.ci95,
+                });
+            }
+        }
         match effect {
             Effect::BodyOffset => out.rotation_err_deg = Some(angle(euler(&v), euler(&truth))),
             Effect::WorldTilt => {
@@ -627,7 +699,7 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
 /// same whatever the thread count.
 pub fn run_many(seed: u64, count: u64, set: &Setting, o: &Options) -> Vec<Outcome> {
     use rayon::prelude::*;
-    (0..count).into_par_iter().map(|i| run(&draw(seed, i), set, o)).collect()
+    (0..count).into_par_iter().map(|i| run(&draw_for(seed, i, set), set, o)).collect()
 }
 
 /// The q-quantile of `x` (linear between order statistics); NaN for an empty slice.
@@ -841,7 +913,9 @@ mod tests {
         };
         for i in 0..2 {
             let trial = draw(5, i);
-            let fit = |set: &Setting| identify(&trial.read(&trial.streams(set).0).unwrap(), &options()).unwrap();
+            let fit = |set: &Setting| {
+                identify(&trial.read(&trial.streams(set).0, &ClockWindow::default()).unwrap(), &options()).unwrap()
+            };
             let r = fit(&drifting);
             let bias = trial.streams(&drifting).1;
             for (k, a) in bias.accel_drift_m_s2_min.iter().enumerate() {
@@ -883,7 +957,8 @@ mod tests {
         let trial = draw(5, 0);
         let mut o = options();
         o.forced.push(Effect::AccelBiasDrift);
-        let r = identify(&trial.read(&trial.streams(&Setting::default()).0).unwrap(), &o).unwrap();
+        let r =
+            identify(&trial.read(&trial.streams(&Setting::default()).0, &ClockWindow::default()).unwrap(), &o).unwrap();
         assert!(r.effect(Effect::AccelBiasDrift).is_none(), "{:?}", r.effects);
         assert!(
             r.notes

@@ -521,7 +521,7 @@ fn smoothed(
 }
 
 /// The central difference (xᵢ₊₁ − xᵢ₋₁)/(tᵢ₊₁ − tᵢ₋₁) inside each segment, zero at its ends.
-fn central_difference(x: &[Vector3<f64>], t: &[f64], segs: &[(usize, usize)]) -> Vec<Vector3<f64>> {
+pub(crate) fn central_difference(x: &[Vector3<f64>], t: &[f64], segs: &[(usize, usize)]) -> Vec<Vector3<f64>> {
     let mut d = vec![Vector3::zeros(); x.len()];
     for &(a, b) in segs {
         for i in a + 1..b.saturating_sub(1) {

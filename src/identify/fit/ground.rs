@@ -418,8 +418,16 @@ pub struct TiltAgreement {
     /// offset + bias tilt (the combination a hover determines, far better than either part),
     /// widened where the flight cannot tell two models apart.
     pub ci95_deg: f64,
-    /// |difference| ≤ ci95.
+    /// |difference| ≤ ci95, and the bias tilt is one a sensor can have (|bias tilt| ≤
+    /// asin(2 m/s² / g) = 11.8°): a rotation of 100° at rest never agrees because a bias of 1.6 g
+    /// explains it away.
     pub covers: bool,
+}
+
+/// The largest tilt an accelerometer bias can read as at rest (deg): asin(b_max/g) for the
+/// largest bias a sensor has ([`MAX_ACCEL_BIAS_M_S2`](crate::effects::MAX_ACCEL_BIAS_M_S2)).
+pub fn max_bias_tilt_deg() -> f64 {
+    (crate::effects::MAX_ACCEL_BIAS_M_S2 / crate::vehicle::params::GRAVITY).asin().to_degrees()
 }
 
 /// The ground check against the flight's model. At rest the accelerometer reads
@@ -575,7 +583,7 @@ pub fn agreement(
             flight_deg: flight,
             difference_deg: difference,
             ci95_deg: ci95,
-            covers: difference.abs() <= ci95,
+            covers: difference.abs() <= ci95 && (g - gc).abs() <= max_bias_tilt_deg(),
         }
     };
     let (roll, pitch) = (axis(0), axis(1));
@@ -964,6 +972,7 @@ mod tests {
             // no battery column: the voltage reference is never read
             model: NominalModel::for_tests(G),
             repairs: vec![],
+            clocks: Default::default(),
         }
     }
 

@@ -36,7 +36,7 @@
 
 use super::design::{body_rates, gaussian_kernel, glitches, second_difference, smooth_vec3};
 use crate::frames::{Frame, Vec3};
-use crate::identify::input::series::{Series, floor_z, raw_rots, raw_vecs};
+use crate::identify::input::series::{Corrections, Series, correct, floor_z, raw_rots, raw_vecs};
 use nalgebra::Vector3;
 
 /// The gate's bounds (see the module documentation for why they are where they are).
@@ -222,9 +222,18 @@ struct Flag {
 /// Flags the samples no flight can produce and returns the log with them cut out of its
 /// segments, and what was cut. `smoothing_s` is the σ of the mocap smoothing (the same as the
 /// design's), `min_height_m` the height under which a flag counts as contact with the floor.
-pub fn gate(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64) -> (Series, DataQuality) {
+/// `start` is the global start's corrections ([`crate::identify::start::Start::corrections`]): the IMU
+/// is compared with the mocap as they turn and shift it (a half-turn of the IMU makes every
+/// sample "disagree" until it is taken out); the identity compares them as logged.
+pub fn gate(
+    s: &Series,
+    o: &QualityOptions,
+    smoothing_s: f64,
+    min_height_m: f64,
+    start: &Corrections,
+) -> (Series, DataQuality) {
     let floor = floor_z(s, &s.pos_mocap_nav.iter().map(|p| p.z()).collect::<Vec<f64>>());
-    let flags = flag(s, o, smoothing_s, min_height_m, floor);
+    let flags = flag(s, o, smoothing_s, min_height_m, floor, start);
     let n = s.len();
     let mut quality = DataQuality { cuts: Vec::new(), rows_cut: 0, rows: n };
     if flags.is_empty() {
@@ -316,14 +325,21 @@ fn findings(group: &[&Flag], s: &Series, o: &QualityOptions) -> Vec<Finding> {
 
 /// The flagged samples, in row order per channel.
 /// `floor` is the log's floor (NED z, m), for telling the air from the ground.
-fn flag(s: &Series, o: &QualityOptions, smoothing_s: f64, min_height_m: f64, floor: Option<f64>) -> Vec<Flag> {
+fn flag(
+    s: &Series,
+    o: &QualityOptions,
+    smoothing_s: f64,
+    min_height_m: f64,
+    floor: Option<f64>,
+    start: &Corrections,
+) -> Vec<Flag> {
     let mut flags = Vec::new();
     if s.len() < 3 {
         return flags;
     }
     flag_full_scale(s, o, &mut flags);
     let jump = flag_jumps(s, o, &mut flags);
-    flag_disagreements(s, o, smoothing_s, &jump, &mut flags);
+    flag_disagreements(s, o, smoothing_s, &jump, start, &mut flags);
     flag_stuck(s, o, min_height_m, floor, &mut flags);
     flags.sort_by_key(|f| (f.channel, f.row));
     flags
@@ -369,15 +385,37 @@ fn flag_jumps(s: &Series, o: &QualityOptions, flags: &mut Vec<Flag>) -> Vec<bool
 }
 
 /// The IMU against the smoothed mocap (f̂ = Rᵀ(p̈ − g·e_D), the mocap body rates), where every
-/// pose in the filter's reach is seen, clean (no glitch, no jump) and inside the segment.
-fn flag_disagreements(s: &Series, o: &QualityOptions, smoothing_s: f64, jump: &[bool], flags: &mut Vec<Flag>) {
+/// pose in the filter's reach is seen, clean (no glitch, no jump) and inside the segment. The
+/// mocap is read through the `start` corrections (the identity: as logged).
+fn flag_disagreements(
+    s: &Series,
+    o: &QualityOptions,
+    smoothing_s: f64,
+    jump: &[bool],
+    start: &Corrections,
+    flags: &mut Vec<Flag>,
+) {
     let (n, dt, g) = (s.len(), s.dt(), s.model.gravity_m_s2);
     let kernel = gaussian_kernel(smoothing_s / dt);
     let reach = kernel.len() / 2 + 2;
     let mut clean: Vec<bool> = (0..n).map(|i| s.mocap_ok[i] && !jump[i]).collect();
+    let shift = (start.mocap_delay_s / dt).round() as isize;
     for gl in glitches(s) {
-        clean[gl] = false;
+        let k = gl as isize - shift;
+        if k >= 0 && (k as usize) < n {
+            clean[k as usize] = false;
+        }
     }
+    // the mocap as the start turns and shifts it (bit for bit the log's own at the identity)
+    let (pos, att) = if *start == Corrections::default() {
+        (raw_vecs(&s.pos_mocap_nav), raw_rots(&s.att_mocap))
+    } else {
+        let c = correct(s, start);
+        for (k, ok) in c.ok.iter().enumerate() {
+            clean[k] &= *ok;
+        }
+        (raw_vecs(&c.pos_nav), raw_rots(&c.att_body))
+    };
     let mut usable = vec![false; n];
     for &(a, b) in &s.segments {
         if b - a <= 2 * reach {
@@ -393,14 +431,14 @@ fn flag_disagreements(s: &Series, o: &QualityOptions, smoothing_s: f64, jump: &[
             usable[i] = bad == 0;
         }
     }
-    let pos_s = smooth_vec3(&raw_vecs(&s.pos_mocap_nav), &s.segments, &kernel);
-    let omega_s = smooth_vec3(&body_rates(&raw_rots(&s.att_mocap), &s.t_s, &s.segments), &s.segments, &kernel);
+    let pos_s = smooth_vec3(&pos, &s.segments, &kernel);
+    let omega_s = smooth_vec3(&body_rates(&att, &s.t_s, &s.segments), &s.segments, &kernel);
     for i in 0..n {
         if !usable[i] {
             continue;
         }
         let acc_nav = second_difference(&pos_s, &s.t_s, i);
-        let f_hat = s.att_mocap[i].quaternion().inverse_transform_vector(&(acc_nav - Vector3::new(0.0, 0.0, g)));
+        let f_hat = att[i].inverse_transform_vector(&(acc_nav - Vector3::new(0.0, 0.0, g)));
         let da = (s.accel_body[i].raw() - f_hat).norm();
         if da > o.accel_disagree_m_s2 {
             flags.push(Flag { row: i, channel: QualityChannel::Accel, kind: Kind::Disagrees, value: da });
@@ -485,7 +523,7 @@ mod tests {
     fn a_saturated_reading_is_cut_with_what_was_found() {
         let mut s = Series::swing_for_tests(UnitQuaternion::identity(), 0.0);
         s.accel_body[2000] = Vec3::new(0.0, 0.0, -60.0);
-        let (_, q) = gate(&s, &QualityOptions::default(), 0.02, 0.15);
+        let (_, q) = gate(&s, &QualityOptions::default(), 0.02, 0.15, &Corrections::default());
         let accel: Vec<&Cut> = q.cuts.iter().filter(|c| c.channel == QualityChannel::Accel).collect();
         assert_eq!(accel.len(), 1, "{q:?}");
         let g = crate::vehicle::params::GRAVITY;

@@ -102,6 +102,7 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
             rigid_body: false,
         },
         repairs: log.repairs.iter().cloned().map(ReadNote::from).collect(),
+        clocks: Default::default(),
     })
 }
 

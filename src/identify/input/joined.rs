@@ -43,8 +43,10 @@ impl<const N: usize> Stream<N> {
     }
 }
 
-/// The four topics' messages, decoded (stamps in ns).
-pub(in crate::identify) struct Streams {
+/// A log's streams, each on its own clock, before the join: the poses, the IMU, the motors and
+/// the battery, decoded (stamps in ns). Built by the readers ([`crate::identify::injected::streams`]
+/// reads an ASL folder); joined onto the IMU's clock by `identify`.
+pub struct Streams {
     pub(in crate::identify) pose: Stream<7>,
     pub(in crate::identify) imu: Stream<6>,
     pub(in crate::identify) motors: Stream<8>,
@@ -58,8 +60,21 @@ impl Streams {
     /// dropped frame), the last motor and battery values at or before it. Returns the CSV and the
     /// repairs made.
     pub(in crate::identify) fn join(&self) -> (String, Vec<ReadNote>) {
+        self.join_shifted(0)
+    }
+
+    /// [`Streams::join`] with the pose the mocap stamped t + `shift_ns` joined to the IMU row
+    /// stamped t (the mocap's clock `shift_ns` ahead of the IMU's, or its poses that late).
+    pub(in crate::identify) fn join_shifted(&self, shift_ns: i128) -> (String, Vec<ReadNote>) {
         let (has_motors, has_battery) = (self.n_motors.is_some(), !self.battery.t.is_empty());
-        let (pose, imu, motors, battery) = (&self.pose, &self.imu, &self.motors, &self.battery);
+        let shifted;
+        let pose = if shift_ns == 0 {
+            &self.pose
+        } else {
+            shifted = Stream { t: self.pose.t.iter().map(|t| t - shift_ns).collect(), v: self.pose.v.clone() };
+            &shifted
+        };
+        let (imu, motors, battery) = (&self.imu, &self.motors, &self.battery);
         // two poses further apart than 1.5 median intervals have a dropped frame between them:
         // nothing is interpolated across it
         let reach = {

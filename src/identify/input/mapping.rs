@@ -12,7 +12,7 @@
 //! position: { columns: [px, py, pz], unit: m }            # m | mm
 //! attitude: { columns: [qx, qy, qz, qw], order: xyzw }    # quaternion body → world; xyzw | wxyz
 //!   # or: attitude: { euler: [roll, pitch, yaw], unit: deg }  # Z-Y-X Euler angles; rad | deg
-//! world: z_up                     # z_up | z_down
+//! world: z_up                     # the world's up axis: z_up | z_down | y_up | y_down | x_up | x_down
 //! body: flu                       # flu | frd
 //! gyro: { columns: [gx, gy, gz], unit: rad/s }           # rad/s | deg/s
 //! accel: { columns: [ax, ay, az], unit: g }              # g | m/s2
@@ -22,14 +22,35 @@
 //! smoothing_ms: 50                                        # optional: σ of the smoothing (default 20)
 //! ```
 //!
+//! Two streams on clocks of their own are read by two more forms, and joined onto the IMU's
+//! clock once the global start has found how the clocks stand ([`crate::identify::fit::start`]):
+//!
+//! ```yaml
+//! # an ASL (EuRoC, TUM-VI) folder: `identify SEQUENCE/ --mapping …` (SEQUENCE/mav0/imu0/data.csv …)
+//! vehicle: rigid_body
+//! asl: { imu: imu0, poses: vicon0 }   # the stream folders under mav0/ (poses: mocap0 for TUM-VI)
+//! world: z_up                         # default z_up; body: as the IMU's axes are (default frd)
+//!
+//! # an IMU CSV beside a pose file: `identify IMU.csv --poses POSES.txt --mapping …`
+//! vehicle: rigid_body
+//! time: { column: t, unit: s }
+//! gyro: { columns: [gx, gy, gz], unit: rad/s }
+//! accel: { columns: [ax, ay, az], unit: m/s2 }
+//! poses: { format: tum }              # tum (t x y z qx qy qz qw) | asl; order: xyzw | wxyz; unit: m | mm
+//! world: z_up
+//! body: flu
+//! ```
+//!
 //! Rows whose pose cells are empty or NaN count as frames in which the vehicle was not seen;
 //! any other empty or non-numeric cell is an error naming its line and column. Timestamps must
 //! increase; a repeated timestamp is dropped and a gap longer than 3 × the median interval
 //! splits the log into segments, both reported.
 
 use super::error::InputError;
+use super::joined::Stream;
 use super::read_note::ReadNote;
 use super::series::{NominalModel, Series};
+use super::streams::{WXYZ, XYZW};
 use crate::frames::{Rot, Vec3};
 use crate::log::Repair;
 use crate::vehicle::params::{CRAZYFLIE21_ROTOR_RADIUS_M, GRAVITY, PwmThrustMap, VehicleParams};
@@ -76,6 +97,127 @@ pub struct Mapping {
     /// The topics of a PX4 log (ULog); `None` for a CSV log.
     #[serde(skip)]
     pub px4: Option<super::ulog::Topics>,
+    /// The stream folders of an ASL (EuRoC) folder; `None` otherwise.
+    #[serde(skip)]
+    pub asl: Option<Asl>,
+    /// The IMU columns and the pose file of an IMU log beside a pose file; `None` otherwise.
+    #[serde(skip)]
+    pub split: Option<Split>,
+}
+
+/// The streams of an ASL (EuRoC, TUM-VI) folder: `mav0/<imu>/data.csv` and `mav0/<poses>/data.csv`.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Asl {
+    /// The IMU's folder under `mav0/` (default `imu0`).
+    #[serde(default = "imu0")]
+    pub imu: String,
+    /// The pose stream's folder under `mav0/` (default `vicon0`; `mocap0` in TUM-VI, or
+    /// `state_groundtruth_estimate0`).
+    #[serde(default = "vicon0")]
+    pub poses: String,
+    /// The pose quaternion's order (the format's is w, x, y, z).
+    #[serde(default)]
+    pub order: Option<QuatOrder>,
+}
+
+fn imu0() -> String {
+    "imu0".into()
+}
+
+fn vicon0() -> String {
+    "vicon0".into()
+}
+
+/// A pose file's format.
+#[derive(Debug, serde::Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PoseFormat {
+    /// `t x y z qx qy qz qw`, whitespace-separated, t in seconds (TUM RGB-D, `evo`).
+    Tum,
+    /// `timestamp [ns], p_x, p_y, p_z, q_w, q_x, q_y, q_z`, comma-separated (ASL, EuRoC).
+    Asl,
+}
+
+/// The pose file beside an IMU log (`identify IMU.csv --poses FILE`).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseFile {
+    /// Its format.
+    pub format: PoseFormat,
+    /// The quaternion's order, when not the format's (TUM: x, y, z, w; ASL: w, x, y, z).
+    #[serde(default)]
+    pub order: Option<QuatOrder>,
+    /// The position's unit (`m` or `mm`; default m).
+    #[serde(default)]
+    pub unit: Option<String>,
+}
+
+/// An IMU log beside a pose file: the IMU CSV's own columns, and the pose file's format.
+#[derive(Debug, Clone)]
+pub struct Split {
+    /// The IMU CSV's time column.
+    pub time: Column,
+    /// Its gyro columns.
+    pub gyro: Columns3,
+    /// Its accelerometer columns.
+    pub accel: Columns3,
+    /// The pose file's format.
+    pub poses: PoseFile,
+}
+
+/// A mapping for an ASL folder (see [`Asl`]).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AslFile {
+    vehicle: VehiclePreset,
+    asl: Asl,
+    #[serde(default = "z_up")]
+    world: WorldUp,
+    #[serde(default = "frd")]
+    body: BodyAxes,
+    #[serde(default)]
+    mass_kg: Option<f64>,
+    #[serde(default)]
+    smoothing_ms: Option<f64>,
+}
+
+/// A mapping for an IMU CSV beside a pose file (see [`Split`]).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SplitFile {
+    vehicle: VehiclePreset,
+    time: Column,
+    gyro: Columns3,
+    accel: Columns3,
+    poses: PoseFile,
+    world: WorldUp,
+    body: BodyAxes,
+    #[serde(default)]
+    mass_kg: Option<f64>,
+    #[serde(default)]
+    smoothing_ms: Option<f64>,
+}
+
+impl AslFile {
+    /// The CSV mapping of the rows the two streams are joined into.
+    fn into_mapping(self) -> Mapping {
+        Mapping {
+            asl: Some(self.asl),
+            ..joined_mapping(self.vehicle, self.world, self.body, false, false, self.mass_kg, self.smoothing_ms)
+        }
+    }
+}
+
+impl SplitFile {
+    /// The CSV mapping of the rows the two streams are joined into, with the IMU CSV's own
+    /// columns kept to read it.
+    fn into_mapping(self) -> Mapping {
+        Mapping {
+            split: Some(Split { time: self.time, gyro: self.gyro, accel: self.accel, poses: self.poses }),
+            ..joined_mapping(self.vehicle, self.world, self.body, false, false, self.mass_kg, self.smoothing_ms)
+        }
+    }
 }
 
 /// A mapping for ROS 2 bags: topics instead of columns (see [`super::ros2`]).
@@ -159,11 +301,17 @@ fn joined_mapping(
         smoothing_ms,
         ros2: None,
         px4: None,
+        asl: None,
+        split: None,
     }
 }
 
 fn z_up() -> WorldUp {
     WorldUp::ZUp
+}
+
+fn frd() -> BodyAxes {
+    BodyAxes::Frd
 }
 
 fn flu() -> BodyAxes {
@@ -257,14 +405,52 @@ pub enum QuatOrder {
     Wxyz,
 }
 
-/// The log's world frame.
+impl QuatOrder {
+    /// Where x, y, z and w sit among the four cells.
+    fn cells(self) -> super::streams::QuatCells {
+        match self {
+            QuatOrder::Xyzw => XYZW,
+            QuatOrder::Wxyz => WXYZ,
+        }
+    }
+}
+
+/// The log's world frame: which of its axes points up (against gravity). The reader turns it so
+/// that up is −z (NED-like; where north points does not matter to `identify`): a half-turn about
+/// x for z up, a quarter-turn about x for y up or down, about y for x up or down. The global
+/// start finds the world's tilt whatever it is, so a wrong axis here shows as a tilt of 90° or
+/// 180° in its report rather than as a wrong calibration.
 #[derive(Debug, serde::Deserialize, Clone, Copy, PartialEq)]
 #[serde(rename_all = "snake_case")]
 pub enum WorldUp {
-    /// z up (ENU-like, most mocap software): turned to NED by a half turn about x.
+    /// z up (ENU-like: Vicon, Qualisys, ROS): turned to NED by a half turn about x.
     ZUp,
     /// z down (NED): taken as it is.
     ZDown,
+    /// y up (OptiTrack Motive's default, many graphics tools): (x, y, z) → (x, z, −y).
+    YUp,
+    /// y down: (x, y, z) → (x, −z, y).
+    YDown,
+    /// x up: (x, y, z) → (z, y, −x).
+    XUp,
+    /// x down: (x, y, z) → (−z, y, x).
+    XDown,
+}
+
+impl WorldUp {
+    /// The rotation that turns the log's world into the z-down one the readers give: it takes
+    /// the log's up axis to −z.
+    pub fn to_z_down(self) -> UnitQuaternion<f64> {
+        let q = std::f64::consts::FRAC_PI_2;
+        match self {
+            WorldUp::ZDown => UnitQuaternion::identity(),
+            WorldUp::ZUp => UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI),
+            WorldUp::YUp => UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -q),
+            WorldUp::YDown => UnitQuaternion::from_axis_angle(&Vector3::x_axis(), q),
+            WorldUp::XUp => UnitQuaternion::from_axis_angle(&Vector3::y_axis(), q),
+            WorldUp::XDown => UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -q),
+        }
+    }
 }
 
 /// The log's body axes.
@@ -358,7 +544,191 @@ fn too_few_rows(file: &str, repairs: &[ReadNote]) -> InputError {
     }
 }
 
+/// The header's index of column `name`; a name the header lacks is an error that suggests the
+/// closest header name.
+fn find_column(header: &[&str], name: &str, file: &str) -> Result<usize, InputError> {
+    header.iter().position(|h| *h == name).ok_or_else(|| {
+        let close = header
+            .iter()
+            .map(|h| (crate::scenario::error::edit_distance(name, h), *h))
+            .filter(|(d, _)| *d <= 3)
+            .min()
+            .map(|x| x.1);
+        InputError::row(
+            file,
+            1,
+            format!(
+                "the mapping names column `{name}`, which the header does not have{}",
+                close.map_or(String::new(), |c| format!(" (is it `{c}`?)"))
+            ),
+        )
+    })
+}
+
+impl Split {
+    /// The IMU CSV's time unit in nanoseconds, and its gyro and accelerometer factors to SI.
+    fn factors(&self, file: &str) -> Result<(i128, f64, f64), InputError> {
+        let deg = std::f64::consts::PI / 180.0;
+        let time = self.time.unit.as_deref().unwrap_or("s");
+        let unit_ns = [("s", 1_000_000_000), ("ms", 1_000_000), ("us", 1_000), ("ns", 1)]
+            .into_iter()
+            .find(|(u, _)| *u == time)
+            .map(|x| x.1)
+            .ok_or_else(|| {
+                InputError::invalid(file, format!("time: unit `{time}` is not one of `s`, `ms`, `us`, `ns`"))
+            })?;
+        let gyro = unit_factor(file, "gyro", &self.gyro.unit, &[("rad/s", 1.0), ("deg/s", deg)])?;
+        let acc = unit_factor(file, "accel", &self.accel.unit, &[("m/s2", 1.0), ("m/s²", 1.0), ("g", GRAVITY)])?;
+        if let Some(u) = &self.poses.unit {
+            unit_factor(file, "poses", u, &[("m", 1.0), ("mm", 1e-3)])?;
+        }
+        Ok((unit_ns, gyro, acc))
+    }
+
+    /// The IMU CSV at `path` as the stream the join takes: stamps in integer nanoseconds, gyro
+    /// and accelerometer in SI units, in the log's own axes.
+    fn read_imu(&self, path: &Path) -> Result<Stream<6>, InputError> {
+        let file = path.display().to_string();
+        let (unit_ns, gyro_f, acc_f) = self.factors("the mapping")?;
+        let text = std::fs::read_to_string(path).map_err(|e| InputError::io(&file, e))?;
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let mut lines = text.lines();
+        let header = header_names(lines.next(), &file)?;
+        let ti = find_column(&header, &self.time.column, &file)?;
+        let gi = self.gyro.columns.iter().map(|c| find_column(&header, c, &file)).collect::<Result<Vec<_>, _>>()?;
+        let ai = self.accel.columns.iter().map(|c| find_column(&header, c, &file)).collect::<Result<Vec<_>, _>>()?;
+        let mut out = Stream::new();
+        for (k, line) in lines.enumerate() {
+            let lineno = k + 2;
+            if line.trim().is_empty() {
+                continue;
+            }
+            let cells: Vec<&str> = line.split(',').collect();
+            let cell = |i: usize| -> Result<&str, InputError> {
+                cells.get(i).copied().ok_or_else(|| {
+                    InputError::row(&file, lineno, format!("{} cells, the header has {}", cells.len(), header.len()))
+                })
+            };
+            let bad = |i: usize, what: &str| InputError::Row {
+                file: file.clone(),
+                line: lineno,
+                column: Some(header[i].to_string()),
+                message: format!("`{}` is not {what}", cells.get(i).map_or("", |c| c.trim())),
+            };
+            let t = super::streams::decimal_ns(cell(ti)?, unit_ns).ok_or_else(|| bad(ti, "a time"))?;
+            let mut v = [0.0; 6];
+            for (j, &i) in gi.iter().chain(&ai).enumerate() {
+                let f = if j < 3 { gyro_f } else { acc_f };
+                v[j] = finite(cell(i)?).ok_or_else(|| bad(i, "a finite number"))? * f;
+            }
+            match out.t.last() {
+                Some(last) if *last > t => {
+                    return Err(InputError::row(&file, lineno, "time goes backwards".to_string()));
+                }
+                // a repeated stamp: the first sample is kept
+                Some(last) if *last == t => continue,
+                _ => {}
+            }
+            out.push(t, v).map_err(|m| InputError::row(&file, lineno, m.to_string()))?;
+        }
+        if out.t.len() < 2 {
+            return Err(InputError::log(&file, "fewer than two IMU samples"));
+        }
+        Ok(out)
+    }
+}
+
+/// The `mav0/` folder of an ASL sequence given as the sequence's folder or as `mav0/` itself.
+fn asl_root(input: &Path, asl: &Asl) -> Result<std::path::PathBuf, InputError> {
+    let has = |p: &Path| p.join(&asl.imu).join("data.csv").is_file();
+    if has(&input.join("mav0")) {
+        return Ok(input.join("mav0"));
+    }
+    if has(input) {
+        return Ok(input.to_path_buf());
+    }
+    Err(InputError::log(
+        input.display(),
+        format!(
+            "not an ASL (EuRoC) folder: neither {} nor {} exists",
+            input.join("mav0").join(&asl.imu).join("data.csv").display(),
+            input.join(&asl.imu).join("data.csv").display()
+        ),
+    ))
+}
+
 impl Mapping {
+    /// The mapping reads two streams on clocks of their own (an ASL folder, or an IMU log beside
+    /// a pose file): [`crate::identify::run`] joins them once their clocks are found.
+    pub fn two_streams(&self) -> bool {
+        self.asl.is_some() || self.split.is_some()
+    }
+
+    /// The two streams of an ASL folder `input`, or of the IMU log `input` beside the pose file
+    /// `poses`, each on its own clock, in the logs' own axes and SI units.
+    ///
+    /// # Errors
+    /// A file that cannot be read or a value that is not a number (the file, line and column); a
+    /// pose file missing for an IMU log; a mapping that reads one file.
+    pub(in crate::identify) fn read_streams(
+        &self,
+        input: &Path,
+        poses: Option<&Path>,
+    ) -> Result<super::joined::Streams, InputError> {
+        let pos_factor = |unit: &Option<String>| if unit.as_deref() == Some("mm") { 1e-3 } else { 1.0 };
+        let (imu, pose) = match (&self.asl, &self.split) {
+            (Some(asl), _) => {
+                let root = asl_root(input, asl)?;
+                let pose_path = poses.map_or_else(|| root.join(&asl.poses).join("data.csv"), Path::to_path_buf);
+                let imu = super::streams::read_asl_imu(&root.join(&asl.imu).join("data.csv"))?;
+                (imu, super::streams::read_asl_poses(&pose_path, asl.order.map_or(WXYZ, QuatOrder::cells), 1.0)?)
+            }
+            (None, Some(sp)) => {
+                let pose_path = poses.ok_or_else(|| {
+                    InputError::invalid(
+                        input.display(),
+                        "this mapping reads the poses from a file of their own (`poses:`): give it with --poses FILE",
+                    )
+                })?;
+                let imu = sp.read_imu(input)?;
+                let f = pos_factor(&sp.poses.unit);
+                let pose = match sp.poses.format {
+                    PoseFormat::Tum => {
+                        super::streams::read_tum(pose_path, sp.poses.order.map_or(XYZW, QuatOrder::cells), f)?
+                    }
+                    PoseFormat::Asl => {
+                        super::streams::read_asl_poses(pose_path, sp.poses.order.map_or(WXYZ, QuatOrder::cells), f)?
+                    }
+                };
+                (imu, pose)
+            }
+            (None, None) => {
+                return Err(InputError::invalid(
+                    input.display(),
+                    "this mapping reads one log; two streams need an `asl:` or a `poses:` block",
+                ));
+            }
+        };
+        Ok(super::joined::Streams { pose, imu, motors: Stream::new(), n_motors: None, battery: Stream::new() })
+    }
+
+    /// The two streams joined onto the IMU's clock with the poses the mocap stamped
+    /// `shift_ns` later than each IMU row (see [`super::joined::Streams::join_shifted`]), read
+    /// as a series whose [`Clocks`](super::series::Clocks) say where its zero lies and what the
+    /// join shifted; `file` names it.
+    pub(in crate::identify) fn read_joined_streams(
+        &self,
+        streams: &super::joined::Streams,
+        shift_ns: i128,
+        file: &str,
+    ) -> Result<Series, InputError> {
+        let (text, repairs) = streams.join_shifted(shift_ns);
+        let mut s = self.read_joined(&text, repairs, file)?;
+        s.clocks.imu_origin_ns = streams.imu.t[0];
+        s.clocks.pose_shift_s = shift_ns as f64 * 1e-9;
+        Ok(s)
+    }
+
     /// Reads and checks a mapping file.
     pub fn load(path: &Path) -> Result<Mapping, InputError> {
         let src = std::fs::read_to_string(path).map_err(|e| InputError::io(path.display(), e))?;
@@ -379,6 +749,10 @@ impl Mapping {
             serde_saphyr::from_str::<Ros2File>(src).map_err(err)?.into_mapping()
         } else if keys.contains_key("px4") {
             serde_saphyr::from_str::<Px4File>(src).map_err(err)?.into_mapping()
+        } else if keys.contains_key("asl") {
+            serde_saphyr::from_str::<AslFile>(src).map_err(err)?.into_mapping()
+        } else if keys.contains_key("poses") {
+            serde_saphyr::from_str::<SplitFile>(src).map_err(err)?.into_mapping()
         } else {
             serde_saphyr::from_str(src).map_err(err)?
         };
@@ -425,6 +799,9 @@ impl Mapping {
             ));
         }
         m.factors(&file)?;
+        if let Some(sp) = &m.split {
+            sp.factors(&file)?;
+        }
         Ok(m)
     }
 
@@ -453,6 +830,12 @@ impl Mapping {
     /// PX4 log (ULog), through the mapping.
     pub fn read(&self, path: &Path) -> Result<Series, InputError> {
         let file = path.display().to_string();
+        if self.two_streams() {
+            return Err(InputError::invalid(
+                &file,
+                "this mapping reads two streams on clocks of their own; `flyarena::identify::run` joins them",
+            ));
+        }
         if let Some(topics) = &self.px4 {
             let (text, repairs) = super::ulog::to_csv(path, topics)?;
             return self.read_joined(&text, repairs, &file);
@@ -495,24 +878,7 @@ impl Mapping {
     /// The header's index of every column the mapping names; a name the header lacks is an
     /// error that suggests the closest header name.
     fn column_index(&self, header: &[&str], file: &str) -> Result<ColumnIndex, InputError> {
-        let find = |name: &str| -> Result<usize, InputError> {
-            header.iter().position(|h| *h == name).ok_or_else(|| {
-                let close = header
-                    .iter()
-                    .map(|h| (crate::scenario::error::edit_distance(name, h), *h))
-                    .filter(|(d, _)| *d <= 3)
-                    .min()
-                    .map(|x| x.1);
-                InputError::row(
-                    file,
-                    1,
-                    format!(
-                        "the mapping names column `{name}`, which the header does not have{}",
-                        close.map_or(String::new(), |c| format!(" (is it `{c}`?)"))
-                    ),
-                )
-            })
-        };
+        let find = |name: &str| find_column(header, name, file);
         let att_names: Vec<&String> = match (&self.attitude.columns, &self.attitude.euler) {
             (Some(q), _) => q.iter().collect(),
             (None, Some(e)) => e.iter().collect(),
@@ -579,6 +945,7 @@ impl Mapping {
                 rigid_body,
             },
             repairs: Vec::new(),
+            clocks: Default::default(),
         };
         Ok((s, map))
     }
@@ -616,9 +983,18 @@ impl Mapping {
             (None, Some(f)) => UnitQuaternion::from_euler_angles(p[3] * f, p[4] * f, p[5] * f),
             (None, None) => unreachable!("checked when the mapping was parsed"),
         };
-        if self.world == WorldUp::ZUp {
-            pos = flip(pos);
-            q = q_flip * q;
+        match self.world {
+            WorldUp::ZDown => {}
+            // the half-turn about x, written out (x kept, y and z negated)
+            WorldUp::ZUp => {
+                pos = flip(pos);
+                q = q_flip * q;
+            }
+            other => {
+                let w = other.to_z_down();
+                pos = w * pos;
+                q = w * q;
+            }
         }
         if self.body == BodyAxes::Flu {
             q *= q_flip;

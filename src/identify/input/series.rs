@@ -111,6 +111,7 @@ impl Series {
             t_s: t,
             model: NominalModel::for_tests(g),
             repairs: Vec::new(),
+            clocks: Clocks::default(),
         }
     }
 }
@@ -142,6 +143,25 @@ pub struct Series {
     pub model: NominalModel,
     /// What the readers did: repairs, and the stamps read; `Display` gives each one's sentence.
     pub repairs: Vec<crate::identify::ReadNote>,
+    /// How the series' clock stands against the logs' (the IMU's stamps, and the join's shift
+    /// of the poses).
+    pub clocks: Clocks,
+}
+
+/// How a series' clock stands against the logs': where its zero lies on the IMU's clock, and how
+/// the poses were joined onto it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Clocks {
+    /// The IMU clock's reading at the series' t = 0 (ns): a row at t was stamped t + origin by
+    /// the IMU. 0 where the log's own times are kept (a CSV read through a column mapping).
+    pub imu_origin_ns: i128,
+    /// The pose joined to the row at t is the one the mocap stamped t + shift (s): the share of
+    /// the mocap delay that the join of two streams took out (the clock search's offset, when it
+    /// lies beyond the fine fit's reach; 0 otherwise and for a log joined elsewhere).
+    pub pose_shift_s: f64,
+    /// The clock search made where two streams were joined (`None` for a log joined elsewhere:
+    /// the global start searches its rows).
+    pub search: Option<crate::identify::fit::start::ClockStart>,
 }
 
 impl Series {
@@ -203,6 +223,7 @@ impl Series {
             segments: self.segments.iter().map(cut).filter(|s| s.1 > s.0).collect(),
             model: self.model.clone(),
             repairs: self.repairs.clone(),
+            clocks: self.clocks.clone(),
         }
     }
 }
@@ -264,6 +285,10 @@ pub struct Corrections {
     /// The gyro stream is late by this much against the accelerometer (s): the gyro sample
     /// stamped t was taken at t − τ_g; the corrected gyro at t is the stream read at t + τ_g.
     pub gyro_delay_s: f64,
+    /// The share of the mocap delay that the rows already carry (s; [`Clocks::pose_shift_s`]):
+    /// the join of two streams read the poses this much later. The correction leaves it alone (the
+    /// rows hold it); the delay a report gives is `mocap_delay_s` plus it.
+    pub pose_shift_s: f64,
 }
 
 impl Default for Corrections {
@@ -274,6 +299,7 @@ impl Default for Corrections {
             mocap_delay_s: 0.0,
             lever_arm_m: Vec3::zeros(),
             gyro_delay_s: 0.0,
+            pose_shift_s: 0.0,
         }
     }
 }
@@ -429,6 +455,7 @@ mod tests {
             segments: vec![(0, n)],
             model: model(),
             repairs: vec![],
+            clocks: Clocks::default(),
         };
         assert!(crate::identify::design::glitches(&s).is_empty(), "{:?}", crate::identify::design::glitches(&s));
         // half a sample of delay: the attitude halfway between neighbours

@@ -1,6 +1,7 @@
 //! The human table of an identification [`Report`].
 
 use crate::identify::fit::select::Report;
+use crate::identify::precision::param_text;
 use std::fmt::Write as _;
 
 fn sig(x: f64) -> String {
@@ -16,20 +17,39 @@ fn pct(x: Option<f64>) -> String {
     x.map_or("—".into(), |v| format!("{v:.1}%"))
 }
 
-/// One parameter as printed: "name value ± half-width unit", the half-width to two significant
-/// digits and the value to the same decimals (a figure keeps the precision of its interval), or
-/// "name value unit (not identifiable)" when the flight cannot back an interval, the value then
-/// formatted by `num`.
-pub(crate) fn param_text(p: &crate::identify::fit::select::Param, num: impl Fn(f64) -> String) -> String {
-    if p.identifiable && p.ci95.is_finite() && p.ci95 > 0.0 {
-        format!("{} {} {}", p.name, crate::identify::precision::with_interval(p.value, p.ci95), p.unit)
-    } else if p.identifiable {
-        format!("{} {} ± {} {}", p.name, num(p.value), num(p.ci95), p.unit)
-    } else {
-        format!("{} {} {} (not identifiable)", p.name, num(p.value), p.unit)
+/// A rotation past which Z-Y-X angles stop reading as three small turns about the axes (deg):
+/// beyond it a rotation is printed as its angle and axis too, and its intervals as what they are,
+/// small rotations about the axes.
+const LARGE_ROTATION_DEG: f64 = crate::identify::fit::start::ROTATION_REACH_DEG;
+
+/// An effect's parameters as printed. A body offset or a world tilt beyond
+/// [`LARGE_ROTATION_DEG`] is printed as its angle about its axis, its Z-Y-X angles, and its 95 %
+/// half-widths as a small rotation about the axes they belong to (the IMU's for the body offset,
+/// the world's for the tilt): near a pitch of ±90° a roll or a yaw alone means nothing, and their
+/// intervals are not the angles' own.
+fn effect_text(f: &crate::identify::fit::select::Found, r: &Report) -> String {
+    let (rot, about) = match f.effect {
+        crate::effects::Effect::BodyOffset => (*r.corrections.body_offset.quaternion(), "the IMU's x, y, z"),
+        crate::effects::Effect::WorldTilt => (*r.corrections.world_tilt.quaternion(), "the world's x, y"),
+        _ => (nalgebra::UnitQuaternion::identity(), ""),
+    };
+    let angle = rot.angle().to_degrees();
+    if about.is_empty() || angle <= LARGE_ROTATION_DEG || f.params.iter().any(|p| !p.identifiable) {
+        let ps: Vec<String> = f.params.iter().map(|p| param_text(p, sig)).collect();
+        return ps.join(", ");
     }
-    .trim_end()
-    .to_string()
+    let axis = rot.axis().map_or([0.0; 3], |a| [a.x, a.y, a.z]);
+    let d = f.params.iter().map(|p| crate::identify::precision::decimals_for(p.ci95)).max().unwrap_or(2);
+    let names: Vec<String> = f.params.iter().map(|p| format!("{} {:.d$}", p.name, p.value)).collect();
+    let cis: Vec<String> = f.params.iter().map(|p| format!("±{:.d$}", p.ci95)).collect();
+    format!(
+        "{angle:.d$}° about ({:.3}, {:.3}, {:.3}): {} deg (Z-Y-X); 95 % {} deg about {about}",
+        axis[0],
+        axis[1],
+        axis[2],
+        names.join(", "),
+        cis.join(", ")
+    )
 }
 
 /// The report as the terminal shows it: steps, effects with their intervals, errors before and
@@ -48,8 +68,12 @@ pub fn render(r: &Report) -> String {
 
 /// The report in one line, what `identify --quiet` prints: the effects fitted (selected or
 /// named by `--with`), or that none passed the tests, or that the flight had too few usable
-/// samples to try any.
+/// samples to try any, or that the fit is not physically possible (the frames or the clocks
+/// are not aligned).
 pub fn verdict(r: &Report) -> String {
+    if let Some(m) = r.misaligned.first() {
+        return format!("not aligned: {m}; no effect claimed");
+    }
     if !crate::identify::fit::select::enough_to_select(r.train_samples) {
         return format!(
             "nothing identified: {} usable training samples, {} needed",
@@ -76,6 +100,7 @@ fn render_steps(s: &mut String, r: &Report) {
     for rep in &r.repairs {
         let _ = writeln!(s, "  read: {rep}");
     }
+    super::start::render_start(s, r);
     if !crate::identify::fit::select::enough_to_select(r.train_samples) {
         let _ = writeln!(
             s,
@@ -130,11 +155,11 @@ fn render_steps(s: &mut String, r: &Report) {
 
 /// The effects found with their intervals, the held-out errors and the final whiteness.
 fn render_fit(s: &mut String, r: &Report) {
+    super::start::render_misaligned(s, r);
     if !r.effects.is_empty() {
         let _ = writeln!(s, "\n  effects found (least squares, 95 % Newey–West intervals):");
         for f in &r.effects {
-            let ps: Vec<String> = f.params.iter().map(|p| param_text(p, sig)).collect();
-            let _ = writeln!(s, "    {:<34} {}", f.name, ps.join(", "));
+            let _ = writeln!(s, "    {:<34} {}", f.name, effect_text(f, r));
         }
     }
     if r.train_samples + r.heldout_samples == 0 {

@@ -39,7 +39,7 @@ impl Excitation {
 /// at the nominal corrections (see [`Excitation`]). Effects the data has no columns for get
 /// λ = 0.
 pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<Excitation> {
-    let s = &gated(s, o);
+    let s = &gated(s, o, &Corrections::default());
     let mut corr = Corrections::default();
     let st = refine(s, o, &mut corr, &[], 0);
     let all: Vec<Effect> = Effect::ALL

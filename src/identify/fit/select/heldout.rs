@@ -31,7 +31,7 @@ pub(super) fn axis_error(ch: Channel, a: usize, y: &[f64], before: &[f64], after
 /// The error of another flight's model on this flight: the nominal model and the nominal model
 /// with `r`'s corrections and parameters, on every usable sample of `s` (nothing is refitted).
 pub fn evaluate(s: &Series, o: &Options, r: &Report) -> Vec<AxisError> {
-    let (after, rows, paired) = paired_residuals(&gated(s, o), o, r);
+    let (after, rows, paired) = paired_residuals(&gated(s, o, &r.start.corrections()), o, r);
     paired
         .iter()
         .map(|p| axis_error(Channel::ALL[p.c], p.a, &after.measured[p.c][p.a], &p.before, &p.after, &rows))
@@ -94,7 +94,7 @@ pub struct ResidualSeries {
 
 /// The residuals of every channel axis before and after the report's effects, on the gated flight.
 pub fn residual_series(s: &Series, o: &Options, r: &Report) -> Vec<ResidualSeries> {
-    let s = &gated(s, o);
+    let s = &gated(s, o, &r.start.corrections());
     let t0 = s.t_s.first().copied().unwrap_or(0.0);
     let (after, rows, paired) = paired_residuals(s, o, r);
     paired

@@ -64,6 +64,7 @@ mod excitation;
 mod gram;
 mod heldout;
 mod left;
+pub(crate) mod plausible;
 mod result;
 mod widen;
 
@@ -73,7 +74,7 @@ use gram::{Fit, Gram, active, ar_models, canonical_corr, cols_of, fit, grams, he
 pub use heldout::{ResidualSeries, channel_cut, evaluate, residual_series};
 pub use left::{LEAD_MAX, LEAD_MIN_CORR};
 use left::{final_residuals, hypothesis_hint, lead_signals};
-pub use result::{AxisError, Candidate, Correlate, Found, Left, Param, Removal, Report, Step, Whiteness};
+pub use result::{AxisError, Candidate, Correlate, Found, Left, Param, Removal, Report, StartMoved, Step, Whiteness};
 
 /// The method's settings: design, data-quality gate, gates of the selection, held-out split and
 /// noise models.
@@ -104,6 +105,8 @@ pub struct Options {
     /// Effects fitted from the start, without passing the tests (the hypothesis under study,
     /// e.g. the body offset of a real flight); the others are selected on top of them.
     pub forced: Vec<Effect>,
+    /// Where the global start searches the clock offset between the IMU and the mocap.
+    pub clock: crate::identify::fit::start::ClockWindow,
 }
 
 impl Default for Options {
@@ -121,6 +124,7 @@ impl Default for Options {
             hac_lags: 12,
             candidates: Effect::ALL.iter().copied().filter(|e| e.searched()).collect(),
             forced: Vec::new(),
+            clock: crate::identify::fit::start::ClockWindow::default(),
         }
     }
 }
@@ -371,7 +375,7 @@ fn values_of(e: Effect, theta: &[f64], set: &[usize], corr: &Corrections) -> Vec
                 let (r, p, _) = corr.world_tilt.quaternion().euler_angles();
                 [r, p][k]
             }
-            Effect::MocapDelay => corr.mocap_delay_s,
+            Effect::MocapDelay => corr.mocap_delay_s + corr.pose_shift_s,
             Effect::GyroDelay => corr.gyro_delay_s,
             Effect::LeverArm => corr.lever_arm_m.to_array()[k],
             _ => theta[r.start + k],
@@ -441,8 +445,24 @@ fn passes_gates(p_value: f64, delta_bic: f64, heldout_gain: f64, o: &Options, ca
 /// [`IdentifyError::TooLittleClean`] when the gate cut samples that no flight can produce and
 /// too few usable samples remain: no parameter comes out of corrupted data.
 pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
-    let (clean, quality) = super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m);
-    let mut report = select(&clean, o);
+    let start = crate::identify::fit::start::start(s, &o.clock, o.design.smoothing_s);
+    let from = Corrections { pose_shift_s: s.clocks.pose_shift_s, ..start.corrections() };
+    // what the start applied is fitted, untested, from there
+    let mut o = o.clone();
+    for e in start.forced() {
+        if !o.forced.contains(&e) {
+            o.forced.push(e);
+        }
+    }
+    let o = &o;
+    let (clean, quality) = super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m, &from);
+    let mut report = select(&clean, o, from);
+    report.moved = result::StartMoved::between(&start, &report);
+    report.start = start;
+    report.misaligned = plausible::check(&report);
+    if !report.misaligned.is_empty() {
+        report.unclaimed = std::mem::take(&mut report.effects);
+    }
     if !enough_to_select(report.train_samples) && quality.corrupted().next().is_some() {
         return Err(IdentifyError::TooLittleClean {
             log: s.source.clone(),
@@ -467,9 +487,10 @@ pub fn identify(s: &Series, o: &Options) -> Result<Report, IdentifyError> {
 }
 
 /// The log with what the data-quality gate cuts taken out of its segments: every error and
-/// plot is computed on the samples the fit saw, never on corrupted ones.
-fn gated(s: &Series, o: &Options) -> Series {
-    super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m).0
+/// plot is computed on the samples the fit saw, never on corrupted ones. `from` is the start the
+/// gate compares the IMU and the mocap through.
+fn gated(s: &Series, o: &Options, from: &Corrections) -> Series {
+    super::quality::gate(s, &o.quality, o.design.smoothing_s, o.design.min_height_m, from).0
 }
 
 /// Why [`identify`] gives no report.
@@ -758,10 +779,10 @@ impl Search {
         // a mocap that leads the IMU is no latency: a clock offset between the streams, or a
         // delay of the gyro alone (which shares the mocap delay's gyro column and is not searched)
         if selected.contains(&Effect::MocapDelay)
-            && self.corr.mocap_delay_s < 0.0
+            && self.corr.mocap_delay_s + self.corr.pose_shift_s < 0.0
             && !selected.contains(&Effect::GyroDelay)
         {
-            notes.push(Note::MocapLeadsImu { delay_s: self.corr.mocap_delay_s });
+            notes.push(Note::MocapLeadsImu { delay_s: self.corr.mocap_delay_s + self.corr.pose_shift_s });
         }
         not_identifiable
     }
@@ -843,10 +864,10 @@ fn gate_notes(s: &Series, nominal: &Problem, o: &Options, notes: &mut Vec<Note>)
     too_few
 }
 
-/// The selection on a gated flight.
-fn select(s: &Series, o: &Options) -> Report {
+/// The selection on a gated flight, its corrections starting at `from` (the global start's).
+fn select(s: &Series, o: &Options, from: Corrections) -> Report {
     let mut notes = Vec::new();
-    let mut corr = Corrections::default();
+    let mut corr = from;
     let nominal = refine(s, o, &mut corr, &[], 0);
     let too_few = gate_notes(s, &nominal, o, &mut notes);
     let mut search = Search {
@@ -910,6 +931,10 @@ fn select(s: &Series, o: &Options) -> Report {
         not_identifiable,
         corrections: corr,
         theta: search.state.fit.theta.clone(),
+        start: crate::identify::fit::start::Start::default(),
+        moved: result::StartMoved::default(),
+        misaligned: Vec::new(),
+        unclaimed: Vec::new(),
     }
 }
 
@@ -1062,6 +1087,7 @@ mod tests {
             segments: vec![(0, n)],
             model: NominalModel::for_tests(9.81),
             repairs: vec![],
+            clocks: Default::default(),
         };
         (s, Rest { start: 0, end: n, up: super::super::ground::UpAxis::Z })
     }
@@ -1723,6 +1749,7 @@ mod tests {
             mocap_delay_s: 0.010,
             gyro_delay_s: -0.001,
             lever_arm_m: Vec3::new(0.1, 0.0, 0.0),
+            pose_shift_s: 0.0,
         };
         let selected = [
             Effect::BodyOffset,
@@ -1752,8 +1779,9 @@ mod tests {
 
     /// The corrections reported in their units, read from the folded corrections and not from θ
     /// (whose correction columns hold 0.5 here): R_off's ZYX angles and R_w's roll and pitch in
-    /// degrees, the delays in ms, the lever arm in mm. A bug it catches: each of the five arms
-    /// deleted (θ reported instead).
+    /// degrees, the delays in ms (the mocap delay the rows' 12 ms plus the 250 ms the join of two
+    /// streams took out), the lever arm in mm. A bug it catches: each of the five arms deleted
+    /// (θ reported instead), the join's share left out.
     #[test]
     fn the_corrections_are_reported_in_degrees_milliseconds_and_millimetres() {
         let deg = 180.0 / std::f64::consts::PI;
@@ -1764,12 +1792,13 @@ mod tests {
             mocap_delay_s: 0.012,
             gyro_delay_s: 0.002,
             lever_arm_m: Vec3::new(0.01, 0.02, -0.03),
+            pose_shift_s: 0.25,
         };
         let all: Vec<usize> = (0..N_COLUMNS).collect();
         let cases: [(Effect, &[f64]); 5] = [
             (Effect::BodyOffset, &[0.01 * deg, -0.02 * deg, 0.03 * deg]),
             (Effect::WorldTilt, &[0.004 * deg, -0.003 * deg]),
-            (Effect::MocapDelay, &[12.0]),
+            (Effect::MocapDelay, &[262.0]),
             (Effect::GyroDelay, &[2.0]),
             (Effect::LeverArm, &[10.0, 20.0, -30.0]),
         ];

@@ -217,6 +217,57 @@ pub struct Report {
     /// The final linear parameters (internal units), by column.
     #[serde(skip)]
     pub theta: Vec<f64>,
+    /// The global start: the clocks and frames in closed form, and what of it the fine fit
+    /// started from.
+    pub start: crate::identify::fit::start::Start,
+    /// How far the fine fit moved from the start, for each calibration effect it fitted.
+    pub moved: StartMoved,
+    /// What makes the fit physically impossible (empty: nothing): then the frames or the clocks
+    /// are not aligned, and no effect is claimed.
+    pub misaligned: Vec<super::plausible::Implausible>,
+    /// The effects the fit gave when [`Report::misaligned`] is not empty, claimed as nothing
+    /// (kept for the diagnosis; [`Report::effects`] is then empty).
+    pub unclaimed: Vec<Found>,
+}
+
+/// How far the fine fit moved from the global start ([`Report::moved`]), for the effects it
+/// fitted (`None`: not fitted, or no start of it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StartMoved {
+    /// The angle between the start's and the fit's rotation mocap body → IMU (deg).
+    pub rotation_deg: Option<f64>,
+    /// The angle between the start's and the fit's gravity directions in the mocap world (deg).
+    pub tilt_deg: Option<f64>,
+    /// The fit's mocap delay less the start's clock offset (ms).
+    pub clock_ms: Option<f64>,
+    /// ‖r_fit − r_start‖ of the lever arm (mm).
+    pub lever_arm_mm: Option<f64>,
+}
+
+impl StartMoved {
+    /// The distances between `start` and the fit of `r` (whose delay is its correction's plus
+    /// the share the join of two streams took out, [`Corrections::pose_shift_s`]).
+    pub(crate) fn between(start: &crate::identify::fit::start::Start, r: &Report) -> StartMoved {
+        let has = |e: Effect| r.effect(e).is_some();
+        let c = &r.corrections;
+        let f = start.frames.as_ref();
+        let down = nalgebra::Vector3::z();
+        StartMoved {
+            rotation_deg: f
+                .filter(|_| has(Effect::BodyOffset))
+                .map(|f| f.body_offset.quaternion().angle_to(c.body_offset.quaternion()).to_degrees()),
+            tilt_deg: f
+                .filter(|_| has(Effect::WorldTilt))
+                .map(|f| (f.world_tilt.quaternion() * down).angle(&(c.world_tilt.quaternion() * down)).to_degrees()),
+            clock_ms: start
+                .clock
+                .filter(|_| has(Effect::MocapDelay))
+                .map(|k| (c.pose_shift_s + c.mocap_delay_s - k.best.offset_s) * 1e3),
+            lever_arm_mm: f
+                .filter(|_| has(Effect::LeverArm))
+                .map(|f| (c.lever_arm_m.raw() - f.lever_arm_m.raw()).norm() * 1e3),
+        }
+    }
 }
 
 impl Report {

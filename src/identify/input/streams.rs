@@ -1,0 +1,252 @@
+//! Streams in files of their own, each on its own clock. Poses: the TUM trajectory format
+//! (`t x y z qx qy qz qw`, whitespace between, `#` comments; t in seconds, the quaternion body →
+//! world with the scalar last, as the TUM RGB-D benchmark and `evo` define it) and the ASL
+//! (EuRoC) pose CSV (`timestamp [ns], p_x, p_y, p_z, q_w, q_x, q_y, q_z[, …]`), read into the
+//! stream the join takes ([`Stream<7>`]: stamps in integer nanoseconds, position, quaternion
+//! x, y, z, w). The IMU: the ASL IMU CSV (`timestamp [ns], w_x, w_y, w_z, a_x, a_y, a_z`), or any
+//! CSV through a column mapping ([`super::mapping`]). Stamps are parsed as decimals, digit by digit, so that a stamp of 10⁹ s keeps
+//! its nanoseconds (an f64 keeps 0.24 µs there).
+//!
+//! A row whose values are not finite (a mocap that lost the body: `nan`) is a frame not seen: it
+//! is left out, and the join leaves the IMU rows around it without a pose. Anything else that is
+//! not a number is an error naming the file, the line and the column.
+
+use super::error::InputError;
+use super::joined::Stream;
+use std::path::Path;
+
+/// The decimal `cell` in a unit of `unit_ns` nanoseconds (1 for ns, 10⁹ for s), as integer
+/// nanoseconds: the digits read exactly, a fraction finer than a nanosecond rounded half away
+/// from zero; an exponent (`1.4e9`) read through f64. `None` for anything else.
+pub(crate) fn decimal_ns(cell: &str, unit_ns: i128) -> Option<i128> {
+    let c = cell.trim();
+    if c.contains(['e', 'E']) {
+        let x = c.parse::<f64>().ok().filter(|x| x.is_finite())?;
+        return Some((x * unit_ns as f64).round() as i128);
+    }
+    let (neg, c) = match c.strip_prefix('-') {
+        Some(rest) => (true, rest),
+        None => (false, c.strip_prefix('+').unwrap_or(c)),
+    };
+    let (int, frac) = c.split_once('.').unwrap_or((c, ""));
+    if int.is_empty() && frac.is_empty()
+        || !int.bytes().all(|b| b.is_ascii_digit())
+        || !frac.bytes().all(|b| b.is_ascii_digit())
+        || int.len() > 30
+    {
+        return None;
+    }
+    let int_v: i128 = if int.is_empty() { 0 } else { int.parse().ok()? };
+    // the fraction in units of unit_ns / 10^len, kept to the nanosecond
+    let mut ns = int_v.checked_mul(unit_ns)?;
+    let mut scale = unit_ns;
+    let mut below = None;
+    for d in frac.bytes().map(|d| i128::from(d - b'0')) {
+        if scale >= 10 {
+            scale /= 10;
+            ns = ns.checked_add(d * scale)?;
+        } else if below.is_none() {
+            // the first digit below a nanosecond decides the rounding (half away from zero)
+            below = Some(d);
+        }
+    }
+    if below.is_some_and(|d| d >= 5) {
+        ns += 1;
+    }
+    Some(if neg { -ns } else { ns })
+}
+
+/// A finite number, or an error naming `file`, the line and the column.
+fn number(cell: &str, file: &str, line: usize, column: &str) -> Result<f64, InputError> {
+    let c = cell.trim();
+    match c.parse::<f64>() {
+        Ok(x) => Ok(x),
+        Err(_) => Err(InputError::Row {
+            file: file.to_string(),
+            line,
+            column: Some(column.to_string()),
+            message: format!("`{c}` is not a number"),
+        }),
+    }
+}
+
+/// Where a quaternion's x, y, z and w sit among its four cells: [0, 1, 2, 3] for x, y, z, w
+/// (TUM, ROS), [1, 2, 3, 0] for w, x, y, z (ASL, Eigen's constructor).
+pub(crate) type QuatCells = [usize; 4];
+/// The scalar last.
+pub(crate) const XYZW: QuatCells = [0, 1, 2, 3];
+/// The scalar first.
+pub(crate) const WXYZ: QuatCells = [1, 2, 3, 0];
+
+/// The poses of one file, each row split by `split` into its cells: the stamp (in units of
+/// `unit_ns`), three position cells (times `pos_factor` to m), four quaternion cells laid out as
+/// `order` says; the names give each cell's column in errors. Comment lines (`#`) and blank
+/// lines are skipped.
+fn read_poses(
+    path: &Path,
+    split: fn(&str) -> Vec<&str>,
+    names: [&str; 8],
+    unit_ns: i128,
+    order: QuatCells,
+    pos_factor: f64,
+) -> Result<Stream<7>, InputError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| InputError::io(&file, e))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let mut out = Stream::new();
+    for (k, line) in text.lines().enumerate() {
+        let lineno = k + 1;
+        let l = line.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let cells = split(l);
+        if cells.len() < 8 {
+            return Err(InputError::row(
+                &file,
+                lineno,
+                format!("{} values, and a pose needs 8 ({})", cells.len(), names.join(" ")),
+            ));
+        }
+        let t = decimal_ns(cells[0], unit_ns).ok_or_else(|| InputError::Row {
+            file: file.clone(),
+            line: lineno,
+            column: Some(names[0].to_string()),
+            message: format!("`{}` is not a time stamp", cells[0].trim()),
+        })?;
+        let mut v = [0.0; 8];
+        for j in 1..8 {
+            v[j] = number(cells[j], &file, lineno, names[j])?;
+        }
+        if !v.iter().all(|x| x.is_finite()) {
+            // a frame the mocap did not see
+            continue;
+        }
+        let q = order.map(|k| v[4 + k]);
+        let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if (norm - 1.0).abs() > 0.01 {
+            return Err(InputError::row(
+                &file,
+                lineno,
+                format!("the quaternion has norm {norm:.4}, not 1: check the mapping's quaternion `order`"),
+            ));
+        }
+        let pose = [v[1] * pos_factor, v[2] * pos_factor, v[3] * pos_factor, q[0], q[1], q[2], q[3]];
+        if out.t.last().is_some_and(|last| *last >= t) {
+            return Err(InputError::row(
+                &file,
+                lineno,
+                "time stamps must increase (this row's is not after the row before)".to_string(),
+            ));
+        }
+        out.push(t, pose).map_err(|m| InputError::row(&file, lineno, m.to_string()))?;
+    }
+    if out.t.len() < 2 {
+        return Err(InputError::log(&file, "fewer than two poses"));
+    }
+    Ok(out)
+}
+
+/// A TUM trajectory file: `t x y z qx qy qz qw` (t in seconds; `order` for a file that lays
+/// the quaternion out otherwise; positions times `pos_factor` to metres).
+pub(in crate::identify) fn read_tum(path: &Path, order: QuatCells, pos_factor: f64) -> Result<Stream<7>, InputError> {
+    let mut names = ["timestamp", "tx", "ty", "tz", "", "", "", ""];
+    for (k, n) in ["qx", "qy", "qz", "qw"].into_iter().enumerate() {
+        names[4 + order[k]] = n;
+    }
+    read_poses(path, |l| l.split_whitespace().collect(), names, 1_000_000_000, order, pos_factor)
+}
+
+/// An ASL (EuRoC) pose CSV: `timestamp [ns], p_x, p_y, p_z, q_w, q_x, q_y, q_z` (`order` for a
+/// file that lays the quaternion out otherwise), and any columns after them (a ground-truth
+/// estimate's velocities and biases) left unread.
+pub(in crate::identify) fn read_asl_poses(
+    path: &Path,
+    order: QuatCells,
+    pos_factor: f64,
+) -> Result<Stream<7>, InputError> {
+    let mut names = ["timestamp", "p_x", "p_y", "p_z", "", "", "", ""];
+    for (k, n) in ["q_x", "q_y", "q_z", "q_w"].into_iter().enumerate() {
+        names[4 + order[k]] = n;
+    }
+    read_poses(path, |l| l.split(',').collect(), names, 1, order, pos_factor)
+}
+
+/// An ASL (EuRoC) IMU CSV: `timestamp [ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s²]` into
+/// the IMU stream the join takes (gyro then accelerometer, SI). A value that is not a finite
+/// number is an error: an IMU sample is never a dropout.
+pub(in crate::identify) fn read_asl_imu(path: &Path) -> Result<Stream<6>, InputError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| InputError::io(&file, e))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let names = ["timestamp", "w_x", "w_y", "w_z", "a_x", "a_y", "a_z"];
+    let mut out = Stream::new();
+    for (k, line) in text.lines().enumerate() {
+        let lineno = k + 1;
+        let l = line.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let cells: Vec<&str> = l.split(',').collect();
+        if cells.len() < 7 {
+            return Err(InputError::row(
+                &file,
+                lineno,
+                format!("{} values, and an IMU sample needs 7 ({})", cells.len(), names.join(" ")),
+            ));
+        }
+        let t = decimal_ns(cells[0], 1).ok_or_else(|| InputError::Row {
+            file: file.clone(),
+            line: lineno,
+            column: Some(names[0].to_string()),
+            message: format!("`{}` is not a time stamp in nanoseconds", cells[0].trim()),
+        })?;
+        let mut v = [0.0; 6];
+        for j in 0..6 {
+            v[j] = number(cells[j + 1], &file, lineno, names[j + 1])?;
+            if !v[j].is_finite() {
+                return Err(InputError::Row {
+                    file: file.clone(),
+                    line: lineno,
+                    column: Some(names[j + 1].to_string()),
+                    message: format!("`{}` is not a finite number", cells[j + 1].trim()),
+                });
+            }
+        }
+        if out.t.last().is_some_and(|last| *last >= t) {
+            return Err(InputError::row(
+                &file,
+                lineno,
+                "time stamps must increase (this row's is not after the row before)".to_string(),
+            ));
+        }
+        out.push(t, v).map_err(|m| InputError::row(&file, lineno, m.to_string()))?;
+    }
+    if out.t.len() < 2 {
+        return Err(InputError::log(&file, "fewer than two IMU samples"));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Stamps read digit by digit: 1403636579.763555527 s is 1403636579763555527 ns exactly
+    /// (an f64 would give …555584), a tenth of a nanosecond rounds, a unit of 1 ns takes the
+    /// integer, a negative stamp and an exponent read too, and a word is no stamp.
+    #[test]
+    fn stamps_are_read_to_the_nanosecond() {
+        let s = 1_000_000_000;
+        assert_eq!(decimal_ns("1403636579.763555527", s), Some(1_403_636_579_763_555_527));
+        assert_eq!(decimal_ns("0.0000000016", s), Some(2));
+        assert_eq!(decimal_ns("0.0000000014", s), Some(1));
+        assert_eq!(decimal_ns(" 1403636579763555527 ", 1), Some(1_403_636_579_763_555_527));
+        assert_eq!(decimal_ns("-1.5", s), Some(-1_500_000_000));
+        assert_eq!(decimal_ns("1.5e3", s), Some(1_500_000_000_000));
+        assert_eq!(decimal_ns("12.", s), Some(12_000_000_000));
+        assert_eq!(decimal_ns("abc", s), None);
+        assert_eq!(decimal_ns("", s), None);
+        assert_eq!(decimal_ns("1.2.3", s), None);
+    }
+}
