@@ -1175,6 +1175,34 @@ mod tests {
         }
     }
 
+    /// A rotation at rest never agrees because a bias no sensor has explains it: the ground
+    /// reads a 104° pitch, a fitted bias of 1.6 g takes it to 0°, the flight's frames say 0°, and
+    /// the agreement is a DISAGREE. A bias tilt of 5° (0.85 m/s²) that does the same agrees.
+    #[test]
+    fn an_impossible_bias_makes_no_agreement() {
+        let check = |pitch: f64| GroundCheck {
+            roll_deg: 0.0,
+            pitch_deg: pitch,
+            roll_se_deg: 0.01,
+            pitch_se_deg: 0.01,
+            up_axis: UpAxis::Z,
+            samples: 100,
+            mocap_sd_deg: [0.01; 2],
+        };
+        let flight = FlightTilt {
+            offset_rad: [0.0; 2],
+            sd_rad: [0.001; 2],
+            widen_rad: [0.0; 2],
+            frame_fitted: true,
+            accel_bias_fitted: true,
+        };
+        let a = agreement(&check(104.0), &check(0.0), &flight, None, None);
+        assert!(!a.pitch.covers && a.roll.covers, "{a:?}");
+        let a = agreement(&check(5.0), &check(0.0), &flight, None, None);
+        assert!(a.pitch.covers, "{a:?}");
+        assert!((max_bias_tilt_deg() - (2.0f64 / crate::vehicle::params::GRAVITY).asin().to_degrees()).abs() < 1e-12);
+    }
+
     /// The agreement's spin-up: change = spin-up − rest, difference = spin-up − flight.
     #[test]
     fn the_spin_up_agreement_compares_with_rest_and_flight() {

@@ -1090,3 +1090,49 @@ impl Mapping {
         Ok(s)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each `world:` turns its own up axis to −z (up in NED) by a proper rotation, and keeps
+    /// gravity pointing down.
+    #[test]
+    fn each_world_turns_its_up_axis_to_minus_z() {
+        for (w, up) in [
+            (WorldUp::ZUp, Vector3::z()),
+            (WorldUp::ZDown, -Vector3::z()),
+            (WorldUp::YUp, Vector3::y()),
+            (WorldUp::YDown, -Vector3::y()),
+            (WorldUp::XUp, Vector3::x()),
+            (WorldUp::XDown, -Vector3::x()),
+        ] {
+            let got = w.to_z_down() * up;
+            assert!((got + Vector3::z()).norm() < 1e-15, "{w:?}: up goes to {got}");
+        }
+    }
+
+    /// The two-stream forms: an `asl:` block reads a folder (its defaults imu0, vicon0, z up, the
+    /// axes as they are), a `poses:` block an IMU CSV beside a pose file, and each says so when
+    /// it is given one log alone; a pose file's unit outside m and mm is an error with the
+    /// allowed ones; a `poses:` mapping given no pose file says to give it.
+    #[test]
+    fn the_two_stream_mappings_read_and_refuse_what_they_should() {
+        let path = Path::new("m.yaml");
+        let asl = Mapping::parse("vehicle: rigid_body\nasl: {}\n", path).unwrap();
+        let a = asl.asl.as_ref().unwrap();
+        assert!(asl.two_streams() && a.imu == "imu0" && a.poses == "vicon0");
+        assert!(asl.world == WorldUp::ZUp && asl.body == BodyAxes::Frd);
+        let err = asl.read(Path::new("seq")).unwrap_err().to_string();
+        assert!(err.contains("two streams"), "{err}");
+        let split = "vehicle: rigid_body\ntime: { column: t, unit: s }\ngyro: { columns: [gx, gy, gz], unit: rad/s }\naccel: { columns: [ax, ay, az], unit: m/s2 }\nworld: y_up\nbody: flu\nposes: { format: tum, unit: UNIT }\n";
+        let m = Mapping::parse(&split.replace("UNIT", "mm"), path).unwrap();
+        assert!(m.two_streams() && m.world == WorldUp::YUp);
+        let err = Mapping::parse(&split.replace("UNIT", "cm"), path).unwrap_err().to_string();
+        assert!(err.contains("m.yaml") && err.contains("`cm`") && err.contains("`mm`"), "{err}");
+        let err = m.read_streams(Path::new("imu.csv"), None).err().unwrap().to_string();
+        assert!(err.contains("--poses"), "{err}");
+        let err = asl.read_streams(Path::new("/nonexistent-sequence"), None).err().unwrap().to_string();
+        assert!(err.contains("not an ASL (EuRoC) folder") && err.contains("mav0/imu0/data.csv"), "{err}");
+    }
+}

@@ -116,6 +116,66 @@ impl Series {
     }
 }
 
+#[cfg(test)]
+impl Series {
+    /// The unit tests' rig: a rigid body (no vehicle) turned about all three axes and moved, for
+    /// 60 s at 200 Hz, exact (no noise, no bias, no lever arm). Z-Y-X angles
+    /// φ = 0.6·sin(2π·0.31t), θ = 0.5·sin(2π·0.47t + 1), ψ = 1.2·sin(2π·0.13t + 2) and a position
+    /// p = (0.3·sin(2π·0.4t), 0.2·sin(2π·0.55t + 0.5), −1 + 0.1·sin(2π·0.7t)) m; the IMU reads
+    /// the body rates and f = Rᵀ(p̈ − g·e_D). The mocap reports R_w·R·R_off and R_w·p, each taken
+    /// `delay_s` before the row's stamp: the markers turned by `r_off` (v_body = R_off·v_marker),
+    /// the mocap's world by `r_w` (gravity's direction there R_w·e_D), its stream late by
+    /// `delay_s`.
+    pub(crate) fn rig_for_tests(r_off: UnitQuaternion<f64>, r_w: UnitQuaternion<f64>, delay_s: f64) -> Series {
+        use nalgebra::Vector3;
+        use std::f64::consts::TAU;
+        let (n, dt, g) = (12_000, 0.005, 9.81);
+        // a sine a·sin(2πf·t + φ) with its first two derivatives
+        let sine = |a: f64, f: f64, ph: f64, t: f64| {
+            let w = TAU * f;
+            [a * (w * t + ph).sin(), a * w * (w * t + ph).cos(), -a * w * w * (w * t + ph).sin()]
+        };
+        let attitude = |t: f64| {
+            let ([phi, dphi, _], [th, dth, _], [psi, dpsi, _]) =
+                (sine(0.6, 0.31, 0.0, t), sine(0.5, 0.47, 1.0, t), sine(1.2, 0.13, 2.0, t));
+            let (sf, cf, st, ct) = (phi.sin(), phi.cos(), th.sin(), th.cos());
+            let w = Vector3::new(dphi - dpsi * st, dth * cf + dpsi * ct * sf, -dth * sf + dpsi * ct * cf);
+            (UnitQuaternion::from_euler_angles(phi, th, psi), w)
+        };
+        let pos = |t: f64| {
+            let (x, y, z) = (sine(0.3, 0.4, 0.0, t), sine(0.2, 0.55, 0.5, t), sine(0.1, 0.7, 0.0, t));
+            (Vector3::new(x[0], y[0], -1.0 + z[0]), Vector3::new(x[2], y[2], z[2]))
+        };
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+        let (mut gyro, mut accel, mut p_m, mut q_m) = (vec![], vec![], vec![], vec![]);
+        for &ti in &t {
+            let (q, w) = attitude(ti);
+            let (_, a) = pos(ti);
+            gyro.push(Vec3::from_raw(w));
+            accel.push(Vec3::from_raw(q.inverse() * (a - Vector3::new(0.0, 0.0, g))));
+            let (qd, _) = attitude(ti - delay_s);
+            let (pd, _) = pos(ti - delay_s);
+            p_m.push(Vec3::from_raw(r_w * pd));
+            q_m.push(Rot::from_quaternion(r_w * qd * r_off));
+        }
+        Series {
+            source: "rig".into(),
+            pos_mocap_nav: p_m,
+            att_mocap: q_m,
+            mocap_ok: vec![true; n],
+            gyro_body: gyro,
+            accel_body: accel,
+            thrust_n: None,
+            vbat_v: None,
+            segments: vec![(0, n)],
+            t_s: t,
+            model: NominalModel { rigid_body: true, mass_kg: 0.0, ..NominalModel::for_tests(g) },
+            repairs: Vec::new(),
+            clocks: Clocks::default(),
+        }
+    }
+}
+
 /// One flight, resampled to nothing: samples as logged, each with a validity flag.
 #[derive(Clone, Debug)]
 pub struct Series {

@@ -232,6 +232,46 @@ pub(in crate::identify) fn read_asl_imu(path: &Path) -> Result<Stream<6>, InputE
 mod tests {
     use super::*;
 
+    fn file(name: &str, text: &str) -> std::path::PathBuf {
+        let p = std::env::temp_dir().join(format!("flyarena-streams-{}-{name}", std::process::id()));
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    /// A TUM file as written by hand: comments and blank lines skipped, a frame the mocap lost
+    /// (`nan`) left out, stamps to the nanosecond, the quaternion's cells as `order` lays them
+    /// out (x, y, z, w by default; w, x, y, z when the file says so), positions in mm scaled.
+    #[test]
+    fn a_tum_file_reads_its_poses_and_leaves_out_what_was_not_seen() {
+        let p = file(
+            "poses.tum",
+            "# t x y z qx qy qz qw\n\n1.000000001 1 2 3 0 0 0 1\n1.01 nan nan nan nan nan nan nan\n1.02 4 5 6 0 0 0.6 0.8\n",
+        );
+        let s = read_tum(&p, XYZW, 1.0).unwrap();
+        assert_eq!(s.t, vec![1_000_000_001, 1_020_000_000]);
+        assert_eq!(s.v[1], [4.0, 5.0, 6.0, 0.0, 0.0, 0.6, 0.8]);
+        let p = file("wxyz.tum", "1 1000 0 0 0.8 0 0.6 0\n2 0 0 0 1 0 0 0\n");
+        let s = read_tum(&p, WXYZ, 1e-3).unwrap();
+        assert_eq!(s.v[0], [1.0, 0.0, 0.0, 0.0, 0.6, 0.0, 0.8]);
+    }
+
+    /// What is not a pose is an error naming the file, the line and the column: a word where a
+    /// number goes, a quaternion that is not unit (a wrong `order`), stamps that go back, and an
+    /// ASL IMU sample that is not finite (an IMU sample is never a dropout).
+    #[test]
+    fn what_is_not_a_pose_or_a_sample_is_a_located_error() {
+        let err = |text: &str| read_tum(&file("bad.tum", text), XYZW, 1.0).unwrap_err().to_string();
+        let e = err("1 0 0 0 0 0 0 1\n2 0 x 0 0 0 0 1\n");
+        assert!(e.contains("bad.tum:2:") && e.contains("`ty`") && e.contains("`x`"), "{e}");
+        let e = err("1 0 0 0 0 0 0 2\n");
+        assert!(e.contains("norm 2.0000") && e.contains("order"), "{e}");
+        let e = err("2 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 1\n");
+        assert!(e.contains("bad.tum:2:") && e.contains("increase"), "{e}");
+        let imu = file("imu.csv", "#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n5,0,0,0,0,0,9.8\n6,0,inf,0,0,0,9.8\n");
+        let e = read_asl_imu(&imu).unwrap_err().to_string();
+        assert!(e.contains("imu.csv:3:") && e.contains("`w_y`") && e.contains("not a finite number"), "{e}");
+    }
+
     /// Stamps read digit by digit: 1403636579.763555527 s is 1403636579763555527 ns exactly
     /// (an f64 would give …555584), a tenth of a nanosecond rounds, a unit of 1 ns takes the
     /// integer, a negative stamp and an exponent read too, and a word is no stamp.

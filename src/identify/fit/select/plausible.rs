@@ -116,3 +116,81 @@ pub(crate) fn check(r: &Report) -> Vec<Implausible> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::fit::select::{AxisError, Options, identify};
+    use crate::identify::input::series::Series;
+    use nalgebra::UnitQuaternion;
+
+    /// An exact rig calibrated: nothing is implausible.
+    fn calibrated() -> Report {
+        let s = Series::rig_for_tests(UnitQuaternion::identity(), UnitQuaternion::identity(), 0.0);
+        identify(&s, &Options { forced: Effect::CALIBRATION.to_vec(), ..Options::default() }).unwrap()
+    }
+
+    fn set(r: &mut Report, e: Effect, values: [f64; 3]) {
+        let f = r.effects.iter_mut().find(|f| f.effect == e).unwrap();
+        for (p, v) in f.params.iter_mut().zip(values) {
+            p.value = v;
+        }
+    }
+
+    /// Each bound of the table, on both sides: a bias of 2.5 m/s² (norm) is flagged and one of
+    /// √3 m/s² is not; 30 °/s is, 20 and 15 °/s (norm 25) is not; 1.1 m of lever arm is, 0.9 m is
+    /// not; and an exact rig's own calibration passes every check.
+    #[test]
+    fn each_bound_flags_what_lies_beyond_it_and_nothing_within() {
+        let r = calibrated();
+        assert!(check(&r).is_empty(), "{:?}", check(&r));
+        let flagged = |e: Effect, v: [f64; 3]| {
+            let mut r = calibrated();
+            set(&mut r, e, v);
+            check(&r)
+        };
+        assert!(
+            matches!(flagged(Effect::AccelBias, [2.5, 0.0, 0.0])[..], [Implausible::AccelBias { norm_m_s2, .. }] if (norm_m_s2 - 2.5).abs() < 1e-12)
+        );
+        assert!(flagged(Effect::AccelBias, [1.0, 1.0, 1.0]).is_empty());
+        assert!(matches!(flagged(Effect::GyroBias, [0.0, 30.0, 0.0])[..], [Implausible::GyroBias { .. }]));
+        assert!(flagged(Effect::GyroBias, [20.0, 15.0, 0.0]).is_empty());
+        assert!(
+            matches!(flagged(Effect::LeverArm, [0.0, 0.0, -1100.0])[..], [Implausible::LeverArm { norm_m, .. }] if (norm_m - 1.1).abs() < 1e-12)
+        );
+        assert!(flagged(Effect::LeverArm, [900.0, 0.0, 0.0]).is_empty());
+    }
+
+    /// The gyro's unexplained share, by hand: an axis fit of f % leaves a share 1 − f/100 of the
+    /// motion. At 30 % (70 % left, over half, and far above the exact rig's floor) it is
+    /// flagged; at 60 % (40 % left) it is not, nor where the motion is under 0.02 rad/s.
+    #[test]
+    fn a_gyro_left_unexplained_is_flagged_above_half_and_above_the_floor() {
+        let with_gyro = |fit_pct: f64, rmse: f64| {
+            let mut r = calibrated();
+            r.errors.retain(|e| e.channel != Channel::Gyro);
+            r.errors.extend(['x', 'y', 'z'].map(|axis| AxisError {
+                channel: Channel::Gyro,
+                axis,
+                unit: "rad/s".into(),
+                samples: 100,
+                rmse_before: 1.0,
+                rmse_after: rmse,
+                fit_before_pct: None,
+                fit_after_pct: Some(fit_pct),
+            }));
+            check(&r)
+        };
+        match &with_gyro(30.0, 0.07)[..] {
+            [Implausible::GyroUnexplained { fraction, motion_rad_s, .. }] => {
+                assert!(
+                    (fraction - 0.7).abs() < 1e-12 && (motion_rad_s - 0.1).abs() < 1e-12,
+                    "{fraction} {motion_rad_s}"
+                );
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(with_gyro(60.0, 0.04).is_empty());
+        assert!(with_gyro(30.0, 0.0105).is_empty(), "a motion of 0.015 rad/s has nothing to explain");
+    }
+}

@@ -20,7 +20,8 @@
 //! days apart: a mocap PC's epoch against an IMU's boot time), every lag that does is searched,
 //! and the result says so. The best peak outside the main lobe (beyond the minima on either side
 //! of the peak) is kept as the runner-up: a motion that repeats can put a second peak almost as
-//! high, and then the offset is not determined by this log.
+//! high, and then the offset is not determined by this log (the runner-up must leave at least
+//! twice the unexplained variance 1 − ρ² of the best).
 
 use super::fft::{correlate, spectrum};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -33,9 +34,10 @@ pub const DEFAULT_HALF_WIDTH_S: f64 = 5.0;
 const MIN_OVERLAP: f64 = 0.5;
 /// The correlation at the offset must reach this for the offset to be determined.
 pub const MIN_CORRELATION: f64 = 0.5;
-/// A runner-up peak this close to the best (as a fraction of its correlation) leaves the offset
-/// undetermined.
-pub const AMBIGUOUS_FRACTION: f64 = 0.9;
+/// A runner-up peak that leaves less than this many times the best's unexplained variance
+/// (1 − ρ², the share of ‖ω‖'s variance the lag does not explain) leaves the offset
+/// undetermined: a motion that repeats explains itself almost as well one period later.
+pub const MIN_UNEXPLAINED_RATIO: f64 = 2.0;
 
 /// Where the clock offset is searched: centre ± half-width (s), in the mocap delay's sign.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -81,12 +83,16 @@ pub struct ClockStart {
 }
 
 impl ClockStart {
-    /// The offset is determined: the peak correlates well ([`MIN_CORRELATION`]), no other peak
-    /// comes close ([`AMBIGUOUS_FRACTION`]) and it is not on the edge of the range searched.
+    /// The offset is determined: the peak correlates well ([`MIN_CORRELATION`]), every other
+    /// peak leaves at least [`MIN_UNEXPLAINED_RATIO`] times its unexplained variance, and it is
+    /// not on the edge of the range searched.
     pub fn determined(&self) -> bool {
+        let unexplained = |r: f64| 1.0 - r.clamp(-1.0, 1.0).powi(2);
         self.best.correlation >= MIN_CORRELATION
             && !self.at_edge
-            && self.runner_up.is_none_or(|r| r.correlation < AMBIGUOUS_FRACTION * self.best.correlation)
+            && self.runner_up.is_none_or(|r| {
+                unexplained(r.correlation) >= MIN_UNEXPLAINED_RATIO * unexplained(self.best.correlation)
+            })
     }
 }
 
@@ -359,7 +365,8 @@ mod tests {
         let mocap = Speeds { speed: mocap_t.iter().map(|t| periodic(t - 0.3)).collect(), t_s: mocap_t };
         let c = search(&imu, &mocap, 0.0, &ClockWindow::default()).unwrap();
         let r = c.runner_up.unwrap();
-        assert!(r.correlation > AMBIGUOUS_FRACTION * c.best.correlation && !c.determined(), "{c:?}");
+        assert!(1.0 - r.correlation.powi(2) < MIN_UNEXPLAINED_RATIO * (1.0 - c.best.correlation.powi(2)), "{c:?}");
+        assert!(!c.determined(), "{c:?}");
     }
 
     /// A gap in the mocap (3 s not seen) is left empty, not bridged: the offset still comes out.

@@ -29,7 +29,7 @@ mod clock;
 mod fft;
 mod frames;
 
-pub use clock::{AMBIGUOUS_FRACTION, BIN_S, ClockStart, ClockWindow, DEFAULT_HALF_WIDTH_S, MIN_CORRELATION, Peak};
+pub use clock::{BIN_S, ClockStart, ClockWindow, DEFAULT_HALF_WIDTH_S, MIN_CORRELATION, MIN_UNEXPLAINED_RATIO, Peak};
 pub(crate) use clock::{Speeds, search};
 pub use frames::FrameStart;
 
@@ -203,4 +203,71 @@ pub fn start(s: &Series, window: &ClockWindow, smoothing_s: f64) -> Start {
         }),
     };
     Start { clock, clock_left_s, frames, applied }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn half_turn() -> UnitQuaternion<f64> {
+        UnitQuaternion::from_scaled_axis(Vector3::new(1.0, 0.0, 1.0).normalize() * std::f64::consts::PI)
+    }
+
+    /// The case real labs meet, in closed form on an exact rig: markers at a half-turn about
+    /// (1, 0, 1)/√2 from the IMU, a mocap world tilted 30° about x and its stream 0.2 s late. The
+    /// start finds the offset within 1 ms, R_off within 0.05°, gravity's direction in the mocap
+    /// world (R_w·e_D) within 0.2° and its magnitude within 1 % of g, and applies all three: each
+    /// lies far beyond the fine fit's reach and is determined.
+    #[test]
+    fn a_half_turn_a_tilt_and_a_fifth_of_a_second_are_found_in_closed_form() {
+        let r_w = UnitQuaternion::from_euler_angles(30f64.to_radians(), 0.0, 0.0);
+        let s = Series::rig_for_tests(half_turn(), r_w, 0.2);
+        let st = start(&s, &ClockWindow::default(), 0.02);
+        let c = st.clock.unwrap();
+        assert!((c.best.offset_s - 0.2).abs() < 1e-3 && c.determined(), "{c:?}");
+        let f = st.frames.unwrap();
+        assert!(f.body_offset.quaternion().angle_to(&half_turn()).to_degrees() < 0.05, "{:?}", f.body_offset);
+        let down = |q: &UnitQuaternion<f64>| q * Vector3::z();
+        let tilt_err = down(f.world_tilt.quaternion()).angle(&down(&r_w)).to_degrees();
+        assert!(tilt_err < 0.2 && (f.gravity_m_s2 - 9.81).abs() < 0.01 * 9.81, "{tilt_err}° {}", f.gravity_m_s2);
+        assert!(f.rotation_determined(), "{f:?}");
+        assert_eq!(st.applied, Applied { clock: true, rotation: true, tilt: true });
+        let c = st.corrections();
+        assert!((c.mocap_delay_s - st.clock_left_s).abs() < 1e-15 && c.body_offset == f.body_offset);
+        assert_eq!(st.forced(), vec![Effect::BodyOffset, Effect::WorldTilt, Effect::MocapDelay]);
+    }
+
+    /// A rig within the fine fit's reach (markers 3° off, a 2° tilt, 5 ms late) gets a start
+    /// that is reported and not applied: the fit starts at the identity, as it always did.
+    #[test]
+    fn a_start_within_the_reach_is_not_applied() {
+        let r_off = UnitQuaternion::from_scaled_axis(Vector3::new(0.3, -0.5, 0.8).normalize() * 3f64.to_radians());
+        let r_w = UnitQuaternion::from_euler_angles(0.0, 2f64.to_radians(), 0.0);
+        let s = Series::rig_for_tests(r_off, r_w, 0.005);
+        let st = start(&s, &ClockWindow::default(), 0.02);
+        assert!((st.clock.unwrap().best.offset_s - 0.005).abs() < 1e-3, "{:?}", st.clock);
+        assert!(st.frames.unwrap().body_offset.quaternion().angle_to(&r_off).to_degrees() < 0.05);
+        assert_eq!(st.applied, Applied::default());
+        assert_eq!(st.corrections(), Corrections::default());
+        assert!(st.forced().is_empty());
+    }
+
+    /// What makes a rotation start determined, by hand: a spread over
+    /// [`ROTATION_SD_MAX_DEG`] about any axis, or a residual over [`ROTATION_RESIDUAL_MAX`] of the
+    /// gyro's rms, and it is not.
+    #[test]
+    fn a_rotation_start_is_determined_by_its_spread_and_its_residual() {
+        let s = Series::rig_for_tests(half_turn(), UnitQuaternion::identity(), 0.0);
+        let f = frames::frames(&s, 0.0, 0.02).unwrap();
+        let deg = 1f64.to_radians();
+        let with = |sd: [f64; 3], res: f64| FrameStart {
+            body_offset_sd_rad: sd,
+            gyro_residual_rad_s: res,
+            gyro_rms_rad_s: 1.0,
+            ..f
+        };
+        assert!(with([0.5 * deg; 3], 0.19).rotation_determined());
+        assert!(!with([0.5 * deg, 1.01 * deg, 0.5 * deg], 0.1).rotation_determined());
+        assert!(!with([0.5 * deg; 3], 0.21).rotation_determined());
+    }
 }
