@@ -56,20 +56,6 @@ pub(crate) fn decimal_ns(cell: &str, unit_ns: i128) -> Option<i128> {
     Some(if neg { -ns } else { ns })
 }
 
-/// A finite number, or an error naming `file`, the line and the column.
-fn number(cell: &str, file: &str, line: usize, column: &str) -> Result<f64, InputError> {
-    let c = cell.trim();
-    match c.parse::<f64>() {
-        Ok(x) => Ok(x),
-        Err(_) => Err(InputError::Row {
-            file: file.to_string(),
-            line,
-            column: Some(column.to_string()),
-            message: format!("`{c}` is not a number"),
-        }),
-    }
-}
-
 /// Where a quaternion's x, y, z and w sit among its four cells: [0, 1, 2, 3] for x, y, z, w
 /// (TUM, ROS), [1, 2, 3, 0] for w, x, y, z (ASL, Eigen's constructor).
 pub(crate) type QuatCells = [usize; 4];
@@ -78,10 +64,82 @@ pub(crate) const XYZW: QuatCells = [0, 1, 2, 3];
 /// The scalar first.
 pub(crate) const WXYZ: QuatCells = [1, 2, 3, 0];
 
-/// The poses of one file, each row split by `split` into its cells: the stamp (in units of
-/// `unit_ns`), three position cells (times `pos_factor` to m), four quaternion cells laid out as
-/// `order` says; the names give each cell's column in errors. Comment lines (`#`) and blank
-/// lines are skipped.
+/// One row's cells, located for its errors: the file, the line and the columns' names.
+struct Row<'a> {
+    file: &'a str,
+    line: usize,
+    cells: Vec<&'a str>,
+    names: &'a [&'a str],
+}
+
+impl Row<'_> {
+    /// An error at this row, in column `j` when given.
+    fn error(&self, j: Option<usize>, message: String) -> InputError {
+        InputError::Row {
+            file: self.file.to_string(),
+            line: self.line,
+            column: j.map(|j| self.names[j].to_string()),
+            message,
+        }
+    }
+
+    /// The stamp in cell 0, in units of `unit_ns` nanoseconds.
+    fn stamp(&self, unit_ns: i128) -> Result<i128, InputError> {
+        decimal_ns(self.cells[0], unit_ns)
+            .ok_or_else(|| self.error(Some(0), format!("`{}` is not a time stamp", self.cells[0].trim())))
+    }
+
+    /// Cells 1..=N as numbers (NaN and infinities pass: the caller decides what they mean).
+    fn numbers<const N: usize>(&self) -> Result<[f64; N], InputError> {
+        let mut v = [0.0; N];
+        for (j, x) in v.iter_mut().enumerate() {
+            let c = self.cells[j + 1].trim();
+            *x = c.parse::<f64>().map_err(|_| self.error(Some(j + 1), format!("`{c}` is not a number")))?;
+        }
+        Ok(v)
+    }
+}
+
+/// The rows of a stream file into a stream: comment (`#`) and blank lines skipped, each row
+/// split by `split` and needing the columns `names` (`what` names a row in the error), then
+/// `parse` gives its stamp and values, or nothing for a row to leave out. Stamps must increase;
+/// fewer than two rows is an error.
+fn read_rows<const N: usize>(
+    path: &Path,
+    split: fn(&str) -> Vec<&str>,
+    names: &[&str],
+    what: &str,
+    mut parse: impl FnMut(&Row) -> Result<Option<(i128, [f64; N])>, InputError>,
+) -> Result<Stream<N>, InputError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| InputError::io(&file, e))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let mut out = Stream::new();
+    for (k, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let row = Row { file: &file, line: k + 1, cells: split(l), names };
+        if row.cells.len() < names.len() {
+            let message = format!("{} values, and {what} needs {} ({})", row.cells.len(), names.len(), names.join(" "));
+            return Err(row.error(None, message));
+        }
+        let Some((t, v)) = parse(&row)? else { continue };
+        if out.t.last().is_some_and(|last| *last >= t) {
+            return Err(row.error(None, "time stamps must increase (this row's is not after the row before)".into()));
+        }
+        out.push(t, v).map_err(|m| row.error(None, m.to_string()))?;
+    }
+    if out.t.len() < 2 {
+        return Err(InputError::log(&file, format!("fewer than two rows of {what}")));
+    }
+    Ok(out)
+}
+
+/// The poses of one file: the stamp (in units of `unit_ns`), three position cells (times
+/// `pos_factor` to m), four quaternion cells laid out as `order` says; a row that is not all
+/// finite is a frame the mocap did not see, left out.
 fn read_poses(
     path: &Path,
     split: fn(&str) -> Vec<&str>,
@@ -90,61 +148,21 @@ fn read_poses(
     order: QuatCells,
     pos_factor: f64,
 ) -> Result<Stream<7>, InputError> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| InputError::io(&file, e))?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-    let mut out = Stream::new();
-    for (k, line) in text.lines().enumerate() {
-        let lineno = k + 1;
-        let l = line.trim();
-        if l.is_empty() || l.starts_with('#') {
-            continue;
-        }
-        let cells = split(l);
-        if cells.len() < 8 {
-            return Err(InputError::row(
-                &file,
-                lineno,
-                format!("{} values, and a pose needs 8 ({})", cells.len(), names.join(" ")),
-            ));
-        }
-        let t = decimal_ns(cells[0], unit_ns).ok_or_else(|| InputError::Row {
-            file: file.clone(),
-            line: lineno,
-            column: Some(names[0].to_string()),
-            message: format!("`{}` is not a time stamp", cells[0].trim()),
-        })?;
-        let mut v = [0.0; 8];
-        for j in 1..8 {
-            v[j] = number(cells[j], &file, lineno, names[j])?;
-        }
+    read_rows(path, split, &names, "a pose", |row| {
+        let t = row.stamp(unit_ns)?;
+        let v: [f64; 7] = row.numbers()?;
         if !v.iter().all(|x| x.is_finite()) {
             // a frame the mocap did not see
-            continue;
+            return Ok(None);
         }
-        let q = order.map(|k| v[4 + k]);
+        let q = order.map(|k| v[3 + k]);
         let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
         if (norm - 1.0).abs() > 0.01 {
-            return Err(InputError::row(
-                &file,
-                lineno,
-                format!("the quaternion has norm {norm:.4}, not 1: check the mapping's quaternion `order`"),
-            ));
+            let m = format!("the quaternion has norm {norm:.4}, not 1: check the mapping's quaternion `order`");
+            return Err(row.error(None, m));
         }
-        let pose = [v[1] * pos_factor, v[2] * pos_factor, v[3] * pos_factor, q[0], q[1], q[2], q[3]];
-        if out.t.last().is_some_and(|last| *last >= t) {
-            return Err(InputError::row(
-                &file,
-                lineno,
-                "time stamps must increase (this row's is not after the row before)".to_string(),
-            ));
-        }
-        out.push(t, pose).map_err(|m| InputError::row(&file, lineno, m.to_string()))?;
-    }
-    if out.t.len() < 2 {
-        return Err(InputError::log(&file, "fewer than two poses"));
-    }
-    Ok(out)
+        Ok(Some((t, [v[0] * pos_factor, v[1] * pos_factor, v[2] * pos_factor, q[0], q[1], q[2], q[3]])))
+    })
 }
 
 /// A TUM trajectory file: `t x y z qx qy qz qw` (t in seconds; `order` for a file that lays
@@ -172,60 +190,25 @@ pub(in crate::identify) fn read_asl_poses(
     read_poses(path, |l| l.split(',').collect(), names, 1, order, pos_factor)
 }
 
-/// An ASL (EuRoC) IMU CSV: `timestamp [ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s²]` into
-/// the IMU stream the join takes (gyro then accelerometer, SI). A value that is not a finite
-/// number is an error: an IMU sample is never a dropout.
+/// An ASL (EuRoC) IMU CSV: `timestamp [ns], w_x, w_y, w_z, a_x, a_y, a_z` into the IMU stream
+/// the join takes (gyro then accelerometer, SI). A value that is not a finite number is an
+/// error: an IMU sample is never a dropout.
 pub(in crate::identify) fn read_asl_imu(path: &Path) -> Result<Stream<6>, InputError> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| InputError::io(&file, e))?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let names = ["timestamp", "w_x", "w_y", "w_z", "a_x", "a_y", "a_z"];
-    let mut out = Stream::new();
-    for (k, line) in text.lines().enumerate() {
-        let lineno = k + 1;
-        let l = line.trim();
-        if l.is_empty() || l.starts_with('#') {
-            continue;
-        }
-        let cells: Vec<&str> = l.split(',').collect();
-        if cells.len() < 7 {
-            return Err(InputError::row(
-                &file,
-                lineno,
-                format!("{} values, and an IMU sample needs 7 ({})", cells.len(), names.join(" ")),
-            ));
-        }
-        let t = decimal_ns(cells[0], 1).ok_or_else(|| InputError::Row {
-            file: file.clone(),
-            line: lineno,
-            column: Some(names[0].to_string()),
-            message: format!("`{}` is not a time stamp in nanoseconds", cells[0].trim()),
-        })?;
-        let mut v = [0.0; 6];
-        for j in 0..6 {
-            v[j] = number(cells[j + 1], &file, lineno, names[j + 1])?;
-            if !v[j].is_finite() {
-                return Err(InputError::Row {
-                    file: file.clone(),
-                    line: lineno,
-                    column: Some(names[j + 1].to_string()),
-                    message: format!("`{}` is not a finite number", cells[j + 1].trim()),
-                });
+    read_rows(
+        path,
+        |l| l.split(',').collect(),
+        &names,
+        "an IMU sample",
+        |row| {
+            let t = row.stamp(1)?;
+            let v: [f64; 6] = row.numbers()?;
+            if let Some(j) = v.iter().position(|x| !x.is_finite()) {
+                return Err(row.error(Some(j + 1), format!("`{}` is not a finite number", row.cells[j + 1].trim())));
             }
-        }
-        if out.t.last().is_some_and(|last| *last >= t) {
-            return Err(InputError::row(
-                &file,
-                lineno,
-                "time stamps must increase (this row's is not after the row before)".to_string(),
-            ));
-        }
-        out.push(t, v).map_err(|m| InputError::row(&file, lineno, m.to_string()))?;
-    }
-    if out.t.len() < 2 {
-        return Err(InputError::log(&file, "fewer than two IMU samples"));
-    }
-    Ok(out)
+            Ok(Some((t, v)))
+        },
+    )
 }
 
 #[cfg(test)]
