@@ -92,7 +92,7 @@ pub(crate) fn render_start(s: &mut String, r: &Report) {
 fn applied(st: &Start, r: &Report) -> String {
     let a = st.applied;
     let mut parts = Vec::new();
-    if a.clock || r.corrections.pose_shift_s != 0.0 {
+    if a.clock {
         parts.push("the clock");
     }
     if a.rotation {

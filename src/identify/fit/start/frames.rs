@@ -44,8 +44,8 @@ pub struct FrameStart {
     pub body_offset: Rot<MocapBody, Body>,
     /// Its approximate standard deviation about the IMU's x, y, z (rad).
     pub body_offset_sd_rad: [f64; 3],
-    /// The gyro's residual against R·ω̂ + b_g, rms per axis (rad/s), and the gyro's own rms about
-    /// its mean: how much of the rotation the rotation explains.
+    /// The gyro's residual against R·ω̂ + b_g, rms per axis (rad/s): what the best rotation of
+    /// the mocap's rates leaves of the gyro (their noise together, when the clocks agree).
     pub gyro_residual_rad_s: f64,
     /// The gyro's rms about its mean over the same samples (rad/s).
     pub gyro_rms_rad_s: f64,
