@@ -462,7 +462,9 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
     // the uncompensated counterpart R2 compares with is flown by flyarena's own station: an
     // external controller's uncompensated flight is not at hand
     let twin = load_for_run(&a.run)?.with_builtin_stations();
-    let outcome = flyarena::run::evaluate(&twin, main, record);
+    let mut outcome = flyarena::run::evaluate(&twin, main, record);
+    // a flight no controller flew fails, whatever the other rows say of it
+    outcome.report.rows.splice(0..0, net.controller_rows());
     write_run(a.run, &s, outcome, elapsed)
 }
 

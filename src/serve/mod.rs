@@ -172,6 +172,31 @@ pub struct VehicleCommands {
     pub stats: CommandStats,
 }
 
+impl ServeReport {
+    /// One requirement row per externally flown vehicle, R0: its controller flew it (at least one
+    /// of its commands applied). A vehicle whose controller never connected, or sent nothing the
+    /// receiver applied, stays on the ground holding its first frame; the other requirements
+    /// may then hold of a flight nobody flew (no drift while yawing, when nothing yawed), so the
+    /// run fails here instead.
+    pub fn controller_rows(&self) -> Vec<crate::requirements::Row> {
+        self.commands
+            .iter()
+            .map(|c| crate::requirements::Row {
+                vehicle: c.vehicle.clone(),
+                id: "R0",
+                what: format!(
+                    "flown by its external controller (commands received {}, radio ticks held {})",
+                    c.stats.received, c.stats.held
+                ),
+                measured: format!("{} applied", c.stats.applied),
+                limit: "≥ 1".into(),
+                pass: c.stats.applied >= 1,
+                asserted: true,
+            })
+            .collect()
+    }
+}
+
 /// Why serving failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ServeError {

@@ -856,3 +856,34 @@ fn the_readme_example_serves_fig6_to_the_reference_controller() {
         .unwrap_or_else(|| panic!("{rows:?}"));
     assert_eq!((ratio["pass"].as_bool(), ratio["asserted"].as_bool()), (Some(true), Some(true)), "{ratio}");
 }
+
+/// A vehicle no controller flew fails its run: Fig. 6 with `station: external` served with no
+/// controller at all (no wait for a client, at a thousand times real time) holds its first frame
+/// on the ground for the whole flight, and R2 alone would pass it (nothing yawed, nothing
+/// drifted). The R0 row says "0 applied", the run says FAIL and exits 1, and the JSON summary
+/// holds the row.
+#[test]
+fn an_unflown_vehicle_fails_its_run() {
+    let out = tmp("unflown");
+    let text = std::fs::read_to_string(super::root().join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap();
+    let scenario = out.join("fig6-external.yaml");
+    std::fs::write(&scenario, text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n")).unwrap();
+    let [port, data_port] = free_ports();
+    let o = Command::new(env!("CARGO_BIN_EXE_flyarena"))
+        .arg("serve")
+        .arg(&scenario)
+        .args(["--command-port", &port.to_string(), "--data-port", &data_port.to_string()])
+        .args(["--wait-s", "0", "--speed", "1000", "--no-rrd", "--out"])
+        .arg(&*out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
+    let r0 = stdout.lines().find(|l| l.contains("R0")).unwrap_or_else(|| panic!("{stdout}"));
+    assert!(r0.contains("flown by its external controller") && r0.contains("0 applied") && r0.contains("FAIL"), "{r0}");
+    assert!(stdout.lines().any(|l| l.starts_with("FAIL:")), "{stdout}");
+    let json: Value =
+        serde_json::from_slice(&std::fs::read(out.join("fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
+    let row = &json["requirements"][0];
+    assert!(row["id"] == "R0" && row["pass"] == false, "{row}");
+}
