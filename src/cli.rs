@@ -71,7 +71,7 @@ enum Command {
         shard: Option<(u64, u64)>,
         /// Hand-held mocap + IMU rigs at MoCap2GT's simulated setting instead of flights, each
         /// calibrated by `identify --calibrate`: the error and 95 % coverage of the rotation,
-        /// world tilt, lever arm and time offset (DIR/handheld-<seed>-<N>.json; docs/calibration.md)
+        /// world tilt, lever arm and time offset (DIR/handheld[-<setting>][-<MS>ms]-<seed>-<N>.json; docs/calibration.md)
         #[arg(long, conflicts_with = "shard")]
         handheld: bool,
         /// With --handheld: also write each rig's log (DIR/handheld-<seed>-<N>/flight-<i>.csv,
@@ -895,7 +895,8 @@ fn cmd_trials(flights: u64, seed: u64, shard: Option<(u64, u64)>, out: &Path) ->
     finish_trials(seed, flights, &outcomes, out)
 }
 
-/// Hand-held rigs calibrated (DIR/handheld-<seed>-<N>.json), and with `logs` their logs.
+/// Hand-held rigs calibrated (DIR/handheld[-<setting>][-<smoothing>ms]-<seed>-<N>.json), and
+/// with `logs` their logs.
 fn cmd_handheld(
     flights: u64,
     seed: u64,
@@ -909,7 +910,16 @@ fn cmd_handheld(
         Some(path) => handheld::Setting::read(path)?,
         None => handheld::Setting::default(),
     };
-    let name = format!("handheld-{seed}-{flights}");
+    // the name says what made the batch: a setting file and a smoothing of one's own each
+    // write their own, so that no batch overwrites another's
+    let mut name = "handheld".to_string();
+    if let Some(stem) = setting.and_then(Path::file_stem) {
+        name += &format!("-{}", stem.to_string_lossy());
+    }
+    if let Some(ms) = smoothing_ms {
+        name += &format!("-{ms}ms");
+    }
+    name += &format!("-{seed}-{flights}");
     if logs {
         for i in 0..flights {
             write_output(

@@ -199,8 +199,9 @@ fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
 }
 
 /// `trials --handheld --setting FILE` runs rigs at a setting the user writes, the fields left
-/// out at MoCap2GT's; a field out of its range is refused with the file, line, column and the
-/// allowed range (exit 2), and nothing is written.
+/// out at MoCap2GT's, into a report named by the setting (`handheld-short-3-1.json`: another
+/// setting's batch of the same seed and size does not overwrite it); a field out of its range is
+/// refused with the file, line, column and the allowed range (exit 2), and nothing is written.
 #[test]
 fn a_rig_setting_is_read_from_yaml_and_checked() {
     let d = super::Scratch::new("rig-setting");
@@ -211,7 +212,8 @@ fn a_rig_setting_is_read_from_yaml_and_checked() {
     );
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.starts_with("1 hand-held flights of 20 s (mocap 300 Hz, IMU 200 Hz), 1 identified"), "{out}");
-    let setting = &json(&d.join("o/handheld-3-1.json"))["setting"];
+    assert!(!d.join("o/handheld-3-1.json").exists());
+    let setting = &json(&d.join("o/handheld-short-3-1.json"))["setting"];
     assert_eq!(
         (setting["imu_hz"].as_f64(), setting["mocap_hz"].as_f64(), setting["gyro_noise_density"].as_f64()),
         (Some(200.0), Some(300.0), Some(8.39e-4))
