@@ -232,7 +232,7 @@ fn smooth_vec3_kept_and_neighbours(
 
 /// [`smooth_vec3`] at the rows where `need` holds (same sums in the same order, so the same
 /// bits); the other rows keep their raw values.
-fn smooth_vec3_rows(
+pub(crate) fn smooth_vec3_rows(
     x: &[Vector3<f64>],
     segs: &[(usize, usize)],
     kernel: &[f64],

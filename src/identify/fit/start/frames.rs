@@ -31,7 +31,7 @@
 
 use crate::frames::{Body, MocapBody, MocapNav, Nav, Rot, Vec3};
 use crate::identify::fit::design::{
-    body_rates, central_difference, gaussian_kernel, glitches, second_difference, smooth_vec3,
+    body_rates, central_difference, gaussian_kernel, glitches, second_difference, smooth_vec3_rows,
 };
 use crate::identify::input::series::{Corrections, Series, correct, raw_rots, raw_vecs};
 use nalgebra::{DMatrix, DVector, Matrix3, UnitQuaternion, Vector3};
@@ -154,16 +154,23 @@ fn signals(s: &Series, delay_s: f64, smoothing_s: f64) -> Option<Signals> {
     if rows.len() < MIN_SAMPLES {
         return None;
     }
-    let pos_s = smooth_vec3(&pos, segs, &kernel);
-    let gyro = smooth_vec3(&raw_vecs(&s.gyro_body), segs, &kernel);
-    let rates = smooth_vec3(&body_rates(&att, &s.t_s, segs), segs, &kernel);
+    // smoothed only where a closed form reads: the rows used and the two on either side (the
+    // second difference of the positions and its own difference reach that far)
+    let mut near = vec![false; n];
+    for &i in &rows {
+        near[i.saturating_sub(2)..(i + 3).min(n)].iter_mut().for_each(|x| *x = true);
+    }
+    let at_rows = |x: &[Vector3<f64>]| smooth_vec3_rows(x, segs, &kernel, |i| near[i]);
+    let pos_s = at_rows(&pos);
+    let gyro = at_rows(&raw_vecs(&s.gyro_body));
+    let rates = at_rows(&body_rates(&att, &s.t_s, segs));
     // the accelerometer smooths what it reads in its own frame: the mocap's body-frame images are
     // smoothed after the rotation, as the design does it (nav axes exactly; p̈ to second order
     // in σ·ω, with the mocap's own rates ω_m: K*(Rᵀx) = Rᵀ(K*x) − σ²·ω_m×(Rᵀẋ)
     // + (σ²/2)·(ω_m×(ω_m×Rᵀx) − ω̇_m×Rᵀx))
     let nav_axes: [Vec<Vector3<f64>>; 3] = std::array::from_fn(|j| {
         let e = Vector3::from_fn(|r, _| f64::from(u8::from(r == j)));
-        smooth_vec3(&att.iter().map(|q| q.inverse_transform_vector(&e)).collect::<Vec<_>>(), segs, &kernel)
+        at_rows(&att.iter().map(|q| q.inverse_transform_vector(&e)).collect::<Vec<_>>())
     });
     let mut acc_nav = vec![Vector3::zeros(); n];
     for &(a, b) in segs {
@@ -174,18 +181,17 @@ fn signals(s: &Series, delay_s: f64, smoothing_s: f64) -> Option<Signals> {
     let jerk_nav = central_difference(&acc_nav, &s.t_s, segs);
     let rates_dot = central_difference(&rates, &s.t_s, segs);
     let sigma2 = smoothing_s * smoothing_s;
-    let acc_marker = (0..n)
-        .map(|i| {
-            let (w, wd) = (rates[i], rates_dot[i]);
-            let rx = att[i].inverse_transform_vector(&acc_nav[i]);
-            let rj = att[i].inverse_transform_vector(&jerk_nav[i]);
-            rx - sigma2 * w.cross(&rj) + 0.5 * sigma2 * (w.cross(&w.cross(&rx)) - wd.cross(&rx))
-        })
-        .collect();
+    let mut acc_marker = vec![Vector3::zeros(); n];
+    for &i in &rows {
+        let (w, wd) = (rates[i], rates_dot[i]);
+        let rx = att[i].inverse_transform_vector(&acc_nav[i]);
+        let rj = att[i].inverse_transform_vector(&jerk_nav[i]);
+        acc_marker[i] = rx - sigma2 * w.cross(&rj) + 0.5 * sigma2 * (w.cross(&w.cross(&rx)) - wd.cross(&rx));
+    }
     Some(Signals {
-        rows,
         omega_dot: central_difference(&gyro, &s.t_s, segs),
-        accel: smooth_vec3(&raw_vecs(&s.accel_body), segs, &kernel),
+        accel: at_rows(&raw_vecs(&s.accel_body)),
+        rows,
         gyro,
         rates,
         nav_axes,
