@@ -120,10 +120,10 @@ struct RunArgs {
     /// Output folder
     #[arg(long, default_value = "out", value_name = "DIR")]
     out: PathBuf,
-    /// Summary path (default: DIR/<scenario name>.json)
+    /// Summary path (default: DIR/<scenario name>.json; `serve`: DIR/<scenario name>.serve.json)
     #[arg(long, value_name = "PATH")]
     json: Option<PathBuf>,
-    /// Rerun recording path (default: DIR/<scenario name>.rrd)
+    /// Rerun recording path (default: DIR/<scenario name>.rrd; `serve`: DIR/<scenario name>.serve.rrd)
     #[arg(long, value_name = "PATH", conflicts_with = "no_rrd")]
     rrd: Option<PathBuf>,
     /// Do not record
@@ -322,6 +322,10 @@ struct IdentifyArgs {
     /// Do not record the residuals
     #[arg(long)]
     no_rrd: bool,
+    /// Replace a report in DIR that another input made (by default `identify` refuses: the files
+    /// are named by the input's stem, and `a/flight.csv` and `b/flight.csv` share one)
+    #[arg(long)]
+    overwrite: bool,
     /// σ of the Gaussian smoothing before differentiating (ms; default 20, or the mapping's)
     #[arg(long, value_name = "MS", value_parser = parse_smoothing)]
     smoothing_ms: Option<f64>,
@@ -421,7 +425,7 @@ fn cmd_run(a: RunArgs) -> Result<i32, Error> {
     let record = cfg!(feature = "record") && !a.no_rrd;
     let started = std::time::Instant::now();
     let outcome = run_scenario(&s, record);
-    write_run(a, &s, outcome, started.elapsed())
+    write_run(a, &s, outcome, started.elapsed(), "")
 }
 
 fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
@@ -465,7 +469,8 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
     let mut outcome = flyarena::run::evaluate(&twin, main, record);
     // a flight no controller flew fails, whatever the other rows say of it
     outcome.report.rows.splice(0..0, net.controller_rows());
-    write_run(a.run, &s, outcome, elapsed)
+    // a served flight is another flight than `run`'s of the same scenario: its files say so
+    write_run(a.run, &s, outcome, elapsed, ".serve")
 }
 
 /// What `serve` served: frames, poses and clients, and per external vehicle what its controller
@@ -508,9 +513,16 @@ fn print_served(net: &flyarena::serve::ServeReport, lockstep: bool) {
     }
 }
 
-/// Writes what `run` writes (summary, log, recording) and prints the table.
-fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Duration) -> Result<i32, Error> {
-    let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}.json", s.name())));
+/// Writes what `run` writes (summary, log, recording) and prints the table; `made_by` marks
+/// the default names of a flight not flown by `run` (`.serve`).
+fn write_run(
+    a: RunArgs,
+    s: &Scenario,
+    outcome: Outcome,
+    elapsed: std::time::Duration,
+    made_by: &str,
+) -> Result<i32, Error> {
+    let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}{made_by}.json", s.name())));
     let json = serde_json::to_vec_pretty(&outcome.summary(s)).expect("summary serialises");
     // the uncompensated twin is only recorded (`record` feature)
     #[cfg_attr(not(feature = "record"), allow(unused_variables))]
@@ -531,7 +543,7 @@ fn write_run(a: RunArgs, s: &Scenario, outcome: Outcome, elapsed: std::time::Dur
         }
     }
     let record = cfg!(feature = "record") && !a.no_rrd;
-    let rrd_path = record.then(|| a.rrd.unwrap_or_else(|| a.out.join(format!("{}.rrd", s.name()))));
+    let rrd_path = record.then(|| a.rrd.unwrap_or_else(|| a.out.join(format!("{}{made_by}.rrd", s.name()))));
     #[cfg(feature = "record")]
     if let Some(path) = &rrd_path {
         let opts = flyarena::record::RecordOptions { every: a.rrd_every as usize };
@@ -768,7 +780,11 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
     };
     let done = flyarena::identify::run(&req)?;
     let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
-    let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
+    let json_path = a.json.clone().unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
+    if a.json.is_none() && !a.overwrite {
+        let maker = |v: &serde_json::Value| v["report"]["source"].as_str().map(|s| format!("`{s}`"));
+        refuse_another_makers(&json_path, &maker, &format!("`{}`", done.report.source))?;
+    }
     let json = serde_json::to_vec_pretty(&flyarena::identify::identified_json(&done)).expect("report serialises");
     write_output(&json_path, &json)?;
     let frag_path = a.fragment.unwrap_or_else(|| a.out.join(format!("{stem}.effects.yaml")));
@@ -826,15 +842,44 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
     Ok(identify_verdict(&done, a.quiet, input))
 }
 
+/// Refuses to replace the report at a default `path` that another input made: the names are
+/// the input's stem, which two folders may share. `maker` reads a report's maker (`None`: not
+/// such a report, which is replaced); `this` is the new report's.
+fn refuse_another_makers(
+    path: &Path,
+    maker: &dyn Fn(&serde_json::Value) -> Option<String>,
+    this: &str,
+) -> Result<(), Error> {
+    let old = std::fs::read(path).ok().and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok());
+    match old.as_ref().and_then(maker) {
+        Some(made_by) if made_by != this => Err(Error::Usage(format!(
+            "{} holds the report of {made_by}, not of {this}: name another folder (--out DIR) or report (--json PATH), or replace it with --overwrite",
+            path.display()
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// `identify` over several flights: one cross-validated report.
 fn cmd_identify_many(a: &IdentifyArgs) -> Result<i32, Error> {
     let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
     let m = flyarena::identify::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced)?;
     let json_path = a.json.clone().unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
-    write_output(
-        &json_path,
-        &serde_json::to_vec_pretty(&flyarena::identify::cross_validated_json(&m)).expect("serialises"),
-    )?;
+    let json = flyarena::identify::cross_validated_json(&m);
+    if a.json.is_none() && !a.overwrite {
+        // every flight read, those left out too
+        let maker = |v: &serde_json::Value| {
+            let mut n: Vec<&str> = ["reports", "excluded"]
+                .iter()
+                .flat_map(|k| v[k].as_array().into_iter().flatten().filter_map(|f| f["flight"].as_str()))
+                .collect();
+            n.sort_unstable();
+            v["cross_validation"].is_object().then(|| format!("the flights {}", n.join(", ")))
+        };
+        let this = maker(&json).expect("a cross-validation");
+        refuse_another_makers(&json_path, &maker, &this)?;
+    }
+    write_output(&json_path, &serde_json::to_vec_pretty(&json).expect("serialises"))?;
     if !a.quiet {
         print!("{}", flyarena::identify::cross_validated_text(&m));
     }

@@ -128,7 +128,12 @@ fn read_log(
 ) -> Result<super::Series, InputError> {
     if map.two_streams() {
         let streams = map.read_streams(log, poses)?;
-        return super::fit::start::joined(map, &streams, clock, &log.display().to_string());
+        // a report names both files: one IMU log with two pose files is two calibrations
+        let source = match poses {
+            Some(p) => format!("{} with the poses of {}", log.display(), p.display()),
+            None => log.display().to_string(),
+        };
+        return super::fit::start::joined(map, &streams, clock, &source);
     }
     if let Some(p) = poses {
         return Err(InputError::invalid(
@@ -158,7 +163,7 @@ pub fn run(req: &Request) -> crate::Result<Identified> {
             let fragment = fragment(&report, 0, (1.0 / series.dt()).round().max(1.0) as u32, 4);
             let residuals = super::fit::select::residual_series(&series, &opts, &report);
             let axes = LogAxes { world: map.world, body: map.body };
-            let source = input.display().to_string();
+            let source = report.source.clone();
             return Ok(Identified {
                 t_bs_yaml: t_bs_yaml(&report, axes, &source),
                 imu_trajectory: imu_trajectory_tum(&series, &report, axes),

@@ -238,6 +238,50 @@ fn identify_quiet_prints_a_logs_verdict() {
     assert!(out.lines().count() == 1 && out.starts_with("c.csv: ") && out.contains("found"), "{out}");
 }
 
+/// Two logs of one name from two folders do not share a report: the second `identify` into the
+/// same folder refuses (exit 2, naming the report, what made it and the ways out) and leaves the
+/// first report as it was; the same log again replaces its own report, `--overwrite` replaces
+/// the other's, and `--json` names a report of its own. The same holds for a cross-validation
+/// of other flights.
+#[test]
+fn identify_never_silently_replaces_another_logs_report() {
+    let d = tmp("collide");
+    std::fs::write(d.join("m.yaml"), CIRCLING_MAPPING).unwrap();
+    for (dir, n) in [("a", 600), ("b", 700)] {
+        std::fs::create_dir_all(d.join(dir)).unwrap();
+        std::fs::write(d.join(dir).join("flight.csv"), circling_log(n)).unwrap();
+    }
+    let ident = |extra: &[&str]| {
+        flyarena(&[&["identify", "--mapping", "m.yaml", "--out", "o", "--no-rrd", "-q"], extra].concat(), &d)
+    };
+    let report = || std::fs::read(d.join("o/flight.identify.json")).unwrap();
+    assert_eq!(ident(&["a/flight.csv"]).0, 0);
+    let first = report();
+    assert_eq!(ident(&["a/flight.csv"]).0, 0, "the same log replaces its own report");
+    let (code, out, err) = ident(&["b/flight.csv"]);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(
+        err.contains("o/flight.identify.json holds the report of `a/flight.csv`, not of `b/flight.csv`")
+            && err.contains("--out DIR")
+            && err.contains("--overwrite"),
+        "{err}"
+    );
+    assert_eq!(report(), first, "the refused run left the first report as it was");
+    assert_eq!(ident(&["b/flight.csv", "--json", "o/b.json"]).0, 0);
+    assert_eq!(ident(&["b/flight.csv", "--overwrite"]).0, 0);
+    let json: serde_json::Value = serde_json::from_slice(&report()).unwrap();
+    assert_eq!(json["report"]["source"], "b/flight.csv");
+    // a cross-validation of other flights
+    std::fs::copy(d.join("a/flight.csv"), d.join("a/other.csv")).unwrap();
+    assert_eq!(ident(&["a/flight.csv", "a/other.csv"]).0, 0);
+    let (code, _, err) = ident(&["b/flight.csv", "a/other.csv", "a/flight.csv"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("holds the report of the flights flight, other, not of the flights flight, flight, other"),
+        "{err}"
+    );
+}
+
 /// Regression: the cross-validation table cut flight names at 12 bytes and panicked inside a
 /// multi-byte character. Two synthetic logs through a mapping, one with such a name.
 #[test]

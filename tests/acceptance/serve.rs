@@ -848,7 +848,8 @@ fn the_readme_example_serves_fig6_to_the_reference_controller() {
     client("fig6_controller.py", &[port.to_string(), "1".into()], Duration::from_secs(180));
     srv.exits_ok(Duration::from_secs(60));
     let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("out/fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/fig6-roll-pitch-offsets.serve.json")).unwrap())
+            .unwrap();
     let rows = summary["requirements"].as_array().unwrap();
     let ratio = rows
         .iter()
@@ -861,7 +862,7 @@ fn the_readme_example_serves_fig6_to_the_reference_controller() {
 /// controller at all (no wait for a client, at a thousand times real time) holds its first frame
 /// on the ground for the whole flight, and R2 alone would pass it (nothing yawed, nothing
 /// drifted). The R0 row says "0 applied", the run says FAIL and exits 1, and the JSON summary
-/// holds the row.
+/// (`<scenario>.serve.json`, beside and not over `run`'s) holds the row.
 #[test]
 fn an_unflown_vehicle_fails_its_run() {
     let out = tmp("unflown");
@@ -882,8 +883,10 @@ fn an_unflown_vehicle_fails_its_run() {
     let r0 = stdout.lines().find(|l| l.contains("R0")).unwrap_or_else(|| panic!("{stdout}"));
     assert!(r0.contains("flown by its external controller") && r0.contains("0 applied") && r0.contains("FAIL"), "{r0}");
     assert!(stdout.lines().any(|l| l.starts_with("FAIL:")), "{stdout}");
+    // the served flight's summary says it was served: `run`'s of the same scenario is not touched
+    assert!(!out.join("fig6-roll-pitch-offsets.json").exists());
     let json: Value =
-        serde_json::from_slice(&std::fs::read(out.join("fig6-roll-pitch-offsets.json")).unwrap()).unwrap();
+        serde_json::from_slice(&std::fs::read(out.join("fig6-roll-pitch-offsets.serve.json")).unwrap()).unwrap();
     let row = &json["requirements"][0];
     assert!(row["id"] == "R0" && row["pass"] == false, "{row}");
 }
