@@ -738,13 +738,32 @@ fn check_identify(a: &IdentifyArgs) -> Result<(), Error> {
         }
         (false, None, None) => {
             return Err(usage(&format!(
-                "{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's)",
-                first.display()
+                "{}: a log needs --scenario SCENARIO.yaml (flyarena's own log) or --mapping MAPPING.yaml (another tool's); {}",
+                first.display(),
+                mapping_hint(first)
             )));
         }
         _ => {}
     }
     Ok(())
+}
+
+/// Which of the mappings in the checkout's `mappings/` reads a log like `input` (by its
+/// extension, or an ASL folder's `mav0/`), and where the others and the format are described.
+fn mapping_hint(input: &Path) -> String {
+    let ext = input.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let fits = match ext.as_str() {
+        "ulg" => "for a PX4 log, `--mapping mappings/px4.yaml` (or px4-crazyflie.yaml, with motors)",
+        "mcap" => "for a ROS 2 bag, a mapping of its topics such as `mappings/ros2-crazyflie.yaml`",
+        _ if input.join("mav0").is_dir() => "for an ASL (EuRoC) folder, `--mapping mappings/euroc.yaml`",
+        "tum" | "txt" => {
+            "for a TUM pose file, `--mapping mappings/imu-tum.yaml` with the IMU CSV as input and `--poses` this file"
+        }
+        _ => {
+            "for a CSV, a mapping of its columns, like `mappings/nanobench.yaml` (a CSV with poses and IMU) or `mappings/imu-tum.yaml` (an IMU CSV, with --poses a TUM file)"
+        }
+    };
+    format!("{fits} (the checkout's mappings/ has one for each format docs/identify.md names)")
 }
 
 fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
@@ -819,12 +838,17 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         if let Some(p) = &px4 {
             print!("\n{}", flyarena::identify::px4::render(p));
         }
-        println!(
-            "\nreport: {}\nscenario fragment: {} (`flyarena run SCENARIO --effects {}`)",
-            json_path.display(),
-            frag_path.display(),
-            frag_path.display()
-        );
+        // the scenario the fragment applies to: the one flown, or, for a log, one of the
+        // user's that models the vehicle
+        let fly = match (&a.scenario, &a.mapping) {
+            (Some(s), _) => format!("`flyarena run {} --effects {}`", s.display(), frag_path.display()),
+            (None, None) => format!("`flyarena run {} --effects {}`", input.display(), frag_path.display()),
+            (None, Some(_)) => format!(
+                "for a scenario of your own that models this vehicle: `flyarena run YOURS.yaml --effects {}`",
+                frag_path.display()
+            ),
+        };
+        println!("\nreport: {}\nscenario fragment: {} ({fly})", json_path.display(), frag_path.display());
         if let Some(p) = &rrd_path {
             println!("residuals: {} (open with `rerun {}`)", p.display(), p.display());
         }

@@ -175,6 +175,31 @@ fn join(stack: &[(usize, String)]) -> String {
     s
 }
 
+/// A YAML parser's error in `src` (read from `file`) as a [`ScenarioError::Invalid`]: the line,
+/// column and field path of where it stopped, its message for the file's author with
+/// `suggest` applied (a "did you mean"), and the lines around it under the file's name.
+pub(crate) fn from_yaml(
+    src: &str,
+    file: &std::path::Path,
+    e: &serde_saphyr::Error,
+    suggest: impl Fn(&str) -> String,
+) -> ScenarioError {
+    let loc = e.location();
+    let span = loc.filter(|l| l.line() > 0).map(|l| Span { line: l.line() as u32, column: l.column() as u32 });
+    let path = span.as_ref().map(|s| yaml_path_at(src, s.line, s.column)).unwrap_or_default();
+    let full = for_authors(&e.to_string());
+    // serde-saphyr renders "error: line L column C: MESSAGE\n --> snippet"; keep both parts
+    let (head, snippet) = full.split_once('\n').unwrap_or((&full, ""));
+    let message = head.split_once(": ").map(|x| x.1).unwrap_or(head);
+    let message = message
+        .split_once(": ")
+        .filter(|(a, _)| a.starts_with("column") || a.contains(" column "))
+        .map_or(message, |x| x.1);
+    // the snippet's header names the parser's `<input>`: name the file
+    let snippet = snippet.replacen("--> <input>:", &format!("--> {}:", file.display()), 1);
+    ScenarioError::Invalid { file: file.to_path_buf(), span, path, message: suggest(message), snippet }
+}
+
 /// Levenshtein distance, for "did you mean" suggestions.
 pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();

@@ -18,28 +18,8 @@ use std::path::Path;
 
 /// Parses and validates YAML text; `file` is only used in messages.
 pub(super) fn parse(src: &str, file: &Path) -> Result<Scenario, ScenarioError> {
-    let mut s: Scenario = serde_saphyr::from_str(src).map_err(|e| {
-        let loc = e.location();
-        let span = loc.filter(|l| l.line() > 0).map(|l| Span { line: l.line() as u32, column: l.column() as u32 });
-        let path = span.as_ref().map(|s| error::yaml_path_at(src, s.line, s.column)).unwrap_or_default();
-        let full = error::for_authors(&e.to_string());
-        // serde-saphyr renders "error: line L column C: MESSAGE\n --> snippet"; keep both parts
-        let (head, snippet) = full.split_once('\n').unwrap_or((&full, ""));
-        let message = head.split_once(": ").map(|x| x.1).unwrap_or(head);
-        let message = message
-            .split_once(": ")
-            .filter(|(a, _)| a.starts_with("column") || a.contains(" column "))
-            .map_or(message, |x| x.1);
-        // the snippet's header names the parser's `<input>`: name the file
-        let snippet = snippet.replacen("--> <input>:", &format!("--> {}:", file.display()), 1);
-        ScenarioError::Invalid {
-            file: file.to_path_buf(),
-            span,
-            path,
-            message: error::with_suggestion(message),
-            snippet,
-        }
-    })?;
+    let mut s: Scenario =
+        serde_saphyr::from_str(src).map_err(|e| error::from_yaml(src, file, &e, error::with_suggestion))?;
     s.spec = s.validate(src, file)?;
     Ok(s)
 }

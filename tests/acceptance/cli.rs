@@ -238,6 +238,54 @@ fn identify_quiet_prints_a_logs_verdict() {
     assert!(out.lines().count() == 1 && out.starts_with("c.csv: ") && out.contains("found"), "{out}");
 }
 
+/// A mapping's errors end where the fix is: a column the log lacks names the mapping's file and
+/// key and suggests the closest column the mapping does not already read (for `az`, not `ax`,
+/// which `accel.columns[0]` reads; for `gx`, not `px`); a typo in a key
+/// is one error, located in the mapping's file, whose list of keys holds the blocks of the
+/// other forms (`px4`) and whose "did you mean" comes from that list; a log without a mapping
+/// is pointed to the shipped one for its format.
+#[test]
+fn a_mappings_errors_name_the_file_the_key_and_the_fix() {
+    let d = tmp("mapping-errors");
+    std::fs::write(
+        d.join("c.csv"),
+        circling_log(300)
+            .replace("t,px,py,pz,qw,qx,qy,qz,gx,gy,gz,ax,ay,az", "t,px,py,pz,qw,qx,qy,qz,gx,gy,gz,ax,ay,acc_z"),
+    )
+    .unwrap();
+    std::fs::write(d.join("m.yaml"), CIRCLING_MAPPING).unwrap();
+    let (code, _, err) = flyarena(&["identify", "c.csv", "--mapping", "m.yaml", "--no-rrd"], &d);
+    assert_eq!(code, 2, "{err}");
+    assert_eq!(
+        err.trim(),
+        "error: c.csv:1: the header has no column `az`, which m.yaml names in `accel.columns[2]` (is it `acc_z`?)"
+    );
+    std::fs::write(d.join("g.csv"), circling_log(300).replace(",gx,", ",g_x,")).unwrap();
+    let (code, _, err) = flyarena(&["identify", "g.csv", "--mapping", "m.yaml", "--no-rrd"], &d);
+    assert_eq!(code, 2, "{err}");
+    assert_eq!(
+        err.trim(),
+        "error: g.csv:1: the header has no column `gx`, which m.yaml names in `gyro.columns[0]` (is it `g_x`?)"
+    );
+    std::fs::write(d.join("typo.yaml"), CIRCLING_MAPPING.replace("\ngyro:", "\ngyor:")).unwrap();
+    let (code, _, err) = flyarena(&["identify", "c.csv", "--mapping", "typo.yaml", "--no-rrd"], &d);
+    assert_eq!(code, 2, "{err}");
+    let first = err.lines().next().unwrap();
+    assert!(
+        first.starts_with("error: typo.yaml:7:1: field `gyor`: unknown field `gyor`")
+            && first.contains("px4")
+            && first.ends_with("did you mean `gyro`?"),
+        "{err}"
+    );
+    assert_eq!(err.matches("error:").count(), 1, "{err}");
+    assert!(err.contains("--> typo.yaml:7:1") && !err.contains("<input>"), "{err}");
+    let (code, _, err) = flyarena(&["identify", "flight.ulg", "--no-rrd"], &d);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--mapping mappings/px4.yaml"), "{err}");
+    let (_, _, err) = flyarena(&["identify", "c.csv", "--no-rrd"], &d);
+    assert!(err.contains("mappings/nanobench.yaml") && err.contains("mappings/imu-tum.yaml"), "{err}");
+}
+
 /// Two logs of one name from two folders do not share a report: the second `identify` into the
 /// same folder refuses (exit 2, naming the report, what made it and the ways out) and leaves the
 /// first report as it was; the same log again replaces its own report, `--overwrite` replaces

@@ -27,6 +27,10 @@ pub enum InputError {
         /// What is wrong, and where.
         message: String,
     },
+    /// A mapping that is not YAML of its form (an unknown key, a wrong type): the file, line,
+    /// column and key, what is allowed, and the lines around it.
+    #[error("{0}")]
+    Yaml(crate::scenario::ScenarioError),
     /// A defect of a log's row: `line` counts from 1 (the header), `column` is the header's
     /// name of the cell when the defect is in one.
     #[error("{file}:{line}: {}{message}", column.as_ref().map_or(String::new(), |c| format!("column `{c}`: ")))]

@@ -103,6 +103,9 @@ pub struct Mapping {
     /// The IMU columns and the pose file of an IMU log beside a pose file; `None` otherwise.
     #[serde(skip)]
     pub split: Option<Split>,
+    /// The file the mapping was read from, for errors that name it (`""` when built in code).
+    #[serde(skip)]
+    pub file: String,
 }
 
 /// The streams of an ASL (EuRoC, TUM-VI) folder: `mav0/<imu>/data.csv` and `mav0/<poses>/data.csv`.
@@ -297,6 +300,7 @@ fn joined_mapping(
         accel: three("ax", "ay", "az", "m/s2"),
         motors: motors.then(|| Motors { columns: Vec::new() }),
         battery: battery.then(|| Column { column: s("vbat"), unit: None }),
+        file: String::new(),
         mass_kg,
         smoothing_ms,
         ros2: None,
@@ -544,12 +548,15 @@ fn too_few_rows(file: &str, repairs: &[ReadNote]) -> InputError {
     }
 }
 
-/// The header's index of column `name`; a name the header lacks is an error that suggests the
-/// closest header name.
-fn find_column(header: &[&str], name: &str, file: &str) -> Result<usize, InputError> {
+/// The header's index of column `name`, which the mapping (`mapping`, its file) names in
+/// `field`; a name the header lacks is an error that names the mapping's file and field and
+/// suggests the closest header name the mapping does not already read (`taken`).
+fn find_column(header: &[&str], name: &str, file: &str, at: (&str, &str), taken: &[&str]) -> Result<usize, InputError> {
+    let (mapping, field) = at;
     header.iter().position(|h| *h == name).ok_or_else(|| {
         let close = header
             .iter()
+            .filter(|h| !taken.contains(h))
             .map(|h| (crate::scenario::error::edit_distance(name, h), *h))
             .filter(|(d, _)| *d <= 3)
             .min()
@@ -558,7 +565,7 @@ fn find_column(header: &[&str], name: &str, file: &str) -> Result<usize, InputEr
             file,
             1,
             format!(
-                "the mapping names column `{name}`, which the header does not have{}",
+                "the header has no column `{name}`, which {mapping} names in `{field}`{}",
                 close.map_or(String::new(), |c| format!(" (is it `{c}`?)"))
             ),
         )
@@ -587,16 +594,25 @@ impl Split {
 
     /// The IMU CSV at `path` as the stream the join takes: stamps in integer nanoseconds, gyro
     /// and accelerometer in SI units, in the log's own axes.
-    fn read_imu(&self, path: &Path) -> Result<Stream<6>, InputError> {
+    /// `mapping` names the mapping's file in errors.
+    fn read_imu(&self, path: &Path, mapping: &str) -> Result<Stream<6>, InputError> {
         let file = path.display().to_string();
-        let (unit_ns, gyro_f, acc_f) = self.factors("the mapping")?;
+        let (unit_ns, gyro_f, acc_f) = self.factors(mapping)?;
         let text = std::fs::read_to_string(path).map_err(|e| InputError::io(&file, e))?;
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
         let mut lines = text.lines();
         let header = header_names(lines.next(), &file)?;
-        let ti = find_column(&header, &self.time.column, &file)?;
-        let gi = self.gyro.columns.iter().map(|c| find_column(&header, c, &file)).collect::<Result<Vec<_>, _>>()?;
-        let ai = self.accel.columns.iter().map(|c| find_column(&header, c, &file)).collect::<Result<Vec<_>, _>>()?;
+        let taken: Vec<&str> = std::iter::once(&self.time.column)
+            .chain(&self.gyro.columns)
+            .chain(&self.accel.columns)
+            .map(String::as_str)
+            .collect();
+        let find = |name: &str, field: String| find_column(&header, name, &file, (mapping, &field), &taken);
+        let ti = find(&self.time.column, "time.column".into())?;
+        let many = |cols: &[String], key: &str| {
+            cols.iter().enumerate().map(|(i, c)| find(c, format!("{key}.columns[{i}]"))).collect::<Result<Vec<_>, _>>()
+        };
+        let (gi, ai) = (many(&self.gyro.columns, "gyro")?, many(&self.accel.columns, "accel")?);
         let mut out = Stream::new();
         for (k, line) in lines.enumerate() {
             let lineno = k + 2;
@@ -657,6 +673,17 @@ fn asl_root(input: &Path, asl: &Asl) -> Result<std::path::PathBuf, InputError> {
     ))
 }
 
+/// A column mapping's "unknown field" message with the keys that make a mapping of another form
+/// (`ros2:`, `px4:`, `asl:`, `poses:`) in its list of what is allowed, then a "did you mean".
+fn with_blocks(message: &str) -> String {
+    let message = if message.starts_with("unknown field `") && message.contains("expected one of") {
+        format!("{message}, or a block ros2, px4, asl or poses")
+    } else {
+        message.to_string()
+    };
+    crate::scenario::error::with_suggestion(&message)
+}
+
 impl Mapping {
     /// The mapping reads two streams on clocks of their own (an ASL folder, or an IMU log beside
     /// a pose file): [`crate::identify::run`] joins them once their clocks are found.
@@ -690,7 +717,7 @@ impl Mapping {
                         "this mapping reads the poses from a file of their own (`poses:`): give it with --poses FILE",
                     )
                 })?;
-                let imu = sp.read_imu(input)?;
+                let imu = sp.read_imu(input, self.mapping_name())?;
                 let f = pos_factor(&sp.poses.unit);
                 let pose = match sp.poses.format {
                     PoseFormat::Tum => {
@@ -739,9 +766,10 @@ impl Mapping {
     /// form, units, ranges.
     pub fn parse(src: &str, path: &Path) -> Result<Mapping, InputError> {
         let file = path.display().to_string();
-        let err = |e: serde_saphyr::Error| {
-            InputError::invalid(&file, crate::scenario::error::with_suggestion(&e.to_string()))
+        let located = |e: serde_saphyr::Error, suggest: &dyn Fn(&str) -> String| {
+            InputError::Yaml(crate::scenario::error::from_yaml(src, path, &e, suggest))
         };
+        let err = |e| located(e, &crate::scenario::error::with_suggestion);
         // a `ros2:` block makes it a mapping of topics, not columns
         let keys: std::collections::BTreeMap<String, serde::de::IgnoredAny> =
             serde_saphyr::from_str(src).map_err(err)?;
@@ -754,8 +782,10 @@ impl Mapping {
         } else if keys.contains_key("poses") {
             serde_saphyr::from_str::<SplitFile>(src).map_err(err)?.into_mapping()
         } else {
-            serde_saphyr::from_str(src).map_err(err)?
+            // a column mapping's keys, and the blocks that make a mapping of another form
+            serde_saphyr::from_str(src).map_err(|e| located(e, &|m| with_blocks(m)))?
         };
+        let m = Mapping { file: file.clone(), ..m };
         if let Some(mass) = m.mass_kg
             && !(mass > 0.0 && mass < 100.0)
         {
@@ -837,7 +867,7 @@ impl Mapping {
             ));
         }
         if let Some(topics) = &self.px4 {
-            let (text, repairs) = super::ulog::to_csv(path, topics)?;
+            let (text, repairs) = super::ulog::to_csv(path, topics, self.mapping_name())?;
             return self.read_joined(&text, repairs, &file);
         }
         let bytes = std::fs::read(path).map_err(|e| InputError::io(&file, e))?;
@@ -878,22 +908,37 @@ impl Mapping {
     /// The header's index of every column the mapping names; a name the header lacks is an
     /// error that suggests the closest header name.
     fn column_index(&self, header: &[&str], file: &str) -> Result<ColumnIndex, InputError> {
-        let find = |name: &str| find_column(header, name, file);
-        let att_names: Vec<&String> = match (&self.attitude.columns, &self.attitude.euler) {
-            (Some(q), _) => q.iter().collect(),
-            (None, Some(e)) => e.iter().collect(),
-            (None, None) => return Err(InputError::invalid("the mapping", "it has no attitude columns")),
+        let (att_names, att_key): (&[String], &str) = match (&self.attitude.columns, &self.attitude.euler) {
+            (Some(q), _) => (q, "attitude.columns"),
+            (None, Some(e)) => (e, "attitude.euler"),
+            (None, None) => return Err(InputError::invalid(self.mapping_name(), "it has no attitude columns")),
         };
-        let many = |cols: &[String]| cols.iter().map(|c| find(c)).collect::<Result<Vec<usize>, _>>();
+        let motors: &[String] = self.motors.as_ref().map_or(&[], |m| &m.columns);
+        let taken: Vec<&str> = [&self.position.columns[..], att_names, &self.gyro.columns, &self.accel.columns, motors]
+            .into_iter()
+            .flatten()
+            .chain([&self.time.column])
+            .chain(self.battery.as_ref().map(|b| &b.column))
+            .map(String::as_str)
+            .collect();
+        let find = |name: &str, field: &str| find_column(header, name, file, (self.mapping_name(), field), &taken);
+        let many = |cols: &[String], key: &str| {
+            cols.iter().enumerate().map(|(i, c)| find(c, &format!("{key}[{i}]"))).collect::<Result<Vec<usize>, _>>()
+        };
         Ok(ColumnIndex {
-            time: find(&self.time.column)?,
-            pos: many(&self.position.columns)?,
-            att: att_names.iter().map(|c| find(c)).collect::<Result<_, _>>()?,
-            gyro: many(&self.gyro.columns)?,
-            accel: many(&self.accel.columns)?,
-            motors: self.motors.as_ref().map_or(Ok(Vec::new()), |m| many(&m.columns))?,
-            battery: self.battery.as_ref().map(|b| find(&b.column)).transpose()?,
+            time: find(&self.time.column, "time.column")?,
+            pos: many(&self.position.columns, "position.columns")?,
+            att: many(att_names, att_key)?,
+            gyro: many(&self.gyro.columns, "gyro.columns")?,
+            accel: many(&self.accel.columns, "accel.columns")?,
+            motors: many(motors, "motors.columns")?,
+            battery: self.battery.as_ref().map(|b| find(&b.column, "battery.column")).transpose()?,
         })
+    }
+
+    /// The mapping's file, or "the mapping" for one built in code.
+    fn mapping_name(&self) -> &str {
+        if self.file.is_empty() { "the mapping" } else { &self.file }
     }
 
     /// An empty series with the nominal model of the mapping's vehicle preset, and the preset's
@@ -905,7 +950,7 @@ impl Mapping {
         };
         if !cols.motors.is_empty() && map.is_none() {
             return Err(InputError::invalid(
-                "the mapping",
+                self.mapping_name(),
                 format!(
                     "the `{}` preset has no PWM thrust map; motors need `vehicle: crazyflie21`",
                     self.vehicle.name()
@@ -1011,7 +1056,7 @@ impl Mapping {
     /// reported among the repairs, and a UTF-8 byte-order mark before the header is skipped.
     pub fn read_str(&self, text: &str, file: &str) -> Result<Series, InputError> {
         let Factors { time: time_f, pos: pos_f, gyro: gyro_f, acc: acc_f, euler: euler_f } =
-            self.factors("the mapping")?;
+            self.factors(self.mapping_name())?;
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let all: Vec<&str> = text.lines().collect();
         let last_data = all.iter().rposition(|l| !l.trim().is_empty());

@@ -150,14 +150,31 @@ impl Log {
         Ok(Log { topics, incomplete })
     }
 
-    /// The instance `instance` of `topic`; absent, an error naming the instances there are.
-    fn topic(&self, topic: &str, instance: u8, file: &str) -> Result<&TopicData, InputError> {
+    /// The instance `instance` of `topic`, which `named` says where the mapping names ("which
+    /// m.yaml names in `px4.imu`", or the key's default); absent, an error naming the instances there are, or, for a topic
+    /// the log lacks, the mapping's key, the closest topic and every topic the log has.
+    fn topic(&self, topic: &str, instance: u8, file: &str, named: &str) -> Result<&TopicData, InputError> {
         let all: Vec<&TopicData> = self.topics.iter().filter(|t| t.name == topic).collect();
         match all.iter().find(|t| t.instance == instance) {
             Some(t) if t.len() > 0 => Ok(t),
             Some(_) => Err(InputError::log(file, format!("topic `{topic}` has no message"))),
             None if all.is_empty() => {
-                Err(InputError::log(file, format!("the log has no topic `{topic}`{}", profile_hint(topic))))
+                let mut names: Vec<&str> = self.topics.iter().map(|t| t.name.as_str()).collect();
+                names.dedup();
+                let close = names
+                    .iter()
+                    .map(|n| (crate::scenario::error::edit_distance(topic, n), *n))
+                    .filter(|(d, _)| *d <= 3.max(topic.len() / 4))
+                    .min()
+                    .map_or(String::new(), |(_, n)| format!(" (is it `{n}`?)"));
+                Err(InputError::log(
+                    file,
+                    format!(
+                        "the log has no topic `{topic}`, {named}{close}{}; the log's topics: {}",
+                        profile_hint(topic),
+                        names.join(", ")
+                    ),
+                ))
             }
             None => Err(InputError::log(
                 file,
@@ -220,8 +237,16 @@ fn ns(us: f64) -> i128 {
 /// Reads the log at `path` through `topics` into the rows of a CSV log
 /// (`t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, see `identify/input/joined.rs`), and
 /// the repairs and notes made.
-pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<ReadNote>), InputError> {
+pub fn to_csv(path: &Path, topics: &Topics, mapping: &str) -> Result<(String, Vec<ReadNote>), InputError> {
     let file = path.display().to_string();
+    // where the mapping names each topic, or that it left the key to its default
+    let at = |k: &str, given: bool| {
+        if given {
+            format!("which {mapping} names in `{k}`")
+        } else {
+            format!("the default of `{k}`, which {mapping} leaves out")
+        }
+    };
     let log = Log::read(path)?;
     let mut notes = Vec::new();
     notes.extend(log.incomplete.clone());
@@ -241,18 +266,22 @@ pub fn to_csv(path: &Path, topics: &Topics) -> Result<(String, Vec<ReadNote>), I
                 )
             })?,
     };
-    let pose = pose_stream(log.topic(&pose_topic, topics.instance, &file)?, &file, &mut notes)?;
+    let instance = topics.instance;
+    let pose = log.topic(&pose_topic, instance, &file, &at("px4.pose", topics.pose.is_some()))?;
+    let pose = pose_stream(pose, &file, &mut notes)?;
     let imu_topic = topics.imu.as_deref().unwrap_or("sensor_combined");
-    let imu = imu_stream(log.topic(imu_topic, topics.instance, &file)?, &file, &mut notes)?;
+    let imu =
+        imu_stream(log.topic(imu_topic, instance, &file, &at("px4.imu", topics.imu.is_some()))?, &file, &mut notes)?;
     let (motors, n_motors) = match &topics.motors {
         Some(m) => {
-            let (s, n) = motor_stream(log.topic(m, topics.instance, &file)?, topics, &file, &mut notes)?;
+            let (s, n) =
+                motor_stream(log.topic(m, instance, &file, &at("px4.motors", true))?, topics, &file, &mut notes)?;
             (s, Some(n))
         }
         None => (Stream::new(), None),
     };
     let battery = match &topics.battery {
-        Some(b) => battery_stream(log.topic(b, topics.instance, &file)?, &file, &mut notes)?,
+        Some(b) => battery_stream(log.topic(b, instance, &file, &at("px4.battery", true))?, &file, &mut notes)?,
         None => Stream::new(),
     };
     let streams = Streams {
@@ -468,6 +497,29 @@ mod tests {
             instance: 0,
             fields: fields.iter().map(|(k, v)| (k.to_string(), v.clone())).collect(),
         }
+    }
+
+    /// A topic the log lacks is named with the mapping's file and key (or the key's default),
+    /// the closest topic the log has, and every topic it has; a topic with another
+    /// instance names the instances.
+    #[test]
+    fn a_missing_topic_names_the_mapping_key_and_the_logs_topics() {
+        let t = |name: &str, instance: u8| TopicData { instance, ..topic(name, &[("timestamp", vec![1.0])]) };
+        let log = Log {
+            topics: vec![t("battery_status", 0), t("sensor_combined", 0), t("sensor_combined", 1)],
+            incomplete: None,
+        };
+        let e = log.topic("sensor_combind", 0, "f.ulg", "which m.yaml names in `px4.imu`").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "f.ulg: the log has no topic `sensor_combind`, which m.yaml names in `px4.imu` (is it `sensor_combined`?); the log's topics: battery_status, sensor_combined"
+        );
+        let e = log.topic("vehicle_visual_odometry", 0, "f.ulg", "the default of `px4.pose`, which m.yaml leaves out");
+        let e = e.unwrap_err().to_string();
+        assert!(e.contains("`vehicle_visual_odometry`, the default of `px4.pose`, which m.yaml leaves out (PX4 logs it with SDLOG_PROFILE bit 1"), "{e}");
+        assert!(!e.contains("is it"), "{e}");
+        let e = log.topic("sensor_combined", 2, "f.ulg", "which m.yaml names in `px4.imu`").unwrap_err().to_string();
+        assert!(e.contains("has no instance 2 (instances: 0, 1)"), "{e}");
     }
 
     /// `vehicle_imu` by hand: 0.01 rad about x and (0, 0, −0.0981) m/s over 10 ms are a mean
