@@ -2,7 +2,7 @@
 """Writes a BROAD trial (HDF5: real OptiTrack + IMU, one clock) as the files a lab has: an ASL
 (EuRoC) folder, and an IMU CSV beside a TUM pose file.
 
-    python3 scripts/broad-to-asl.py $FLYARENA_DATA/broad/15_undisturbed_fast_translation_A.hdf5 OUT
+    python3 scripts/broad-to-asl.py data/broad/15_undisturbed_fast_translation_A.hdf5 OUT
 
 OUT/mav0/imu0/data.csv     ASL IMU CSV: timestamp [ns], w_RS_S_x..z [rad/s], a_RS_S_x..z [m/s^2]
 OUT/mav0/vicon0/data.csv   ASL pose CSV: timestamp [ns], p_RS_R_x..z [m], q_RS_w, q_RS_x..z

@@ -2,7 +2,7 @@
 """A lead for the accel_kin floor, not a fitted effect: how far the Vicon attitude strays from the
 gyro's in flight, and whether the raw accel_kin residual follows it.
 
-    python3 scripts/nanobench-attitude.py $FLYARENA_DATA/nanobench/dataset/*.csv
+    python3 scripts/nanobench-attitude.py data/nanobench/dataset/*.csv
 
 δθ = ∫(ω_vicon − ω_gyro)dt with its 0.5 s moving average removed (over that long the gyro's
 integral holds; what is left is the Vicon attitude's error at higher frequencies), body frame

@@ -6,7 +6,7 @@ flights (docs/nanobench.md, Held-out flights).
     cargo run --release -- identify ../nanobench-full/datasets/dataset/B{2,3,5,6,7,8,9,10}_*.csv \\
         --mapping mappings/nanobench.yaml --with body_offset --out out/heldout
     python3 scripts/nanobench-heldout.py out/heldout/cross-validation.identify.json \\
-        --skip $FLYARENA_DATA/nanobench/dataset
+        --skip data/nanobench/dataset
 
 `--by-time` lists the flights in the order they were flown. `--still-above DEG` splits the
 still poses at DEG° of roll scatter per sample instead of at identify's own threshold (0.02°). `--skip DIR` leaves out the flights whose names are in DIR (the ten shared flights this project

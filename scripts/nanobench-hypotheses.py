@@ -4,7 +4,7 @@ fitted on top of the selected model (forced with --with), its estimate (95 %) an
 the held-out RMSE of the channel it acts on, per flight.
 
     for h in base accel_misalignment accel_scale thrust_tilt clock_drift; do
-      cargo run --release -- identify $FLYARENA_DATA/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml \\
+      cargo run --release -- identify data/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml \\
         --with body_offset$( [ $h = base ] || echo ,$h ) --out out/hyp/$h
     done
     python3 scripts/nanobench-hypotheses.py out/hyp

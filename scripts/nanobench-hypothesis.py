@@ -2,8 +2,8 @@
 """A hypothesis tested on the real flights: the held-out error of the selected model against the
 same flights with the hypothesis fitted on top (forced), per flight.
 
-    cargo run --release -- identify $FLYARENA_DATA/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml --with body_offset --out out/base
-    cargo run --release -- identify $FLYARENA_DATA/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml --with body_offset,gyro_delay --out out/gyro-delay
+    cargo run --release -- identify data/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml --with body_offset --out out/base
+    cargo run --release -- identify data/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml --with body_offset,gyro_delay --out out/gyro-delay
     python3 scripts/nanobench-hypothesis.py out/base/cross-validation.identify.json out/gyro-delay/cross-validation.identify.json gyro_delay gyro
 
 One row per flight: the hypothesis' estimate (95 %), and the held-out RMSE of the channel it

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The NanoBench table of docs/nanobench.md, from the JSON that the cross-validation run writes:
 
-    cargo run --release -- identify $FLYARENA_DATA/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml --with body_offset
+    cargo run --release -- identify data/nanobench/dataset/*.csv --mapping mappings/nanobench.yaml --with body_offset
     python3 scripts/nanobench-table.py out/cross-validation.identify.json
 
 One row per flight: body offset (deg, 95 %), ground tilt (deg), further effects (a pair the

@@ -3,7 +3,7 @@
 `mcap-ros2-support` (PyPI; `.ci/run` installs it), for the test that `identify` reads ROS 2 bags
 as it reads the CSV:
 
-    python3 scripts/nanobench-to-mcap.py $FLYARENA_DATA/nanobench/dataset/B3_figure8_medium_rep2.csv OUT.mcap
+    python3 scripts/nanobench-to-mcap.py data/nanobench/dataset/B3_figure8_medium_rep2.csv OUT.mcap
     cargo run --release -- identify OUT.mcap --mapping mappings/ros2-crazyflie.yaml --with body_offset
 
 Topics (REP 103 units and frames: SI, an ENU-like z-up world, an FLU body):

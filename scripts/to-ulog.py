@@ -3,7 +3,7 @@
 `ULog.write_ulog`; `.ci/run` installs pyulog==1.2.1), in PX4's topics, frames and units, for the
 tests that `identify` reads PX4 logs as it reads the CSV:
 
-    python3 scripts/to-ulog.py nanobench $FLYARENA_DATA/nanobench/dataset/B3_figure8_medium_rep2.csv OUT.ulg
+    python3 scripts/to-ulog.py nanobench data/nanobench/dataset/B3_figure8_medium_rep2.csv OUT.ulg
     cargo run --release -- identify OUT.ulg --mapping mappings/px4-crazyflie.yaml --with body_offset
     python3 scripts/to-ulog.py flyarena flight.csv OUT.ulg     # a log of `flyarena run --log`
 

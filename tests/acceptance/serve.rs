@@ -815,8 +815,9 @@ fn r3_and_r4_do_not_apply_to_an_external_vehicle() {
     assert!(report.rows.iter().any(|r| r.measured.contains("external controller")), "{}", report.table());
 }
 
-/// The guide's example (docs/serve.md) as a user runs it: `flyarena serve` (the binary) on Fig. 6 with its
-/// vehicle external, `--lockstep`, and the reference controller. Exit 0, and the summary's R2
+/// The README's example as a user runs it: the README's own `perl` line makes Fig. 6's vehicle
+/// external (portable, unlike GNU sed's `\n`), then `flyarena serve` (the binary) with
+/// `--lockstep` and the reference controller. Exit 0, and the summary's R2
 /// ratio is asserted against flyarena's own station flying uncompensated (not against an
 /// external vehicle that nobody flies, which would stay on the floor).
 #[test]
@@ -825,9 +826,14 @@ fn the_readme_example_serves_fig6_to_the_reference_controller() {
         return;
     }
     let dir = tmp("readme");
-    let text = std::fs::read_to_string(super::root().join("scenarios/fig6-roll-pitch-offsets.yaml")).unwrap();
+    // the README's own line writes the scenario (into this test's folder, not /tmp)
+    let readme = std::fs::read_to_string(super::root().join("README.md")).unwrap();
+    let line = readme.lines().find(|l| l.starts_with("perl -pe ")).expect("the README's perl line");
     let path = dir.join("fig6-external.yaml");
-    std::fs::write(&path, text.replace("  - name: x3d\n", "  - name: x3d\n    station: external\n")).unwrap();
+    let line = line.replace("/tmp/fig6-external.yaml", path.to_str().unwrap());
+    let made = Command::new("sh").arg("-c").arg(&line).current_dir(super::root()).status().unwrap();
+    assert!(made.success(), "{line}");
+    assert!(std::fs::read_to_string(&path).unwrap().contains("  - name: x3d\n    station: external\n"));
     let [port, data_port] = free_ports::<2>();
     let mut srv = Killed::spawn(
         Command::new(env!("CARGO_BIN_EXE_flyarena"))

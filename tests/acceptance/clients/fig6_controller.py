@@ -1,4 +1,5 @@
-"""A reference external controller for `flyarena serve --lockstep` (tests only): the paper's
+"""A reference external controller for `flyarena serve --lockstep` (the README's tour runs it,
+and the tests): the paper's
 cascaded controller (1)-(5) written from the paper, not from flyarena's code, flying Fig. 6
 (take off to 1 m, hover, average the measured roll and pitch, yaw 360 deg on the spot, land)
 through the bridge. It reads NatNet frames (Z-up, as any lab client would) and flyarena's
