@@ -30,7 +30,7 @@ fn a_hand_held_rig_is_calibrated_from_its_log() {
         "{out}"
     );
     // the six fitted untested are the hidden ones, not effects besides them
-    assert!(out.contains("selected besides the hidden effects: none"), "{out}");
+    assert!(out.contains("effects selected besides the calibration (the rigs have none): none"), "{out}");
     let batch = json(&d.join("o/handheld-4-1.json"));
     let truth = &batch["outcomes"][0]["trial"]["truth"];
     let mapping = super::root().join("mappings/handheld.yaml");
@@ -211,7 +211,7 @@ fn a_rig_setting_is_read_from_yaml_and_checked() {
         &d,
     );
     assert_eq!(code, 0, "{out}{err}");
-    assert!(out.starts_with("1 hand-held flights of 20 s (mocap 300 Hz, IMU 200 Hz), 1 identified"), "{out}");
+    assert!(out.starts_with("1 hand-held flight of 20 s (mocap 300 Hz, IMU 200 Hz), 1 identified"), "{out}");
     assert!(!d.join("o/handheld-3-1.json").exists());
     let setting = &json(&d.join("o/handheld-short-3-1.json"))["setting"];
     assert_eq!(

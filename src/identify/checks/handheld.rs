@@ -732,8 +732,9 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     let ok: Vec<&Outcome> = outcomes.iter().filter(|o| o.error.is_none()).collect();
     let _ = writeln!(
         s,
-        "{} hand-held flights of {} s (mocap {} Hz, IMU {} Hz), {} identified\n",
+        "{} hand-held flight{} of {} s (mocap {} Hz, IMU {} Hz), {} identified\n",
         outcomes.len(),
+        if outcomes.len() == 1 { "" } else { "s" },
         set.duration_s,
         set.mocap_hz,
         set.imu_hz,
@@ -819,7 +820,8 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
             )
         }
     );
-    let _ = writeln!(s, "selected besides the hidden effects: {extra}");
+    // the rigs carry nothing but the calibration: anything else selected is invented
+    let _ = writeln!(s, "effects selected besides the calibration (the rigs have none): {extra}");
     s
 }
 
