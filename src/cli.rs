@@ -54,7 +54,9 @@ enum Command {
         out: PathBuf,
     },
     /// Find what the model lacks: residuals of the nominal model against a flight (run from a
-    /// scenario, or a log), the effects that explain them, 95 % intervals, and a scenario fragment
+    /// scenario, or a log: flyarena's CSV, another tool's CSV, a PX4 .ulg, a ROS 2 .mcap, an
+    /// ASL/EuRoC folder, an IMU CSV beside TUM poses), the effects that explain them, 95 %
+    /// intervals, and a scenario fragment
     Identify(IdentifyArgs),
     /// Does identify generalise? N random flights with hidden effects flown and identified:
     /// recall, precision and 95 % coverage per effect (DIR/trials-<seed>-<N>.json)
@@ -275,7 +277,8 @@ struct SweepArgs {
 #[derive(Args)]
 struct IdentifyArgs {
     /// A scenario (run, then identified), a flyarena log (with --scenario), or logs of another
-    /// tool (with --mapping; several give a cross-validation)
+    /// tool (with --mapping: a CSV, a PX4 .ulg, a ROS 2 .mcap, an ASL/EuRoC folder, an IMU CSV
+    /// with --poses; several give a cross-validation)
     #[arg(required = true, value_name = "INPUT")]
     inputs: Vec<PathBuf>,
     /// The scenario that wrote a flyarena log
@@ -394,6 +397,8 @@ fn parse_smoothing(v: &str) -> Result<f64, String> {
 pub const PASS: i32 = 0;
 pub const FAIL: i32 = 1;
 pub const BAD_INPUT: i32 = 2;
+/// Interrupted by SIGINT or SIGTERM (128 + 2, the shell's convention).
+pub const INTERRUPTED: i32 = 130;
 
 /// [`write_atomic`], its failure an [`Error::Write`].
 fn write_output(path: &Path, bytes: &[u8]) -> Result<(), Error> {
@@ -1120,7 +1125,12 @@ fn run() -> i32 {
             return code;
         }
     };
-    install_interrupt_handler();
+    install_interrupt_handler(|_| {
+        eprintln!(
+            "interrupted: finished outputs are complete, unfinished ones untouched (a sweep resumes from its journal)"
+        );
+        std::process::exit(INTERRUPTED);
+    });
     let done = match cli.command {
         Command::Run(a) => cmd_run(a),
         Command::Serve(a) => cmd_serve(a),

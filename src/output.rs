@@ -2,32 +2,36 @@
 //!
 //! - [`write_atomic`] writes through a temporary file in the same folder and a rename, so a path
 //!   holds its previous content or the complete new one, never half a file; an interrupt
-//!   ([`install_interrupt_handler`]) removes the temporary files being written.
+//!   ([`install_interrupt_handler`]) removes the temporary files being written and reports it
+//!   to the caller, which owns the exit.
 //! - [`check_file_name`] is the rule for names that become file names (a scenario's `name`, a
 //!   vehicle's `name`): a scenario from someone else must not write outside `--out`.
 
 use std::io::Write;
 use std::path::PathBuf;
 
-/// Interrupted by SIGINT or SIGTERM (128 + 2, the shell's convention).
-const INTERRUPTED: i32 = 130;
-
 /// Temporary files being written right now: an interrupt removes them, so a killed run leaves
 /// each output either as it was or complete (the rename is atomic), and no debris.
 static IN_FLIGHT: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
 
-/// Installs the SIGINT/SIGTERM handler (once per process; later calls are no-ops).
-pub fn install_interrupt_handler() {
-    let _ = ctrlc::set_handler(|| {
+/// What an interrupt (SIGINT or SIGTERM) found: the unfinished outputs it removed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Interrupted {
+    /// Temporary files of outputs being written, removed (the outputs keep their old content).
+    pub removed: usize,
+}
+
+/// Installs the SIGINT/SIGTERM handler (once per process; later calls are no-ops): it removes
+/// the temporary files of the outputs being written, then hands `then` what it did. The caller
+/// decides what an interrupt means (the command line prints a line and exits 130); the library
+/// never ends the process.
+pub fn install_interrupt_handler(then: impl Fn(Interrupted) + Send + 'static) {
+    let _ = ctrlc::set_handler(move || {
+        let mut removed = 0;
         if let Ok(files) = IN_FLIGHT.lock() {
-            for f in files.iter() {
-                let _ = std::fs::remove_file(f);
-            }
+            removed = files.iter().filter(|f| std::fs::remove_file(f).is_ok()).count();
         }
-        eprintln!(
-            "interrupted: finished outputs are complete, unfinished ones untouched (a sweep resumes from its journal)"
-        );
-        std::process::exit(INTERRUPTED);
+        then(Interrupted { removed });
     });
 }
 

@@ -422,6 +422,10 @@ fn every_command_has_help_version_and_completions() {
     for e in flyarena::identify::Effect::ALL.iter().filter(|e| !e.searched()) {
         assert!(help.contains(e.key()), "identify --help does not name the hypothesis {}: {help}", e.key());
     }
+    // and every input format it reads
+    for format in [".ulg", ".mcap", "ASL/EuRoC folder", "TUM", "--poses", "--scenario", "CSV"] {
+        assert!(help.contains(format), "identify --help does not name {format}: {help}");
+    }
     let (code, out, _) = flyarena(&["--version"], &d);
     assert_eq!((code, out.trim()), (0, format!("flyarena {}", env!("CARGO_PKG_VERSION")).as_str()));
     for shell in ["bash", "zsh", "fish"] {

@@ -144,3 +144,24 @@ fn fetch_data_copies_checks_and_refuses_a_corrupted_file() {
         .collect();
     assert!(leftovers.is_empty(), "temporary files left behind");
 }
+
+/// The guide's chapter list is one list: the README's map and the guide's own table hold the
+/// same rows (title, chapter, what it answers; the README's links one folder up), and mdBook's
+/// `SUMMARY.md` names the same chapters in the same order. A chapter added to one place and not
+/// the others, or a row reworded in one, fails here.
+#[test]
+fn the_chapter_list_is_the_same_in_the_readme_the_guide_and_the_book() {
+    let root = super::root();
+    let rows =
+        |text: &str| -> Vec<String> { text.lines().filter(|l| l.starts_with("| [")).map(str::to_owned).collect() };
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let guide = std::fs::read_to_string(root.join("docs/README.md")).unwrap();
+    let from_readme: Vec<String> = rows(&readme).iter().map(|r| r.replacen("](docs/", "](", 1)).collect();
+    assert!(from_readme.len() >= 10, "{from_readme:?}");
+    assert_eq!(from_readme, rows(&guide), "README.md's chapter table and docs/README.md's differ");
+    let chapter = |row: &str| row.split("](").nth(1).and_then(|r| r.split(')').next()).unwrap_or("").to_owned();
+    let summary = std::fs::read_to_string(root.join("docs/SUMMARY.md")).unwrap();
+    let in_book: Vec<String> =
+        summary.lines().filter(|l| l.trim_start().starts_with("- [")).map(&chapter).collect();
+    assert_eq!(in_book, rows(&guide).iter().map(|r| chapter(r)).collect::<Vec<_>>(), "docs/SUMMARY.md's chapters");
+}
