@@ -727,7 +727,7 @@ pub fn decode(bytes: &[u8]) -> Result<Decoded, RecordError> {
 pub fn encode_identify(
     name: &str,
     report: &crate::identify::Report,
-    residuals: &[crate::identify::select::ResidualSeries],
+    residuals: &[crate::identify::ResidualSeries],
 ) -> Result<Vec<u8>, RecordError> {
     use rerun::blueprint::{BlueprintPanel, ContainerLike, SelectionPanel, TimePanel};
     let (rec, storage) = rerun::RecordingStreamBuilder::new("flyarena")
@@ -739,7 +739,7 @@ pub fn encode_identify(
     let end = residuals.iter().filter_map(|r| r.t_s.last()).fold(0.0f64, |a, b| a.max(*b));
     let mut plot_paths = Vec::new();
     let mut views: Vec<ContainerLike> = Vec::new();
-    for ch in crate::identify::Channel::ALL {
+    for ch in crate::effects::Channel::ALL {
         if residuals.iter().any(|r| r.channel == ch) {
             let view = ContainerLike::from(
                 TimeSeriesView::new(format!("{} residual ({}): nominal · with the effects", ch.name(), ch.unit()))

@@ -77,11 +77,6 @@ pub(crate) mod precision;
 mod present;
 mod workflow;
 
-pub(crate) use checks::consistency;
-pub(crate) use fit::{design, ground, note, quality, select, stats};
-pub(crate) use input::{flyarena_log, series};
-pub(crate) use output::{feedback, report};
-
 // the tools beside the pipeline, each a vocabulary of its own: the column mapping of another
 // tool's log, the readers of a ROS 2 bag and a PX4 log, PX4's parameters, and batches of flights
 // whose truth is known
@@ -91,38 +86,39 @@ pub use input::{mapping, ros2, ulog};
 pub use output::{calibration, px4};
 
 // the front: a request as the command line makes it, or one flight's series
-pub use feedback::{TrajectoryError, load_with_effects};
+pub use fit::select::{IdentifyError, Options, Report, identify};
+pub use output::feedback::{TrajectoryError, load_with_effects};
+pub use output::report::{render as render_report, verdict};
 pub use present::{cross_validated_json, cross_validated_text, identified_json, identified_text};
-pub use report::{render as render_report, verdict};
-pub use select::{IdentifyError, Options, Report, identify};
 pub use workflow::{CrossValidated, Exclusion, Identified, Request, Source, run, run_many};
 
 // inputs: the series every reader builds, and the readers
-pub use flyarena_log::{THRUST_REL_SD, run_and_log};
 pub use input::error::InputError;
+pub use input::flyarena_log::{THRUST_REL_SD, run_and_log};
 pub use input::joined::Streams;
+pub use input::mapping::Mapping;
 pub use input::read_note::{ReadNote, StampField};
-pub use mapping::Mapping;
-pub use series::{Clocks, Corrections, NominalModel, Series, interpolate_attitude};
+pub use input::series::{Clocks, Corrections, NominalModel, Series, interpolate_attitude};
 
 // the model of the residual and what the report holds
-pub use design::{Channel, DesignOptions, Effect, glitches};
-pub use ground::{
+pub use crate::effects::{Channel, Effect};
+pub use fit::design::{DesignOptions, glitches};
+pub use fit::ground::{
     GroundAgreement, GroundCheck, LandedAgreement, LandedAxis, LandedAxisSummary, LandedSummary, MAX_REST_OFF_AXIS_DEG,
     Rest, RestPoseAxisSummary, RestPoseSummary, STILL_POSE_SD_DEG, SpinUpAgreement, SpinUpAxis, SpinUpAxisSummary,
     SpinUpSummary, TiltAgreement, UpAxis, ground_check, landed_summary, rest_before_takeoff, rest_pose_summary,
     spin_up_summary, tilt_at_rest,
 };
-pub use note::{ForceLead, Moved, Note, OtherReference, Unavailable};
-pub use quality::{Cut, DataQuality, Finding, QualityChannel, QualityOptions, gate as quality_gate};
-pub use select::plausible::Implausible;
-pub use select::{
+pub use fit::note::{ForceLead, Moved, Note, OtherReference, Unavailable};
+pub use fit::quality::{Cut, DataQuality, Finding, QualityChannel, QualityOptions, gate as quality_gate};
+pub use fit::select::plausible::Implausible;
+pub use fit::select::{
     AxisError, Candidate, Correlate, Excitation, Found, LEAD_MAX, LEAD_MIN_CORR, Left, MIN_TRAIN_SAMPLES, Param,
     Removal, ResidualSeries, StartMoved, Step, Whiteness, evaluate, excitation, residual_series,
 };
 
 // across flights, and the measures R5 holds
 pub use checks::check::{effect_cut, heldout_cut};
-pub use consistency::{AGREE_P, AxisAgreement, Consistency, Mounting, OffsetMissing, Transfer, consistency};
+pub use checks::consistency::{AGREE_P, AxisAgreement, Consistency, Mounting, OffsetMissing, Transfer, consistency};
+pub use fit::stats::LjungBox;
 pub use output::consistency::render as render_consistency;
-pub use stats::LjungBox;

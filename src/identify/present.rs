@@ -75,8 +75,8 @@ pub fn cross_validated_json(m: &CrossValidated) -> Value {
 /// The per-flight block of a cross-validation: each flight's held-out cuts, effects, ground
 /// checks, leads and notes, then the flights left out and why.
 fn per_flight_text(reports: &[(String, Report)], excluded: &[(String, Exclusion)]) -> String {
-    use super::fit::design::Channel;
     use super::fit::select::channel_cut;
+    use crate::effects::Channel;
     let mut text = String::from("per flight (held-out error cut per channel; effects with 95 % intervals):\n");
     for (name, r) in reports {
         let cuts: Vec<String> =

@@ -244,8 +244,8 @@ pub fn run_many(
     smoothing_ms: Option<f64>,
     forced: &[super::Effect],
 ) -> crate::Result<CrossValidated> {
-    use super::fit::design::Channel;
     use super::fit::select::{channel_cut, evaluate};
+    use crate::effects::Channel;
     let map = super::input::mapping::Mapping::load(mapping)?;
     let opts = options(forced, smoothing_ms, None, Some(&map));
     let Each { reports, series, excluded } = identify_each(inputs, &map, &opts)?;

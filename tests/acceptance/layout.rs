@@ -309,9 +309,16 @@ fn identify_makes_public_only_its_vocabulary_modules() {
         let path = s["pub use ".len()..].trim_end_matches(';');
         let (prefix, names) = path.rsplit_once("::").unwrap_or(("", path));
         let folder = src.join(prefix.replace("::", "/"));
+        // a name is a module re-exported when its parent declares it public (a private module
+        // of the same name as a re-exported function, `select::excitation`, is not)
+        let parent = std::fs::read_to_string(folder.join("mod.rs")).unwrap_or_default();
         for name in names.trim_matches(|c| c == '{' || c == '}').split(',') {
             let name = name.split(" as ").next().unwrap_or("").trim();
-            if folder.is_dir() && (folder.join(format!("{name}.rs")).is_file() || folder.join(name).is_dir()) {
+            let declared = parent.lines().any(|l| {
+                let l = l.trim();
+                l == format!("pub mod {name};") || l == format!("pub(crate) mod {name};")
+            });
+            if !name.is_empty() && declared {
                 public.insert(name.to_string());
             }
         }
@@ -323,4 +330,95 @@ fn identify_makes_public_only_its_vocabulary_modules() {
             .map(String::from)
             .collect();
     assert_eq!(public, want, "identify's public modules");
+}
+
+/// The module path of a file under `src` (`identify/fit/design.rs` → identify, fit, design; a
+/// folder's `mod.rs` is the folder's module).
+fn module_path(src: &Path, f: &Path) -> Vec<String> {
+    let mut segs: Vec<String> =
+        f.strip_prefix(src).unwrap().components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+    let last = segs.pop().unwrap();
+    if last != "mod.rs" && last != "lib.rs" {
+        segs.push(last.trim_end_matches(".rs").to_string());
+    }
+    segs
+}
+
+/// The paths in `code` that reach a module through another module's re-export: a segment that
+/// is no module file at that place but the name of one deeper down (`crate::identify::design::`
+/// for `identify/fit/design.rs`), from `crate::` or from a chain of `super::` (resolved against
+/// `here`, the file's module path). Each such path is a second address of a room.
+fn alias_paths(src: &Path, here: &[String], code: &str) -> Vec<String> {
+    let is_module = |segs: &[String]| {
+        let p = src.join(segs.join("/"));
+        p.with_extension("rs").is_file() || p.join("mod.rs").is_file()
+    };
+    let deeper = |segs: &[String], name: &str| {
+        let dir = src.join(segs.join("/"));
+        dir.is_dir()
+            && rs_files(&dir).iter().any(|f| {
+                let rel = f.strip_prefix(&dir).unwrap();
+                rel.components().count() > 1
+                    && rel.components().any(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs") == name)
+            })
+    };
+    let mut found = Vec::new();
+    for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
+        let mut starts: Vec<(usize, Vec<String>)> =
+            line.match_indices("crate::").map(|(i, _)| (i + 7, Vec::new())).collect();
+        for (i, _) in line.match_indices("super::").filter(|(i, _)| !line[..*i].ends_with("super::")) {
+            let (mut at, mut base) = (i, here.to_vec());
+            while line[at..].starts_with("super::") {
+                base.pop();
+                at += 7;
+            }
+            starts.push((at, base));
+        }
+        for (mut at, mut cur) in starts {
+            loop {
+                let seg: String = line[at..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                let more = line[at + seg.len()..].starts_with("::");
+                if seg.is_empty() || !more {
+                    break;
+                }
+                let mut next = cur.clone();
+                next.push(seg.clone());
+                if is_module(&next) {
+                    cur = next;
+                    at += seg.len() + 2;
+                    continue;
+                }
+                if deeper(&cur, &seg) {
+                    found.push(format!("{}::{seg}", cur.join("::")));
+                }
+                break;
+            }
+        }
+    }
+    found
+}
+
+/// Each module has one address inside the crate: no code names a module through a façade's
+/// re-export (`crate::identify::design::` for `identify::fit::design`), so a line tells where
+/// it lives and the file graph above sees every edge. The scan finds such a path when one is
+/// written (checked on text below), and finds none in the crate.
+#[test]
+fn the_crate_names_each_module_by_its_own_path() {
+    let src = super::root().join("src");
+    let here = |p: &str| p.split('/').map(str::to_owned).collect::<Vec<_>>();
+    let planted = "use crate::identify::design::Effect;\nlet x = super::super::ground::UpAxis::Z;\nuse crate::identify::fit::design::Design;";
+    assert_eq!(
+        alias_paths(&src, &here("identify/output/note"), planted),
+        ["identify::design", "identify::ground"],
+        "the scan sees an alias from crate:: and from super::"
+    );
+    let mut aliases = Vec::new();
+    for f in rs_files(&src) {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let code = text.split("#[cfg(test)]").next().unwrap();
+        for a in alias_paths(&src, &module_path(&src, &f), code) {
+            aliases.push(format!("{}: {a}", f.strip_prefix(&src).unwrap().display()));
+        }
+    }
+    assert!(aliases.is_empty(), "modules named through a re-export:\n{}", aliases.join("\n"));
 }

@@ -161,7 +161,6 @@ fn the_chapter_list_is_the_same_in_the_readme_the_guide_and_the_book() {
     assert_eq!(from_readme, rows(&guide), "README.md's chapter table and docs/README.md's differ");
     let chapter = |row: &str| row.split("](").nth(1).and_then(|r| r.split(')').next()).unwrap_or("").to_owned();
     let summary = std::fs::read_to_string(root.join("docs/SUMMARY.md")).unwrap();
-    let in_book: Vec<String> =
-        summary.lines().filter(|l| l.trim_start().starts_with("- [")).map(&chapter).collect();
+    let in_book: Vec<String> = summary.lines().filter(|l| l.trim_start().starts_with("- [")).map(&chapter).collect();
     assert_eq!(in_book, rows(&guide).iter().map(|r| chapter(r)).collect::<Vec<_>>(), "docs/SUMMARY.md's chapters");
 }

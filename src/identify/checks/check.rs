@@ -1,6 +1,6 @@
 //! R5: did `identify` find what the scenario hid? Rows in the same table as R1–R4.
 
-use crate::identify::fit::design::{Channel, Effect};
+use crate::effects::{Channel, Effect};
 use crate::identify::fit::select::Report;
 use crate::requirements::{self, Row};
 use crate::scenario::IdentifyReq;

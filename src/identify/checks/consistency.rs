@@ -37,8 +37,8 @@
 //! mountings not: i's offset beats the fleet's only where i and j share the markers (across
 //! mountings that are really one marker state split by the link, about zero).
 
+use crate::effects::Effect;
 use crate::frames::{Body, MocapBody, Rot};
-use crate::identify::fit::design::Effect;
 use crate::identify::fit::select::{MIN_TRAIN_SAMPLES, Report};
 use crate::identify::fit::stats::median;
 use crate::identify::fit::stats::{Z_975, chi2_sf};

@@ -42,7 +42,7 @@
 //! **Any rig** ([`Setting::parse`]): the rates, noise densities, length and drift are read from
 //! YAML (`rigs/mocap2gt.yaml` is the default, field for field).
 
-use crate::identify::fit::design::Effect;
+use crate::effects::Effect;
 use crate::identify::fit::select::{Options, identify};
 use crate::identify::fit::start::ClockWindow;
 use crate::identify::input::joined::{Stream, Streams};

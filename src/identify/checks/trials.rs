@@ -39,7 +39,7 @@
 //! estimate. Whether a flight excites a hidden effect enough is decided before the outcome, from
 //! the data's information matrix ([`crate::identify::fit::select::Excitation`]).
 
-use crate::identify::fit::design::Effect;
+use crate::effects::Effect;
 use crate::identify::fit::select::{Excitation, Options, excitation, identify};
 use crate::identify::input::flyarena_log::run_and_log;
 use crate::rng::{Component, Stream};

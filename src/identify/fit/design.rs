@@ -54,7 +54,7 @@
 //! In flyarena's simulator the IMU sits at `imu.position_mm` = r_c from the centre of mass and
 //! the markers' origin at `markers.displacement_mm` = d, so the lever arm is r = r_c − d.
 
-pub use crate::effects::{Channel, Effect};
+use crate::effects::{Channel, Effect};
 use crate::frames::{Body, Frame, Nav, Vec3};
 use crate::identify::input::series::{Corrected, Corrections, Series, correct, raw_rots, raw_vecs};
 use nalgebra::{UnitQuaternion, Vector3};

@@ -918,13 +918,13 @@ fn binomial_upper_tail(n: usize, k: usize) -> f64 {
 mod tests {
     use super::*;
     use crate::frames::{Rot, Vec3};
-    use crate::identify::note::Note;
-    use crate::identify::series::NominalModel;
+    use crate::identify::fit::note::Note;
+    use crate::identify::input::series::NominalModel;
     use nalgebra::{UnitQuaternion, Vector3};
 
     /// The report's notes on agreement `a`, as sentences.
     fn agreement_notes(a: &GroundAgreement) -> Vec<String> {
-        crate::identify::note::of_ground_agreement(a).iter().map(ToString::to_string).collect()
+        crate::identify::fit::note::of_ground_agreement(a).iter().map(ToString::to_string).collect()
     }
 
     const G: f64 = 9.81;
@@ -1048,7 +1048,7 @@ mod tests {
     /// composed the other way round (O·R_mᵀ·W⁻¹) misses by degrees.
     #[test]
     fn the_predicted_tilt_is_what_the_ground_check_reads_of_the_model() {
-        use crate::identify::series::{Corrections, correct};
+        use crate::identify::input::series::{Corrections, correct};
         let turn = UnitQuaternion::from_euler_angles(0.0, 0.0, 35f64.to_radians());
         let offset = UnitQuaternion::from_euler_angles(5f64.to_radians(), -4f64.to_radians(), 30f64.to_radians());
         let world = UnitQuaternion::from_euler_angles(6f64.to_radians(), -2f64.to_radians(), 0.0);

@@ -6,9 +6,9 @@
 //!
 //! Units are those of the sentence: degrees and seconds at this edge, as in the report.
 
-use super::design::Effect;
 use super::ground::{GroundAgreement, LandedAxis, SpinUpAxis, TiltAgreement};
 use super::quality::Cut;
+use crate::effects::Effect;
 
 /// One note of a [`Report`](super::select::Report).
 #[derive(Clone, Debug, PartialEq)]
@@ -239,7 +239,7 @@ pub(crate) fn of_ground_agreement(a: &GroundAgreement) -> Vec<Note> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::ground::{LandedAgreement, SpinUpAgreement, UpAxis};
+    use crate::identify::fit::ground::{LandedAgreement, SpinUpAgreement, UpAxis};
 
     /// A tilt's comparison: ground − flight = `difference_deg` with half-width `ci95_deg`.
     fn tilt(difference_deg: f64, ci95_deg: f64) -> TiltAgreement {

@@ -517,7 +517,11 @@ mod tests {
             repairs: vec![],
             clocks: Clocks::default(),
         };
-        assert!(crate::identify::design::glitches(&s).is_empty(), "{:?}", crate::identify::design::glitches(&s));
+        assert!(
+            crate::identify::fit::design::glitches(&s).is_empty(),
+            "{:?}",
+            crate::identify::fit::design::glitches(&s)
+        );
         // half a sample of delay: the attitude halfway between neighbours
         let c = correct(&s, &Corrections { mocap_delay_s: 0.0025, ..Corrections::default() });
         for i in 10..n - 10 {

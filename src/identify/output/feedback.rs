@@ -15,7 +15,7 @@
 //! scenario plus the fragment with the data's seed, and reports how far each closed-loop
 //! trajectory is from the data.
 
-use crate::identify::fit::design::Effect;
+use crate::effects::Effect;
 use crate::identify::fit::select::Report;
 use crate::identify::input::error::InputError;
 use crate::identify::input::series::Series;
@@ -254,7 +254,7 @@ pub(crate) fn nominal_and_fed_back(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::select::{Found, Param};
+    use crate::identify::fit::select::{Found, Param};
 
     fn found(effect: Effect, values: &[(f64, f64)]) -> Found {
         let params = values

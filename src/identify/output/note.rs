@@ -1,9 +1,9 @@
 //! A report's notes as the sentences a reader sees: `Display` for the text report, and
 //! `Serialize` as the same sentence, so the JSON's `notes` hold what the text shows.
 
-use crate::identify::design::Effect;
-use crate::identify::ground::TiltAgreement;
-use crate::identify::note::{ForceLead, Moved, Note, OtherReference, Unavailable};
+use crate::effects::Effect;
+use crate::identify::fit::ground::TiltAgreement;
+use crate::identify::fit::note::{ForceLead, Moved, Note, OtherReference, Unavailable};
 use crate::identify::precision::{signed_with_interval as pm, with_interval};
 use std::fmt::{self, Display, Formatter};
 
@@ -153,7 +153,7 @@ fn ground_disagrees(
         write!(
             f,
             "; the still pose scatters by {sd:.3}° per sample in roll at rest (a clear view: under {}°): the cameras see the markers badly on the floor, so the rest's tilt is not a reliable reference here",
-            crate::identify::ground::STILL_POSE_SD_DEG
+            crate::identify::fit::ground::STILL_POSE_SD_DEG
         )?;
     }
     Ok(())
@@ -199,10 +199,10 @@ pub(super) fn joined<T: Display>(items: impl IntoIterator<Item = T>, sep: &str) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::design::Effect;
-    use crate::identify::ground::TiltAgreement;
-    use crate::identify::ground::{LandedAxis, STILL_POSE_SD_DEG};
-    use crate::identify::quality::{Cut, Finding, QualityChannel};
+    use crate::effects::Effect;
+    use crate::identify::fit::ground::TiltAgreement;
+    use crate::identify::fit::ground::{LandedAxis, STILL_POSE_SD_DEG};
+    use crate::identify::fit::quality::{Cut, Finding, QualityChannel};
 
     /// The sentences of the notes on the data, written out by hand: the gate's cut (its
     /// stretches joined by "; ", a floor contact named), the data's limits and a rest off its

@@ -30,9 +30,10 @@
 //! An effect not found, or found but not identifiable, gives no value: a parameter not written
 //! keeps whatever the vehicle has.
 
+use crate::effects::Effect;
+use crate::identify::Report;
 use crate::identify::fit::select::Found;
 use crate::identify::precision::{signed_with_interval, with_interval};
-use crate::identify::{Effect, Report};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use std::fmt::Write as _;
 
@@ -355,7 +356,7 @@ pub fn render(p: &Px4Parameters) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::select::Param;
+    use crate::identify::fit::select::Param;
 
     fn found(effect: Effect, values: &[(f64, f64)], identifiable: bool) -> Found {
         let params = values

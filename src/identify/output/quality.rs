@@ -2,7 +2,7 @@
 //! defect found in it (`Finding`); the JSON's `reason` is the findings' sentences joined by `; `.
 
 use super::note::joined;
-use crate::identify::quality::{Cut, Finding};
+use crate::identify::fit::quality::{Cut, Finding};
 use crate::vehicle::params::GRAVITY;
 use std::fmt::{self, Display, Formatter};
 
@@ -80,7 +80,7 @@ impl serde::Serialize for Cut {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::quality::QualityChannel;
+    use crate::identify::fit::quality::QualityChannel;
 
     /// Each finding's sentence, written out by hand: degrees for angles and rates, g beside m/s²
     /// for a disagreement of the accelerometer.

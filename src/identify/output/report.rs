@@ -308,7 +308,7 @@ fn render_ground(s: &mut String, r: &Report) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::select::Param;
+    use crate::identify::fit::select::Param;
 
     fn param(value: f64, ci95: f64, identifiable: bool) -> Param {
         Param { name: "x".into(), value, ci95, unit: "mm".into(), identifiable }

@@ -2,7 +2,7 @@
 //! block per summary, a line per tilt (the numbers are `fit/ground.rs`'s [`SpinUpSummary`],
 //! [`LandedSummary`] and [`RestPoseSummary`]).
 
-use crate::identify::ground::{LandedSummary, RestPoseSummary, STILL_POSE_SD_DEG, SpinUpSummary};
+use crate::identify::fit::ground::{LandedSummary, RestPoseSummary, STILL_POSE_SD_DEG, SpinUpSummary};
 
 /// The spin-up summary: per tilt, the median |difference| at rest and at spin-up, and the sign
 /// test of the spin-up moving toward the flight.
@@ -86,7 +86,7 @@ pub(crate) fn rest_pose(s: &RestPoseSummary) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::ground::{LandedAxisSummary, RestPoseAxisSummary, SpinUpAxisSummary};
+    use crate::identify::fit::ground::{LandedAxisSummary, RestPoseAxisSummary, SpinUpAxisSummary};
 
     /// Each block as the multi-flight report prints it, from summaries written by hand: the
     /// counts in their places, two decimals for degrees, and the verdict clause on the side of

@@ -2,8 +2,9 @@
 //! time sample, plus the systematic of the nominal thrust.
 
 use super::gram::{Gram, active, cols_of, residual_of, system_raw};
-use crate::identify::design::{Channel, Design, Effect};
-use crate::identify::stats::inverse_spd;
+use crate::effects::{Channel, Effect};
+use crate::identify::fit::design::Design;
+use crate::identify::fit::stats::inverse_spd;
 use nalgebra::{DMatrix, DVector};
 
 /// Newey–West (Bartlett, `lags`) covariance of the OLS parameters: (XᵀX)⁻¹·S·(XᵀX)⁻¹ with

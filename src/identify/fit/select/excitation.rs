@@ -3,9 +3,9 @@
 
 use super::gram::{Gram, active, add_at, ar_models, fit, grams, heldout_rss, positions, set_of, system};
 use super::{Options, available, gated, refine};
-use crate::identify::design::Effect;
-use crate::identify::series::{Corrections, Series};
-use crate::identify::stats::{Ar, schur_complement};
+use crate::effects::Effect;
+use crate::identify::fit::stats::{Ar, schur_complement};
+use crate::identify::input::series::{Corrections, Series};
 use nalgebra::{DMatrix, DVector};
 
 /// How strongly one flight excites an effect, decided from the data's information matrix

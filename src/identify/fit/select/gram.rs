@@ -3,9 +3,10 @@
 //! held-out errors and canonical correlations between column sets.
 
 use super::Options;
-use crate::identify::design::{Channel, Design, Effect, N_COLUMNS, column_offsets};
-use crate::identify::series::Series;
-use crate::identify::stats::{Ar, inverse_spd, solve_spd};
+use crate::effects::{Channel, Effect};
+use crate::identify::fit::design::{Design, N_COLUMNS, column_offsets};
+use crate::identify::fit::stats::{Ar, inverse_spd, solve_spd};
+use crate::identify::input::series::Series;
 use nalgebra::{DMatrix, DVector};
 
 /// Normal equations of one channel axis: whitened training part and raw held-out part.

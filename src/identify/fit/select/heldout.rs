@@ -4,8 +4,9 @@
 use super::gram::{active, residual_of};
 use super::result::{AxisError, Report};
 use super::{AXES, Options, gated};
-use crate::identify::design::{Channel, Design, build};
-use crate::identify::series::{Corrections, Series};
+use crate::effects::Channel;
+use crate::identify::fit::design::{Design, build};
+use crate::identify::input::series::{Corrections, Series};
 
 /// RMSE and NRMSE fit of the residuals `before` and `after` over the samples `idx` of the
 /// measured signal `y`.

@@ -6,9 +6,10 @@ use super::AXES;
 use super::gram::{active, residual_of};
 use super::heldout::axis_error;
 use super::result::{AxisError, Correlate, Left, Whiteness};
-use crate::identify::design::{Channel, Design, Effect};
-use crate::identify::note::{ForceLead, Note};
-use crate::identify::stats::{Ar, Z_995, autocorrelation, ljung_box};
+use crate::effects::{Channel, Effect};
+use crate::identify::fit::design::Design;
+use crate::identify::fit::note::{ForceLead, Note};
+use crate::identify::fit::stats::{Ar, Z_995, autocorrelation, ljung_box};
 
 /// Weaker correlations than this are not named as leads (significant but explaining < 1 % of
 /// the residual's variance is no lead).
@@ -27,7 +28,7 @@ pub(super) struct LeadSignals<'a> {
 pub(super) fn lead_signals(d: &Design) -> LeadSignals<'_> {
     let masked: Vec<Vec<f64>> =
         d.signals.iter().map(|sg| (0..d.n).map(|i| if d.ok[i] { sg.samples[i] } else { f64::NAN }).collect()).collect();
-    let acf = masked.iter().map(|x| crate::identify::stats::autocorrelation(x, 50).0).collect();
+    let acf = masked.iter().map(|x| crate::identify::fit::stats::autocorrelation(x, 50).0).collect();
     LeadSignals { design: d, masked, acf }
 }
 
@@ -40,7 +41,7 @@ pub(super) fn leads(ls: &LeadSignals, c: usize, a: usize, residual: &[f64]) -> V
     if idx.len() < 3 {
         return Vec::new();
     }
-    let (r_acf, _) = crate::identify::stats::autocorrelation(&r, 50);
+    let (r_acf, _) = crate::identify::fit::stats::autocorrelation(&r, 50);
     let mr = idx.iter().map(|&i| r[i]).sum::<f64>() / idx.len() as f64;
     let srr: f64 = idx.iter().map(|&i| (r[i] - mr).powi(2)).sum();
     let mut out: Vec<Correlate> = Vec::new();
@@ -59,9 +60,9 @@ pub(super) fn leads(ls: &LeadSignals, c: usize, a: usize, residual: &[f64]) -> V
             continue;
         }
         let rho = sxy / (sxx * srr).sqrt();
-        let n_eff = crate::identify::stats::effective_n(idx.len(), &r_acf, &ls.acf[k]);
+        let n_eff = crate::identify::fit::stats::effective_n(idx.len(), &r_acf, &ls.acf[k]);
         // two-sided test of r = 0 (r·√n_eff ~ N(0, 1)), Bonferroni over the signals
-        let p = crate::identify::stats::chi2_sf(rho * rho * n_eff, 1.0);
+        let p = crate::identify::fit::stats::chi2_sf(rho * rho * n_eff, 1.0);
         if rho.abs() >= LEAD_MIN_CORR && p < 0.01 / d.signals.len() as f64 {
             out.push(Correlate { signal: sg.name.to_string(), r: rho, n_eff, floor: sg.floor });
         }
@@ -165,7 +166,7 @@ fn structured(correlates: &[Correlate], ljung_box_p: f64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::design::Signal;
+    use crate::identify::fit::design::Signal;
 
     /// A design of `n` usable samples with the given lead signals and nothing else.
     fn signals_only(n: usize, signals: Vec<Signal>) -> Design {

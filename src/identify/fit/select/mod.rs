@@ -51,10 +51,11 @@
 //! the remaining force z error of a real flight by 75 % counted for 0.6 %: thrust scale had
 //! already taken that axis from 3.3 to 0.26 m/s².)
 
-use super::design::{Channel, Design, DesignOptions, Effect, N_COLUMNS, build};
+use super::design::{Design, DesignOptions, N_COLUMNS, build};
 use super::ground::Rest;
 use super::note::{Note, Unavailable};
 use super::stats::{Ar, Z_975, f_sf};
+use crate::effects::{Channel, Effect};
 use crate::frames::{Body, MocapNav, Nav, Rot, Vec3};
 use crate::identify::input::series::{Corrections, Series};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
@@ -1001,7 +1002,7 @@ fn ground(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::series::NominalModel;
+    use crate::identify::input::series::NominalModel;
 
     /// The level form of a world tilt keeps gravity's direction in the mocap world and has no
     /// yaw: R_w·R_z(ε) (the same tilt under a yaw no sensor sees) levels to R_y(θ)·R_x(φ) itself,

@@ -2,9 +2,9 @@
 //! the held-out errors, the whiteness and what is left of the residual.
 
 use super::Options;
-use crate::identify::design::{Channel, Effect};
-use crate::identify::series::{Corrections, NominalModel};
-use crate::identify::stats::LjungBox;
+use crate::effects::{Channel, Effect};
+use crate::identify::fit::stats::LjungBox;
+use crate::identify::input::series::{Corrections, NominalModel};
 
 /// One parameter, in the reported unit.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -196,18 +196,18 @@ pub struct Report {
     /// differ only when the vehicle yaws.
     pub yaw_spread_deg: f64,
     /// Roll/pitch misalignment from the vehicle at rest before take-off (independent check).
-    pub ground_check: Option<crate::identify::ground::GroundCheck>,
+    pub ground_check: Option<crate::identify::fit::ground::GroundCheck>,
     /// The ground check against the flight's offset plus the tilt of its accelerometer bias.
-    pub ground_agreement: Option<crate::identify::ground::GroundAgreement>,
+    pub ground_agreement: Option<crate::identify::fit::ground::GroundAgreement>,
     /// What a reader should know (a negative delay, a half-supported candidate, ...), one
     /// [`Note`](crate::identify::Note) each: data to match on; `Display` gives the sentence.
-    pub notes: Vec<crate::identify::note::Note>,
+    pub notes: Vec<crate::identify::fit::note::Note>,
     /// What the readers did to the log: repairs (dropped duplicate rows, gaps, messages left out)
     /// and, for PX4 logs, which stamps it read; one [`ReadNote`](crate::identify::ReadNote) each,
     /// whose `Display` is the sentence.
     pub repairs: Vec<crate::identify::ReadNote>,
     /// What the data-quality gate cut out before the fit.
-    pub data_quality: crate::identify::quality::DataQuality,
+    pub data_quality: crate::identify::fit::quality::DataQuality,
     /// Pairs of effects this flight cannot tell apart (canonical correlation > 0.99): the first
     /// was selected, the second would have explained the same residual.
     pub not_identifiable: Vec<(Effect, Effect, f64)>,

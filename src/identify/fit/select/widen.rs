@@ -5,11 +5,11 @@
 use super::gram::{canonical_corr, fit, set_of};
 use super::result::{Candidate, Found};
 use super::{Options, Problem, available, fold, params_of, refine, rest_tilt, rest_tilt_sd, values_of};
-use crate::identify::design::Effect;
-use crate::identify::ground::Rest;
-use crate::identify::note::{Moved, Note};
-use crate::identify::series::{Corrections, Series};
-use crate::identify::stats::Z_975;
+use crate::effects::Effect;
+use crate::identify::fit::ground::Rest;
+use crate::identify::fit::note::{Moved, Note};
+use crate::identify::fit::stats::Z_975;
+use crate::identify::input::series::{Corrections, Series};
 
 /// The final model, as the widening checks read it.
 pub(super) struct Final<'a> {
