@@ -1,8 +1,9 @@
-//! One error type over the library's stages: each stage returns its own error (the scenario's,
-//! a log's, an `identify` input's, a sweep's, the recording's), and [`Error`] gathers them
-//! (`From` each, so `?` converts) with the outputs that cannot be written, so that a program
-//! driving several stages handles one type and still matches on the stage. Every message names the file, and the line and column where
-//! the defect has them. The command line prints the message and exits with
+//! One error type over the library's stages, at the top: each stage returns its own error (the
+//! scenario's, a log's, `identify`'s, a sweep's, the server's, the recording's) and no stage
+//! returns this one, so nothing below depends on it. [`Error`] gathers them (`From` each, so `?`
+//! converts) with the outputs that cannot be written, so that a program driving several stages
+//! handles one type and still matches on the stage. Every message names the file, and the line
+//! and column where the defect has them. The command line prints the message and exits with
 //! [`Error::exit_code`].
 
 use std::path::PathBuf;
@@ -16,12 +17,10 @@ pub enum Error {
     /// A flyarena flight log that does not read.
     #[error(transparent)]
     Log(#[from] crate::log::LogError),
-    /// An `identify` input (a mapping, a log, a bag, a fragment) that cannot be used.
+    /// An identification that stopped: an input that cannot be used (a mapping, a log, a bag,
+    /// a fragment) or data that does not pass the data-quality gate.
     #[error(transparent)]
-    Input(#[from] crate::identify::InputError),
-    /// Data that does not pass `identify`'s data-quality gate.
-    #[error(transparent)]
-    Identify(#[from] crate::identify::IdentifyError),
+    Identify(#[from] crate::identify::Error),
     /// A sweep that cannot run or merge.
     #[error(transparent)]
     Sweep(#[from] crate::sweep::SweepError),
@@ -51,6 +50,18 @@ impl Error {
     /// requirement that failed, 0 for a pass).
     pub fn exit_code(&self) -> i32 {
         2
+    }
+}
+
+impl From<crate::identify::InputError> for Error {
+    fn from(e: crate::identify::InputError) -> Self {
+        Error::Identify(e.into())
+    }
+}
+
+impl From<crate::identify::IdentifyError> for Error {
+    fn from(e: crate::identify::IdentifyError) -> Self {
+        Error::Identify(e.into())
     }
 }
 

@@ -47,6 +47,9 @@ pub const REQUIREMENTS: [&str; 4] = ["R1", "R2", "R3", "R4"];
 /// Why a sweep cannot run, merge or keep its journal.
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
+    /// The scenario itself cannot be run.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
     /// The `sweep:` section is not valid (which entry, and why).
     #[error("{file}: sweep: {message}")]
     Spec {
@@ -131,14 +134,14 @@ impl Sweep {
     /// Reads a scenario with a `sweep:` section.
     ///
     /// # Errors
-    /// The scenario's own ([`crate::Error::Scenario`]) or its `sweep:` section's
-    /// ([`crate::Error::Sweep`]).
-    pub fn load(path: &Path) -> crate::Result<Sweep> {
+    /// The scenario's own ([`SweepError::Scenario`]) or its `sweep:` section's
+    /// ([`SweepError::Spec`]).
+    pub fn load(path: &Path) -> Result<Sweep, SweepError> {
         let src =
             std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { file: path.to_path_buf(), source })?;
         let scenario = Scenario::parse(&src, path)?;
         let file = path.display().to_string();
-        let spec = |message: String| crate::Error::from(SweepError::Spec { file: file.clone(), message });
+        let spec = |message: String| SweepError::Spec { file: file.clone(), message };
         let cfg = scenario
             .sweep
             .clone()
@@ -167,7 +170,7 @@ impl Sweep {
                 Variation::Grid(g) => g.clone(),
             };
             for x in reached {
-                let mut check = |x: f64| -> crate::Result<()> {
+                let mut check = |x: f64| -> Result<(), SweepError> {
                     set_path(&mut t, &v.field, x).map_err(|m| spec(format!("vary[{k}]: {m}")))?;
                     Scenario::parse(&serde_json::to_string(&t).expect("a JSON tree serialises"), path)
                         .map(drop)

@@ -90,7 +90,7 @@ pub use fit::select::{IdentifyError, Options, Report, identify};
 pub use output::feedback::{TrajectoryError, load_with_effects};
 pub use output::report::{render as render_report, verdict};
 pub use present::{cross_validated_json, cross_validated_text, identified_json, identified_text};
-pub use workflow::{CrossValidated, Exclusion, Identified, Request, Source, run, run_many};
+pub use workflow::{CrossValidated, Error, Exclusion, Identified, Request, Source, run, run_many};
 
 // inputs: the series every reader builds, and the readers
 pub use input::error::InputError;

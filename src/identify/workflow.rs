@@ -14,6 +14,31 @@ use crate::scenario::Scenario;
 use serde_json::{Value, json};
 use std::path::Path;
 
+/// Why an identification ([`run`], [`run_many`]) stopped before a result: an input that cannot
+/// be used (a mapping, a log, a scenario, a fragment), or data that does not pass the
+/// data-quality gate. [`crate::Error`] gathers it with the other stages' errors.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// An input that cannot be used.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// Data that does not pass the data-quality gate, or too little of it.
+    #[error(transparent)]
+    Data(#[from] super::IdentifyError),
+}
+
+impl From<crate::scenario::ScenarioError> for Error {
+    fn from(e: crate::scenario::ScenarioError) -> Self {
+        Error::Input(e.into())
+    }
+}
+
+impl From<crate::log::LogError> for Error {
+    fn from(e: crate::log::LogError) -> Self {
+        Error::Input(e.into())
+    }
+}
+
 /// One identification, with everything the CLI writes.
 pub struct Identified {
     /// The report.
@@ -147,7 +172,7 @@ fn read_log(
 /// Identifies from a scenario (flown here), a flyarena log with its scenario, or a mapped log;
 /// for a scenario or a flyarena log, also flies the nominal and the fed-back model against
 /// the data (closed loop) and checks R5 when the scenario declares it.
-pub fn run(req: &Request) -> crate::Result<Identified> {
+pub fn run(req: &Request) -> Result<Identified, Error> {
     let (forced, smoothing_ms, vehicle, seed) = (&req.forced[..], req.smoothing_ms, req.vehicle, req.seed);
     let opts = options(forced, smoothing_ms, req.clock, None);
     let (input, scenario) = match req.source {
@@ -243,7 +268,7 @@ pub fn run_many(
     mapping: &Path,
     smoothing_ms: Option<f64>,
     forced: &[super::Effect],
-) -> crate::Result<CrossValidated> {
+) -> Result<CrossValidated, Error> {
     use super::fit::select::{channel_cut, evaluate};
     use crate::effects::Channel;
     let map = super::input::mapping::Mapping::load(mapping)?;

@@ -35,15 +35,57 @@ fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
         let code = text.split("#[cfg(test)]").next().unwrap();
         let deps = g.entry(top.clone()).or_default();
         for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
-            for (i, _) in line.match_indices("crate::") {
-                let name: String = line[i + 7..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
-                if !name.is_empty() && name != top {
-                    deps.insert(name);
-                }
-            }
+            deps.extend(crate_edges(line).into_iter().filter(|n| *n != top));
         }
     }
     g
+}
+
+/// The top-level modules a line names through `crate::`: `crate::m::…`, each first name of a
+/// group `crate::{a::x, b}`, and the umbrella error, `crate::Error` and `crate::Result`, which
+/// live in `error`.
+fn crate_edges(line: &str) -> Vec<String> {
+    let ident = |s: &str| -> String { s.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect() };
+    let mut names = Vec::new();
+    for (i, _) in line.match_indices("crate::") {
+        let rest = &line[i + 7..];
+        match rest.strip_prefix('{') {
+            Some(group) => {
+                // first names at the group's top level
+                let (mut depth, mut start) = (0, true);
+                for (k, c) in group.char_indices() {
+                    match c {
+                        '{' => depth += 1,
+                        '}' if depth == 0 => break,
+                        '}' => depth -= 1,
+                        ',' if depth == 0 => start = true,
+                        c if start && !c.is_whitespace() => {
+                            names.push(ident(&group[k..]));
+                            start = false;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            None => names.push(ident(rest)),
+        }
+    }
+    names
+        .into_iter()
+        .filter(|n| !n.is_empty())
+        .map(|n| if n == "Error" || n == "Result" { "error".to_string() } else { n })
+        .collect()
+}
+
+/// The edges a line gives, by hand: paths, a group, and the umbrella error's names.
+#[test]
+fn crate_paths_are_read_as_edges_to_modules() {
+    assert_eq!(crate_edges("use crate::frames::{Body, Vec3};"), ["frames"]);
+    assert_eq!(
+        crate_edges("use crate::{log::LogError, scenario::{Scenario, Span}, Result};"),
+        ["log", "scenario", "error"]
+    );
+    assert_eq!(crate_edges("fn f() -> crate::Result<()> { Err(crate::Error::Usage(x)) }"), ["error", "error"]);
 }
 
 /// A cycle of the graph, if there is one (depth-first search), as the path that closes it.

@@ -2,14 +2,21 @@
 //! flyarena log with its scenario, a scenario with an effects fragment. Every variant names the
 //! file, and the line and column where the defect has one; nothing here is a number made from
 //! bad data (the data-quality gate's own verdict is [`IdentifyError`](crate::identify::IdentifyError)).
-//! A step that reads a scenario or a flyarena log too returns [`crate::Error`], whose variants
-//! carry those errors: each error reaches the caller by one route.
+//! A scenario that does not parse and a flyarena log that does not read are inputs of `identify`
+//! too: their own errors arrive here whole ([`InputError::Scenario`], [`InputError::FlyarenaLog`]), and
+//! the whole workflow's error is [`crate::identify::Error`].
 
 use std::fmt::Display;
 
 /// An `identify` input that cannot be used, with where and why.
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
+    /// A scenario (the input, or the one a flyarena log was flown with) that cannot be run.
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
+    /// A flyarena log that does not read.
+    #[error(transparent)]
+    FlyarenaLog(#[from] crate::log::LogError),
     /// A file that cannot be read.
     #[error("{file}: {source}")]
     Io {

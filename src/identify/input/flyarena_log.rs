@@ -108,7 +108,11 @@ pub fn series(log: &FlightLog, s: &Scenario, vehicle: usize, source: &str) -> Re
 
 /// Runs a scenario and returns its flight log for vehicle `vehicle` as identification data,
 /// through the same CSV text a `run --log` writes (so the two routes cannot drift apart).
-pub fn run_and_log(s: &Scenario, vehicle: usize, source: &str) -> crate::Result<(crate::engine::RunOutput, Series)> {
+pub fn run_and_log(
+    s: &Scenario,
+    vehicle: usize,
+    source: &str,
+) -> Result<(crate::engine::RunOutput, Series), InputError> {
     let out = crate::engine::run(s.spec(), crate::engine::RunOptions { trace: true, apply_calibration: None });
     let v = out.vehicles.get(vehicle).ok_or_else(|| {
         InputError::log(source, format!("vehicle {vehicle} does not exist (the scenario has {})", out.vehicles.len()))

@@ -164,7 +164,7 @@ fn fragment_of(
 }
 
 /// Reads a scenario and applies a fragment to it.
-pub fn load_with_effects(scenario: &Path, fragment: &Path) -> crate::Result<Scenario> {
+pub fn load_with_effects(scenario: &Path, fragment: &Path) -> Result<Scenario, InputError> {
     let src = std::fs::read_to_string(scenario).map_err(|e| InputError::io(scenario.display(), e))?;
     let fsrc = std::fs::read_to_string(fragment).map_err(|e| InputError::io(fragment.display(), e))?;
     let frag: Fragment = serde_saphyr::from_str(&fsrc).map_err(|e| InputError::invalid(fragment.display(), e))?;
@@ -196,8 +196,7 @@ pub fn load_with_effects(scenario: &Path, fragment: &Path) -> crate::Result<Scen
                 return Err(InputError::invalid(
                     format!("{}{line}", fragment.display()),
                     format!("`{path}`: {message}"),
-                )
-                .into());
+                ));
             }
         }
         Err(whole.into())
@@ -238,7 +237,7 @@ pub(crate) fn nominal_and_fed_back(
     i: usize,
     fragment_text: &str,
     name: &str,
-) -> crate::Result<(Scenario, Scenario)> {
+) -> Result<(Scenario, Scenario), InputError> {
     let nominal = nominal_tree(scenario_src, i);
     let frag: Fragment = serde_saphyr::from_str(fragment_text).map_err(|e| InputError::invalid("fragment", e))?;
     let mut fed = nominal.clone();
