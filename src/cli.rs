@@ -802,10 +802,21 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         clock: a.clock_offset,
         ..Request::new(source)
     };
-    let done = flyarena::identify::run(&req)?;
     let stem = input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "identify".into());
     let json_path = a.json.clone().unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
-    if a.json.is_none() && !a.overwrite {
+    let guard = a.json.is_none() && !a.overwrite;
+    if guard {
+        // before the work: a report of another file (its source names the input first)
+        let path = input.display().to_string();
+        let other = |v: &serde_json::Value| {
+            let s = v["report"]["source"].as_str()?;
+            (!s.starts_with(&path)).then(|| format!("`{s}`"))
+        };
+        refuse_another_makers(&json_path, &other, &format!("`{path}`"))?;
+    }
+    let done = flyarena::identify::run(&req)?;
+    if guard {
+        // after it: the same file read otherwise (another pose file, seed or vehicle)
         let maker = |v: &serde_json::Value| v["report"]["source"].as_str().map(|s| format!("`{s}`"));
         refuse_another_makers(&json_path, &maker, &format!("`{}`", done.report.source))?;
     }

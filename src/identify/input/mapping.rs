@@ -676,12 +676,14 @@ fn asl_root(input: &Path, asl: &Asl) -> Result<std::path::PathBuf, InputError> {
 /// A column mapping's "unknown field" message with the keys that make a mapping of another form
 /// (`ros2:`, `px4:`, `asl:`, `poses:`) in its list of what is allowed, then a "did you mean".
 fn with_blocks(message: &str) -> String {
-    let message = if message.starts_with("unknown field `") && message.contains("expected one of") {
-        format!("{message}, or a block ros2, px4, asl or poses")
-    } else {
-        message.to_string()
-    };
-    crate::scenario::error::with_suggestion(&message)
+    if !(message.starts_with("unknown field `") && message.contains("expected one of")) {
+        return crate::scenario::error::with_suggestion(message);
+    }
+    // the suggestion is drawn from the keys alone, not from the words around them
+    let keys = format!("{message}, ros2, px4, asl, poses");
+    let suggested = crate::scenario::error::with_suggestion(&keys);
+    let tail = suggested.strip_prefix(keys.as_str()).unwrap_or("");
+    format!("{message}, or a block ros2, px4, asl or poses{tail}")
 }
 
 impl Mapping {
@@ -1142,6 +1144,22 @@ mod tests {
 
     /// Each `world:` turns its own up axis to −z (up in NED) by a proper rotation, and keeps
     /// gravity pointing down.
+    /// A column mapping's unknown key lists the other forms' blocks, and its "did you mean"
+    /// comes from the keys: `px5` → `px4`, `gyor` → `gyro`, and `b` (one edit from the list's
+    /// word "a") gets none.
+    #[test]
+    fn an_unknown_key_lists_the_blocks_and_suggests_only_keys() {
+        let m = "unknown field `KEY`, expected one of vehicle, time, gyro";
+        let say = |k: &str| with_blocks(&m.replace("KEY", k));
+        assert_eq!(
+            say("px5"),
+            "unknown field `px5`, expected one of vehicle, time, gyro, or a block ros2, px4, asl or poses; did you mean `px4`?"
+        );
+        assert!(say("gyor").ends_with("; did you mean `gyro`?"), "{}", say("gyor"));
+        assert!(say("b").ends_with("asl or poses"), "{}", say("b"));
+        assert_eq!(with_blocks("invalid type: string"), "invalid type: string");
+    }
+
     #[test]
     fn each_world_turns_its_up_axis_to_minus_z() {
         for (w, up) in [

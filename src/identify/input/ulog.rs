@@ -150,9 +150,10 @@ impl Log {
         Ok(Log { topics, incomplete })
     }
 
-    /// The instance `instance` of `topic`, which `named` says where the mapping names ("which
-    /// m.yaml names in `px4.imu`", or the key's default); absent, an error naming the instances there are, or, for a topic
-    /// the log lacks, the mapping's key, the closest topic and every topic the log has.
+    /// The instance `instance` of `topic`; `named` says where the mapping names it ("which
+    /// m.yaml names in `px4.imu`", or the key's default). Absent, an error naming the instances
+    /// there are or, for a topic the log lacks, the mapping's key, the closest topic and every
+    /// topic the log has.
     fn topic(&self, topic: &str, instance: u8, file: &str, named: &str) -> Result<&TopicData, InputError> {
         let all: Vec<&TopicData> = self.topics.iter().filter(|t| t.name == topic).collect();
         match all.iter().find(|t| t.instance == instance) {
