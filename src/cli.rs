@@ -806,19 +806,11 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
     let json_path = a.json.clone().unwrap_or_else(|| a.out.join(format!("{stem}.identify.json")));
     let guard = a.json.is_none() && !a.overwrite;
     if guard {
-        // before the work: a report of another file (its source names the input first)
-        let path = input.display().to_string();
-        let other = |v: &serde_json::Value| {
-            let s = v["report"]["source"].as_str()?;
-            (!s.starts_with(&path)).then(|| format!("`{s}`"))
-        };
-        refuse_another_makers(&json_path, &other, &format!("`{path}`"))?;
+        refuse_another_input(&json_path, input, None)?;
     }
     let done = flyarena::identify::run(&req)?;
     if guard {
-        // after it: the same file read otherwise (another pose file, seed or vehicle)
-        let maker = |v: &serde_json::Value| v["report"]["source"].as_str().map(|s| format!("`{s}`"));
-        refuse_another_makers(&json_path, &maker, &format!("`{}`", done.report.source))?;
+        refuse_another_input(&json_path, input, Some(&done.report.source))?;
     }
     let json = serde_json::to_vec_pretty(&flyarena::identify::identified_json(&done)).expect("report serialises");
     write_output(&json_path, &json)?;
@@ -854,16 +846,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         if let Some(p) = &px4 {
             print!("\n{}", flyarena::identify::px4::render(p));
         }
-        // the scenario the fragment applies to: the one flown, or, for a log, one of the
-        // user's that models the vehicle
-        let fly = match (&a.scenario, &a.mapping) {
-            (Some(s), _) => format!("`flyarena run {} --effects {}`", s.display(), frag_path.display()),
-            (None, None) => format!("`flyarena run {} --effects {}`", input.display(), frag_path.display()),
-            (None, Some(_)) => format!(
-                "for a scenario of your own that models this vehicle: `flyarena run YOURS.yaml --effects {}`",
-                frag_path.display()
-            ),
-        };
+        let fly = fragment_hint(a.scenario.as_deref().or(a.mapping.is_none().then_some(input)), &frag_path);
         println!("\nreport: {}\nscenario fragment: {} ({fly})", json_path.display(), frag_path.display());
         if let Some(p) = &rrd_path {
             println!("residuals: {} (open with `rerun {}`)", p.display(), p.display());
@@ -880,6 +863,34 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         }
     }
     Ok(identify_verdict(&done, a.quiet, input))
+}
+
+/// How to fly a fragment back: into the scenario flown (`scenario`), or, for another tool's log,
+/// into a scenario of the user's that models the vehicle.
+fn fragment_hint(scenario: Option<&Path>, fragment: &Path) -> String {
+    match scenario {
+        Some(s) => format!("`flyarena run {} --effects {}`", s.display(), fragment.display()),
+        None => format!(
+            "for a scenario of your own that models this vehicle: `flyarena run YOURS.yaml --effects {}`",
+            fragment.display()
+        ),
+    }
+}
+
+/// `identify`'s guard of its report at the default `path`: before the work (`source` `None`),
+/// a report whose source names another file than `input`; after it, a report of another
+/// source (the same file read with another pose file, seed or vehicle).
+fn refuse_another_input(path: &Path, input: &Path, source: Option<&str>) -> Result<(), Error> {
+    let named = input.display().to_string();
+    let old_source = |v: &serde_json::Value| v["report"]["source"].as_str().map(str::to_owned);
+    match source {
+        None => {
+            let other =
+                |v: &serde_json::Value| old_source(v).filter(|s| !s.starts_with(&named)).map(|s| format!("`{s}`"));
+            refuse_another_makers(path, &other, &format!("`{named}`"))
+        }
+        Some(this) => refuse_another_makers(path, &|v| old_source(v).map(|s| format!("`{s}`")), &format!("`{this}`")),
+    }
 }
 
 /// Refuses to replace the report at a default `path` that another input made: the names are
