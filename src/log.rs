@@ -204,16 +204,6 @@ pub enum LogError {
     },
 }
 
-fn closest<'a>(bad: &str, candidates: &[&'a str]) -> Option<&'a str> {
-    // edit distance ≤ 3: a typo, not another column
-    candidates
-        .iter()
-        .map(|c| (crate::scenario::error::edit_distance(bad, c), *c))
-        .filter(|(d, _)| *d <= 3)
-        .min()
-        .map(|x| x.1)
-}
-
 /// Reads a log written by [`write_csv`] (columns may come in any order; extra columns are
 /// ignored, a row with more non-empty cells than the header has columns is an error, a UTF-8
 /// byte-order mark before the header is skipped). `file` is used in messages.
@@ -285,8 +275,8 @@ fn column_index(names: &[&str], file: &str) -> Result<[usize; COLUMNS.len()], Lo
             None if OPTIONAL.contains(col) => index[k] = usize::MAX,
             None => {
                 let unknown: Vec<&str> = names.iter().copied().filter(|n| !COLUMNS.contains(n)).collect();
-                let hint =
-                    closest(col, &unknown).map_or(String::new(), |u| format!(" (is `{u}` meant to be `{col}`?)"));
+                let hint = crate::scenario::error::closest(col, unknown.iter().copied(), 3)
+                    .map_or(String::new(), |u| format!(" (is `{u}` meant to be `{col}`?)"));
                 return Err(LogError::Header {
                     file: file.to_string(),
                     message: format!("column `{col}` is missing{hint}; the log needs {}", required.join(",")),

@@ -214,6 +214,12 @@ pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
     prev[b.len()]
 }
 
+/// The candidate closest to `bad` by [`edit_distance`] within `max` edits (a typo, not another
+/// name); of equals, the first in sorted order.
+pub(crate) fn closest<'a>(bad: &str, candidates: impl IntoIterator<Item = &'a str>, max: usize) -> Option<&'a str> {
+    candidates.into_iter().map(|c| (edit_distance(bad, c), c)).filter(|(d, _)| *d <= max).min().map(|x| x.1)
+}
+
 /// A YAML parser's message with the advice meant for programmers (serde-saphyr's API options:
 /// `DuplicateKeyPolicy`, `from_str_multiple`, `ignore_binary_tag_for_string`) replaced by what
 /// the file's author can do.
@@ -238,14 +244,11 @@ pub(crate) fn with_suggestion(message: &str) -> String {
     };
     let Some((bad, tail)) = rest.split_once('`') else { return message.to_string() };
     let candidates = tail.split("expected one of").nth(1).or_else(|| tail.split("expected").nth(1)).unwrap_or("");
-    let best = candidates
-        .split(|c: char| c == ',' || c.is_whitespace() || c == '`')
-        .filter(|c| !c.is_empty() && *c != "or")
-        .map(|c| (edit_distance(bad, c), c))
-        .min();
-    match best {
-        Some((d, c)) if d <= 2.max(bad.len() / 3) => format!("{message}; did you mean `{c}`?"),
-        _ => message.to_string(),
+    let names =
+        candidates.split(|c: char| c == ',' || c.is_whitespace() || c == '`').filter(|c| !c.is_empty() && *c != "or");
+    match closest(bad, names, 2.max(bad.len() / 3)) {
+        Some(c) => format!("{message}; did you mean `{c}`?"),
+        None => message.to_string(),
     }
 }
 

@@ -554,13 +554,7 @@ fn too_few_rows(file: &str, repairs: &[ReadNote]) -> InputError {
 fn find_column(header: &[&str], name: &str, file: &str, at: (&str, &str), taken: &[&str]) -> Result<usize, InputError> {
     let (mapping, field) = at;
     header.iter().position(|h| *h == name).ok_or_else(|| {
-        let close = header
-            .iter()
-            .filter(|h| !taken.contains(h))
-            .map(|h| (crate::scenario::error::edit_distance(name, h), *h))
-            .filter(|(d, _)| *d <= 3)
-            .min()
-            .map(|x| x.1);
+        let close = crate::scenario::error::closest(name, header.iter().copied().filter(|h| !taken.contains(h)), 3);
         InputError::row(
             file,
             1,

@@ -162,12 +162,8 @@ impl Log {
             None if all.is_empty() => {
                 let mut names: Vec<&str> = self.topics.iter().map(|t| t.name.as_str()).collect();
                 names.dedup();
-                let close = names
-                    .iter()
-                    .map(|n| (crate::scenario::error::edit_distance(topic, n), *n))
-                    .filter(|(d, _)| *d <= 3.max(topic.len() / 4))
-                    .min()
-                    .map_or(String::new(), |(_, n)| format!(" (is it `{n}`?)"));
+                let close = crate::scenario::error::closest(topic, names.iter().copied(), 3.max(topic.len() / 4))
+                    .map_or(String::new(), |n| format!(" (is it `{n}`?)"));
                 Err(InputError::log(
                     file,
                     format!(
