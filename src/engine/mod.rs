@@ -168,6 +168,9 @@ struct VehicleLoop {
     attitude_loop: AttitudeLoop,
     imu: Imu,
     mocap: Mocap,
+    /// With `mocap.noise_in_loop: false`, the same cameras without the marker noise: their
+    /// frames go to the station while `mocap`'s noisy ones are only recorded.
+    loop_mocap: Option<Mocap>,
     mocap_latency: Nanos,
     /// The scenario's `mocap.latency_ms`: what the mocap system itself knows of its latency.
     declared_mocap_latency: Nanos,
@@ -416,6 +419,15 @@ impl VehicleLoop {
             spec.mocap.noise_m,
             Stream::new(seed, Component::MocapNoise, i),
         );
+        let loop_mocap = (!spec.mocap.noise_in_loop).then(|| {
+            Mocap::new(
+                v.markers.clone(),
+                v.occlusions.clone(),
+                spec.mocap.camera,
+                0.0,
+                Stream::new(seed, Component::MocapNoise, i),
+            )
+        });
         let radio = Radio::new(v.radio);
         let plan = Plan::schedule(&spec.phases, v.home, v.yaw0_rad);
         let settings = CalibrationSettings {
@@ -438,6 +450,7 @@ impl VehicleLoop {
             ),
             imu: Imu::new(v.imu.clone(), Stream::new(seed, Component::ImuNoise, i)),
             mocap,
+            loop_mocap,
             mocap_latency: v.mocap_latency,
             declared_mocap_latency: spec.mocap.latency,
             log_delay_frames: v.log_delay_frames,
@@ -479,9 +492,11 @@ impl VehicleLoop {
         self.captured = None;
         if mocap_tick {
             let seq = self.mocap.next_seq();
-            match self.mocap.capture(t, self.x3d.state()) {
+            let state = *self.x3d.state();
+            match self.mocap.capture(t, &state) {
                 Some(f) => {
-                    self.link.send(t + self.mocap_latency, f.seq, f);
+                    let sent = self.loop_mocap.as_mut().and_then(|m| m.capture(t, &state)).unwrap_or(f);
+                    self.link.send(t + self.mocap_latency, sent.seq, sent);
                     self.captured = Some(f);
                 }
                 None => {

@@ -44,6 +44,7 @@ pub(super) fn arena(s: &Scenario, rates: Rates, vehicles: Vec<Checked>) -> Arena
         every: rates.mocap.1,
         latency: ms(s.mocap.latency_ms),
         noise_m: s.mocap.noise_mm * 1e-3,
+        noise_in_loop: s.mocap.noise_in_loop,
         camera,
     };
     let telemetry = TelemetrySpec {

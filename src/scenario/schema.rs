@@ -161,6 +161,10 @@ pub struct MocapCfg {
     /// Standard deviation of each marker's position, per axis (mm).
     #[serde(with = "ranges::noise_mm")]
     pub noise_mm: f64,
+    /// Whether the station flies on the noisy poses (true, as on every rig) or on noise-free
+    /// ones while only the recorded poses carry the noise (false: an experiment that separates
+    /// the noise's path through the controller from the noise in the measurement).
+    pub noise_in_loop: bool,
     /// The mocap world against true NED.
     pub camera_error: CameraErrorCfg,
 }
@@ -172,7 +176,13 @@ impl MocapCfg {
 }
 impl Default for MocapCfg {
     fn default() -> Self {
-        MocapCfg { rate_hz: spanned(200), latency_ms: 10.0, noise_mm: 0.1, camera_error: CameraErrorCfg::default() }
+        MocapCfg {
+            rate_hz: spanned(200),
+            latency_ms: 10.0,
+            noise_mm: 0.1,
+            noise_in_loop: true,
+            camera_error: CameraErrorCfg::default(),
+        }
     }
 }
 

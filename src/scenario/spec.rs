@@ -66,6 +66,9 @@ pub struct MocapSpec {
     pub latency: Nanos,
     /// White noise on each marker coordinate (m, 1σ).
     pub noise_m: f64,
+    /// Whether the station receives the noisy poses (true) or noise-free ones, the noise then
+    /// reaching only the recorded poses.
+    pub noise_in_loop: bool,
     /// The camera system's error: the mocap's world frame against the true one.
     pub camera: CameraError,
 }
@@ -197,6 +200,7 @@ impl ArenaSpec {
                 every: 1,
                 latency: Nanos::ZERO,
                 noise_m: 0.0,
+                noise_in_loop: true,
                 camera: CameraError { rotation: Rot::identity(), translation: Vec3::zeros() },
             },
             radio_rate: PHYSICS,
