@@ -433,8 +433,8 @@ fn a_half_supported_delay_widens_the_body_offset_yaw() {
 /// The same flight's rest, against the fit: the half-supported delay widens the ground
 /// agreement's interval by what the alternative moves the tilt at rest, |Δ(frame roll + b_y/g)|
 /// (`widen::half_supported`), and without the delay among the candidates nothing is widened.
-/// The note gives the alternative's body-offset roll as +0.021°; the bias moves too little to
-/// be listed (asserted), so the roll interval grows by 0.021° (0.0208° measured: 0.0708° against 0.0500°).
+/// The note gives the alternative's body-offset roll as +0.019°; the bias moves too little to
+/// be listed (asserted), so the roll interval grows by about that.
 /// The flight's mocap starts a frame after its IMU (the undeclared 5 ms delay): its rest must
 /// begin at the first pose, or it has no rest and no ground agreement at all.
 #[test]
@@ -454,9 +454,9 @@ fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
         .find(|n| matches!(n, flyarena::identify::Note::HalfSupported { effect: MocapDelay, very_strong: true, .. }))
         .unwrap_or_else(|| panic!("{notes:?}"))
         .to_string();
-    // it lists what moves beyond its own interval (the roll, by 0.021°), not what stays inside
+    // it lists what moves beyond its own interval (the roll, by 0.019°), not what stays inside
     // it (the bias)
-    assert!(note.contains("body_offset roll +0.021 deg") && !note.contains("accel_bias"), "{note}");
+    assert!(note.contains("body_offset roll +0.019 deg") && !note.contains("accel_bias"), "{note}");
     let mut without_delay = Options::default();
     without_delay.candidates.retain(|e| *e != MocapDelay);
     let (own, notes) = agreement(&without_delay);
@@ -465,7 +465,7 @@ fn a_half_supported_delay_widens_the_ground_agreement_by_the_tilt_it_moves() {
         "{notes:?}"
     );
     let widen = [with[0] - own[0], with[1] - own[1]];
-    assert!((widen[0] - 0.021).abs() < 0.002, "roll widened by {widen:?} for the alternative's 0.021°");
+    assert!((widen[0] - 0.019).abs() < 0.002, "roll widened by {widen:?} for the alternative's 0.019°");
     assert!((0.0..widen[0]).contains(&widen[1]), "pitch widened by {widen:?}: the delay moves the roll");
 }
 

@@ -240,13 +240,46 @@ pub(super) fn system(gs: &[Gram], set: &[usize]) -> (DMatrix<f64>, DVector<f64>,
     (g, b, gs.iter().fold(0.0, |yy, gr| yy + gr.yy_w), gs.iter().map(|gr| gr.n_w).sum())
 }
 
-/// A fit of a set of columns: the parameters by ordinary least squares (they minimise the
-/// error the report measures) and the tests on the prewhitened problem (GLS). The covariance
-/// of the parameters is not here: [`super::refine`] computes the Newey–West one for the final
-/// fit of each model, the only one an interval is read from.
+/// Whether effect `e` is estimated on the prewhitened problem (GLS) instead of the raw one:
+/// the delays. Their regressors, the IMU's ḟ and ω̇, carry the vehicle's response to the mocap
+/// noise when a controller flies on the poses, and the raw residual holds that same noise
+/// smoothed over ±3σ on both sides of its sample, so least squares correlates the two (−1.1 ms
+/// at 0.5 mm on a gentle Crazyflie flight, none with the noise kept out of the loop). The
+/// prewhitened residual is the part of the residual its past does not predict, which the
+/// vehicle has not yet had the time to answer: the estimate no longer sees the feedback. The
+/// mocap delay and its drift only: the gyro's delay against the accelerometer stays least
+/// squares, as the gyro's own noise reaches the motion through the rate loop within a
+/// millisecond, faster than any prewhitening of 20 ms rows separates (by GLS it moved NanoBench's
+/// B2 circle fast from −3.5 to −7.1 ms and left half its gyro motion unexplained).
+pub(crate) fn prewhitened(e: Effect) -> bool {
+    matches!(e, Effect::MocapDelay | Effect::ClockDrift)
+}
+
+/// Whether column `j` of the full design belongs to a [`prewhitened`] effect.
+pub(super) fn is_prewhitened(j: usize) -> bool {
+    let o = column_offsets();
+    Effect::ALL.iter().enumerate().any(|(k, e)| prewhitened(*e) && (o[k]..o[k + 1]).contains(&j))
+}
+
+/// The positions in `set` of the [`prewhitened`] columns and of the others.
+pub(super) fn split(set: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    (0..set.len()).partition(|&p| is_prewhitened(set[p]))
+}
+
+/// Rows `r` and columns `c` of `m`.
+pub(super) fn sub(m: &DMatrix<f64>, r: &[usize], c: &[usize]) -> DMatrix<f64> {
+    DMatrix::from_fn(r.len(), c.len(), |i, j| m[(r[i], c[j])])
+}
+
+/// A fit of a set of columns: the parameters (they minimise the error the report measures,
+/// but for the delays: see [`prewhitened`]) and the tests on the prewhitened problem (GLS).
+/// The covariance of the parameters is not here: [`super::refine`] computes the Newey–West
+/// one for the final fit of each model, the only one an interval is read from.
 pub(super) struct Fit {
     pub(super) set: Vec<usize>,
-    /// OLS parameters, full length N_COLUMNS.
+    /// The parameters, full length N_COLUMNS: the [`prewhitened`] ones from GLS, the others by
+    /// weighted least squares on the raw training part with those held at their GLS values
+    /// (plain weighted least squares when the set has no prewhitened column).
     pub(super) theta: Vec<f64>,
     /// GLS (prewhitened) parameters, full length.
     pub(super) theta_w: Vec<f64>,
@@ -268,7 +301,23 @@ pub(super) fn fit(gs: &[Gram], set: &[usize]) -> Fit {
     let x = solve_spd(&g, &b).unwrap_or_else(|| DVector::zeros(set.len()));
     let rss = (yy - x.dot(&b)).max(1e-300);
     let (gr, br) = system_raw(gs, set);
-    let xo = solve_spd(&gr, &br).unwrap_or_else(|| DVector::zeros(set.len()));
+    let (d, o) = split(set);
+    let xo = if d.is_empty() {
+        solve_spd(&gr, &br).unwrap_or_else(|| DVector::zeros(set.len()))
+    } else {
+        // the others by least squares on what the GLS delays leave: G_oo·θ_o = b_o − G_od·θ_d
+        let theta_d = DVector::from_iterator(d.len(), d.iter().map(|&p| x[p]));
+        let rhs = DVector::from_iterator(o.len(), o.iter().map(|&p| br[p])) - sub(&gr, &o, &d) * &theta_d;
+        let theta_o = solve_spd(&sub(&gr, &o, &o), &rhs).unwrap_or_else(|| DVector::zeros(o.len()));
+        let mut all = DVector::zeros(set.len());
+        for (i, &p) in d.iter().enumerate() {
+            all[p] = theta_d[i];
+        }
+        for (i, &p) in o.iter().enumerate() {
+            all[p] = theta_o[i];
+        }
+        all
+    };
     Fit { set: set.to_vec(), theta: full(set, &xo), theta_w: full(set, &x), rss, n }
 }
 
@@ -379,6 +428,34 @@ mod tests {
         let (g, b, yy, n) = system(&gs, &[0]);
         assert!((b[0] / g[(0, 0)] - 1.4).abs() < 1e-15 && n == 8, "whitened: {} from {n}", b[0] / g[(0, 0)]);
         assert!((yy - 13.0).abs() < 1e-12, "whitened y·y {yy}, not 13");
+    }
+
+    /// The delay by GLS and the rest by least squares given it, by hand. One channel axis of five
+    /// training samples, AR(1) noise model φ = ½, σ = 1; the delay column x_D = (0, 2, 0, 2, 0),
+    /// an accelerometer bias column of ones, residual y = (1, 3, 2, 5, 3). Prewhitened (rows 1–4,
+    /// x − ½·x₋₁): x̃_D = (2, −1, 2, −1), x̃_B = ½ each, ỹ = (2.5, 0.5, 4, 0.5), so
+    /// G̃ = [[10, 1], [1, 1]], b̃ = (12, 3.75) and θ_D = (12 − 3.75)/9 = 11/12. The bias is then the
+    /// mean of y − θ_D·x_D, (14 − 2·2·11/12)/5 = 31/15 (GLS alone would give 17/6, least squares
+    /// alone θ_D = 1 and a bias of 2). A bug it catches: the positions of the split swapped, the
+    /// delay's least-squares value kept, and the bias's right-hand side without the delay's share.
+    #[test]
+    fn the_delay_is_gls_and_the_rest_least_squares_given_it() {
+        let c = Channel::AccelKin.index();
+        let (delay, bias) = (cols_of(Effect::MocapDelay).start, cols_of(Effect::AccelBias).start);
+        let mut d = Design { n: 5, ..Design::default() };
+        d.measured[c][0] = vec![1.0, 3.0, 2.0, 5.0, 3.0];
+        d.predicted[c][0] = vec![0.0; 5];
+        d.columns[c][0] = vec![(delay, vec![0.0, 2.0, 0.0, 2.0, 0.0]), (bias, vec![1.0; 5])];
+        let ar = Ar { a: vec![0.5], sigma: 1.0, marginal_var: 1.0 };
+        let gs = grams(&d, &[true; 5], &[false; 5], &[ar]);
+        let f = fit(&gs, &[bias, delay]);
+        let close = |got: f64, want: f64, what: &str| assert!((got - want).abs() < 1e-12, "{what}: {got}, not {want}");
+        close(f.theta[delay], 11.0 / 12.0, "delay");
+        close(f.theta[bias], 31.0 / 15.0, "bias given the delay");
+        close(f.theta_w[bias], 17.0 / 6.0, "bias by GLS");
+        // without a delay in the set, plain weighted least squares: the mean of y
+        close(fit(&gs, &[bias]).theta[bias], 14.0 / 5.0, "bias alone");
+        assert!(prewhitened(Effect::MocapDelay) && prewhitened(Effect::ClockDrift) && !prewhitened(Effect::GyroDelay));
     }
 
     /// The three sums by hand on one channel axis of five samples: residual y = 1, 2, 3, 4, 100 and

@@ -33,6 +33,10 @@
 //! in simulation, outweighed the gyro's clean ω̇ one, and errors in that variable shrank the
 //! mocap delay by 2 %; GLS on the prewhitened problem was tried first: with a near-unit-root
 //! AR it fits the dynamics and misses the level, and on real flights the held-out errors rose.)
+//! The mocap delay and its drift are the exception: they are read off the prewhitened (GLS)
+//! fit, and the others fitted by weighted least squares given them (`gram::prewhitened`): in
+//! closed loop the vehicle answers the mocap noise, and only the prewhitened residual is free
+//! of what it has answered (docs/px4.md, "How far to trust EKF2_EV_DELAY").
 //! Their 95 % intervals are ±1.96·σ from the Newey–West covariance (Bartlett, `hac_lags`) of
 //! the weighted scores summed over channel axes per time sample, which allows for the
 //! residual's colour and for channels that share a sensor's noise, plus the systematic of the
@@ -210,8 +214,8 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         let mut f = fit(&grams, &set);
         let has_corrections = selected.iter().any(|e| e.is_correction());
         if it == iterations || !has_corrections {
-            let cov = hac(&design, &train, &grams, &set, &f.theta, o.hac_lags)
-                + thrust_systematic(&design, &train, &grams, &set, s.model.thrust_rel_sd);
+            let cov = hac(&design, &train, &grams, &ars, &set, &f.theta, o.hac_lags)
+                + thrust_systematic(&design, &train, &grams, &ars, &set, s.model.thrust_rel_sd);
             last = Some(Problem { design, train, test, grams, fit: f, cov });
             break;
         }
