@@ -277,6 +277,37 @@ mod tests {
         }
     }
 
+    /// The thrust error with a delay in the model (given a column on force z too, so that the
+    /// prewhitened half of the map sees it): the error is the thrust scale's own column (force z,
+    /// prewhitened there by an AR(1) of φ = ½ as the delay's GLS fit sees it), so the thrust
+    /// scale moves by ε and the delay not at all: σ_T² and zeros, as
+    /// without the delay. A bug it catches: the prewhitened sums taken unwhitened (the delay
+    /// then moves) and the raw half of the map left out (the thrust scale does not move).
+    #[test]
+    fn a_thrust_error_moves_the_thrust_scale_and_not_a_gls_delay() {
+        let n = 6;
+        let (k, f, z) = (Channel::AccelKin.index(), Channel::Force.index(), 2);
+        let (ts, delay) = (cols_of(Effect::ThrustScale).start, cols_of(Effect::MocapDelay).start);
+        let mut d = Design { n, ..Design::default() };
+        d.measured[k][0] = vec![0.3, -0.1, 0.2, 0.0, 0.1, -0.2];
+        d.predicted[k][0] = vec![0.0; n];
+        d.columns[k][0] = vec![(delay, vec![1.0, -2.0, 0.5, 3.0, -1.0, 2.0])];
+        d.measured[f][z] = vec![0.1, -0.2, 0.05, 0.0, 0.3, -0.1];
+        d.predicted[f][z] = vec![0.0; n];
+        d.columns[f][z] =
+            vec![(ts, vec![-9.0, -10.0, -11.0, -9.5, -10.5, -12.0]), (delay, vec![0.2, 0.1, -0.3, 0.4, 0.0, 0.1])];
+        let train = [true; 6];
+        let ars = [Ar::white(0.5), Ar { a: vec![0.5], sigma: 0.5, marginal_var: 0.25 }];
+        let gs = grams(&d, &train, &[false; 6], &ars);
+        let sd = 0.05;
+        let m = thrust_systematic(&d, &train, &gs, &ars, &[ts, delay], sd);
+        let close = |got: f64, want: f64| assert!((got - want).abs() < 1e-12, "{got} for {want}: {m}");
+        close(m[(0, 0)], sd * sd);
+        for (p, q) in [(0, 1), (1, 0), (1, 1)] {
+            close(m[(p, q)], 0.0);
+        }
+    }
+
     /// The Bartlett weights by hand for 3 lags: 1, 3/4, 1/2, 1/4. A bug it catches: `lags + 1` as
     /// `lags − 1` (1, 1/2, 0, −1/2: S no longer positive semidefinite) and as `lags · 1` (1, 2/3,
     /// 1/3, 0).
