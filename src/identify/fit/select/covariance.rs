@@ -6,6 +6,7 @@ use crate::effects::{Channel, Effect};
 use crate::identify::fit::design::Design;
 use crate::identify::fit::stats::{Ar, inverse_spd};
 use nalgebra::{DMatrix, DVector};
+use std::borrow::Cow;
 
 /// Newey–West (Bartlett, `lags`) covariance of the parameters of [`fit`](super::gram::fit).
 ///
@@ -106,8 +107,9 @@ fn scores(
         if cols.iter().all(Option::is_none) {
             continue;
         }
-        let (e, cols, w): (Vec<f64>, Vec<Option<Vec<f64>>>, f64) = match ars {
-            None => (e, cols.iter().map(|c| c.cloned()).collect(), gr.w_r),
+        // the raw columns are read in place; only the prewhitened ones are new series
+        let (e, cols, w): (Vec<f64>, Columns, f64) = match ars {
+            None => (e, cols.iter().map(|c| c.map(|c| Cow::Borrowed(c.as_slice()))).collect(), gr.w_r),
             Some(ars) => {
                 ars[q].whiten(&e, train, &mut white);
                 let e = std::mem::take(&mut white);
@@ -117,7 +119,7 @@ fn scores(
                         c.map(|c| {
                             let mut v = Vec::new();
                             ars[q].whiten(c, train, &mut v);
-                            v
+                            Cow::Owned(v)
                         })
                     })
                     .collect();
@@ -147,6 +149,9 @@ fn scores(
     }
     u
 }
+
+/// A channel axis's columns of a set (`None` where the axis has none), raw or prewhitened.
+type Columns<'a> = Vec<Option<Cow<'a, [f64]>>>;
 
 /// The Newey–West sum S = Σ_l w_l Σ_t (u_t u_{t−l}ᵀ + u_{t−l} u_tᵀ) (l = 0 once), Bartlett
 /// weights, over the samples that have a score.

@@ -257,8 +257,7 @@ pub(crate) fn prewhitened(e: Effect) -> bool {
 
 /// Whether column `j` of the full design belongs to a [`prewhitened`] effect.
 pub(super) fn is_prewhitened(j: usize) -> bool {
-    let o = column_offsets();
-    Effect::ALL.iter().enumerate().any(|(k, e)| prewhitened(*e) && (o[k]..o[k + 1]).contains(&j))
+    Effect::ALL.iter().any(|e| prewhitened(*e) && cols_of(*e).contains(&j))
 }
 
 /// The positions in `set` of the [`prewhitened`] columns and of the others.
