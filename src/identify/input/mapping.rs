@@ -862,28 +862,34 @@ impl Mapping {
                 "this mapping reads two streams on clocks of their own; `flyarena::identify::run` joins them",
             ));
         }
-        if let Some(topics) = &self.px4 {
-            let (text, repairs) = super::ulog::to_csv(path, topics, self.mapping_name())?;
-            return self.read_joined(&text, repairs, &file);
-        }
         let bytes = std::fs::read(path).map_err(|e| InputError::io(&file, e))?;
+        self.read_bytes(&bytes, &file)
+    }
+
+    /// Reads the bytes of a log named `file` (see [`Mapping::read`]): a CSV, or a bag or a PX4
+    /// log as the mapping's `ros2:` or `px4:` block says.
+    pub fn read_bytes(&self, bytes: &[u8], file: &str) -> Result<Series, InputError> {
+        if let Some(topics) = &self.px4 {
+            let (text, repairs) = super::ulog::to_csv(bytes, topics, file, self.mapping_name())?;
+            return self.read_joined(&text, repairs, file);
+        }
         match &self.ros2 {
             Some(topics) => {
-                let (text, repairs) = super::ros2::to_csv(&bytes, topics, &file)?;
-                self.read_joined(&text, repairs, &file)
+                let (text, repairs) = super::ros2::to_csv(bytes, topics, file)?;
+                self.read_joined(&text, repairs, file)
             }
             None if bytes.starts_with(super::ros2::MAGIC) => Err(InputError::log(
-                &file,
+                file,
                 "an MCAP file needs a mapping with a `ros2:` block of topics (see mappings/ros2-crazyflie.yaml)",
             )),
             None if bytes.starts_with(super::ulog::MAGIC) => Err(InputError::log(
-                &file,
+                file,
                 "a PX4 log (ULog) needs a mapping with a `px4:` block of topics (see mappings/px4.yaml)",
             )),
             None => {
                 let text =
-                    String::from_utf8(bytes).map_err(|e| InputError::log(&file, format!("not UTF-8 text ({e})")))?;
-                self.read_str(&text, &file)
+                    std::str::from_utf8(bytes).map_err(|e| InputError::log(file, format!("not UTF-8 text ({e})")))?;
+                self.read_str(text, file)
             }
         }
     }

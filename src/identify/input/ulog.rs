@@ -45,7 +45,8 @@
 use super::error::InputError;
 use super::joined::{Stream, Streams};
 use super::read_note::{ReadNote, StampField};
-use px4_ulog::full_parser::{Completeness, SomeVec};
+use px4_ulog::full_parser::{Completeness, FlattenedFieldType};
+use px4_ulog::stream_parser::{DataMessage, LogParser};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -118,34 +119,51 @@ pub struct Log {
 }
 
 impl Log {
-    /// Reads a `.ulg` file with `px4-ulog`; a file the parser cannot read is an error naming it.
+    /// Reads a `.ulg` file; see [`Log::parse`].
     pub fn read(path: &Path) -> Result<Log, InputError> {
         let file = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|e| InputError::io(&file, e))?;
+        Log::parse(&bytes, &file)
+    }
+
+    /// Parses the bytes of a `.ulg` file (named `file` in errors) with `px4-ulog`'s stream
+    /// parser, appended data sections included. A file the parser rejects before its data, or
+    /// that makes it panic, is an error naming the file and the byte at which the parser
+    /// failed (the last byte of the record it was reading), never a panic of ours.
+    pub fn parse(bytes: &[u8], file: &str) -> Result<Log, InputError> {
         if !bytes.starts_with(MAGIC) {
-            return Err(InputError::log(&file, "not a ULog file (no ULog magic bytes)"));
+            return Err(InputError::log(file, "not a ULog file (no ULog magic bytes)"));
         }
-        let name = path
-            .to_str()
-            .ok_or_else(|| InputError::log(&file, "the path is not UTF-8, which the ULog parser needs"))?
-            .to_string();
-        // the parser indexes its buffers by offsets the file gives; a corrupt file must be an
-        // error, never a panic of ours
-        let parsed = std::panic::catch_unwind(|| px4_ulog::full_parser::read_file(&name))
-            .map_err(|_| InputError::log(&file, "the ULog parser failed on this file (corrupt or not a PX4 log)"))?
-            .map_err(|e| InputError::log(&file, format!("not a readable ULog file ({e})")))?;
-        let incomplete = match parsed.completeness {
+        // the parser indexes its buffers by offsets the file gives: a corrupt file can make it
+        // panic. The first pass feeds large chunks; after a fault, a second feeds the faulty
+        // chunk byte by byte, so the error can name the byte.
+        let parsed = match drive(bytes, bytes.len()) {
+            Err(Fault { chunk_start, .. }) => match drive(bytes, chunk_start) {
+                Err(f) => Err(f),
+                Ok(_) => Err(Fault { chunk_start, at: None, why: "the parser failed on a chunk of the file".into() }),
+            },
+            ok => ok,
+        };
+        let (collected, completeness) = parsed.map_err(|f| {
+            let at = f.at.map_or_else(
+                || format!("between byte {} and byte {}", f.chunk_start, f.chunk_start + CHUNK),
+                |b| format!("at byte {b}"),
+            );
+            InputError::log(file, format!("not a readable ULog file: {} {at}", f.why))
+        })?;
+        let incomplete = match completeness {
             Completeness::Complete => None,
             Completeness::Truncated => Some(ReadNote::Truncated),
-            Completeness::MalformedRecord(why) => Some(ReadNote::MalformedRecord { why: why.to_string() }),
+            Completeness::MalformedRecord(why) => Some(ReadNote::MalformedRecord { why }),
         };
-        let mut topics = Vec::new();
-        for (topic, instances) in parsed.messages {
-            for (id, fields) in instances {
-                let fields = fields.into_iter().filter_map(|(k, v)| numbers(v).map(|v| (k, v))).collect();
-                topics.push(TopicData { name: topic.clone(), instance: id.value(), fields });
-            }
-        }
+        let mut topics: Vec<TopicData> = collected
+            .into_iter()
+            .map(|((name, instance), c)| TopicData {
+                name,
+                instance,
+                fields: c.names.into_iter().zip(c.values).filter_map(|(k, v)| v.map(|v| (k, v))).collect(),
+            })
+            .collect();
         topics.sort_by(|a, b| (&a.name, a.instance).cmp(&(&b.name, b.instance)));
         Ok(Log { topics, incomplete })
     }
@@ -188,23 +206,148 @@ impl Log {
     }
 }
 
-/// Every number of a field, as `f64`; a `char` field gives `None`.
-fn numbers(v: SomeVec) -> Option<Vec<f64>> {
-    Some(match v {
-        SomeVec::Int8(v) => v.into_iter().map(f64::from).collect(),
-        SomeVec::UInt8(v) => v.into_iter().map(f64::from).collect(),
-        SomeVec::Int16(v) => v.into_iter().map(f64::from).collect(),
-        SomeVec::UInt16(v) => v.into_iter().map(f64::from).collect(),
-        SomeVec::Int32(v) => v.into_iter().map(f64::from).collect(),
-        SomeVec::UInt32(v) => v.into_iter().map(f64::from).collect(),
-        // µs since boot stay below 2⁵³ (285 years), so they are exact
-        SomeVec::Int64(v) => v.into_iter().map(|x| x as f64).collect(),
-        SomeVec::UInt64(v) => v.into_iter().map(|x| x as f64).collect(),
-        SomeVec::Float(v) => v.into_iter().map(f64::from).collect(),
-        SomeVec::Double(v) => v,
-        SomeVec::Bool(v) => v.into_iter().map(|b| if b { 1.0 } else { 0.0 }).collect(),
-        SomeVec::Char(_) => return None,
-    })
+/// The size of a field in bytes, and whether it is a number (a `char` is not).
+fn field_size(t: &FlattenedFieldType) -> (usize, bool) {
+    use FlattenedFieldType as T;
+    match t {
+        T::Int8 | T::UInt8 | T::Bool => (1, true),
+        T::Char => (1, false),
+        T::Int16 | T::UInt16 => (2, true),
+        T::Int32 | T::UInt32 | T::Float => (4, true),
+        T::Int64 | T::UInt64 | T::Double => (8, true),
+    }
+}
+
+/// A field's value as `f64` (little-endian, as ULog stores it): integers and booleans exactly
+/// (µs since boot stay below 2⁵³, 285 years), `f32` widened.
+fn decode(t: &FlattenedFieldType, b: &[u8]) -> f64 {
+    use FlattenedFieldType as T;
+    let a = |n: usize| -> [u8; 8] {
+        let mut x = [0u8; 8];
+        x[..n].copy_from_slice(&b[..n]);
+        x
+    };
+    match t {
+        T::Int8 => f64::from(b[0] as i8),
+        T::UInt8 | T::Char => f64::from(b[0]),
+        T::Bool => f64::from(u8::from(b[0] != 0)),
+        T::Int16 => f64::from(i16::from_le_bytes([b[0], b[1]])),
+        T::UInt16 => f64::from(u16::from_le_bytes([b[0], b[1]])),
+        T::Int32 => f64::from(i32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+        T::UInt32 => f64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+        T::Float => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+        T::Int64 => i64::from_le_bytes(a(8)) as f64,
+        T::UInt64 => u64::from_le_bytes(a(8)) as f64,
+        T::Double => f64::from_le_bytes(a(8)),
+    }
+}
+
+/// The fields of one topic instance as collected: names in the format's order, each column
+/// `None` for a `char` field.
+#[derive(Default)]
+struct Collected {
+    names: Vec<String>,
+    values: Vec<Option<Vec<f64>>>,
+}
+
+/// How the parser failed: in the chunk fed from `chunk_start`, at byte `at` when it was fed
+/// byte by byte.
+struct Fault {
+    chunk_start: usize,
+    at: Option<usize>,
+    why: String,
+}
+
+/// Bytes fed to the parser at once, before the chunk that holds a fault.
+const CHUNK: usize = 1 << 16;
+
+/// Feeds `bytes` to `px4-ulog`'s stream parser as its own file driver does (the header byte
+/// by byte until the flag bits give the appended sections, the primary section up to the first
+/// of them, then each section from its offset), in chunks of [`CHUNK`] bytes before `fine_from`
+/// and of one byte from there on. Collects every data message by topic and instance.
+#[allow(clippy::type_complexity)]
+fn drive(bytes: &[u8], fine_from: usize) -> Result<(BTreeMap<(String, u8), Collected>, Completeness), Fault> {
+    let fed = std::cell::Cell::new(0usize);
+    let short = std::cell::RefCell::new(None::<String>);
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let mut collected: BTreeMap<(String, u8), Collected> = BTreeMap::new();
+        let mut callback = |m: &DataMessage| {
+            let f = m.flattened_format;
+            let c = collected.entry((f.message_name.clone(), m.multi_id.value())).or_default();
+            if c.names.is_empty() {
+                c.names = f.fields.iter().map(|x| x.flattened_field_name.clone()).collect();
+                c.values = f.fields.iter().map(|x| field_size(&x.field_type).1.then(Vec::new)).collect();
+            }
+            if c.names.len() != f.fields.len() {
+                short.borrow_mut().get_or_insert_with(|| format!("topic `{}` changed its format", f.message_name));
+                return;
+            }
+            for (x, col) in f.fields.iter().zip(&mut c.values) {
+                let Some(col) = col else { continue };
+                let (n, _) = field_size(&x.field_type);
+                match m.data.get(x.offset as usize..x.offset as usize + n) {
+                    Some(b) => col.push(decode(&x.field_type, b)),
+                    None => {
+                        short.borrow_mut().get_or_insert_with(|| {
+                            format!("a record of `{}` is shorter than its format", f.message_name)
+                        });
+                    }
+                }
+            }
+        };
+        let mut parser = LogParser::default();
+        parser.set_data_message_callback(&mut callback);
+        let feed = |parser: &mut LogParser, from: usize, to: usize| -> Result<(), String> {
+            let mut at = from;
+            while at < to && short.borrow().is_none() {
+                let n = if at >= fine_from { 1 } else { CHUNK.min(fine_from - at) };
+                let end = (at + n).min(to);
+                fed.set(at);
+                parser.consume_bytes(&bytes[at..end]).map_err(|e| format!("{e:?}"))?;
+                at = end;
+            }
+            Ok(())
+        };
+        let mut at = 0;
+        // the header and flag bits, byte by byte
+        while at < bytes.len() && !parser.header_complete() {
+            fed.set(at);
+            if let Err(e) = parser.consume_bytes(&bytes[at..at + 1]) {
+                return Err(format!("{e:?}"));
+            }
+            at += 1;
+        }
+        let sections: Vec<usize> =
+            parser.appended_offsets().iter().filter(|&&o| o != 0).map(|&o| (o as usize).min(bytes.len())).collect();
+        let mut outcome = feed(&mut parser, at, sections.first().copied().unwrap_or(bytes.len()).max(at));
+        for (i, &start) in sections.iter().enumerate() {
+            if outcome.is_err() {
+                break;
+            }
+            parser.clear_leftover();
+            let end = sections.get(i + 1).copied().unwrap_or(bytes.len()).max(start);
+            outcome = feed(&mut parser, start, end);
+        }
+        let completeness = match outcome {
+            Ok(()) if parser.has_leftover() => Completeness::Truncated,
+            Ok(()) => Completeness::Complete,
+            Err(why) if parser.in_data() => Completeness::MalformedRecord(why),
+            Err(why) => return Err(why),
+        };
+        drop(parser);
+        Ok((collected, completeness))
+    }));
+    let fault = |why: String| {
+        let chunk_start = fed.get();
+        let at = (chunk_start >= fine_from).then_some(chunk_start);
+        Fault { chunk_start, at, why }
+    };
+    match result {
+        Err(_) => Err(fault("the parser panicked".into())),
+        Ok(_) if short.borrow().is_some() => Err(fault(short.take().unwrap_or_default())),
+        Ok(Err(why)) => Err(fault(why)),
+        Ok(Ok(x)) => Ok(x),
+    }
 }
 
 /// Which `SDLOG_PROFILE` bit records a topic at a rate `identify` can use (PX4's logger,
@@ -234,8 +377,8 @@ fn ns(us: f64) -> i128 {
 /// Reads the log at `path` through `topics` into the rows of a CSV log
 /// (`t,px,py,pz,qx,qy,qz,qw,gx,gy,gz,ax,ay,az[,m1..mN][,vbat]`, see `identify/input/joined.rs`), and
 /// the repairs and notes made.
-pub fn to_csv(path: &Path, topics: &Topics, mapping: &str) -> Result<(String, Vec<ReadNote>), InputError> {
-    let file = path.display().to_string();
+pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str, mapping: &str) -> Result<(String, Vec<ReadNote>), InputError> {
+    let file = file.to_string();
     // where the mapping names each topic, or that it left the key to its default
     let at = |k: &str, given: bool| {
         if given {
@@ -244,7 +387,7 @@ pub fn to_csv(path: &Path, topics: &Topics, mapping: &str) -> Result<(String, Ve
             format!("the default of `{k}`, which {mapping} leaves out")
         }
     };
-    let log = Log::read(path)?;
+    let log = Log::parse(bytes, &file)?;
     let mut notes = Vec::new();
     notes.extend(log.incomplete.clone());
     let pose_topic = match &topics.pose {
@@ -609,5 +752,34 @@ mod tests {
         let s = pose_stream(&topic("vehicle_visual_odometry", &fields(vec![0.0, 20.0])), "f.ulg", &mut notes).unwrap();
         assert_eq!(s.t, vec![15_000]);
         assert_eq!(notes[0], ReadNote::PoseStampedBy { topic: topic_name(), stamp: StampField::Publication });
+    }
+
+    /// A ULog header and flag bits (bytes 0–58), then a parameter record whose key length (200)
+    /// runs past its 2 bytes (59–63): `px4-ulog` indexes past the record and panics. The error
+    /// names the file and byte 63, the last of that record, counted from 0. A record with no
+    /// byte at all panics on its first index: byte 61.
+    #[test]
+    fn a_record_that_makes_the_parser_panic_is_an_error_naming_its_byte() {
+        let head = || {
+            let mut b = MAGIC.to_vec();
+            b.push(1); // version
+            b.extend_from_slice(&0u64.to_le_bytes()); // timestamp
+            b.extend_from_slice(&40u16.to_le_bytes());
+            b.push(b'B'); // flag bits: compatible, incompatible, three appended offsets
+            b.extend_from_slice(&[0u8; 40]);
+            assert_eq!(b.len(), 59);
+            b
+        };
+        let mut b = head();
+        b.extend_from_slice(&2u16.to_le_bytes());
+        b.push(b'P');
+        b.extend_from_slice(&[200, b'x']);
+        let e = Log::parse(&b, "bad.ulg").unwrap_err().to_string();
+        assert!(e.starts_with("bad.ulg") && e.contains("panicked at byte 63"), "{e}");
+        let mut b = head();
+        b.extend_from_slice(&0u16.to_le_bytes());
+        b.push(b'P');
+        let e = Log::parse(&b, "bad.ulg").unwrap_err().to_string();
+        assert!(e.contains("panicked at byte 61"), "{e}");
     }
 }
