@@ -144,7 +144,37 @@ pub fn to_csv(bytes: &[u8], topics: &Topics, file: &str) -> Result<(String, Vec<
     if !bytes.starts_with(MAGIC) {
         return Err(InputError::log(file, "not an MCAP file (no MCAP magic bytes)"));
     }
-    Ok(read(bytes, topics, file)?.join())
+    Ok(guarded(bytes, topics, file)?.join())
+}
+
+/// [`read`], with a panic inside the `mcap` reader (a corrupt file can make it index past its
+/// buffers) turned into an error that names the file and the byte at which the reader failed:
+/// the end of the shortest head of the file that makes it fail, found by bisection (the reader
+/// reads linearly, so every longer head fails too).
+fn guarded(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError> {
+    match std::panic::catch_unwind(|| read(bytes, topics, file)) {
+        Ok(r) => r,
+        Err(_) => {
+            let at = shortest_failing_head(bytes.len(), |n| {
+                std::panic::catch_unwind(|| read(&bytes[..n], topics, file)).is_err()
+            });
+            Err(InputError::log(
+                file,
+                format!("the MCAP reader failed on the record that ends at byte {at} (a corrupt file)"),
+            ))
+        }
+    }
+}
+
+/// The length of the shortest head of a `len`-byte file for which `fails` holds, given that it
+/// holds of the whole file and of every head longer than one for which it holds.
+fn shortest_failing_head(len: usize, fails: impl Fn(usize) -> bool) -> usize {
+    let (mut ok, mut bad) = (0, len);
+    while bad - ok > 1 {
+        let mid = ok + (bad - ok) / 2;
+        if fails(mid) { bad = mid } else { ok = mid }
+    }
+    bad
 }
 
 /// Decodes every message on the four topics; a topic named but empty is an error.
@@ -347,5 +377,47 @@ mod tests {
         let t = Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None };
         let e = to_csv(b"t,px\n1,2\n", &t, "f.mcap").unwrap_err().to_string();
         assert_eq!(e, "f.mcap: not an MCAP file (no MCAP magic bytes)");
+    }
+
+    /// The bisection finds the first failing head whatever the length: 4,242 of 100,000 bytes,
+    /// the last byte, the first.
+    #[test]
+    fn the_byte_a_reader_fails_at_is_found_by_bisection() {
+        assert_eq!(shortest_failing_head(100_000, |n| n >= 4242), 4242);
+        assert_eq!(shortest_failing_head(100_000, |n| n >= 100_000), 100_000);
+        assert_eq!(shortest_failing_head(100_000, |n| n >= 1), 1);
+    }
+
+    /// A chunk that declares 5 bytes of records, fewer than a record's 9-byte opcode and length:
+    /// the `mcap` reader's count of the chunk's remaining bytes goes below zero (a panic where
+    /// overflow is checked, a wrapped count where it is not). Either way an error naming the file.
+    #[test]
+    fn a_chunk_shorter_than_its_record_is_an_error_not_a_panic() {
+        let mut b = MAGIC.to_vec();
+        let string = |b: &mut Vec<u8>, s: &str| {
+            b.extend_from_slice(&(s.len() as u32).to_le_bytes());
+            b.extend_from_slice(s.as_bytes());
+        };
+        // header: profile "ros2", library ""
+        let mut h = Vec::new();
+        string(&mut h, "ros2");
+        string(&mut h, "");
+        b.push(0x01);
+        b.extend_from_slice(&(h.len() as u64).to_le_bytes());
+        b.extend_from_slice(&h);
+        // chunk: start, end, uncompressed size, crc 0 (unchecked), compression "", 5 record bytes
+        let mut c = Vec::new();
+        c.extend_from_slice(&[0u8; 24]);
+        c.extend_from_slice(&0u32.to_le_bytes());
+        string(&mut c, "");
+        c.extend_from_slice(&5u64.to_le_bytes());
+        c.extend_from_slice(&[0x05, 0, 0, 0, 0]);
+        b.push(0x06);
+        b.extend_from_slice(&(c.len() as u64).to_le_bytes());
+        b.extend_from_slice(&c);
+        b.extend_from_slice(&[0u8; 16]);
+        let t = Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None };
+        let e = to_csv(&b, &t, "bad.mcap").unwrap_err().to_string();
+        assert!(e.starts_with("bad.mcap"), "{e}");
     }
 }
