@@ -30,13 +30,13 @@ use crate::vehicle::TelemetryFrame;
 /// Version of the packets.
 pub(crate) const VERSION: u8 = 1;
 /// A command's magic.
-pub(crate) const COMMAND: [u8; 4] = *b"FACM";
+pub const COMMAND: [u8; 4] = *b"FACM";
 /// A request's magic.
 const REQUEST: [u8; 4] = *b"FARQ";
 /// A telemetry packet's magic.
 const TELEMETRY: [u8; 4] = *b"FATM";
 /// An offset report's magic.
-pub(crate) const OFFSET: [u8; 4] = *b"FAOF";
+pub const OFFSET: [u8; 4] = *b"FAOF";
 
 /// Writes an offset report: the marker offset (roll, pitch, yaw, rad) a controller estimated.
 pub fn offset(vehicle_id: u8, roll_pitch_yaw: [f64; 3]) -> Vec<u8> {
@@ -50,9 +50,10 @@ pub fn offset(vehicle_id: u8, roll_pitch_yaw: [f64; 3]) -> Vec<u8> {
 }
 
 /// Reads an offset report: the vehicle id and (roll, pitch, yaw) in rad. `None` unless it is
-/// 32 bytes of version 1 with a finite roll and pitch (yaw may be NaN: not estimated).
+/// 32 bytes of version 1, its reserved bytes zero, with a finite roll and pitch (yaw may be
+/// NaN: not estimated).
 pub(crate) fn parse_offset(b: &[u8]) -> Option<(u8, [f64; 3])> {
-    if b.len() != 32 || b[0..4] != OFFSET || b[4] != VERSION {
+    if b.len() != 32 || b[0..4] != OFFSET || b[4] != VERSION || b[6..8] != [0, 0] {
         return None;
     }
     let f = |i: usize| f64::from_le_bytes(b[8 + 8 * i..16 + 8 * i].try_into().expect("8 bytes"));
@@ -80,6 +81,9 @@ pub enum BadCommand {
     /// Another version.
     #[error("command version {0}; flyarena reads version 1")]
     Version(u8),
+    /// The reserved byte (the eighth) is not zero.
+    #[error("a command's reserved byte 7 must be 0, not {0}")]
+    Reserved(u8),
     /// The channel count is outside 4..=12 or the length does not match it.
     #[error("a command with {channels} channels must be {} bytes, not {len}", 12 + *channels as usize)]
     Length {
@@ -105,6 +109,9 @@ pub fn parse_command(b: &[u8]) -> Result<Command, BadCommand> {
     }
     if !(4..=MAX_CHANNELS as u8).contains(&n) || len != 12 + n as usize {
         return Err(BadCommand::Length { channels: n, len });
+    }
+    if b[7] != 0 {
+        return Err(BadCommand::Reserved(b[7]));
     }
     let seq = u32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
     let mut channels = [0u8; MAX_CHANNELS];
@@ -237,6 +244,9 @@ mod tests {
         assert_eq!(parse_command(&command(1, 0, &[1, 2, 3])), Err(BadCommand::Length { channels: 3, len: 15 }));
         assert_eq!(parse_command(&command(1, 0, &[0; 13])), Err(BadCommand::Length { channels: 13, len: 25 }));
         assert_eq!(parse_command(b"\x00\x00\x05\x00Ping\x00"), Err(BadCommand::Magic));
+        let mut reserved = b.clone();
+        reserved[7] = 7;
+        assert_eq!(parse_command(&reserved), Err(BadCommand::Reserved(7)));
         assert_eq!(
             BadCommand::Length { channels: 4, len: 15 }.to_string(),
             "a command with 4 channels must be 16 bytes, not 15"
@@ -287,6 +297,9 @@ mod tests {
         let mut v2 = b.clone();
         v2[4] = 2;
         assert_eq!(parse_offset(&v2), None);
+        let mut reserved = b.clone();
+        reserved[7] = 7;
+        assert_eq!(parse_offset(&reserved), None, "the reserved bytes are zero");
     }
 
     #[test]

@@ -158,8 +158,9 @@ pub struct ServeReport {
     pub max_lag_ms: f64,
     /// Per externally flown vehicle, what its commands did.
     pub commands: Vec<VehicleCommands>,
-    /// Packets that were neither a NatNet request nor a command for an externally flown vehicle
-    /// (malformed, another version, an unknown vehicle id).
+    /// Packets refused: neither a NatNet request flyarena knows nor a command or offset report
+    /// for an externally flown vehicle (malformed, another version, an unknown vehicle id, a
+    /// NatNet message id the server does not know: that one is answered as Motive does).
     pub rejected: u64,
 }
 
@@ -312,36 +313,31 @@ impl Server {
     }
 
     fn answer(&mut self, packet: &[u8], from: SocketAddr) {
-        if packet.starts_with(&command::OFFSET) {
-            match command::parse_offset(packet) {
-                Some((id, o))
-                    if (1..=self.external.len()).contains(&(id as usize)) && self.external[id as usize - 1] =>
-                {
-                    self.offsets[id as usize - 1] = Some(o)
-                }
-                _ => self.report.rejected += 1,
+        let ours = |id: u8| (1..=self.external.len()).contains(&(id as usize)) && self.external[id as usize - 1];
+        let req = match classify(packet) {
+            Incoming::Offset { vehicle_id, roll_pitch_yaw } if ours(vehicle_id) => {
+                self.offsets[vehicle_id as usize - 1] = Some(roll_pitch_yaw);
+                return;
             }
-            return;
-        }
-        if packet.starts_with(&command::COMMAND) {
-            match command::parse_command(packet) {
-                Ok(c)
-                    if (1..=self.external.len()).contains(&(c.vehicle_id as usize))
-                        && self.external[c.vehicle_id as usize - 1] =>
-                {
-                    let i = c.vehicle_id as usize - 1;
-                    self.controllers[i] = Some(from);
-                    if self.receivers[i].accept(c.seq) {
-                        self.incoming[i] = Some(c.frame);
-                    }
+            Incoming::Command(c) if ours(c.vehicle_id) => {
+                let i = c.vehicle_id as usize - 1;
+                self.controllers[i] = Some(from);
+                if self.receivers[i].accept(c.seq) {
+                    self.incoming[i] = Some(c.frame);
                 }
-                _ => self.report.rejected += 1,
+                return;
             }
-            return;
-        }
-        let Some(req) = natnet::parse_request(packet) else {
-            self.report.rejected += 1;
-            return;
+            Incoming::Request(natnet::Request::Unknown(_)) => {
+                // answered as Motive answers a message it does not know, and refused
+                self.report.rejected += 1;
+                self.send(&natnet::response(None), from);
+                return;
+            }
+            Incoming::Request(req) => req,
+            Incoming::Offset { .. } | Incoming::Command(_) | Incoming::Rejected => {
+                self.report.rejected += 1;
+                return;
+            }
         };
         self.report.requests += 1;
         match req {
@@ -363,7 +359,8 @@ impl Server {
             natnet::Request::Disconnect => self.clients.retain(|c| *c != from),
             // no Motive commands (recording, bitstream version) are supported: -1
             natnet::Request::Command(_) => self.send(&natnet::response(Some(-1)), from),
-            natnet::Request::Unknown(_) => self.send(&natnet::response(None), from),
+            // refused and answered above
+            natnet::Request::Unknown(_) => {}
         }
     }
 
@@ -409,6 +406,41 @@ impl Server {
         }
         self.last_frame = Some(bytes);
     }
+}
+
+/// What a datagram on the command port is. NatNet requests and flyarena's own packets share
+/// the port; the magic tells them apart ([`command`], [`natnet`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Incoming {
+    /// A well-formed offset report ([`command::OFFSET`]).
+    Offset {
+        /// The rigid body's id (1 + fleet index).
+        vehicle_id: u8,
+        /// The controller's estimate of the marker offset (rad; yaw NaN when it has none).
+        roll_pitch_yaw: [f64; 3],
+    },
+    /// A well-formed command.
+    Command(command::Command),
+    /// A NatNet request whose header and payload are all there.
+    Request(natnet::Request),
+    /// Anything else: a malformed offset report or command, or fewer bytes than a NatNet
+    /// header and its payload announce.
+    Rejected,
+}
+
+/// Classifies a datagram received on the command port as `serve` does before acting on it.
+/// Never panics, whatever the bytes; whether the vehicle id names an externally flown vehicle
+/// is the server's question, not this one's.
+pub fn classify(packet: &[u8]) -> Incoming {
+    if packet.starts_with(&command::OFFSET) {
+        return command::parse_offset(packet).map_or(Incoming::Rejected, |(vehicle_id, roll_pitch_yaw)| {
+            Incoming::Offset { vehicle_id, roll_pitch_yaw }
+        });
+    }
+    if packet.starts_with(&command::COMMAND) {
+        return command::parse_command(packet).map_or(Incoming::Rejected, Incoming::Command);
+    }
+    natnet::parse_request(packet).map_or(Incoming::Rejected, Incoming::Request)
 }
 
 /// The rigid-body definitions of a scenario's fleet in the convention `up`.
