@@ -27,6 +27,23 @@
 use super::error::InputError;
 use super::joined::{Stream, Streams};
 use super::read_note::ReadNote;
+use mcap::records::Record;
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use std::collections::HashMap;
+
+/// The longest record, or decompressed chunk, the reader takes (256 MiB): a corrupt length
+/// beyond it is an error, not an allocation that could abort the process.
+const RECORD_LIMIT: usize = 256 << 20;
+
+/// One message, with what its channel and schema say of it.
+struct Message<'a> {
+    topic: &'a str,
+    schema: &'a str,
+    encoding: &'a str,
+    sequence: u32,
+    log_time: u64,
+    data: &'a [u8],
+}
 
 /// The topics of a ROS 2 mapping.
 #[derive(Debug, Clone, serde::Deserialize)]
@@ -186,19 +203,64 @@ fn read(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError
         n_motors: None,
         battery: Stream::new(),
     };
-    let stream = mcap::MessageStream::new(bytes).map_err(|e| InputError::log(file, e.to_string()))?;
-    for (k, m) in stream.enumerate() {
-        let m = m.map_err(|e| InputError::log(file, format!("record {k}: {e}")))?;
-        let topic = m.channel.topic.as_str();
+    // the schemas' names and the channels, as the file declares them before their messages
+    let mut schemas: HashMap<u16, String> = HashMap::new();
+    let mut channels: HashMap<u16, mcap::records::Channel> = HashMap::new();
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default().with_prevalidate_chunk_crcs(true).with_record_length_limit(RECORD_LIMIT),
+    );
+    let mut fed = 0usize;
+    while let Some(event) = reader.next_event() {
+        let at = |e: mcap::McapError| InputError::log(file, format!("reading up to byte {fed}: {e}"));
+        let (opcode, data) = match event.map_err(at)? {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = need.min(bytes.len() - fed);
+                reader.insert(n).copy_from_slice(&bytes[fed..fed + n]);
+                reader.notify_read(n);
+                fed += n;
+                continue;
+            }
+            LinearReadEvent::Record { opcode, data } => (opcode, data),
+        };
+        let (header, data) = match mcap::parse_record(opcode, data).map_err(at)? {
+            Record::Schema { header, .. } => {
+                schemas.insert(header.id, header.name);
+                continue;
+            }
+            Record::Channel(c) => {
+                channels.insert(c.id, c);
+                continue;
+            }
+            Record::Message { header, data } => (header, data),
+            _ => continue,
+        };
+        let Some(channel) = channels.get(&header.channel_id) else {
+            return Err(InputError::log(
+                file,
+                format!(
+                    "the message read up to byte {fed} is on channel {}, which the file never declared",
+                    header.channel_id
+                ),
+            ));
+        };
+        let m = Message {
+            topic: &channel.topic,
+            schema: schemas.get(&channel.schema_id).map_or("", String::as_str),
+            encoding: &channel.message_encoding,
+            sequence: header.sequence,
+            log_time: header.log_time,
+            data: &data,
+        };
+        let topic = m.topic;
         let which = [Some(&topics.pose), Some(&topics.imu), topics.motors.as_ref(), topics.battery.as_ref()]
             .iter()
             .position(|t| t.is_some_and(|t| t == topic));
         let Some(which) = which else { continue };
-        let schema = m.channel.schema.as_ref().map_or("", |s| s.name.as_str());
-        if m.channel.message_encoding != "cdr" {
+        let schema = m.schema;
+        if m.encoding != "cdr" {
             return Err(InputError::log(
                 file,
-                format!("topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.channel.message_encoding),
+                format!("topic `{topic}` is encoded as `{}`, not `cdr` (ROS 2)", m.encoding),
             ));
         }
         let at = |e: CdrError| InputError::Message {
@@ -208,7 +270,7 @@ fn read(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError
             schema: schema.to_string(),
             reason: e.to_string(),
         };
-        let mut c = Cdr::new(&m.data).map_err(at)?;
+        let mut c = Cdr::new(m.data).map_err(at)?;
         match which {
             0 => {
                 let (t, v) = pose_message(&mut c, schema).map_err(at)?;
@@ -388,11 +450,10 @@ mod tests {
         assert_eq!(shortest_failing_head(100_000, |n| n >= 1), 1);
     }
 
-    /// A chunk that declares 5 bytes of records, fewer than a record's 9-byte opcode and length:
-    /// the `mcap` reader's count of the chunk's remaining bytes goes below zero (a panic where
-    /// overflow is checked, a wrapped count where it is not). Either way an error naming the file.
-    #[test]
-    fn a_chunk_shorter_than_its_record_is_an_error_not_a_panic() {
+    /// An MCAP file of a header and one chunk holding `records` (the chunk's CRC 0: not
+    /// checked), stored as they are or as a zstd frame of one raw block (RFC 8878: magic, a
+    /// single-segment header with a 1-byte content size, a last raw block), then `tail`.
+    fn one_chunk(records: &[u8], zstd: bool, tail: &[u8]) -> Vec<u8> {
         let mut b = MAGIC.to_vec();
         let string = |b: &mut Vec<u8>, s: &str| {
             b.extend_from_slice(&(s.len() as u32).to_le_bytes());
@@ -405,19 +466,68 @@ mod tests {
         b.push(0x01);
         b.extend_from_slice(&(h.len() as u64).to_le_bytes());
         b.extend_from_slice(&h);
-        // chunk: start, end, uncompressed size, crc 0 (unchecked), compression "", 5 record bytes
+        // chunk: start, end, uncompressed size, crc 0, compression, the records
+        let stored = if zstd {
+            assert!(records.len() < 256);
+            let n = records.len() as u32;
+            let mut z = vec![0x28, 0xB5, 0x2F, 0xFD, 0x20, n as u8];
+            z.extend_from_slice(&(1 | n << 3).to_le_bytes()[..3]);
+            z.extend_from_slice(records);
+            z
+        } else {
+            records.to_vec()
+        };
         let mut c = Vec::new();
-        c.extend_from_slice(&[0u8; 24]);
+        c.extend_from_slice(&[0u8; 16]);
+        c.extend_from_slice(&(records.len() as u64).to_le_bytes());
         c.extend_from_slice(&0u32.to_le_bytes());
-        string(&mut c, "");
-        c.extend_from_slice(&5u64.to_le_bytes());
-        c.extend_from_slice(&[0x05, 0, 0, 0, 0]);
+        string(&mut c, if zstd { "zstd" } else { "" });
+        c.extend_from_slice(&(stored.len() as u64).to_le_bytes());
+        c.extend_from_slice(&stored);
         b.push(0x06);
         b.extend_from_slice(&(c.len() as u64).to_le_bytes());
         b.extend_from_slice(&c);
-        b.extend_from_slice(&[0u8; 16]);
-        let t = Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None };
-        let e = to_csv(&b, &t, "bad.mcap").unwrap_err().to_string();
+        b.extend_from_slice(tail);
+        b
+    }
+
+    fn topics() -> Topics {
+        Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None }
+    }
+
+    /// A chunk that declares 5 bytes of records, fewer than a record's 9-byte opcode and length:
+    /// the `mcap` reader's count of the chunk's remaining bytes went below zero (a panic where
+    /// overflow is checked, a wrapped count where it is not). An error naming the file.
+    #[test]
+    fn a_chunk_shorter_than_its_record_is_an_error_not_a_panic() {
+        let b = one_chunk(&[0x05, 0, 0, 0, 0], false, &[0u8; 16]);
+        let e = to_csv(&b, &topics(), "bad.mcap").unwrap_err().to_string();
         assert!(e.starts_with("bad.mcap"), "{e}");
+    }
+
+    /// A record inside a compressed chunk whose length is 2⁶⁴ − 1 (or 2⁴⁰): the `mcap`
+    /// reader sized its decompression buffer by it, a capacity overflow (a panic, in every
+    /// build) or an allocation that aborts the process. The reader's record limit makes it an
+    /// error naming the file. The same records uncompressed, and a record that fits, read.
+    #[test]
+    fn a_record_longer_than_the_limit_is_an_error_not_an_abort() {
+        // after the chunk: a data end (crc 0), a footer (no summary) and the closing magic
+        let mut end = vec![0x0F];
+        end.extend_from_slice(&4u64.to_le_bytes());
+        end.extend_from_slice(&[0; 4]);
+        end.push(0x02);
+        end.extend_from_slice(&20u64.to_le_bytes());
+        end.extend_from_slice(&[0; 20]);
+        end.extend_from_slice(MAGIC);
+        let fits = one_chunk(&[0x80, 0, 0, 0, 0, 0, 0, 0, 0], true, &end);
+        let e = to_csv(&fits, &topics(), "ok.mcap").unwrap_err().to_string();
+        assert!(e.contains("no message on topic `/p`"), "the frame decompresses: {e}");
+        for (len, zstd) in [(u64::MAX, true), (1 << 40, true), (1 << 40, false)] {
+            let mut r = vec![0x80];
+            r.extend_from_slice(&len.to_le_bytes());
+            let b = one_chunk(&r, zstd, &[0u8; 64]);
+            let e = to_csv(&b, &topics(), "bad.mcap").unwrap_err().to_string();
+            assert!(e.starts_with("bad.mcap") && e.contains("byte"), "{e}");
+        }
     }
 }
