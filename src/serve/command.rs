@@ -11,7 +11,8 @@
 //!
 //! A controller registers for a vehicle with a command sent before the flight starts (any
 //! frame and any sequence number: it registers the address and is not applied, nor does it
-//! answer a request); requests and telemetry go to the address its latest command came from. At
+//! answer a request); requests and telemetry go to the address its latest applied command came
+//! from (a duplicate or stale command, from anywhere, points them nowhere else). At
 //! each radio tick of its vehicle flyarena sends a request naming the radio period k, from 0. In
 //! lockstep the tick waits for a command whose sequence number is k or later; in real time every
 //! command is applied when it arrives. A controller silent for `radio.failsafe_ms` of simulated

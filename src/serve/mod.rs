@@ -156,6 +156,13 @@ pub struct ServeReport {
     /// The largest delay of a physics tick behind its wall-clock time (ms): frames were sent at
     /// most this late (real time only).
     pub max_lag_ms: f64,
+    /// Connects and keep-alives from a new address refused because 32 clients were registered.
+    pub clients_refused: u64,
+    /// Real time: physics ticks run, and those that began more than one physics period after
+    /// their wall-clock time (their frames and commands went out late).
+    pub ticks: u64,
+    /// See [`ServeReport::ticks`].
+    pub late_ticks: u64,
     /// Per externally flown vehicle, what its commands did.
     pub commands: Vec<VehicleCommands>,
     /// Packets refused: neither a NatNet request flyarena knows nor a command or offset report
@@ -236,6 +243,9 @@ struct Server {
     offsets: Vec<Option<[f64; 3]>>,
 }
 
+/// The longest sleep between two reads of the command port: a request waits at most this long.
+const POLL: Duration = Duration::from_micros(100);
+
 /// At most this many unicast clients (each costs two datagrams per frame).
 const MAX_CLIENTS: usize = 32;
 
@@ -243,6 +253,7 @@ impl Server {
     fn bind(opts: &ServeOptions, model_def: Vec<u8>, external: Vec<bool>) -> Result<Server, ServeError> {
         let addr = SocketAddr::V4(SocketAddrV4::new(opts.bind, opts.command_port));
         let socket = UdpSocket::bind(addr).map_err(|source| ServeError::Bind { addr, source })?;
+        socket.set_nonblocking(true)?;
         if opts.multicast.is_some() {
             // one hop, looped back to this host's listeners, out of the interface we listen on
             socket.set_multicast_ttl_v4(1)?;
@@ -277,26 +288,29 @@ impl Server {
         Ok(())
     }
 
-    /// Answers the next request, waiting for it until `until` at most.
+    /// Answers the next request, waiting for it until `until` at most. The socket does not
+    /// block: a receive timeout counts in the kernel's ticks (a 200 µs timeout waited 8 ms on
+    /// the CI's kernel), which would send the frames of a quiet tick that late, so the wait is
+    /// sleeps of at most [`POLL`] (high-resolution timers) between reads.
     fn listen_once(&mut self, until: Instant) -> Result<(), ServeError> {
         let mut buf = [0u8; 2048];
-        let now = Instant::now();
-        if now >= until {
-            return Ok(());
+        loop {
+            match self.socket.recv_from(&mut buf) {
+                Ok((n, from)) => {
+                    self.answer(&buf[..n], from);
+                    return Ok(());
+                }
+                // an earlier datagram to a closed port came back as refused: nothing to read
+                Err(e)
+                    if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::ConnectionRefused) => {}
+                Err(e) => return Err(e.into()),
+            }
+            let now = Instant::now();
+            if now >= until {
+                return Ok(());
+            }
+            std::thread::sleep((until - now).min(POLL));
         }
-        self.socket.set_read_timeout(Some((until - now).max(Duration::from_micros(50))))?;
-        match self.socket.recv_from(&mut buf) {
-            Ok((n, from)) => self.answer(&buf[..n], from),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock
-                        | std::io::ErrorKind::TimedOut
-                        | std::io::ErrorKind::ConnectionRefused
-                ) => {}
-            Err(e) => return Err(e.into()),
-        }
-        Ok(())
     }
 
     fn send(&mut self, bytes: &[u8], to: SocketAddr) {
@@ -306,9 +320,14 @@ impl Server {
     }
 
     fn register(&mut self, from: SocketAddr) {
-        if !self.clients.contains(&from) && self.clients.len() < MAX_CLIENTS {
+        if self.clients.contains(&from) {
+            return;
+        }
+        if self.clients.len() < MAX_CLIENTS {
             self.clients.push(from);
             self.report.clients.push(from.to_string());
+        } else {
+            self.report.clients_refused += 1;
         }
     }
 
@@ -321,9 +340,13 @@ impl Server {
             }
             Incoming::Command(c) if ours(c.vehicle_id) => {
                 let i = c.vehicle_id as usize - 1;
-                self.controllers[i] = Some(from);
+                // only a command the receiver applies (or the first) points the requests at its
+                // sender: a replayed or stale one, from anywhere, changes nothing
                 if self.receivers[i].accept(c.seq) {
                     self.incoming[i] = Some(c.frame);
+                    self.controllers[i] = Some(from);
+                } else if self.controllers[i].is_none() {
+                    self.controllers[i] = Some(from);
                 }
                 return;
             }
@@ -484,12 +507,17 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
     let start = Instant::now();
     let mut stream = StreamState::default();
     let mut period: u32 = 0;
+    let physics_period = Duration::from_secs_f64(s.spec().physics.period().as_secs_f64() / opts.speed);
     while !arena.done() {
         if opts.lockstep.is_none() {
             let due = start + Duration::from_secs_f64(arena.now().as_secs_f64() / opts.speed);
             server.listen_until(due)?;
-            server.report.max_lag_ms =
-                server.report.max_lag_ms.max(Instant::now().saturating_duration_since(due).as_secs_f64() * 1e3);
+            let lag = Instant::now().saturating_duration_since(due);
+            server.report.max_lag_ms = server.report.max_lag_ms.max(lag.as_secs_f64() * 1e3);
+            server.report.ticks += 1;
+            if lag > physics_period {
+                server.report.late_ticks += 1;
+            }
         } else {
             server.listen_until(Instant::now())?;
         }
