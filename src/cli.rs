@@ -430,7 +430,7 @@ fn cmd_run(a: RunArgs) -> Result<i32, Error> {
     let record = cfg!(feature = "record") && !a.no_rrd;
     let started = std::time::Instant::now();
     let outcome = run_scenario(&s, record);
-    write_run(a, &s, outcome, started.elapsed(), "")
+    write_run(a, &s, outcome, started.elapsed(), "", None)
 }
 
 fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
@@ -475,7 +475,7 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
     // a flight no controller flew fails, whatever the other rows say of it
     outcome.report.rows.splice(0..0, net.controller_rows());
     // a served flight is another flight than `run`'s of the same scenario: its files say so
-    write_run(a.run, &s, outcome, elapsed, ".serve")
+    write_run(a.run, &s, outcome, elapsed, ".serve", Some(&net))
 }
 
 /// What `serve` served: frames, poses and clients, and per external vehicle what its controller
@@ -490,7 +490,10 @@ fn print_served(net: &flyarena::serve::ServeReport, lockstep: bool) {
         if lockstep {
             String::new()
         } else {
-            format!("; the latest tick was sent {:.1} ms late at most", net.max_lag_ms)
+            format!(
+                "; the latest tick was sent {:.1} ms late at most, {} of {} ticks more than a physics period late",
+                net.max_lag_ms, net.late_ticks, net.ticks
+            )
         },
         if net.send_errors > 0 { format!("; {} datagrams could not be sent", net.send_errors) } else { String::new() }
     );
@@ -514,7 +517,10 @@ fn print_served(net: &flyarena::serve::ServeReport, lockstep: bool) {
         );
     }
     if net.rejected > 0 {
-        println!("{} packets were neither NatNet requests nor commands for an external vehicle", net.rejected);
+        println!("{} packets refused (malformed, another version, an unknown vehicle or NatNet message)", net.rejected);
+    }
+    if net.clients_refused > 0 {
+        println!("{} connects from new addresses refused: 32 clients were registered", net.clients_refused);
     }
 }
 
@@ -526,9 +532,21 @@ fn write_run(
     outcome: Outcome,
     elapsed: std::time::Duration,
     made_by: &str,
+    served: Option<&flyarena::serve::ServeReport>,
 ) -> Result<i32, Error> {
+    /// `serve`'s summary: `run`'s, then what happened on the network.
+    #[derive(serde::Serialize)]
+    struct Served<'a> {
+        #[serde(flatten)]
+        summary: flyarena::run::Summary,
+        serve: &'a flyarena::serve::ServeReport,
+    }
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}{made_by}.json", s.name())));
-    let json = serde_json::to_vec_pretty(&outcome.summary(s)).expect("summary serialises");
+    let json = match served {
+        None => serde_json::to_vec_pretty(&outcome.summary(s)),
+        Some(serve) => serde_json::to_vec_pretty(&Served { summary: outcome.summary(s), serve }),
+    }
+    .expect("summary serialises");
     // the uncompensated twin is only recorded (`record` feature)
     #[cfg_attr(not(feature = "record"), allow(unused_variables))]
     let Outcome { main, uncompensated: unc, report } = outcome;
