@@ -14,7 +14,8 @@ Topics (REP 103 units and frames: SI, an ENU-like z-up world, an FLU body):
 - /cf/motors      std_msgs/msg/Float64MultiArray  (the four PWM commands, 0..65535)
 - /cf/battery     sensor_msgs/msg/BatteryState    (volts)
 Every message is stamped with the row's time (header stamp; log time for the array, which has no
-header). The zstd-compressed chunks are the writer's default.
+header). The zstd-compressed chunks are the writer's default; `--uncompressed` writes them raw
+(the fuzzing corpus wants records a mutation can reach).
 """
 import csv, sys
 from mcap_ros2.writer import Writer
@@ -96,9 +97,9 @@ string serial_number
 """ + HEADER
 
 
-def main(src, dst):
+def main(src, dst, compression=None):
     with open(src, newline="") as f, open(dst, "wb") as out:
-        w = Writer(out)
+        w = Writer(out) if compression is None else Writer(out, compression=compression)
         pose_s = w.register_msgdef("geometry_msgs/msg/PoseStamped", POSE)
         imu_s = w.register_msgdef("sensor_msgs/msg/Imu", IMU)
         arr_s = w.register_msgdef("std_msgs/msg/Float64MultiArray", ARRAY)
@@ -130,6 +131,8 @@ def main(src, dst):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        sys.exit("usage: nanobench-to-mcap.py FLIGHT.csv OUT.mcap")
-    main(sys.argv[1], sys.argv[2])
+    args = [a for a in sys.argv[1:] if a != "--uncompressed"]
+    if len(args) != 2:
+        sys.exit("usage: nanobench-to-mcap.py [--uncompressed] FLIGHT.csv OUT.mcap")
+    raw = "--uncompressed" in sys.argv[1:]
+    main(*args, compression=__import__("mcap.writer").writer.CompressionType.NONE if raw else None)
