@@ -896,3 +896,36 @@ fn an_unflown_vehicle_fails_its_run() {
     let row = &json["requirements"][0];
     assert!(row["id"] == "R0" && row["pass"] == false, "{row}");
 }
+
+/// The soak of docs/serve.md, shortened to one Fig. 6 cycle at twice real time: five vehicles
+/// flown by the reference controller through the bridge, one of whose controllers goes silent
+/// for 3 s and comes back, next to a hostile sender at 5,000 datagrams/s on the command port
+/// (random, truncated and oversized datagrams, commands for unknown vehicles and stale ones for
+/// the flown, unknown NatNet messages, a registration flood). The script asserts that the four
+/// well-behaved flights meet their requirements, that every hostile datagram is refused or
+/// dropped as stale (or dropped by the kernel, which counts it), that the failsafe engaged and the
+/// flight resumed, that the server logged no line per packet and that its memory ends where
+/// `run`'s of the same flight does.
+#[test]
+fn serve_flies_five_vehicles_next_to_a_hostile_sender() {
+    if !python_has("natnet") {
+        return;
+    }
+    let out = tmp("soak");
+    let o = Command::new("python3")
+        .arg(super::root().join("scripts/soak-serve.py"))
+        .args(["--minutes", "0.5", "--speed", "2", "--out"])
+        .arg(&*out)
+        .env("FLYARENA", env!("CARGO_BIN_EXE_flyarena"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
+    let got: Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert!(
+        got["hostile_rate_hz"].as_u64().unwrap() >= 4500 && got["hostile_sent"].as_u64().unwrap() > 50_000,
+        "{got}"
+    );
+    assert_eq!(got["clients"], 32, "the flood filled the client list: {got}");
+    assert!(got["clients_refused"].as_u64().unwrap() > 0 && got["echo"]["failsafe"].as_u64().unwrap() > 0, "{got}");
+}

@@ -5,7 +5,12 @@ cascaded controller (1)-(5) written from the paper, not from flyarena's code, fl
 through the bridge. It reads NatNet frames (Z-up, as any lab client would) and flyarena's
 requests on one socket, so that it has seen every pose sent before each request.
 
-usage: fig6_controller.py COMMAND_PORT VEHICLE_ID; prints a JSON summary of what it did."""
+usage: fig6_controller.py COMMAND_PORT VEHICLE_ID [--home N E] [--yaw0-deg D] [--cycles K]
+                         [--silent S1 S2]
+--home and --yaw0-deg: where the vehicle sits on the floor (m, NED) and its heading (the
+scenario's `home_m` and `yaw0_deg`); --cycles: fly the plan K times in a row (a scenario whose
+plan is Fig. 6's repeated K times); --silent: send nothing from simulated time S1 to S2 (s), then
+answer again. Prints a JSON summary of what it did."""
 import json
 import math
 import socket
@@ -19,6 +24,20 @@ from natnet.packet_buffer import PacketBuffer
 from natnet.version import Version
 
 port, vehicle = int(sys.argv[1]), int(sys.argv[2])
+opts = sys.argv[3:]
+
+
+def opt(name, n, default):
+    if name not in opts:
+        return default
+    i = opts.index(name)
+    return [float(x) for x in opts[i + 1:i + 1 + n]]
+
+
+HOME = opt("--home", 2, [0.0, 0.0])
+YAW0 = math.radians(opt("--yaw0-deg", 1, [0.0])[0])
+CYCLES = int(opt("--cycles", 1, [1])[0])
+SILENT = opt("--silent", 2, None)
 G = 9.81
 # the X3D and flyarena's default gains and radio (docs/scenarios.md, Scenario reference)
 MASS, T_MAX = 0.68, 24.0
@@ -85,7 +104,16 @@ def min_jerk(h, T, tau):
 
 
 def reference(t):
-    """Position, velocity, acceleration (NED), yaw, yaw rate, motors off."""
+    """Position, velocity, acceleration (NED), yaw, yaw rate, motors off: Fig. 6 from home."""
+    if t < CYCLES * T_LAND1:
+        t = t % T_LAND1
+    else:
+        t = T_LAND1
+    p, v, a, yaw, yaw_rate, off = fig6(t)
+    return [p[0] + HOME[0], p[1] + HOME[1], p[2]], v, a, wrap(yaw + YAW0), yaw_rate, off
+
+
+def fig6(t):
     if t < T_TAKEOFF:
         p, v, a = min_jerk(ALT, T_TAKEOFF, t)
         return [0, 0, -p], [0, 0, -v], [0, 0, -a], 0.0, 0.0, False
@@ -134,6 +162,7 @@ c_b_n = None
 offset = None  # the hover-averaged (roll, pitch) of the markers
 sums, n_avg = [0.0, 0.0], 0
 requests, frames = 0, 0
+silent, resumed = 0, 0  # requests left unanswered, and answered after the silence
 sock.settimeout(10.0)
 while True:
     try:
@@ -151,8 +180,13 @@ while True:
         if offset is not None:  # compensate: C_b^n = C_m^n * R_off^T, R_off = Ry(pitch) Rx(roll)
             att = matmul(c_b_n, transpose(matmul(ry(offset[1]), rx(offset[0]))))
         rates, thrust = control(t, pos, vel, att)
+        if SILENT and SILENT[0] <= t < SILENT[1]:
+            silent += 1
+            continue
+        if SILENT and t >= SILENT[1]:
+            resumed += 1
         send(k, rates, thrust)
-        if t >= T_LAND1:
+        if t >= CYCLES * T_LAND1:
             sock.settimeout(1.0)  # the run ends within a second of landing
         continue
     if struct.unpack_from("<H", data)[0] != 7:
@@ -184,4 +218,7 @@ while True:
         offset = (sums[0] / n_avg, sums[1] / n_avg)
         # report it (flyarena's convention: the markers' rotation against the body; no yaw)
         sock.sendto(b"FAOF" + bytes([1, vehicle, 0, 0]) + struct.pack("<ddd", offset[0], offset[1], float("nan")), server)
-print(json.dumps({"requests": requests, "frames": frames, "offset_deg": [math.degrees(a) for a in offset] if offset else None}))
+summary = {"requests": requests, "frames": frames, "offset_deg": [math.degrees(a) for a in offset] if offset else None}
+if SILENT:
+    summary.update(silent=silent, resumed=resumed)
+print(json.dumps(summary))
