@@ -33,6 +33,7 @@ import json
 import os
 import random
 import shutil
+import signal
 import socket
 import struct
 import subprocess
@@ -187,6 +188,8 @@ def main():
     ap.add_argument("--out", default="out/soak", help="output folder (the scenario, the serve JSON)")
     ap.add_argument("--seed", type=int, default=1, help="the hostile sender's random choices")
     a = ap.parse_args()
+    # a stop from outside (SIGTERM, a test's timeout) stops what this started too
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     flyarena = os.environ.get("FLYARENA") or shutil.which("flyarena")
     if not flyarena:
         sys.exit("no flyarena: set $FLYARENA or put it on the PATH (cargo install --path .)")

@@ -10,6 +10,7 @@ use flyarena::Error;
 use flyarena::output::{install_interrupt_handler, write_atomic};
 use flyarena::run::{Outcome, run_scenario};
 use flyarena::scenario::Scenario;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 /// flyarena — quadrotor flight under motion capture with misaligned frames
@@ -1166,7 +1167,10 @@ fn run() -> i32 {
         }
     };
     install_interrupt_handler(|_| {
-        eprintln!(
+        // not eprintln!: with stderr gone (the parent that read it was killed) it would panic
+        // the handler's thread, and the process, deaf to every later signal, would fly on
+        let _ = writeln!(
+            std::io::stderr(),
             "interrupted: finished outputs are complete, unfinished ones untouched (a sweep resumes from its journal)"
         );
         std::process::exit(INTERRUPTED);

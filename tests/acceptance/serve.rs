@@ -929,3 +929,33 @@ fn serve_flies_five_vehicles_next_to_a_hostile_sender() {
     assert_eq!(got["clients"], 32, "the flood filled the client list: {got}");
     assert!(got["clients_refused"].as_u64().unwrap() > 0 && got["echo"]["failsafe"].as_u64().unwrap() > 0, "{got}");
 }
+
+/// An interrupt (SIGTERM) ends `serve` mid-flight with exit 130 even when nothing reads its
+/// stderr any more (the parent that started it was killed): the interrupt's line cannot be
+/// printed, and the process ends anyway, instead of flying on deaf to every later signal.
+#[test]
+fn an_interrupt_ends_serve_even_when_its_stderr_is_gone() {
+    use std::io::BufRead;
+    let [port, data_port] = free_ports::<2>();
+    let out = tmp("sigterm");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_flyarena"))
+        .arg("serve")
+        .arg(fixture())
+        .args(["--command-port", &port.to_string(), "--data-port", &data_port.to_string(), "--wait-s", "0", "--no-rrd"])
+        .arg("--out")
+        .arg(&*out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut first = String::new();
+    stderr.read_line(&mut first).unwrap();
+    assert!(first.starts_with("serving"), "{first}");
+    drop(stderr);
+    let mut child = Killed(child, None);
+    std::thread::sleep(Duration::from_millis(500));
+    let kill = Command::new("kill").args(["-TERM", &child.0.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    assert_eq!(child.wait_for(Duration::from_secs(10)), 130);
+}
