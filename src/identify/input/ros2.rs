@@ -35,6 +35,11 @@ use std::collections::HashMap;
 /// beyond it is an error, not an allocation that could abort the process.
 const RECORD_LIMIT: usize = 256 << 20;
 
+/// The records read (schema, channel, message, chunk); the others are skipped unparsed, which
+/// spares `mcap`'s parser of records flyarena does not use (an attachment shorter than its
+/// header made it panic).
+const NEEDED: [u8; 4] = [0x03, 0x04, 0x05, 0x06];
+
 /// The topics of a ROS 2 mapping.
 #[derive(Debug, Clone, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -218,6 +223,9 @@ fn read(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError
             }
             LinearReadEvent::Record { opcode, data } => (opcode, data),
         };
+        if !NEEDED.contains(&opcode) {
+            continue;
+        }
         match mcap::parse_record(opcode, data).map_err(at)? {
             Record::Chunk { header, data } => {
                 let in_chunk = |why: String| InputError::log(file, format!("the chunk read up to byte {fed}: {why}"));
@@ -227,7 +235,9 @@ fn read(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError
                     let (op, body, tail) =
                         split_record(rest).ok_or_else(|| in_chunk("a record is cut short".into()))?;
                     rest = tail;
-                    d.take(mcap::parse_record(op, body).map_err(at)?, fed)?;
+                    if NEEDED.contains(&op) {
+                        d.take(mcap::parse_record(op, body).map_err(at)?, fed)?;
+                    }
                 }
             }
             record => d.take(record, fed)?,
@@ -557,6 +567,18 @@ mod tests {
         b
     }
 
+    /// What follows the data: a data end (CRC 0), a footer (no summary), the closing magic.
+    fn end_of_file() -> Vec<u8> {
+        let mut end = vec![0x0F];
+        end.extend_from_slice(&4u64.to_le_bytes());
+        end.extend_from_slice(&[0; 4]);
+        end.push(0x02);
+        end.extend_from_slice(&20u64.to_le_bytes());
+        end.extend_from_slice(&[0; 20]);
+        end.extend_from_slice(MAGIC);
+        end
+    }
+
     fn topics() -> Topics {
         Topics { pose: "/p".into(), imu: "/i".into(), motors: None, battery: None }
     }
@@ -577,15 +599,7 @@ mod tests {
     /// error naming the file. The same records uncompressed, and a record that fits, read.
     #[test]
     fn a_record_longer_than_the_limit_is_an_error_not_an_abort() {
-        // after the chunk: a data end (crc 0), a footer (no summary) and the closing magic
-        let mut end = vec![0x0F];
-        end.extend_from_slice(&4u64.to_le_bytes());
-        end.extend_from_slice(&[0; 4]);
-        end.push(0x02);
-        end.extend_from_slice(&20u64.to_le_bytes());
-        end.extend_from_slice(&[0; 20]);
-        end.extend_from_slice(MAGIC);
-        let fits = one_chunk(&[0x80, 0, 0, 0, 0, 0, 0, 0, 0], true, &end);
+        let fits = one_chunk(&[0x80, 0, 0, 0, 0, 0, 0, 0, 0], true, &end_of_file());
         let e = to_csv(&fits, &topics(), "ok.mcap").unwrap_err().to_string();
         assert!(e.contains("no message on topic `/p`"), "the frame decompresses: {e}");
         for (len, zstd) in [(u64::MAX, true), (1 << 40, true), (1 << 40, false)] {
@@ -606,5 +620,19 @@ mod tests {
         let b = chunk_declaring(&[0x80, 0, 0, 0, 0, 0, 0, 0, 0], 100, true, &[0u8; 64]);
         let e = to_csv(&b, &topics(), "short.mcap").unwrap_err().to_string();
         assert!(e.starts_with("short.mcap") && e.contains("not the 100 it declares"), "{e}");
+    }
+
+    /// An attachment record (opcode 0x09) whose 32 bytes hold its header and data length but
+    /// not its CRC: `mcap`'s record parser slices past it and panics (found by fuzzing).
+    /// flyarena skips the records it does not use, so the bag reads up to its missing topics.
+    #[test]
+    fn a_record_flyarena_does_not_use_is_skipped_unparsed() {
+        let mut r = vec![0x09];
+        r.extend_from_slice(&32u64.to_le_bytes());
+        r.extend_from_slice(&[0; 32]);
+        assert!(std::panic::catch_unwind(|| mcap::parse_record(0x09, &[0; 32])).is_err(), "mcap panics on it");
+        let b = one_chunk(&r, false, &end_of_file());
+        let e = to_csv(&b, &topics(), "att.mcap").unwrap_err().to_string();
+        assert!(e.contains("no message on topic `/p`"), "{e}");
     }
 }
