@@ -527,6 +527,23 @@ fn print_served(net: &flyarena::serve::ServeReport, lockstep: bool) {
 
 /// Writes what `run` writes (summary, log, recording) and prints the table; `made_by` marks
 /// the default names of a flight not flown by `run` (`.serve`).
+/// `serve`'s summary: `run`'s, then what happened on the network.
+#[derive(serde::Serialize)]
+struct Served<'a> {
+    #[serde(flatten)]
+    summary: flyarena::run::Summary,
+    serve: &'a flyarena::serve::ServeReport,
+}
+
+/// The summary JSON of a run, with the network report of a served one.
+fn summary_json(outcome: &Outcome, s: &Scenario, served: Option<&flyarena::serve::ServeReport>) -> Vec<u8> {
+    match served {
+        None => serde_json::to_vec_pretty(&outcome.summary(s)),
+        Some(serve) => serde_json::to_vec_pretty(&Served { summary: outcome.summary(s), serve }),
+    }
+    .expect("summary serialises")
+}
+
 fn write_run(
     a: RunArgs,
     s: &Scenario,
@@ -535,19 +552,8 @@ fn write_run(
     made_by: &str,
     served: Option<&flyarena::serve::ServeReport>,
 ) -> Result<i32, Error> {
-    /// `serve`'s summary: `run`'s, then what happened on the network.
-    #[derive(serde::Serialize)]
-    struct Served<'a> {
-        #[serde(flatten)]
-        summary: flyarena::run::Summary,
-        serve: &'a flyarena::serve::ServeReport,
-    }
     let json_path = a.json.unwrap_or_else(|| a.out.join(format!("{}{made_by}.json", s.name())));
-    let json = match served {
-        None => serde_json::to_vec_pretty(&outcome.summary(s)),
-        Some(serve) => serde_json::to_vec_pretty(&Served { summary: outcome.summary(s), serve }),
-    }
-    .expect("summary serialises");
+    let json = summary_json(&outcome, s, served);
     // the uncompensated twin is only recorded (`record` feature)
     #[cfg_attr(not(feature = "record"), allow(unused_variables))]
     let Outcome { main, uncompensated: unc, report } = outcome;

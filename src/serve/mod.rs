@@ -181,6 +181,13 @@ pub struct VehicleCommands {
 }
 
 impl ServeReport {
+    /// A physics tick that began `lag` after its wall-clock time: late if more than `period`.
+    fn count_tick(&mut self, lag: Duration, period: Duration) {
+        self.max_lag_ms = self.max_lag_ms.max(lag.as_secs_f64() * 1e3);
+        self.ticks += 1;
+        self.late_ticks += u64::from(lag > period);
+    }
+
     /// One requirement row per externally flown vehicle, R0: its controller flew it (at least one
     /// of its commands applied). A vehicle whose controller never connected, or sent nothing the
     /// receiver applied, stays on the ground holding its first frame; the other requirements
@@ -512,12 +519,7 @@ pub fn serve(s: &Scenario, opts: &ServeOptions, run: RunOptions) -> Result<(RunO
         if opts.lockstep.is_none() {
             let due = start + Duration::from_secs_f64(arena.now().as_secs_f64() / opts.speed);
             server.listen_until(due)?;
-            let lag = Instant::now().saturating_duration_since(due);
-            server.report.max_lag_ms = server.report.max_lag_ms.max(lag.as_secs_f64() * 1e3);
-            server.report.ticks += 1;
-            if lag > physics_period {
-                server.report.late_ticks += 1;
-            }
+            server.report.count_tick(Instant::now().saturating_duration_since(due), physics_period);
         } else {
             server.listen_until(Instant::now())?;
         }

@@ -258,6 +258,30 @@ struct Fault {
     why: String,
 }
 
+/// Adds a data message's numbers to its topic instance's columns; a message whose format
+/// changed, or that is shorter than its format, is an error.
+fn collect(collected: &mut BTreeMap<(String, u8), Collected>, m: &DataMessage) -> Result<(), String> {
+    let f = m.flattened_format;
+    let c = collected.entry((f.message_name.clone(), m.multi_id.value())).or_default();
+    if c.names.is_empty() {
+        c.names = f.fields.iter().map(|x| x.flattened_field_name.clone()).collect();
+        c.values = f.fields.iter().map(|x| field_size(&x.field_type).1.then(Vec::new)).collect();
+    }
+    if c.names.len() != f.fields.len() {
+        return Err(format!("topic `{}` changed its format", f.message_name));
+    }
+    for (x, col) in f.fields.iter().zip(&mut c.values) {
+        let Some(col) = col else { continue };
+        let (n, _) = field_size(&x.field_type);
+        let b = m.data.get(x.offset as usize..x.offset as usize + n);
+        col.push(decode(
+            &x.field_type,
+            b.ok_or_else(|| format!("a record of `{}` is shorter than its format", f.message_name))?,
+        ));
+    }
+    Ok(())
+}
+
 /// Bytes fed to the parser at once, before the chunk that holds a fault.
 const CHUNK: usize = 1 << 16;
 
@@ -272,27 +296,8 @@ fn drive(bytes: &[u8], fine_from: usize) -> Result<(BTreeMap<(String, u8), Colle
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let mut collected: BTreeMap<(String, u8), Collected> = BTreeMap::new();
         let mut callback = |m: &DataMessage| {
-            let f = m.flattened_format;
-            let c = collected.entry((f.message_name.clone(), m.multi_id.value())).or_default();
-            if c.names.is_empty() {
-                c.names = f.fields.iter().map(|x| x.flattened_field_name.clone()).collect();
-                c.values = f.fields.iter().map(|x| field_size(&x.field_type).1.then(Vec::new)).collect();
-            }
-            if c.names.len() != f.fields.len() {
-                short.borrow_mut().get_or_insert_with(|| format!("topic `{}` changed its format", f.message_name));
-                return;
-            }
-            for (x, col) in f.fields.iter().zip(&mut c.values) {
-                let Some(col) = col else { continue };
-                let (n, _) = field_size(&x.field_type);
-                match m.data.get(x.offset as usize..x.offset as usize + n) {
-                    Some(b) => col.push(decode(&x.field_type, b)),
-                    None => {
-                        short.borrow_mut().get_or_insert_with(|| {
-                            format!("a record of `{}` is shorter than its format", f.message_name)
-                        });
-                    }
-                }
+            if let Err(why) = collect(&mut collected, m) {
+                short.borrow_mut().get_or_insert(why);
             }
         };
         let mut parser = LogParser::default();
