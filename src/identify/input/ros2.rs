@@ -192,7 +192,7 @@ fn shortest_failing_head(len: usize, fails: impl Fn(usize) -> bool) -> usize {
 /// Decodes every message on the four topics; a topic named but empty is an error. The file is
 /// read by `mcap`'s linear reader, which hands over each chunk whole: flyarena decompresses it
 /// ([`chunk_records`]) and walks its records itself, because `mcap` 0.25's own chunk reading
-/// loops forever on a zstd frame that ends before the chunk's declared size (found by fuzzing).
+/// loops forever on a zstd frame that ends before the chunk's declared size.
 fn read(bytes: &[u8], topics: &Topics, file: &str) -> Result<Streams, InputError> {
     let mut d = Decoder {
         s: Streams {
@@ -623,7 +623,7 @@ mod tests {
     }
 
     /// An attachment record (opcode 0x09) whose 32 bytes hold its header and data length but
-    /// not its CRC: `mcap`'s record parser slices past it and panics (found by fuzzing).
+    /// not its CRC: `mcap`'s record parser slices past it and panics.
     /// flyarena skips the records it does not use, so the bag reads up to its missing topics.
     #[test]
     fn a_record_flyarena_does_not_use_is_skipped_unparsed() {
