@@ -1054,7 +1054,7 @@ fn cmd_handheld(
         options.design.smoothing_s = ms * 1e-3;
     }
     let outcomes = handheld::run_many(seed, flights, &set, &options);
-    let table = handheld::render(&outcomes, &set);
+    let table = flyarena::identify::render_handheld(&outcomes, &set);
     let json =
         serde_json::json!({ "seed": seed, "flights": flights, "setting": set, "table": table, "outcomes": outcomes });
     let path = out.join(format!("{name}.json"));

@@ -20,7 +20,7 @@
 //!               (and real logs with injected mounts)            injected
 //!   ─► output/  report text, scenario fragment, PX4 parameters, report, start, note, read_note, quality,
 //!               T_BS and the IMU's trajectory, the consistency  summary, consistency, feedback, px4,
-//!               across flights                                  calibration
+//!               across flights, the hand-held batch's table     calibration, handheld
 //! ```
 //!
 //! The stages are private; what a caller needs is re-exported here, flat:
@@ -33,7 +33,7 @@
 //! | see what a reader did to a log (a row dropped, a gap, PX4 messages left out, the stamps read) | match on [`ReadNote`] in [`Series::repairs`] and [`Report::repairs`] |
 //! | build a series | [`run_and_log`] (a scenario flown and logged), [`Mapping`] (another tool's log) |
 //! | print or write what `run` returns (the one presentation layer) | [`identified_text`], [`identified_json`]; for [`run_many`] [`cross_validated_text`], [`cross_validated_json`] |
-//! | print or judge a report | [`render_report`], [`verdict`]; across flights [`consistency`], [`render_consistency`] |
+//! | print or judge a report | [`render_report`], [`verdict`]; across flights [`consistency`], [`render_consistency`]; a hand-held batch [`render_handheld`] |
 //! | look at one stage | [`quality_gate`], [`ground_check`], [`residual_series`], [`excitation`], [`evaluate`] |
 //!
 //! Nine modules are public because each is a vocabulary of its own: [`mapping`] (the column
@@ -122,3 +122,4 @@ pub use checks::check::{effect_cut, heldout_cut};
 pub use checks::consistency::{AGREE_P, AxisAgreement, Consistency, Mounting, OffsetMissing, Transfer, consistency};
 pub use fit::stats::LjungBox;
 pub use output::consistency::render as render_consistency;
+pub use output::handheld::render as render_handheld;

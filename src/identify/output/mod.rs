@@ -5,6 +5,7 @@
 pub mod calibration;
 pub(crate) mod consistency;
 pub mod feedback;
+pub(crate) mod handheld;
 mod note;
 pub mod px4;
 pub(crate) mod quality;
