@@ -44,6 +44,7 @@ use crate::identify::fit::select::{Excitation, Options, excitation, identify};
 use crate::identify::input::flyarena_log::run_and_log;
 use crate::rng::{Component, Stream};
 use crate::scenario::Scenario;
+use serde_saphyr::FlowMap;
 use std::fmt::Write as _;
 
 /// The effects drawn as 0–3 of a flight's hidden effects, in [`Effect::ALL`] order: every
@@ -143,16 +144,16 @@ fn draw_hidden(d: &mut Draw, cf: bool) -> Vec<(Effect, Vec<f64>)> {
     hidden
 }
 
-/// The flight plan of a trial (YAML plan items) and its description in words: take-off, 3–5
+/// The flight plan of a trial (the scenario's plan steps) and its description in words: take-off, 3–5
 /// pieces (a tour, a figure-8, gyro circles, a yaw turn, a short excursion), in a quarter of the
 /// flights a low hover (and, when fewer than three effects are hidden, in half of those a ground
 /// effect added to `hidden`), landing.
-fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (Vec<String>, Vec<String>) {
+fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (Vec<Step>, Vec<String>) {
     let alt = r(d.u(0.8, 1.5), 2);
     let mut plan = vec![
-        "idle: { duration_s: 1 }".to_string(),
-        format!("takeoff: {{ altitude_m: {alt}, duration_s: 3 }}"),
-        "hover: { duration_s: 2 }".to_string(),
+        Step::Idle { duration_s: 1.0 },
+        Step::Takeoff { altitude_m: alt, duration_s: 3.0 },
+        Step::Hover { duration_s: 2.0 },
     ];
     let mut words = Vec::new();
     let pieces = 3 + d.pick(3);
@@ -180,20 +181,18 @@ fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (V
             }
             2 => {
                 let (rad, period, turns) = (r(d.u(0.2, 0.5), 2), r(d.u(2.0, 3.5), 2), (2 + d.pick(3)) as f64);
-                plan.push(format!(
-                    "calibrate_gyro: {{ settle_s: 1, radius_m: {rad}, period_s: {period}, turns: {turns} }}"
-                ));
+                plan.push(Step::CalibrateGyro { settle_s: 1.0, radius_m: rad, period_s: period, turns });
                 words.push(format!("{turns} circles of {rad} m"));
             }
             3 => {
                 let angle = r(d.u(90.0, 360.0), 0) * d.sign();
                 let dur = r(angle.abs() / 45.0 + 1.0, 1);
-                plan.push(format!("yaw_spin: {{ settle_s: 1, angle_deg: {angle}, duration_s: {dur} }}"));
+                plan.push(Step::YawSpin { settle_s: 1.0, angle_deg: angle, duration_s: dur });
                 words.push(format!("yaw turn of {angle}°"));
             }
             _ => {
                 let heading = d.u(0.0, std::f64::consts::TAU);
-                plan.push("hover: { duration_s: 2 }".to_string());
+                plan.push(Step::Hover { duration_s: 2.0 });
                 plan.push(wp(0.5 * heading.cos(), 0.5 * heading.sin(), 0.5, 0.5));
                 plan.push(wp(0.0, 0.0, 0.5, 0.5));
                 words.push("hover and a 0.5 m excursion".to_string());
@@ -218,48 +217,171 @@ fn draw_plan(d: &mut Draw, cf: bool, hidden: &mut Vec<(Effect, Vec<f64>)>) -> (V
             hidden.push((Effect::GroundEffect, vec![r(d.u(0.5, 1.5), 3)]));
         }
     }
-    plan.push("land: { duration_s: 3 }".to_string());
+    plan.push(Step::Land { duration_s: 3.0 });
     (plan, words)
 }
 
 /// A plan step to (north, east) m at `height` m above the floor, at `speed` m/s, held `hold` s.
-fn waypoint(n: f64, e: f64, height: f64, speed: f64, hold: f64) -> String {
-    format!(
-        "waypoint: {{ pos_m: [{}, {}, {}], speed_m_s: {speed}, accel_m_s2: 1.5, hold_s: {hold} }}",
-        r(n, 2),
-        r(e, 2),
-        -height
-    )
+fn waypoint(n: f64, e: f64, height: f64, speed: f64, hold: f64) -> Step {
+    Step::Waypoint { pos_m: [r(n, 2), r(e, 2), -height], speed_m_s: speed, accel_m_s2: 1.5, hold_s: hold }
+}
+
+/// A step of a trial's plan, as the scenario's `plan:` writes it (docs/scenarios.md).
+#[derive(serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+enum Step {
+    Idle { duration_s: f64 },
+    Takeoff { altitude_m: f64, duration_s: f64 },
+    Hover { duration_s: f64 },
+    Waypoint { pos_m: [f64; 3], speed_m_s: f64, accel_m_s2: f64, hold_s: f64 },
+    CalibrateGyro { settle_s: f64, radius_m: f64, period_s: f64, turns: f64 },
+    YawSpin { settle_s: f64, angle_deg: f64, duration_s: f64 },
+    Land { duration_s: f64 },
+}
+
+/// A trial's scenario, as its YAML file writes it: the fields a trial sets, the rest at the
+/// scenario's defaults; each vehicle and plan step on one line.
+#[derive(serde::Serialize)]
+struct TrialScenario<'a> {
+    name: String,
+    seed: u64,
+    mocap: FlowMap<TrialMocap>,
+    calibration: FlowMap<Apply>,
+    vehicles: [FlowMap<TrialVehicle<'a>>; 1],
+    plan: Vec<FlowMap<PlanItem<'a>>>,
+}
+
+/// A plan step as a one-key mapping (`waypoint: {...}`), which a flow style can take.
+#[derive(serde::Serialize)]
+struct PlanItem<'a> {
+    #[serde(flatten)]
+    step: &'a Step,
+}
+
+#[derive(serde::Serialize)]
+struct TrialMocap {
+    noise_mm: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    camera_error: Option<RotationDeg>,
+}
+
+#[derive(serde::Serialize)]
+struct RotationDeg {
+    rotation_deg: [f64; 3],
+}
+
+#[derive(serde::Serialize)]
+struct Apply {
+    apply: bool,
+}
+
+#[derive(serde::Serialize)]
+struct Preset<'a> {
+    preset: &'a str,
+}
+
+#[derive(serde::Serialize)]
+struct Force {
+    force_n: Vec<f64>,
+}
+
+#[derive(serde::Serialize)]
+struct TrialVehicle<'a> {
+    name: &'a str,
+    model: Preset<'a>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    disturbance: Option<Force>,
+    #[serde(skip_serializing_if = "Markers::is_empty")]
+    markers: Markers,
+    imu: Imu,
+    #[serde(skip_serializing_if = "Undeclared::is_empty")]
+    undeclared: Undeclared,
+}
+
+#[derive(serde::Serialize, Default)]
+struct Markers {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rotation_deg: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    displacement_mm: Option<[Vec<f64>; 4]>,
+}
+
+impl Markers {
+    fn is_empty(&self) -> bool {
+        self.rotation_deg.is_none() && self.displacement_mm.is_none()
+    }
+}
+
+#[derive(serde::Serialize)]
+struct Imu {
+    gyro_noise_deg_s: f64,
+    accel_noise_m_s2: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    accel_bias_m_s2: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gyro_bias_deg_s: Option<Vec<f64>>,
+}
+
+/// The effects the simulation applies and the model does not declare (`undeclared:`).
+#[derive(serde::Serialize, Default)]
+struct Undeclared {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mocap_delay_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rotor_drag_per_s: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    thrust_scale: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ground_effect: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    thrust_voltage_per_v: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gyro_delay_ms: Option<f64>,
+}
+
+impl Undeclared {
+    fn is_empty(&self) -> bool {
+        self.mocap_delay_ms.is_none()
+            && self.rotor_drag_per_s.is_none()
+            && self.thrust_scale.is_none()
+            && self.ground_effect.is_none()
+            && self.thrust_voltage_per_v.is_none()
+            && self.gyro_delay_ms.is_none()
+    }
 }
 
 /// The trial's scenario: the preset, the hidden effects written where the simulation applies
-/// them (markers, camera, IMU, undeclared, disturbance), the plan.
-fn trial_yaml(index: u64, run_seed: u64, preset: &str, plan: &[String], hidden: &[(Effect, Vec<f64>)]) -> String {
-    let mut vehicle = vec![format!("name: v"), format!("model: {{ preset: {preset} }}")];
-    let mut imu = vec!["gyro_noise_deg_s: 0.3".to_string(), "accel_noise_m_s2: 0.05".to_string()];
-    let mut undeclared = Vec::new();
-    let mut camera = String::new();
-    let mut markers = Vec::new();
-    let list = |v: &[f64]| format!("[{}]", v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "));
+/// them (markers, camera, IMU, undeclared, disturbance), the plan; YAML written by serde.
+fn trial_yaml(index: u64, run_seed: u64, preset: &str, plan: &[Step], hidden: &[(Effect, Vec<f64>)]) -> String {
+    let mut vehicle = TrialVehicle {
+        name: "v",
+        model: Preset { preset },
+        disturbance: None,
+        markers: Markers::default(),
+        imu: Imu { gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05, accel_bias_m_s2: None, gyro_bias_deg_s: None },
+        undeclared: Undeclared::default(),
+    };
+    let mut mocap = TrialMocap { noise_mm: 0.1, camera_error: None };
+    let u = &mut vehicle.undeclared;
     for (e, v) in hidden {
         match e {
-            Effect::BodyOffset => markers.push(format!("rotation_deg: {}", list(v))),
+            Effect::BodyOffset => vehicle.markers.rotation_deg = Some(v.clone()),
             // the mocap tracks the markers' origin, displaced by d = −r from the IMU (at the
             // centre of mass); the built-in patterns have four markers
             Effect::LeverArm => {
-                let d = list(&v.iter().map(|x| -x).collect::<Vec<_>>());
-                markers.push(format!("displacement_mm: [{d}, {d}, {d}, {d}]"));
+                let d: Vec<f64> = v.iter().map(|x| -x).collect();
+                vehicle.markers.displacement_mm = Some([d.clone(), d.clone(), d.clone(), d]);
             }
-            Effect::WorldTilt => camera = format!(", camera_error: {{ rotation_deg: [{}, {}, 0] }}", v[0], v[1]),
-            Effect::MocapDelay => undeclared.push(format!("mocap_delay_ms: {}", v[0])),
-            Effect::AccelBias => imu.push(format!("accel_bias_m_s2: {}", list(v))),
-            Effect::GyroBias => imu.push(format!("gyro_bias_deg_s: {}", list(v))),
-            Effect::RotorDrag => undeclared.push(format!("rotor_drag_per_s: {}", list(v))),
-            Effect::ConstantForce => vehicle.push(format!("disturbance: {{ force_n: {} }}", list(v))),
-            Effect::ThrustScale => undeclared.push(format!("thrust_scale: {}", 1.0 + v[0])),
-            Effect::GroundEffect => undeclared.push(format!("ground_effect: {}", v[0])),
-            Effect::ThrustVoltage => undeclared.push(format!("thrust_voltage_per_v: {}", v[0])),
-            Effect::GyroDelay => undeclared.push(format!("gyro_delay_ms: {}", v[0])),
+            Effect::WorldTilt => mocap.camera_error = Some(RotationDeg { rotation_deg: [v[0], v[1], 0.0] }),
+            Effect::MocapDelay => u.mocap_delay_ms = Some(v[0]),
+            Effect::AccelBias => vehicle.imu.accel_bias_m_s2 = Some(v.clone()),
+            Effect::GyroBias => vehicle.imu.gyro_bias_deg_s = Some(v.clone()),
+            Effect::RotorDrag => u.rotor_drag_per_s = Some(v.clone()),
+            Effect::ConstantForce => vehicle.disturbance = Some(Force { force_n: v.clone() }),
+            Effect::ThrustScale => u.thrust_scale = Some(1.0 + v[0]),
+            Effect::GroundEffect => u.ground_effect = Some(v[0]),
+            Effect::ThrustVoltage => u.thrust_voltage_per_v = Some(v[0]),
+            Effect::GyroDelay => u.gyro_delay_ms = Some(v[0]),
             Effect::AccelMisalignment
             | Effect::AccelScale
             | Effect::ThrustTilt
@@ -271,18 +393,15 @@ fn trial_yaml(index: u64, run_seed: u64, preset: &str, plan: &[String], hidden: 
             }
         }
     }
-    if !markers.is_empty() {
-        vehicle.push(format!("markers: {{ {} }}", markers.join(", ")));
-    }
-    vehicle.push(format!("imu: {{ {} }}", imu.join(", ")));
-    if !undeclared.is_empty() {
-        vehicle.push(format!("undeclared: {{ {} }}", undeclared.join(", ")));
-    }
-    format!(
-        "name: trial-{index}\nseed: {run_seed}\nmocap: {{ noise_mm: 0.1{camera} }}\ncalibration: {{ apply: false }}\nvehicles:\n  - {{ {} }}\nplan:\n{}\n",
-        vehicle.join(", "),
-        plan.iter().map(|p| format!("  - {p}")).collect::<Vec<_>>().join("\n")
-    )
+    let scenario = TrialScenario {
+        name: format!("trial-{index}"),
+        seed: run_seed,
+        mocap: FlowMap(mocap),
+        calibration: FlowMap(Apply { apply: false }),
+        vehicles: [FlowMap(vehicle)],
+        plan: plan.iter().map(|step| FlowMap(PlanItem { step })).collect(),
+    };
+    serde_saphyr::to_string(&scenario).expect("a trial's scenario is plain data")
 }
 
 /// What happened to one hidden effect.
