@@ -30,6 +30,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 pub const BIN_S: f64 = 0.01;
 /// The default window: the offset is searched within ±this around 0 (s).
 pub const DEFAULT_HALF_WIDTH_S: f64 = 5.0;
+/// The longest stretch of a stream the search grids (s): 2²⁰ bins, 2.9 h.
+pub const MAX_SPAN_S: f64 = (1u64 << 20) as f64 * BIN_S;
 /// A lag is searched only where at least this fraction of the shorter stream's bins overlap.
 const MIN_OVERLAP: f64 = 0.5;
 /// The correlation at the offset must reach this for the offset to be determined.
@@ -137,9 +139,14 @@ struct Grid {
 
 /// `x` on a grid of [`BIN_S`]: the mean of a bin's samples where the stream is denser than the
 /// grid, the linear interpolation at the bin's centre where it is sparser; across a gap of more
-/// than three of the stream's intervals, empty.
+/// than three of the stream's intervals, empty. Only the first [`MAX_SPAN_S`] of the stream is
+/// gridded: the grid and its spectra grow with the span, not with the samples, and a stamp
+/// years after the others (a corrupted row) would otherwise ask for more memory than exists.
 fn to_grid(x: &Speeds) -> Option<Grid> {
-    let (first, last) = (*x.t_s.first()?, *x.t_s.last()?);
+    let first = *x.t_s.first()?;
+    let kept = x.t_s.partition_point(|t| *t - first <= MAX_SPAN_S);
+    let x = &Speeds { t_s: x.t_s[..kept].to_vec(), speed: x.speed[..kept].to_vec() };
+    let last = *x.t_s.last()?;
     let dt = x.median_interval();
     let n = ((last - first) / BIN_S).floor() as usize + 1;
     let t0 = first + 0.5 * BIN_S;
@@ -317,6 +324,20 @@ mod tests {
         let mocap =
             Speeds { speed: mocap_t.iter().map(|t| speed(mocap_origin_s + t - offset_s)).collect(), t_s: mocap_t };
         (imu, mocap)
+    }
+
+    /// A sample stamped 6·10⁹ s after the rest (a corrupted row of a mapped log) adds no bins:
+    /// the grid ends at the last sample within [`MAX_SPAN_S`] of the first, 6,000 bins for a
+    /// minute, where gridding the stamp would ask for 6·10¹¹ (4.8 TB, an abort), and the offset
+    /// of the minute is still found.
+    #[test]
+    fn a_stamp_years_after_the_rest_does_not_grow_the_grid() {
+        let (mut imu, mocap) = streams(0.2, 0.0);
+        imu.t_s.push(6e9);
+        imu.speed.push(1.0);
+        assert_eq!(to_grid(&imu).unwrap().v.len(), 6_000);
+        let c = search(&imu, &mocap, 0.0, &ClockWindow::default()).unwrap();
+        assert!((c.best.offset_s - 0.2).abs() < 0.1 * BIN_S && c.determined(), "{c:?}");
     }
 
     /// Offsets of 0.2 s, −3.17 s and 12 ms are found to a tenth of the grid, with a clear
