@@ -701,3 +701,88 @@ pub fn render(outcomes: &[Outcome]) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each hidden effect is written where the module doc's table says the simulation applies
+    /// it, with its value: the scenario parsed back holds the value at that path and nothing
+    /// else besides the trial's fixed noise (a field dropped, misnamed or signed wrong fails).
+    /// The thrust scale is written as 1 + the reported share, the lever arm r as the markers'
+    /// displacement −r (four markers), the tilt with a zero yaw.
+    #[test]
+    fn each_hidden_effect_is_written_where_the_table_says() {
+        let plan = [Step::Idle { duration_s: 1.0 }, Step::Takeoff { altitude_m: 1.0, duration_s: 3.0 }];
+        let cases: [(Effect, Vec<f64>, &str, serde_json::Value); 11] = [
+            (
+                Effect::BodyOffset,
+                vec![1.5, -0.5, 2.0],
+                "/vehicles/0/markers/rotation_deg",
+                serde_json::json!([1.5, -0.5, 2.0]),
+            ),
+            (
+                Effect::WorldTilt,
+                vec![0.4, -1.2],
+                "/mocap/camera_error/rotation_deg",
+                serde_json::json!([0.4, -1.2, 0.0]),
+            ),
+            (Effect::MocapDelay, vec![15.0], "/vehicles/0/undeclared/mocap_delay_ms", serde_json::json!(15.0)),
+            (
+                Effect::AccelBias,
+                vec![0.1, -0.2, 0.3],
+                "/vehicles/0/imu/accel_bias_m_s2",
+                serde_json::json!([0.1, -0.2, 0.3]),
+            ),
+            (
+                Effect::GyroBias,
+                vec![0.5, 1.0, -1.5],
+                "/vehicles/0/imu/gyro_bias_deg_s",
+                serde_json::json!([0.5, 1.0, -1.5]),
+            ),
+            (
+                Effect::RotorDrag,
+                vec![0.2, 0.3],
+                "/vehicles/0/undeclared/rotor_drag_per_s",
+                serde_json::json!([0.2, 0.3]),
+            ),
+            (
+                Effect::ConstantForce,
+                vec![0.5, -0.4, 0.1],
+                "/vehicles/0/disturbance/force_n",
+                serde_json::json!([0.5, -0.4, 0.1]),
+            ),
+            (Effect::ThrustScale, vec![-0.1], "/vehicles/0/undeclared/thrust_scale", serde_json::json!(0.9)),
+            (Effect::GroundEffect, vec![1.2], "/vehicles/0/undeclared/ground_effect", serde_json::json!(1.2)),
+            (Effect::ThrustVoltage, vec![0.05], "/vehicles/0/undeclared/thrust_voltage_per_v", serde_json::json!(0.05)),
+            (Effect::GyroDelay, vec![10.0], "/vehicles/0/undeclared/gyro_delay_ms", serde_json::json!(10.0)),
+        ];
+        let bare =
+            serde_json::to_value(Scenario::parse(&trial_yaml(0, 7, "x3d", &plan, &[]), "t.yaml".as_ref()).unwrap())
+                .unwrap();
+        for (e, v, path, want) in cases {
+            let yaml = trial_yaml(0, 7, "x3d", &plan, &[(e, v)]);
+            let s =
+                Scenario::parse(&yaml, "t.yaml".as_ref()).unwrap_or_else(|err| panic!("{}: {err}\n{yaml}", e.key()));
+            let got = serde_json::to_value(&s).unwrap();
+            assert_eq!(got.pointer(path), Some(&want), "{}: {yaml}", e.key());
+            assert_ne!(bare.pointer(path), Some(&want), "{}: the bare trial has it too", e.key());
+        }
+        let yaml = trial_yaml(0, 7, "x3d", &plan, &[(Effect::LeverArm, vec![10.0, -20.0, 30.0])]);
+        let got = serde_json::to_value(Scenario::parse(&yaml, "t.yaml".as_ref()).unwrap()).unwrap();
+        assert_eq!(
+            got.pointer("/vehicles/0/markers/displacement_mm"),
+            Some(&serde_json::json!([
+                [-10.0, 20.0, -30.0],
+                [-10.0, 20.0, -30.0],
+                [-10.0, 20.0, -30.0],
+                [-10.0, 20.0, -30.0]
+            ]))
+        );
+        // the trial's own settings, and the plan as drawn
+        assert_eq!(bare.pointer("/seed"), Some(&serde_json::json!(7)));
+        assert_eq!(bare.pointer("/name"), Some(&serde_json::json!("trial-0")));
+        assert_eq!(bare.pointer("/calibration/apply"), Some(&serde_json::json!(false)));
+        assert_eq!(bare.pointer("/plan/1/takeoff/altitude_m"), Some(&serde_json::json!(1.0)));
+    }
+}
