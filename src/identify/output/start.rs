@@ -58,7 +58,10 @@ pub(crate) fn render_start(s: &mut String, r: &Report) {
             );
         }
         None => {
-            let _ = writeln!(s, "    clock     no angular speed to correlate");
+            let _ = writeln!(
+                s,
+                "    clock     no angular speed to correlate (a stream without one, or sampled less than once a second)"
+            );
         }
     }
     if let Some(f) = &st.frames {
@@ -166,7 +169,7 @@ fn to_try(r: &Report) -> Vec<String> {
             c.best.correlation,
             c.runner_up.map_or(String::new(), |p| format!(", another peak of {:.2} at {:.2} s", p.correlation, p.offset_s)),
         )),
-        None => out.push("the clocks: the log has no angular speed on one of its streams to align them by".into()),
+        None => out.push("the clocks: the log has no angular speed on one of its streams to align them by (or one sampled less than once a second)".into()),
         _ => {}
     }
     if let Some(f) = &st.frames {

@@ -32,6 +32,8 @@ pub const BIN_S: f64 = 0.01;
 pub const DEFAULT_HALF_WIDTH_S: f64 = 5.0;
 /// The longest stretch of a stream the search grids (s): 2²⁰ bins, 2.9 h.
 pub const MAX_SPAN_S: f64 = (1u64 << 20) as f64 * BIN_S;
+/// A stream sampled less often than this (its median interval, s) is not searched.
+pub const MAX_INTERVAL_S: f64 = 1.0;
 /// A lag is searched only where at least this fraction of the shorter stream's bins overlap.
 const MIN_OVERLAP: f64 = 0.5;
 /// The correlation at the offset must reach this for the offset to be determined.
@@ -215,9 +217,15 @@ fn smooth(v: &[f64], sigma_bins: f64) -> Vec<f64> {
 
 /// The offset at which the gyro's speed `imu` and the mocap's `mocap` agree best inside
 /// `window`; `mocap_origin_s` is where the mocap clock's zero lies on the IMU clock's (s: 0 when
-/// both streams' times are already on one clock). `None` when either stream has no speed.
+/// both streams' times are already on one clock). `None` when either stream has no speed or
+/// is sampled less often than every [`MAX_INTERVAL_S`].
 pub(crate) fn search(imu: &Speeds, mocap: &Speeds, mocap_origin_s: f64, window: &ClockWindow) -> Option<ClockStart> {
     let sigma_s = 0.02f64.max(mocap.median_interval()).max(imu.median_interval());
+    // a speed sampled once a second or less says nothing of an offset of a fraction of one, and
+    // its smoothing kernel would span the grid
+    if sigma_s > MAX_INTERVAL_S {
+        return None;
+    }
     let (gi, gm) = (to_grid(imu)?, to_grid(mocap)?);
     let (a, b) = (smooth(&gi.v, sigma_s / BIN_S), smooth(&gm.v, sigma_s / BIN_S));
     let (na, nb) = (a.len(), b.len());
@@ -338,6 +346,18 @@ mod tests {
         assert_eq!(to_grid(&imu).unwrap().v.len(), 6_000);
         let c = search(&imu, &mocap, 0.0, &ClockWindow::default()).unwrap();
         assert!((c.best.offset_s - 0.2).abs() < 0.1 * BIN_S && c.determined(), "{c:?}");
+    }
+
+    /// A stream whose samples lie 10⁹ s apart is not searched (`None`): its smoothing kernel,
+    /// 3σ each side with σ its interval, would hold 6·10¹¹ taps (an abort); at a second apart
+    /// it still is.
+    #[test]
+    fn a_stream_sampled_years_apart_is_not_searched() {
+        let (imu, _) = streams(0.0, 0.0);
+        let sparse =
+            |dt: f64| Speeds { t_s: (0..5).map(|i| i as f64 * dt).collect(), speed: vec![1.0, 2.0, 1.5, 0.5, 1.0] };
+        assert_eq!(search(&imu, &sparse(1e9), 0.0, &ClockWindow::default()), None);
+        assert!(search(&imu, &sparse(MAX_INTERVAL_S), 0.0, &ClockWindow::default()).is_some());
     }
 
     /// Offsets of 0.2 s, −3.17 s and 12 ms are found to a tenth of the grid, with a clear
