@@ -104,10 +104,10 @@ pub use input::series::{Clocks, Corrections, NominalModel, Series, interpolate_a
 pub use crate::effects::{Channel, Effect};
 pub use fit::design::{DesignOptions, glitches};
 pub use fit::ground::{
-    GroundAgreement, GroundCheck, LandedAgreement, LandedAxis, LandedAxisSummary, LandedSummary, MAX_REST_OFF_AXIS_DEG,
-    Rest, RestPoseAxisSummary, RestPoseSummary, STILL_POSE_SD_DEG, SpinUpAgreement, SpinUpAxis, SpinUpAxisSummary,
-    SpinUpSummary, TiltAgreement, UpAxis, ground_check, landed_summary, rest_before_takeoff, rest_pose_summary,
-    spin_up_summary, tilt_at_rest,
+    CheckAxis, GroundAgreement, GroundCheck, LandedAgreement, LandedAxis, LandedAxisSummary, LandedSummary,
+    MAX_REST_OFF_AXIS_DEG, Rest, RestPoseAxisSummary, RestPoseSummary, STILL_POSE_SD_DEG, SpinUpAgreement,
+    SpinUpAxisSummary, SpinUpSummary, TiltAgreement, UpAxis, ground_check, landed_summary, rest_before_takeoff,
+    rest_pose_summary, spin_up_summary, tilt_at_rest,
 };
 pub use fit::note::{ForceLead, Moved, Note, OtherReference, Unavailable};
 pub use fit::quality::{Cut, DataQuality, Finding, QualityChannel, QualityOptions, gate as quality_gate};

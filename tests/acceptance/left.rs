@@ -196,7 +196,7 @@ fn ground_and_flight_agree_when_nothing_moved() {
         // before read
         let l = a.after_landing.unwrap_or_else(|| panic!("{name}: no rest after landing"));
         for t in [&l.roll, &l.pitch] {
-            assert!(t.covers && t.bracket_covers && t.change_deg.abs() < 0.1, "{name}: {l:?}");
+            assert!(t.check.covers && t.bracket_covers && t.check.change_deg.abs() < 0.1, "{name}: {l:?}");
         }
     }
 }

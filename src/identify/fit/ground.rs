@@ -482,22 +482,16 @@ pub struct LandedAgreement {
     pub pitch: LandedAxis,
 }
 
-/// One axis of [`LandedAgreement`] (degrees at this edge).
+/// One axis of [`LandedAgreement`] (degrees at this edge): the second rest checked as the
+/// spin-up is ([`CheckAxis`]), and the two rests' mean against the flight.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LandedAxis {
-    /// The tilt after landing with the fitted bias removed.
-    pub ground_corrected_deg: f64,
-    /// After − before: how far the accelerometer's tilt against the markers moved over the
-    /// flight (a bias that drifts as the IMU warms, a mount that creeps, markers bumped).
-    pub change_deg: f64,
-    /// 95 % half-width of the change (the two means' standard errors).
-    pub change_ci95_deg: f64,
-    /// After landing − flight frame tilt, with its 95 % half-width built as the rest's.
-    pub difference_deg: f64,
-    /// 95 % half-width of the difference.
-    pub ci95_deg: f64,
-    /// The interval covers zero: the rest after landing agrees with the flight.
-    pub covers: bool,
+    /// The tilt after landing against the rest before take-off and against the flight. Its
+    /// change, after − before, is how far the accelerometer's tilt against the markers moved
+    /// over the flight (a bias that drifts as the IMU warms, a mount that creeps, markers
+    /// bumped).
+    #[serde(flatten)]
+    pub check: CheckAxis,
     /// The two rests' mean − flight: the reference for a tilt that moves between the rests (a
     /// monotonic drift puts the flight's average between them).
     pub bracket_difference_deg: f64,
@@ -516,26 +510,46 @@ pub struct SpinUpAgreement {
     /// Length of the spin-up rows (s).
     pub duration_s: f64,
     /// Roll during the spin-up.
-    pub roll: SpinUpAxis,
+    pub roll: CheckAxis,
     /// Pitch during the spin-up.
-    pub pitch: SpinUpAxis,
+    pub pitch: CheckAxis,
 }
 
-/// One axis of [`SpinUpAgreement`] (degrees at this edge).
+/// One axis of a ground check other than the rest before take-off (the spin-up, the rest
+/// after landing), against that rest and against the flight (degrees at this edge).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct SpinUpAxis {
-    /// The spin-up tilt with the fitted bias removed.
+pub struct CheckAxis {
+    /// The check's tilt with the fitted bias removed.
     pub ground_corrected_deg: f64,
-    /// Spin-up − rest: what the spinning rotors add to the accelerometer's tilt.
+    /// Check − rest before take-off: for the spin-up what the spinning rotors add to the
+    /// accelerometer's tilt, after landing what moved over the flight.
     pub change_deg: f64,
     /// 95 % half-width of the change (the two means' standard errors).
     pub change_ci95_deg: f64,
-    /// Spin-up − flight frame tilt.
+    /// Check − flight frame tilt.
     pub difference_deg: f64,
     /// 95 % half-width of that difference, built as the rest's.
     pub ci95_deg: f64,
-    /// The interval covers zero: the spin-up agrees with the flight.
+    /// The interval covers zero: the check agrees with the flight.
     pub covers: bool,
+}
+
+impl CheckAxis {
+    /// A check's tilt `on` (its standard error `on_se`) against the rest before take-off
+    /// (`rest`, standard error `rest_se`) and the flight, whose frame tilt scatters by
+    /// `sd_flight` and is widened by `widen` (degrees).
+    fn new(on: f64, on_se: f64, rest: &TiltAgreement, rest_se: f64, sd_flight: f64, widen: f64) -> CheckAxis {
+        let difference = on - rest.flight_deg;
+        let ci95 = (Z * on_se).hypot(Z * sd_flight) + widen;
+        CheckAxis {
+            ground_corrected_deg: on,
+            change_deg: on - rest.ground_corrected_deg,
+            change_ci95_deg: Z * on_se.hypot(rest_se),
+            difference_deg: difference,
+            ci95_deg: ci95,
+            covers: difference.abs() <= ci95,
+        }
+    }
 }
 
 /// Z_{0.975}
@@ -594,16 +608,7 @@ pub fn agreement(
             } else {
                 (sp.check.pitch_deg, sp.check.pitch_se_deg, corrected.pitch_se_deg)
             };
-            let difference = on - rest.flight_deg;
-            let ci95 = (Z * on_se).hypot(Z * sd_rad[k].to_degrees()) + widen_rad[k].to_degrees();
-            SpinUpAxis {
-                ground_corrected_deg: on,
-                change_deg: on - rest.ground_corrected_deg,
-                change_ci95_deg: Z * on_se.hypot(rest_se),
-                difference_deg: difference,
-                ci95_deg: ci95,
-                covers: difference.abs() <= ci95,
-            }
+            CheckAxis::new(on, on_se, rest, rest_se, sd_rad[k].to_degrees(), widen_rad[k].to_degrees())
         };
         SpinUpAgreement {
             thrust_fraction: sp.thrust_fraction,
@@ -620,18 +625,12 @@ pub fn agreement(
                 (l.pitch_deg, l.pitch_se_deg, corrected.pitch_se_deg)
             };
             let (sd_flight, widen) = (sd_rad[k].to_degrees(), widen_rad[k].to_degrees());
-            let difference = after - rest.flight_deg;
-            let ci95 = (Z * after_se).hypot(Z * sd_flight) + widen;
-            let change = after - rest.ground_corrected_deg;
+            let check = CheckAxis::new(after, after_se, rest, rest_se, sd_flight, widen);
             let bracket = 0.5 * (after + rest.ground_corrected_deg) - rest.flight_deg;
-            let bracket_ci95 = (Z * 0.5 * after_se.hypot(rest_se)).hypot(Z * sd_flight) + 0.5 * change.abs() + widen;
+            let bracket_ci95 =
+                (Z * 0.5 * after_se.hypot(rest_se)).hypot(Z * sd_flight) + 0.5 * check.change_deg.abs() + widen;
             LandedAxis {
-                ground_corrected_deg: after,
-                change_deg: change,
-                change_ci95_deg: Z * after_se.hypot(rest_se),
-                difference_deg: difference,
-                ci95_deg: ci95,
-                covers: difference.abs() <= ci95,
+                check,
                 bracket_difference_deg: bracket,
                 bracket_ci95_deg: bracket_ci95,
                 bracket_covers: bracket.abs() <= bracket_ci95,
@@ -688,7 +687,7 @@ pub fn spin_up_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreem
     if n < 3 {
         return None;
     }
-    let axis = |pick: fn(&GroundAgreement) -> &TiltAgreement, pick_spin: fn(&SpinUpAgreement) -> &SpinUpAxis| {
+    let axis = |pick: fn(&GroundAgreement) -> &TiltAgreement, pick_spin: fn(&SpinUpAgreement) -> &CheckAxis| {
         let rest: Vec<f64> = pairs.iter().map(|(a, _)| pick(a).difference_deg.abs()).collect();
         let spin: Vec<f64> = pairs.iter().map(|(_, sp)| pick_spin(sp).difference_deg.abs()).collect();
         // the flight lies at rest − difference: toward it is a change of the opposite sign
@@ -757,12 +756,12 @@ pub fn landed_summary<'a>(agreements: impl IntoIterator<Item = &'a GroundAgreeme
         };
         let beyond: Vec<(f64, bool)> = all.iter().map(|a| reference(a)).filter(|(d, _)| d.abs() > 1.0).collect();
         LandedAxisSummary {
-            median_change_deg: median(both.iter().map(|(_, l)| pick_l(l).change_deg.abs()).collect()),
-            max_change_deg: both.iter().map(|(_, l)| pick_l(l).change_deg.abs()).fold(0.0, f64::max),
+            median_change_deg: median(both.iter().map(|(_, l)| pick_l(l).check.change_deg.abs()).collect()),
+            max_change_deg: both.iter().map(|(_, l)| pick_l(l).check.change_deg.abs()).fold(0.0, f64::max),
             median_before_deg: median(both.iter().map(|(a, _)| pick(a).difference_deg.abs()).collect()),
             median_bracket_deg: median(both.iter().map(|(_, l)| pick_l(l).bracket_difference_deg.abs()).collect()),
             // before − flight and after − flight of opposite signs
-            between: both.iter().filter(|(a, l)| pick(a).difference_deg * pick_l(l).difference_deg < 0.0).count(),
+            between: both.iter().filter(|(a, l)| pick(a).difference_deg * pick_l(l).check.difference_deg < 0.0).count(),
             median_reference_deg: median(all.iter().map(|a| reference(a).0.abs()).collect()),
             beyond_1deg: beyond.len(),
             beyond_1deg_covered: beyond.iter().filter(|(_, c)| *c).count(),
@@ -1453,16 +1452,22 @@ mod tests {
         let a = agreement(&raw, &raw, &tilt([0.3, -0.9]), None, Some(&after));
         let l = a.after_landing.unwrap();
         // after − before, after − flight, (before + after)/2 − flight
-        assert!((l.roll.change_deg + 0.2).abs() < 1e-3 && (l.pitch.change_deg - 0.6).abs() < 1e-3, "{l:?}");
-        assert!((l.roll.difference_deg + 0.1).abs() < 1e-3 && (l.pitch.difference_deg - 0.5).abs() < 1e-3, "{l:?}");
+        assert!((l.roll.check.change_deg + 0.2).abs() < 1e-3 && (l.pitch.check.change_deg - 0.6).abs() < 1e-3, "{l:?}");
+        assert!(
+            (l.roll.check.difference_deg + 0.1).abs() < 1e-3 && (l.pitch.check.difference_deg - 0.5).abs() < 1e-3,
+            "{l:?}"
+        );
         assert!(
             l.roll.bracket_difference_deg.abs() < 1e-3 && (l.pitch.bracket_difference_deg - 0.2).abs() < 1e-3,
             "{l:?}"
         );
-        assert!(l.pitch.bracket_ci95_deg >= 0.3 && l.pitch.bracket_covers && !l.pitch.covers, "{l:?}");
+        assert!(l.pitch.bracket_ci95_deg >= 0.3 && l.pitch.bracket_covers && !l.pitch.check.covers, "{l:?}");
         // the change's interval is the two rests' standard errors combined, 1.96·√(se_a² + se_b²)
         let change_ci = 1.959964 * after.roll_se_deg.hypot(raw.roll_se_deg);
-        assert!(change_ci > 0.0 && (l.roll.change_ci95_deg / change_ci - 1.0).abs() < 1e-5, "{l:?} vs {change_ci}");
+        assert!(
+            change_ci > 0.0 && (l.roll.check.change_ci95_deg / change_ci - 1.0).abs() < 1e-5,
+            "{l:?} vs {change_ci}"
+        );
         // this flight sits between its rests (before − flight: +0.1 roll, −0.1 pitch; after −
         // flight: −0.1, +0.5); one at pitch −1.2 does not in pitch (+0.2, +0.8; bracket +0.5)
         // a flight at pitch −0.6 disagrees with the rest before (−0.4) and agrees with the

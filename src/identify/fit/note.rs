@@ -6,7 +6,7 @@
 //!
 //! Units are those of the sentence: degrees and seconds at this edge, as in the report.
 
-use super::ground::{GroundAgreement, LandedAxis, SpinUpAxis, TiltAgreement};
+use super::ground::{CheckAxis, GroundAgreement, LandedAxis, TiltAgreement};
 use super::quality::Cut;
 use crate::effects::Effect;
 
@@ -197,7 +197,7 @@ pub struct ForceLead {
 pub enum OtherReference {
     /// The spin-up (motors on, still on the floor) moved from the rest toward the flight and
     /// agrees with it.
-    SpinUp(SpinUpAxis),
+    SpinUp(CheckAxis),
     /// The mean of the rests before and after the flight agrees with it.
     RestsBracket(LandedAxis),
 }
@@ -217,7 +217,7 @@ pub(crate) fn of_ground_agreement(a: &GroundAgreement) -> Vec<Note> {
             let landed = a.after_landing.as_ref().map(|l| if tilt == first { l.roll } else { l.pitch });
             // the spin-up counts only where it moved significantly from the rest, toward the
             // flight, and lands within its interval of it (a wide interval alone agrees with anything)
-            let toward = |s: &SpinUpAxis| {
+            let toward = |s: &CheckAxis| {
                 s.covers && s.change_deg.abs() > s.change_ci95_deg && s.change_deg * t.difference_deg < 0.0
             };
             let other = match (spin.filter(toward), landed.filter(|l| l.bracket_covers)) {
@@ -256,8 +256,8 @@ mod tests {
 
     /// A spin-up that moved `change_deg` ± 0.05° from the rest and lands `difference_deg` ±
     /// 0.2° from the flight.
-    fn spin(change_deg: f64, difference_deg: f64) -> SpinUpAxis {
-        SpinUpAxis {
+    fn spin(change_deg: f64, difference_deg: f64) -> CheckAxis {
+        CheckAxis {
             ground_corrected_deg: 0.0,
             change_deg,
             change_ci95_deg: 0.05,
@@ -270,12 +270,14 @@ mod tests {
     /// Rests whose mean lands `bracket_difference_deg` ± 0.3° from the flight.
     fn landed(bracket_difference_deg: f64) -> LandedAxis {
         LandedAxis {
-            ground_corrected_deg: 0.0,
-            change_deg: 0.0,
-            change_ci95_deg: 0.1,
-            difference_deg: 0.0,
-            ci95_deg: 0.3,
-            covers: true,
+            check: CheckAxis {
+                ground_corrected_deg: 0.0,
+                change_deg: 0.0,
+                change_ci95_deg: 0.1,
+                difference_deg: 0.0,
+                ci95_deg: 0.3,
+                covers: true,
+            },
             bracket_difference_deg,
             bracket_ci95_deg: 0.3,
             bracket_covers: bracket_difference_deg.abs() <= 0.3,

@@ -201,7 +201,7 @@ mod tests {
     use super::*;
     use crate::effects::Effect;
     use crate::identify::fit::ground::TiltAgreement;
-    use crate::identify::fit::ground::{LandedAxis, STILL_POSE_SD_DEG};
+    use crate::identify::fit::ground::{CheckAxis, LandedAxis, STILL_POSE_SD_DEG};
     use crate::identify::fit::quality::{Cut, Finding, QualityChannel};
 
     /// The sentences of the notes on the data, written out by hand: the gate's cut (its
@@ -321,12 +321,14 @@ mod tests {
             covers: false,
         };
         let bracket = LandedAxis {
-            ground_corrected_deg: 1.1,
-            change_deg: 0.5,
-            change_ci95_deg: 0.05,
-            difference_deg: -0.2,
-            ci95_deg: 0.3,
-            covers: true,
+            check: CheckAxis {
+                ground_corrected_deg: 1.1,
+                change_deg: 0.5,
+                change_ci95_deg: 0.05,
+                difference_deg: -0.2,
+                ci95_deg: 0.3,
+                covers: true,
+            },
             bracket_difference_deg: -0.1,
             bracket_ci95_deg: 0.35,
             bracket_covers: true,

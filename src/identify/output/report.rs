@@ -294,10 +294,10 @@ fn render_ground(s: &mut String, r: &Report) {
             let _ = writeln!(
                 s,
                 "    {name:<5} after {:+.2} (after − before {}); difference to the flight {} {}; mean of the rests {} {}",
-                t.ground_corrected_deg,
-                pm(t.change_deg, t.change_ci95_deg),
-                pm(t.difference_deg, t.ci95_deg),
-                if t.covers { "(agree)" } else { "(DISAGREE)" },
+                t.check.ground_corrected_deg,
+                pm(t.check.change_deg, t.check.change_ci95_deg),
+                pm(t.check.difference_deg, t.check.ci95_deg),
+                if t.check.covers { "(agree)" } else { "(DISAGREE)" },
                 pm(t.bracket_difference_deg, t.bracket_ci95_deg),
                 if t.bracket_covers { "(agree)" } else { "(DISAGREE)" }
             );
