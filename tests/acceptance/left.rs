@@ -55,7 +55,7 @@ fn ground_check_reads_offset_plus_bias_tilt() {
     let expect_raw = (1.5 + (b.y / G).to_degrees(), -1.0 - (b.x / G).to_degrees());
     assert!((raw.roll_deg - expect_raw.0).abs() < 0.03, "raw roll {} vs {}", raw.roll_deg, expect_raw.0);
     assert!((raw.pitch_deg - expect_raw.1).abs() < 0.03, "raw pitch {} vs {}", raw.pitch_deg, expect_raw.1);
-    let corrected = tilt_at_rest(&series, &b).unwrap();
+    let corrected = tilt_at_rest(&series, flyarena::frames::Vec3::from_raw(b)).unwrap();
     assert!((corrected.roll_deg - 1.5).abs() < 0.03, "corrected roll {}", corrected.roll_deg);
     assert!((corrected.pitch_deg + 1.0).abs() < 0.03, "corrected pitch {}", corrected.pitch_deg);
 

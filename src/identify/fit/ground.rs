@@ -20,6 +20,7 @@
 //! own tilt scatter at rest ([`GroundCheck::mocap_sd_deg`]) tells a still pose that the
 //! cameras see badly.
 
+use crate::frames::{Body, MocapBody, MocapNav, Nav, Rot, Vec3};
 use crate::identify::input::series::Series;
 
 /// The tilt the accelerometer reads against the markers while the vehicle rests on the floor before
@@ -97,7 +98,7 @@ pub struct Rest {
 
 /// The ground check as the accelerometer reads it, with no bias removed.
 pub fn ground_check(s: &Series) -> Option<GroundCheck> {
-    tilt_at_rest(s, &nalgebra::Vector3::zeros())
+    tilt_at_rest(s, Vec3::zeros())
 }
 
 /// The rotation that takes the direction of `a` to that of `b`, as a rotation vector (rad): axis
@@ -176,13 +177,13 @@ fn rest_after_landing(s: &Series, (before, before_end): (usize, usize)) -> Optio
     Some((start, end))
 }
 
-/// The ground check again after landing, with `accel_bias_body` removed as for the rest before.
+/// The ground check again after landing, with `accel_bias` removed as for the rest before.
 /// Its tilts are about the level axes of the rest before take-off.
-pub fn tilt_after_landing(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
+pub fn tilt_after_landing(s: &Series, accel_bias: Vec3<Body>) -> Option<GroundCheck> {
     let (before, Rest { up, .. }) = checked_rest(s)?;
     let (start, end) = rest_after_landing(s, before)?;
     let (start, end) = still_accel(s, start, end)?;
-    Some(tilt_over(s, Rest { start, end, up }, accel_bias_body))
+    Some(tilt_over(s, Rest { start, end, up }, accel_bias))
 }
 
 /// A still vehicle's accelerometer reads the same specific force row after row, its noise aside.
@@ -279,11 +280,11 @@ fn checked_rest(s: &Series) -> Option<((usize, usize), Rest)> {
     Some(((start, end), Rest { start: a, end: b, up }))
 }
 
-/// The ground check with an accelerometer bias `accel_bias_body` (IMU frame, m/s²) removed from
+/// The ground check with an accelerometer bias `accel_bias` (m/s², IMU body) removed from
 /// every sample first: the rotation from f̂ to f − b. `None` without a rest
 /// ([`rest_before_takeoff`]).
-pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<GroundCheck> {
-    rest_before_takeoff(s).map(|r| tilt_over(s, r, accel_bias_body))
+pub fn tilt_at_rest(s: &Series, accel_bias: Vec3<Body>) -> Option<GroundCheck> {
+    rest_before_takeoff(s).map(|r| tilt_over(s, r, accel_bias))
 }
 
 /// The tilt a model of the frames predicts over `rest`'s rows, about its level axes (rad): the
@@ -296,16 +297,16 @@ pub fn tilt_at_rest(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Opt
 pub fn predicted_tilt(
     s: &Series,
     rest: &Rest,
-    offset: &nalgebra::UnitQuaternion<f64>,
-    world: &nalgebra::UnitQuaternion<f64>,
-    accel_bias_body: &nalgebra::Vector3<f64>,
+    offset: &Rot<MocapBody, Body>,
+    world: &Rot<Nav, MocapNav>,
+    accel_bias: Vec3<Body>,
 ) -> [f64; 2] {
-    let down = world.transform_vector(&nalgebra::Vector3::new(0.0, 0.0, -s.model.gravity_m_s2));
+    let down: Vec3<MocapNav> = world.apply(Vec3::new(0.0, 0.0, -s.model.gravity_m_s2));
     let [a, b] = rest.up.level();
     let mut sum = [0.0; 2];
     for i in rest.start..rest.end {
-        let f = offset.transform_vector(&s.att_mocap[i].quaternion().inverse_transform_vector(&down)) + accel_bias_body;
-        let d = rotation_between(&predicted_at_rest(s, i), &f);
+        let f = offset.apply(s.att_mocap[i].inverse().apply(down)) + accel_bias;
+        let d = rotation_between(&predicted_at_rest(s, i), f.raw());
         sum = [sum[0] + d[a], sum[1] + d[b]];
     }
     let m = (rest.end - rest.start) as f64;
@@ -314,7 +315,7 @@ pub fn predicted_tilt(
 
 /// The rotation from f̂ to f − b averaged over `rest`'s rows (≥ 2 rows), about its level axes,
 /// with its standard error.
-fn tilt_over(s: &Series, rest: Rest, accel_bias_body: &nalgebra::Vector3<f64>) -> GroundCheck {
+fn tilt_over(s: &Series, rest: Rest, accel_bias: Vec3<Body>) -> GroundCheck {
     let Rest { start, end, up } = rest;
     let [a, b] = up.level();
     // the up axis as a signed unit vector of the body (−z for a vehicle on its legs)
@@ -325,7 +326,7 @@ fn tilt_over(s: &Series, rest: Rest, accel_bias_body: &nalgebra::Vector3<f64>) -
     let mut mocap: Vec<[f64; 2]> = Vec::with_capacity(end - start);
     for i in start..end {
         let f_hat = predicted_at_rest(s, i);
-        let d = rotation_between(&f_hat, &(s.accel_body[i].raw() - accel_bias_body));
+        let d = rotation_between(&f_hat, (s.accel_body[i] - accel_bias).raw());
         rp.push((d[a], d[b]));
         let u = rotation_between(&axis_up, &f_hat);
         mocap.push([u[a], u[b]]);
@@ -370,7 +371,7 @@ pub struct SpinUp {
 /// Spin-up rows: from [`SPIN_UP_SKIP_S`] after the first row with thrust until the vehicle leaves
 /// the floor (more than [`LIFT_M`] above its rest height), the mocap drops or the segment ends.
 /// Needs a thrust column and the rest before it; `None` when fewer than [`SPIN_UP_MIN_S`] remain.
-pub fn spin_up(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<SpinUp> {
+pub fn spin_up(s: &Series, accel_bias: Vec3<Body>) -> Option<SpinUp> {
     let thrust = s.thrust_n.as_ref()?;
     let ((start, _), Rest { up, .. }) = checked_rest(s)?;
     let seg_end = s.segments.first()?.1;
@@ -385,7 +386,7 @@ pub fn spin_up(s: &Series, accel_bias_body: &nalgebra::Vector3<f64>) -> Option<S
     }
     let weight = s.model.mass_kg * s.model.gravity_m_s2;
     Some(SpinUp {
-        check: tilt_over(s, Rest { start: from, end: to, up }, accel_bias_body),
+        check: tilt_over(s, Rest { start: from, end: to, up }, accel_bias),
         thrust_fraction: thrust[from..to].iter().sum::<f64>() / (to - from) as f64 / weight,
         duration_s: (to - from) as f64 * s.dt(),
     })
@@ -984,12 +985,12 @@ mod tests {
         let s = flight([0.4, -1.0], [0.0, 0.5], 0.9);
         let rest = ground_check(&s).unwrap();
         assert!((rest.roll_deg - 0.4).abs() < 1e-3 && (rest.pitch_deg + 1.0).abs() < 1e-3, "{rest:?}");
-        let sp = spin_up(&s, &Vector3::zeros()).unwrap();
+        let sp = spin_up(&s, Vec3::zeros()).unwrap();
         assert!((sp.check.roll_deg - 0.4).abs() < 1e-3 && (sp.check.pitch_deg + 0.5).abs() < 1e-3, "{sp:?}");
         assert!((sp.thrust_fraction - 0.9).abs() < 1e-12);
         assert!((sp.duration_s - 0.56).abs() < 1e-9 && sp.check.samples == 56, "{sp:?}");
         // a bias removed from every sample moves both alike: b_y/g in roll
-        let b = spin_up(&s, &Vector3::new(0.0, 0.0981, 0.0)).unwrap();
+        let b = spin_up(&s, Vec3::new(0.0, 0.0981, 0.0)).unwrap();
         assert!((sp.check.roll_deg - b.check.roll_deg - 0.0981f64.atan2(G).to_degrees()).abs() < 0.01, "{b:?}");
     }
 
@@ -1064,13 +1065,15 @@ mod tests {
                 Vec3::from_raw(att[i].quaternion().inverse_transform_vector(&Vector3::new(0.0, 0.0, -G)) + bias);
         }
         let rest = rest_before_takeoff(&s).unwrap();
-        for (b, read) in [(Vector3::zeros(), tilt_at_rest(&s, &bias).unwrap()), (bias, ground_check(&s).unwrap())] {
-            let p = predicted_tilt(&s, &rest, &offset, &world, &b).map(f64::to_degrees);
+        let (offset, world, bias) = (corr.body_offset, corr.world_tilt, Vec3::<Body>::from_raw(bias));
+        for (b, read) in [(Vec3::zeros(), tilt_at_rest(&s, bias).unwrap()), (bias, ground_check(&s).unwrap())] {
+            let p = predicted_tilt(&s, &rest, &offset, &world, b).map(f64::to_degrees);
             assert!(
                 (p[0] - read.roll_deg).abs() < 1e-9 && (p[1] - read.pitch_deg).abs() < 1e-9,
                 "{p:?} against {read:?}"
             );
-            let swapped = predicted_tilt(&s, &rest, &offset, &world.inverse(), &b).map(f64::to_degrees);
+            // the world tilt's inverse, which the model does not make
+            let swapped = predicted_tilt(&s, &rest, &offset, &world.inverse().assume_frames(), b).map(f64::to_degrees);
             assert!((swapped[0] - read.roll_deg).abs().max((swapped[1] - read.pitch_deg).abs()) > 1.0, "{swapped:?}");
         }
     }
@@ -1142,13 +1145,13 @@ mod tests {
     fn no_spin_up_without_thrust_or_time_on_the_floor() {
         let mut s = flight([0.0; 2], [0.0; 2], 0.9);
         s.thrust_n = None;
-        assert!(spin_up(&s, &Vector3::zeros()).is_none());
+        assert!(spin_up(&s, Vec3::zeros()).is_none());
         let mut s = flight([0.0; 2], [0.0; 2], 0.9);
         // lifts 0.3 s after the motors start: 0.25 s of usable rows
         for i in 130..s.len() {
             s.pos_mocap_nav[i] = Vec3::new(s.pos_mocap_nav[i].x(), s.pos_mocap_nav[i].y(), -0.004);
         }
-        assert!(spin_up(&s, &Vector3::zeros()).is_none());
+        assert!(spin_up(&s, Vec3::zeros()).is_none());
     }
 
     /// The lift is measured from the floor's own height: on a platform 0.5 m up (z = −0.5 m in
@@ -1159,7 +1162,7 @@ mod tests {
         for p in &mut s.pos_mocap_nav {
             *p += Vec3::new(0.0, 0.0, -0.5);
         }
-        let sp = spin_up(&s, &Vector3::zeros()).unwrap();
+        let sp = spin_up(&s, Vec3::zeros()).unwrap();
         assert_eq!(sp.check.samples, 56, "{sp:?}");
     }
 
@@ -1206,7 +1209,7 @@ mod tests {
     #[test]
     fn the_spin_up_agreement_compares_with_rest_and_flight() {
         let s = flight([0.4, -1.0], [0.0, 0.5], 0.9);
-        let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, &Vector3::zeros()).unwrap());
+        let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, Vec3::zeros()).unwrap());
         // a flight that pins its tilt down only to ±2.2° (σ 0.02 rad) covers a 1.2° difference,
         // and the note says so at the interval's precision
         let loose = FlightTilt { sd_rad: [0.02; 2], ..tilt([0.4, 0.2]) };
@@ -1233,8 +1236,8 @@ mod tests {
         assert!((su.pitch.difference_deg - 0.1).abs() < 1e-3 && (a.pitch.difference_deg + 0.4).abs() < 1e-3, "{a:?}");
         // with a bias removed from both checks the change is the same (the bias cancels) and
         // the difference moves by the bias tilt
-        let b = Vector3::new(0.0981, 0.0, 0.0);
-        let (rc, spc) = (tilt_at_rest(&s, &b).unwrap(), spin_up(&s, &b).unwrap());
+        let b = Vec3::new(0.0981, 0.0, 0.0);
+        let (rc, spc) = (tilt_at_rest(&s, b).unwrap(), spin_up(&s, b).unwrap());
         let ab = agreement(&raw, &rc, &tilt([0.4, -0.6]), Some(&spc), None);
         let sb = ab.spin_up.unwrap();
         assert!((sb.pitch.change_deg - 0.5).abs() < 1e-3, "{sb:?}");
@@ -1261,7 +1264,7 @@ mod tests {
     #[test]
     fn the_summary_counts_moves_toward_the_flight() {
         let s = flight([0.0, 0.0], [0.0, 0.5], 0.9);
-        let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, &Vector3::zeros()).unwrap());
+        let (raw, sp) = (ground_check(&s).unwrap(), spin_up(&s, Vec3::zeros()).unwrap());
         // flights at pitch 0.4 (toward: rest − flight = −0.4, change +0.5), and one at −0.4 (away)
         let at = |p: f64| agreement(&raw, &raw, &tilt([0.0, p]), Some(&sp), None);
         let v = [at(0.4), at(0.4), at(-0.4)];
@@ -1441,14 +1444,14 @@ mod tests {
     fn the_rest_after_landing_reads_its_own_tilt_and_brackets_the_flight() {
         for end_z in [0.0, 0.02, -0.04] {
             let s = landed([0.4, -1.0], [0.2, -0.4], end_z);
-            let after = tilt_after_landing(&s, &Vector3::zeros()).unwrap();
+            let after = tilt_after_landing(&s, Vec3::zeros()).unwrap();
             assert!(
                 (after.roll_deg - 0.2).abs() < 1e-3 && (after.pitch_deg + 0.4).abs() < 1e-3 && after.samples == 50,
                 "{after:?}"
             );
         }
         let s = landed([0.4, -1.0], [0.2, -0.4], 0.0);
-        let (raw, after) = (ground_check(&s).unwrap(), tilt_after_landing(&s, &Vector3::zeros()).unwrap());
+        let (raw, after) = (ground_check(&s).unwrap(), tilt_after_landing(&s, Vec3::zeros()).unwrap());
         let a = agreement(&raw, &raw, &tilt([0.3, -0.9]), None, Some(&after));
         let l = a.after_landing.unwrap();
         // after − before, after − flight, (before + after)/2 − flight
@@ -1497,20 +1500,20 @@ mod tests {
     /// the motors on, after less than 0.5 s still (beyond the settling), or without a flight.
     #[test]
     fn no_rest_after_landing_unless_it_landed_and_stayed() {
-        assert!(tilt_after_landing(&landed([0.0; 2], [0.0; 2], -0.5), &Vector3::zeros()).is_none());
-        assert!(tilt_after_landing(&landed([0.0; 2], [0.0; 2], -0.06), &Vector3::zeros()).is_none());
+        assert!(tilt_after_landing(&landed([0.0; 2], [0.0; 2], -0.5), Vec3::zeros()).is_none());
+        assert!(tilt_after_landing(&landed([0.0; 2], [0.0; 2], -0.06), Vec3::zeros()).is_none());
         let mut s = landed([0.0; 2], [0.0; 2], 0.0);
         s.thrust_n.as_mut().unwrap()[399] = 1.0;
-        assert!(tilt_after_landing(&s, &Vector3::zeros()).is_none());
+        assert!(tilt_after_landing(&s, Vec3::zeros()).is_none());
         let s = landed([0.0; 2], [0.0; 2], 0.0).slice(0, 399);
-        assert!(tilt_after_landing(&s, &Vector3::zeros()).is_none(), "0.49 s still after the settling");
+        assert!(tilt_after_landing(&s, Vec3::zeros()).is_none(), "0.49 s still after the settling");
         let s = landed([0.0; 2], [0.0; 2], 0.0).slice(0, 400);
-        assert!(tilt_after_landing(&s, &Vector3::zeros()).is_some());
+        assert!(tilt_after_landing(&s, Vec3::zeros()).is_some());
         // a log that never leaves the floor has no landing
         let mut s = landed([0.0; 2], [0.0; 2], 0.0);
         s.thrust_n = Some(vec![0.0; 400]);
         s.pos_mocap_nav.iter_mut().for_each(|p| *p = Vec3::new(p.x(), p.y(), 0.0));
-        assert!(tilt_after_landing(&s, &Vector3::zeros()).is_none());
+        assert!(tilt_after_landing(&s, Vec3::zeros()).is_none());
     }
 
     /// The mocap's own tilt scatter at rest, by hand: a pose rolled +0.1° and −0.1° on

@@ -60,7 +60,7 @@ use super::ground::Rest;
 use super::note::{Note, Unavailable};
 use super::stats::{Ar, Z_975, f_sf};
 use crate::effects::{Channel, Effect};
-use crate::frames::{Body, MocapNav, Nav, Rot, Vec3};
+use crate::frames::{Body, MocapBody, MocapNav, Nav, Rot, Vec3};
 use crate::identify::input::series::{Corrections, Series};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 
@@ -268,15 +268,15 @@ fn rest_frames(
     selected: &[Effect],
     theta: &[f64],
     corr: &Corrections,
-) -> (UnitQuaternion<f64>, UnitQuaternion<f64>, Vector3<f64>) {
+) -> (Rot<MocapBody, Body>, Rot<Nav, MocapNav>, Vec3<Body>) {
     let has = |e: Effect| selected.contains(&e);
-    let offset = if has(Effect::BodyOffset) { *corr.body_offset.quaternion() } else { UnitQuaternion::identity() };
-    let world = if has(Effect::WorldTilt) { *corr.world_tilt.quaternion() } else { UnitQuaternion::identity() };
+    let offset = if has(Effect::BodyOffset) { corr.body_offset } else { Rot::identity() };
+    let world = if has(Effect::WorldTilt) { corr.world_tilt } else { Rot::identity() };
     let b = cols_of(Effect::AccelBias);
     let bias = if has(Effect::AccelBias) {
-        Vector3::new(theta[b.start], theta[b.start + 1], theta[b.start + 2])
+        Vec3::new(theta[b.start], theta[b.start + 1], theta[b.start + 2])
     } else {
-        Vector3::zeros()
+        Vec3::zeros()
     };
     (offset, world, bias)
 }
@@ -289,8 +289,8 @@ fn rest_tilt(s: &Series, rest: Option<&Rest>, selected: &[Effect], theta: &[f64]
     let Some(rest) = rest else {
         return RestTilt { frame: [0.0; 2], total: [0.0; 2], bias };
     };
-    let frame = super::ground::predicted_tilt(s, rest, &offset, &world, &Vector3::zeros());
-    let total = super::ground::predicted_tilt(s, rest, &offset, &world, &bias);
+    let frame = super::ground::predicted_tilt(s, rest, &offset, &world, Vec3::zeros());
+    let total = super::ground::predicted_tilt(s, rest, &offset, &world, bias);
     RestTilt { frame, total, bias }
 }
 
@@ -300,8 +300,8 @@ struct RestTilt {
     frame: [f64; 2],
     /// With the accelerometer bias too (rad): what the ground check reads if the model holds.
     total: [f64; 2],
-    /// The accelerometer bias (IMU frame, m/s²).
-    bias: Vector3<f64>,
+    /// The accelerometer bias (m/s², IMU body).
+    bias: Vec3<Body>,
 }
 
 /// The standard deviation (rad) of the whole rest tilt (frame part plus bias, per level axis) by
@@ -325,7 +325,7 @@ fn rest_tilt_sd(
     let (o, w, b) = (cols_of(Effect::BodyOffset), cols_of(Effect::WorldTilt), cols_of(Effect::AccelBias));
     const H: f64 = 1e-6;
     let total_at = |j: usize, h: f64| {
-        let (mut oq, mut wq, mut bv) = (offset, world, bias);
+        let (mut oq, mut wq, mut bv) = (*offset.quaternion(), *world.quaternion(), *bias.raw());
         let mut d = Vector3::zeros();
         if o.contains(&j) {
             d[j - o.start] = h;
@@ -336,7 +336,7 @@ fn rest_tilt_sd(
         } else {
             bv[j - b.start] += h;
         }
-        super::ground::predicted_tilt(s, rest, &oq, &wq, &bv)
+        super::ground::predicted_tilt(s, rest, &Rot::from_quaternion(oq), &Rot::from_quaternion(wq), Vec3::from_raw(bv))
     };
     let grads: Vec<(usize, [f64; 2])> = set
         .iter()
@@ -975,7 +975,7 @@ fn ground(
     let tilt_widen = [0, 1].map(|k| widen::beyond_own(tilt_widen[k], Z_975 * tilt_sd[k]));
     let ground_check = super::ground::ground_check(s);
     let ground_agreement = ground_check.as_ref().and_then(|raw| {
-        super::ground::tilt_at_rest(s, &tilt.bias).map(|corrected| {
+        super::ground::tilt_at_rest(s, tilt.bias).map(|corrected| {
             let flight = super::ground::FlightTilt {
                 offset_rad: tilt.frame,
                 sd_rad: tilt_sd,
@@ -987,8 +987,8 @@ fn ground(
                 raw,
                 &corrected,
                 &flight,
-                super::ground::spin_up(s, &tilt.bias).as_ref(),
-                super::ground::tilt_after_landing(s, &tilt.bias).as_ref(),
+                super::ground::spin_up(s, tilt.bias).as_ref(),
+                super::ground::tilt_after_landing(s, tilt.bias).as_ref(),
             )
         })
     });
@@ -1140,7 +1140,7 @@ mod tests {
         theta_b[b.start..b.end].copy_from_slice(bias.as_slice());
         let t = rest_tilt(&s, Some(&rest), &[Effect::AccelBias], &theta_b, &Corrections::default());
         let want = Vector3::new(bias.y, -bias.x, 0.0).normalize() * (bias.norm() / g).atan();
-        assert!(near(t.total, want) && t.frame == [0.0; 2] && t.bias == bias, "{:?} against {want:?}", t.total);
+        assert!(near(t.total, want) && t.frame == [0.0; 2] && *t.bias.raw() == bias, "{:?} against {want:?}", t.total);
         assert!((t.total[0] - bias.y / g).abs() > 1e-3, "first order would have done");
         // nothing selected: nothing, and no rest: nothing
         let corr = Corrections {
@@ -1149,7 +1149,7 @@ mod tests {
             ..Corrections::default()
         };
         let t = rest_tilt(&s, Some(&rest), &[], &theta_b, &corr);
-        assert_eq!((t.frame, t.total, t.bias), ([0.0; 2], [0.0; 2], Vector3::zeros()));
+        assert_eq!((t.frame, t.total, *t.bias.raw()), ([0.0; 2], [0.0; 2], Vector3::zeros()));
         let t = rest_tilt(&s, None, &[Effect::BodyOffset, Effect::WorldTilt], &theta_b, &corr);
         assert_eq!((t.frame, t.total), ([0.0; 2], [0.0; 2]));
     }
