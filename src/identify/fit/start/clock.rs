@@ -335,14 +335,16 @@ mod tests {
     }
 
     /// A sample stamped 6·10⁹ s after the rest (a corrupted row of a mapped log) adds no bins:
-    /// the grid ends at the last sample within [`MAX_SPAN_S`] of the first, 6,000 bins for a
-    /// minute, where gridding the stamp would ask for 6·10¹¹ (4.8 TB, an abort), and the offset
-    /// of the minute is still found.
+    /// the grid ends at the last sample within [`MAX_SPAN_S`] (2²⁰ bins of 10 ms, 10,485.76 s) of
+    /// the first, 6,000 bins for a minute, where gridding the stamp would ask for 6·10¹¹ (4.8 TB,
+    /// an abort), and the offset of the minute is still found. A sample 3 h in is beyond the
+    /// limit too (a limit of 2²⁰ s would take it in).
     #[test]
     fn a_stamp_years_after_the_rest_does_not_grow_the_grid() {
+        assert_eq!(MAX_SPAN_S, 10_485.76);
         let (mut imu, mocap) = streams(0.2, 0.0);
-        imu.t_s.push(6e9);
-        imu.speed.push(1.0);
+        imu.t_s.extend([10_800.0, 6e9]);
+        imu.speed.extend([1.0, 1.0]);
         assert_eq!(to_grid(&imu).unwrap().v.len(), 6_000);
         let c = search(&imu, &mocap, 0.0, &ClockWindow::default()).unwrap();
         assert!((c.best.offset_s - 0.2).abs() < 0.1 * BIN_S && c.determined(), "{c:?}");
