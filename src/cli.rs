@@ -464,7 +464,10 @@ fn cmd_serve(a: ServeArgs) -> Result<i32, Error> {
         a.wait_s
     );
     let started = std::time::Instant::now();
-    let (main, net) = serve(&s, &opts, flyarena::engine::RunOptions::default())?;
+    // the trajectory is kept for what writes it (the recording, the log) and for nothing else:
+    // without them a served flight's memory stays flat however long it runs
+    let keep = flyarena::engine::RunOptions { trace: record || a.run.log.is_some(), ..Default::default() };
+    let (main, net) = serve(&s, &opts, keep)?;
     let elapsed = started.elapsed();
     if !a.run.quiet {
         print_served(&net, a.lockstep);
