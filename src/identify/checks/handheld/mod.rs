@@ -41,7 +41,6 @@
 //!
 //! **Any rig** ([`Setting::parse`]): the rates, noise densities, length and drift are read from
 //! YAML (`rigs/mocap2gt.yaml` is the default, field for field).
-
 //!
 //! **The parts**: [`Setting`] and [`draw`] make a rig and its log (`rig.rs`), [`bound`] its
 //! floor (`bound.rs`), [`run`] and [`run_many`] identify and score it (`monte_carlo.rs`); the
