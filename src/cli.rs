@@ -528,8 +528,6 @@ fn print_served(net: &flyarena::serve::ServeReport, lockstep: bool) {
     }
 }
 
-/// Writes what `run` writes (summary, log, recording) and prints the table; `made_by` marks
-/// the default names of a flight not flown by `run` (`.serve`).
 /// `serve`'s summary: `run`'s, then what happened on the network.
 #[derive(serde::Serialize)]
 struct Served<'a> {
@@ -547,6 +545,8 @@ fn summary_json(outcome: &Outcome, s: &Scenario, served: Option<&flyarena::serve
     .expect("summary serialises")
 }
 
+/// Writes what `run` writes (summary, log, recording) and prints the table; `made_by` marks
+/// the default names of a flight not flown by `run` (`.serve`).
 fn write_run(
     a: RunArgs,
     s: &Scenario,
