@@ -298,7 +298,7 @@ struct TrialVehicle<'a> {
     undeclared: Undeclared,
 }
 
-#[derive(serde::Serialize, Default)]
+#[derive(serde::Serialize, Default, PartialEq)]
 struct Markers {
     #[serde(skip_serializing_if = "Option::is_none")]
     rotation_deg: Option<Vec<f64>>,
@@ -308,7 +308,7 @@ struct Markers {
 
 impl Markers {
     fn is_empty(&self) -> bool {
-        self.rotation_deg.is_none() && self.displacement_mm.is_none()
+        *self == Markers::default()
     }
 }
 
@@ -323,7 +323,7 @@ struct Imu {
 }
 
 /// The effects the simulation applies and the model does not declare (`undeclared:`).
-#[derive(serde::Serialize, Default)]
+#[derive(serde::Serialize, Default, PartialEq)]
 struct Undeclared {
     #[serde(skip_serializing_if = "Option::is_none")]
     mocap_delay_ms: Option<f64>,
@@ -341,12 +341,7 @@ struct Undeclared {
 
 impl Undeclared {
     fn is_empty(&self) -> bool {
-        self.mocap_delay_ms.is_none()
-            && self.rotor_drag_per_s.is_none()
-            && self.thrust_scale.is_none()
-            && self.ground_effect.is_none()
-            && self.thrust_voltage_per_v.is_none()
-            && self.gyro_delay_ms.is_none()
+        *self == Undeclared::default()
     }
 }
 
