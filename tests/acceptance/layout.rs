@@ -5,6 +5,15 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
+/// The part of a source file that is not test code: all of it up to its `#[cfg(test)]` module,
+/// and nothing of a `tests.rs` (a folder's test module, declared `#[cfg(test)] mod tests;`).
+fn non_test_code<'a>(f: &Path, text: &'a str) -> &'a str {
+    if f.file_name().is_some_and(|n| n == "tests.rs") {
+        return "";
+    }
+    text.split("#[cfg(test)]").next().unwrap()
+}
+
 /// Every `.rs` file under `dir`, at any depth.
 fn rs_files(dir: &Path) -> Vec<std::path::PathBuf> {
     let mut files = Vec::new();
@@ -32,7 +41,7 @@ fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
             continue;
         }
         let text = std::fs::read_to_string(&f).unwrap();
-        let code = text.split("#[cfg(test)]").next().unwrap();
+        let code = non_test_code(&f, &text);
         let deps = g.entry(top.clone()).or_default();
         for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
             deps.extend(crate_edges(line).into_iter().filter(|n| *n != top));
@@ -158,7 +167,7 @@ fn file_graph(src: &Path, dir: &Path) -> BTreeMap<String, BTreeSet<String>> {
         let depth = rel.len() - usize::from(rel.last().is_some_and(|l| l == "mod.rs"));
         let up = "super::".repeat(depth);
         let text = std::fs::read_to_string(&f).unwrap();
-        let code = text.split("#[cfg(test)]").next().unwrap();
+        let code = non_test_code(&f, &text);
         let deps = g.entry(node.clone()).or_default();
         for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
             for prefix in [up.as_str(), full.as_str()] {
@@ -457,7 +466,7 @@ fn the_crate_names_each_module_by_its_own_path() {
     let mut aliases = Vec::new();
     for f in rs_files(&src) {
         let text = std::fs::read_to_string(&f).unwrap();
-        let code = text.split("#[cfg(test)]").next().unwrap();
+        let code = non_test_code(&f, &text);
         for a in alias_paths(&src, &module_path(&src, &f), code) {
             aliases.push(format!("{}: {a}", f.strip_prefix(&src).unwrap().display()));
         }

@@ -1,5 +1,5 @@
 //! The ground check's summaries across flights as the multi-flight report prints them: one
-//! block per summary, a line per tilt (the numbers are `fit/ground.rs`'s [`SpinUpSummary`],
+//! block per summary, a line per tilt (the numbers are `fit/ground/summary.rs`'s [`SpinUpSummary`],
 //! [`LandedSummary`] and [`RestPoseSummary`]).
 
 use crate::identify::fit::ground::{LandedSummary, RestPoseSummary, STILL_POSE_SD_DEG, SpinUpSummary};
