@@ -995,7 +995,7 @@ fn identify_verdict(done: &flyarena::identify::Identified, quiet: bool, input: &
         }
         None => {
             if quiet {
-                println!("{}: {}", input.display(), flyarena::identify::verdict(&done.report));
+                println!("{}: {}", input.display(), flyarena::identify::report::verdict(&done.report));
             }
             PASS
         }

@@ -97,7 +97,7 @@ pub const DRIFT_MIN_S: f64 = 120.0;
 
 /// The largest accelerometer bias a real accelerometer has (m/s², ≈ 0.2 g): MEMS parts are
 /// specified to tens of milli-g (±50–150 mg for consumer parts). A fit that needs more explains
-/// frames or clocks that are not aligned ([`crate::identify::Implausible`]).
+/// frames or clocks that are not aligned ([`crate::identify::report::Implausible`]).
 pub const MAX_ACCEL_BIAS_M_S2: f64 = 2.0;
 /// The largest gyro bias a real gyro has (°/s): consumer MEMS gyros reach ±20 °/s at worst
 /// before calibration.
@@ -263,7 +263,7 @@ impl Effect {
                 | Effect::ImuOffset
         )
     }
-    /// Applied exactly through [`Corrections`](crate::identify::Corrections) (re-linearised after each fit), not additively.
+    /// Applied exactly through [`Corrections`](crate::identify::series::Corrections) (re-linearised after each fit), not additively.
     pub fn is_correction(self) -> bool {
         matches!(
             self,

@@ -727,7 +727,7 @@ pub fn decode(bytes: &[u8]) -> Result<Decoded, RecordError> {
 pub fn encode_identify(
     name: &str,
     report: &crate::identify::Report,
-    residuals: &[crate::identify::ResidualSeries],
+    residuals: &[crate::identify::residual::ResidualSeries],
 ) -> Result<Vec<u8>, RecordError> {
     use rerun::blueprint::{BlueprintPanel, ContainerLike, SelectionPanel, TimePanel};
     let (rec, storage) = rerun::RecordingStreamBuilder::new("flyarena")

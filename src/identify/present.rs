@@ -1,8 +1,8 @@
 //! The presentation layer of `identify`'s front: the text the command line prints and the JSON
 //! it writes, rendered from what [`run`](super::run) and [`run_many`](super::run_many) return
 //! ([`Identified`], [`CrossValidated`], which hold data). It composes the renderers of the
-//! report ([`render_report`](super::render_report)), the consistency across flights
-//! ([`render_consistency`](super::render_consistency)) and the ground summaries
+//! report ([`render`](super::output::report::render)), the consistency across flights
+//! ([`render`](super::output::consistency::render)) and the ground summaries
 //! (`output/summary.rs`). A report's notes are data ([`Note`](super::Note)); their sentences are
 //! `output/note.rs`'s `Display`. What is still text below this layer: the scenario fragment,
 //! YAML by nature.

@@ -145,7 +145,7 @@ fn nothing_hidden_gives_no_effect_over_20_seeds() {
             r.effects.is_empty(),
             "seed {seed}: found {:?}\n{}",
             r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(),
-            flyarena::identify::render_report(&r)
+            flyarena::identify::report::render(&r)
         );
         // no glitch is left out of these flights, and none is named
         assert!(
@@ -184,7 +184,7 @@ fn hidden_effects_are_found_first_on_other_seeds() {
             for ((p, t), tl) in r.effects[0].params.iter().zip(truth).zip(tol) {
                 assert!((p.value - t).abs() <= *tl, "{name} seed {seed}: {} = {} (truth {t} ± {tl})", p.name, p.value);
             }
-            let cut = flyarena::identify::effect_cut(&r, effect).unwrap();
+            let cut = flyarena::identify::consistency::effect_cut(&r, effect).unwrap();
             // the lever arm's signal (≈ 0.05 m/s² on the x3d's circles) is of the size of the
             // smoothed accelerometer noise, which bounds its cut from above
             let min_cut = if effect == Effect::LeverArm { 0.25 } else { 0.5 };
@@ -215,7 +215,7 @@ fn a_gyro_delay_is_found_when_tested_and_named_when_not() {
         r.effects.iter().map(|e| e.effect).collect::<Vec<_>>(),
         [Effect::GyroDelay],
         "{}",
-        flyarena::identify::render_report(&r)
+        flyarena::identify::report::render(&r)
     );
     let p = &r.effects[0].params[0];
     assert!((p.value - 10.0).abs() <= p.ci95 && p.ci95 < 0.3, "gyro delay {} ± {} ms (truth 10)", p.value, p.ci95);
@@ -246,7 +246,7 @@ plan:
 ",
     );
     let (_, series) = run_and_log(&s, 0, "ground").unwrap();
-    let g = flyarena::identify::ground_check(&series).expect("at rest for 2 s");
+    let g = flyarena::identify::ground::ground_check(&series).expect("at rest for 2 s");
     // small-angle formula vs exact Euler angles of the rotation: the yaw of 20° does not leak
     assert!((g.roll_deg - 1.2).abs() < 0.02 && (g.pitch_deg + 0.7).abs() < 0.02, "{g:?}");
 }
@@ -504,8 +504,11 @@ fn nanobench_flights() {
                 f.display(),
                 r.notes
             );
-            assert_eq!(flyarena::identify::verdict(&r), "nothing identified: 94 usable training samples, 200 needed");
-            let text = flyarena::identify::render_report(&r);
+            assert_eq!(
+                flyarena::identify::report::verdict(&r),
+                "nothing identified: 94 usable training samples, 200 needed"
+            );
+            let text = flyarena::identify::report::render(&r);
             assert!(
                 text.contains("too few usable samples to select effects (94 for training, 200 needed)")
                     && !text.contains("explains the data"),
@@ -516,10 +519,10 @@ fn nanobench_flights() {
         usable += 1;
         let name = f.file_name().unwrap().to_string_lossy();
         // the report shows what is left of a flight it fitted (`> 0` as `<` hid it on every flight)
-        assert!(flyarena::identify::render_report(&r).contains("\n  what is left (final residual"), "{name}");
+        assert!(flyarena::identify::report::render(&r).contains("\n  what is left (final residual"), "{name}");
         // nor when as many samples are held out as trained on (`train + heldout == 0` as `-`)
         let even = flyarena::identify::Report { heldout_samples: r.train_samples, ..r.clone() };
-        let text = flyarena::identify::render_report(&even);
+        let text = flyarena::identify::report::render(&even);
         assert!(
             text.contains("\n  held-out error, nominal → with the effects")
                 && text.contains("\n  what is left (final residual")
@@ -530,7 +533,7 @@ fn nanobench_flights() {
         // whiteness and what is left are of the samples there are
         for (train, heldout) in [(r.train_samples, 0), (0, r.train_samples)] {
             let one_sided = flyarena::identify::Report { train_samples: train, heldout_samples: heldout, ..r.clone() };
-            let text = flyarena::identify::render_report(&one_sided);
+            let text = flyarena::identify::report::render(&one_sided);
             assert!(
                 text.contains("\n  final residual whiteness")
                     && text.contains("\n  what is left (final residual")
@@ -541,12 +544,12 @@ fn nanobench_flights() {
         // and no "what is left" header over nothing left, nor over no sample at all (the
         // guard's `&&` as `||`, `> 0` as `>= 0`)
         let nothing_left =
-            flyarena::identify::render_report(&flyarena::identify::Report { left: Vec::new(), ..r.clone() });
+            flyarena::identify::report::render(&flyarena::identify::Report { left: Vec::new(), ..r.clone() });
         assert!(
             !nothing_left.contains("what is left") && nothing_left.contains("\n  final residual whiteness"),
             "{name}"
         );
-        let no_sample = flyarena::identify::render_report(&flyarena::identify::Report {
+        let no_sample = flyarena::identify::report::render(&flyarena::identify::Report {
             train_samples: 0,
             heldout_samples: 0,
             ..r.clone()
@@ -556,7 +559,7 @@ fn nanobench_flights() {
         let k = r.param(Effect::RotorDrag, "k_x").unwrap_or_else(|| panic!("{name}: no rotor drag"));
         assert!((0.3..0.5).contains(&k), "{name}: k_x {k}");
         // the force model's held-out error falls by ≥ 80 % (thrust map scale and drag)
-        let cut = flyarena::identify::heldout_cut(&r, flyarena::identify::Channel::Force).unwrap();
+        let cut = flyarena::identify::consistency::heldout_cut(&r, flyarena::identify::Channel::Force).unwrap();
         assert!(cut > 0.8, "{name}: force cut {cut}");
         // the ground tilt minus the tilt a fitted accelerometer bias reads as, against the
         // flight's frame tilt (comparing the raw ground tilt ignored the bias: B3's bias tilt
@@ -664,7 +667,7 @@ fn nanobench_table_is_pinned() {
     }
     // the spin-up as the ground check (docs/nanobench.md, *In flight against on the ground*): pitch moves
     // toward the flight in 8 of 9 flights (p = 10/512) and its median falls to 0.24°; roll does not
-    let sum = flyarena::identify::spin_up_summary(agreements.iter()).unwrap();
+    let sum = flyarena::identify::ground::spin_up_summary(agreements.iter()).unwrap();
     assert_eq!((sum.flights, sum.roll.toward_flight, sum.pitch.toward_flight), (9, 3, 8), "{sum:?}");
     assert!((sum.pitch.sign_test_p - 10.0 / 512.0).abs() < 1e-12 && sum.roll.sign_test_p > 0.5, "{sum:?}");
     for (got, want) in [(sum.roll.median_spin_up_deg, 0.35), (sum.pitch.median_spin_up_deg, 0.24)] {
@@ -685,7 +688,7 @@ fn nanobench_table_is_pinned() {
             "{name}: mocap roll scatter at rest {sd}°"
         );
     }
-    let l = flyarena::identify::landed_summary(agreements.iter()).unwrap();
+    let l = flyarena::identify::ground::landed_summary(agreements.iter()).unwrap();
     assert_eq!((l.flights, l.with_both, l.roll.between, l.pitch.between), (9, 8, 2, 4), "{l:?}");
     assert_eq!((l.roll.beyond_1deg, l.roll.beyond_1deg_covered, l.pitch.beyond_1deg), (0, 0, 0), "{l:?}");
     for (got, want) in [
@@ -702,7 +705,7 @@ fn nanobench_table_is_pinned() {
     // split by the still pose's scatter (docs/nanobench.md, *A still pose that scatters*): the three
     // flights above 0.02° against the six below; below it the medians are 0.10° roll and 0.27°
     // pitch, none beyond 1° (B9's roll, not covered, at −1.00°)
-    let rp = flyarena::identify::rest_pose_summary(agreements.iter()).unwrap();
+    let rp = flyarena::identify::ground::rest_pose_summary(agreements.iter()).unwrap();
     assert_eq!(
         (
             rp.scattering,
@@ -767,7 +770,7 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
         vec!["B6_linear_ramp_rep1", "B9_trefoil_fast_rep1"],
         vec!["B6_linear_ramp_rep2"],
     ];
-    assert_eq!(got, want, "{}", flyarena::identify::render_consistency(c));
+    assert_eq!(got, want, "{}", flyarena::identify::consistency::render(c));
     for m in &c.mountings {
         for a in &m.axes {
             assert!(a.agree, "mounting {:?}: {} p {}", m.flights, a.axis, a.p);
@@ -796,7 +799,7 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
         (c.within_mounting_worse, c.across_mounting_worse),
         (0, 36),
         "{}",
-        flyarena::identify::render_consistency(c)
+        flyarena::identify::consistency::render(c)
     );
     near("within mounting gain", c.within_mounting_gain, 0.30);
     near("across mounting gain", c.across_mounting_gain, -0.15);
@@ -834,7 +837,7 @@ fn a_log_that_starts_in_the_air_is_identified() {
         r.effects.first().map(|e| e.effect),
         Some(Effect::RotorDrag),
         "{}",
-        flyarena::identify::render_report(&r)
+        flyarena::identify::report::render(&r)
     );
     assert!(r.train_samples > 800, "{}", r.train_samples);
 }
@@ -863,7 +866,7 @@ plan:
     );
     let (_, series) = run_and_log(&s, 0, "collinear").unwrap();
     let r = identify(&series, &Options::default()).unwrap();
-    let text = flyarena::identify::render_report(&r);
+    let text = flyarena::identify::report::render(&r);
     let first = r.steps.first().unwrap_or_else(|| panic!("nothing found\n{text}"));
     let other = if first.added == Effect::BodyOffset { Effect::WorldTilt } else { Effect::BodyOffset };
     assert!(matches!(first.added, Effect::BodyOffset | Effect::WorldTilt), "{text}");
@@ -913,7 +916,7 @@ fn the_mocap_delay_is_unbiased_over_seeds() {
 /// (half-width ≥ 1.96·σ_T, which the statistics alone, ±1.5·10⁻⁴, would not reach).
 #[test]
 fn thrust_model_resolution_covers_the_rate_loop_jitter() {
-    use flyarena::identify::THRUST_REL_SD;
+    use flyarena::identify::series::THRUST_REL_SD;
     for preset in ["x3d", "crazyflie21"] {
         let mut tree: serde_json::Value =
             serde_saphyr::from_str(&std::fs::read_to_string(scenario("none")).unwrap()).unwrap();
@@ -970,7 +973,7 @@ fn with_hypothesis(base: &flyarena::identify::Series, e: Effect, v: &[f64]) -> f
                     let (k, f) = (k as usize, x - x.floor());
                     s.pos_mocap_nav[i] = base.pos_mocap_nav[k] * (1.0 - f) + base.pos_mocap_nav[k + 1] * f;
                     s.att_mocap[i] =
-                        flyarena::identify::interpolate_attitude(&base.att_mocap[k], &base.att_mocap[k + 1], f);
+                        flyarena::identify::series::interpolate_attitude(&base.att_mocap[k], &base.att_mocap[k + 1], f);
                 }
             }
         }
@@ -1000,7 +1003,7 @@ fn the_hypotheses_tested_on_real_flights_are_found_at_their_truth_and_not_invent
             [(with_hypothesis(&base, e, truth), truth.to_vec()), (base.clone(), vec![0.0; truth.len()])]
         {
             let r = identify(&series, &forced).unwrap();
-            let text = flyarena::identify::render_report(&r);
+            let text = flyarena::identify::report::render(&r);
             let f = r.effect(e).unwrap_or_else(|| panic!("{e:?} not fitted\n{text}"));
             for (p, w) in f.params.iter().zip(&want) {
                 assert!(
@@ -1070,7 +1073,7 @@ fn an_imu_off_the_centre_of_mass_is_found_in_the_force_channel_at_its_truth() {
         let named = plain.notes.iter().any(|n| matches!(n, flyarena::identify::Note::ImuOffsetSignature { .. }));
         assert_eq!(named, want != [0.0; 3], "{label}: {:?}", plain.notes);
         let r = identify(&series, &forced).unwrap();
-        let text = flyarena::identify::render_report(&r);
+        let text = flyarena::identify::report::render(&r);
         let f = r.effect(Effect::ImuOffset).unwrap_or_else(|| panic!("not fitted\n{text}"));
         // docs/nanobench.md quotes this line (`-- --nocapture`)
         eprintln!(
@@ -1222,7 +1225,7 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
 /// 5 glitches. A bug it catches: the note's `outliers > 0` as `< 0` (never named); the note counted rows (12 for 4 one-frame glitches), or left out a window other than ±3σ.
 #[test]
 fn injected_mocap_glitches_are_left_out_and_named() {
-    use flyarena::identify::glitches;
+    use flyarena::identify::residual::glitches;
     let s = Scenario::load(&scenario("none")).unwrap();
     let (_, mut series) = run_and_log(&s, 0, "none").unwrap();
     assert!(glitches(&series).is_empty());

@@ -336,28 +336,48 @@ fn function_lengths_skip_braces_in_strings_and_comments() {
 }
 
 /// `identify`'s stages are private: its `pub use` lines re-export items, and the only modules
-/// they make public are the nine vocabularies of their own (a stage module such as `select` or
-/// `ground` re-exported whole would let callers reach past the façade again). A module is made
-/// public through the folder that holds it (`pub use checks::{trials}`) or by `pub mod`.
+/// they make public are the nine tools of their own; six views (`pub mod ground { pub use … }`)
+/// hold nothing but re-exports of items. A stage module such as `select` or `ground` re-exported
+/// whole would let callers reach past the façade again. A module is made public through the
+/// folder that holds it (`pub use checks::{trials}`) or by `pub mod`.
 #[test]
 fn identify_makes_public_only_its_vocabulary_modules() {
     let src = super::root().join("src/identify");
     let text = std::fs::read_to_string(src.join("mod.rs")).unwrap();
     // the `pub use` statements, each joined onto one line
-    let (mut public, mut statement) = (BTreeSet::new(), None::<String>);
+    let (mut public, mut views, mut statement) = (BTreeSet::new(), BTreeSet::new(), None::<String>);
+    let mut in_view = false;
     for line in text.lines().map(str::trim) {
         if let Some(name) = line.strip_prefix("pub mod ") {
-            public.insert(name.trim_end_matches(';').to_string());
+            match name.strip_suffix(" {") {
+                Some(view) => {
+                    views.insert(view.to_string());
+                    in_view = true;
+                }
+                None => {
+                    public.insert(name.trim_end_matches(';').to_string());
+                }
+            }
+            continue;
+        }
+        if in_view && line == "}" {
+            in_view = false;
+            continue;
         }
         if line.starts_with("pub use ") {
             statement = Some(String::new());
         }
-        let Some(s) = statement.as_mut() else { continue };
+        let Some(s) = statement.as_mut() else {
+            assert!(!in_view || line.starts_with("//!"), "a view holds re-exports only: {line}");
+            continue;
+        };
         s.push_str(line);
         if !line.ends_with(';') {
             continue;
         }
         let path = s["pub use ".len()..].trim_end_matches(';');
+        // a view's `super::` is identify itself
+        let path = if in_view { path.strip_prefix("super::").unwrap_or(path) } else { path };
         let (prefix, names) = path.rsplit_once("::").unwrap_or(("", path));
         let folder = src.join(prefix.replace("::", "/"));
         // a name is a module re-exported when its parent declares it public (a private module
@@ -375,12 +395,11 @@ fn identify_makes_public_only_its_vocabulary_modules() {
         }
         statement = None;
     }
-    let want: BTreeSet<String> =
-        ["calibration", "handheld", "injected", "mapping", "px4", "ros2", "start", "trials", "ulog"]
-            .into_iter()
-            .map(String::from)
-            .collect();
-    assert_eq!(public, want, "identify's public modules");
+    let set = |names: &[&str]| names.iter().map(|n| n.to_string()).collect::<BTreeSet<String>>();
+    let tools = set(&["calibration", "handheld", "injected", "mapping", "px4", "ros2", "start", "trials", "ulog"]);
+    assert_eq!(public, tools, "identify's public modules");
+    let want = set(&["consistency", "ground", "quality", "report", "residual", "series"]);
+    assert_eq!(views, want, "identify's views");
 }
 
 /// The module path of a file under `src` (`identify/fit/design.rs` → identify, fit, design; a
@@ -414,11 +433,26 @@ fn alias_paths(src: &Path, here: &[String], code: &str) -> Vec<String> {
             })
     };
     let mut found = Vec::new();
+    // an inline module (`pub mod ground { … }`, a view) is one level deeper than its file: its
+    // `super::` is the file's module; it ends at the `}` indented as its `mod` line
+    let mut inline: Vec<(String, String)> = Vec::new();
     for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
+        let indent = &line[..line.len() - line.trim_start().len()];
+        if inline.last().is_some_and(|(_, at)| line == format!("{at}}}")) {
+            inline.pop();
+            continue;
+        }
+        if let Some(name) = line.trim_start().trim_start_matches("pub ").strip_prefix("mod ")
+            && let Some(name) = name.strip_suffix(" {")
+        {
+            inline.push((name.to_string(), indent.to_string()));
+            continue;
+        }
+        let here: Vec<String> = here.iter().cloned().chain(inline.iter().map(|(n, _)| n.clone())).collect();
         let mut starts: Vec<(usize, Vec<String>)> =
             line.match_indices("crate::").map(|(i, _)| (i + 7, Vec::new())).collect();
         for (i, _) in line.match_indices("super::").filter(|(i, _)| !line[..*i].ends_with("super::")) {
-            let (mut at, mut base) = (i, here.to_vec());
+            let (mut at, mut base) = (i, here.clone());
             while line[at..].starts_with("super::") {
                 base.pop();
                 at += 7;
@@ -462,6 +496,12 @@ fn the_crate_names_each_module_by_its_own_path() {
         alias_paths(&src, &here("identify/output/note"), planted),
         ["identify::design", "identify::ground"],
         "the scan sees an alias from crate:: and from super::"
+    );
+    let view = "pub mod view {\n    pub use super::fit::ground::UpAxis;\n}\nuse super::fit::ground::UpAxis;";
+    assert_eq!(
+        alias_paths(&src, &here("identify"), view),
+        ["::fit"],
+        "a view's super:: is the file it sits in, and the view ends at its brace"
     );
     let mut aliases = Vec::new();
     for f in rs_files(&src) {

@@ -8,8 +8,9 @@
 
 use flyarena::frames::{Euler, MocapNav, Rot, Vec3};
 use flyarena::identify::Channel;
+use flyarena::identify::ground::{ground_check, rest_before_takeoff, tilt_at_rest};
 use flyarena::identify::run_and_log;
-use flyarena::identify::{Effect, Options, ground_check, identify, rest_before_takeoff, tilt_at_rest};
+use flyarena::identify::{Effect, Options, identify};
 use flyarena::scenario::Scenario;
 use nalgebra::Vector3;
 

@@ -4,8 +4,8 @@
 
 use flyarena::frames::Vec3;
 use flyarena::identify::Mapping;
+use flyarena::identify::quality::{Cut, QualityChannel};
 use flyarena::identify::run_and_log;
-use flyarena::identify::{Cut, QualityChannel};
 use flyarena::identify::{Effect, Options, Series, identify};
 use flyarena::scenario::Scenario;
 
@@ -147,7 +147,7 @@ fn each_check_cuts_what_it_is_for() {
         );
         let k = r
             .param(Effect::RotorDrag, "k_x")
-            .unwrap_or_else(|| panic!("{name}: no drag\n{}", flyarena::identify::render_report(&r)));
+            .unwrap_or_else(|| panic!("{name}: no drag\n{}", flyarena::identify::report::render(&r)));
         assert!((k - 0.35).abs() < 0.02, "{name}: k_x {k}");
         assert_eq!(r.effects.len(), 1, "{name}: {:?}", r.effects.iter().map(|e| e.effect).collect::<Vec<_>>());
     }
@@ -168,7 +168,11 @@ fn gyro_that_disagrees_with_the_mocap_is_cut() {
     let r = identify(&s, &Options::default()).unwrap();
     let cuts = cuts_of(&r, QualityChannel::Gyro);
     assert_eq!(cuts.len(), 1, "{:?}", r.data_quality);
-    assert!(matches!(cuts[0].findings[..], [flyarena::identify::Finding::GyroDisagrees { .. }]), "{:?}", cuts[0]);
+    assert!(
+        matches!(cuts[0].findings[..], [flyarena::identify::quality::Finding::GyroDisagrees { .. }]),
+        "{:?}",
+        cuts[0]
+    );
     assert!(cuts[0].from_s <= 6.0 && cuts[0].to_s >= 6.05, "{:?}", cuts[0]);
 }
 
@@ -183,7 +187,7 @@ fn residuals_are_plotted_in_seconds_from_the_logs_first_sample() {
     let (t0, length) = (late.t_s[0], late.t_s[late.len() - 1] - late.t_s[0]);
     assert!(t0 - clean.t_s[0] >= 8.0, "the cut flight starts at {t0} s");
     let r = identify(&late, &Options::default()).unwrap();
-    let plotted = flyarena::identify::residual_series(&late, &Options::default(), &r);
+    let plotted = flyarena::identify::residual::residual_series(&late, &Options::default(), &r);
     assert!(!plotted.is_empty());
     for x in &plotted {
         let (first, last) = (x.t_s[0], x.t_s[x.t_s.len() - 1]);
@@ -221,9 +225,9 @@ fn a_corrupted_tail_is_cut_and_a_corrupted_log_is_refused() {
     assert!((19.7..=20.0).contains(&first), "{:?}", r.data_quality);
     assert!(r.data_quality.cuts.iter().all(|c| !c.at_floor));
     // the plotted residuals and the cross-validation errors come from the samples the fit saw
-    let plotted = flyarena::identify::residual_series(&tail, &Options::default(), &r);
+    let plotted = flyarena::identify::residual::residual_series(&tail, &Options::default(), &r);
     assert!(plotted.iter().all(|x| x.t_s.iter().all(|t| *t < first)), "residuals plotted from cut samples");
-    let evaluated = flyarena::identify::evaluate(&tail, &Options::default(), &r);
+    let evaluated = flyarena::identify::residual::evaluate(&tail, &Options::default(), &r);
     assert!(
         evaluated.iter().filter(|e| e.channel == flyarena::identify::Channel::AccelKin).all(|e| e.rmse_before < 1.0),
         "{evaluated:?}"
@@ -263,12 +267,12 @@ fn nanobench_gate_cuts_touchdowns_only_and_rescues_a_corrupted_flight() {
     files.sort();
     for f in &files {
         let s = map.read(f).unwrap();
-        let (_, q) = flyarena::identify::quality_gate(
+        let (_, q) = flyarena::identify::quality::gate(
             &s,
             &opts.quality,
             opts.design.smoothing_s,
             opts.design.min_height_m,
-            &flyarena::identify::Corrections::default(),
+            &flyarena::identify::series::Corrections::default(),
         );
         assert!(q.corrupted().next().is_none(), "{}: {:?}", f.display(), q.cuts);
     }

@@ -97,7 +97,8 @@ fn decimation_is_applied() {
 /// The identify recording holds the residuals of the report, bit for bit, before and after.
 #[test]
 fn identify_recording_holds_the_residuals() {
-    use flyarena::identify::{Options, identify, residual_series};
+    use flyarena::identify::residual::residual_series;
+    use flyarena::identify::{Options, identify};
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios/identify-rotor-drag.yaml")).unwrap();
     let (_, series) = flyarena::identify::run_and_log(&s, 0, "drag").unwrap();
     let opts = Options::default();

@@ -122,7 +122,7 @@ fn first_step_f_and_excitation(
     scenario: &str,
     effect: Effect,
     truths: &[(Effect, Vec<f64>)],
-) -> (f64, Vec<flyarena::identify::Excitation>) {
+) -> (f64, Vec<flyarena::identify::residual::Excitation>) {
     let s = flyarena::scenario::Scenario::load(&super::root().join("scenarios").join(scenario)).unwrap();
     let (_, series) = flyarena::identify::run_and_log(&s, 0, scenario).unwrap();
     let o = Options::default();
@@ -130,7 +130,7 @@ fn first_step_f_and_excitation(
     let step = &r.steps[0];
     assert_eq!(step.added, effect, "{scenario}");
     let f = step.candidates.iter().find(|c| c.effect == effect).unwrap().f;
-    (f, flyarena::identify::excitation(&series, &o, truths))
+    (f, flyarena::identify::residual::excitation(&series, &o, truths))
 }
 
 /// The excitation's noncentrality against the F statistic the selection computes: for a block
@@ -298,7 +298,7 @@ fn a_collinear_thrust_pair_is_not_confidently_wrong() {
 #[test]
 fn excitation_share_discounts_what_the_other_hidden_effects_explain() {
     use flyarena::identify::Effect::*;
-    use flyarena::identify::excitation;
+    use flyarena::identify::residual::excitation;
     let t = fixture(1, 294, "x3d", vec![]);
     let series = flight(&t);
     let o = Options::default();

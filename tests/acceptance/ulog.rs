@@ -3,8 +3,9 @@
 //! and logs written by `pyulog`'s writer against the CSV route.
 
 use flyarena::identify::Mapping;
+use flyarena::identify::report::StampField;
 use flyarena::identify::ulog::{Log, readable_topics};
-use flyarena::identify::{Effect, Options, ReadNote, StampField, identify};
+use flyarena::identify::{Effect, Options, ReadNote, identify};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;

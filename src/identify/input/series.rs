@@ -7,7 +7,7 @@
 //! them, so a correction applied the wrong way round does not compile:
 //!
 //! ```compile_fail,E0277
-//! use flyarena::identify::{Corrections, Series};
+//! use flyarena::identify::{Series, series::Corrections};
 //! # fn f(s: &Series, c: &Corrections) {
 //! // the body offset maps the markers' frame into the body frame; composing it onto the mocap's
 //! // attitude from the wrong side mixes the frames
@@ -20,7 +20,7 @@
 //!
 //! ```
 //! use flyarena::frames::{Body, Nav, Rot};
-//! use flyarena::identify::{Corrections, Series};
+//! use flyarena::identify::{Series, series::Corrections};
 //! fn body_attitude(s: &Series, c: &Corrections, i: usize) -> Rot<Body, Nav> {
 //!     c.world_tilt.inverse() * s.att_mocap[i] * c.body_offset.inverse()
 //! }

@@ -161,7 +161,7 @@ mod tests {
     use crate::identify::output::handheld::render;
 
     /// On a rig without noise and with biases that do not walk, `identify --calibrate` gives the
-    /// drawn calibration back: the generator writes the definitions of [`crate::identify::Corrections`]
+    /// drawn calibration back: the generator writes the definitions of [`Corrections`](crate::identify::input::series::Corrections)
     /// (R_w·R·R_off, R_w·p, the IMU at p + R·r, a pose stamped τ late) and identify inverts them.
     /// With a 20 ms kernel what is left is the interpolation of 300 Hz poses onto the 500 Hz IMU:
     /// 10⁻⁴° in rotation and tilt, 0.01 mm, 0.5 µs. The shipped 50 ms kernel smooths products

@@ -163,7 +163,7 @@ fn speeds_of(streams: &Streams) -> (Speeds, Speeds, f64) {
 /// onto the IMU's clock once the clock search has found how they stand: the poses are joined at
 /// the search's offset when it lies beyond the fine fit's reach and is determined, or when the
 /// streams do not overlap at all without it (then there is nothing else to join them at);
-/// otherwise as stamped. The series keeps the search ([`Clocks::search`](crate::identify::Clocks::search)), so that the global
+/// otherwise as stamped. The series keeps the search ([`Clocks::search`](crate::identify::input::series::Clocks::search)), so that the global
 /// start reads the clock from the streams and not from the joined rows. `file` names it.
 ///
 /// # Errors
