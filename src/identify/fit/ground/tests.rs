@@ -540,6 +540,19 @@ fn the_rest_after_landing_reads_its_own_tilt_and_brackets_the_flight() {
     // the change's interval is the two rests' standard errors combined, 1.96·√(se_a² + se_b²)
     let change_ci = 1.959964 * after.roll_se_deg.hypot(raw.roll_se_deg);
     assert!(change_ci > 0.0 && (l.roll.check.change_ci95_deg / change_ci - 1.0).abs() < 1e-5, "{l:?} vs {change_ci}");
+    // the bracket's half-width: the mean of the two rests' standard errors and the flight's
+    // scatter (each ×1.96, in quadrature), plus half the change (0.6° in pitch) and the flight's
+    // widening (0.05° here), each added once
+    let wide = FlightTilt { widen_rad: [0.05f64.to_radians(); 2], ..tilt([0.3, -0.9]) };
+    let lw = agreement(&raw, &raw, &wide, None, Some(&after)).after_landing.unwrap();
+    let z = 1.959963984540054;
+    let by_hand =
+        (z * 0.5 * after.pitch_se_deg.hypot(raw.pitch_se_deg)).hypot(z * 0.001f64.to_degrees()) + 0.5 * 0.6 + 0.05;
+    assert!(
+        (lw.pitch.bracket_ci95_deg - by_hand).abs() < 1e-3,
+        "{} against {by_hand} by hand",
+        lw.pitch.bracket_ci95_deg
+    );
     // this flight sits between its rests (before − flight: +0.1 roll, −0.1 pitch; after −
     // flight: −0.1, +0.5); one at pitch −1.2 does not in pitch (+0.2, +0.8; bracket +0.5)
     // a flight at pitch −0.6 disagrees with the rest before (−0.4) and agrees with the
