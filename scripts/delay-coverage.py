@@ -16,6 +16,11 @@ the true delay. Seeds differ from cell to cell (seed = 1000·cell + i), so cells
 `--loop out` keeps the marker noise out of the loop (`mocap.noise_in_loop: false`: the station
 flies on noise-free poses while the log records noisy ones), the controlled experiment that
 separates the noise's feedback through the controller from the noise in the measurement.
+`--imu quiet` makes the IMU almost noise-free (0.003 °/s, 0.0005 m/s²), `--smoothing-ms` sets
+identify's smoothing σ, and `--vehicles`, `--plans`, `--noise-mm`, `--delay-ms` pick a part of
+the grid (each cell keeps its seeds, so a part flies the same flights as the whole grid). The last
+line gives the errors in units of their own σ (half-width / 1.96): a mean near 0 and a spread
+near 1 is an honest interval.
 
 It runs `flyarena` from the PATH (`cargo install --path .`), or the binary in $FLYARENA.
 """
@@ -55,7 +60,13 @@ NOISE_MM = [0.1, 0.2, 0.5, 1.0]
 DELAY_MS = [0, 5, 10, 30]
 
 
-def scenario(vehicle, plan, noise_mm, delay_ms, seed, in_loop):
+IMU = {
+    "default": "{ gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }",
+    "quiet": "{ gyro_noise_deg_s: 0.003, accel_noise_m_s2: 0.0005 }",
+}
+
+
+def scenario(vehicle, plan, noise_mm, delay_ms, seed, in_loop, imu="default"):
     return f"""name: delay-{vehicle}-{plan}-{noise_mm}-{delay_ms}-{seed}
 seed: {seed}
 mocap: {{ noise_mm: {noise_mm}, noise_in_loop: {str(in_loop).lower()} }}
@@ -64,17 +75,19 @@ vehicles:
   - name: v
     home_m: [-2, 0]
     {VEHICLES[vehicle]}
-    imu: {{ gyro_noise_deg_s: 0.3, accel_noise_m_s2: 0.05 }}
+    imu: {IMU[imu]}
     undeclared: {{ mocap_delay_ms: {delay_ms}, rotor_drag_per_s: [0.3, 0.3] }}
 """ + PLANS[plan]
 
 
-def fly(flyarena, out, job):
+def fly(flyarena, out, job, imu, smoothing_ms):
     cell, (vehicle, plan, noise_mm, delay_ms), seed, in_loop = job
     path = os.path.join(out, f"delay-{vehicle}-{plan}-{noise_mm}-{delay_ms}-{seed}.yaml")
     with open(path, "w") as f:
-        f.write(scenario(vehicle, plan, noise_mm, delay_ms, seed, in_loop))
+        f.write(scenario(vehicle, plan, noise_mm, delay_ms, seed, in_loop, imu))
     cmd = flyarena + ["identify", path, "--with", "mocap_delay", "--no-rrd", "--out", out, "--overwrite"]
+    if smoothing_ms is not None:
+        cmd += ["--smoothing-ms", str(smoothing_ms)]
     run = subprocess.run(cmd, capture_output=True, text=True)
     report = path[: -len(".yaml")] + ".identify.json"
     if run.returncode not in (0, 1) or not os.path.exists(report):
@@ -91,18 +104,38 @@ def main():
     ap.add_argument("--out", default="out/delay-coverage", help="folder for the scenarios and reports")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--loop", choices=["in", "out"], default="in", help="the marker noise in the loop (default) or out")
+    ap.add_argument("--imu", choices=sorted(IMU), default="default", help="the IMU's noise (default: 0.3 °/s, 0.05 m/s²)")
+    ap.add_argument("--smoothing-ms", type=float, help="identify's smoothing σ (default: identify's own, 20 ms)")
+    ap.add_argument("--vehicles", default=",".join(VEHICLES), help="a part of the grid: vehicles (comma-separated)")
+    ap.add_argument("--plans", default=",".join(PLANS), help="plans (comma-separated)")
+    ap.add_argument("--noise-mm", default=",".join(map(str, NOISE_MM)), help="marker noises (comma-separated)")
+    ap.add_argument("--delay-ms", default=",".join(map(str, DELAY_MS)), help="delays (comma-separated)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     flyarena = [os.environ["FLYARENA"]] if "FLYARENA" in os.environ else ["flyarena"]
     cells = [(v, p, n, d) for v in VEHICLES for p in PLANS for n in NOISE_MM for d in DELAY_MS]
-    jobs = [(c, cells[c], 1000 * c + i, args.loop == "in") for c in range(len(cells)) for i in range(1, args.seeds + 1)]
+    # a part of the grid keeps each cell's index, so its seeds (1000·cell + i) are the grid's
+    picked = [
+        c
+        for c, (v, p, n, d) in enumerate(cells)
+        if v in args.vehicles.split(",")
+        and p in args.plans.split(",")
+        and n in map(float, args.noise_mm.split(","))
+        and d in map(int, args.delay_ms.split(","))
+    ]
+    if not picked:
+        sys.exit("no cell of the grid matches --vehicles, --plans, --noise-mm and --delay-ms")
+    jobs = [(c, cells[c], 1000 * c + i, args.loop == "in") for c in picked for i in range(1, args.seeds + 1)]
     with ThreadPoolExecutor(args.jobs) as pool:
-        results = list(pool.map(lambda j: fly(flyarena, args.out, j), jobs))
+        results = list(pool.map(lambda j: fly(flyarena, args.out, j, args.imu, args.smoothing_ms), jobs))
     print("| vehicle | plan | noise (mm) | delay (ms) | bias (ms) | spread (ms) | median ± (ms) | bias / ± | coverage |")
     print("|---|---|---|---|---|---|---|---|---|")
     held = total = 0
-    for c, (vehicle, plan, noise_mm, delay_ms) in enumerate(cells):
+    z = []
+    for c in picked:
+        vehicle, plan, noise_mm, delay_ms = cells[c]
         rows = [(v, h) for k, v, h in results if k == c]
+        z += [(v - delay_ms) / (h / 1.96) for v, h in rows]
         errors = [v - delay_ms for v, _ in rows]
         half = statistics.median(h for _, h in rows)
         inside = sum(abs(e) <= h for e, (_, h) in zip(errors, rows))
@@ -113,6 +146,7 @@ def main():
             f"| {half:.3f} | {abs(bias) / half:.2f} | {inside}/{len(rows)} |"
         )
     print(f"\nall cells: {held}/{total} intervals hold the true delay ({100 * held / total:.1f} %)")
+    print(f"errors over σ (half-width / 1.96): mean {statistics.mean(z):+.3f}, spread {statistics.stdev(z):.3f}")
 
 
 if __name__ == "__main__":
