@@ -1,6 +1,6 @@
 //! An independent check of the roll/pitch misalignment: the vehicle resting on the floor before
 //! take-off. There the accelerometer reads f = −g·C_n^b·e_D in the IMU frame and the mocap
-//! predicts f̂ = −g·R_mᵀ·e_D in the marker frame; the rotation from f̂ to f ([`rotation_between`]:
+//! predicts f̂ = −g·R_mᵀ·e_D in the marker frame; the rotation from f̂ to f ([`rotation_between`](rest::rotation_between):
 //! axis f̂ × f, angle atan2(|f̂ × f|, f̂·f), exact at any size) is the marker offset's tilt (its
 //! rotation about the vertical is unobservable at rest). Its two components are about the body
 //! axes that are level at rest ([`UpAxis`]: roll and pitch for a vehicle on its legs, z up; a rig
@@ -19,6 +19,10 @@
 //! their mean is the reference of a tilt that moves between them ([`LandedAxis`]). The mocap's
 //! own tilt scatter at rest ([`GroundCheck::mocap_sd_deg`]) tells a still pose that the
 //! cameras see badly.
+//!
+//! One file per job: `rest` finds the rests and reads their tilts, `agreement` holds one
+//! flight's checks against its fit, `summary` the checks across flights with the rank and sign
+//! tests they rest on.
 
 mod agreement;
 mod rest;
