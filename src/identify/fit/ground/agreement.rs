@@ -186,11 +186,7 @@ pub fn agreement(
 ) -> GroundAgreement {
     let FlightTilt { offset_rad, sd_rad, widen_rad, frame_fitted, accel_bias_fitted } = *flight;
     let axis = |k: usize| {
-        let (g, gc, se) = if k == 0 {
-            (raw.roll_deg, corrected.roll_deg, raw.roll_se_deg)
-        } else {
-            (raw.pitch_deg, corrected.pitch_deg, raw.pitch_se_deg)
-        };
+        let ((g, se), (gc, _)) = (raw.axis(k), corrected.axis(k));
         let flight = offset_rad[k].to_degrees();
         let difference = gc - flight;
         let ci95 = (Z * se).hypot(Z * sd_rad[k].to_degrees()) + widen_rad[k].to_degrees();
@@ -207,11 +203,7 @@ pub fn agreement(
     let (roll, pitch) = (axis(0), axis(1));
     let spin_up = spin.map(|sp| {
         let spin_axis = |k: usize, rest: &TiltAgreement| {
-            let (on, on_se, rest_se) = if k == 0 {
-                (sp.check.roll_deg, sp.check.roll_se_deg, corrected.roll_se_deg)
-            } else {
-                (sp.check.pitch_deg, sp.check.pitch_se_deg, corrected.pitch_se_deg)
-            };
+            let ((on, on_se), (_, rest_se)) = (sp.check.axis(k), corrected.axis(k));
             CheckAxis::new(on, on_se, rest, rest_se, sd_rad[k].to_degrees(), widen_rad[k].to_degrees())
         };
         SpinUpAgreement {
@@ -223,11 +215,7 @@ pub fn agreement(
     });
     let after_landing = landed.map(|l| {
         let landed_axis = |k: usize, rest: &TiltAgreement| {
-            let (after, after_se, rest_se) = if k == 0 {
-                (l.roll_deg, l.roll_se_deg, corrected.roll_se_deg)
-            } else {
-                (l.pitch_deg, l.pitch_se_deg, corrected.pitch_se_deg)
-            };
+            let ((after, after_se), (_, rest_se)) = (l.axis(k), corrected.axis(k));
             let (sd_flight, widen) = (sd_rad[k].to_degrees(), widen_rad[k].to_degrees());
             let check = CheckAxis::new(after, after_se, rest, rest_se, sd_flight, widen);
             let bracket = 0.5 * (after + rest.ground_corrected_deg) - rest.flight_deg;

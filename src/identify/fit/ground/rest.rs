@@ -29,6 +29,13 @@ pub struct GroundCheck {
     pub mocap_sd_deg: [f64; 2],
 }
 
+impl GroundCheck {
+    /// The tilt about level axis `k` (0 the roll, 1 the pitch) and its standard error (deg).
+    pub(super) fn axis(&self, k: usize) -> (f64, f64) {
+        if k == 0 { (self.roll_deg, self.roll_se_deg) } else { (self.pitch_deg, self.pitch_se_deg) }
+    }
+}
+
 /// The body axis nearest the vertical while the body rests; the ground check's two tilts are
 /// rotations about the other two, in cyclic order ([`UpAxis::level`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
