@@ -169,7 +169,7 @@ fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
         ("body_offset.", 290, 300),
         ("world_tilt.", 192, 200),
         ("lever_arm.", 282, 300),
-        ("mocap_delay.", 93, 100),
+        ("mocap_delay.", 94, 100),
         ("accel_bias.", 284, 300),
         ("gyro_bias.", 296, 300),
     ] {

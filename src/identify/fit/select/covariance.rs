@@ -1,5 +1,6 @@
 //! The covariance of the estimates: Newey–West (Bartlett) over the weighted scores summed per
-//! time sample, plus the systematic of the nominal thrust.
+//! time sample, the prewhitened (GLS) parameters' share from the residual's autocovariance over
+//! the whole flight, plus the systematic of the nominal thrust.
 
 use super::gram::{Gram, active, cols_of, residual_of, split, sub, system, system_raw};
 use crate::effects::{Channel, Effect};
@@ -7,6 +8,11 @@ use crate::identify::fit::design::Design;
 use crate::identify::fit::stats::{Ar, inverse_spd};
 use nalgebra::{DMatrix, DVector};
 use std::borrow::Cow;
+
+/// The window of the residual's autocovariance in [`stationary_gls`] (s): the prewhitened
+/// residual of a mocap log stays correlated over a good part of a second (the spectral dip
+/// that [`stationary_gls`] explains), and the Parzen weights fall to ½ at a third of the window.
+pub(super) const GLS_WINDOW_S: f64 = 2.0;
 
 /// Newey–West (Bartlett, `lags`) covariance of the parameters of [`fit`](super::gram::fit).
 ///
@@ -22,7 +28,13 @@ use std::borrow::Cow;
 /// residual) and the raw ones u_t above, θ_D − θ_D* = [G̃⁻¹]_D·Σũ and θ_O − θ_O* =
 /// G_OO⁻¹·(Σu_O − G_OD·(θ_D − θ_D*)). The covariance is A·S·Aᵀ with S the Newey–West sum of
 /// the stacked scores (ũ_t, u_t), which carries the correlation of the two estimates, and A
-/// that linear map.
+/// that linear map. The GLS errors' own covariance is then raised to [`stationary_gls`]'s
+/// (`window_s` long) where that is larger, and what the least-squares estimates inherit from
+/// them follows (see [`with_gls_covariance`]). Each of the two misses what the other sees:
+/// Newey–West, a correlation longer than its `lags`; the stationary one, a noise whose size or
+/// correlation changes through the flight (a real flight's misfit, large where the vehicle
+/// moves); so the delay's interval is never narrower than either.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn hac(
     d: &Design,
     train: &[bool],
@@ -31,6 +43,7 @@ pub(super) fn hac(
     set: &[usize],
     theta: &[f64],
     lags: usize,
+    window_s: f64,
 ) -> DMatrix<f64> {
     let (dp, op) = split(set);
     if dp.is_empty() {
@@ -59,7 +72,175 @@ pub(super) fn hac(
         })
         .collect();
     let a = error_map(gs, set, &dp, &op);
-    &a * newey_west(&stacked, lags) * a.transpose()
+    let cov = &a * newey_west(&stacked, lags) * a.transpose();
+    let from_gls = sub(&inverse_spd(&system(gs, set).0), &dp, &(0..k).collect::<Vec<_>>());
+    let step = if d.t.len() > 1 { d.t[1] - d.t[0] } else { 0.0 };
+    let window = if step > 0.0 { (window_s / step).round() as usize } else { 0 };
+    let stationary = stationary_gls(d, train, ars, set, theta, &from_gls, window);
+    let v = loewner_max(&stationary, &sub(&cov, &dp, &dp));
+    let gr = system_raw(gs, set).0;
+    let carry = if op.is_empty() {
+        DMatrix::zeros(0, dp.len())
+    } else {
+        -inverse_spd(&sub(&gr, &op, &op)) * sub(&gr, &op, &dp)
+    };
+    with_gls_covariance(&cov, &dp, &op, &v, &carry)
+}
+
+/// The covariance of the GLS errors δ_D = [G̃⁻¹]_D·Σ_t ũ_t when the prewhitened residuals are
+/// stationary: Var(δ_D) = Σ_{q,r} Σ_{|l|≤L} w_l·γ_qr(l)·Σ_t z_{q,t}·z_{r,t−l}ᵀ, with
+/// z_{q,t} = [G̃⁻¹]_D·x̃_{q,t} the GLS rows applied to the prewhitened columns of channel axis q
+/// at sample t (`from_gls`, k_D × k), γ_qr(l) the cross-covariance of the prewhitened residuals
+/// of axes q and r at lag l (the mean of ẽ_{q,t}·ẽ_{r,t−l} over the training samples where both
+/// exist), and w_l the Parzen weights over L = `window` samples ([`parzen`]).
+///
+/// Why not Newey–West of the scores: an AR of order ≤ `max_ar_order` cannot follow a spectral
+/// zero, and the twice-differentiated positions and once-differentiated attitudes put one at
+/// zero frequency in the `accel_kin` and `gyro` residuals. The prewhitened residual is then
+/// short of power at the lowest frequencies and has too much just above them, which is where
+/// the delay's columns live, and its autocovariance reaches past `hac_lags`. Newey–West over
+/// the per-sample scores cuts it off there, and over a longer window it loses what the fitted
+/// parameters take out of the scores near the few moments that carry the delay (at the
+/// estimate they sum to zero). The residual's autocovariance, averaged over the whole flight
+/// instead of over those moments, keeps the long lags without that loss
+/// (`tests::a_correlation_beyond_the_newey_west_lags_is_in_the_gls_variance`; measured in
+/// closed loop in docs/px4.md, "How far to trust EKF2_EV_DELAY").
+fn stationary_gls(
+    d: &Design,
+    train: &[bool],
+    ars: &[Ar],
+    set: &[usize],
+    theta: &[f64],
+    from_gls: &DMatrix<f64>,
+    window: usize,
+) -> DMatrix<f64> {
+    let kd = from_gls.nrows();
+    // per channel axis with a column of the set: ẽ (NaN where absent) and z (kd per sample)
+    let mut axes: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
+    let mut white = Vec::new();
+    for (q, (c, a)) in active(d).into_iter().enumerate() {
+        let mut z = vec![0.0; d.n * kd];
+        let mut any = false;
+        for (p, j) in set.iter().enumerate() {
+            let Some((_, col)) = d.columns[c][a].iter().find(|x| x.0 == *j) else { continue };
+            ars[q].whiten(col, train, &mut white);
+            for (t, x) in white.iter().enumerate() {
+                if x.is_finite() {
+                    for i in 0..kd {
+                        z[t * kd + i] += from_gls[(i, p)] * x;
+                    }
+                }
+            }
+            any = true;
+        }
+        if !any || z.iter().all(|v| *v == 0.0) {
+            continue;
+        }
+        let mut e = Vec::new();
+        ars[q].whiten(&residual_of(d, c, a, theta), train, &mut e);
+        axes.push((e, z));
+    }
+    let mut v = DMatrix::<f64>::zeros(kd, kd);
+    let n = d.n;
+    for (eq, zq) in &axes {
+        for (er, zr) in &axes {
+            for l in -(window as isize)..=window as isize {
+                let w = parzen(l.unsigned_abs(), window);
+                let (mut ee, mut count) = (0.0, 0usize);
+                let mut zz = DMatrix::<f64>::zeros(kd, kd);
+                let lo = l.max(0) as usize;
+                let hi = (n as isize + l.min(0)) as usize;
+                for t in lo..hi {
+                    let s = (t as isize - l) as usize;
+                    if eq[t].is_finite() && er[s].is_finite() {
+                        ee += eq[t] * er[s];
+                        count += 1;
+                        for i in 0..kd {
+                            for j in 0..kd {
+                                zz[(i, j)] += zq[t * kd + i] * zr[s * kd + j];
+                            }
+                        }
+                    }
+                }
+                if count > 0 {
+                    v += zz * (w * ee / count as f64);
+                }
+            }
+        }
+    }
+    (&v + v.transpose()) * 0.5
+}
+
+/// The Parzen weight of lag `l` in a window of `lags`: with x = l/(lags + 1), 1 − 6x² + 6x³ up
+/// to x = ½ and 2(1 − x)³ beyond (1 at lag 0, ¼ at x = ½, 0 from lags + 1 on). Its spectral
+/// window is never negative, so the covariance it weighs stays positive semidefinite.
+fn parzen(l: usize, lags: usize) -> f64 {
+    let x = l as f64 / (lags as f64 + 1.0);
+    if x <= 0.5 {
+        1.0 - 6.0 * x * x + 6.0 * x * x * x
+    } else if x < 1.0 {
+        2.0 * (1.0 - x).powi(3)
+    } else {
+        0.0
+    }
+}
+
+/// The covariance `cov` (parameters of `set`, GLS at positions `dp`, least squares given them
+/// at `op`) with the GLS errors' covariance replaced by `v` and what the least-squares errors
+/// carry of them (δ_O = `carry`·δ_D + G_OO⁻¹Σu_O) following: δ_D → M·δ_D with
+/// M = v^½·V⁻½ (V the GLS block of `cov`), δ_O → δ_O + carry·(M − I)·δ_D, so that the GLS
+/// block becomes v and its correlation with the least-squares errors is kept. A congruence, so
+/// the result stays positive semidefinite. Unchanged when v is V, or either is not positive
+/// definite.
+fn with_gls_covariance(
+    cov: &DMatrix<f64>,
+    dp: &[usize],
+    op: &[usize],
+    v: &DMatrix<f64>,
+    carry: &DMatrix<f64>,
+) -> DMatrix<f64> {
+    let old = sub(cov, dp, dp);
+    if *v == old {
+        return cov.clone();
+    }
+    let (Some(vh), Some(nh)) = (spd_power(v, 0.5), spd_power(&old, -0.5)) else {
+        return cov.clone();
+    };
+    let m = vh * nh;
+    let k = cov.nrows();
+    let mut q = DMatrix::<f64>::identity(k, k);
+    let moved = carry * (&m - DMatrix::<f64>::identity(dp.len(), dp.len()));
+    for (i, &p) in dp.iter().enumerate() {
+        for (j, &r) in dp.iter().enumerate() {
+            q[(p, r)] = m[(i, j)];
+        }
+    }
+    for (i, &p) in op.iter().enumerate() {
+        for (j, &r) in dp.iter().enumerate() {
+            q[(p, r)] = moved[(i, j)];
+        }
+    }
+    &q * cov * q.transpose()
+}
+
+/// The smallest matrix (in the positive semidefinite order) that is at least `b` and at least
+/// `a` in every direction where `a` exceeds it: b + (a − b)₊, the negative eigenvalues of a − b
+/// set to zero. For 1 × 1 matrices, the larger of the two.
+fn loewner_max(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    let eig = nalgebra::SymmetricEigen::new(((a - b) + (a - b).transpose()) * 0.5);
+    let d = DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0)));
+    b + &eig.eigenvectors * d * eig.eigenvectors.transpose()
+}
+
+/// A symmetric positive definite matrix to the power `power` (by its eigenvalues); `None` if an
+/// eigenvalue is not positive.
+fn spd_power(m: &DMatrix<f64>, power: f64) -> Option<DMatrix<f64>> {
+    let eig = nalgebra::SymmetricEigen::new((m + m.transpose()) * 0.5);
+    if eig.eigenvalues.iter().any(|l| l.is_nan() || *l <= 0.0 || l.is_infinite()) {
+        return None;
+    }
+    let d = DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.powf(power)));
+    Some(&eig.eigenvectors * d * eig.eigenvectors.transpose())
 }
 
 /// The map A (k × 2k) from the summed scores (Σũ prewhitened, Σu raw) to the parameters' error
@@ -269,7 +450,7 @@ mod tests {
             let train = vec![true; n];
             let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
             let f = super::super::gram::fit(&gs, &set);
-            let cov = hac(&d, &train, &gs, std::slice::from_ref(&ar), &set, &f.theta, 12);
+            let cov = hac(&d, &train, &gs, std::slice::from_ref(&ar), &set, &f.theta, 12, 1.0);
             for (k, j) in set.iter().enumerate() {
                 est[k].push(f.theta[*j]);
                 var[k] += cov[(k, k)] / draws as f64;
@@ -313,6 +494,118 @@ mod tests {
         }
     }
 
+    /// The GLS errors' covariance from the residual's autocovariance, by hand. One channel axis,
+    /// white noise model (σ = 1), the delay column x = (1, 2, 0, −1), so G = 6 and z = x/6;
+    /// residual e = (1, −1, 2, 0); a window of one lag (Parzen ¼ there). γ(0) = 6/4 = 3/2,
+    /// γ(±1) = (−1 − 2 + 0)/3 = −1; Σz² = 1/6, Σz_t·z_{t−1} = 2/36, so
+    /// v = 3/2·1/6 + 2·¼·(−1)·2/36 = 2/9. With row 2 out of the training part: γ(0) = 2/3 over
+    /// the three rows left and γ(±1) = −1 over the one pair left (not over every row),
+    /// v = 2/3·1/6 − 1/36 = 1/12. A bug it catches: the means taken over all rows, or over pairs
+    /// that leave the training part, the lags' weights or their sign.
+    #[test]
+    fn the_gls_variance_from_the_residuals_autocovariance_by_hand() {
+        let n = 4;
+        let c = Channel::AccelKin.index();
+        let delay = cols_of(Effect::MocapDelay).start;
+        let mut d = Design { n, t: vec![0.0, 0.02, 0.04, 0.06], ..Design::default() };
+        d.measured[c][0] = vec![1.0, -1.0, 2.0, 0.0];
+        d.predicted[c][0] = vec![0.0; n];
+        d.columns[c][0] = vec![(delay, vec![1.0, 2.0, 0.0, -1.0])];
+        let theta = vec![0.0; N_COLUMNS];
+        let from_gls = DMatrix::from_element(1, 1, 1.0 / 6.0);
+        for (train, want) in [([true; 4], 2.0 / 9.0), ([true, true, false, true], 1.0 / 12.0)] {
+            let v = stationary_gls(&d, &train, &[Ar::white(1.0)], &[delay], &theta, &from_gls, 1);
+            assert!((v[(0, 0)] - want).abs() < 1e-15, "{} for {want}", v[(0, 0)]);
+        }
+    }
+
+    /// The larger of two covariances, by hand. 1 × 1: max(4, 9) = 9 and max(9, 4) = 9. 2 × 2:
+    /// a = diag(4, 1), b = diag(1, 2): a − b = diag(3, −1), so b + diag(3, 0) = diag(4, 2), at
+    /// least each in every direction. A bug it catches: the difference's negative part kept
+    /// (diag(4, 1), below b on the second axis), or the order of the two swapped.
+    #[test]
+    fn the_larger_covariance_by_hand() {
+        let one = |v: f64| DMatrix::from_element(1, 1, v);
+        assert_eq!(loewner_max(&one(4.0), &one(9.0)), one(9.0));
+        assert_eq!(loewner_max(&one(9.0), &one(4.0)), one(9.0));
+        let a = DMatrix::from_diagonal(&DVector::from_vec(vec![4.0, 1.0]));
+        let b = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 2.0]));
+        let want = DMatrix::from_diagonal(&DVector::from_vec(vec![4.0, 2.0]));
+        assert!((loewner_max(&a, &b) - want).abs().max() < 1e-12);
+    }
+
+    /// The Parzen weights by hand: x = l/(L + 1); 1 at lag 0; ¼ at x = ½ (lag 1 of 1);
+    /// 1 − 6/16 + 6/64 = 0.71875 at x = ¼; 2·(¼)³ = 1/32 at x = ¾; 0 from x = 1. A bug it
+    /// catches: the two branches swapped, the cube as a square, the window's end off by one.
+    #[test]
+    fn parzen_weights_by_hand() {
+        assert_eq!(parzen(0, 5), 1.0);
+        assert_eq!(parzen(1, 1), 0.25);
+        assert_eq!(parzen(1, 3), 0.71875);
+        assert_eq!(parzen(3, 3), 0.03125);
+        assert_eq!(parzen(4, 3), 0.0);
+    }
+
+    /// Replacing the GLS block, by hand. δ_D and δ_O with covariance [[4, 2], [2, 3]] and
+    /// δ_O = ½·δ_D + w: w has variance 3 − 2 + 1 = 2 and no covariance with δ_D. The GLS variance
+    /// becomes 9 (δ_D scaled by 3/2), so δ_O = ½·δ_D + w has variance ¼·9 + 2 = 4.25 and
+    /// covariance ½·9 = 4.5 with δ_D. A new variance that is not positive leaves it as it was.
+    /// A bug it catches: the least-squares errors left as they were (3 and 3) or scaled with the
+    /// GLS ones, M as V^½·v^−½.
+    #[test]
+    fn the_gls_block_is_replaced_and_the_least_squares_errors_follow() {
+        let cov = DMatrix::from_row_slice(2, 2, &[4.0, 2.0, 2.0, 3.0]);
+        let carry = DMatrix::from_element(1, 1, 0.5);
+        let got = with_gls_covariance(&cov, &[0], &[1], &DMatrix::from_element(1, 1, 9.0), &carry);
+        let want = DMatrix::from_row_slice(2, 2, &[9.0, 4.5, 4.5, 4.25]);
+        assert!((&got - &want).abs().max() < 1e-12, "{got}");
+        assert_eq!(with_gls_covariance(&cov, &[0], &[1], &DMatrix::zeros(1, 1), &carry), cov);
+    }
+
+    /// A noise the noise model misses, correlated over 20 samples (0.4 s): e_t = n_t + 0.9·n_{t−20},
+    /// whitened as if white. The delay's column is four bursts like a flight's manoeuvres,
+    /// x_t = sin(2πt/120)·exp(−((t mod 200) − 100)²/(2·20²)) (800 samples, 20 ms apart), and its
+    /// variance is Σ_{t,s} x_t·x_s·γ(t − s)/G² with γ(0) = 1.81 and γ(±20) = 0.9 (closed form).
+    /// Over 100 draws the mean of the reported variance must be within 15 % of it (about 0.89
+    /// of it is expected: the Parzen window of 2 s weighs lag 20 by 0.81, and the fitted delay
+    /// takes a little out of the residual). Without the window, the larger of Newey–West over
+    /// 12 lags and γ(0) alone, which both miss lag 20, gives about three quarters of it and must
+    /// stay under 0.8. A bug it catches: the window left out, or read in samples instead of
+    /// seconds (2 lags), and the GLS block not raised.
+    #[test]
+    fn a_correlation_beyond_the_newey_west_lags_is_in_the_gls_variance() {
+        use crate::rng::{Component, Stream};
+        let (n, draws, lag, b) = (800, 100, 20, 0.9);
+        let c = Channel::AccelKin.index();
+        let delay = cols_of(Effect::MocapDelay).start;
+        let burst = |t: usize| {
+            let u = (t % 200) as f64 - 100.0;
+            (2.0 * std::f64::consts::PI * t as f64 / 120.0).sin() * (-0.5 * (u / 20.0).powi(2)).exp()
+        };
+        let x: Vec<f64> = (0..n).map(burst).collect();
+        let g: f64 = x.iter().map(|v| v * v).sum();
+        let lagged: f64 = (lag..n).map(|t| x[t] * x[t - lag]).sum();
+        let want = ((1.0 + b * b) * g + 2.0 * b * lagged) / (g * g);
+        let mut rng = Stream::new(11, Component::Sweep, 0);
+        let ar = Ar::white(1.0);
+        let train = vec![true; n];
+        let mut d = Design { n, t: (0..n).map(|t| t as f64 * 0.02).collect(), ..Design::default() };
+        d.predicted[c][0] = vec![0.0; n];
+        d.columns[c][0] = vec![(delay, x.clone())];
+        let (mut mean, mut short) = (0.0, 0.0);
+        for _ in 0..draws {
+            let noise: Vec<f64> = (0..n + lag).map(|_| rng.normal()).collect();
+            d.measured[c][0] = (0..n).map(|t| 0.3 * x[t] + noise[t + lag] + b * noise[t]).collect();
+            let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
+            let f = super::super::gram::fit(&gs, &[delay]);
+            mean += hac(&d, &train, &gs, std::slice::from_ref(&ar), &[delay], &f.theta, 12, 2.0)[(0, 0)] / draws as f64;
+            short +=
+                hac(&d, &train, &gs, std::slice::from_ref(&ar), &[delay], &f.theta, 12, 0.0)[(0, 0)] / draws as f64;
+        }
+        assert!((mean / want - 1.0).abs() < 0.15, "{mean} for {want}: {}", mean / want);
+        assert!(short / want < 0.8, "without the window: {short} for {want}: {}", short / want);
+    }
+
     /// The Bartlett weights by hand for 3 lags: 1, 3/4, 1/2, 1/4. A bug it catches: `lags + 1` as
     /// `lags − 1` (1, 1/2, 0, −1/2: S no longer positive semidefinite) and as `lags · 1` (1, 2/3,
     /// 1/3, 0).
@@ -350,7 +643,7 @@ mod tests {
         let gs = grams(&d, &train, &test, &ars);
         let theta = vec![0.0; N_COLUMNS];
         for (lags, s) in [(0, 14.09375), (1, 14.1875), (2, 13.21875)] {
-            let v = hac(&d, &train, &gs, &ars, &[one], &theta, lags);
+            let v = hac(&d, &train, &gs, &ars, &[one], &theta, lags, 1.0);
             assert_eq!(v.shape(), (1, 1));
             assert!((v[(0, 0)] - s / 100.0).abs() < 1e-14, "{lags} lags: {} for {}", v[(0, 0)], s / 100.0);
         }

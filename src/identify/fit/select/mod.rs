@@ -39,7 +39,9 @@
 //! of what it has answered (docs/px4.md, "How far to trust EKF2_EV_DELAY").
 //! Their 95 % intervals are ±1.96·σ from the Newey–West covariance (Bartlett, `hac_lags`) of
 //! the weighted scores summed over channel axes per time sample, which allows for the
-//! residual's colour and for channels that share a sensor's noise, plus the systematic of the
+//! residual's colour and for channels that share a sensor's noise (the delays' own share from
+//! the prewhitened residuals' autocovariance over the whole flight where that is larger,
+//! Parzen over 2 s: see `covariance`), plus the systematic of the
 //! nominal thrust ([`NominalModel::thrust_rel_sd`](crate::identify::input::series::NominalModel), one factor for
 //! the whole flight, which no amount of data averages away).
 //!
@@ -214,7 +216,7 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         let mut f = fit(&grams, &set);
         let has_corrections = selected.iter().any(|e| e.is_correction());
         if it == iterations || !has_corrections {
-            let cov = hac(&design, &train, &grams, &ars, &set, &f.theta, o.hac_lags)
+            let cov = hac(&design, &train, &grams, &ars, &set, &f.theta, o.hac_lags, covariance::GLS_WINDOW_S)
                 + thrust_systematic(&design, &train, &grams, &ars, &set, s.model.thrust_rel_sd);
             last = Some(Problem { design, train, test, grams, fit: f, cov });
             break;
