@@ -120,7 +120,6 @@ fn stationary_gls(
     let mut white = Vec::new();
     for (q, (c, a)) in active(d).into_iter().enumerate() {
         let mut z = vec![0.0; d.n * kd];
-        let mut any = false;
         for (p, j) in set.iter().enumerate() {
             let Some((_, col)) = d.columns[c][a].iter().find(|x| x.0 == *j) else { continue };
             ars[q].whiten(col, train, &mut white);
@@ -131,9 +130,9 @@ fn stationary_gls(
                     }
                 }
             }
-            any = true;
         }
-        if !any || z.iter().all(|v| *v == 0.0) {
+        // an axis without the set's columns adds nothing
+        if z.iter().all(|v| *v == 0.0) {
             continue;
         }
         let mut e = Vec::new();
