@@ -71,19 +71,12 @@ pub(super) fn hac(
             }
         })
         .collect();
-    let a = error_map(gs, set, &dp, &op);
+    let ErrorMap { a, from_gls, carry } = error_map(gs, set, &dp, &op);
     let cov = &a * newey_west(&stacked, lags) * a.transpose();
-    let from_gls = sub(&inverse_spd(&system(gs, set).0), &dp, &(0..k).collect::<Vec<_>>());
     let step = if d.t.len() > 1 { d.t[1] - d.t[0] } else { 0.0 };
     let window = if step > 0.0 { (window_s / step).round() as usize } else { 0 };
     let stationary = stationary_gls(d, train, ars, set, theta, &from_gls, window);
     let v = loewner_max(&stationary, &sub(&cov, &dp, &dp));
-    let gr = system_raw(gs, set).0;
-    let carry = if op.is_empty() {
-        DMatrix::zeros(0, dp.len())
-    } else {
-        -inverse_spd(&sub(&gr, &op, &op)) * sub(&gr, &op, &dp)
-    };
     with_gls_covariance(&cov, &dp, &op, &v, &carry)
 }
 
@@ -245,7 +238,15 @@ fn spd_power(m: &DMatrix<f64>, power: f64) -> Option<DMatrix<f64>> {
 /// The map A (k × 2k) from the summed scores (Σũ prewhitened, Σu raw) to the parameters' error
 /// when the columns at positions `dp` of `set` are GLS and those at `op` least squares given
 /// them: rows D = [G̃⁻¹]_D on Σũ; rows O = −G_OO⁻¹·G_OD·[G̃⁻¹]_D on Σũ and G_OO⁻¹ on Σu_O.
-fn error_map(gs: &[Gram], set: &[usize], dp: &[usize], op: &[usize]) -> DMatrix<f64> {
+/// Its two factors are kept: `from_gls` = [G̃⁻¹]_D (k_D × k) and `carry` = −G_OO⁻¹·G_OD
+/// (k_O × k_D), what the least-squares errors carry of the GLS ones.
+struct ErrorMap {
+    a: DMatrix<f64>,
+    from_gls: DMatrix<f64>,
+    carry: DMatrix<f64>,
+}
+
+fn error_map(gs: &[Gram], set: &[usize], dp: &[usize], op: &[usize]) -> ErrorMap {
     let k = set.len();
     let gw_inv = inverse_spd(&system(gs, set).0);
     let gr = system_raw(gs, set).0;
@@ -255,14 +256,15 @@ fn error_map(gs: &[Gram], set: &[usize], dp: &[usize], op: &[usize]) -> DMatrix<
     for (i, &p) in dp.iter().enumerate() {
         a.view_mut((p, 0), (1, k)).copy_from(&from_gls.row(i));
     }
-    let carried = -&goo_inv * sub(&gr, op, dp) * &from_gls;
+    let carry = -&goo_inv * sub(&gr, op, dp);
+    let carried = &carry * &from_gls;
     for (i, &p) in op.iter().enumerate() {
         a.view_mut((p, 0), (1, k)).copy_from(&carried.row(i));
         for (j, &q) in op.iter().enumerate() {
             a[(p, k + q)] = goo_inv[(i, j)];
         }
     }
-    a
+    ErrorMap { a, from_gls, carry }
 }
 
 /// The score of each time sample summed over the channel axes, on the columns `set`: raw and
@@ -405,7 +407,7 @@ pub(super) fn thrust_systematic(
             }
         }
         both.rows_mut(k, k).copy_from(&xc);
-        error_map(gs, set, &dp, &op) * both
+        error_map(gs, set, &dp, &op).a * both
     };
     &shift * shift.transpose() * (rel_sd * rel_sd)
 }
