@@ -253,6 +253,13 @@ struct Server {
 /// The longest sleep between two reads of the command port: a request waits at most this long.
 const POLL: Duration = Duration::from_micros(100);
 
+/// The command port's receive buffer asked of the kernel (bytes): a flood's burst that arrives
+/// while the host is busy waits there instead of pushing the controllers' commands out.
+const RECV_BUFFER: usize = 1 << 20;
+
+/// At most this many waiting datagrams are read at the start of a physics tick.
+const DRAIN: usize = 256;
+
 /// At most this many unicast clients (each costs two datagrams per frame).
 const MAX_CLIENTS: usize = 32;
 
@@ -261,6 +268,8 @@ impl Server {
         let addr = SocketAddr::V4(SocketAddrV4::new(opts.bind, opts.command_port));
         let socket = UdpSocket::bind(addr).map_err(|source| ServeError::Bind { addr, source })?;
         socket.set_nonblocking(true)?;
+        // room for a burst while the host is busy (the kernel caps it at net.core.rmem_max)
+        let _ = socket2::SockRef::from(&socket).set_recv_buffer_size(RECV_BUFFER);
         if opts.multicast.is_some() {
             // one hop, looped back to this host's listeners, out of the interface we listen on
             socket.set_multicast_ttl_v4(1)?;
@@ -287,10 +296,29 @@ impl Server {
         })
     }
 
-    /// Answers requests until `until` (wall clock).
+    /// Answers what is waiting on the command port, then requests until `until` (wall clock).
+    /// A tick that began late (the host was busy) still reads what queued meanwhile: a socket
+    /// left unread while a flood arrives overflows, and the kernel drops the controllers'
+    /// commands with the flood's datagrams.
     fn listen_until(&mut self, until: Instant) -> Result<(), ServeError> {
+        self.drain()?;
         while Instant::now() < until {
             self.listen_once(until)?;
+        }
+        Ok(())
+    }
+
+    /// Answers the datagrams already waiting, at most [`DRAIN`] of them (a flood faster than
+    /// they are read cannot hold the physics tick).
+    fn drain(&mut self) -> Result<(), ServeError> {
+        let mut buf = [0u8; 2048];
+        for _ in 0..DRAIN {
+            match self.socket.recv_from(&mut buf) {
+                Ok((n, from)) => self.answer(&buf[..n], from),
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {}
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                Err(e) => return Err(e.into()),
+            }
         }
         Ok(())
     }
@@ -738,5 +766,27 @@ mod tests {
                 "y-up has no sign rule: {ey:?}"
             );
         }
+    }
+
+    /// A tick that began late still reads what queued on the command port meanwhile (up to
+    /// [`DRAIN`]): a server that only listened until a deadline already past read nothing while
+    /// it was behind, its socket overflowed under a flood, and the kernel dropped the
+    /// controllers' commands with it (every flown vehicle failed safe on a busy host).
+    #[test]
+    fn a_late_tick_reads_what_queued_meanwhile() {
+        let opts = ServeOptions { command_port: 0, ..ServeOptions::default() };
+        let mut server = Server::bind(&opts, Vec::new(), vec![true]).unwrap();
+        let to = server.socket.local_addr().unwrap();
+        let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+        for _ in 0..DRAIN + 10 {
+            sender.send_to(&[0xff; 3], to).unwrap();
+        }
+        // loopback delivers at once; give the kernel a moment all the same
+        std::thread::sleep(Duration::from_millis(50));
+        let past = Instant::now().checked_sub(Duration::from_millis(10)).unwrap();
+        server.listen_until(past).unwrap();
+        assert_eq!(server.report.rejected, DRAIN as u64, "one tick reads at most DRAIN datagrams");
+        server.listen_until(past).unwrap();
+        assert_eq!(server.report.rejected, DRAIN as u64 + 10, "the next tick reads the rest");
     }
 }
