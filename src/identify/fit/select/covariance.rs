@@ -113,8 +113,10 @@ fn stationary_gls(
     let mut white = Vec::new();
     for (q, (c, a)) in active(d).into_iter().enumerate() {
         let mut z = vec![0.0; d.n * kd];
+        let mut has_column = false;
         for (p, j) in set.iter().enumerate() {
             let Some((_, col)) = d.columns[c][a].iter().find(|x| x.0 == *j) else { continue };
+            has_column = true;
             ars[q].whiten(col, train, &mut white);
             for (t, x) in white.iter().enumerate() {
                 if x.is_finite() {
@@ -125,7 +127,7 @@ fn stationary_gls(
             }
         }
         // an axis without the set's columns adds nothing
-        if z.iter().all(|v| *v == 0.0) {
+        if !has_column {
             continue;
         }
         let mut e = Vec::new();
@@ -518,6 +520,26 @@ mod tests {
             let v = stationary_gls(&d, &train, &[Ar::white(1.0)], &[delay], &theta, &from_gls, 1);
             assert!((v[(0, 0)] - want).abs() < 1e-15, "{} for {want}", v[(0, 0)]);
         }
+    }
+
+    /// The error map by hand: a bias by least squares given a GLS delay, set = [bias, delay].
+    /// Whitened Gram G̃ = [[2, 1], [1, 2]], so [G̃⁻¹]_D = (−1, 2)/3; raw Gram G = [[4, 2], [2, 3]],
+    /// so the bias carries −G_OD/G_OO = −½ of the delay's error. The delay's row of A is
+    /// ((−1, 2)/3 on Σũ, 0 on Σu); the bias's is (−½·(−1, 2)/3 on Σũ, (¼, 0) on Σu). A bug it
+    /// catches: the carry's sign (the bias would move with the delay's error instead of against
+    /// it), the GLS rows read off the raw Gram, or the raw inverse left out.
+    #[test]
+    fn the_error_map_by_hand() {
+        let (bias, delay) = (cols_of(Effect::AccelBias).start, cols_of(Effect::MocapDelay).start);
+        let mut g = Gram::zeros(vec![bias, delay], 1.0);
+        g.g_w = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 2.0]);
+        g.g_r = DMatrix::from_row_slice(2, 2, &[4.0, 2.0, 2.0, 3.0]);
+        let set = [bias, delay];
+        let ErrorMap { a, from_gls, carry } = error_map(std::slice::from_ref(&g), &set, &[1], &[0]);
+        let want = DMatrix::from_row_slice(2, 4, &[1.0 / 6.0, -1.0 / 3.0, 0.25, 0.0, -1.0 / 3.0, 2.0 / 3.0, 0.0, 0.0]);
+        assert!((&a - &want).abs().max() < 1e-15, "{a} for {want}");
+        assert!((from_gls - DMatrix::from_row_slice(1, 2, &[-1.0 / 3.0, 2.0 / 3.0])).abs().max() < 1e-15);
+        assert!((carry[(0, 0)] + 0.5).abs() < 1e-15, "{carry}");
     }
 
     /// The larger of two covariances, by hand. 1 × 1: max(4, 9) = 9 and max(9, 4) = 9. 2 × 2:
