@@ -311,16 +311,29 @@ impl Server {
     /// Answers the datagrams already waiting, at most [`DRAIN`] of them (a flood faster than
     /// they are read cannot hold the physics tick).
     fn drain(&mut self) -> Result<(), ServeError> {
-        let mut buf = [0u8; 2048];
         for _ in 0..DRAIN {
-            match self.socket.recv_from(&mut buf) {
-                Ok((n, from)) => self.answer(&buf[..n], from),
-                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {}
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
-                Err(e) => return Err(e.into()),
+            if !self.answer_waiting()? {
+                break;
             }
         }
         Ok(())
+    }
+
+    /// Answers the next datagram waiting on the command port; false when none waits. An earlier
+    /// datagram to a closed port that came back as refused is not one: the read goes on past it.
+    fn answer_waiting(&mut self) -> Result<bool, ServeError> {
+        let mut buf = [0u8; 2048];
+        loop {
+            match self.socket.recv_from(&mut buf) {
+                Ok((n, from)) => {
+                    self.answer(&buf[..n], from);
+                    return Ok(true);
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {}
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return Ok(false),
+                Err(e) => return Err(e.into()),
+            }
+        }
     }
 
     /// Answers the next request, waiting for it until `until` at most. The socket does not
@@ -328,17 +341,9 @@ impl Server {
     /// the CI's kernel), which would send the frames of a quiet tick that late, so the wait is
     /// sleeps of at most [`POLL`] (high-resolution timers) between reads.
     fn listen_once(&mut self, until: Instant) -> Result<(), ServeError> {
-        let mut buf = [0u8; 2048];
         loop {
-            match self.socket.recv_from(&mut buf) {
-                Ok((n, from)) => {
-                    self.answer(&buf[..n], from);
-                    return Ok(());
-                }
-                // an earlier datagram to a closed port came back as refused: nothing to read
-                Err(e)
-                    if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::ConnectionRefused) => {}
-                Err(e) => return Err(e.into()),
+            if self.answer_waiting()? {
+                return Ok(());
             }
             let now = Instant::now();
             if now >= until {
