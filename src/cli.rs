@@ -826,6 +826,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         vehicle: a.vehicle.as_deref(),
         seed: a.seed,
         smoothing_ms: a.smoothing_ms,
+        refit_every_sample: a.calibrate,
         forced,
         clock: a.clock_offset,
         ..Request::new(source)
@@ -942,7 +943,13 @@ fn refuse_another_makers(
 /// `identify` over several flights: one cross-validated report.
 fn cmd_identify_many(a: &IdentifyArgs) -> Result<i32, Error> {
     let inputs: Vec<&Path> = a.inputs.iter().map(PathBuf::as_path).collect();
-    let m = flyarena::identify::run_many(&inputs, a.mapping.as_deref().expect("checked"), a.smoothing_ms, &a.forced)?;
+    let m = flyarena::identify::run_many(
+        &inputs,
+        a.mapping.as_deref().expect("checked"),
+        a.smoothing_ms,
+        a.calibrate,
+        &a.forced,
+    )?;
     let json_path = a.json.clone().unwrap_or_else(|| a.out.join("cross-validation.identify.json"));
     let json = flyarena::identify::cross_validated_json(&m);
     if a.json.is_none() && !a.overwrite {
@@ -1079,7 +1086,7 @@ fn cmd_injected(log: &Path, mapping: &Path, cases: u64, seed: u64, out: &Path) -
     use flyarena::identify::{Effect, Mapping, Options, injected};
     let map = Mapping::load(mapping)?;
     let streams = injected::streams(&map, log)?;
-    let mut o = Options { forced: Effect::CALIBRATION.to_vec(), ..Options::default() };
+    let mut o = Options { forced: Effect::CALIBRATION.to_vec(), refit_every_sample: true, ..Options::default() };
     if let Some(ms) = map.smoothing_ms {
         o.design.smoothing_s = ms * 1e-3;
     }

@@ -751,6 +751,7 @@ fn nanobench_offsets_agree_inside_a_mounting_and_transfer_inside_it() {
         &inputs,
         &super::root().join("mappings/nanobench.yaml"),
         None,
+        false,
         &[Effect::BodyOffset],
     )
     .unwrap();
@@ -1186,6 +1187,7 @@ fn a_copied_log_counts_once_in_the_cross_validation() {
         &inputs,
         &super::root().join("mappings/nanobench.yaml"),
         None,
+        false,
         &[Effect::BodyOffset],
     )
     .unwrap();

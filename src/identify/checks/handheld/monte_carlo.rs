@@ -10,7 +10,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 /// What the trials run: `identify --calibrate` with the defaults of `mappings/handheld.yaml`
 /// (the calibration fitted without testing, any other effect selected on top).
 pub fn options() -> Options {
-    let mut o = Options { forced: Effect::CALIBRATION.to_vec(), ..Options::default() };
+    let mut o = Options { forced: Effect::CALIBRATION.to_vec(), refit_every_sample: true, ..Options::default() };
     if let Some(ms) = mapping().smoothing_ms {
         o.design.smoothing_s = ms * 1e-3;
     }
@@ -159,6 +159,31 @@ mod tests {
     use crate::identify::checks::handheld::rig::draw;
     use crate::identify::fit::start::ClockWindow;
     use crate::identify::output::handheld::render;
+
+    /// A calibration refits the chosen model on every usable sample: on a drawn rig its
+    /// estimates move (a third more data), while the held-out errors and the split stay the
+    /// training fit's, the only out-of-sample figures; the report says the refit was made, and
+    /// a fit without it writes its options as before. A bug it catches: the refit skipped
+    /// (estimates unchanged), the held-out errors taken from the refit (they would fall, the
+    /// held-out part being in it), or the split reported from the refit's masks (nothing held
+    /// out).
+    #[test]
+    fn a_calibration_refits_on_every_sample_and_scores_the_training_fit() {
+        let s = draw(1, 0).series(&Setting::default()).unwrap();
+        let refit = identify(&s, &options()).unwrap();
+        let trained = identify(&s, &Options { refit_every_sample: false, ..options() }).unwrap();
+        let json = |v: &Vec<crate::identify::fit::select::AxisError>| serde_json::to_value(v).unwrap();
+        assert_eq!(json(&refit.errors), json(&trained.errors));
+        assert_eq!((refit.train_samples, refit.heldout_samples), (trained.train_samples, trained.heldout_samples));
+        assert!(refit.heldout_samples > 0);
+        let roll = |r: &crate::identify::Report| {
+            r.effects.iter().find(|f| f.effect == Effect::BodyOffset).unwrap().params[0].value
+        };
+        assert_ne!(roll(&refit), roll(&trained));
+        let opts = |r: &crate::identify::Report| serde_json::to_value(&r.options).unwrap();
+        assert_eq!(opts(&refit)["refit_every_sample"], serde_json::json!(true));
+        assert!(opts(&trained).get("refit_every_sample").is_none());
+    }
 
     /// On a rig without noise and with biases that do not walk, `identify --calibrate` gives the
     /// drawn calibration back: the generator writes the definitions of [`Corrections`](crate::identify::input::series::Corrections)

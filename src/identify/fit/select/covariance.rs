@@ -6,13 +6,56 @@ use super::gram::{Gram, active, cols_of, residual_of, split, sub, system, system
 use crate::effects::{Channel, Effect};
 use crate::identify::fit::design::Design;
 use crate::identify::fit::stats::{Ar, inverse_spd};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DMatrixView, DVector};
 use std::borrow::Cow;
 
 /// The window of the residual's autocovariance in [`stationary_gls`] (s): the prewhitened
 /// residual of a mocap log stays correlated over a good part of a second (the spectral dip
 /// that [`stationary_gls`] explains), and the Parzen weights fall to ½ at a third of the window.
 pub(super) const GLS_WINDOW_S: f64 = 2.0;
+
+/// The covariance of the parameters of [`fit`](super::gram::fit): [`newey_west_cov`], and on a
+/// fit of every usable sample (`whole`) the larger (in the positive semidefinite order,
+/// [`loewner_max`]) of it and [`stationary_full`], two estimates of one sandwich, each blind
+/// where the other sees.
+///
+/// The errors are linear in the scores, δ = A·Σ_t s_t (see [`newey_west_cov`] for s_t and A).
+/// - [`newey_west_cov`] sums the products of the scores themselves over `lags` samples: a noise
+///   whose size or correlation changes through the flight (a real flight's misfit, large where
+///   the vehicle moves) is in it, a correlation longer than `lags` is not.
+/// - [`stationary_full`] takes the residuals' auto- and cross-covariances over the whole
+///   flight, Parzen over `window_s`: correlations as long as the window are in it, a noise that
+///   changes size is not. On a hand-held rig the smoothing kernel colours the accelerometer's
+///   residual over more than `lags` samples, and the Bartlett weights of `lags` = 12 (already
+///   ½ at lag 6) leave 8–15 % of the variance of the tilt, the lever arm and the accelerometer
+///   bias out (docs/calibration.md, "How good is it?").
+///
+/// So no interval is narrower than either. Why only on a fit of every usable sample: on the
+/// training part (two thirds of a hand-held log) Newey–West's intervals already cover 94–97 %
+/// (docs/calibration.md, "What each choice bought"), and the trials' and the closed-loop
+/// delay's coverage were measured with them.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn hac(
+    d: &Design,
+    train: &[bool],
+    gs: &[Gram],
+    ars: &[Ar],
+    set: &[usize],
+    theta: &[f64],
+    lags: usize,
+    window_s: f64,
+    whole: bool,
+) -> DMatrix<f64> {
+    let step = if d.t.len() > 1 { d.t[1] - d.t[0] } else { 0.0 };
+    let window = if step > 0.0 { (window_s / step).round() as usize } else { 0 };
+    let nw = newey_west_cov(d, train, gs, ars, set, theta, lags, window);
+    if !whole {
+        return nw;
+    }
+    let (dp, op) = split(set);
+    let a = if dp.is_empty() { inverse_spd(&system_raw(gs, set).0) } else { error_map(gs, set, &dp, &op).a };
+    loewner_max(&stationary_full(d, train, gs, ars, set, theta, &a, window), &nw)
+}
 
 /// Newey–West (Bartlett, `lags`) covariance of the parameters of [`fit`](super::gram::fit).
 ///
@@ -29,13 +72,11 @@ pub(super) const GLS_WINDOW_S: f64 = 2.0;
 /// G_OO⁻¹·(Σu_O − G_OD·(θ_D − θ_D*)). The covariance is A·S·Aᵀ with S the Newey–West sum of
 /// the stacked scores (ũ_t, u_t), which carries the correlation of the two estimates, and A
 /// that linear map. The GLS errors' own covariance is then raised to [`stationary_gls`]'s
-/// (`window_s` long) where that is larger, and what the least-squares estimates inherit from
-/// them follows (see [`with_gls_covariance`]). Each of the two misses what the other sees:
-/// Newey–West, a correlation longer than its `lags`; the stationary one, a noise whose size or
-/// correlation changes through the flight (a real flight's misfit, large where the vehicle
-/// moves); so the delay's interval is never narrower than either.
+/// (over `window` samples) where that is larger, and what the least-squares estimates inherit
+/// from them follows (see [`with_gls_covariance`]), so the delay's interval is never narrower
+/// than either.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn hac(
+fn newey_west_cov(
     d: &Design,
     train: &[bool],
     gs: &[Gram],
@@ -43,7 +84,7 @@ pub(super) fn hac(
     set: &[usize],
     theta: &[f64],
     lags: usize,
-    window_s: f64,
+    window: usize,
 ) -> DMatrix<f64> {
     let (dp, op) = split(set);
     if dp.is_empty() {
@@ -73,19 +114,95 @@ pub(super) fn hac(
         .collect();
     let ErrorMap { a, from_gls, carry } = error_map(gs, set, &dp, &op);
     let cov = &a * newey_west(&stacked, lags) * a.transpose();
-    let step = if d.t.len() > 1 { d.t[1] - d.t[0] } else { 0.0 };
-    let window = if step > 0.0 { (window_s / step).round() as usize } else { 0 };
     let stationary = stationary_gls(d, train, ars, set, theta, &from_gls, window);
     let v = loewner_max(&stationary, &sub(&cov, &dp, &dp));
     with_gls_covariance(&cov, &dp, &op, &v, &carry)
 }
 
-/// The covariance of the GLS errors δ_D = [G̃⁻¹]_D·Σ_t ũ_t when the prewhitened residuals are
-/// stationary: Var(δ_D) = Σ_{q,r} Σ_{|l|≤L} w_l·γ_qr(l)·Σ_t z_{q,t}·z_{r,t−l}ᵀ, with
-/// z_{q,t} = [G̃⁻¹]_D·x̃_{q,t} the GLS rows applied to the prewhitened columns of channel axis q
-/// at sample t (`from_gls`, k_D × k), γ_qr(l) the cross-covariance of the prewhitened residuals
-/// of axes q and r at lag l (the mean of ẽ_{q,t}·ẽ_{r,t−l} over the training samples where both
-/// exist), and w_l the Parzen weights over L = `window` samples ([`parzen`]).
+/// One channel axis's share of the scores in [`stationary`]: its residual e_t (NaN where the
+/// sample has no score) and z_t = M·x_t, the parameters' error map applied to its columns at
+/// sample t (`k` values per sample, zero where e_t is NaN).
+type ScoreSeries = (Vec<f64>, Vec<f64>);
+
+/// The covariance of δ = Σ_q Σ_t z_{q,t}·e_{q,t} when the residuals are stationary:
+/// Var(δ) = Σ_{q,r} Σ_{|l|≤L} w_l·γ_qr(l)·Σ_t z_{q,t}·z_{r,t−l}ᵀ, γ_qr(l) the mean of
+/// e_{q,t}·e_{r,t−l} over the samples where both exist, w_l the Parzen weights over
+/// L = `window` samples ([`parzen`]). Computed as Σ_q Σ_t z_{q,t}·y_{q,t}ᵀ with
+/// y_{q,t} = Σ_r Σ_l w_l·γ_qr(l)·z_{r,t−l}, so that each lag costs n·k, not n·k².
+fn stationary(series: &[ScoreSeries], k: usize, n: usize, window: usize) -> DMatrix<f64> {
+    // residuals with 0 where absent and the presence as 0/1, so that every lag's sums are
+    // plain dot products over contiguous ranges
+    let present: Vec<(Vec<f64>, Vec<f64>)> = series
+        .iter()
+        .map(|(e, _)| {
+            let m: Vec<f64> = e.iter().map(|v| f64::from(u8::from(v.is_finite()))).collect();
+            (e.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect(), m)
+        })
+        .collect();
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let mut v = DMatrix::<f64>::zeros(k, k);
+    let mut y = vec![0.0; n * k];
+    for ((eq, mq), (_, zq)) in present.iter().zip(series) {
+        y.iter_mut().for_each(|x| *x = 0.0);
+        for ((er, mr), (_, zr)) in present.iter().zip(series) {
+            for l in -(window as isize)..=window as isize {
+                // t in lo..hi pairs with s = t − l in lo − l..hi − l
+                let lo = l.max(0) as usize;
+                let hi = (n as isize + l.min(0)) as usize;
+                let (slo, shi) = ((lo as isize - l) as usize, (hi as isize - l) as usize);
+                let count = dot(&mq[lo..hi], &mr[slo..shi]);
+                if count == 0.0 {
+                    continue;
+                }
+                let h = parzen(l.unsigned_abs(), window) * dot(&eq[lo..hi], &er[slo..shi]) / count;
+                for (a, b) in y[lo * k..hi * k].iter_mut().zip(&zr[slo * k..shi * k]) {
+                    *a += h * b;
+                }
+            }
+        }
+        for (zt, yt) in zq.chunks_exact(k.max(1)).zip(y.chunks_exact(k.max(1))) {
+            for (i, a) in zt.iter().enumerate().filter(|(_, a)| **a != 0.0) {
+                for (j, b) in yt.iter().enumerate() {
+                    v[(i, j)] += a * b;
+                }
+            }
+        }
+    }
+    (&v + v.transpose()) * 0.5
+}
+
+/// A channel axis's [`ScoreSeries`]: residual `e` (NaN where the sample has no score) and the
+/// columns `cols` (position in `set`, series) mapped by `m` (k × |set|, column p for the set's
+/// p-th parameter), each scaled by `weight`. `None` when the axis has none of the set's columns.
+fn score_series(e: Vec<f64>, cols: &[(usize, Vec<f64>)], m: DMatrixView<f64>, weight: f64) -> Option<ScoreSeries> {
+    if cols.is_empty() {
+        return None;
+    }
+    let (n, k) = (e.len(), m.nrows());
+    let mut z = vec![0.0; n * k];
+    for (p, x) in cols {
+        for (t, xv) in x.iter().enumerate() {
+            if xv.is_finite() && e[t].is_finite() {
+                for i in 0..k {
+                    z[t * k + i] += m[(i, *p)] * weight * xv;
+                }
+            }
+        }
+    }
+    Some((e, z))
+}
+
+/// The columns of `set` that channel axis (c, a) has, by their position in `set`.
+fn set_columns(d: &Design, c: usize, a: usize, set: &[usize]) -> Vec<(usize, Vec<f64>)> {
+    set.iter()
+        .enumerate()
+        .filter_map(|(p, j)| d.columns[c][a].iter().find(|x| x.0 == *j).map(|x| (p, x.1.clone())))
+        .collect()
+}
+
+/// The GLS errors' covariance when the prewhitened residuals are stationary ([`stationary`]
+/// with z_{q,t} = [G̃⁻¹]_D·x̃_{q,t}, `from_gls` (k_D × k) applied to the prewhitened columns of
+/// channel axis q, and e the prewhitened residuals over the training samples).
 ///
 /// Why not Newey–West of the scores: an AR of order ≤ `max_ar_order` cannot follow a spectral
 /// zero, and the twice-differentiated positions and once-differentiated attitudes put one at
@@ -107,62 +224,70 @@ fn stationary_gls(
     from_gls: &DMatrix<f64>,
     window: usize,
 ) -> DMatrix<f64> {
-    let kd = from_gls.nrows();
-    // per channel axis with a column of the set: ẽ (NaN where absent) and z (kd per sample)
-    let mut axes: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
-    let mut white = Vec::new();
-    for (q, (c, a)) in active(d).into_iter().enumerate() {
-        let mut z = vec![0.0; d.n * kd];
-        let mut has_column = false;
-        for (p, j) in set.iter().enumerate() {
-            let Some((_, col)) = d.columns[c][a].iter().find(|x| x.0 == *j) else { continue };
-            has_column = true;
-            ars[q].whiten(col, train, &mut white);
-            for (t, x) in white.iter().enumerate() {
-                if x.is_finite() {
-                    for i in 0..kd {
-                        z[t * kd + i] += from_gls[(i, p)] * x;
-                    }
-                }
-            }
+    let series: Vec<ScoreSeries> = active(d)
+        .into_iter()
+        .enumerate()
+        .filter_map(|(q, (c, a))| {
+            let cols = whitened(&ars[q], train, set_columns(d, c, a, set));
+            let e = whitened_residual(&ars[q], train, &residual_of(d, c, a, theta));
+            score_series(e, &cols, from_gls.as_view(), 1.0)
+        })
+        .collect();
+    stationary(&series, from_gls.nrows(), d.n, window)
+}
+
+/// Every parameter's covariance when the residuals are stationary ([`stationary`]): the error
+/// map `a` (k × 2k, on the prewhitened scores and then the raw ones, [`error_map`]; k × k on
+/// the raw ones alone when nothing is GLS) applied to each channel axis twice, once to its
+/// prewhitened columns and residual (z = A_{:, ..k}·x̃, e = ẽ) and once to its raw weighted ones
+/// (z = A_{:, k..}·w·x, e the residual over the training samples). Both halves of an axis, and
+/// every pair of axes, are cross-correlated through γ_qr, as the stacked scores of
+/// [`newey_west_cov`] are. On the GLS block it is [`stationary_gls`] (the raw half's rows
+/// there are zero).
+#[allow(clippy::too_many_arguments)]
+fn stationary_full(
+    d: &Design,
+    train: &[bool],
+    gs: &[Gram],
+    ars: &[Ar],
+    set: &[usize],
+    theta: &[f64],
+    a: &DMatrix<f64>,
+    window: usize,
+) -> DMatrix<f64> {
+    let k = set.len();
+    let gls = a.ncols() == 2 * k;
+    let raw_map = a.columns(if gls { k } else { 0 }, k);
+    let mut series = Vec::new();
+    for (q, ((c, ax), gr)) in active(d).into_iter().zip(gs).enumerate() {
+        let cols = set_columns(d, c, ax, set);
+        let r = residual_of(d, c, ax, theta);
+        if gls {
+            let e = whitened_residual(&ars[q], train, &r);
+            series.extend(score_series(e, &whitened(&ars[q], train, cols.clone()), a.columns(0, k), 1.0));
         }
-        // an axis without the set's columns adds nothing
-        if !has_column {
-            continue;
-        }
-        let mut e = Vec::new();
-        ars[q].whiten(&residual_of(d, c, a, theta), train, &mut e);
-        axes.push((e, z));
+        let e = r.iter().zip(train).map(|(v, tr)| if *tr { *v } else { f64::NAN }).collect();
+        series.extend(score_series(e, &cols, raw_map, gr.w_r));
     }
-    let mut v = DMatrix::<f64>::zeros(kd, kd);
-    let n = d.n;
-    for (eq, zq) in &axes {
-        for (er, zr) in &axes {
-            for l in -(window as isize)..=window as isize {
-                let w = parzen(l.unsigned_abs(), window);
-                let (mut ee, mut count) = (0.0, 0usize);
-                let mut zz = DMatrix::<f64>::zeros(kd, kd);
-                let lo = l.max(0) as usize;
-                let hi = (n as isize + l.min(0)) as usize;
-                for t in lo..hi {
-                    let s = (t as isize - l) as usize;
-                    if eq[t].is_finite() && er[s].is_finite() {
-                        ee += eq[t] * er[s];
-                        count += 1;
-                        for i in 0..kd {
-                            for j in 0..kd {
-                                zz[(i, j)] += zq[t * kd + i] * zr[s * kd + j];
-                            }
-                        }
-                    }
-                }
-                if count > 0 {
-                    v += zz * (w * ee / count as f64);
-                }
-            }
-        }
-    }
-    (&v + v.transpose()) * 0.5
+    stationary(&series, k, d.n, window)
+}
+
+/// Columns prewhitened by a channel axis's noise model (NaN where its window is short).
+fn whitened(ar: &Ar, train: &[bool], cols: Vec<(usize, Vec<f64>)>) -> Vec<(usize, Vec<f64>)> {
+    cols.into_iter()
+        .map(|(p, x)| {
+            let mut w = Vec::new();
+            ar.whiten(&x, train, &mut w);
+            (p, w)
+        })
+        .collect()
+}
+
+/// A residual prewhitened by a channel axis's noise model.
+fn whitened_residual(ar: &Ar, train: &[bool], r: &[f64]) -> Vec<f64> {
+    let mut e = Vec::new();
+    ar.whiten(r, train, &mut e);
+    e
 }
 
 /// The Parzen weight of lag `l` in a window of `lags`: with x = l/(lags + 1), 1 − 6x² + 6x³ up
@@ -219,8 +344,11 @@ fn with_gls_covariance(
 
 /// The smallest matrix (in the positive semidefinite order) that is at least `b` and at least
 /// `a` in every direction where `a` exceeds it: b + (a − b)₊, the negative eigenvalues of a − b
-/// set to zero. For 1 × 1 matrices, the larger of the two.
+/// set to zero. For 1 × 1 matrices, the larger of the two; for 0 × 0 (no parameter), empty.
 fn loewner_max(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    if b.is_empty() {
+        return b.clone();
+    }
     let eig = nalgebra::SymmetricEigen::new(((a - b) + (a - b).transpose()) * 0.5);
     let d = DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0)));
     b + &eig.eigenvectors * d * eig.eigenvectors.transpose()
@@ -453,7 +581,7 @@ mod tests {
             let train = vec![true; n];
             let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
             let f = super::super::gram::fit(&gs, &set);
-            let cov = hac(&d, &train, &gs, std::slice::from_ref(&ar), &set, &f.theta, 12, 1.0);
+            let cov = hac(&d, &train, &gs, std::slice::from_ref(&ar), &set, &f.theta, 12, 1.0, false);
             for (k, j) in set.iter().enumerate() {
                 est[k].push(f.theta[*j]);
                 var[k] += cov[(k, k)] / draws as f64;
@@ -519,6 +647,11 @@ mod tests {
         for (train, want) in [([true; 4], 2.0 / 9.0), ([true, true, false, true], 1.0 / 12.0)] {
             let v = stationary_gls(&d, &train, &[Ar::white(1.0)], &[delay], &theta, &from_gls, 1);
             assert!((v[(0, 0)] - want).abs() < 1e-15, "{} for {want}", v[(0, 0)]);
+            // the whole covariance with the map on the prewhitened half alone is the same
+            let gs = grams(&d, &train, &[false; 4], &[Ar::white(1.0)]);
+            let a = DMatrix::from_row_slice(1, 2, &[1.0 / 6.0, 0.0]);
+            let v = stationary_full(&d, &train, &gs, &[Ar::white(1.0)], &[delay], &theta, &a, 1);
+            assert!((v[(0, 0)] - want).abs() < 1e-15, "whole: {} for {want}", v[(0, 0)]);
         }
     }
 
@@ -555,6 +688,7 @@ mod tests {
         let b = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 2.0]));
         let want = DMatrix::from_diagonal(&DVector::from_vec(vec![4.0, 2.0]));
         assert!((loewner_max(&a, &b) - want).abs().max() < 1e-12);
+        assert_eq!(loewner_max(&DMatrix::zeros(0, 0), &DMatrix::zeros(0, 0)).shape(), (0, 0));
     }
 
     /// The Parzen weights by hand: x = l/(L + 1); 1 at lag 0; ¼ at x = ½ (lag 1 of 1);
@@ -621,9 +755,10 @@ mod tests {
             d.measured[c][0] = (0..n).map(|t| 0.3 * x[t] + noise[t + lag] + b * noise[t]).collect();
             let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
             let f = super::super::gram::fit(&gs, &[delay]);
-            mean += hac(&d, &train, &gs, std::slice::from_ref(&ar), &[delay], &f.theta, 12, 2.0)[(0, 0)] / draws as f64;
-            short +=
-                hac(&d, &train, &gs, std::slice::from_ref(&ar), &[delay], &f.theta, 12, 0.0)[(0, 0)] / draws as f64;
+            mean += hac(&d, &train, &gs, std::slice::from_ref(&ar), &[delay], &f.theta, 12, 2.0, false)[(0, 0)]
+                / draws as f64;
+            short += hac(&d, &train, &gs, std::slice::from_ref(&ar), &[delay], &f.theta, 12, 0.0, false)[(0, 0)]
+                / draws as f64;
         }
         assert!((mean / want - 1.0).abs() < 0.15, "{mean} for {want}: {}", mean / want);
         assert!(short / want < 0.8, "without the window: {short} for {want}: {}", short / want);
@@ -666,10 +801,95 @@ mod tests {
         let gs = grams(&d, &train, &test, &ars);
         let theta = vec![0.0; N_COLUMNS];
         for (lags, s) in [(0, 14.09375), (1, 14.1875), (2, 13.21875)] {
-            let v = hac(&d, &train, &gs, &ars, &[one], &theta, lags, 1.0);
+            let v = newey_west_cov(&d, &train, &gs, &ars, &[one], &theta, lags, 0);
             assert_eq!(v.shape(), (1, 1));
             assert!((v[(0, 0)] - s / 100.0).abs() < 1e-14, "{lags} lags: {} for {}", v[(0, 0)], s / 100.0);
         }
+    }
+
+    /// The stationary covariance of a least-squares parameter, by hand, on the flight of
+    /// `the_variance_of_a_mean_summed_per_time_sample_with_bartlett_lags`: G = 20, so the error
+    /// map applied to the weighted columns is z₁ = 2·¼/20 = 1/40 and z₂ = 2/20 = 1/10 on the
+    /// training rows (0, 1, 3, 4). Lag 0: γ₁₁ = 1.5/4, γ₂₂ = 15/4, γ₁₂ = −2/4, so
+    /// v = 4·(0.375/1600 + 3.75/100 − 2·0.5/400) = 0.1409375 (Newey–West's at lag 0: with a
+    /// constant column the two agree). Lag ±1 (a window of one lag, Parzen ¼) has two pairs
+    /// inside the training part, (1, 0) and (4, 3): γ₁₁(1) = −¼, γ₂₂(1) = −½, γ₁₂(1) = ¼,
+    /// γ₂₁(1) = 2, adding 2·¼·2·Σ_qr γ_qr(1)·z_q·z_r = 0.00046875, so v = 0.14140625. `hac` is
+    /// the larger of this and Newey–West on a fit of every sample: 0.141875 with one Bartlett
+    /// lag, this with two (0.1321875); on a fit with a held-out part, Newey–West's. A bug it catches: the raw half's weight left out, the residual's mean taken
+    /// over pairs that leave the training part, a cross-covariance's lag read the wrong way,
+    /// the smaller of the two taken.
+    #[test]
+    fn the_stationary_variance_of_a_least_squares_mean_by_hand() {
+        let n = 5;
+        let f = Channel::Force.index();
+        let one = cols_of(Effect::AccelBias).start;
+        let mut d = Design { n, t: (0..n).map(|t| t as f64 * 0.02).collect(), ..Design::default() };
+        d.measured[f][0] = vec![0.5, 0.0, 0.0, 1.0, -0.5];
+        d.measured[f][2] = vec![1.0, 2.0, 7.0, -1.0, 3.0];
+        for a in [0, 2] {
+            d.predicted[f][a] = vec![0.0; n];
+            d.columns[f][a] = vec![(one, vec![2.0; n])];
+        }
+        let train = [true, true, false, true, true];
+        let test: Vec<bool> = train.iter().map(|t| !t).collect();
+        let ars = [Ar::white(2.0), Ar::white(1.0)];
+        let gs = grams(&d, &train, &test, &ars);
+        let theta = vec![0.0; N_COLUMNS];
+        let a = DMatrix::from_element(1, 1, 1.0 / 20.0);
+        for (window, want) in [(0, 0.1409375), (1, 0.14140625)] {
+            let v = stationary_full(&d, &train, &gs, &ars, &[one], &theta, &a, window);
+            assert!((v[(0, 0)] - want).abs() < 1e-14, "window {window}: {} for {want}", v[(0, 0)]);
+        }
+        for (lags, want) in [(1, 0.141875), (2, 0.14140625)] {
+            let v = hac(&d, &train, &gs, &ars, &[one], &theta, lags, 0.02, true);
+            assert!((v[(0, 0)] - want).abs() < 1e-14, "{lags} lags: {} for {want}", v[(0, 0)]);
+        }
+        // a fit with a held-out part keeps Newey–West's
+        let v = hac(&d, &train, &gs, &ars, &[one], &theta, 2, 0.02, false);
+        assert!((v[(0, 0)] - 0.1321875).abs() < 1e-14, "{}", v[(0, 0)]);
+    }
+
+    /// What the all-sample intervals of a hand-held rig missed: a least-squares parameter (no
+    /// GLS in the model) under a noise the noise model misses, correlated over 20 samples
+    /// (e_t = n_t + 0.9·n_{t−20}, the model white), its column four bursts
+    /// (`a_correlation_beyond_the_newey_west_lags_is_in_the_gls_variance`'s). Least squares
+    /// gives Var = Σ_{t,s} x_t·x_s·γ(t − s)/G² in closed form. Over 100 draws the mean reported
+    /// variance must be within 15 % of it; without the window (Newey–West's 12 lags and the
+    /// lag-0 stationary term, both blind to lag 20) it stays under 0.8 of it. A bug it
+    /// catches: the stationary estimate left out of `hac` or run over the GLS block alone.
+    #[test]
+    fn a_correlation_beyond_the_newey_west_lags_is_in_a_least_squares_variance() {
+        use crate::rng::{Component, Stream};
+        let (n, draws, lag, b) = (800, 100, 20, 0.9);
+        let c = Channel::AccelKin.index();
+        let bias = cols_of(Effect::AccelBias).start;
+        let burst = |t: usize| {
+            let u = (t % 200) as f64 - 100.0;
+            (2.0 * std::f64::consts::PI * t as f64 / 120.0).sin() * (-0.5 * (u / 20.0).powi(2)).exp()
+        };
+        let x: Vec<f64> = (0..n).map(burst).collect();
+        let g: f64 = x.iter().map(|v| v * v).sum();
+        let lagged: f64 = (lag..n).map(|t| x[t] * x[t - lag]).sum();
+        let want = ((1.0 + b * b) * g + 2.0 * b * lagged) / (g * g);
+        let mut rng = Stream::new(13, Component::Sweep, 0);
+        let ar = Ar::white(1.0);
+        let train = vec![true; n];
+        let mut d = Design { n, t: (0..n).map(|t| t as f64 * 0.02).collect(), ..Design::default() };
+        d.predicted[c][0] = vec![0.0; n];
+        d.columns[c][0] = vec![(bias, x.clone())];
+        let (mut mean, mut short) = (0.0, 0.0);
+        for _ in 0..draws {
+            let noise: Vec<f64> = (0..n + lag).map(|_| rng.normal()).collect();
+            d.measured[c][0] = (0..n).map(|t| 0.3 * x[t] + noise[t + lag] + b * noise[t]).collect();
+            let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
+            let f = super::super::gram::fit(&gs, &[bias]);
+            let v = |w| hac(&d, &train, &gs, std::slice::from_ref(&ar), &[bias], &f.theta, 12, w, true)[(0, 0)];
+            mean += v(2.0) / draws as f64;
+            short += v(0.0) / draws as f64;
+        }
+        assert!((mean / want - 1.0).abs() < 0.15, "{mean} for {want}: {}", mean / want);
+        assert!(short / want < 0.8, "without the window: {short} for {want}: {}", short / want);
     }
 
     /// The thrust error's covariance in closed form. A relative error ε of the nominal thrust adds

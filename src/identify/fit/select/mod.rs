@@ -26,7 +26,12 @@
 //!    offset at step 1, before the accelerometer bias and the thrust scale that explain it
 //!    joined, stayed in as an invented effect: 7 inventions in 300 flights of seed 3.)
 //!
-//! Estimates are weighted least squares on the raw training part, each channel axis weighted by
+//! The selection's fits use the training part. With `refit_every_sample` (a calibration), once
+//! it ends the chosen model is fitted again on every usable sample, and its estimates and
+//! intervals are that fit's (the held-out errors reported stay those of the training fit, the
+//! only out-of-sample figures).
+//!
+//! Estimates are weighted least squares on the raw samples, each channel axis weighted by
 //! 1/(mean square of its residual under the current model): the weights make the estimate
 //! independent of units (m/s² against rad/s) and let each channel count by how well it
 //! measures. (Unweighted, the accelerometer's noisy ḟ column, three quarters noise on x and y
@@ -39,9 +44,10 @@
 //! of what it has answered (docs/px4.md, "How far to trust EKF2_EV_DELAY").
 //! Their 95 % intervals are ±1.96·σ from the Newey–West covariance (Bartlett, `hac_lags`) of
 //! the weighted scores summed over channel axes per time sample, which allows for the
-//! residual's colour and for channels that share a sensor's noise (the delays' own share from
-//! the prewhitened residuals' autocovariance over the whole flight where that is larger,
-//! Parzen over 2 s: see `covariance`), plus the systematic of the
+//! residual's colour and for channels that share a sensor's noise (the delays' own share, and
+//! on a fit of every usable sample every parameter's, raised where the residuals' auto- and
+//! cross-covariances over the whole flight, Parzen over 2 s, give more: see `covariance`),
+//! plus the systematic of the
 //! nominal thrust ([`NominalModel::thrust_rel_sd`](crate::identify::input::series::NominalModel), one factor for
 //! the whole flight, which no amount of data averages away).
 //!
@@ -101,6 +107,15 @@ pub struct Options {
     pub block_s: f64,
     /// Every this-many-th block is held out.
     pub holdout_every: usize,
+    /// Whether the chosen model is fitted again on every usable sample once the selection ends
+    /// (its estimates and intervals then use the held-out blocks too); false keeps the
+    /// training fit's. On for a calibration (`identify --calibrate`,
+    /// [`handheld::options`](crate::identify::handheld::options)), where it was measured
+    /// (docs/calibration.md); off by default, the fit the closed-loop delay's and the trials'
+    /// coverage were measured with (docs/px4.md, docs/trials.md). (Written in a report only when
+    /// on.)
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub refit_every_sample: bool,
     /// Most forward steps.
     pub max_steps: usize,
     /// Re-linearisations of the corrections (rotations, delays, lever arm) per fit.
@@ -126,6 +141,7 @@ impl Default for Options {
             max_ar_order: 12,
             block_s: 2.0,
             holdout_every: 3,
+            refit_every_sample: false,
             max_steps: 8,
             refine_iterations: 3,
             hac_lags: 12,
@@ -216,7 +232,10 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         let mut f = fit(&grams, &set);
         let has_corrections = selected.iter().any(|e| e.is_correction());
         if it == iterations || !has_corrections {
-            let cov = hac(&design, &train, &grams, &ars, &set, &f.theta, o.hac_lags, covariance::GLS_WINDOW_S)
+            // a fit on every usable sample (nothing held out) takes the whole stationary
+            // covariance too (see `hac`)
+            let whole = !test.iter().any(|x| *x);
+            let cov = hac(&design, &train, &grams, &ars, &set, &f.theta, o.hac_lags, covariance::GLS_WINDOW_S, whole)
                 + thrust_systematic(&design, &train, &grams, &ars, &set, s.model.thrust_rel_sd);
             last = Some(Problem { design, train, test, grams, fit: f, cov });
             break;
@@ -871,6 +890,14 @@ fn gate_notes(s: &Series, nominal: &Problem, o: &Options, notes: &mut Vec<Note>)
     too_few
 }
 
+/// The options of the final fit: `o` with nothing held out. The held-out blocks choose the
+/// effects and score the chosen model out of sample; once chosen, the model's estimates and
+/// intervals use every usable sample (a third more data: the errors of a hand-held
+/// calibration fall by 12–16 %, docs/calibration.md, "What each choice bought").
+fn every_sample(o: &Options) -> Options {
+    Options { holdout_every: usize::MAX, ..o.clone() }
+}
+
 /// The selection on a gated flight, its corrections starting at `from` (the global start's).
 fn select(s: &Series, o: &Options, from: Corrections) -> Report {
     let mut notes = Vec::new();
@@ -890,17 +917,32 @@ fn select(s: &Series, o: &Options, from: Corrections) -> Report {
         search.run(s, o, &mut notes);
     }
     let yaw_spread_deg = search.state.design.yaw_spread_rad.to_degrees();
-    let mut not_identifiable = search.identifiability(yaw_spread_deg, &mut notes);
 
-    // errors before (nominal, no corrections) → after, on the held-out part
+    // errors before (nominal, no corrections) → after, on the held-out part, of the model
+    // fitted on the training part: the only figures that score it out of sample
     let nominal_design = build(s, &Corrections::default(), &o.design);
-    let (state, corr, selected) = (&search.state, search.corr, &search.selected);
+    let (trained, trained_corr) = (&search.state, search.corr);
     // the same design with the measured signals, for the leads of what is left
-    let with_signals = super::design::build_with_signals(s, &corr, &o.design);
+    let with_signals = super::design::build_with_signals(s, &trained_corr, &o.design);
     let lead_sigs = lead_signals(&with_signals);
-    let (errors, whiteness, left) =
-        final_residuals(&state.design, &state.fit.theta, &state.test, &nominal_design, &lead_sigs, o.max_ar_order);
-    notes.extend(hypothesis_hint(&left, selected));
+    let (errors, whiteness, left) = final_residuals(
+        &trained.design,
+        &trained.fit.theta,
+        &trained.test,
+        &nominal_design,
+        &lead_sigs,
+        o.max_ar_order,
+    );
+    let split = (trained.train.iter().filter(|x| **x).count(), trained.test.iter().filter(|x| **x).count());
+
+    // the chosen model's estimates and intervals from every usable sample, when asked
+    let last = if o.refit_every_sample { every_sample(o) } else { o.clone() };
+    if !too_few && o.refit_every_sample {
+        search.refit(s, &last);
+    }
+    let mut not_identifiable = search.identifiability(yaw_spread_deg, &mut notes);
+    notes.extend(hypothesis_hint(&left, &search.selected));
+    let (state, corr, selected) = (&search.state, search.corr, &search.selected);
     let mut effects: Vec<Found> = selected
         .iter()
         .map(|e| Found {
@@ -912,13 +954,13 @@ fn select(s: &Series, o: &Options, from: Corrections) -> Report {
     let (ground_check, ground_agreement) = if too_few {
         (super::ground::ground_check(s), None)
     } else {
-        ground(s, o, &search, yaw_spread_deg, &mut not_identifiable, &mut effects, &mut notes)
+        ground(s, &last, &search, yaw_spread_deg, &mut not_identifiable, &mut effects, &mut notes)
     };
     Report {
         source: s.source.clone(),
         samples: s.len(),
-        train_samples: state.train.iter().filter(|x| **x).count(),
-        heldout_samples: state.test.iter().filter(|x| **x).count(),
+        train_samples: split.0,
+        heldout_samples: split.1,
         channels: Channel::ALL.into_iter().filter(|c| *c != Channel::Force || state.design.has_force).collect(),
         model: s.model.clone(),
         options: o.clone(),
