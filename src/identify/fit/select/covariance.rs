@@ -27,8 +27,8 @@ pub(super) const GLS_WINDOW_S: f64 = 2.0;
 ///   flight, Parzen over `window_s`: correlations as long as the window are in it, a noise that
 ///   changes size is not. On a hand-held rig the smoothing kernel colours the accelerometer's
 ///   residual over more than `lags` samples, and the Bartlett weights of `lags` = 12 (already
-///   ½ at lag 6) leave 8–15 % of the variance of the tilt, the lever arm and the accelerometer
-///   bias out (docs/calibration.md, "How good is it?").
+///   ½ at lag 6) leave part of the variance of the tilt, the lever arm and the accelerometer
+///   bias out (docs/calibration.md, "What each choice bought").
 ///
 /// So no interval is narrower than either. Why only on a fit of every usable sample: on the
 /// training part (two thirds of a hand-held log) Newey–West's intervals already cover 94–97 %
