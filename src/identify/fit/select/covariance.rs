@@ -174,14 +174,19 @@ fn stationary(series: &[ScoreSeries], k: usize, n: usize, window: usize) -> DMat
 /// A channel axis's [`ScoreSeries`]: residual `e` (NaN where the sample has no score) and the
 /// columns `cols` (position in `set`, series) mapped by `m` (k × |set|, column p for the set's
 /// p-th parameter), each scaled by `weight`. `None` when the axis has none of the set's columns.
-fn score_series(e: Vec<f64>, cols: &[(usize, Vec<f64>)], m: DMatrixView<f64>, weight: f64) -> Option<ScoreSeries> {
+fn score_series<X: AsRef<[f64]>>(
+    e: Vec<f64>,
+    cols: &[(usize, X)],
+    m: DMatrixView<f64>,
+    weight: f64,
+) -> Option<ScoreSeries> {
     if cols.is_empty() {
         return None;
     }
     let (n, k) = (e.len(), m.nrows());
     let mut z = vec![0.0; n * k];
     for (p, x) in cols {
-        for (t, xv) in x.iter().enumerate() {
+        for (t, xv) in x.as_ref().iter().enumerate() {
             if xv.is_finite() && e[t].is_finite() {
                 for i in 0..k {
                     z[t * k + i] += m[(i, *p)] * weight * xv;
@@ -193,10 +198,10 @@ fn score_series(e: Vec<f64>, cols: &[(usize, Vec<f64>)], m: DMatrixView<f64>, we
 }
 
 /// The columns of `set` that channel axis (c, a) has, by their position in `set`.
-fn set_columns(d: &Design, c: usize, a: usize, set: &[usize]) -> Vec<(usize, Vec<f64>)> {
+fn set_columns<'d>(d: &'d Design, c: usize, a: usize, set: &[usize]) -> Vec<(usize, &'d [f64])> {
     set.iter()
         .enumerate()
-        .filter_map(|(p, j)| d.columns[c][a].iter().find(|x| x.0 == *j).map(|x| (p, x.1.clone())))
+        .filter_map(|(p, j)| d.columns[c][a].iter().find(|x| x.0 == *j).map(|x| (p, x.1.as_slice())))
         .collect()
 }
 
@@ -228,7 +233,7 @@ fn stationary_gls(
         .into_iter()
         .enumerate()
         .filter_map(|(q, (c, a))| {
-            let cols = whitened(&ars[q], train, set_columns(d, c, a, set));
+            let cols = whitened(&ars[q], train, &set_columns(d, c, a, set));
             let e = whitened_residual(&ars[q], train, &residual_of(d, c, a, theta));
             score_series(e, &cols, from_gls.as_view(), 1.0)
         })
@@ -264,7 +269,7 @@ fn stationary_full(
         let r = residual_of(d, c, ax, theta);
         if gls {
             let e = whitened_residual(&ars[q], train, &r);
-            series.extend(score_series(e, &whitened(&ars[q], train, cols.clone()), a.columns(0, k), 1.0));
+            series.extend(score_series(e, &whitened(&ars[q], train, &cols), a.columns(0, k), 1.0));
         }
         let e = r.iter().zip(train).map(|(v, tr)| if *tr { *v } else { f64::NAN }).collect();
         series.extend(score_series(e, &cols, raw_map, gr.w_r));
@@ -273,12 +278,12 @@ fn stationary_full(
 }
 
 /// Columns prewhitened by a channel axis's noise model (NaN where its window is short).
-fn whitened(ar: &Ar, train: &[bool], cols: Vec<(usize, Vec<f64>)>) -> Vec<(usize, Vec<f64>)> {
-    cols.into_iter()
+fn whitened(ar: &Ar, train: &[bool], cols: &[(usize, &[f64])]) -> Vec<(usize, Vec<f64>)> {
+    cols.iter()
         .map(|(p, x)| {
             let mut w = Vec::new();
-            ar.whiten(&x, train, &mut w);
-            (p, w)
+            ar.whiten(x, train, &mut w);
+            (*p, w)
         })
         .collect()
 }
@@ -731,10 +736,20 @@ mod tests {
     /// seconds (2 lags), and the GLS block not raised.
     #[test]
     fn a_correlation_beyond_the_newey_west_lags_is_in_the_gls_variance() {
+        let (mean, short, want) = beyond_the_lags(Effect::MocapDelay, 11, false);
+        assert!((mean / want - 1.0).abs() < 0.15, "{mean} for {want}: {}", mean / want);
+        assert!(short / want < 0.8, "without the window: {short} for {want}: {}", short / want);
+    }
+
+    /// The flight of the two tests of a correlation beyond the Newey–West lags: `effect`'s
+    /// first column four bursts, its residual 0.3 of it plus e_t = n_t + 0.9·n_{t−20} (the noise
+    /// model white), 100 draws from `seed`. The mean reported variance with the 2 s window and
+    /// without it (`hac(…, whole)`), and the closed form Σ_{t,s} x_t·x_s·γ(t − s)/G².
+    fn beyond_the_lags(effect: Effect, seed: u64, whole: bool) -> (f64, f64, f64) {
         use crate::rng::{Component, Stream};
         let (n, draws, lag, b) = (800, 100, 20, 0.9);
         let c = Channel::AccelKin.index();
-        let delay = cols_of(Effect::MocapDelay).start;
+        let col = cols_of(effect).start;
         let burst = |t: usize| {
             let u = (t % 200) as f64 - 100.0;
             (2.0 * std::f64::consts::PI * t as f64 / 120.0).sin() * (-0.5 * (u / 20.0).powi(2)).exp()
@@ -743,25 +758,23 @@ mod tests {
         let g: f64 = x.iter().map(|v| v * v).sum();
         let lagged: f64 = (lag..n).map(|t| x[t] * x[t - lag]).sum();
         let want = ((1.0 + b * b) * g + 2.0 * b * lagged) / (g * g);
-        let mut rng = Stream::new(11, Component::Sweep, 0);
+        let mut rng = Stream::new(seed, Component::Sweep, 0);
         let ar = Ar::white(1.0);
         let train = vec![true; n];
         let mut d = Design { n, t: (0..n).map(|t| t as f64 * 0.02).collect(), ..Design::default() };
         d.predicted[c][0] = vec![0.0; n];
-        d.columns[c][0] = vec![(delay, x.clone())];
+        d.columns[c][0] = vec![(col, x.clone())];
         let (mut mean, mut short) = (0.0, 0.0);
         for _ in 0..draws {
             let noise: Vec<f64> = (0..n + lag).map(|_| rng.normal()).collect();
             d.measured[c][0] = (0..n).map(|t| 0.3 * x[t] + noise[t + lag] + b * noise[t]).collect();
             let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
-            let f = super::super::gram::fit(&gs, &[delay]);
-            mean += hac(&d, &train, &gs, std::slice::from_ref(&ar), &[delay], &f.theta, 12, 2.0, false)[(0, 0)]
-                / draws as f64;
-            short += hac(&d, &train, &gs, std::slice::from_ref(&ar), &[delay], &f.theta, 12, 0.0, false)[(0, 0)]
-                / draws as f64;
+            let f = super::super::gram::fit(&gs, &[col]);
+            let v = |w| hac(&d, &train, &gs, std::slice::from_ref(&ar), &[col], &f.theta, 12, w, whole)[(0, 0)];
+            mean += v(2.0) / draws as f64;
+            short += v(0.0) / draws as f64;
         }
-        assert!((mean / want - 1.0).abs() < 0.15, "{mean} for {want}: {}", mean / want);
-        assert!(short / want < 0.8, "without the window: {short} for {want}: {}", short / want);
+        (mean, short, want)
     }
 
     /// The Bartlett weights by hand for 3 lags: 1, 3/4, 1/2, 1/4. A bug it catches: `lags + 1` as
@@ -816,9 +829,10 @@ mod tests {
     /// inside the training part, (1, 0) and (4, 3): γ₁₁(1) = −¼, γ₂₂(1) = −½, γ₁₂(1) = ¼,
     /// γ₂₁(1) = 2, adding 2·¼·2·Σ_qr γ_qr(1)·z_q·z_r = 0.00046875, so v = 0.14140625. `hac` is
     /// the larger of this and Newey–West on a fit of every sample: 0.141875 with one Bartlett
-    /// lag, this with two (0.1321875); on a fit with a held-out part, Newey–West's. A bug it catches: the raw half's weight left out, the residual's mean taken
-    /// over pairs that leave the training part, a cross-covariance's lag read the wrong way,
-    /// the smaller of the two taken.
+    /// lag, this with two (0.1321875); on a fit with a held-out part, Newey–West's. A bug it
+    /// catches: the raw half's weight left out, the residual's mean taken over pairs that leave
+    /// the training part, a cross-covariance's lag read the wrong way, the smaller of the two
+    /// taken.
     #[test]
     fn the_stationary_variance_of_a_least_squares_mean_by_hand() {
         let n = 5;
@@ -860,34 +874,7 @@ mod tests {
     /// catches: the stationary estimate left out of `hac` or run over the GLS block alone.
     #[test]
     fn a_correlation_beyond_the_newey_west_lags_is_in_a_least_squares_variance() {
-        use crate::rng::{Component, Stream};
-        let (n, draws, lag, b) = (800, 100, 20, 0.9);
-        let c = Channel::AccelKin.index();
-        let bias = cols_of(Effect::AccelBias).start;
-        let burst = |t: usize| {
-            let u = (t % 200) as f64 - 100.0;
-            (2.0 * std::f64::consts::PI * t as f64 / 120.0).sin() * (-0.5 * (u / 20.0).powi(2)).exp()
-        };
-        let x: Vec<f64> = (0..n).map(burst).collect();
-        let g: f64 = x.iter().map(|v| v * v).sum();
-        let lagged: f64 = (lag..n).map(|t| x[t] * x[t - lag]).sum();
-        let want = ((1.0 + b * b) * g + 2.0 * b * lagged) / (g * g);
-        let mut rng = Stream::new(13, Component::Sweep, 0);
-        let ar = Ar::white(1.0);
-        let train = vec![true; n];
-        let mut d = Design { n, t: (0..n).map(|t| t as f64 * 0.02).collect(), ..Design::default() };
-        d.predicted[c][0] = vec![0.0; n];
-        d.columns[c][0] = vec![(bias, x.clone())];
-        let (mut mean, mut short) = (0.0, 0.0);
-        for _ in 0..draws {
-            let noise: Vec<f64> = (0..n + lag).map(|_| rng.normal()).collect();
-            d.measured[c][0] = (0..n).map(|t| 0.3 * x[t] + noise[t + lag] + b * noise[t]).collect();
-            let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
-            let f = super::super::gram::fit(&gs, &[bias]);
-            let v = |w| hac(&d, &train, &gs, std::slice::from_ref(&ar), &[bias], &f.theta, 12, w, true)[(0, 0)];
-            mean += v(2.0) / draws as f64;
-            short += v(0.0) / draws as f64;
-        }
+        let (mean, short, want) = beyond_the_lags(Effect::AccelBias, 13, true);
         assert!((mean / want - 1.0).abs() < 0.15, "{mean} for {want}: {}", mean / want);
         assert!(short / want < 0.8, "without the window: {short} for {want}: {}", short / want);
     }
