@@ -2,7 +2,7 @@
 //! error's distribution, its 95 % coverage and the Cramér–Rao floor's, then what was selected.
 
 use crate::effects::Effect;
-use crate::identify::checks::handheld::{BOUND_DRAWS, Estimate, Outcome, Setting};
+use crate::identify::checks::handheld::{BOUND_DRAWS, Bound, Estimate, Outcome, Setting};
 use std::fmt::Write as _;
 
 /// The q-quantile of `x` (linear between order statistics); NaN for an empty slice.
@@ -42,10 +42,12 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     );
     let _ = writeln!(
         s,
-        "| parameter | found | median error | p90 error | largest error | 95 % coverage | Cramér–Rao median |\n|---|---|---|---|---|---|---|"
+        "| parameter | found | median error | p90 error | largest error | 95 % coverage | Cramér–Rao median, perfect mocap | Cramér–Rao median, as recorded |\n|---|---|---|---|---|---|---|---|"
     );
-    let efficient: Vec<[f64; 4]> =
-        ok.iter().filter_map(|o| o.bound.as_ref()?.draws(o.trial.index, BOUND_DRAWS)).flatten().collect();
+    let efficient = |b: fn(&Outcome) -> Option<&Bound>| -> Vec<[f64; 4]> {
+        ok.iter().filter_map(|o| b(o)?.draws(o.trial.index, BOUND_DRAWS)).flatten().collect()
+    };
+    let (perfect, recorded) = (efficient(|o| o.bound.as_ref()), efficient(|o| o.bound_as_recorded.as_ref()));
     let rows: [(&str, &str, ErrorOf, &str); 4] = [
         ("rotation (angle)", "°", |o| o.rotation_err_deg, "body_offset."),
         ("world tilt (angle)", "°", |o| o.tilt_err_deg, "world_tilt."),
@@ -56,20 +58,21 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         let e: Vec<f64> = ok.iter().filter_map(|o| err(o)).collect();
         let est: Vec<&Estimate> = ok.iter().flat_map(|o| &o.estimates).filter(|x| x.name.starts_with(prefix)).collect();
         let covered = est.iter().filter(|x| x.covered()).count();
-        let bound: Vec<f64> = efficient.iter().map(|d| d[i]).collect();
+        let column = |e: &[[f64; 4]]| e.iter().map(|d| d[i]).collect::<Vec<f64>>();
         // a parameter no rig gave has no distribution: a dash, not NaN
         let at =
             |v: &[f64], q: f64| if v.is_empty() { "—".to_string() } else { format!("{:.4} {unit}", quantile(v, q)) };
         let _ = writeln!(
             s,
-            "| {name} | {}/{} | {} | {} | {} | {} | {} |",
+            "| {name} | {}/{} | {} | {} | {} | {} | {} | {} |",
             e.len(),
             ok.len(),
             at(&e, 0.5),
             at(&e, 0.9),
             at(&e, 1.0),
             coverage(covered, est.len()),
-            at(&bound, 0.5),
+            at(&column(&perfect), 0.5),
+            at(&column(&recorded), 0.5),
         );
     }
     for prefix in ["accel_bias.", "gyro_bias.", "accel_bias_drift.", "gyro_bias_drift."] {
@@ -80,7 +83,7 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         let covered = est.iter().filter(|x| x.covered()).count();
         let _ = writeln!(
             s,
-            "| {} ({}) | {}/{} | | | | {} | |",
+            "| {} ({}) | {}/{} | | | | {} | | |",
             &prefix[..prefix.len() - 1],
             if prefix.contains("drift") { "slope" } else { "mean" },
             est.len() / 3,
@@ -111,7 +114,7 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
             "none, the IMU of this setting has no white noise (with a perfect mocap the floor is zero)".to_string()
         } else {
             format!(
-                "the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound (perfect mocap, constant biases){}",
+                "the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound, with a perfect mocap and constant biases, then on the log as recorded (the mocap's noise and the biases' walks in it){}",
                 if unseen > 0 {
                     format!("; {unseen} rigs whose motion leaves a parameter unseen are left out")
                 } else {

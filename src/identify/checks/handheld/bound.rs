@@ -2,7 +2,7 @@
 //! efficient estimator would make, drawn from it.
 
 use super::rig::{Setting, Trial, attitude};
-use crate::frames::{Body, Nav, Vec3};
+use crate::frames::{Body, Nav, Rot, Vec3};
 use crate::rng::{Component, Stream as Rng};
 use crate::vehicle::params::GRAVITY;
 use nalgebra::{DMatrix, DVector, Matrix3xX, Vector3};
@@ -36,37 +36,55 @@ pub fn bound(trial: &Trial, set: &Setting) -> Option<Bound> {
     if !set.imu_has_white_noise() {
         return None;
     }
-    let cov = fisher(trial, set).cholesky()?.inverse();
-    let block = |i: usize, n: usize| cov.view((i, i), (n, n)).clone_owned();
-    let (rotation, tilt, lever) = (block(0, 3), block(3, 2), block(6, 3));
-    Some(Bound {
-        rotation: [0, 1, 2].map(|i| [0, 1, 2].map(|j| rotation[(i, j)])),
-        tilt: [0, 1].map(|i| [0, 1].map(|j| tilt[(i, j)])),
-        delay: cov[(5, 5)],
-        lever: [0, 1, 2].map(|i| [0, 1, 2].map(|j| lever[(i, j)])),
-    })
+    blocks(fisher(trial, set))
 }
 
 /// The Fisher information F of [`bound`], in the order rotation δ (3), tilt (2), time offset,
 /// lever arm (3), accelerometer bias (3), gyro bias (3).
 fn fisher(trial: &Trial, set: &Setting) -> DMatrix<f64> {
-    let lever = trial.calibration().lever_arm;
-    let g = Vec3::<Nav>::new(0.0, 0.0, GRAVITY);
-    // the attitude, the body rate and its derivative, and the specific force at the IMU
-    let state = |t: f64| {
-        let (att, w, dw) = attitude(&trial.euler, t);
-        let acc = Vec3::<Nav>::from_raw(Vector3::from_fn(|k, _| trial.position[k].at(t)[2]));
-        (att, w, dw, att.inverse().apply(acc - g) + dw.cross(&lever) + w.cross(&w.cross(&lever)))
-    };
     let dt = 1.0 / set.imu_hz;
     let (wa, wg) = (dt / set.accel_noise_density.powi(2), dt / set.gyro_noise_density.powi(2));
-    let (h, n) = (1e-4, (set.duration_s * set.imu_hz).round() as i64);
+    let n = (set.duration_s * set.imu_hz).round() as i64;
     let mut fisher = DMatrix::<f64>::zeros(15, 15);
-    let (mut ja, mut jg) = (Matrix3xX::<f64>::zeros(15), Matrix3xX::<f64>::zeros(15));
     for k in 0..=n {
-        let t = k as f64 * dt;
-        let (att, w, dw, f) = state(t);
-        let df = (state(t + h).3.raw() - state(t - h).3.raw()) / (2.0 * h);
+        let s = Sample::at(trial, k as f64 * dt);
+        fisher += s.ja.tr_mul(&s.ja) * wa + s.jg.tr_mul(&s.jg) * wg;
+    }
+    fisher
+}
+
+/// A trial's truth at one instant and the IMU's sensitivities to θ there (the table of
+/// [`bound`]), in the order of [`fisher`].
+pub(super) struct Sample {
+    /// The IMU body's attitude (body FRD → world NED).
+    pub(super) att: Rot<Body, Nav>,
+    /// Body rate and its derivative (rad/s, rad/s², IMU body FRD).
+    pub(super) w: Vec3<Body>,
+    pub(super) dw: Vec3<Body>,
+    /// The tracked point's specific force Rᵀ(p̈ − g·e_D) (m/s², IMU body FRD), without the lever
+    /// arm's terms.
+    pub(super) f_point: Vec3<Body>,
+    /// ∂(accelerometer reading)/∂θ and ∂(gyro reading)/∂θ.
+    pub(super) ja: Matrix3xX<f64>,
+    pub(super) jg: Matrix3xX<f64>,
+}
+
+impl Sample {
+    /// The truth and sensitivities at time t (s) of `trial`.
+    pub(super) fn at(trial: &Trial, t: f64) -> Sample {
+        let lever = trial.calibration().lever_arm;
+        let g = Vec3::<Nav>::new(0.0, 0.0, GRAVITY);
+        // the attitude, the body rate and its derivative, the point's and the IMU's specific force
+        let state = |t: f64| {
+            let (att, w, dw) = attitude(&trial.euler, t);
+            let acc = Vec3::<Nav>::from_raw(Vector3::from_fn(|k, _| trial.position[k].at(t)[2]));
+            let f_point = att.inverse().apply(acc - g);
+            (att, w, dw, f_point, f_point + dw.cross(&lever) + w.cross(&w.cross(&lever)))
+        };
+        let h = 1e-4;
+        let (att, w, dw, f_point, f) = state(t);
+        let df = (state(t + h).4.raw() - state(t - h).4.raw()) / (2.0 * h);
+        let (mut ja, mut jg) = (Matrix3xX::<f64>::zeros(15), Matrix3xX::<f64>::zeros(15));
         for j in 0..3 {
             // the j-th axis of the IMU body (rotation, lever arm, biases) and of the world (tilt)
             let e = Vec3::<Body>::from_raw(Vector3::ith(j, 1.0));
@@ -82,9 +100,22 @@ fn fisher(trial: &Trial, set: &Setting) -> DMatrix<f64> {
         }
         ja.set_column(5, &df);
         jg.set_column(5, dw.raw());
-        fisher += ja.tr_mul(&ja) * wa + jg.tr_mul(&jg) * wg;
+        Sample { att, w, dw, f_point, ja, jg }
     }
-    fisher
+}
+
+/// The calibration blocks of an information matrix's inverse (the order of [`fisher`]); `None`
+/// when it is singular.
+pub(super) fn blocks(information: DMatrix<f64>) -> Option<Bound> {
+    let cov = information.cholesky()?.inverse();
+    let block = |i: usize, n: usize| cov.view((i, i), (n, n)).clone_owned();
+    let (rotation, tilt, lever) = (block(0, 3), block(3, 2), block(6, 3));
+    Some(Bound {
+        rotation: [0, 1, 2].map(|i| [0, 1, 2].map(|j| rotation[(i, j)])),
+        tilt: [0, 1].map(|i| [0, 1].map(|j| tilt[(i, j)])),
+        delay: cov[(5, 5)],
+        lever: [0, 1, 2].map(|i| [0, 1, 2].map(|j| lever[(i, j)])),
+    })
 }
 
 /// A trial's Cramér–Rao bound ([`bound`]): the covariances of the four calibration parameters'

@@ -46,10 +46,13 @@
 //! floor (`bound.rs`), [`run`] and [`run_many`] identify and score it (`monte_carlo.rs`); the
 //! batch's table is [`render_handheld`](crate::identify::render_handheld) (`identify/output/handheld.rs`).
 
+mod banded;
 mod bound;
 mod monte_carlo;
+mod recorded;
 mod rig;
 
 pub use bound::{BOUND_DRAWS, Bound, bound};
 pub use monte_carlo::{Estimate, Outcome, options, run, run_many};
+pub use recorded::bound_as_recorded;
 pub use rig::{BiasTruth, MAX_IMU_SAMPLES, MountDraw, Setting, Trial, Truth, Wave, attitude, draw, draw_for, mapping};

@@ -2,6 +2,7 @@
 //! `mappings/handheld.yaml`) and scored against its truth, one trial or a batch on all cores.
 
 use super::bound::{Bound, bound};
+use super::recorded::bound_as_recorded;
 use super::rig::{Setting, Trial, draw_for, mapping};
 use crate::effects::Effect;
 use crate::identify::fit::select::{Options, identify};
@@ -58,6 +59,10 @@ pub struct Outcome {
     /// The trial's Cramér–Rao bound ([`bound`]); `None` when the motion leaves a parameter unseen
     /// or the IMU has no white noise.
     pub bound: Option<Bound>,
+    /// The trial's Cramér–Rao bound on its log as recorded, the mocap's noise and the biases'
+    /// walks in it ([`bound_as_recorded`]); `None` as `bound`.
+    #[serde(default)]
+    pub bound_as_recorded: Option<Bound>,
     /// Why the trial could not be identified, if it could not.
     pub error: Option<String>,
 }
@@ -73,6 +78,7 @@ pub fn run(trial: &Trial, set: &Setting, o: &Options) -> Outcome {
         delay_err_us: None,
         estimates: Vec::new(),
         bound: bound(trial, set),
+        bound_as_recorded: bound_as_recorded(trial, set),
         error: None,
     };
     let (streams, bias) = trial.streams(set);
