@@ -93,7 +93,7 @@ pub use output::{calibration, px4};
 // the front: a request as the command line makes it, or one flight's series, and what comes back
 pub use crate::effects::{Channel, Effect};
 pub use fit::note::Note;
-pub use fit::select::{IdentifyError, Options, Report, identify};
+pub use fit::select::{IdentifyError, Options, Report, WholeCovariance, identify};
 pub use input::error::InputError;
 pub use input::flyarena_log::run_and_log;
 pub use input::mapping::Mapping;

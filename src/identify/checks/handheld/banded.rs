@@ -26,8 +26,12 @@ pub(super) struct BandedSchur {
     /// of Y.
     l: Vec<Vec<f64>>,
     y: Vec<Vec<f64>>,
-    /// B, less YᵀY of the rows factored.
-    j: DMatrix<f64>,
+    /// B, less YᵀY of the rows factored: its upper triangle, row-major p × p.
+    j: Vec<f64>,
+    /// The number of parameters p.
+    p: usize,
+    /// Rows of A and C factored, kept for reuse.
+    spare: Vec<(Vec<f64>, Vec<f64>)>,
 }
 
 impl BandedSchur {
@@ -39,7 +43,9 @@ impl BandedSchur {
             pending: VecDeque::new(),
             l: vec![vec![0.0; band + 1]; band + 1],
             y: vec![vec![0.0; p]; band + 1],
-            j: DMatrix::zeros(p, p),
+            j: vec![0.0; p * p],
+            p,
+            spare: Vec::new(),
         }
     }
 
@@ -54,7 +60,8 @@ impl BandedSchur {
         for &(i, ai) in terms {
             assert!(i >= self.next, "nuisance index {i} is already factored (next {})", self.next);
             while self.pending.len() <= i - self.next {
-                self.pending.push_back((vec![0.0; b + 1], vec![0.0; h.len()]));
+                let row = self.spare.pop().unwrap_or_else(|| (vec![0.0; b + 1], vec![0.0; h.len()]));
+                self.pending.push_back(row);
             }
             let (row, c) = &mut self.pending[i - self.next];
             for &(j, aj) in terms.iter().filter(|(j, _)| *j <= i) {
@@ -65,22 +72,20 @@ impl BandedSchur {
                 *c += w * ai * h;
             }
         }
-        for r in 0..h.len() {
-            for s in 0..h.len() {
-                self.j[(r, s)] += w * h[r] * h[s];
-            }
+        if h.iter().any(|x| *x != 0.0) {
+            upper_rank_one(&mut self.j, h, w);
         }
     }
 
     /// Factors every row before `end`: no measurement added later may touch them. `None` when
     /// A is not positive definite there (a nuisance no measurement sees).
     pub(super) fn factor_until(&mut self, end: usize) -> Option<()> {
-        let b = self.band;
-        let p = self.j.nrows();
+        let (b, p) = (self.band, self.p);
         while self.next < end {
             let i = self.next;
-            let (a, c) = self.pending.pop_front().unwrap_or_else(|| (vec![0.0; b + 1], vec![0.0; p]));
-            let mut row = vec![0.0; b + 1];
+            let (mut a, mut c) = self.pending.pop_front().unwrap_or_else(|| (vec![0.0; b + 1], vec![0.0; p]));
+            let mut row = std::mem::take(&mut self.l[i % (b + 1)]);
+            row.iter_mut().for_each(|x| *x = 0.0);
             // L[i][j] for j = i − band … i, the entries before the first row zero
             for m in b.saturating_sub(i)..=b {
                 // Σ over l from i − band to j − 1 of L[i][l]·L[j][l]: row i at 0..m, row j at b − m..b
@@ -96,21 +101,21 @@ impl BandedSchur {
                     row[m] = (a[m] - dot) / lj[b];
                 }
             }
-            let mut y = c;
             for m in b.saturating_sub(i)..b {
                 let yl = &self.y[(i + m - b) % (b + 1)];
-                for (yk, yl) in y.iter_mut().zip(yl) {
+                for (yk, yl) in c.iter_mut().zip(yl) {
                     *yk -= row[m] * yl;
                 }
             }
-            y.iter_mut().for_each(|v| *v /= row[b]);
-            for r in 0..p {
-                for s in 0..p {
-                    self.j[(r, s)] -= y[r] * y[s];
-                }
-            }
+            c.iter_mut().for_each(|v| *v /= row[b]);
+            upper_rank_one(&mut self.j, &c, -1.0);
             self.l[i % (b + 1)] = row;
-            self.y[i % (b + 1)] = y;
+            // the slot's old Y row and this row's A go back to the spares, zeroed
+            let old = std::mem::replace(&mut self.y[i % (b + 1)], c);
+            a.iter_mut().for_each(|x| *x = 0.0);
+            let mut old = old;
+            old.iter_mut().for_each(|x| *x = 0.0);
+            self.spare.push((a, old));
             self.next += 1;
         }
         Some(())
@@ -119,7 +124,19 @@ impl BandedSchur {
     /// J, once every nuisance index below `n` is factored. `None` as [`Self::factor_until`].
     pub(super) fn finish(mut self, n: usize) -> Option<DMatrix<f64>> {
         self.factor_until(n)?;
-        Some(self.j)
+        let p = self.p;
+        Some(DMatrix::from_fn(p, p, |r, s| self.j[r.min(s) * p + r.max(s)]))
+    }
+}
+
+/// J += w·h·hᵀ on the upper triangle of a row-major square `j`.
+fn upper_rank_one(j: &mut [f64], h: &[f64], w: f64) {
+    let p = h.len();
+    for (r, hr) in h.iter().enumerate().filter(|(_, x)| **x != 0.0) {
+        let whr = w * hr;
+        for (jv, hs) in j[r * p + r..(r + 1) * p].iter_mut().zip(&h[r..]) {
+            *jv += whr * hs;
+        }
     }
 }
 

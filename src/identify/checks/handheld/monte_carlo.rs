@@ -163,6 +163,7 @@ pub fn run_many(seed: u64, count: u64, set: &Setting, o: &Options) -> Vec<Outcom
 mod tests {
     use super::*;
     use crate::identify::checks::handheld::rig::draw;
+    use crate::identify::fit::select::WholeCovariance;
     use crate::identify::fit::start::ClockWindow;
     use crate::identify::output::handheld::render;
 
@@ -172,7 +173,9 @@ mod tests {
     /// a fit without it writes its options as before. A bug it catches: the refit skipped
     /// (estimates unchanged), the held-out errors taken from the refit (they would fall, the
     /// held-out part being in it), or the split reported from the refit's masks (nothing held
-    /// out).
+    /// out). With [`WholeCovariance::Stationary`] the estimates stay and the intervals can only
+    /// narrow (the larger of two is at least the stationary one): an option not passed to the
+    /// covariance leaves them all equal.
     #[test]
     fn a_calibration_refits_on_every_sample_and_scores_the_training_fit() {
         let s = draw(1, 0).series(&Setting::default()).unwrap();
@@ -189,6 +192,20 @@ mod tests {
         let opts = |r: &crate::identify::Report| serde_json::to_value(&r.options).unwrap();
         assert_eq!(opts(&refit)["refit_every_sample"], serde_json::json!(true));
         assert!(opts(&trained).get("refit_every_sample").is_none());
+        assert!(opts(&refit).get("whole_covariance").is_none(), "the default is not written");
+        // the stationary covariance alone: the same estimates, no interval wider than the larger
+        // of two's and some narrower, and the report says which was taken
+        let stationary = identify(&s, &Options { whole_covariance: WholeCovariance::Stationary, ..options() }).unwrap();
+        assert_eq!(opts(&stationary)["whole_covariance"], serde_json::json!("stationary"));
+        let params = |r: &crate::identify::Report| -> Vec<(f64, f64)> {
+            r.effects.iter().flat_map(|f| f.params.iter().map(|p| (p.value, p.ci95))).collect()
+        };
+        let (larger, alone) = (params(&refit), params(&stationary));
+        assert_eq!(larger.len(), alone.len());
+        for ((v, wide), (w, narrow)) in larger.iter().zip(&alone) {
+            assert!(v == w && narrow <= &(wide * (1.0 + 1e-9)), "{v} ± {wide} against {w} ± {narrow}");
+        }
+        assert!(larger.iter().zip(&alone).any(|(a, b)| b.1 < 0.95 * a.1), "{larger:?} against {alone:?}");
     }
 
     /// On a rig without noise and with biases that do not walk, `identify --calibrate` gives the

@@ -2,6 +2,7 @@
 //! time sample, the prewhitened (GLS) parameters' share from the residual's autocovariance over
 //! the whole flight, plus the systematic of the nominal thrust.
 
+use super::WholeCovariance;
 use super::gram::{Gram, active, cols_of, residual_of, split, sub, system, system_raw};
 use crate::effects::{Channel, Effect};
 use crate::identify::fit::design::Design;
@@ -15,7 +16,7 @@ use std::borrow::Cow;
 pub(super) const GLS_WINDOW_S: f64 = 2.0;
 
 /// The covariance of the parameters of [`fit`](super::gram::fit): [`newey_west_cov`], and on a
-/// fit of every usable sample (`whole`) the larger (in the positive semidefinite order,
+/// fit of every usable sample (`whole` set, [`WholeCovariance::Larger`]) the larger (in the positive semidefinite order,
 /// [`loewner_max`]) of it and [`stationary_full`], two estimates of one sandwich, each blind
 /// where the other sees.
 ///
@@ -44,17 +45,22 @@ pub(super) fn hac(
     theta: &[f64],
     lags: usize,
     window_s: f64,
-    whole: bool,
+    whole: Option<WholeCovariance>,
 ) -> DMatrix<f64> {
     let step = if d.t.len() > 1 { d.t[1] - d.t[0] } else { 0.0 };
     let window = if step > 0.0 { (window_s / step).round() as usize } else { 0 };
-    let nw = newey_west_cov(d, train, gs, ars, set, theta, lags, window);
-    if !whole {
-        return nw;
-    }
+    let Some(whole) = whole else {
+        return newey_west_cov(d, train, gs, ars, set, theta, lags, window);
+    };
     let (dp, op) = split(set);
     let a = if dp.is_empty() { inverse_spd(&system_raw(gs, set).0) } else { error_map(gs, set, &dp, &op).a };
-    loewner_max(&stationary_full(d, train, gs, ars, set, theta, &a, window), &nw)
+    let stationary = stationary_full(d, train, gs, ars, set, theta, &a, window);
+    match whole {
+        WholeCovariance::Larger => {
+            loewner_max(&stationary, &newey_west_cov(d, train, gs, ars, set, theta, lags, window))
+        }
+        WholeCovariance::Stationary => stationary,
+    }
 }
 
 /// Newey–West (Bartlett, `lags`) covariance of the parameters of [`fit`](super::gram::fit).
@@ -586,7 +592,7 @@ mod tests {
             let train = vec![true; n];
             let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
             let f = super::super::gram::fit(&gs, &set);
-            let cov = hac(&d, &train, &gs, std::slice::from_ref(&ar), &set, &f.theta, 12, 1.0, false);
+            let cov = hac(&d, &train, &gs, std::slice::from_ref(&ar), &set, &f.theta, 12, 1.0, None);
             for (k, j) in set.iter().enumerate() {
                 est[k].push(f.theta[*j]);
                 var[k] += cov[(k, k)] / draws as f64;
@@ -770,6 +776,7 @@ mod tests {
             d.measured[c][0] = (0..n).map(|t| 0.3 * x[t] + noise[t + lag] + b * noise[t]).collect();
             let gs = grams(&d, &train, &vec![false; n], std::slice::from_ref(&ar));
             let f = super::super::gram::fit(&gs, &[col]);
+            let whole = whole.then_some(WholeCovariance::Larger);
             let v = |w| hac(&d, &train, &gs, std::slice::from_ref(&ar), &[col], &f.theta, 12, w, whole)[(0, 0)];
             mean += v(2.0) / draws as f64;
             short += v(0.0) / draws as f64;
@@ -856,11 +863,14 @@ mod tests {
             assert!((v[(0, 0)] - want).abs() < 1e-14, "window {window}: {} for {want}", v[(0, 0)]);
         }
         for (lags, want) in [(1, 0.141875), (2, 0.14140625)] {
-            let v = hac(&d, &train, &gs, &ars, &[one], &theta, lags, 0.02, true);
+            let v = hac(&d, &train, &gs, &ars, &[one], &theta, lags, 0.02, Some(WholeCovariance::Larger));
             assert!((v[(0, 0)] - want).abs() < 1e-14, "{lags} lags: {} for {want}", v[(0, 0)]);
+            // the stationary estimate alone is the window's, whatever Newey–West says
+            let v = hac(&d, &train, &gs, &ars, &[one], &theta, lags, 0.02, Some(WholeCovariance::Stationary));
+            assert!((v[(0, 0)] - 0.14140625).abs() < 1e-14, "{lags} lags, stationary: {}", v[(0, 0)]);
         }
         // a fit with a held-out part keeps Newey–West's
-        let v = hac(&d, &train, &gs, &ars, &[one], &theta, 2, 0.02, false);
+        let v = hac(&d, &train, &gs, &ars, &[one], &theta, 2, 0.02, None);
         assert!((v[(0, 0)] - 0.1321875).abs() < 1e-14, "{}", v[(0, 0)]);
     }
 

@@ -89,6 +89,32 @@ pub use left::{LEAD_MAX, LEAD_MIN_CORR};
 use left::{final_residuals, hypothesis_hint, lead_signals};
 pub use result::{AxisError, Candidate, Correlate, Found, Left, Param, Removal, Report, StartMoved, Step, Whiteness};
 
+/// How a fit of every usable sample ([`Options::refit_every_sample`]) takes its covariance. A
+/// fit with blocks held out always takes Newey–West's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WholeCovariance {
+    /// The larger, in the positive semidefinite order, of Newey–West and the stationary
+    /// estimate (the residuals' auto- and cross-covariances over 2 s): no interval narrower
+    /// than either, whether the noise changes size through the log or stays correlated
+    /// beyond Newey–West's lags. Conservative where one of them is right.
+    #[default]
+    Larger,
+    /// The stationary estimate alone: right when the residual is noise whose size does not
+    /// change through the log (the sensors' and the mocap's, a model that lacks nothing),
+    /// too narrow where it does. Newey–West's Bartlett weights, already below one at the
+    /// first lags, break the cancellation of a residual whose spectrum has a zero at the
+    /// motion's frequencies (the mocap's positions twice differentiated, under a narrow
+    /// kernel) and overstate its variance there.
+    Stationary,
+}
+
+impl WholeCovariance {
+    fn is_default(&self) -> bool {
+        *self == WholeCovariance::default()
+    }
+}
+
 /// The method's settings: design, data-quality gate, gates of the selection, held-out split and
 /// noise models.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -116,6 +142,10 @@ pub struct Options {
     /// on.)
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub refit_every_sample: bool,
+    /// The covariance of a fit of every usable sample ([`WholeCovariance`]). (Written in a
+    /// report only when not the default.)
+    #[serde(skip_serializing_if = "WholeCovariance::is_default")]
+    pub whole_covariance: WholeCovariance,
     /// Most forward steps.
     pub max_steps: usize,
     /// Re-linearisations of the corrections (rotations, delays, lever arm) per fit.
@@ -142,6 +172,7 @@ impl Default for Options {
             block_s: 2.0,
             holdout_every: 3,
             refit_every_sample: false,
+            whole_covariance: WholeCovariance::default(),
             max_steps: 8,
             refine_iterations: 3,
             hac_lags: 12,
@@ -234,7 +265,7 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         if it == iterations || !has_corrections {
             // a fit on every usable sample (nothing held out) takes the whole stationary
             // covariance too (see `hac`)
-            let whole = !test.iter().any(|x| *x);
+            let whole = (!test.iter().any(|x| *x)).then_some(o.whole_covariance);
             let cov = hac(&design, &train, &grams, &ars, &set, &f.theta, o.hac_lags, covariance::GLS_WINDOW_S, whole)
                 + thrust_systematic(&design, &train, &grams, &ars, &set, s.model.thrust_rel_sd);
             last = Some(Problem { design, train, test, grams, fit: f, cov });
