@@ -136,7 +136,8 @@ fn identify(c: &mut Criterion) {
 
 /// `identify --calibrate` on a hand-held rig's 64 s log at MoCap2GT's setting (32,001 rows at
 /// 500 Hz, read through `mappings/handheld.yaml`): the target is under 1 s per minute of data on
-/// one core (docs/calibration.md).
+/// one core (docs/calibration.md); and the Cramér–Rao floor of that log as recorded, which
+/// `trials --handheld` computes for each rig.
 fn handheld(c: &mut Criterion) {
     use flyarena::identify::handheld;
     let series = handheld::draw(1, 0).series(&handheld::Setting::default()).expect("a drawn rig reads");
@@ -145,6 +146,11 @@ fn handheld(c: &mut Criterion) {
     g.throughput(Throughput::Elements(series.len() as u64));
     g.bench_function("handheld_64s_calibrate", |b| {
         b.iter(|| flyarena::identify::identify(&series, &handheld::options()).expect("clean data"))
+    });
+    // the floor of the same log as recorded: 32,001 samples of 12 nuisance variables eliminated
+    let trial = handheld::draw(1, 0);
+    g.bench_function("handheld_64s_floor_as_recorded", |b| {
+        b.iter(|| handheld::bound_as_recorded(&trial, &handheld::Setting::default()).expect("every parameter is seen"))
     });
     g.finish();
 }

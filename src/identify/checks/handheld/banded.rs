@@ -26,6 +26,8 @@ pub(super) struct BandedSchur {
     /// of Y.
     l: Vec<Vec<f64>>,
     y: Vec<Vec<f64>>,
+    /// 1/L[i][i] of the same rows (a product is faster than a quotient on the critical path).
+    inv: Vec<f64>,
     /// B, less YᵀY of the rows factored: its upper triangle, row-major p × p.
     j: Vec<f64>,
     /// The number of parameters p.
@@ -43,6 +45,7 @@ impl BandedSchur {
             pending: VecDeque::new(),
             l: vec![vec![0.0; band + 1]; band + 1],
             y: vec![vec![0.0; p]; band + 1],
+            inv: vec![0.0; band + 1],
             j: vec![0.0; p * p],
             p,
             spare: Vec::new(),
@@ -90,15 +93,15 @@ impl BandedSchur {
             for m in b.saturating_sub(i)..=b {
                 // Σ over l from i − band to j − 1 of L[i][l]·L[j][l]: row i at 0..m, row j at b − m..b
                 if m == b {
-                    let s = a[b] - row[..b].iter().map(|x| x * x).sum::<f64>();
+                    let s = a[b] - dot(&row[..b], &row[..b]);
                     if s.is_nan() || s <= 0.0 {
                         return None;
                     }
                     row[b] = s.sqrt();
+                    self.inv[i % (b + 1)] = 1.0 / row[b];
                 } else {
                     let lj = &self.l[(i + m - b) % (b + 1)];
-                    let dot: f64 = row[..m].iter().zip(&lj[b - m..b]).map(|(x, y)| x * y).sum();
-                    row[m] = (a[m] - dot) / lj[b];
+                    row[m] = (a[m] - dot(&row[..m], &lj[b - m..b])) * self.inv[(i + m - b) % (b + 1)];
                 }
             }
             for m in b.saturating_sub(i)..b {
@@ -107,7 +110,8 @@ impl BandedSchur {
                     *yk -= row[m] * yl;
                 }
             }
-            c.iter_mut().for_each(|v| *v /= row[b]);
+            let inv = self.inv[i % (b + 1)];
+            c.iter_mut().for_each(|v| *v *= inv);
             upper_rank_one(&mut self.j, &c, -1.0);
             self.l[i % (b + 1)] = row;
             // the slot's old Y row and this row's A go back to the spares, zeroed
@@ -127,6 +131,19 @@ impl BandedSchur {
         let p = self.p;
         Some(DMatrix::from_fn(p, p, |r, s| self.j[r.min(s) * p + r.max(s)]))
     }
+}
+
+/// Σ x_i·y_i over four running sums (so that it vectorises), in a fixed order.
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    let mut acc = [0.0; 4];
+    let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
+    let tail: f64 = xc.remainder().iter().zip(yc.remainder()).map(|(a, b)| a * b).sum();
+    for (a, b) in xc.zip(yc) {
+        for k in 0..4 {
+            acc[k] += a[k] * b[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 /// J += w·h·hᵀ on the upper triangle of a row-major square `j`.
