@@ -4,7 +4,7 @@
 use super::banded::BandedSchur;
 use super::bound::{Bound, Sample, blocks};
 use super::rig::{Setting, Trial};
-use nalgebra::{DMatrix, Matrix3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 
 /// The Cramér–Rao bound of a trial's calibration with everything its log leaves unknown: the
 /// [`bound`](super::bound) of the perfect mocap, raised by the mocap's noise and the biases'
@@ -18,11 +18,11 @@ use nalgebra::{DMatrix, Matrix3};
 /// in the setting is known and left out.
 ///
 /// **Measurements**, linearized at the truth (ω, ω̇, R and r the truth's, F = Rᵀ(p̈ − g·e_D)
-/// the tracked point's specific force, [v×] the cross-product matrix):
+/// the tracked point's specific force, \[v×\] the cross-product matrix):
 /// - the gyro at k, of variance σ_g²/Δt: J_g·δθ + δω_k + d_g,k, with
 ///   δω_k = φ̇_k + ω × φ_k (the rate of R·Exp(φ)) and φ̇_k = (φ_k+1 − φ_k−1)/(2Δt);
-/// - the accelerometer at k, of variance σ_a²/Δt: J_a·δθ + Rᵀ·δp̈_k + [F×]·φ_k − [r×]·δω̇_k
-///   − ([(ω × r)×] + [ω×][r×])·δω_k + d_a,k, with δp̈_k = (δp_k+1 − 2δp_k + δp_k−1)/Δt² and
+/// - the accelerometer at k, of variance σ_a²/Δt: J_a·δθ + Rᵀ·δp̈_k + \[F×\]·φ_k − \[r×\]·δω̇_k
+///   − (\[(ω × r)×\] + \[ω×\]\[r×\])·δω_k + d_a,k, with δp̈_k = (δp_k+1 − 2δp_k + δp_k−1)/Δt² and
 ///   δω̇_k = φ̈_k + ω̇ × φ_k + ω × φ̇_k (the first-order change of f = F + ω̇ × r + ω × (ω × r));
 /// - the mocap at each frame, between samples k and k + 1 at a fraction u: (1 − u)·δp_k +
 ///   u·δp_k+1 of variance σ_p² per axis and (1 − u)·φ_k + u·φ_k+1 of variance σ_φ² (its noise
@@ -33,7 +33,7 @@ use nalgebra::{DMatrix, Matrix3};
 /// The IMU samples at the log's two ends, which have no neighbour for the differences, are left
 /// out. The information left for θ is the Schur complement of the nuisance,
 /// J = B − Cᵀ·A⁻¹·C, with A banded (a sample's rows reach its two neighbours) and eliminated
-/// as it streams ([`BandedSchur`]); the bound is J⁻¹. The mocap's frames are placed on its own
+/// as it streams (a row-by-row banded Cholesky factor); the bound is J⁻¹. The mocap's frames are placed on its own
 /// clock from the log's start: its delay shifts them by a fraction of a sample, which moves
 /// nothing a bound resolves.
 ///
@@ -59,7 +59,6 @@ fn information(trial: &Trial, set: &Setting) -> Option<DMatrix<f64>> {
     let index = |k: usize, block: Option<usize>, axis: usize| block.map(|b| k * stride + b + axis);
     let (wa, wg) = (dt / set.accel_noise_density.powi(2), dt / set.gyro_noise_density.powi(2));
     let lever = trial.calibration().lever_arm.raw().clone_owned();
-    let rx = lever.cross_matrix();
     let zero = [0.0; 15];
     let mut schur = BandedSchur::new(15, (3 * stride).max(1) - 1);
     let mut frame = 0usize;
@@ -67,21 +66,7 @@ fn information(trial: &Trial, set: &Setting) -> Option<DMatrix<f64>> {
     for k in 0..=n {
         if (1..n).contains(&k) {
             let s = Sample::at(trial, k as f64 * dt);
-            let (w, dw, f) = (s.w.raw().clone_owned(), s.dw.raw().clone_owned(), s.f_point.raw().clone_owned());
-            let (wx, rt) = (w.cross_matrix(), s.att.inverse().matrix());
-            // ∂δω/∂φ and ∂δω̇/∂φ of the samples k − 1, k, k + 1
-            let i3 = Matrix3::identity();
-            let dw_dphi = [-i3 / (2.0 * dt), wx, i3 / (2.0 * dt)];
-            let dww_dphi = [
-                i3 / (dt * dt) - wx / (2.0 * dt),
-                -2.0 * i3 / (dt * dt) + dw.cross_matrix(),
-                i3 / (dt * dt) + wx / (2.0 * dt),
-            ];
-            let g = -(w.cross(&lever).cross_matrix() + wx * rx);
-            let da_dphi: [Matrix3<f64>; 3] = [0, 1, 2].map(|m| {
-                let own = if m == 1 { f.cross_matrix() } else { Matrix3::zeros() };
-                own - rx * dww_dphi[m] + g * dw_dphi[m]
-            });
+            let Sensed { gyro_dphi: dw_dphi, accel_dphi: da_dphi, accel_dp: rt } = sensed(&s, &lever, dt);
             for axis in 0..3 {
                 // the gyro's row
                 terms.clear();
@@ -98,8 +83,7 @@ fn information(trial: &Trial, set: &Setting) -> Option<DMatrix<f64>> {
                 for (m, d) in da_dphi.iter().enumerate() {
                     for c in 0..3 {
                         terms.extend(index(k + m - 1, att, c).map(|i| (i, d[(axis, c)])));
-                        let second = [1.0, -2.0, 1.0][m] / (dt * dt);
-                        terms.extend(index(k + m - 1, pos, c).map(|i| (i, rt[(axis, c)] * second)));
+                        terms.extend(index(k + m - 1, pos, c).map(|i| (i, rt[m][(axis, c)])));
                     }
                 }
                 terms.extend(index(k, walk_a, axis).map(|i| (i, 1.0)));
@@ -148,6 +132,34 @@ fn information(trial: &Trial, set: &Setting) -> Option<DMatrix<f64>> {
         schur.factor_until(k * stride)?;
     }
     schur.finish((n + 1) * stride)
+}
+
+/// How the IMU at sample k senses the trajectory's errors at samples k − 1, k, k + 1 (index
+/// m = 0, 1, 2): the gyro's and the accelerometer's change per φ_k−1+m, and the accelerometer's
+/// per δp_k−1+m (the measurements of [`bound_as_recorded`]).
+struct Sensed {
+    gyro_dphi: [Matrix3<f64>; 3],
+    accel_dphi: [Matrix3<f64>; 3],
+    accel_dp: [Matrix3<f64>; 3],
+}
+
+/// [`Sensed`] at the truth `s`, lever arm `r` (m, IMU body), samples `dt` apart.
+fn sensed(s: &Sample, r: &Vector3<f64>, dt: f64) -> Sensed {
+    let (w, dw, f) = (s.w.raw(), s.dw.raw(), s.f_point.raw());
+    let (wx, rx, i3) = (w.cross_matrix(), r.cross_matrix(), Matrix3::identity());
+    // δω = φ̇ + ω × φ and δω̇ = φ̈ + ω̇ × φ + ω × φ̇, by central differences
+    let gyro_dphi = [-i3 / (2.0 * dt), wx, i3 / (2.0 * dt)];
+    let dww_dphi =
+        [i3 / (dt * dt) - wx / (2.0 * dt), -2.0 * i3 / (dt * dt) + dw.cross_matrix(), i3 / (dt * dt) + wx / (2.0 * dt)];
+    // δ(ω × (ω × r)) = −([(ω × r)×] + [ω×][r×])·δω
+    let g = -(w.cross(r).cross_matrix() + wx * rx);
+    let accel_dphi = [0, 1, 2].map(|m| {
+        let own = if m == 1 { f.cross_matrix() } else { Matrix3::zeros() };
+        own - rx * dww_dphi[m] + g * gyro_dphi[m]
+    });
+    let rt = s.att.inverse().matrix();
+    let accel_dp = [1.0, -2.0, 1.0].map(|c| rt * (c / (dt * dt)));
+    Sensed { gyro_dphi, accel_dphi, accel_dp }
 }
 
 #[cfg(test)]
@@ -226,6 +238,62 @@ mod tests {
         let want = n * (a * w.powi(3)).powi(2) / 2.0 / s;
         assert!((j[(5, 5)] / want - 1.0).abs() < 0.02, "{} against {want}", j[(5, 5)]);
         assert!(s > 1.9 * white, "the mocap's share is seen");
+    }
+
+    /// What the IMU senses of a trajectory's error is its exact first-order change: on a drawn
+    /// rig (every axis turning, a lever arm of 0.1–0.2 m), the attitude R·Exp(φ(t)) and the
+    /// position p + δp(t) with smooth errors of 10⁻⁴ at 2–3 Hz give a body rate (from
+    /// Log(R(t − h)ᵀ·R(t + h))/2h, h = 1 ms) and a specific force F + ω̇ × r + ω × (ω × r) whose changes,
+    /// over the errors' size, match [`sensed`] applied to the errors at the three samples
+    /// within 1 % of their largest component, at ten instants. A sign of the lever arm's terms,
+    /// a missing \[F×\] or a transposed Rᵀ is off by the whole term.
+    #[test]
+    fn the_sensed_change_is_the_kinematics_first_order_change() {
+        use crate::frames::{Rot, Vec3};
+        use crate::vehicle::params::GRAVITY;
+        let trial = draw(1, 2);
+        let r = trial.calibration().lever_arm.raw().clone_owned();
+        let (eps, dt, h) = (1e-4, 1.0 / 500.0, 1e-3);
+        let phi = |t: f64| Vector3::new((12.0 * t).sin(), (17.0 * t + 0.5).cos(), (14.0 * t + 1.0).sin()) * eps;
+        let dp = |t: f64| Vector3::new((15.0 * t).cos(), (13.0 * t).sin(), (19.0 * t + 2.0).sin()) * eps;
+        let ddp = |t: f64| {
+            Vector3::new(-225.0 * (15.0 * t).cos(), -169.0 * (13.0 * t).sin(), -361.0 * (19.0 * t + 2.0).sin()) * eps
+        };
+        // the exact body rate, its derivative and the IMU's specific force of a perturbed motion
+        let rot = |t: f64, on: f64| {
+            let (att, _, _) = crate::identify::checks::handheld::attitude(&trial.euler, t);
+            att.matrix()
+                * Rot::<crate::frames::Body, crate::frames::Body>::from_rotation_vector(Vec3::from_raw(phi(t) * on))
+                    .matrix()
+        };
+        let rate = |t: f64, on: f64| {
+            let m = rot(t - h, on).transpose() * rot(t + h, on);
+            nalgebra::Rotation3::from_matrix_unchecked(m).scaled_axis() / (2.0 * h)
+        };
+        let imu = |t: f64, on: f64| {
+            let w = rate(t, on);
+            let dw = (rate(t + h, on) - rate(t - h, on)) / (2.0 * h);
+            let acc = Vector3::from_fn(|k, _| trial.position[k].at(t)[2]) + ddp(t) * on;
+            let f =
+                rot(t, on).transpose() * (acc - Vector3::new(0.0, 0.0, GRAVITY)) + dw.cross(&r) + w.cross(&w.cross(&r));
+            (w, f)
+        };
+        for k in (0..10).map(|i| 1000 + 731 * i) {
+            let t = k as f64 * dt;
+            let s = Sample::at(&trial, t);
+            let sensed = sensed(&s, &r, dt);
+            let (w0, f0) = imu(t, 0.0);
+            let (w1, f1) = imu(t, 1.0);
+            let (exact_w, exact_f) = ((w1 - w0) / eps, (f1 - f0) / eps);
+            let (mut lin_w, mut lin_f) = (Vector3::zeros(), Vector3::zeros());
+            for m in 0..3 {
+                let tm = t + (m as f64 - 1.0) * dt;
+                lin_w += sensed.gyro_dphi[m] * phi(tm) / eps;
+                lin_f += (sensed.accel_dphi[m] * phi(tm) + sensed.accel_dp[m] * dp(tm)) / eps;
+            }
+            assert!((lin_w - exact_w).amax() < 0.01 * exact_w.amax(), "t {t}: gyro {lin_w} against {exact_w}");
+            assert!((lin_f - exact_f).amax() < 0.01 * exact_f.amax(), "t {t}: accel {lin_f} against {exact_f}");
+        }
     }
 
     /// A log's own floor is never below the perfect mocap's (each parameter's variance at least
