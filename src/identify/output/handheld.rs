@@ -105,7 +105,8 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     } else {
         extra.iter().map(|(e, n)| format!("{} in {n}", e.key())).collect::<Vec<_>>().join(", ")
     };
-    let unseen = ok.iter().filter(|o| o.bound.is_none()).count();
+    let (unseen, unseen_recorded) =
+        (ok.iter().filter(|o| o.bound.is_none()).count(), ok.iter().filter(|o| o.bound_as_recorded.is_none()).count());
     let noiseless = !set.imu_has_white_noise();
     let _ = writeln!(
         s,
@@ -115,10 +116,11 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
         } else {
             format!(
                 "the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound, with a perfect mocap and constant biases, then on the log as recorded (the mocap's noise and the biases' walks in it){}",
-                if unseen > 0 {
-                    format!("; {unseen} rigs whose motion leaves a parameter unseen are left out")
-                } else {
-                    String::new()
+                match (unseen, unseen_recorded) {
+                    (0, 0) => String::new(),
+                    (u, r) => format!(
+                        "; rigs whose motion leaves a parameter unseen are left out ({u} with a perfect mocap, {r} as recorded)"
+                    ),
                 }
             )
         }
@@ -142,6 +144,23 @@ mod tests {
         assert!(out.rotation_err_deg.is_none(), "{out:?}");
         let table = render(&[out], &set);
         assert!(!table.contains("NaN") && table.contains("| rotation (angle) | 0/1 | — | — | — | — |"), "{table}");
+    }
+
+    /// Each floor's column leaves out the rigs without that floor, and the table says how
+    /// many: of two calibrated rigs, one without a floor as recorded gives "(0 with a perfect
+    /// mocap, 1 as recorded)", and the as-recorded column is the other rig's alone.
+    #[test]
+    fn a_rig_without_a_floor_is_counted_out_of_its_column() {
+        let set = Setting { duration_s: 12.0, ..Setting::default() };
+        let out = run(&draw(1, 0), &set, &options());
+        assert!(out.error.is_none() && out.bound.is_some() && out.bound_as_recorded.is_some(), "{out:?}");
+        let full = render(&[out.clone(), out.clone()], &set);
+        assert!(!full.contains("left out"), "{full}");
+        let missing = Outcome { bound_as_recorded: None, ..out.clone() };
+        let table = render(&[out, missing], &set);
+        assert!(table.contains("(0 with a perfect mocap, 1 as recorded)"), "{table}");
+        let row = |t: &str| t.lines().find(|l| l.starts_with("| rotation")).unwrap().to_string();
+        assert_eq!(row(&table), row(&full), "one rig's draws have the median of two copies of it");
     }
 
     /// The table's quantiles interpolate between order statistics: of 0, 1, …, 10 the median is
