@@ -105,29 +105,28 @@ pub fn render(outcomes: &[Outcome], set: &Setting) -> String {
     } else {
         extra.iter().map(|(e, n)| format!("{} in {n}", e.key())).collect::<Vec<_>>().join(", ")
     };
-    let (unseen, unseen_recorded) =
-        (ok.iter().filter(|o| o.bound.is_none()).count(), ok.iter().filter(|o| o.bound_as_recorded.is_none()).count());
-    let noiseless = !set.imu_has_white_noise();
-    let _ = writeln!(
-        s,
-        "\nCramér–Rao median: {}",
-        if noiseless {
-            "none, the IMU of this setting has no white noise (with a perfect mocap the floor is zero)".to_string()
-        } else {
-            format!(
-                "the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound, with a perfect mocap and constant biases, then on the log as recorded (the mocap's noise and the biases' walks in it){}",
-                match (unseen, unseen_recorded) {
-                    (0, 0) => String::new(),
-                    (u, r) => format!(
-                        "; rigs whose motion leaves a parameter unseen are left out ({u} with a perfect mocap, {r} as recorded)"
-                    ),
-                }
-            )
-        }
-    );
+    let _ = writeln!(s, "\nCramér–Rao median: {}", floor_note(&ok, set));
     // the rigs carry nothing but the calibration: anything else selected is invented
     let _ = writeln!(s, "effects selected besides the calibration (the rigs have none): {extra}");
     s
+}
+
+/// What the Cramér–Rao columns are, and how many rigs each leaves out.
+fn floor_note(ok: &[&Outcome], set: &Setting) -> String {
+    if !set.imu_has_white_noise() {
+        return "none, the IMU of this setting has no white noise (with a perfect mocap the floor is zero)".to_string();
+    }
+    let unseen = ok.iter().filter(|o| o.bound.is_none()).count();
+    let unseen_recorded = ok.iter().filter(|o| o.bound_as_recorded.is_none()).count();
+    format!(
+        "the errors of an efficient estimator, {BOUND_DRAWS} draws per rig from its bound, with a perfect mocap and constant biases, then on the log as recorded (the mocap's noise and the biases' walks in it){}",
+        match (unseen, unseen_recorded) {
+            (0, 0) => String::new(),
+            (u, r) => format!(
+                "; rigs whose motion leaves a parameter unseen are left out ({u} with a perfect mocap, {r} as recorded)"
+            ),
+        }
+    )
 }
 
 #[cfg(test)]
