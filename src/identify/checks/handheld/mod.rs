@@ -36,14 +36,16 @@
 //! mocap world, R̂_w·e_D and R_w·e_D (a yaw of the world about gravity is seen by no sensor), the lever-arm error
 //! ‖r̂ − r‖; a parameter is covered when its 95 % interval holds the truth.
 //!
-//! **The floor** ([`bound`]): per trial, the Cramér–Rao bound of the calibration with a perfect
-//! mocap and constant biases, what no unbiased estimator can beat on that motion.
+//! **The floors**: per trial, the Cramér–Rao bound of the calibration with a perfect mocap and
+//! constant biases ([`bound`]), and on the log as recorded, the trajectory a nuisance that the
+//! noisy mocap measures and the biases walking ([`bound_as_recorded`]): what no unbiased
+//! estimator can beat on that motion.
 //!
 //! **Any rig** ([`Setting::parse`]): the rates, noise densities, length and drift are read from
 //! YAML (`rigs/mocap2gt.yaml` is the default, field for field).
 //!
-//! **The parts**: [`Setting`] and [`draw`] make a rig and its log (`rig.rs`), [`bound`] its
-//! floor (`bound.rs`), [`run`] and [`run_many`] identify and score it (`monte_carlo.rs`); the
+//! **The parts**: [`Setting`] and [`draw`] make a rig and its log (`rig.rs`), [`bound`] and
+//! [`bound_as_recorded`] its floors (`bound.rs`, `recorded.rs` with `banded.rs`), [`run`] and [`run_many`] identify and score it (`monte_carlo.rs`); the
 //! batch's table is [`render_handheld`](crate::identify::render_handheld) (`identify/output/handheld.rs`).
 
 mod banded;
