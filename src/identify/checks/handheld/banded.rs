@@ -115,9 +115,8 @@ impl BandedSchur {
             upper_rank_one(&mut self.j, &c, -1.0);
             self.l[i % (b + 1)] = row;
             // the slot's old Y row and this row's A go back to the spares, zeroed
-            let old = std::mem::replace(&mut self.y[i % (b + 1)], c);
+            let mut old = std::mem::replace(&mut self.y[i % (b + 1)], c);
             a.iter_mut().for_each(|x| *x = 0.0);
-            let mut old = old;
             old.iter_mut().for_each(|x| *x = 0.0);
             self.spare.push((a, old));
             self.next += 1;

@@ -45,9 +45,10 @@ fn fisher(trial: &Trial, set: &Setting) -> DMatrix<f64> {
     let dt = 1.0 / set.imu_hz;
     let (wa, wg) = (dt / set.accel_noise_density.powi(2), dt / set.gyro_noise_density.powi(2));
     let n = (set.duration_s * set.imu_hz).round() as i64;
+    let lever = trial.calibration().lever_arm;
     let mut fisher = DMatrix::<f64>::zeros(15, 15);
     for k in 0..=n {
-        let s = Sample::at(trial, k as f64 * dt);
+        let s = Sample::at(trial, lever, k as f64 * dt);
         fisher += s.ja.tr_mul(&s.ja) * wa + s.jg.tr_mul(&s.jg) * wg;
     }
     fisher
@@ -70,9 +71,9 @@ pub(super) struct Sample {
 }
 
 impl Sample {
-    /// The truth and sensitivities at time t (s) of `trial`.
-    pub(super) fn at(trial: &Trial, t: f64) -> Sample {
-        let lever = trial.calibration().lever_arm;
+    /// The truth and sensitivities at time t (s) of `trial`, whose lever arm is `lever` (m, IMU
+    /// body; its calibration's, taken once by the caller).
+    pub(super) fn at(trial: &Trial, lever: Vec3<Body>, t: f64) -> Sample {
         let g = Vec3::<Nav>::new(0.0, 0.0, GRAVITY);
         // the attitude, the body rate and its derivative, the point's and the IMU's specific force
         let state = |t: f64| {

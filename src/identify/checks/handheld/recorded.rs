@@ -58,14 +58,15 @@ fn information(trial: &Trial, set: &Setting) -> Option<DMatrix<f64>> {
     let stride = 3 * on.iter().filter(|x| **x).count();
     let index = |k: usize, block: Option<usize>, axis: usize| block.map(|b| k * stride + b + axis);
     let (wa, wg) = (dt / set.accel_noise_density.powi(2), dt / set.gyro_noise_density.powi(2));
-    let lever = trial.calibration().lever_arm.raw().clone_owned();
+    let lever_arm = trial.calibration().lever_arm;
+    let lever = lever_arm.raw().clone_owned();
     let zero = [0.0; 15];
     let mut schur = BandedSchur::new(15, (3 * stride).max(1) - 1);
     let mut frame = 0usize;
     let mut terms: Vec<(usize, f64)> = Vec::with_capacity(3 * stride + 1);
     for k in 0..=n {
         if (1..n).contains(&k) {
-            let s = Sample::at(trial, k as f64 * dt);
+            let s = Sample::at(trial, lever_arm, k as f64 * dt);
             let Sensed { gyro_dphi: dw_dphi, accel_dphi: da_dphi, accel_dp: rt } = sensed(&s, &lever, dt);
             for axis in 0..3 {
                 // the gyro's row
@@ -280,7 +281,7 @@ mod tests {
         };
         for k in (0..10).map(|i| 1000 + 731 * i) {
             let t = k as f64 * dt;
-            let s = Sample::at(&trial, t);
+            let s = Sample::at(&trial, trial.calibration().lever_arm, t);
             let sensed = sensed(&s, &r, dt);
             let (w0, f0) = imu(t, 0.0);
             let (w1, f1) = imu(t, 1.0);
