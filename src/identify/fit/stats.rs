@@ -179,11 +179,18 @@ impl Ar {
     /// Fits orders 0..=max_order by least squares on the samples where `ok` holds for the sample
     /// and its p predecessors, and keeps the order with the lowest BIC.
     pub fn fit(e: &[f64], ok: &[bool], max_order: usize) -> Ar {
+        Ar::fit_shared(&[e], ok, max_order)
+    }
+    /// One model for several series of one noise (a sensor's three axes), fitted as
+    /// [`Ar::fit`] fits one: their normal equations, residual sums and sample counts summed
+    /// (the same rows of each), so that every series is whitened by one filter and weighed by
+    /// one marginal variance, Σ_s Σ_k e_{s,k}² / (S·n).
+    pub fn fit_shared(es: &[&[f64]], ok: &[bool], max_order: usize) -> Ar {
         // one common sample set (valid for the largest order), so BICs are comparable
         let rows: Vec<usize> = full_windows(ok, max_order).enumerate().filter(|(_, v)| *v).map(|(k, _)| k).collect();
-        let n = rows.len() as f64;
+        let n = (rows.len() * es.len()) as f64;
         if rows.len() < 10 * (max_order + 1) {
-            let var = rows.iter().map(|&k| e[k] * e[k]).sum::<f64>() / n.max(1.0);
+            let var = es.iter().flat_map(|e| rows.iter().map(|&k| e[k] * e[k])).sum::<f64>() / n.max(1.0);
             return Ar::white(var.sqrt().max(f64::MIN_POSITIVE));
         }
         // the normal equations of every order are leading blocks of the largest one's
@@ -191,13 +198,15 @@ impl Ar {
         let mut g_all = DMatrix::<f64>::zeros(pm, pm);
         let mut b_all = DVector::<f64>::zeros(pm);
         let mut yy = 0.0;
-        for &k in &rows {
-            yy += e[k] * e[k];
-            for i in 0..pm {
-                let xi = e[k - 1 - i];
-                b_all[i] += xi * e[k];
-                for j in 0..=i {
-                    g_all[(i, j)] += xi * e[k - 1 - j];
+        for e in es {
+            for &k in &rows {
+                yy += e[k] * e[k];
+                for i in 0..pm {
+                    let xi = e[k - 1 - i];
+                    b_all[i] += xi * e[k];
+                    for j in 0..=i {
+                        g_all[(i, j)] += xi * e[k - 1 - j];
+                    }
                 }
             }
         }
@@ -672,5 +681,33 @@ mod tests {
         ar.whiten(&e, &ok, &mut w);
         let lb = ljung_box(&w, 20, ar.order());
         assert!(lb.p_value > 0.001, "{lb:?}");
+    }
+
+    /// One model for two series, by hand. Two geometric series of 30 samples, e_k = 0.5^k and
+    /// f_k = 0.8^k, each an AR(1) without noise; max order 1, so the rows are k = 1..29 of each
+    /// (58). Summed normal equations: a = Σ(e_k·e_{k−1} + f_k·f_{k−1})/Σ(e_{k−1}² + f_{k−1}²) =
+    /// (0.5·S_e + 0.8·S_f)/(S_e + S_f) with S_x = Σ_{j=0}^{28} x^{2j} = (1 − x^58)/(1 − x²);
+    /// marginal variance Σ(e_k² + f_k²)/58 = (S_e − 1 + 0.25^29 + S_f − 1 + 0.64^29)/58. Either
+    /// series alone gets its own coefficient back. A bug it catches: the series fitted one after
+    /// the other (the last one's 0.8), a count of rows not multiplied by the series (twice the
+    /// variance), the sums of one series only.
+    #[test]
+    fn one_model_for_several_series_sums_their_normal_equations() {
+        let e: Vec<f64> = (0..30).map(|k| 0.5f64.powi(k)).collect();
+        let f: Vec<f64> = (0..30).map(|k| 0.8f64.powi(k)).collect();
+        let ok = [true; 30];
+        let s = |x: f64| (1.0 - x.powi(58)) / (1.0 - x * x);
+        let (se, sf) = (s(0.5), s(0.8));
+        let want_a = (0.5 * se + 0.8 * sf) / (se + sf);
+        let want_var = (se - 1.0 + 0.25f64.powi(29) + sf - 1.0 + 0.64f64.powi(29)) / 58.0;
+        let ar = Ar::fit_shared(&[&e, &f], &ok, 1);
+        assert_eq!(ar.order(), 1);
+        assert!((ar.a[0] - want_a).abs() < 1e-12, "{} vs {want_a}", ar.a[0]);
+        assert!((ar.marginal_var - want_var).abs() < 1e-12, "{} vs {want_var}", ar.marginal_var);
+        for (x, a) in [(&e, 0.5), (&f, 0.8)] {
+            let alone = Ar::fit(x, &ok, 1);
+            assert!((alone.a[0] - a).abs() < 1e-12, "{:?}", alone.a);
+            assert_eq!(alone, Ar::fit_shared(&[x], &ok, 1));
+        }
     }
 }
