@@ -826,7 +826,7 @@ fn cmd_identify(mut a: IdentifyArgs) -> Result<i32, Error> {
         vehicle: a.vehicle.as_deref(),
         seed: a.seed,
         smoothing_ms: a.smoothing_ms,
-        refit_every_sample: a.calibrate,
+        calibrate: a.calibrate,
         forced,
         clock: a.clock_offset,
         ..Request::new(source)
@@ -1083,10 +1083,10 @@ fn cmd_handheld(
 /// A real log with mounts and clock offsets injected, each case calibrated and scored against
 /// the plain log's calibration composed with its injection (DIR/injected-<log>-<seed>-<N>.json).
 fn cmd_injected(log: &Path, mapping: &Path, cases: u64, seed: u64, out: &Path) -> Result<i32, Error> {
-    use flyarena::identify::{Effect, Mapping, Options, injected};
+    use flyarena::identify::{Mapping, Options, injected};
     let map = Mapping::load(mapping)?;
     let streams = injected::streams(&map, log)?;
-    let mut o = Options { forced: Effect::CALIBRATION.to_vec(), refit_every_sample: true, ..Options::default() };
+    let mut o = Options::calibration();
     if let Some(ms) = map.smoothing_ms {
         o.design.smoothing_s = ms * 1e-3;
     }

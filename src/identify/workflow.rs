@@ -75,17 +75,22 @@ fn vehicle_index(s: &Scenario, file: &Path, name: Option<&str>) -> Result<usize,
     }
 }
 
-/// The options of a request: the forced effects, the clock's search window, whether the
-/// chosen model is fitted again on every sample, and the smoothing from the request, else from
-/// the mapping, else the default.
+/// The options of a request: the forced effects, the clock's search window, whether it is a
+/// calibration ([`Request::calibrate`]), and the smoothing from the request, else from the
+/// mapping, else the default.
 fn options(
     forced: &[super::Effect],
     smoothing_ms: Option<f64>,
-    refit_every_sample: bool,
+    calibrate: bool,
     clock: Option<ClockWindow>,
     map: Option<&super::input::mapping::Mapping>,
 ) -> Options {
-    let mut opts = Options { forced: forced.to_vec(), refit_every_sample, ..Options::default() };
+    let mut opts = Options {
+        forced: forced.to_vec(),
+        refit_every_sample: calibrate,
+        mount_invariant: calibrate,
+        ..Options::default()
+    };
     if let Some(c) = clock {
         opts.clock = c;
     }
@@ -131,9 +136,10 @@ pub struct Request<'a> {
     pub seed: Option<u64>,
     /// The smoothing of the kinematics (ms); else the mapping's, else the default.
     pub smoothing_ms: Option<f64>,
-    /// Fit the chosen model again on every usable sample ([`Options::refit_every_sample`]; on
-    /// with `--calibrate`).
-    pub refit_every_sample: bool,
+    /// A calibration (`--calibrate`): the chosen model fitted again on every usable sample
+    /// ([`Options::refit_every_sample`]), each sensor's axes sharing one noise model
+    /// ([`Options::mount_invariant`]).
+    pub calibrate: bool,
     /// Effects fitted whatever the selection says (`--with`).
     pub forced: Vec<super::Effect>,
     /// Where the clock offset between the IMU and the mocap is searched (`--clock-offset`;
@@ -149,7 +155,7 @@ impl<'a> Request<'a> {
             vehicle: None,
             seed: None,
             smoothing_ms: None,
-            refit_every_sample: false,
+            calibrate: false,
             forced: Vec::new(),
             clock: None,
         }
@@ -187,13 +193,13 @@ fn read_log(
 /// the data (closed loop) and checks R5 when the scenario declares it.
 pub fn run(req: &Request) -> Result<Identified, Error> {
     let (forced, smoothing_ms, vehicle, seed) = (&req.forced[..], req.smoothing_ms, req.vehicle, req.seed);
-    let opts = options(forced, smoothing_ms, req.refit_every_sample, req.clock, None);
+    let opts = options(forced, smoothing_ms, req.calibrate, req.clock, None);
     let (input, scenario) = match req.source {
         Source::Scenario(p) => (p, None),
         Source::FlyarenaLog { log, scenario } => (log, Some(scenario)),
         Source::Mapped { log: input, mapping: m, poses } => {
             let map = super::input::mapping::Mapping::load(m)?;
-            let opts = options(forced, smoothing_ms, req.refit_every_sample, req.clock, Some(&map));
+            let opts = options(forced, smoothing_ms, req.calibrate, req.clock, Some(&map));
             let series = read_log(&map, input, poses, &opts.clock)?;
             let report = identify(&series, &opts)?;
             // the log's own frame rate, for rounding a delay to whole frames
@@ -275,19 +281,19 @@ pub struct CrossValidated {
 }
 
 /// Identifies every log through one mapping, then evaluates each flight's model on every other
-/// flight and checks the offsets' consistency per mounting. `refit_every_sample` as in
-/// [`Request::refit_every_sample`] (on with `--calibrate`).
+/// flight and checks the offsets' consistency per mounting. `calibrate` as in
+/// [`Request::calibrate`] (on with `--calibrate`).
 pub fn run_many(
     inputs: &[&Path],
     mapping: &Path,
     smoothing_ms: Option<f64>,
-    refit_every_sample: bool,
+    calibrate: bool,
     forced: &[super::Effect],
 ) -> Result<CrossValidated, Error> {
     use super::fit::select::{channel_cut, evaluate};
     use crate::effects::Channel;
     let map = super::input::mapping::Mapping::load(mapping)?;
-    let opts = options(forced, smoothing_ms, refit_every_sample, None, Some(&map));
+    let opts = options(forced, smoothing_ms, calibrate, None, Some(&map));
     let Each { reports, series, excluded } = identify_each(inputs, &map, &opts)?;
     let cross: Vec<Vec<(Option<f64>, Option<f64>)>> = reports
         .iter()

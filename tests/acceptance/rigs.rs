@@ -90,8 +90,9 @@ fn body_offset(report: &serde_json::Value) -> UnitQuaternion<f64> {
 /// axis between x and z) and a mocap clock 0.2 s behind, on a real BROAD trial, read as an IMU
 /// CSV beside a TUM file and calibrated with nothing said about either. The calibration is the
 /// plain trial's composed with that mount and offset: the rotation within 0.05° of R·R_off (the
-/// plain trial's own intervals are 0.05–0.09°), the delay within 0.01 ms of τ + 200 ms, the
-/// lever arm within 0.5 mm of R·r; the global start applied the rotation and the clock, and the
+/// plain trial's own intervals are 0.05–0.09°), the delay within 0.02 ms of τ + 200 ms (its
+/// interval is ±0.06 ms; 200 ms is no whole number of the IMU's 3.5 ms samples, so the poses
+/// are interpolated onto other instants), the lever arm within 0.5 mm of R·r; the global start applied the rotation and the clock, and the
 /// report claims its effects. A fit that starts at the identity there reports a 1.6 m lever arm
 /// and a 17 m/s² accelerometer bias (a bug it catches: a start that is computed and not used).
 #[test]
@@ -123,7 +124,7 @@ fn a_half_turn_and_a_fifth_of_a_second_on_a_real_log_are_calibrated_unprompted()
     assert!(err < 0.05, "rotation {err}° from R·R_off\n{text}");
     let delay = |rep: &serde_json::Value| effect(rep, "mocap_delay").unwrap().0[0];
     assert!(
-        (delay(&case) - delay(&plain) - 200.0).abs() < 0.01,
+        (delay(&case) - delay(&plain) - 200.0).abs() < 0.02,
         "delay {} against {} + 200 ms",
         delay(&case),
         delay(&plain)

@@ -50,7 +50,7 @@ pub fn excitation(s: &Series, o: &Options, truth: &[(Effect, Vec<f64>)]) -> Vec<
     let white: Vec<Ar> = active(&st.design).iter().map(|_| Ar::white(1.0)).collect();
     let g_ols = grams(&st.design, &st.train, &st.test, &white);
     let f_all = fit(&g_ols, &set_of(&all));
-    let ars = ar_models(&st.design, &st.train, &f_all.theta, o.max_ar_order);
+    let ars = ar_models(&st.design, &st.train, &f_all.theta, o);
     let gs = grams(&st.design, &st.train, &st.test, &ars);
     let rss_full_t = heldout_rss(&gs, &f_all.theta);
     truth

@@ -368,9 +368,32 @@ pub(super) fn canonical_corr(gs: &[Gram], s: &[usize], a: &[usize], b: &[usize])
     eig.eigenvalues.iter().copied().fold(0.0, f64::max).clamp(0.0, 1.0).sqrt()
 }
 
-/// The AR models of the current residual (one per active channel axis).
-pub(super) fn ar_models(d: &Design, train: &[bool], theta: &[f64], max_order: usize) -> Vec<Ar> {
-    active(d).into_iter().map(|(c, a)| Ar::fit(&residual_of(d, c, a, theta), train, max_order)).collect()
+/// The AR models of the current residual, one per active channel axis (order ≤ `max_ar_order`).
+/// With [`Options::mount_invariant`], the three axes of the accelerometer against the mocap
+/// (`accel_kin`) share one model, and so do the gyro's ([`Ar::fit_shared`]): each axis is then
+/// whitened by the same filter and weighed by the same variance, and a fit that turns the IMU's
+/// readings by a rotation R turns its calibration by R and changes nothing else. A model per
+/// axis weighs an axis by its own misfit, and a rotation that mixes the axes mixes those
+/// weights (docs/calibration.md, "A real rig: BROAD"). The force channel keeps one per axis:
+/// the thrust acts on its z alone.
+pub(super) fn ar_models(d: &Design, train: &[bool], theta: &[f64], o: &Options) -> Vec<Ar> {
+    let act = active(d);
+    let shared = |c: usize| o.mount_invariant && c != Channel::Force.index() && (0..3).all(|a| act.contains(&(c, a)));
+    let mut by_channel: [Option<Ar>; 3] = [None, None, None];
+    act.iter()
+        .map(|&(c, a)| {
+            if !shared(c) {
+                return Ar::fit(&residual_of(d, c, a, theta), train, o.max_ar_order);
+            }
+            by_channel[c]
+                .get_or_insert_with(|| {
+                    let axes: Vec<Vec<f64>> = (0..3).map(|b| residual_of(d, c, b, theta)).collect();
+                    let refs: Vec<&[f64]> = axes.iter().map(Vec::as_slice).collect();
+                    Ar::fit_shared(&refs, train, o.max_ar_order)
+                })
+                .clone()
+        })
+        .collect()
 }
 
 #[cfg(test)]

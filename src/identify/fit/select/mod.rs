@@ -38,6 +38,10 @@
 //! in simulation, outweighed the gyro's clean ω̇ one, and errors in that variable shrank the
 //! mocap delay by 2 %; GLS on the prewhitened problem was tried first: with a near-unit-root
 //! AR it fits the dynamics and misses the level, and on real flights the held-out errors rose.)
+//! A calibration ([`Options::mount_invariant`]) gives the three axes of the accelerometer one
+//! noise model and weight, and the gyro's theirs: a weight per axis weighs an axis by its own
+//! misfit, and turning the IMU mixes those weights, so that the calibration of one log moved
+//! with the mount it was read in (docs/calibration.md, "A real rig: BROAD").
 //! The mocap delay and its drift are the exception: they are read off the prewhitened (GLS)
 //! fit, and the others fitted by weighted least squares given them (`gram::prewhitened`): in
 //! closed loop the vehicle answers the mocap noise, and only the prewhitened residual is free
@@ -142,6 +146,14 @@ pub struct Options {
     /// on.)
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub refit_every_sample: bool,
+    /// Whether a sensor's three axes share one noise model (whitening filter and weight; see
+    /// `gram::ar_models`), so that the result does not depend on how the IMU is mounted: a
+    /// rotation of its readings rotates the calibration and nothing else. On for a calibration
+    /// (with [`Options::refit_every_sample`]); off by default, where each axis weighs by its
+    /// own residual, the fit the trials' and the closed-loop delay's figures were measured
+    /// with. (Written in a report only when on.)
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub mount_invariant: bool,
     /// The covariance of a fit of every usable sample ([`WholeCovariance`]). (Written in a
     /// report only when not the default.)
     #[serde(skip_serializing_if = "WholeCovariance::is_default")]
@@ -161,6 +173,20 @@ pub struct Options {
     pub clock: crate::identify::fit::start::ClockWindow,
 }
 
+impl Options {
+    /// What `identify --calibrate` runs: the calibration's effects fitted without testing
+    /// ([`Effect::CALIBRATION`]), any other effect selected on top, the chosen model fitted
+    /// again on every usable sample, and each sensor's axes sharing one noise model.
+    pub fn calibration() -> Options {
+        Options {
+            forced: Effect::CALIBRATION.to_vec(),
+            refit_every_sample: true,
+            mount_invariant: true,
+            ..Options::default()
+        }
+    }
+}
+
 impl Default for Options {
     fn default() -> Self {
         Options {
@@ -172,6 +198,7 @@ impl Default for Options {
             block_s: 2.0,
             holdout_every: 3,
             refit_every_sample: false,
+            mount_invariant: false,
             whole_covariance: WholeCovariance::default(),
             max_steps: 8,
             refine_iterations: 3,
@@ -255,10 +282,10 @@ fn refine(s: &Series, o: &Options, corr: &mut Corrections, selected: &[Effect], 
         let design = build(s, corr, &o.design);
         let (train, test) = masks(s, &design, o);
         // AR of the nominal residual first, then of the residual of S
-        let ars0 = ar_models(&design, &train, &theta, o.max_ar_order);
+        let ars0 = ar_models(&design, &train, &theta, o);
         let g0 = grams(&design, &train, &test, &ars0);
         let f0 = fit(&g0, &set);
-        let ars = ar_models(&design, &train, &f0.theta, o.max_ar_order);
+        let ars = ar_models(&design, &train, &f0.theta, o);
         let grams = grams(&design, &train, &test, &ars);
         let mut f = fit(&grams, &set);
         let has_corrections = selected.iter().any(|e| e.is_correction());
@@ -762,7 +789,7 @@ impl Search {
             let white: Vec<Ar> = active(&state.design).iter().map(|_| Ar::white(1.0)).collect();
             let g_ols = grams(&state.design, &state.train, &state.test, &white);
             let f_ols = fit(&g_ols, &set_of(&full));
-            let ars = ar_models(&state.design, &state.train, &f_ols.theta, o.max_ar_order);
+            let ars = ar_models(&state.design, &state.train, &f_ols.theta, o);
             grams(&state.design, &state.train, &state.test, &ars)
         };
         let base = &fit(&grams_test, &state.fit.set);
