@@ -61,8 +61,10 @@ fn a_hand_held_rig_is_calibrated_from_its_log() {
     let report = json(&d.join("c/flight-0.identify.json"));
     // no force model: the two channels a rig has, said in the JSON
     assert_eq!(report["report"]["channels"], serde_json::json!(["accel_kin", "gyro"]));
-    // `--calibrate` fits the chosen model again on every usable sample, and says so
+    // `--calibrate` fits the chosen model again on every usable sample, with one noise model
+    // per sensor (the result turns with the IMU's mount), and says so
     assert_eq!(report["report"]["options"]["refit_every_sample"], serde_json::json!(true));
+    assert_eq!(report["report"]["options"]["mount_invariant"], serde_json::json!(true));
     let effects = report["report"]["effects"].as_array().unwrap();
     let keys: Vec<&str> = effects.iter().map(|e| e["effect"].as_str().unwrap()).collect();
     for key in ["body_offset", "world_tilt", "mocap_delay", "accel_bias", "gyro_bias", "lever_arm"] {
