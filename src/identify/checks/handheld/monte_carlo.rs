@@ -215,8 +215,8 @@ mod tests {
     /// that a weight per axis would differ from axis to axis and, turned, mix: with a noise model
     /// per axis (`mount_invariant` off) the turned log's rotation moves by 9·10⁻⁴° (a tenth of
     /// its interval; asserted above 10⁻⁴°), with one per sensor by rounding alone (under 10⁻⁹°,
-    /// 10⁻⁶ mm, 10⁻⁹ ms). A bug it catches: the axes' own models kept, or a
-    /// shared model that weighs one sensor's axes unequally.
+    /// 10⁻⁶ mm, 10⁻⁹ ms). A bug it catches: the axes' own models kept, for both sensors or for
+    /// the gyro alone (the accelerometer's shared: 7·10⁻⁴° apart).
     #[test]
     fn a_calibration_turns_with_the_imu_and_changes_nothing_else() {
         use crate::identify::Report;
