@@ -174,8 +174,9 @@ mod tests {
     /// (estimates unchanged), the held-out errors taken from the refit (they would fall, the
     /// held-out part being in it), or the split reported from the refit's masks (nothing held
     /// out). With [`WholeCovariance::Stationary`] the estimates stay and the intervals can only
-    /// narrow (the larger of two is at least the stationary one): an option not passed to the
-    /// covariance leaves them all equal.
+    /// narrow (the larger of two is at least the stationary one), and with
+    /// [`WholeCovariance::Parzen`] they stay and the intervals change: an option not passed to
+    /// the covariance leaves them all equal.
     #[test]
     fn a_calibration_refits_on_every_sample_and_scores_the_training_fit() {
         let s = draw(1, 0).series(&Setting::default()).unwrap();
@@ -206,6 +207,12 @@ mod tests {
             assert!(v == w && narrow <= &(wide * (1.0 + 1e-9)), "{v} ± {wide} against {w} ± {narrow}");
         }
         assert!(larger.iter().zip(&alone).any(|(a, b)| b.1 < 0.95 * a.1), "{larger:?} against {alone:?}");
+        // the Parzen weights on the scores: the same estimates, other intervals, and said
+        let parzen = identify(&s, &Options { whole_covariance: WholeCovariance::Parzen, ..options() }).unwrap();
+        assert_eq!(opts(&parzen)["whole_covariance"], serde_json::json!("parzen"));
+        let weighed = params(&parzen);
+        assert!(weighed.iter().zip(&larger).all(|(a, b)| a.0 == b.0), "{weighed:?} against {larger:?}");
+        assert!(weighed.iter().zip(&larger).any(|(a, b)| a.1 != b.1), "{weighed:?} against {larger:?}");
     }
 
     /// A calibration does not depend on how the IMU is mounted: its readings turned by a

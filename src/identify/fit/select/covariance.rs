@@ -50,23 +50,29 @@ pub(super) fn hac(
     let step = if d.t.len() > 1 { d.t[1] - d.t[0] } else { 0.0 };
     let window = if step > 0.0 { (window_s / step).round() as usize } else { 0 };
     let Some(whole) = whole else {
-        return newey_west_cov(d, train, gs, ars, set, theta, lags, window);
+        return newey_west_cov(d, train, gs, ars, set, theta, Kernel::Bartlett(lags), window);
     };
+    if whole == WholeCovariance::Parzen {
+        return newey_west_cov(d, train, gs, ars, set, theta, Kernel::Parzen(window / 2), window);
+    }
     let (dp, op) = split(set);
     let a = if dp.is_empty() { inverse_spd(&system_raw(gs, set).0) } else { error_map(gs, set, &dp, &op).a };
     let stationary = stationary_full(d, train, gs, ars, set, theta, &a, window);
     match whole {
         WholeCovariance::Larger => {
-            loewner_max(&stationary, &newey_west_cov(d, train, gs, ars, set, theta, lags, window))
+            loewner_max(&stationary, &newey_west_cov(d, train, gs, ars, set, theta, Kernel::Bartlett(lags), window))
         }
         WholeCovariance::Stationary => stationary,
+        WholeCovariance::Parzen => unreachable!("taken above"),
     }
 }
 
-/// Newey–West (Bartlett, `lags`) covariance of the parameters of [`fit`](super::gram::fit).
+/// Newey–West covariance of the parameters of [`fit`](super::gram::fit), the lagged products
+/// weighed by `kernel` (Bartlett over `hac_lags` unless the fit of every sample asks for
+/// [`WholeCovariance::Parzen`]).
 ///
 /// With least squares alone: (XᵀWX)⁻¹·S·(XᵀWX)⁻¹ with S = Σ_l w_l Σ_t (u_t u_{t−l}ᵀ +
-/// u_{t−l} u_tᵀ) (l = 0 counted once), w_l = 1 − l/(lags+1), and u_t = Σ_{channel axes}
+/// u_{t−l} u_tᵀ) (l = 0 counted once), w_l the kernel's weights, and u_t = Σ_{channel axes}
 /// w·x_t·e_t the score of time sample t summed over every channel axis. Summing per time sample
 /// (not per channel axis) lets the channels' noises be correlated: `accel_kin` and `force`
 /// share the accelerometer's noise, and their rows are not independent information about,
@@ -89,14 +95,14 @@ fn newey_west_cov(
     ars: &[Ar],
     set: &[usize],
     theta: &[f64],
-    lags: usize,
+    kernel: Kernel,
     window: usize,
 ) -> DMatrix<f64> {
     let (dp, op) = split(set);
     if dp.is_empty() {
         let u = scores(d, train, gs, None, set, theta);
         let ginv = inverse_spd(&system_raw(gs, set).0);
-        return &ginv * newey_west(&u, lags) * &ginv;
+        return &ginv * newey_west(&u, kernel) * &ginv;
     }
     let k = set.len();
     let uw = scores(d, train, gs, Some(ars), set, theta);
@@ -119,7 +125,7 @@ fn newey_west_cov(
         })
         .collect();
     let ErrorMap { a, from_gls, carry } = error_map(gs, set, &dp, &op);
-    let cov = &a * newey_west(&stacked, lags) * a.transpose();
+    let cov = &a * newey_west(&stacked, kernel) * a.transpose();
     let stationary = stationary_gls(d, train, ars, set, theta, &from_gls, window);
     let v = loewner_max(&stationary, &sub(&cov, &dp, &dp));
     with_gls_covariance(&cov, &dp, &op, &v, &carry)
@@ -476,9 +482,26 @@ fn scores(
 /// A channel axis's columns of a set (`None` where the axis has none), raw or prewhitened.
 type Columns<'a> = Vec<Option<Cow<'a, [f64]>>>;
 
-/// The Newey–West sum S = Σ_l w_l Σ_t (u_t u_{t−l}ᵀ + u_{t−l} u_tᵀ) (l = 0 once), Bartlett
-/// weights, over the samples that have a score.
-fn newey_west(u: &[Option<DVector<f64>>], lags: usize) -> DMatrix<f64> {
+/// The weights w_l of the lagged products in a Newey–West sum.
+#[derive(Clone, Copy, Debug)]
+enum Kernel {
+    /// Bartlett over `lags` samples ([`bartlett`]).
+    Bartlett(usize),
+    /// Parzen over a window of 2·a samples, in its discrete form: w_l = r(l)/r(0), with r the
+    /// autocorrelation of the triangle of a taps each side (h = box_a ∗ box_a), which tends to
+    /// [`parzen`]'s 1 − 6x² + 6x³, 2(1 − x)³ (x = l/2a) as a grows. Computed as
+    /// Σ_t v_t v_tᵀ / r(0) with v = h ∗ u (two running sums), so a window of any length costs
+    /// n·k²; and being a sum of outer products it is positive semidefinite.
+    Parzen(usize),
+}
+
+/// The Newey–West sum S = Σ_l w_l Σ_t (u_t u_{t−l}ᵀ + u_{t−l} u_tᵀ) (l = 0 once), over the
+/// samples that have a score (a sample without one counts as zero), weights by `kernel`.
+fn newey_west(u: &[Option<DVector<f64>>], kernel: Kernel) -> DMatrix<f64> {
+    let lags = match kernel {
+        Kernel::Bartlett(lags) => lags,
+        Kernel::Parzen(a) => return parzen_sum(u, a.max(1)),
+    };
     let k = u.iter().flatten().next().map_or(0, |v| v.len());
     let mut sm = DMatrix::<f64>::zeros(k, k);
     for l in 0..=lags {
@@ -495,6 +518,37 @@ fn newey_west(u: &[Option<DVector<f64>>], lags: usize) -> DMatrix<f64> {
         }
     }
     sm
+}
+
+/// [`Kernel::Parzen`]'s sum: the scores filtered by the triangle of `a` taps each side, their
+/// outer products summed and divided by the triangle's energy r(0) = Σ h_j².
+fn parzen_sum(u: &[Option<DVector<f64>>], a: usize) -> DMatrix<f64> {
+    let k = u.iter().flatten().next().map_or(0, |v| v.len());
+    let zero = DVector::<f64>::zeros(k);
+    let at = |t: usize| u[t].as_ref().unwrap_or(&zero);
+    // a running sum of a samples, over the full convolution's length
+    let boxed = |x: &dyn Fn(usize) -> DVector<f64>, n: usize| -> Vec<DVector<f64>> {
+        let mut acc = DVector::<f64>::zeros(k);
+        (0..n + a - 1)
+            .map(|t| {
+                if t < n {
+                    acc += x(t);
+                }
+                if t >= a {
+                    acc -= x(t - a);
+                }
+                acc.clone()
+            })
+            .collect()
+    };
+    let once = boxed(&|t| at(t).clone(), u.len());
+    let twice = boxed(&|t| once[t].clone(), once.len());
+    let mut sm = DMatrix::<f64>::zeros(k, k);
+    for v in &twice {
+        sm += v * v.transpose();
+    }
+    let r0: f64 = (1..=a).map(|j| (j * j) as f64).sum::<f64>() * 2.0 - (a * a) as f64;
+    sm / r0
 }
 
 /// The Bartlett weight of lag `l` among `lags`: w_l = 1 − l/(lags + 1), 1 at lag 0, falling
@@ -686,6 +740,25 @@ mod tests {
         assert!((carry[(0, 0)] + 0.5).abs() < 1e-15, "{carry}");
     }
 
+    /// The discrete Parzen sum, by hand, with a = 2: the triangle h = (1, 2, 1), whose
+    /// autocorrelation is r = (6, 4, 1), so the weights are 1, 2/3 and 1/6. For u = (1, −1, 2):
+    /// Σu² = 6, Σu_t·u_{t−1} = −3, Σu_t·u_{t−2} = 2, S = 6 − 2·(2/3)·3 + 2·(1/6)·2 = 8/3. A sample
+    /// without a score counts as zero: u = (1, –, 2) gives 5 + 2·(1/6)·2 = 17/3. With a = 1 it is
+    /// Σu² alone (6). A bug it catches: the triangle's energy r(0) wrong (a² instead of
+    /// 2·Σj² − a²), a box of a + 1 taps, the missing sample skipped instead of counted as zero.
+    #[test]
+    fn the_parzen_sum_by_hand() {
+        let u = |v: &[Option<f64>]| -> Vec<Option<DVector<f64>>> {
+            v.iter().map(|x| x.map(|x| DVector::from_element(1, x))).collect()
+        };
+        let close = |m: DMatrix<f64>, want: f64| assert!((m[(0, 0)] - want).abs() < 1e-12, "{} vs {want}", m[(0, 0)]);
+        close(newey_west(&u(&[Some(1.0), Some(-1.0), Some(2.0)]), Kernel::Parzen(2)), 8.0 / 3.0);
+        close(newey_west(&u(&[Some(1.0), None, Some(2.0)]), Kernel::Parzen(2)), 17.0 / 3.0);
+        close(newey_west(&u(&[Some(1.0), Some(-1.0), Some(2.0)]), Kernel::Parzen(1)), 6.0);
+        // and Bartlett over one lag, for comparison: 6 + 2·½·(−3) = 3
+        close(newey_west(&u(&[Some(1.0), Some(-1.0), Some(2.0)]), Kernel::Bartlett(1)), 3.0);
+    }
+
     /// The larger of two covariances, by hand. 1 × 1: max(4, 9) = 9 and max(9, 4) = 9. 2 × 2:
     /// a = diag(4, 1), b = diag(1, 2): a − b = diag(3, −1), so b + diag(3, 0) = diag(4, 2), at
     /// least each in every direction. A bug it catches: the difference's negative part kept
@@ -821,7 +894,7 @@ mod tests {
         let gs = grams(&d, &train, &test, &ars);
         let theta = vec![0.0; N_COLUMNS];
         for (lags, s) in [(0, 14.09375), (1, 14.1875), (2, 13.21875)] {
-            let v = newey_west_cov(&d, &train, &gs, &ars, &[one], &theta, lags, 0);
+            let v = newey_west_cov(&d, &train, &gs, &ars, &[one], &theta, Kernel::Bartlett(lags), 0);
             assert_eq!(v.shape(), (1, 1));
             assert!((v[(0, 0)] - s / 100.0).abs() < 1e-14, "{lags} lags: {} for {}", v[(0, 0)], s / 100.0);
         }

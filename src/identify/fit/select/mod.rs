@@ -111,6 +111,13 @@ pub enum WholeCovariance {
     /// motion's frequencies (the mocap's positions twice differentiated, under a narrow
     /// kernel) and overstate its variance there.
     Stationary,
+    /// Newey–West of the per-sample scores with Parzen weights over the stationary estimate's
+    /// window (2 s): a noise whose size changes through the log is in it, as in Newey–West's,
+    /// and so are correlations as long as the window, with weights near one over the first
+    /// lags, so that a residual's short negative correlations cancel. What it misses is the
+    /// share of the variance that the fitted parameters take out of the scores over a window
+    /// (they sum to zero at the estimate): small where the window is short against the log.
+    Parzen,
 }
 
 impl WholeCovariance {
