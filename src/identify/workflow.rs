@@ -85,12 +85,9 @@ fn options(
     clock: Option<ClockWindow>,
     map: Option<&super::input::mapping::Mapping>,
 ) -> Options {
-    let mut opts = Options {
-        forced: forced.to_vec(),
-        refit_every_sample: calibrate,
-        mount_invariant: calibrate,
-        ..Options::default()
-    };
+    // a calibration's fit is `Options::calibration`'s; its forced effects are the request's
+    let base = if calibrate { Options::calibration() } else { Options::default() };
+    let mut opts = Options { forced: forced.to_vec(), ..base };
     if let Some(c) = clock {
         opts.clock = c;
     }

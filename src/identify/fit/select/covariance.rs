@@ -18,7 +18,8 @@ pub(super) const GLS_WINDOW_S: f64 = 2.0;
 /// The covariance of the parameters of [`fit`](super::gram::fit): [`newey_west_cov`], and on a
 /// fit of every usable sample (`whole` set, [`WholeCovariance::Larger`]) the larger (in the positive semidefinite order,
 /// [`loewner_max`]) of it and [`stationary_full`], two estimates of one sandwich, each blind
-/// where the other sees.
+/// where the other sees (or, as `whole` asks, [`stationary_full`] alone or Newey–West with
+/// [`Kernel::Parzen`] weights over the window).
 ///
 /// The errors are linear in the scores, δ = A·Σ_t s_t (see [`newey_west_cov`] for s_t and A).
 /// - [`newey_west_cov`] sums the products of the scores themselves over `lags` samples: a noise
@@ -49,21 +50,17 @@ pub(super) fn hac(
 ) -> DMatrix<f64> {
     let step = if d.t.len() > 1 { d.t[1] - d.t[0] } else { 0.0 };
     let window = if step > 0.0 { (window_s / step).round() as usize } else { 0 };
-    let Some(whole) = whole else {
-        return newey_west_cov(d, train, gs, ars, set, theta, Kernel::Bartlett(lags), window);
+    let newey_west = |kernel| newey_west_cov(d, train, gs, ars, set, theta, kernel, window);
+    let stationary = || {
+        let (dp, op) = split(set);
+        let a = if dp.is_empty() { inverse_spd(&system_raw(gs, set).0) } else { error_map(gs, set, &dp, &op).a };
+        stationary_full(d, train, gs, ars, set, theta, &a, window)
     };
-    if whole == WholeCovariance::Parzen {
-        return newey_west_cov(d, train, gs, ars, set, theta, Kernel::Parzen(window / 2), window);
-    }
-    let (dp, op) = split(set);
-    let a = if dp.is_empty() { inverse_spd(&system_raw(gs, set).0) } else { error_map(gs, set, &dp, &op).a };
-    let stationary = stationary_full(d, train, gs, ars, set, theta, &a, window);
     match whole {
-        WholeCovariance::Larger => {
-            loewner_max(&stationary, &newey_west_cov(d, train, gs, ars, set, theta, Kernel::Bartlett(lags), window))
-        }
-        WholeCovariance::Stationary => stationary,
-        WholeCovariance::Parzen => unreachable!("taken above"),
+        None => newey_west(Kernel::Bartlett(lags)),
+        Some(WholeCovariance::Larger) => loewner_max(&stationary(), &newey_west(Kernel::Bartlett(lags))),
+        Some(WholeCovariance::Stationary) => stationary(),
+        Some(WholeCovariance::Parzen) => newey_west(Kernel::Parzen(window / 2)),
     }
 }
 
@@ -524,31 +521,30 @@ fn newey_west(u: &[Option<DVector<f64>>], kernel: Kernel) -> DMatrix<f64> {
 /// outer products summed and divided by the triangle's energy r(0) = Σ h_j².
 fn parzen_sum(u: &[Option<DVector<f64>>], a: usize) -> DMatrix<f64> {
     let k = u.iter().flatten().next().map_or(0, |v| v.len());
-    let zero = DVector::<f64>::zeros(k);
-    let at = |t: usize| u[t].as_ref().unwrap_or(&zero);
-    // a running sum of a samples, over the full convolution's length
-    let boxed = |x: &dyn Fn(usize) -> DVector<f64>, n: usize| -> Vec<DVector<f64>> {
-        let mut acc = DVector::<f64>::zeros(k);
-        (0..n + a - 1)
-            .map(|t| {
-                if t < n {
-                    acc += x(t);
-                }
-                if t >= a {
-                    acc -= x(t - a);
-                }
-                acc.clone()
-            })
-            .collect()
-    };
-    let once = boxed(&|t| at(t).clone(), u.len());
-    let twice = boxed(&|t| once[t].clone(), once.len());
+    let scores: Vec<DVector<f64>> = u.iter().map(|v| v.clone().unwrap_or_else(|| DVector::zeros(k))).collect();
     let mut sm = DMatrix::<f64>::zeros(k, k);
-    for v in &twice {
-        sm += v * v.transpose();
+    for v in &running_sum(&running_sum(&scores, a), a) {
+        sm.ger(1.0, v, v, 1.0);
     }
     let r0: f64 = (1..=a).map(|j| (j * j) as f64).sum::<f64>() * 2.0 - (a * a) as f64;
     sm / r0
+}
+
+/// The sums of `a` consecutive vectors of `x` over the full convolution's length
+/// (x.len() + a − 1: the window entering at the first and leaving after the last).
+fn running_sum(x: &[DVector<f64>], a: usize) -> Vec<DVector<f64>> {
+    let mut acc = DVector::<f64>::zeros(x.first().map_or(0, |v| v.len()));
+    (0..x.len() + a - 1)
+        .map(|t| {
+            if let Some(v) = x.get(t) {
+                acc += v;
+            }
+            if t >= a {
+                acc -= &x[t - a];
+            }
+            acc.clone()
+        })
+        .collect()
 }
 
 /// The Bartlett weight of lag `l` among `lags`: w_l = 1 − l/(lags + 1), 1 at lag 0, falling
