@@ -2,12 +2,12 @@
 //!
 //! ## Derivative filter
 //! Everything compared is first smoothed by the same zero-phase Gaussian kernel
-//! (σ = `smoothing_s`, truncated at 3σ, −3 dB at 0.1325/σ: 6.6 Hz for the default 20 ms), then
+//! (σ = `smoothing_s`, truncated at `reach_sigmas`·σ (3σ unless set), −3 dB at 0.1325/σ: 6.6 Hz for the default 20 ms), then
 //! differentiated by central differences of the smoothed samples (velocity (p₊ − p₋)/2Δt,
 //! acceleration (p₊ − 2p + p₋)/Δt², response 1 − (ωΔt)²/12: −0.8 % at 5 Hz and 100 Hz sampling).
 //! Mocap rates come from the relative rotation of neighbouring poses, ω_k = Log(q_{k−1}⁻¹q_{k+1})/2Δt
 //! (body frame), smoothed by the same kernel; the IMU is smoothed by the same kernel, so both
-//! sides of every residual see the same filter. Samples closer than 3σ + 1 to a segment edge, a
+//! sides of every residual see the same filter. Samples closer than the kernel's reach + 1 to a segment edge, a
 //! missing pose, or the ground are left out. The smoothed channels are then decimated to one
 //! sample per σ (20 ms by default): the kernel is the anti-alias filter, and what remains of
 //! the residual's colour is left to the AR prewhitening of [`super::select`].
@@ -181,8 +181,18 @@ impl Design {
     }
 }
 
+/// A zero-phase Gaussian kernel of σ = `sigma_samples`, truncated at 3σ and normalised.
 pub(crate) fn gaussian_kernel(sigma_samples: f64) -> Vec<f64> {
-    let h = (3.0 * sigma_samples).ceil().max(1.0) as isize;
+    gaussian_kernel_to(sigma_samples, 3.0)
+}
+
+/// [`gaussian_kernel`] truncated at `reach_sigmas`·σ. The truncation leaves a step of
+/// exp(−reach²/2) of the peak at each end, whose response falls only as 1/f: at 3σ (1.1 % of the
+/// peak) it passes about 10⁻³ of a signal at 100 Hz, which is nothing for a smooth signal and a
+/// lot for a mocap's position noise twice differentiated (its density grows as f⁴), which then
+/// folds, on decimation, into the band the calibration reads (see [`DesignOptions::reach_sigmas`]).
+pub(crate) fn gaussian_kernel_to(sigma_samples: f64, reach_sigmas: f64) -> Vec<f64> {
+    let h = (reach_sigmas * sigma_samples).ceil().max(1.0) as isize;
     let mut k: Vec<f64> =
         (-h..=h).map(|j| (-(j as f64).powi(2) / (2.0 * sigma_samples * sigma_samples)).exp()).collect();
     let s: f64 = k.iter().sum();
@@ -289,11 +299,29 @@ pub struct DesignOptions {
     pub smoothing_s: f64,
     /// Samples below this height above the ground (m) are left out.
     pub min_height_m: f64,
+    /// Where the Gaussian is cut, in σ (3 unless set; the samples this near a segment's edge
+    /// are left out). Cut at 3σ, the kernel's ends are steps of 1.1 % of its peak, and their
+    /// response falls only as 1/f: the mocap's position noise, whose density grows as f⁴ once
+    /// twice differentiated, leaks through them above 50 Hz and folds into the band the fit
+    /// reads when the channels are decimated. On MoCap2GT's setting (1 mm at 300 Hz) that
+    /// costs a calibration's lever arm a fifth of its precision; at 5σ the steps are 4·10⁻⁶ of
+    /// the peak and the leak is gone (docs/calibration.md, *what each choice bought*). A
+    /// calibration cuts at 5σ ([`Options::calibration`](crate::identify::Options::calibration)).
+    /// (Written in a report only when not 3.)
+    #[serde(skip_serializing_if = "is_three")]
+    pub reach_sigmas: f64,
+}
+
+/// Where a calibration cuts its Gaussian ([`DesignOptions::reach_sigmas`]).
+pub const CALIBRATION_REACH_SIGMAS: f64 = 5.0;
+
+fn is_three(x: &f64) -> bool {
+    *x == 3.0
 }
 
 impl Default for DesignOptions {
     fn default() -> Self {
-        DesignOptions { smoothing_s: 0.02, min_height_m: 0.08 }
+        DesignOptions { smoothing_s: 0.02, min_height_m: 0.08, reach_sigmas: 3.0 }
     }
 }
 
@@ -312,7 +340,7 @@ pub fn build_with_signals(s: &Series, corr: &Corrections, opt: &DesignOptions) -
 fn build_inner(s: &Series, corr: &Corrections, opt: &DesignOptions, with_signals: bool) -> Design {
     let n = s.len();
     let dt = s.dt();
-    let kernel = gaussian_kernel(opt.smoothing_s / dt);
+    let kernel = gaussian_kernel_to(opt.smoothing_s / dt, opt.reach_sigmas);
     let h = kernel.len() / 2;
     let Corrected { pos_nav, att_body, ok: mut pose_ok } = correct(s, corr);
     // smoothing and differencing run on plain coordinates; `Smoothed` hands the results back in
@@ -436,7 +464,7 @@ fn smoothed(
     stride: usize,
 ) -> Smoothed {
     let n = s.len();
-    let kernel = gaussian_kernel(opt.smoothing_s / s.dt());
+    let kernel = gaussian_kernel_to(opt.smoothing_s / s.dt(), opt.reach_sigmas);
     let segs = &s.segments;
     let g = s.model.gravity_m_s2;
     let pos_s = smooth_vec3(pos_nav, segs, &kernel);
@@ -916,6 +944,40 @@ mod tests {
         }
         assert!(d.ok.iter().filter(|x| **x).count() > 900, "too few usable samples");
         assert!(worst < 5e-3, "accel_kin residual of an exact rigid body {worst} m/s²");
+    }
+
+    /// What a truncated Gaussian passes far above its band, in closed form. Summed by parts,
+    /// H(ω) = Σ_{|j|≤h} k_j·e^{iωj} is the response of the two end steps, k_h·sin((2h+1)ω/2) /
+    /// sin(ω/2), plus that of the kernel's differences, whose own end steps are h/σ² of k_h
+    /// (0.3 at 3σ, 0.5 at 5σ) and add at most (h/σ²)/(2·sin(ω/2)) of the first term: its
+    /// envelope is k_h/sin(ω/2) within 45 %, with k_h = e^{−c²/2}/(σ√(2π)) at a cut of c·σ. For
+    /// σ = 10 samples (20 ms at 500 Hz) near 100 Hz (ω = 0.4π), that is 7.5·10⁻⁴ at 3σ and
+    /// 2.5·10⁻⁷ at 5σ, where the Gaussian itself passes e^{−79}. A cut left at 3σ whatever
+    /// `reach_sigmas` says, or a kernel not normalised, moves these by orders of magnitude or
+    /// by its sum.
+    #[test]
+    fn a_cut_gaussian_passes_its_end_steps_above_its_band() {
+        let sigma = 10.0;
+        let response = |k: &[f64], w: f64| -> f64 {
+            let h = (k.len() / 2) as f64;
+            k.iter().enumerate().map(|(j, kj)| kj * (w * (j as f64 - h)).cos()).sum::<f64>().abs()
+        };
+        for (cut, want) in [(3.0, 7.5e-4), (5.0, 2.5e-7)] {
+            let k = gaussian_kernel_to(sigma, cut);
+            assert_eq!(k.len(), 2 * (cut * sigma) as usize + 1);
+            let end = (-cut * cut / 2.0f64).exp() / (sigma * std::f64::consts::TAU.sqrt());
+            let envelope = |w: f64| end / (w / 2.0).sin();
+            // over 90–110 Hz, more than one period of sin((2h + 1)ω/2), the largest response
+            // reaches the envelope at 100 Hz
+            let peak = (0..=200)
+                .map(|i| std::f64::consts::TAU * (90.0 + 0.1 * i as f64) / 500.0)
+                .map(|w| response(&k, w))
+                .fold(0.0, f64::max);
+            let at_100 = envelope(std::f64::consts::TAU * 100.0 / 500.0);
+            assert!((at_100 / want - 1.0).abs() < 0.02, "cut {cut}σ: envelope {at_100:e}, by hand {want:e}");
+            assert!((peak / at_100 - 1.0).abs() < 0.45, "cut {cut}σ: peak {peak:e} against the envelope {at_100:e}");
+        }
+        assert_eq!(gaussian_kernel(sigma), gaussian_kernel_to(sigma, 3.0));
     }
 
     /// The vector smoothing (all rows, or only some) gives the scalar smoothing's bits on every
