@@ -81,7 +81,8 @@ enum Command {
         /// read by mappings/handheld.yaml)
         #[arg(long, requires = "handheld")]
         logs: bool,
-        /// With --handheld: σ of the smoothing kernel (ms; default the mapping's 50)
+        /// With --handheld: σ of the selection's smoothing kernel (ms; default the mapping's 50;
+        /// the calibration's final fit takes the narrower of it and 20 ms)
         #[arg(long, value_name = "MS", value_parser = parse_smoothing, requires = "handheld")]
         smoothing_ms: Option<f64>,
         /// With --handheld: the rig's rates, noise densities, length and bias drift from a YAML
@@ -330,7 +331,8 @@ struct IdentifyArgs {
     /// are named by the input's stem, and `a/flight.csv` and `b/flight.csv` share one)
     #[arg(long)]
     overwrite: bool,
-    /// σ of the Gaussian smoothing before differentiating (ms; default 20, or the mapping's)
+    /// σ of the Gaussian smoothing before differentiating (ms; default 20, or the mapping's;
+    /// with --calibrate the final fit takes the narrower of it and 20 ms)
     #[arg(long, value_name = "MS", value_parser = parse_smoothing)]
     smoothing_ms: Option<f64>,
     /// The seed (a scenario input: override; a log: the seed it was run with)

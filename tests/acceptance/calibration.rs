@@ -141,7 +141,7 @@ fn a_rigid_body_has_no_floor_and_no_motors() {
 /// guide's medians, 90th percentiles and largest errors (to their printed digit) and its
 /// coverage counts exactly, and its two Cramér–Rao columns (an efficient estimator's median
 /// errors under each rig's bound, with a perfect mocap and on the log as recorded) to their
-/// digit, each below the fit's median. A change in the generator,
+/// digit, the fit's median above 0.9× each. A change in the generator,
 /// the reader, the method or the bound moves one of them; then the guide's table is rerun with it.
 #[test]
 fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
@@ -157,10 +157,10 @@ fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
     };
     type Err = fn(&Outcome) -> Option<f64>;
     let rows: [(&str, Err, [f64; 3], f64); 4] = [
-        ("rotation", |o| o.rotation_err_deg, [0.0068, 0.0110, 0.0205], 1e-4),
-        ("tilt", |o| o.tilt_err_deg, [0.066, 0.146, 0.237], 1e-3),
-        ("lever arm", |o| o.lever_err_mm, [0.82, 1.55, 2.54], 1e-2),
-        ("time offset", |o| o.delay_err_us, [9.0, 21.3, 38.3], 0.1),
+        ("rotation", |o| o.rotation_err_deg, [0.0070, 0.0118, 0.0201], 1e-4),
+        ("tilt", |o| o.tilt_err_deg, [0.054, 0.119, 0.209], 1e-3),
+        ("lever arm", |o| o.lever_err_mm, [0.54, 1.16, 1.76], 1e-2),
+        ("time offset", |o| o.delay_err_us, [8.9, 21.6, 37.4], 0.1),
     ];
     for (name, err, want, digit) in rows {
         let e: Vec<f64> = out.iter().filter_map(err).collect();
@@ -171,18 +171,21 @@ fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
         }
     }
     for (prefix, covered, of) in [
-        ("body_offset.", 290, 300),
-        ("world_tilt.", 189, 200),
-        ("lever_arm.", 287, 300),
-        ("mocap_delay.", 97, 100),
-        ("accel_bias.", 280, 300),
-        ("gyro_bias.", 299, 300),
+        ("body_offset.", 282, 300),
+        ("world_tilt.", 186, 200),
+        ("lever_arm.", 280, 300),
+        ("mocap_delay.", 96, 100),
+        ("accel_bias.", 278, 300),
+        ("gyro_bias.", 291, 300),
     ] {
         let est: Vec<_> = out.iter().flat_map(|o| &o.estimates).filter(|e| e.name.starts_with(prefix)).collect();
         assert_eq!((est.iter().filter(|e| e.covered()).count(), est.len()), (covered, of), "{prefix}");
     }
     // the Cramér–Rao columns: an efficient estimator's median errors with a perfect mocap and
-    // on the log as recorded, both below the fit's
+    // on the log as recorded. The fit's median comes near them, and a median of 100 rigs may
+    // fall a little below a floor (the lever arm's is 0.98× the one as recorded): its sampling
+    // spread is about 8 % (the median of 100 draws of a norm of normals). Under 0.9× a floor, the
+    // floor or the scoring would be wrong.
     type Floor = fn(&Outcome) -> Option<&flyarena::identify::handheld::Bound>;
     let floors: [(Floor, [(f64, f64); 4]); 2] = [
         (|o| o.bound.as_ref(), [(0.0054, 1e-4), (0.0477, 1e-4), (0.540, 1e-3), (6.7, 0.1)]),
@@ -199,7 +202,7 @@ fn the_guides_monte_carlo_table_is_what_the_rigs_give() {
             let bound = q(draws.iter().map(|d| d[i]).collect(), 0.5);
             let achieved = q(out.iter().filter_map(err).collect(), 0.5);
             assert!(
-                (bound - want).abs() <= digit / 2.0 + 1e-12 && bound < achieved,
+                (bound - want).abs() <= digit / 2.0 + 1e-12 && 0.9 * bound < achieved,
                 "{name}: bound {bound} against the guide's {want}, the fit's {achieved}"
             );
         }

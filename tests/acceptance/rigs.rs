@@ -90,11 +90,16 @@ fn body_offset(report: &serde_json::Value) -> UnitQuaternion<f64> {
 /// axis between x and z) and a mocap clock 0.2 s behind, on a real BROAD trial, read as an IMU
 /// CSV beside a TUM file and calibrated with nothing said about either. The calibration is the
 /// plain trial's composed with that mount and offset: the rotation within 0.05° of R·R_off (the
-/// plain trial's own intervals are 0.05–0.09°), the delay within 0.02 ms of τ + 200 ms (its
-/// interval is ±0.06 ms; 200 ms is no whole number of the IMU's 3.5 ms samples, so the poses
-/// are interpolated onto other instants), the lever arm within 0.5 mm of R·r; the global start applied the rotation and the clock, and the
-/// report claims its effects. A fit that starts at the identity there reports a 1.6 m lever arm
-/// and a 17 m/s² accelerometer bias (a bug it catches: a start that is computed and not used).
+/// plain trial's own intervals are 0.05–0.12°); the delay within twice the two fits' intervals
+/// combined (root sum of squares, ±0.07 ms) of τ + 200 ms, and each axis of the lever arm
+/// within twice theirs (±0.3–0.4 mm) of R·r: 200 ms is no whole number of the IMU's 3.5 ms
+/// samples, so the case's poses are interpolated onto other instants than the plain trial's,
+/// and on BROAD's resampled poses such a route moves a calibration by about its interval
+/// (docs/calibration.md, *A real rig*: up to 0.5 mm and 0.08 ms on this trial; here 0.33 mm on
+/// z against 0.29 combined). The global start applied the
+/// rotation and the clock, and the report claims its effects. A fit that starts at the
+/// identity there reports a lever arm and an accelerometer bias no rig has (a bug it catches: a
+/// start that is computed and not used).
 #[test]
 fn a_half_turn_and_a_fifth_of_a_second_on_a_real_log_are_calibrated_unprompted() {
     let d = super::Scratch::new("rigs-half-turn");
@@ -122,16 +127,27 @@ fn a_half_turn_and_a_fifth_of_a_second_on_a_real_log_are_calibrated_unprompted()
     let want = rq * body_offset(&plain);
     let err = want.angle_to(&body_offset(&case)).to_degrees();
     assert!(err < 0.05, "rotation {err}° from R·R_off\n{text}");
-    let delay = |rep: &serde_json::Value| effect(rep, "mocap_delay").unwrap().0[0];
+    let twice_combined = |a: f64, b: f64| 2.0 * a.hypot(b);
+    let delay = |rep: &serde_json::Value| effect(rep, "mocap_delay").unwrap();
+    let ((d_case, w_case), (d_plain, w_plain)) = (delay(&case), delay(&plain));
     assert!(
-        (delay(&case) - delay(&plain) - 200.0).abs() < 0.02,
-        "delay {} against {} + 200 ms",
-        delay(&case),
-        delay(&plain)
+        (d_case[0] - d_plain[0] - 200.0).abs() < twice_combined(w_case[0], w_plain[0]),
+        "delay {d_case:?} against {d_plain:?} + 200 ms"
     );
-    let lever = |rep: &serde_json::Value| Vector3::from_vec(effect(rep, "lever_arm").unwrap().0);
-    let dl = (lever(&case) - r * lever(&plain)).norm();
-    assert!(dl < 0.5, "lever arm {dl} mm from R·r");
+    let lever = |rep: &serde_json::Value| {
+        let (v, w) = effect(rep, "lever_arm").unwrap();
+        (Vector3::from_vec(v), Vector3::from_vec(w))
+    };
+    let ((l_case, w_case), (l_plain, w_plain)) = (lever(&case), lever(&plain));
+    // the plain trial's half-widths turned with it: |R|·w bounds each axis's
+    let w_turned = r.abs() * w_plain;
+    for k in 0..3 {
+        let dl = (l_case - r * l_plain)[k];
+        assert!(
+            dl.abs() < twice_combined(w_case[k], w_turned[k]),
+            "lever arm {k}: {dl} mm from R·r ± {w_case} and {w_turned}"
+        );
+    }
 }
 
 /// The three routes of one real log read the same: the ASL folder (`mappings/euroc.yaml`), the

@@ -153,11 +153,25 @@ fn render_steps(s: &mut String, r: &Report) {
     }
 }
 
+/// How the intervals were computed: Newey–West for a fit with blocks held out; a fit of every
+/// usable sample takes its [`WholeCovariance`](crate::identify::WholeCovariance).
+fn intervals_name(r: &Report) -> &'static str {
+    use crate::identify::WholeCovariance::*;
+    if !r.options.refit_every_sample {
+        return "95 % Newey–West intervals";
+    }
+    match r.options.whole_covariance {
+        Larger => "95 % intervals: the larger of Newey–West and the stationary covariance",
+        Stationary => "95 % intervals: the stationary covariance",
+        Parzen => "95 % intervals: Parzen-weighted scores over 2 s",
+    }
+}
+
 /// The effects found with their intervals, the held-out errors and the final whiteness.
 fn render_fit(s: &mut String, r: &Report) {
     super::start::render_misaligned(s, r);
     if !r.effects.is_empty() {
-        let _ = writeln!(s, "\n  effects found (least squares, 95 % Newey–West intervals):");
+        let _ = writeln!(s, "\n  effects found (least squares, {}):", intervals_name(r));
         for f in &r.effects {
             let _ = writeln!(s, "    {:<34} {}", f.name, effect_text(f, r));
         }

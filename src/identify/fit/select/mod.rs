@@ -27,8 +27,8 @@
 //!    joined, stayed in as an invented effect: 7 inventions in 300 flights of seed 3.)
 //!
 //! The selection's fits use the training part. With `refit_every_sample` (a calibration), once
-//! it ends the chosen model is fitted again on every usable sample, and its estimates and
-//! intervals are that fit's (the held-out errors reported stay those of the training fit, the
+//! it ends the chosen model is fitted again on every usable sample (at the narrower of the
+//! kernel and `refit_smoothing_s`), and its estimates and intervals are that fit's (the held-out errors reported stay those of the training fit, the
 //! only out-of-sample figures).
 //!
 //! Estimates are weighted least squares on the raw samples, each channel axis weighted by
@@ -161,6 +161,16 @@ pub struct Options {
     /// with. (Written in a report only when on.)
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub mount_invariant: bool,
+    /// The kernel of the fit of every usable sample ([`Options::refit_every_sample`]): σ (s),
+    /// taken when narrower than the selection's (`design.smoothing_s`). The selection wants a
+    /// wide kernel: its held-out gate compares raw errors, and a narrow one leaves in them the
+    /// mocap's twice-differentiated noise, beside which a slow effect (a bias's drift) cuts
+    /// nothing. The estimates want a narrow one: a wide kernel smooths products (Rᵀ·p̈,
+    /// ω × (ω × r)) factor by factor, an error of 0.15 mm and 0.002° at 2 rad/s and σ = 50 ms,
+    /// where the noise it would leave out is whitened by the fit anyway. (Written in a report
+    /// only when set.)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refit_smoothing_s: Option<f64>,
     /// The covariance of a fit of every usable sample ([`WholeCovariance`]). (Written in a
     /// report only when not the default.)
     #[serde(skip_serializing_if = "WholeCovariance::is_default")]
@@ -183,12 +193,18 @@ pub struct Options {
 impl Options {
     /// What `identify --calibrate` runs: the calibration's effects fitted without testing
     /// ([`Effect::CALIBRATION`]), any other effect selected on top, the chosen model fitted
-    /// again on every usable sample, and each sensor's axes sharing one noise model.
+    /// again on every usable sample with a kernel of 20 ms at most
+    /// ([`Options::refit_smoothing_s`]) and Parzen weights on its scores for the covariance
+    /// ([`WholeCovariance::Parzen`]), each sensor's axes sharing one noise model, and the
+    /// Gaussian cut where it leaks no mocap noise ([`DesignOptions::reach_sigmas`]).
     pub fn calibration() -> Options {
         Options {
+            design: DesignOptions { reach_sigmas: super::design::CALIBRATION_REACH_SIGMAS, ..DesignOptions::default() },
             forced: Effect::CALIBRATION.to_vec(),
             refit_every_sample: true,
+            refit_smoothing_s: Some(CALIBRATION_REFIT_SMOOTHING_S),
             mount_invariant: true,
+            whole_covariance: WholeCovariance::Parzen,
             ..Options::default()
         }
     }
@@ -205,6 +221,7 @@ impl Default for Options {
             block_s: 2.0,
             holdout_every: 3,
             refit_every_sample: false,
+            refit_smoothing_s: None,
             mount_invariant: false,
             whole_covariance: WholeCovariance::default(),
             max_steps: 8,
@@ -216,6 +233,9 @@ impl Default for Options {
         }
     }
 }
+
+/// The kernel of a calibration's fit of every usable sample ([`Options::refit_smoothing_s`]), σ (s).
+pub const CALIBRATION_REFIT_SMOOTHING_S: f64 = 0.02;
 
 const AXES: [char; 3] = ['x', 'y', 'z'];
 /// Fewer usable (decimated) training samples than this and no effect is tried.
@@ -955,12 +975,16 @@ fn gate_notes(s: &Series, nominal: &Problem, o: &Options, notes: &mut Vec<Note>)
     too_few
 }
 
-/// The options of the final fit: `o` with nothing held out. The held-out blocks choose the
-/// effects and score the chosen model out of sample; once chosen, the model's estimates and
-/// intervals use every usable sample (a third more data: the errors of a hand-held
-/// calibration fall by 12–16 %, docs/calibration.md, "What each choice bought").
+/// The options of the final fit: `o` with nothing held out, at the narrower of its kernel and
+/// [`Options::refit_smoothing_s`]. The held-out blocks choose the effects and score the chosen
+/// model out of sample; once chosen, the model's estimates and intervals use every usable
+/// sample (docs/calibration.md, "What each choice bought").
 fn every_sample(o: &Options) -> Options {
-    Options { holdout_every: usize::MAX, ..o.clone() }
+    let mut design = o.design;
+    if let Some(sigma) = o.refit_smoothing_s {
+        design.smoothing_s = design.smoothing_s.min(sigma);
+    }
+    Options { holdout_every: usize::MAX, design, ..o.clone() }
 }
 
 /// The selection on a gated flight, its corrections starting at `from` (the global start's).
