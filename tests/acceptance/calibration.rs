@@ -12,7 +12,7 @@ fn json(path: &Path) -> serde_json::Value {
 
 /// The guide's worked example: a rig's log written, then calibrated as a user would. The
 /// report fits the six calibration effects, says it had no force model because the mapping
-/// declared a rigid body, and lands every parameter of the rotation, tilt, lever arm and
+/// declared a rigid body, names how its intervals were computed, and lands every parameter of the rotation, tilt, lever arm and
 /// delay within three half-widths of the truth the batch's JSON holds (on this seed each lies
 /// within its 95 % interval but one; a sign or an axis lost between the generator's definitions
 /// and identify's moves a parameter by its own size, tens of half-widths). Without
@@ -65,6 +65,10 @@ fn a_hand_held_rig_is_calibrated_from_its_log() {
     // per sensor (the result turns with the IMU's mount), and says so
     assert_eq!(report["report"]["options"]["refit_every_sample"], serde_json::json!(true));
     assert_eq!(report["report"]["options"]["mount_invariant"], serde_json::json!(true));
+    // at 20 ms, the Gaussian cut at 5σ, the intervals from Parzen-weighted scores, all said
+    assert_eq!(report["report"]["options"]["refit_smoothing_s"], serde_json::json!(0.02));
+    assert_eq!(report["report"]["options"]["design"]["reach_sigmas"], serde_json::json!(5.0));
+    assert!(out.contains("effects found (least squares, 95 % intervals: Parzen-weighted scores over 2 s):"), "{out}");
     let effects = report["report"]["effects"].as_array().unwrap();
     let keys: Vec<&str> = effects.iter().map(|e| e["effect"].as_str().unwrap()).collect();
     for key in ["body_offset", "world_tilt", "mocap_delay", "accel_bias", "gyro_bias", "lever_arm"] {

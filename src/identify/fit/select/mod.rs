@@ -28,8 +28,8 @@
 //!
 //! The selection's fits use the training part. With `refit_every_sample` (a calibration), once
 //! it ends the chosen model is fitted again on every usable sample (at the narrower of the
-//! kernel and `refit_smoothing_s`), and its estimates and intervals are that fit's (the held-out errors reported stay those of the training fit, the
-//! only out-of-sample figures).
+//! kernel and `refit_smoothing_s`), and its estimates and intervals are that fit's (the
+//! held-out errors reported stay those of the training fit, the only out-of-sample figures).
 //!
 //! Estimates are weighted least squares on the raw samples, each channel axis weighted by
 //! 1/(mean square of its residual under the current model): the weights make the estimate
