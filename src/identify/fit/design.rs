@@ -183,7 +183,7 @@ impl Design {
 
 /// A zero-phase Gaussian kernel of σ = `sigma_samples`, truncated at 3σ and normalised.
 pub(crate) fn gaussian_kernel(sigma_samples: f64) -> Vec<f64> {
-    gaussian_kernel_to(sigma_samples, 3.0)
+    gaussian_kernel_to(sigma_samples, DEFAULT_REACH_SIGMAS)
 }
 
 /// [`gaussian_kernel`] truncated at `reach_sigmas`·σ. The truncation leaves a step of
@@ -308,20 +308,23 @@ pub struct DesignOptions {
     /// the peak and the leak is gone (docs/calibration.md, *what each choice bought*). A
     /// calibration cuts at 5σ ([`Options::calibration`](crate::identify::Options::calibration)).
     /// (Written in a report only when not 3.)
-    #[serde(skip_serializing_if = "is_three")]
+    #[serde(skip_serializing_if = "is_default_reach")]
     pub reach_sigmas: f64,
 }
+
+/// Where the Gaussian is cut unless a fit says otherwise ([`DesignOptions::reach_sigmas`]).
+pub const DEFAULT_REACH_SIGMAS: f64 = 3.0;
 
 /// Where a calibration cuts its Gaussian ([`DesignOptions::reach_sigmas`]).
 pub const CALIBRATION_REACH_SIGMAS: f64 = 5.0;
 
-fn is_three(x: &f64) -> bool {
-    *x == 3.0
+fn is_default_reach(x: &f64) -> bool {
+    *x == DEFAULT_REACH_SIGMAS
 }
 
 impl Default for DesignOptions {
     fn default() -> Self {
-        DesignOptions { smoothing_s: 0.02, min_height_m: 0.08, reach_sigmas: 3.0 }
+        DesignOptions { smoothing_s: 0.02, min_height_m: 0.08, reach_sigmas: DEFAULT_REACH_SIGMAS }
     }
 }
 
