@@ -140,6 +140,28 @@ pub(crate) fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
     incomplete_beta(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * f))
 }
 
+/// The 97.5 % quantile of Student's t with `nu` degrees of freedom (any positive real): t with
+/// P(|T| > t) = 5 %, so t² is F(1, ν)'s 95 % quantile, found by bisection on [`f_sf`]; [`Z_975`]
+/// for an infinite ν (or one too large to tell apart, over 10⁸).
+pub(crate) fn t_975(nu: f64) -> f64 {
+    if nu.is_nan() || nu >= 1e8 {
+        return Z_975;
+    }
+    let (mut lo, mut hi) = (Z_975, 1e6);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if f_sf(mid * mid, 1.0, nu.max(1e-3)) > 0.05 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-12 * lo {
+            break;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 /// P(X > q) for X ~ χ²(k).
 pub(crate) fn chi2_sf(q: f64, k: f64) -> f64 {
     1.0 - incomplete_gamma(k / 2.0, q / 2.0)

@@ -163,7 +163,7 @@ fn intervals_name(r: &Report) -> &'static str {
     match r.options.whole_covariance {
         Larger => "95 % intervals: the larger of Newey–West and the stationary covariance",
         Stationary => "95 % intervals: the stationary covariance",
-        Parzen => "95 % intervals: Parzen-weighted scores over 2 s",
+        Parzen => "95 % intervals: Parzen-weighted scores over 2 s, Student's t",
     }
 }
 

@@ -6,7 +6,7 @@ use super::WholeCovariance;
 use super::gram::{Gram, active, cols_of, residual_of, split, sub, system, system_raw};
 use crate::effects::{Channel, Effect};
 use crate::identify::fit::design::Design;
-use crate::identify::fit::stats::{Ar, inverse_spd};
+use crate::identify::fit::stats::{Ar, Z_975, inverse_spd, t_975};
 use nalgebra::{DMatrix, DMatrixView, DVector};
 use std::borrow::Cow;
 
@@ -19,7 +19,8 @@ pub(super) const GLS_WINDOW_S: f64 = 2.0;
 /// fit of every usable sample (`whole` set, [`WholeCovariance::Larger`]) the larger (in the positive semidefinite order,
 /// [`loewner_max`]) of it and [`stationary_full`], two estimates of one sandwich, each blind
 /// where the other sees (or, as `whole` asks, [`stationary_full`] alone or Newey–West with
-/// [`Kernel::Parzen`] weights over the window).
+/// [`Kernel::Parzen`] weights over the window, each variance raised by
+/// [`parzen_small_sample`]).
 ///
 /// The errors are linear in the scores, δ = A·Σ_t s_t (see [`newey_west_cov`] for s_t and A).
 /// - [`newey_west_cov`] sums the products of the scores themselves over `lags` samples: a noise
@@ -60,8 +61,119 @@ pub(super) fn hac(
         None => newey_west(Kernel::Bartlett(lags)),
         Some(WholeCovariance::Larger) => loewner_max(&stationary(), &newey_west(Kernel::Bartlett(lags))),
         Some(WholeCovariance::Stationary) => stationary(),
-        Some(WholeCovariance::Parzen) => newey_west(Kernel::Parzen(window / 2)),
+        Some(WholeCovariance::Parzen) => {
+            let a = (window / 2).max(1);
+            let cov = newey_west(Kernel::Parzen(a));
+            let c = parzen_small_sample(d, train, gs, set, a);
+            DMatrix::from_fn(cov.nrows(), cov.ncols(), |i, j| cov[(i, j)] * (c[i] * c[j]).sqrt())
+        }
     }
+}
+
+/// What a Parzen sum of fitted scores over a short window leaves out, per parameter of `set`, as
+/// a factor on its variance (a congruence by their square roots keeps the covariance positive
+/// semidefinite): the share the fitted parameters take out of the scores, and the sum's own
+/// scatter. Both are read off a working model in which each channel axis's residual is white
+/// with the variance its weight w_q assumes (1/w_q), so that a sample's score
+/// u_t = Σ_q w_q·x_{q,t}·e_{q,t} has covariance P_t = Σ_q w_q·x_{q,t}·x_{q,t}ᵀ and
+/// G = Σ_t P_t; w_l are the lag weights of [`Kernel::Parzen`]`(a)` ([`parzen_lags`]).
+///
+/// - **The fitted parameters.** The residuals are e − X·δ (δ = G⁻¹·Σ_s u_s), and over a window
+///   the sum of the fitted scores misses what δ explains there: E[Ŝ] = G − K with
+///   K = Σ_{t,s} w_{t−s}·P_t·G⁻¹·P_s (the kernel's analogue of HC2's leverage 1 − h_tt). The
+///   factor is f_j = [G⁻¹]_jj / [G⁻¹·(G − K)·G⁻¹]_jj: about 1 + Σ_l w_l / T for a parameter
+///   whose information is spread over a log of T samples (1.5 s of 64 s: 2 %), more where
+///   it comes from fewer moments.
+/// - **The sum's scatter.** Parameter j's variance is a quadratic form of the scores; with
+///   v_t = [G⁻¹·P_t·G⁻¹]_jj its degrees of freedom are (Satterthwaite)
+///   ν_j = (Σ_t v_t)² / Σ_{t,s} w_{t−s}²·v_t·v_s (about T/Σ_l w_l², 50 on a hand-held log
+///   of 64 s). The estimate over its standard error is then Student's t with ν_j degrees, and
+///   the factor (t_{ν_j, 97.5 %} / z_{97.5 %})² makes ±1.96·σ the t interval.
+///
+/// Measured on the hand-held Monte Carlo (docs/calibration.md, "What each choice bought"):
+/// the two together widen the intervals by 3.5–4.5 %.
+fn parzen_small_sample(d: &Design, train: &[bool], gs: &[Gram], set: &[usize], a: usize) -> Vec<f64> {
+    let k = set.len();
+    let p = sample_information(d, train, gs, set);
+    let mut g = DMatrix::<f64>::zeros(k, k);
+    for pt in p.iter().flatten() {
+        g += pt;
+    }
+    let ginv = inverse_spd(&g);
+    let w = parzen_lags(a);
+    // K = Σ_t P_t·G⁻¹·P̃_t with P̃_t = Σ_s w_{t−s}·P_s: the weights are the box of `a` taps
+    // four times over (the triangle autocorrelated) divided by r(0), centred 2(a − 1) on
+    let flat: Vec<DVector<f64>> = p
+        .iter()
+        .map(|pt| pt.as_ref().map_or_else(|| DVector::zeros(k * k), |m| DVector::from_column_slice(m.as_slice())))
+        .collect();
+    let boxed = (0..4).fold(flat, |x, _| running_sum(&x, a));
+    let r0 = parzen_energy(a);
+    let mut kk = DMatrix::<f64>::zeros(k, k);
+    for (t, pt) in p.iter().enumerate() {
+        if let Some(pt) = pt {
+            kk += pt * &ginv * DMatrix::from_column_slice(k, k, boxed[t + 2 * (a - 1)].as_slice()) / r0;
+        }
+    }
+    let kk = (&kk + kk.transpose()) * 0.5;
+    let narrowed = &ginv * (&g - kk) * &ginv;
+    (0..k)
+        .map(|j| {
+            let v: Vec<f64> =
+                p.iter().map(|pt| pt.as_ref().map_or(0.0, |pt| (ginv.row(j) * pt * ginv.column(j))[(0, 0)])).collect();
+            let total: f64 = v.iter().sum();
+            let mut spread = 0.0;
+            for (t, vt) in v.iter().enumerate().filter(|(_, vt)| **vt != 0.0) {
+                for (l, wl) in w.iter().enumerate().take(v.len() - t) {
+                    spread += if l == 0 { 1.0 } else { 2.0 } * wl * wl * vt * v[t + l];
+                }
+            }
+            let leverage = if narrowed[(j, j)] > 0.0 { ginv[(j, j)] / narrowed[(j, j)] } else { 1.0 };
+            let dof = if spread > 0.0 { total * total / spread } else { f64::INFINITY };
+            leverage.max(1.0) * (t_975(dof) / Z_975).powi(2)
+        })
+        .collect()
+}
+
+/// Per time sample, the working model's score covariance P_t = Σ_q w_q·x_{q,t}·x_{q,t}ᵀ over
+/// the channel axes with a residual and every column of `set` they carry there (training rows;
+/// `None` where no axis has one), as [`scores`] sums them.
+fn sample_information(d: &Design, train: &[bool], gs: &[Gram], set: &[usize]) -> Vec<Option<DMatrix<f64>>> {
+    let k = set.len();
+    let mut p: Vec<Option<DMatrix<f64>>> = vec![None; d.n];
+    for ((c, ax), gr) in active(d).into_iter().zip(gs) {
+        let cols = set_columns(d, c, ax, set);
+        if cols.is_empty() {
+            continue;
+        }
+        let e = d.residual(c, ax);
+        let mut x = DVector::<f64>::zeros(k);
+        for (t, pt) in p.iter_mut().enumerate() {
+            if !train[t] || !e[t].is_finite() {
+                continue;
+            }
+            x.fill(0.0);
+            for (q, col) in &cols {
+                if col[t].is_finite() {
+                    x[*q] = col[t];
+                }
+            }
+            pt.get_or_insert_with(|| DMatrix::zeros(k, k)).ger(gr.w_r, &x, &x, 1.0);
+        }
+    }
+    p
+}
+
+/// The lag weights w_0, w_1, … of [`Kernel::Parzen`]`(a)`: the autocorrelation of the triangle
+/// of `a` taps each side over its energy r(0), 2a − 1 of them (zero beyond).
+fn parzen_lags(a: usize) -> Vec<f64> {
+    let tri: Vec<f64> = (1..a).chain((1..=a).rev()).map(|j| j as f64).collect();
+    (0..tri.len()).map(|l| tri[l..].iter().zip(&tri).map(|(x, y)| x * y).sum::<f64>() / parzen_energy(a)).collect()
+}
+
+/// The energy r(0) = Σ h_j² = 2·Σ_{j ≤ a} j² − a² of the triangle of `a` taps each side.
+fn parzen_energy(a: usize) -> f64 {
+    (1..=a).map(|j| (j * j) as f64).sum::<f64>() * 2.0 - (a * a) as f64
 }
 
 /// Newey–West covariance of the parameters of [`fit`](super::gram::fit), the lagged products
@@ -526,8 +638,7 @@ fn parzen_sum(u: &[Option<DVector<f64>>], a: usize) -> DMatrix<f64> {
     for v in &running_sum(&running_sum(&scores, a), a) {
         sm.ger(1.0, v, v, 1.0);
     }
-    let r0: f64 = (1..=a).map(|j| (j * j) as f64).sum::<f64>() * 2.0 - (a * a) as f64;
-    sm / r0
+    sm / parzen_energy(a)
 }
 
 /// The sums of `a` consecutive vectors of `x` over the full convolution's length
@@ -734,6 +845,49 @@ mod tests {
         assert!((&a - &want).abs().max() < 1e-15, "{a} for {want}");
         assert!((from_gls - DMatrix::from_row_slice(1, 2, &[-1.0 / 3.0, 2.0 / 3.0])).abs().max() < 1e-15);
         assert!((carry[(0, 0)] + 0.5).abs() < 1e-15, "{carry}");
+    }
+
+    /// The Parzen sum's small-sample factor, by hand, on the simplest fit: one channel axis,
+    /// a constant column (a bias), 5 samples, white noise model. With a = 2 the lag weights are
+    /// 1, 2/3, 1/6 (`the_parzen_sum_by_hand`). Leverage: G = 5, P_t = 1,
+    /// K = Σ_{t,s} w_{t−s}/5 = (5 + 8·2/3 + 6·1/6)/5 = 34/15, so f = (1/5)/((5 − 34/15)/25) = 75/41.
+    /// Degrees of freedom: v_t = 1/25, Σ_{t,s} w² = 5 + 8·4/9 + 6/36 = 157/18, so
+    /// ν = (1/5)² / (157/18 / 625) = 450/157 and t_{97.5 %} = 3.268136 (scipy's `t.ppf`); the
+    /// factor (75/41)·(3.268136/1.959964)² = 5.086060. With a = 1 (lag 0 alone): K = 1,
+    /// f = 5/4 (HC2's n/(n − 1)), ν = 5, t = 2.570582, factor 2.150189. A bug it catches: the
+    /// leverage's sign or its G⁻¹ sandwich, the lags' weights (squared for ν, not for K), a
+    /// side of the lags counted once, the smoothed P off-centre.
+    #[test]
+    fn the_parzen_small_sample_factor_by_hand() {
+        let n = 5;
+        let c = Channel::AccelKin.index();
+        let bias = cols_of(Effect::AccelBias).start;
+        let mut d = Design { n, t: (0..n).map(|i| 0.02 * i as f64).collect(), ..Design::default() };
+        d.measured[c][0] = vec![0.3, -0.1, 0.2, 0.0, 0.1];
+        d.predicted[c][0] = vec![0.0; n];
+        d.columns[c][0] = vec![(bias, vec![1.0; n])];
+        let train = [true; 5];
+        let gs = grams(&d, &train, &[false; 5], &[Ar::white(0.7)]);
+        for (a, want) in [(2, 5.086_060_200_822_067), (1, 2.150_189_316_785_830_6)] {
+            let got = parzen_small_sample(&d, &train, &gs, &[bias], a)[0];
+            assert!((got - want).abs() < 1e-9, "a = {a}: {got} for {want}");
+        }
+    }
+
+    /// Student's t quantile against scipy's `t.ppf(0.975, ν)`: 12.706205 (ν = 1), 4.302653 (2),
+    /// 2.228139 (10), 2.042272 (30), 1.979930 (120), and 1.959964 for an infinite ν.
+    #[test]
+    fn the_t_quantile_is_students() {
+        for (nu, want) in [
+            (1.0, 12.706_204_736_174_694),
+            (2.0, 4.302_652_729_749_462),
+            (10.0, 2.228_138_851_986_274),
+            (30.0, 2.042_272_456_301_238),
+            (120.0, 1.979_930_405_082_440_6),
+            (f64::INFINITY, Z_975),
+        ] {
+            assert!((t_975(nu) - want).abs() < 1e-9, "ν = {nu}: {} for {want}", t_975(nu));
+        }
     }
 
     /// The discrete Parzen sum, by hand, with a = 2: the triangle h = (1, 2, 1), whose
