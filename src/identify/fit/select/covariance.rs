@@ -874,6 +874,32 @@ mod tests {
         }
     }
 
+    /// A calibration's covariance (`WholeCovariance::Parzen`) on the fit of
+    /// `the_parzen_small_sample_factor_by_hand`, by hand: the bias 0.1 leaves the residual
+    /// ê = (0.2, −0.2, 0.1, −0.1, 0), whose Parzen sum over a = 2 (a window of 2 s at
+    /// samples 0.5 s apart: weights 1, 2/3, 1/6) is w²·(0.10 − 2·(2/3)·0.07 + 2·(1/6)·0.04)
+    /// = 0.02·w² with G = 5·w, so 0.02/25 = 8·10⁻⁴, raised by the factor 5.086060 to
+    /// 4.068848·10⁻³. A bug it catches: the factor left out, divided by, or taken on another
+    /// window than the sum's.
+    #[test]
+    fn a_calibrations_parzen_covariance_by_hand() {
+        let n = 5;
+        let c = Channel::AccelKin.index();
+        let bias = cols_of(Effect::AccelBias).start;
+        let mut d = Design { n, t: (0..n).map(|i| 0.5 * i as f64).collect(), ..Design::default() };
+        d.measured[c][0] = vec![0.3, -0.1, 0.2, 0.0, 0.1];
+        d.predicted[c][0] = vec![0.0; n];
+        d.columns[c][0] = vec![(bias, vec![1.0; n])];
+        let train = [true; 5];
+        let ars = [Ar::white(0.7)];
+        let gs = grams(&d, &train, &[false; 5], &ars);
+        let mut theta = vec![0.0; N_COLUMNS];
+        theta[bias] = 0.1;
+        let v = hac(&d, &train, &gs, &ars, &[bias], &theta, 12, 2.0, Some(WholeCovariance::Parzen))[(0, 0)];
+        let want = 8e-4 * 5.086_060_200_822_067;
+        assert!((v - want).abs() < 1e-12, "{v} for {want}");
+    }
+
     /// Student's t quantile against scipy's `t.ppf(0.975, ν)`: 12.706205 (ν = 1), 4.302653 (2),
     /// 2.228139 (10), 2.042272 (30), 1.979930 (120), and 1.959964 for an infinite ν.
     #[test]
