@@ -847,6 +847,20 @@ mod tests {
         assert!((carry[(0, 0)] + 0.5).abs() < 1e-15, "{carry}");
     }
 
+    /// The simplest fit of the small-sample tests: one channel axis whose five samples
+    /// (0.3, −0.1, 0.2, 0, 0.1), `step` seconds apart, are fitted by a constant column (a bias);
+    /// the design and the bias's column.
+    fn five_sample_bias_fit(step: f64) -> (Design, usize) {
+        let n = 5;
+        let c = Channel::AccelKin.index();
+        let bias = cols_of(Effect::AccelBias).start;
+        let mut d = Design { n, t: (0..n).map(|i| step * i as f64).collect(), ..Design::default() };
+        d.measured[c][0] = vec![0.3, -0.1, 0.2, 0.0, 0.1];
+        d.predicted[c][0] = vec![0.0; n];
+        d.columns[c][0] = vec![(bias, vec![1.0; n])];
+        (d, bias)
+    }
+
     /// The Parzen sum's small-sample factor, by hand, on the simplest fit: one channel axis,
     /// a constant column (a bias), 5 samples, white noise model. With a = 2 the lag weights are
     /// 1, 2/3, 1/6 (`the_parzen_sum_by_hand`). Leverage: G = 5, P_t = 1,
@@ -859,13 +873,7 @@ mod tests {
     /// side of the lags counted once, the smoothed P off-centre.
     #[test]
     fn the_parzen_small_sample_factor_by_hand() {
-        let n = 5;
-        let c = Channel::AccelKin.index();
-        let bias = cols_of(Effect::AccelBias).start;
-        let mut d = Design { n, t: (0..n).map(|i| 0.02 * i as f64).collect(), ..Design::default() };
-        d.measured[c][0] = vec![0.3, -0.1, 0.2, 0.0, 0.1];
-        d.predicted[c][0] = vec![0.0; n];
-        d.columns[c][0] = vec![(bias, vec![1.0; n])];
+        let (d, bias) = five_sample_bias_fit(0.02);
         let train = [true; 5];
         let gs = grams(&d, &train, &[false; 5], &[Ar::white(0.7)]);
         for (a, want) in [(2, 5.086_060_200_822_067), (1, 2.150_189_316_785_830_6)] {
@@ -883,13 +891,7 @@ mod tests {
     /// window than the sum's.
     #[test]
     fn a_calibrations_parzen_covariance_by_hand() {
-        let n = 5;
-        let c = Channel::AccelKin.index();
-        let bias = cols_of(Effect::AccelBias).start;
-        let mut d = Design { n, t: (0..n).map(|i| 0.5 * i as f64).collect(), ..Design::default() };
-        d.measured[c][0] = vec![0.3, -0.1, 0.2, 0.0, 0.1];
-        d.predicted[c][0] = vec![0.0; n];
-        d.columns[c][0] = vec![(bias, vec![1.0; n])];
+        let (d, bias) = five_sample_bias_fit(0.5);
         let train = [true; 5];
         let ars = [Ar::white(0.7)];
         let gs = grams(&d, &train, &[false; 5], &ars);
